@@ -1,0 +1,215 @@
+//! The surface form of a model: what a front end read, with names not yet resolved.
+//!
+//! Both front ends (the `model!` macro and TOML model files) produce a [`ModelDecl`];
+//! [`crate::check`] resolves it into the one model IR, [`crate::model::Model`].
+
+use proc_macro2::{Span, TokenStream};
+
+/// A name as written, with where it was written.
+#[derive(Clone, Debug)]
+pub struct Name {
+    /// The identifier text.
+    pub text: String,
+    /// Where it stands in the user's source (call site for model files).
+    pub span: Span,
+}
+
+/// A whole model declaration.
+#[derive(Clone, Debug)]
+pub struct ModelDecl {
+    /// Doc comment lines of the model, carried into the generated module.
+    pub docs: Vec<String>,
+    /// Visibility of the generated module, as tokens (`pub`, `pub(crate)` or nothing).
+    pub vis: TokenStream,
+    /// Name of the generated module.
+    pub name: Name,
+    /// Scalar types to generate, the first being the primary one; empty if not declared.
+    pub scalars: Vec<Name>,
+    /// Span of the whole model, for errors about something missing.
+    pub span: Span,
+    /// Named constants in declaration order.
+    pub constants: Vec<ConstDecl>,
+    /// States, parameters and inputs in declaration order.
+    pub symbols: Vec<SymbolDecl>,
+    /// Measured outputs in declaration order.
+    pub outputs: Vec<OutputDecl>,
+    /// Dynamics blocks; a valid model has exactly one.
+    pub dynamics: Vec<DynamicsDecl>,
+}
+
+/// `const NAME = expr;`
+#[derive(Clone, Debug)]
+pub struct ConstDecl {
+    /// Doc comment lines.
+    pub docs: Vec<String>,
+    /// The constant's name.
+    pub name: Name,
+    /// Its value: an expression of literals and earlier constants.
+    pub value: SurfaceExpr,
+}
+
+/// What role a declared symbol plays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SymbolKind {
+    /// A physical state with its own dynamics.
+    State,
+    /// An unknown constant, estimated as an augmented random-walk state.
+    Param,
+    /// An input known at each sample.
+    Input,
+}
+
+/// One name in a `state`, `param` or `input` list.
+#[derive(Clone, Debug)]
+pub struct SymbolDecl {
+    /// Doc comment lines.
+    pub docs: Vec<String>,
+    /// The symbol's name.
+    pub name: Name,
+    /// Its role.
+    pub kind: SymbolKind,
+}
+
+/// `output y = expr`
+#[derive(Clone, Debug)]
+pub struct OutputDecl {
+    /// Doc comment lines.
+    pub docs: Vec<String>,
+    /// The output's name.
+    pub name: Name,
+    /// What is measured.
+    pub expr: SurfaceExpr,
+}
+
+/// How a dynamics block relates the next state to the current one.
+#[derive(Clone, Debug)]
+pub enum DynamicsKind {
+    /// `x = expr` gives `x[k+1]`.
+    Discrete,
+    /// `der(x) = expr` gives `dx/dt`; the discretisation is required for a valid model.
+    Continuous {
+        /// `euler` or `rk4`, if written.
+        method: Option<Name>,
+        /// The step, if written: an expression of constants.
+        dt: Option<SurfaceExpr>,
+        /// Sub-steps per sample, if written, with where.
+        substeps: Option<(u64, Span)>,
+    },
+}
+
+/// `dynamics discrete { .. }` or `dynamics continuous(..) { .. }`
+#[derive(Clone, Debug)]
+pub struct DynamicsDecl {
+    /// The `dynamics` keyword, for errors about the block as a whole.
+    pub span: Span,
+    /// Discrete or continuous, with the discretisation.
+    pub kind: DynamicsKind,
+    /// Statements in order.
+    pub statements: Vec<Statement>,
+}
+
+/// One line of a dynamics block.
+#[derive(Clone, Debug)]
+pub enum Statement {
+    /// `let name = expr;`: a named intermediate for later lines.
+    Let {
+        /// The intermediate's name.
+        name: Name,
+        /// Its value.
+        value: SurfaceExpr,
+    },
+    /// `x = expr;` (discrete) or `der(x) = expr;` (continuous).
+    Equation {
+        /// The state assigned.
+        target: Name,
+        /// Whether written as `der(x)`.
+        derivative: bool,
+        /// Right-hand side.
+        value: SurfaceExpr,
+    },
+}
+
+/// An expression as written.
+#[derive(Clone, Debug)]
+pub struct SurfaceExpr {
+    /// What kind of expression.
+    pub kind: SurfaceKind,
+    /// Where it stands.
+    pub span: Span,
+}
+
+/// Binary arithmetic operators.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BinaryOp {
+    /// `+`
+    Add,
+    /// `-`
+    Sub,
+    /// `*`
+    Mul,
+    /// `/`
+    Div,
+}
+
+/// Comparisons allowed in the condition of a piecewise term.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Comparison {
+    /// `>`
+    Gt,
+    /// `>=`
+    Ge,
+    /// `<`
+    Lt,
+    /// `<=`
+    Le,
+}
+
+/// The shapes of a surface expression.
+#[derive(Clone, Debug)]
+pub enum SurfaceKind {
+    /// A numeric literal.
+    Number(f64),
+    /// A name: a constant, symbol, `let` intermediate or the time `t`.
+    Name(String),
+    /// `-e`
+    Neg(Box<SurfaceExpr>),
+    /// `a op b`
+    Binary(BinaryOp, Box<SurfaceExpr>, Box<SurfaceExpr>),
+    /// `f(args)`: the function name is checked later.
+    Call(Name, Vec<SurfaceExpr>),
+    /// `if lhs cmp rhs { then } else { otherwise }`
+    If {
+        /// The comparison.
+        cmp: Comparison,
+        /// Left side of the condition.
+        lhs: Box<SurfaceExpr>,
+        /// Right side of the condition.
+        rhs: Box<SurfaceExpr>,
+        /// Value when the condition holds.
+        then: Box<SurfaceExpr>,
+        /// Value otherwise.
+        otherwise: Box<SurfaceExpr>,
+    },
+}
+
+impl Comparison {
+    /// Whether `lhs cmp rhs` holds.
+    pub fn holds(self, lhs: f64, rhs: f64) -> bool {
+        match self {
+            Comparison::Gt => lhs > rhs,
+            Comparison::Ge => lhs >= rhs,
+            Comparison::Lt => lhs < rhs,
+            Comparison::Le => lhs <= rhs,
+        }
+    }
+
+    /// The operator as written.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Comparison::Gt => ">",
+            Comparison::Ge => ">=",
+            Comparison::Lt => "<",
+            Comparison::Le => "<=",
+        }
+    }
+}

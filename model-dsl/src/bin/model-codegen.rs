@@ -1,0 +1,50 @@
+//! Prints the Rust that `model-dsl` generates for a model file, formatted, so it can be
+//! reviewed or vendored.
+//!
+//! ```text
+//! model-codegen models/cantilever.toml > src/cantilever.rs
+//! model-codegen generated-demo/models/cantilever.rs
+//! ```
+
+#![forbid(unsafe_code)]
+
+use clap::Parser;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Generate Rust model functions and Jacobians from a model file.
+#[derive(Parser)]
+#[command(version, about)]
+struct Args {
+    /// A TOML model file, or a Rust file holding one `model! { .. }` invocation.
+    model: PathBuf,
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let source = match std::fs::read_to_string(&args.model) {
+        Ok(source) => source,
+        Err(e) => {
+            eprintln!("error: cannot read {}: {e}", args.model.display());
+            return ExitCode::FAILURE;
+        }
+    };
+    let is_toml = args.model.extension().is_some_and(|e| e == "toml");
+    let generated = if is_toml {
+        model_dsl::expand_model_file(&source)
+    } else {
+        model_dsl::expand_macro_source(&source)
+    };
+    match generated.and_then(model_dsl::format) {
+        Ok(code) => {
+            print!("{code}");
+            ExitCode::SUCCESS
+        }
+        Err(errors) => {
+            for error in errors {
+                eprintln!("error: {}: {error}", args.model.display());
+            }
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,674 @@
+//! Resolves a [`ModelDecl`] into the model IR, collecting every mistake on the way.
+
+use crate::ast::{
+    BinaryOp, DynamicsDecl, DynamicsKind, ModelDecl, Name, Statement, SurfaceExpr, SurfaceKind,
+    SymbolKind,
+};
+use crate::diagnostics::Diagnostics;
+use crate::model::{
+    Constant, Discretisation, Dynamics, Expr, Func, Local, Method, Model, Output, Scalar, Symbol,
+};
+use indexmap::IndexMap;
+use proc_macro2::Span;
+
+/// Items the generated module defines; a constant (also an item) may not take their names.
+const GENERATED_ITEMS: &[&str] = &[
+    "f",
+    "h",
+    "jacobian_f_wrt_x",
+    "jacobian_f_wrt_u",
+    "jacobian_h_wrt_x",
+    "index",
+    "in_f32",
+    "in_f64",
+    "OpCount",
+    "X_LEN",
+    "STATE_LEN",
+    "PARAM_LEN",
+    "U_LEN",
+    "Y_LEN",
+    "X_NAMES",
+    "U_NAMES",
+    "Y_NAMES",
+];
+
+/// What a name in an expression refers to.
+#[derive(Clone, Copy, Debug)]
+enum Binding {
+    Const(usize),
+    State(usize),
+    Param(usize),
+    Input(usize),
+    Local(usize),
+}
+
+/// Checks a declaration and resolves it into a [`Model`], reporting every error found.
+pub fn check(decl: &ModelDecl) -> syn::Result<Model> {
+    let mut diag = Diagnostics::default();
+    let mut scope: IndexMap<String, (Binding, Span)> = IndexMap::new();
+
+    let scalars = check_scalars(decl, &mut diag);
+    let constants = check_constants(decl, &mut scope, &mut diag);
+
+    let (mut states, mut params, mut inputs) = (Vec::new(), Vec::new(), Vec::new());
+    let mut state_spans = Vec::new();
+    for sym in &decl.symbols {
+        let symbol = Symbol {
+            docs: sym.docs.clone(),
+            name: sym.name.text.clone(),
+        };
+        let binding = match sym.kind {
+            SymbolKind::State => {
+                state_spans.push(sym.name.span);
+                states.push(symbol);
+                Binding::State(states.len() - 1)
+            }
+            SymbolKind::Param => {
+                params.push(symbol);
+                Binding::Param(params.len() - 1)
+            }
+            SymbolKind::Input => {
+                inputs.push(symbol);
+                Binding::Input(inputs.len() - 1)
+            }
+        };
+        declare(&mut scope, &sym.name, binding, &mut diag);
+    }
+    if states.is_empty() {
+        diag.error(
+            decl.name.span,
+            "the model declares no state: add a line such as `state x1, x2;`",
+        );
+    }
+
+    let mut outputs = Vec::new();
+    let mut output_names: IndexMap<&str, Span> = IndexMap::new();
+    for out in &decl.outputs {
+        if let Some(&first) = output_names.get(out.name.text.as_str()) {
+            duplicate_error(&mut diag, &out.name, first);
+        } else if let Some(&(_, first)) = scope.get(&out.name.text) {
+            duplicate_error(&mut diag, &out.name, first);
+        } else {
+            check_name_allowed(&out.name, false, &mut diag);
+            output_names.insert(&out.name.text, out.name.span);
+        }
+        let context = format!("the output `{}`", out.name.text);
+        if let Some(expr) = resolve(&out.expr, &scope, &[], &context, &mut diag) {
+            outputs.push(Output {
+                docs: out.docs.clone(),
+                name: out.name.text.clone(),
+                expr,
+            });
+        }
+    }
+
+    let mut locals = Vec::new();
+    let dynamics = match decl.dynamics.as_slice() {
+        [] => {
+            diag.error(
+                decl.name.span,
+                "the model has no dynamics: add `dynamics discrete { x1 = ...; }` or \
+                 `dynamics continuous(rk4, dt = TS) { der(x1) = ...; }`",
+            );
+            None
+        }
+        [block, extra @ ..] => {
+            for other in extra {
+                diag.error(
+                    other.span,
+                    "a model has one dynamics block: move these equations into the first",
+                );
+            }
+            check_dynamics(
+                block,
+                &mut scope,
+                &state_spans,
+                &states,
+                &mut locals,
+                &mut diag,
+            )
+        }
+    };
+
+    let model = dynamics.map(|dynamics| Model {
+        docs: decl.docs.clone(),
+        vis: decl.vis.clone(),
+        name: decl.name.text.clone(),
+        scalars,
+        constants,
+        states,
+        params,
+        inputs,
+        outputs,
+        dynamics,
+        locals,
+    });
+    match model {
+        Some(model) => diag.finish(model),
+        None => {
+            // `check_dynamics` only returns `None` after recording an error.
+            debug_assert!(diag.has_errors());
+            diag.finish(()).and_then(|()| {
+                Err(syn::Error::new(
+                    decl.span,
+                    "the model has no valid dynamics",
+                ))
+            })
+        }
+    }
+}
+
+fn check_scalars(decl: &ModelDecl, diag: &mut Diagnostics) -> Vec<Scalar> {
+    let mut scalars = Vec::new();
+    for name in &decl.scalars {
+        let scalar = match name.text.as_str() {
+            "f32" => Scalar::F32,
+            "f64" => Scalar::F64,
+            other => {
+                diag.error(
+                    name.span,
+                    format!("unsupported scalar type `{other}`: write `f32` or `f64`"),
+                );
+                continue;
+            }
+        };
+        if scalars.contains(&scalar) {
+            diag.error(
+                name.span,
+                format!("scalar type `{}` is listed twice", name.text),
+            );
+        } else {
+            scalars.push(scalar);
+        }
+    }
+    if decl.scalars.is_empty() {
+        diag.error(
+            decl.name.span,
+            "the model names no scalar type: add `scalar f32;` (or `scalar f32, f64;` to \
+             also generate an f64 version for host checks)",
+        );
+    }
+    scalars
+}
+
+fn check_constants(
+    decl: &ModelDecl,
+    scope: &mut IndexMap<String, (Binding, Span)>,
+    diag: &mut Diagnostics,
+) -> Vec<Constant> {
+    let mut constants = Vec::new();
+    for c in &decl.constants {
+        let context = format!("the constant `{}`", c.name.text);
+        let value = resolve(&c.value, scope, &[], &context, diag).and_then(|expr| {
+            let value = const_value(&expr, &constants);
+            if value.is_none() {
+                diag.error(
+                    c.value.span,
+                    format!("{context} must be computed from literals and earlier constants only"),
+                );
+            }
+            value
+        });
+        if let Some(value) = value {
+            if !value.is_finite() {
+                diag.error(c.value.span, format!("{context} evaluates to {value}"));
+            }
+        }
+        constants.push(Constant {
+            docs: c.docs.clone(),
+            name: c.name.text.clone(),
+            value: value.unwrap_or(0.0),
+        });
+        declare(scope, &c.name, Binding::Const(constants.len() - 1), diag);
+    }
+    constants
+}
+
+#[allow(clippy::too_many_arguments)]
+fn check_dynamics(
+    block: &DynamicsDecl,
+    scope: &mut IndexMap<String, (Binding, Span)>,
+    state_spans: &[Span],
+    states: &[Symbol],
+    locals: &mut Vec<Local>,
+    diag: &mut Diagnostics,
+) -> Option<Dynamics> {
+    let continuous = matches!(block.kind, DynamicsKind::Continuous { .. });
+    let discretisation = match &block.kind {
+        DynamicsKind::Discrete => Some(Discretisation::Discrete),
+        DynamicsKind::Continuous {
+            method,
+            dt,
+            substeps,
+        } => check_discretisation(block.span, method, dt, substeps, scope, diag),
+    };
+
+    let mut rhs: Vec<Option<(Expr, Span)>> = vec![None; states.len()];
+    for statement in &block.statements {
+        match statement {
+            Statement::Let { name, value } => {
+                let context = format!("the intermediate `{}`", name.text);
+                if let Some(expr) = resolve(value, scope, locals, &context, diag) {
+                    locals.push(Local {
+                        name: name.text.clone(),
+                        expr,
+                    });
+                    declare(scope, name, Binding::Local(locals.len() - 1), diag);
+                }
+            }
+            Statement::Equation {
+                target,
+                derivative,
+                value,
+            } => {
+                let context = format!("the dynamics of `{}`", target.text);
+                let expr = resolve(value, scope, locals, &context, diag);
+                let index = match scope.get(&target.text) {
+                    Some((Binding::State(i), _)) => *i,
+                    Some((Binding::Param(_), _)) => {
+                        diag.error(
+                            target.span,
+                            format!(
+                                "`{}` is a parameter: an unknown constant estimated as a random \
+                                 walk, so it takes no dynamics; declare it with `state` if it evolves",
+                                target.text
+                            ),
+                        );
+                        continue;
+                    }
+                    Some((Binding::Input(_), _)) => {
+                        diag.error(
+                            target.span,
+                            format!(
+                                "`{}` is an input: it is given each sample, not computed",
+                                target.text
+                            ),
+                        );
+                        continue;
+                    }
+                    Some((Binding::Const(_) | Binding::Local(_), _)) => {
+                        diag.error(
+                            target.span,
+                            format!(
+                                "`{}` is not a state: only states take dynamics",
+                                target.text
+                            ),
+                        );
+                        continue;
+                    }
+                    None => {
+                        diag.error(
+                            target.span,
+                            format!(
+                                "unknown state `{}`: declare it with `state {};`",
+                                target.text, target.text
+                            ),
+                        );
+                        continue;
+                    }
+                };
+                if continuous && !derivative {
+                    diag.error(
+                        target.span,
+                        format!(
+                            "continuous dynamics give derivatives: write `der({}) = ...;`",
+                            target.text
+                        ),
+                    );
+                } else if !continuous && *derivative {
+                    diag.error(
+                        target.span,
+                        format!(
+                            "`der(..)` needs continuous dynamics: write `{} = ...;` for the next \
+                             sample, or `dynamics continuous(euler, dt = TS)`",
+                            target.text
+                        ),
+                    );
+                }
+                if let Some((_, first)) = &rhs[index] {
+                    let _ = first;
+                    diag.error(
+                        target.span,
+                        format!(
+                            "state `{}` has a second equation: each state takes exactly one",
+                            target.text
+                        ),
+                    );
+                } else if let Some(expr) = expr {
+                    rhs[index] = Some((expr, target.span));
+                }
+            }
+        }
+    }
+
+    let mut complete = Vec::with_capacity(states.len());
+    for ((slot, state), span) in rhs.into_iter().zip(states).zip(state_spans) {
+        match slot {
+            Some((expr, _)) => complete.push(expr),
+            None => {
+                let form = if continuous {
+                    format!("der({}) = ...;", state.name)
+                } else {
+                    format!("{} = ...;", state.name)
+                };
+                diag.error(
+                    *span,
+                    format!("state `{}` has no dynamics: add `{form}`", state.name),
+                );
+            }
+        }
+    }
+    let discretisation = discretisation?;
+    (complete.len() == states.len()).then_some(Dynamics {
+        discretisation,
+        rhs: complete,
+    })
+}
+
+fn check_discretisation(
+    span: Span,
+    method: &Option<Name>,
+    dt: &Option<SurfaceExpr>,
+    substeps: &Option<(u64, Span)>,
+    scope: &IndexMap<String, (Binding, Span)>,
+    diag: &mut Diagnostics,
+) -> Option<Discretisation> {
+    let hint = "write `dynamics continuous(euler, dt = TS)` or `dynamics continuous(rk4, dt = TS, substeps = 2)`";
+    let method = match method {
+        None => {
+            diag.error(
+                span,
+                format!("continuous dynamics need a discretisation: {hint}"),
+            );
+            None
+        }
+        Some(name) => match name.text.as_str() {
+            "euler" => Some(Method::Euler),
+            "rk4" => Some(Method::Rk4),
+            other => {
+                diag.error(
+                    name.span,
+                    format!("unknown integration method `{other}`: use `euler` or `rk4`"),
+                );
+                None
+            }
+        },
+    };
+    let dt = match dt {
+        None => {
+            if method.is_some() {
+                diag.error(
+                    span,
+                    format!("the discretisation needs a step `dt`: {hint}"),
+                );
+            }
+            None
+        }
+        Some(expr) => resolve(expr, scope, &[], "the step `dt`", diag).and_then(|e| {
+            let consts_only = !e.any(&|e| {
+                !matches!(
+                    e,
+                    Expr::Number(_)
+                        | Expr::Const(_)
+                        | Expr::Neg(_)
+                        | Expr::Add(..)
+                        | Expr::Sub(..)
+                        | Expr::Mul(..)
+                        | Expr::Div(..)
+                )
+            });
+            if !consts_only {
+                diag.error(
+                    expr.span,
+                    "the step `dt` must be a constant expression, such as `TS`",
+                );
+                return None;
+            }
+            Some(e)
+        }),
+    };
+    let substeps = match substeps {
+        None => Some(1),
+        Some((0, span)) => {
+            diag.error(*span, "`substeps` must be at least 1");
+            None
+        }
+        Some((n, span)) => match u32::try_from(*n) {
+            Ok(n) if n <= 64 => Some(n),
+            _ => {
+                diag.error(
+                    *span,
+                    "`substeps` above 64 would generate huge code: use at most 64",
+                );
+                None
+            }
+        },
+    };
+    Some(Discretisation::Continuous {
+        method: method?,
+        dt: dt?,
+        substeps: substeps?,
+    })
+}
+
+fn declare(
+    scope: &mut IndexMap<String, (Binding, Span)>,
+    name: &Name,
+    binding: Binding,
+    diag: &mut Diagnostics,
+) {
+    if let Some(&(_, first)) = scope.get(&name.text) {
+        duplicate_error(diag, name, first);
+        return;
+    }
+    check_name_allowed(name, matches!(binding, Binding::Const(_)), diag);
+    scope.insert(name.text.clone(), (binding, name.span));
+}
+
+fn duplicate_error(diag: &mut Diagnostics, name: &Name, first: Span) {
+    let _ = first;
+    diag.error(
+        name.span,
+        format!(
+            "`{}` is declared twice: every constant, symbol and output needs its own name",
+            name.text
+        ),
+    );
+}
+
+fn check_name_allowed(name: &Name, is_item: bool, diag: &mut Diagnostics) {
+    let generated = GENERATED_ITEMS.contains(&name.text.as_str())
+        || name.text.ends_with("_OPS")
+        || name.text.ends_with("_NONZERO");
+    if name.text == "t" {
+        diag.error(name.span, "`t` is the time in seconds: choose another name");
+    } else if is_item && generated {
+        diag.error(
+            name.span,
+            format!(
+                "`{}` is a name the generated module uses: choose another",
+                name.text
+            ),
+        );
+    } else if syn::parse_str::<syn::Ident>(&name.text).is_err() {
+        diag.error(
+            name.span,
+            format!("`{}` is not a valid Rust identifier", name.text),
+        );
+    }
+}
+
+/// Resolves names and function calls; returns `None` after recording an error.
+fn resolve(
+    expr: &SurfaceExpr,
+    scope: &IndexMap<String, (Binding, Span)>,
+    locals: &[Local],
+    context: &str,
+    diag: &mut Diagnostics,
+) -> Option<Expr> {
+    let mut go = |e: &SurfaceExpr, diag: &mut Diagnostics| resolve(e, scope, locals, context, diag);
+    Some(match &expr.kind {
+        SurfaceKind::Number(v) => Expr::Number(*v),
+        SurfaceKind::Name(name) => match scope.get(name) {
+            Some((Binding::Const(i), _)) => Expr::Const(*i),
+            Some((Binding::State(i), _)) => Expr::State(*i),
+            Some((Binding::Param(i), _)) => Expr::Param(*i),
+            Some((Binding::Input(i), _)) => Expr::Input(*i),
+            Some((Binding::Local(i), _)) if *i < locals.len() => Expr::Local(*i),
+            Some((Binding::Local(_), _)) => {
+                diag.error(
+                    expr.span,
+                    format!("`{name}` is an intermediate of the dynamics block: {context} cannot use it"),
+                );
+                return None;
+            }
+            None if name == "t" => Expr::Time,
+            None => {
+                diag.error(
+                    expr.span,
+                    format!(
+                        "unknown symbol `{name}` in {context}: declare it with `state`, `param`, \
+                         `input` or `const`"
+                    ),
+                );
+                return None;
+            }
+        },
+        SurfaceKind::Neg(a) => Expr::Neg(Box::new(go(a, diag)?)),
+        SurfaceKind::Binary(op, a, b) => {
+            let (a, b) = (go(a, diag), go(b, diag));
+            let (a, b) = (Box::new(a?), Box::new(b?));
+            match op {
+                BinaryOp::Add => Expr::Add(a, b),
+                BinaryOp::Sub => Expr::Sub(a, b),
+                BinaryOp::Mul => Expr::Mul(a, b),
+                BinaryOp::Div => Expr::Div(a, b),
+            }
+        }
+        SurfaceKind::Call(func, args) => return resolve_call(expr, func, args, &mut go, diag),
+        SurfaceKind::If {
+            cmp,
+            lhs,
+            rhs,
+            then,
+            otherwise,
+        } => {
+            let parts = [lhs, rhs, then, otherwise].map(|e| go(e, diag));
+            let [lhs, rhs, then, otherwise] = parts;
+            Expr::Select {
+                cmp: *cmp,
+                lhs: Box::new(lhs?),
+                rhs: Box::new(rhs?),
+                then: Box::new(then?),
+                otherwise: Box::new(otherwise?),
+            }
+        }
+    })
+    .and_then(|e| {
+        if let (Expr::Div(_, divisor), SurfaceKind::Binary(_, _, surface_divisor)) = (&e, &expr.kind) {
+            if literal_value(divisor) == Some(0.0) {
+                diag.error(surface_divisor.span, "division by zero");
+                return None;
+            }
+        }
+        Some(e)
+    })
+}
+
+fn resolve_call(
+    expr: &SurfaceExpr,
+    func: &Name,
+    args: &[SurfaceExpr],
+    go: &mut dyn FnMut(&SurfaceExpr, &mut Diagnostics) -> Option<Expr>,
+    diag: &mut Diagnostics,
+) -> Option<Expr> {
+    if func.text == "powi" {
+        if args.len() != 2 {
+            diag.error(
+                expr.span,
+                format!(
+                    "`powi` takes 2 arguments (base, integer exponent), found {}",
+                    args.len()
+                ),
+            );
+            return None;
+        }
+        let base = go(&args[0], diag);
+        let exponent = match &args[1].kind {
+            SurfaceKind::Number(n) if n.fract() == 0.0 && n.abs() <= 64.0 => Some(*n as i32),
+            SurfaceKind::Neg(inner) => match inner.kind {
+                SurfaceKind::Number(n) if n.fract() == 0.0 && n.abs() <= 64.0 => Some(-(n as i32)),
+                _ => None,
+            },
+            _ => None,
+        };
+        let Some(exponent) = exponent else {
+            diag.error(
+                args[1].span,
+                "the exponent of `powi` must be an integer literal between -64 and 64",
+            );
+            return None;
+        };
+        return Some(Expr::Powi(Box::new(base?), exponent));
+    }
+    let Some(f) = Func::from_name(&func.text) else {
+        let known: Vec<_> = Func::ALL.iter().map(|f| f.name()).collect();
+        diag.error(
+            func.span,
+            format!(
+                "unsupported function `{}`: use one of {}, powi",
+                func.text,
+                known.join(", ")
+            ),
+        );
+        for arg in args {
+            go(arg, diag);
+        }
+        return None;
+    };
+    if args.len() != 1 {
+        diag.error(
+            expr.span,
+            format!("`{}` takes 1 argument, found {}", func.text, args.len()),
+        );
+        return None;
+    }
+    Some(Expr::Call(f, Box::new(go(&args[0], diag)?)))
+}
+
+/// The value of an expression of literals only, if it is one.
+fn literal_value(expr: &Expr) -> Option<f64> {
+    const_value(expr, &[]).filter(|_| !expr.any(&|e| matches!(e, Expr::Const(_))))
+}
+
+/// Evaluates an expression of literals and constants; `None` if it depends on anything else.
+pub(crate) fn const_value(expr: &Expr, constants: &[Constant]) -> Option<f64> {
+    let go = |e: &Expr| const_value(e, constants);
+    Some(match expr {
+        Expr::Number(v) => *v,
+        Expr::Const(i) => constants.get(*i)?.value,
+        Expr::Neg(a) => -go(a)?,
+        Expr::Add(a, b) => go(a)? + go(b)?,
+        Expr::Sub(a, b) => go(a)? - go(b)?,
+        Expr::Mul(a, b) => go(a)? * go(b)?,
+        Expr::Div(a, b) => go(a)? / go(b)?,
+        Expr::Powi(a, n) => go(a)?.powi(*n),
+        Expr::Call(f, a) => f.eval(go(a)?),
+        Expr::Select {
+            cmp,
+            lhs,
+            rhs,
+            then,
+            otherwise,
+        } => {
+            if cmp.holds(go(lhs)?, go(rhs)?) {
+                go(then)?
+            } else {
+                go(otherwise)?
+            }
+        }
+        Expr::State(_) | Expr::Param(_) | Expr::Input(_) | Expr::Local(_) | Expr::Time => {
+            return None
+        }
+    })
+}

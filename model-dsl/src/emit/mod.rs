@@ -1,0 +1,184 @@
+//! Emitters: lower a checked model to Rust tokens. One emitter per generated item;
+//! [`emit_model`] assembles them into the model's module.
+
+pub mod lower;
+pub mod model_fns;
+pub mod names;
+
+use crate::emit::lower::literal;
+use crate::emit::model_fns::{emit_function, model_functions, nonzero_item, ops_item};
+use crate::emit::names::{ident, index_const};
+use crate::model::{Model, Scalar, Symbol};
+use crate::symbolic::ModelGraph;
+use proc_macro2::{Literal, TokenStream};
+use quote::quote;
+
+/// The whole generated module of `model`.
+pub fn emit_model(model: &Model) -> TokenStream {
+    let mut mg = ModelGraph::build(model);
+    let functions = model_functions(model, &mut mg);
+    let Some((&primary, others)) = model.scalars.split_first() else {
+        return TokenStream::new();
+    };
+
+    let mut ops_items = Vec::new();
+    let mut primary_fns = Vec::new();
+    for function in &functions {
+        let (code, ops) = emit_function(model, &mg, function, primary);
+        primary_fns.push(code);
+        ops_items.push(ops_item(function, ops));
+    }
+    let nonzero_items = functions.iter().filter_map(|f| nonzero_item(f, &mg));
+    let primary_consts = constants(model, primary);
+    let secondary = others.iter().map(|&scalar| {
+        let module = ident(&format!("in_{}", scalar.type_name()));
+        let doc = format!(
+            " The same model functions in `{}` (host-side checks and simulation).",
+            scalar.type_name()
+        );
+        let consts = constants(model, scalar);
+        let fns = functions
+            .iter()
+            .map(|f| emit_function(model, &mg, f, scalar).0);
+        quote! {
+            #[doc = #doc]
+            pub mod #module {
+                #consts
+                #(#fns)*
+            }
+        }
+    });
+
+    let docs = &model.docs;
+    let vis = &model.vis;
+    let name = ident(&model.name);
+    let dims = dimensions(model);
+    let op_count = op_count_struct();
+    let index = index_module(model);
+    quote! {
+        #(#[doc = #docs])*
+        #vis mod #name {
+            #op_count
+            #dims
+            #index
+            #(#ops_items)*
+            #(#nonzero_items)*
+            #primary_consts
+            #(#primary_fns)*
+            #(#secondary)*
+        }
+    }
+}
+
+/// The generated twin of [`lower::OpCount`], so generated code needs no support crate.
+fn op_count_struct() -> TokenStream {
+    quote! {
+        /// Arithmetic one call of a generated function performs, counted from its code.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub struct OpCount {
+            /// Additions, subtractions and negations.
+            pub add: u32,
+            /// Multiplications.
+            pub mul: u32,
+            /// Divisions.
+            pub div: u32,
+            /// Library calls (`sin cos tan exp ln sqrt abs`, through `libm`).
+            pub call: u32,
+            /// Comparisons of piecewise terms.
+            pub compare: u32,
+        }
+    }
+}
+
+fn dimensions(model: &Model) -> TokenStream {
+    let [x_len, state_len, param_len, u_len, y_len] = [
+        model.state_len(),
+        model.states.len(),
+        model.params.len(),
+        model.inputs.len(),
+        model.outputs.len(),
+    ]
+    .map(Literal::usize_unsuffixed);
+    let x_names = model.state_names();
+    let u_names = model.inputs.iter().map(|s| &s.name);
+    let y_names = model.outputs.iter().map(|o| &o.name);
+    quote! {
+        /// Length of the state vector `x`: the physical states, then the parameters.
+        pub const X_LEN: usize = #x_len;
+        /// Number of physical states, at the front of `x`.
+        pub const STATE_LEN: usize = #state_len;
+        /// Number of parameters (augmented random-walk states), at the back of `x`.
+        pub const PARAM_LEN: usize = #param_len;
+        /// Number of inputs `u`.
+        pub const U_LEN: usize = #u_len;
+        /// Number of outputs `y`.
+        pub const Y_LEN: usize = #y_len;
+        /// Names of the entries of `x`, in order.
+        pub const X_NAMES: [&str; #x_len] = [#(#x_names),*];
+        /// Names of the entries of `u`, in order.
+        pub const U_NAMES: [&str; #u_len] = [#(#u_names),*];
+        /// Names of the entries of `y`, in order.
+        pub const Y_NAMES: [&str; #y_len] = [#(#y_names),*];
+    }
+}
+
+fn index_module(model: &Model) -> TokenStream {
+    let entry = |symbol: &Symbol, position: usize, vector: &str| {
+        let position = Literal::usize_unsuffixed(position);
+        let name = index_const(&symbol.name);
+        let docs = &symbol.docs;
+        let place = format!(" Position of `{}` in `{vector}`.", symbol.name);
+        let separator = (!docs.is_empty()).then(|| quote! { #[doc = ""] });
+        quote! {
+            #(#[doc = #docs])*
+            #separator
+            #[doc = #place]
+            pub const #name: usize = #position;
+        }
+    };
+    let states = model
+        .states
+        .iter()
+        .chain(&model.params)
+        .enumerate()
+        .map(|(i, s)| entry(s, i, "x"));
+    let inputs = model
+        .inputs
+        .iter()
+        .enumerate()
+        .map(|(i, s)| entry(s, i, "u"));
+    let outputs = model.outputs.iter().enumerate().map(|(i, o)| {
+        let symbol = Symbol {
+            docs: o.docs.clone(),
+            name: o.name.clone(),
+        };
+        entry(&symbol, i, "y")
+    });
+    quote! {
+        /// Positions of the named entries of `x`, `u` and `y`, with their documentation.
+        pub mod index {
+            #(#states)*
+            #(#inputs)*
+            #(#outputs)*
+        }
+    }
+}
+
+fn constants(model: &Model, scalar: Scalar) -> TokenStream {
+    let ty = ident(scalar.type_name());
+    let items = model.constants.iter().map(|c| {
+        let name = ident(&c.name);
+        let value = literal(c.value, scalar);
+        let fallback = format!(" Model constant `{}`.", c.name);
+        let docs = if c.docs.is_empty() {
+            vec![fallback]
+        } else {
+            c.docs.clone()
+        };
+        quote! {
+            #(#[doc = #docs])*
+            pub const #name: #ty = #value;
+        }
+    });
+    quote! { #(#items)* }
+}

@@ -1,0 +1,256 @@
+//! Emits the model functions `f`, `h` and their Jacobians, with their zero patterns and
+//! operation counts.
+
+use super::lower::{lower, Lowered, OpCount};
+use super::names::{ident, nonzero_const, ops_const, TempNamer};
+use crate::model::{Discretisation, Expr, Method, Model, Scalar};
+use crate::symbolic::{ModelGraph, NodeId};
+use proc_macro2::{Literal, TokenStream};
+use quote::quote;
+
+/// What a generated function returns.
+enum Shape {
+    /// `[S; n]`
+    Vector,
+    /// `[[S; cols]; rows]`, row-major.
+    Matrix { cols: usize },
+}
+
+/// One function to generate: its name, documentation, arguments and the nodes it returns.
+pub struct ModelFunction {
+    /// Function name, e.g. `jacobian_f_wrt_x`.
+    pub name: &'static str,
+    doc: String,
+    takes_u: bool,
+    shape: Shape,
+    /// Returned nodes, row by row for matrices.
+    roots: Vec<NodeId>,
+    rows: usize,
+}
+
+impl ModelFunction {
+    /// Whether each returned entry is structurally non-zero.
+    pub fn nonzero(&self, mg: &ModelGraph) -> Vec<bool> {
+        self.roots.iter().map(|&r| !mg.graph.is_zero(r)).collect()
+    }
+}
+
+/// The model functions of `model`, built on `mg`.
+pub fn model_functions(model: &Model, mg: &mut ModelGraph) -> Vec<ModelFunction> {
+    let has_inputs = !model.inputs.is_empty();
+    let h_uses_u = model
+        .outputs
+        .iter()
+        .any(|o| o.expr.any(&|e| matches!(e, Expr::Input(_))));
+    let flat = |m: Vec<Vec<NodeId>>| m.into_iter().flatten().collect::<Vec<_>>();
+    let n = model.state_len();
+
+    let mut functions = vec![ModelFunction {
+        name: "f",
+        doc: format!(
+            "One sample of the dynamics, `x[k+1] = f(x[k], u[k])`{}.",
+            discretisation_doc(model)
+        ),
+        takes_u: has_inputs,
+        shape: Shape::Vector,
+        roots: mg.f.clone(),
+        rows: n,
+    }];
+    if !model.outputs.is_empty() {
+        functions.push(ModelFunction {
+            name: "h",
+            doc: "The measurement, `y[k] = h(x[k])`.".into(),
+            takes_u: h_uses_u,
+            shape: Shape::Vector,
+            roots: mg.h.clone(),
+            rows: model.outputs.len(),
+        });
+    }
+    functions.push(ModelFunction {
+        name: "jacobian_f_wrt_x",
+        doc: "The Jacobian `df/dx`: entry `[i][j]` is `d f_i / d x_j`.".into(),
+        takes_u: has_inputs,
+        shape: Shape::Matrix { cols: n },
+        roots: flat(mg.jacobian_f_wrt_x()),
+        rows: n,
+    });
+    if has_inputs {
+        functions.push(ModelFunction {
+            name: "jacobian_f_wrt_u",
+            doc: "The Jacobian `df/du`: entry `[i][j]` is `d f_i / d u_j`.".into(),
+            takes_u: true,
+            shape: Shape::Matrix {
+                cols: model.inputs.len(),
+            },
+            roots: flat(mg.jacobian_f_wrt_u()),
+            rows: n,
+        });
+    }
+    if !model.outputs.is_empty() {
+        functions.push(ModelFunction {
+            name: "jacobian_h_wrt_x",
+            doc: "The Jacobian `dh/dx`: entry `[i][j]` is `d h_i / d x_j`.".into(),
+            takes_u: h_uses_u,
+            shape: Shape::Matrix { cols: n },
+            roots: flat(mg.jacobian_h_wrt_x()),
+            rows: model.outputs.len(),
+        });
+    }
+    functions
+}
+
+fn discretisation_doc(model: &Model) -> String {
+    match &model.dynamics.discretisation {
+        Discretisation::Discrete => String::new(),
+        Discretisation::Continuous {
+            method, substeps, ..
+        } => {
+            let method = match method {
+                Method::Euler => "forward Euler",
+                Method::Rk4 => "classical fourth-order Runge-Kutta",
+            };
+            let steps = if *substeps == 1 {
+                "one step".to_owned()
+            } else {
+                format!("{substeps} steps")
+            };
+            format!(", integrating the continuous dynamics with {method} ({steps} per sample)")
+        }
+    }
+}
+
+/// The function's code over `scalar`, and what it computes.
+pub fn emit_function(
+    model: &Model,
+    mg: &ModelGraph,
+    function: &ModelFunction,
+    scalar: Scalar,
+) -> (TokenStream, OpCount) {
+    let reserved = model
+        .constants
+        .iter()
+        .map(|c| c.name.as_str())
+        .chain(model.state_names())
+        .chain(model.inputs.iter().map(|s| s.name.as_str()))
+        .chain(["t", "x", "u"]);
+    let mut namer = TempNamer::new(reserved);
+    let Lowered {
+        lets,
+        roots,
+        used_vars,
+        ops,
+    } = lower(&mg.graph, &function.roots, scalar, &mut namer);
+    let ty = ident(scalar.type_name());
+    let used = |node: NodeId| used_vars.contains(&mg.var_id(node));
+
+    let mut params = Vec::new();
+    let mut unpack = Vec::new();
+    if model.uses_time() {
+        let t = if used(mg.t) { ident("t") } else { ident("_t") };
+        params.push(quote! { #t: #ty });
+    }
+    for (arg, vars, names) in [
+        ("x", &mg.x, model.state_names().collect::<Vec<_>>()),
+        (
+            "u",
+            &mg.u,
+            model.inputs.iter().map(|s| s.name.as_str()).collect(),
+        ),
+    ] {
+        let len = Literal::usize_unsuffixed(vars.len());
+        if arg == "u" && !function.takes_u {
+            continue;
+        }
+        let any_used = vars.iter().any(|&v| used(v));
+        let arg_name = if any_used {
+            ident(arg)
+        } else {
+            ident(&format!("_{arg}"))
+        };
+        params.push(quote! { #arg_name: &[#ty; #len] });
+        if any_used {
+            let pattern = vars.iter().zip(&names).map(|(&v, name)| {
+                if used(v) {
+                    let name = ident(name);
+                    quote! { #name }
+                } else {
+                    quote! { _ }
+                }
+            });
+            unpack.push(quote! { let [#(#pattern),*] = *#arg_name; });
+        }
+    }
+
+    let rows = Literal::usize_unsuffixed(function.rows);
+    let (ret, value) = match function.shape {
+        Shape::Vector => (quote! { [#ty; #rows] }, quote! { [#(#roots),*] }),
+        Shape::Matrix { cols } => {
+            let row_values = roots.chunks(cols.max(1)).map(|row| quote! { [#(#row),*] });
+            let cols = Literal::usize_unsuffixed(cols);
+            (
+                quote! { [[#ty; #cols]; #rows] },
+                quote! { [#(#row_values),*] },
+            )
+        }
+    };
+    let name = ident(function.name);
+    let doc = format!(" {}", function.doc);
+    let ops_name = ops_const(function.name);
+    let ops_doc = if model.scalars.first() == Some(&scalar) {
+        format!(" Cost: see [`{ops_name}`].")
+    } else {
+        format!(" Cost: see [`{ops_name}`](super::{ops_name}).")
+    };
+    let tokens = quote! {
+        #[doc = #doc]
+        #[doc = ""]
+        #[doc = #ops_doc]
+        #[inline]
+        #[must_use]
+        pub fn #name(#(#params),*) -> #ret {
+            #(#unpack)*
+            #(#lets)*
+            #value
+        }
+    };
+    (tokens, ops)
+}
+
+/// `pub const F_OPS: OpCount = ..;` for a function.
+pub fn ops_item(function: &ModelFunction, ops: OpCount) -> TokenStream {
+    let name = ops_const(function.name);
+    let doc = format!(" What `{}` computes per call.", function.name);
+    let OpCount {
+        add,
+        mul,
+        div,
+        call,
+        compare,
+    } = ops;
+    quote! {
+        #[doc = #doc]
+        pub const #name: OpCount = OpCount { add: #add, mul: #mul, div: #div, call: #call, compare: #compare };
+    }
+}
+
+/// `pub const JACOBIAN_F_WRT_X_NONZERO: [[bool; n]; m] = ..;` for a Jacobian.
+pub fn nonzero_item(function: &ModelFunction, mg: &ModelGraph) -> Option<TokenStream> {
+    let Shape::Matrix { cols } = function.shape else {
+        return None;
+    };
+    let name = nonzero_const(function.name);
+    let doc = format!(
+        " Structural non-zeros of `{}`: `false` entries are zero for every argument.",
+        function.name
+    );
+    let flags = function.nonzero(mg);
+    let row_values = flags.chunks(cols.max(1)).map(|row| quote! { [#(#row),*] });
+    let (rows, cols) = (
+        Literal::usize_unsuffixed(function.rows),
+        Literal::usize_unsuffixed(cols),
+    );
+    Some(quote! {
+        #[doc = #doc]
+        pub const #name: [[bool; #cols]; #rows] = [#(#row_values),*];
+    })
+}

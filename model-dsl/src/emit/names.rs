@@ -1,0 +1,112 @@
+//! Every rule for names in generated code, in one place.
+
+use crate::symbolic::{Graph, Node, NodeId};
+use proc_macro2::{Ident, Span};
+use std::collections::{HashMap, HashSet};
+
+/// Longest derived temporary name before falling back to a numbered one.
+const MAX_DERIVED_LEN: usize = 20;
+
+/// An identifier in generated code.
+pub fn ident(name: &str) -> Ident {
+    Ident::new(name, Span::call_site())
+}
+
+/// `F_OPS` for `f`, `JACOBIAN_F_WRT_X_OPS` for `jacobian_f_wrt_x`.
+pub fn ops_const(function: &str) -> Ident {
+    ident(&format!("{}_OPS", function.to_uppercase()))
+}
+
+/// `JACOBIAN_F_WRT_X_NONZERO` for `jacobian_f_wrt_x`.
+pub fn nonzero_const(function: &str) -> Ident {
+    ident(&format!("{}_NONZERO", function.to_uppercase()))
+}
+
+/// The index constant of a symbol: `X1` for `x1`.
+pub fn index_const(symbol: &str) -> Ident {
+    ident(&symbol.to_uppercase())
+}
+
+/// Chooses names for the `let` temporaries of one generated function: the model's own
+/// name for a `let` intermediate, else a name built from the operands (`ts_x2` for
+/// `TS * x2`), else `tmp1`, `tmp2`, ... Names never repeat or shadow a model symbol.
+pub struct TempNamer {
+    taken: HashSet<String>,
+    assigned: HashMap<NodeId, String>,
+    numbered: usize,
+}
+
+impl TempNamer {
+    /// A namer that avoids every name in `reserved` (symbols, constants, parameters).
+    pub fn new<'a>(reserved: impl IntoIterator<Item = &'a str>) -> TempNamer {
+        TempNamer {
+            taken: reserved.into_iter().map(str::to_owned).collect(),
+            assigned: HashMap::new(),
+            numbered: 0,
+        }
+    }
+
+    /// The name already given to `id`, if it is bound to a temporary.
+    pub fn get(&self, id: NodeId) -> Option<&str> {
+        self.assigned.get(&id).map(String::as_str)
+    }
+
+    /// Names the temporary holding `id`.
+    pub fn assign(&mut self, graph: &Graph, id: NodeId) -> Ident {
+        let base = graph
+            .name_hint(id)
+            .map(str::to_owned)
+            .or_else(|| self.label(graph, id).filter(|l| l.len() <= MAX_DERIVED_LEN));
+        let name = match base {
+            Some(base) => self.unique(&base),
+            None => loop {
+                self.numbered += 1;
+                let candidate = format!("tmp{}", self.numbered);
+                if !self.taken.contains(&candidate) {
+                    break candidate;
+                }
+            },
+        };
+        self.taken.insert(name.clone());
+        self.assigned.insert(id, name.clone());
+        ident(&name)
+    }
+
+    fn unique(&self, base: &str) -> String {
+        let valid = |s: &str| !self.taken.contains(s) && syn::parse_str::<syn::Ident>(s).is_ok();
+        if valid(base) {
+            return base.to_owned();
+        }
+        (2..)
+            .map(|n| format!("{base}_{n}"))
+            .find(|s| valid(s))
+            .unwrap_or_else(|| base.to_owned())
+    }
+
+    /// A readable description of a node from its operands, if one is short enough.
+    fn label(&self, graph: &Graph, id: NodeId) -> Option<String> {
+        if let Some(name) = self.get(id) {
+            return Some(name.to_owned());
+        }
+        let l = |x| self.label(graph, x);
+        let text = match graph.node(id) {
+            Node::Num(bits) => number_label(f64::from_bits(bits)),
+            Node::Named(c) => graph.const_info(c).name.to_lowercase(),
+            Node::Var(v) => graph.var_info(v).name.clone(),
+            Node::Neg(a) => format!("neg_{}", l(a)?),
+            Node::Add(a, b) => format!("{}_plus_{}", l(a)?, l(b)?),
+            Node::Sub(a, b) => format!("{}_minus_{}", l(a)?, l(b)?),
+            Node::Mul(a, b) => format!("{}_{}", l(a)?, l(b)?),
+            Node::Div(a, b) => format!("{}_over_{}", l(a)?, l(b)?),
+            Node::Call(f, a) => format!("{}_{}", f.name(), l(a)?),
+            Node::Select { then, .. } => format!("piecewise_{}", l(then)?),
+        };
+        (text.len() <= MAX_DERIVED_LEN).then_some(text)
+    }
+}
+
+/// `2` -> `c2`, `0.5` -> `c0_5`: a literal as part of an identifier.
+fn number_label(v: f64) -> String {
+    let digits = format!("{v}").replace('.', "_").replace('-', "m");
+    format!("c{digits}")
+}

@@ -1,0 +1,438 @@
+//! The `model!` grammar: tokens to a [`ModelDecl`].
+//!
+//! ```text
+//! model       := doc* vis 'mod' IDENT '{' item* '}'
+//! item        := doc* ( 'scalar' IDENT,+ ';'
+//!                     | 'const' IDENT '=' expr ';'
+//!                     | ('state' | 'param' | 'input') (doc* IDENT),+ ';'
+//!                     | 'output' (doc* IDENT '=' expr),+ ';'
+//!                     | 'dynamics' ('discrete' | 'continuous' ['(' method [',' 'dt' '=' expr] [',' 'substeps' '=' INT] ')'])
+//!                       '{' (('let' IDENT | IDENT | 'der' '(' IDENT ')') '=' expr ';')* '}' )
+//! ```
+//! Expressions are Rust expressions restricted to arithmetic, calls of the model
+//! functions (also as methods, `x.sin()`), and `if a > b { .. } else { .. }`.
+
+use crate::ast::{
+    BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, ModelDecl, Name, OutputDecl,
+    Statement, SurfaceExpr, SurfaceKind, SymbolDecl, SymbolKind,
+};
+use crate::diagnostics::Diagnostics;
+use proc_macro2::{Span, TokenStream};
+use quote::ToTokens;
+use syn::parse::{ParseStream, Parser};
+use syn::spanned::Spanned;
+use syn::{braced, parenthesized, Attribute, Expr, Ident, Token};
+
+mod kw {
+    syn::custom_keyword!(scalar);
+    syn::custom_keyword!(state);
+    syn::custom_keyword!(param);
+    syn::custom_keyword!(input);
+    syn::custom_keyword!(output);
+    syn::custom_keyword!(dynamics);
+    syn::custom_keyword!(discrete);
+    syn::custom_keyword!(continuous);
+    syn::custom_keyword!(der);
+    syn::custom_keyword!(dt);
+    syn::custom_keyword!(substeps);
+}
+
+/// Parses the body of a `model!` invocation. Syntax errors stop the parse; mistakes inside
+/// well-formed expressions and doc attributes are collected and reported together.
+pub fn parse_model(tokens: TokenStream) -> syn::Result<ModelDecl> {
+    let mut diag = Diagnostics::default();
+    let decl = (|input: ParseStream| parse_decl(input, &mut diag)).parse2(tokens)?;
+    diag.finish(decl)
+}
+
+fn parse_decl(input: ParseStream, diag: &mut Diagnostics) -> syn::Result<ModelDecl> {
+    let docs = docs(&Attribute::parse_outer(input)?, diag);
+    let vis: syn::Visibility = input.parse()?;
+    input.parse::<Token![mod]>()?;
+    let name = name(&input.parse::<Ident>()?);
+    let content;
+    let brace = braced!(content in input);
+    let mut decl = ModelDecl {
+        docs,
+        vis: vis.into_token_stream(),
+        span: brace.span.join(),
+        name,
+        scalars: Vec::new(),
+        constants: Vec::new(),
+        symbols: Vec::new(),
+        outputs: Vec::new(),
+        dynamics: Vec::new(),
+    };
+    while !content.is_empty() {
+        parse_item(&content, &mut decl, diag)?;
+    }
+    Ok(decl)
+}
+
+fn parse_item(input: ParseStream, decl: &mut ModelDecl, diag: &mut Diagnostics) -> syn::Result<()> {
+    let docs = docs(&Attribute::parse_outer(input)?, diag);
+    let look = input.lookahead1();
+    if look.peek(kw::scalar) {
+        let keyword = input.parse::<kw::scalar>()?;
+        let types = input.parse_terminated_until_semi(|i| i.parse::<Ident>())?;
+        if types.is_empty() {
+            return Err(syn::Error::new(
+                keyword.span,
+                "write `scalar f32;` or `scalar f64;`",
+            ));
+        }
+        if !decl.scalars.is_empty() {
+            diag.error(keyword.span, "the scalar type is declared twice");
+        }
+        decl.scalars.extend(types.iter().map(name));
+    } else if look.peek(Token![const]) {
+        input.parse::<Token![const]>()?;
+        let ident: Ident = input.parse()?;
+        input.parse::<Token![=]>()?;
+        let value = expr(&input.parse()?, diag);
+        input.parse::<Token![;]>()?;
+        decl.constants.push(ConstDecl {
+            docs,
+            name: name(&ident),
+            value,
+        });
+    } else if look.peek(kw::state) || look.peek(kw::param) || look.peek(kw::input) {
+        let kind = if input.parse::<Option<kw::state>>()?.is_some() {
+            SymbolKind::State
+        } else if input.parse::<Option<kw::param>>()?.is_some() {
+            SymbolKind::Param
+        } else {
+            input.parse::<kw::input>()?;
+            SymbolKind::Input
+        };
+        let entries = input.parse_terminated_until_semi(|i| {
+            let own = Attribute::parse_outer(i)?;
+            Ok((own, i.parse::<Ident>()?))
+        })?;
+        for (own, ident) in entries {
+            let own = self::docs(&own, diag);
+            decl.symbols.push(SymbolDecl {
+                docs: if own.is_empty() { docs.clone() } else { own },
+                name: name(&ident),
+                kind,
+            });
+        }
+    } else if look.peek(kw::output) {
+        input.parse::<kw::output>()?;
+        let entries = input.parse_terminated_until_semi(|i| {
+            let own = Attribute::parse_outer(i)?;
+            let ident: Ident = i.parse()?;
+            i.parse::<Token![=]>()?;
+            Ok((own, ident, i.parse::<Expr>()?))
+        })?;
+        for (own, ident, value) in entries {
+            let own = self::docs(&own, diag);
+            decl.outputs.push(OutputDecl {
+                docs: if own.is_empty() { docs.clone() } else { own },
+                name: name(&ident),
+                expr: expr(&value, diag),
+            });
+        }
+    } else if look.peek(kw::dynamics) {
+        let keyword = input.parse::<kw::dynamics>()?;
+        let kind = parse_dynamics_kind(input, diag)?;
+        let content;
+        braced!(content in input);
+        let mut statements = Vec::new();
+        while !content.is_empty() {
+            statements.push(parse_statement(&content, diag)?);
+        }
+        decl.dynamics.push(DynamicsDecl {
+            span: keyword.span,
+            kind,
+            statements,
+        });
+    } else {
+        return Err(look.error());
+    }
+    Ok(())
+}
+
+fn parse_dynamics_kind(input: ParseStream, diag: &mut Diagnostics) -> syn::Result<DynamicsKind> {
+    let look = input.lookahead1();
+    if look.peek(kw::discrete) {
+        input.parse::<kw::discrete>()?;
+        return Ok(DynamicsKind::Discrete);
+    }
+    if !look.peek(kw::continuous) {
+        return Err(look.error());
+    }
+    input.parse::<kw::continuous>()?;
+    let (mut method, mut dt, mut substeps) = (None, None, None);
+    if input.peek(syn::token::Paren) {
+        let args;
+        parenthesized!(args in input);
+        if args.peek(Ident) && !args.peek(kw::dt) && !args.peek(kw::substeps) {
+            method = Some(name(&args.parse::<Ident>()?));
+            if !args.is_empty() {
+                args.parse::<Token![,]>()?;
+            }
+        }
+        while !args.is_empty() {
+            let look = args.lookahead1();
+            if look.peek(kw::dt) {
+                args.parse::<kw::dt>()?;
+                args.parse::<Token![=]>()?;
+                dt = Some(expr(&args.parse()?, diag));
+            } else if look.peek(kw::substeps) {
+                args.parse::<kw::substeps>()?;
+                args.parse::<Token![=]>()?;
+                let n: syn::LitInt = args.parse()?;
+                substeps = Some((n.base10_parse::<u64>()?, n.span()));
+            } else {
+                return Err(look.error());
+            }
+            if !args.is_empty() {
+                args.parse::<Token![,]>()?;
+            }
+        }
+    }
+    Ok(DynamicsKind::Continuous {
+        method,
+        dt,
+        substeps,
+    })
+}
+
+fn parse_statement(input: ParseStream, diag: &mut Diagnostics) -> syn::Result<Statement> {
+    let statement = if input.parse::<Option<Token![let]>>()?.is_some() {
+        let ident: Ident = input.parse()?;
+        input.parse::<Token![=]>()?;
+        Statement::Let {
+            name: name(&ident),
+            value: expr(&input.parse()?, diag),
+        }
+    } else {
+        let derivative = input.peek(kw::der) && input.peek2(syn::token::Paren);
+        let target = if derivative {
+            input.parse::<kw::der>()?;
+            let inner;
+            parenthesized!(inner in input);
+            inner.parse::<Ident>()?
+        } else {
+            input.parse::<Ident>()?
+        };
+        input.parse::<Token![=]>()?;
+        Statement::Equation {
+            target: name(&target),
+            derivative,
+            value: expr(&input.parse()?, diag),
+        }
+    };
+    input.parse::<Token![;]>()?;
+    Ok(statement)
+}
+
+/// Comma-separated entries up to and including a `;`.
+trait UntilSemi {
+    fn parse_terminated_until_semi<T>(
+        &self,
+        entry: impl FnMut(ParseStream) -> syn::Result<T>,
+    ) -> syn::Result<Vec<T>>;
+}
+
+impl UntilSemi for ParseStream<'_> {
+    fn parse_terminated_until_semi<T>(
+        &self,
+        mut entry: impl FnMut(ParseStream) -> syn::Result<T>,
+    ) -> syn::Result<Vec<T>> {
+        let mut entries = vec![entry(self)?];
+        while self.parse::<Option<Token![,]>>()?.is_some() {
+            if self.peek(Token![;]) {
+                break;
+            }
+            entries.push(entry(self)?);
+        }
+        self.parse::<Token![;]>()?;
+        Ok(entries)
+    }
+}
+
+fn name(ident: &Ident) -> Name {
+    Name {
+        text: ident.to_string(),
+        span: ident.span(),
+    }
+}
+
+/// Doc comment lines of `attrs`; any other attribute is an error.
+fn docs(attrs: &[Attribute], diag: &mut Diagnostics) -> Vec<String> {
+    let mut lines = Vec::new();
+    for attr in attrs {
+        let doc = match &attr.meta {
+            syn::Meta::NameValue(nv) if nv.path.is_ident("doc") => match &nv.value {
+                Expr::Lit(syn::ExprLit {
+                    lit: syn::Lit::Str(s),
+                    ..
+                }) => Some(s.value()),
+                _ => None,
+            },
+            _ => None,
+        };
+        match doc {
+            Some(line) => lines.push(line),
+            None => diag.error(
+                attr.span(),
+                "only doc comments (`///`) are allowed in a model",
+            ),
+        }
+    }
+    lines
+}
+
+/// Converts a Rust expression into a model expression, recording what the language lacks.
+fn expr(e: &Expr, diag: &mut Diagnostics) -> SurfaceExpr {
+    let span = e.span();
+    let kind = match e {
+        Expr::Lit(lit) => match &lit.lit {
+            syn::Lit::Int(i) => number(i.base10_parse::<f64>(), span, diag),
+            syn::Lit::Float(f) => number(f.base10_parse::<f64>(), span, diag),
+            _ => unsupported(span, "only numeric literals are allowed", diag),
+        },
+        Expr::Path(p) => match p.path.get_ident() {
+            Some(ident) if p.qself.is_none() => SurfaceKind::Name(ident.to_string()),
+            _ => unsupported(span, "write a plain name such as `x1`", diag),
+        },
+        Expr::Paren(p) => return expr(&p.expr, diag),
+        Expr::Group(g) => return expr(&g.expr, diag),
+        Expr::Unary(u) => match u.op {
+            syn::UnOp::Neg(_) => SurfaceKind::Neg(Box::new(expr(&u.expr, diag))),
+            _ => unsupported(span, "the only unary operator is `-`", diag),
+        },
+        Expr::Binary(b) => {
+            let op = match b.op {
+                syn::BinOp::Add(_) => Some(BinaryOp::Add),
+                syn::BinOp::Sub(_) => Some(BinaryOp::Sub),
+                syn::BinOp::Mul(_) => Some(BinaryOp::Mul),
+                syn::BinOp::Div(_) => Some(BinaryOp::Div),
+                syn::BinOp::BitXor(_) => {
+                    diag.error(
+                        b.op.span(),
+                        "`^` is exclusive-or in Rust, not a power: write `powi(x, 2)`",
+                    );
+                    None
+                }
+                _ => {
+                    diag.error(
+                        b.op.span(),
+                        "unsupported operator: use `+ - * /`, and comparisons only in the \
+                         condition of `if`",
+                    );
+                    None
+                }
+            };
+            let (lhs, rhs) = (expr(&b.left, diag), expr(&b.right, diag));
+            match op {
+                Some(op) => SurfaceKind::Binary(op, Box::new(lhs), Box::new(rhs)),
+                None => SurfaceKind::Number(0.0),
+            }
+        }
+        Expr::Call(call) => match &*call.func {
+            Expr::Path(p) if p.path.get_ident().is_some() => {
+                let ident = p.path.get_ident().map(name);
+                let args = call.args.iter().map(|a| expr(a, diag)).collect();
+                match ident {
+                    Some(func) => SurfaceKind::Call(func, args),
+                    None => unsupported(span, "call a function by its plain name", diag),
+                }
+            }
+            _ => unsupported(
+                span,
+                "call a function by its plain name, such as `sin(x)`",
+                diag,
+            ),
+        },
+        Expr::MethodCall(m) => {
+            let mut args = vec![expr(&m.receiver, diag)];
+            args.extend(m.args.iter().map(|a| expr(a, diag)));
+            SurfaceKind::Call(name(&m.method), args)
+        }
+        Expr::If(i) => return piecewise(i, diag),
+        Expr::Block(b) => return block_value(&b.block, span, diag),
+        _ => unsupported(
+            span,
+            "unsupported expression: a model uses numbers, names, `+ - * /`, function calls \
+             and `if a > b { .. } else { .. }`",
+            diag,
+        ),
+    };
+    SurfaceExpr { kind, span }
+}
+
+fn number(value: syn::Result<f64>, span: Span, diag: &mut Diagnostics) -> SurfaceKind {
+    match value {
+        Ok(v) => SurfaceKind::Number(v),
+        Err(e) => unsupported(span, e, diag),
+    }
+}
+
+/// Records an error and stands in a zero so conversion can continue and find more.
+fn unsupported(span: Span, message: impl std::fmt::Display, diag: &mut Diagnostics) -> SurfaceKind {
+    diag.error(span, message);
+    SurfaceKind::Number(0.0)
+}
+
+fn piecewise(i: &syn::ExprIf, diag: &mut Diagnostics) -> SurfaceExpr {
+    let span = i.span();
+    let then = block_value(&i.then_branch, span, diag);
+    let otherwise = match &i.else_branch {
+        Some((_, e)) => expr(e, diag),
+        None => {
+            diag.error(
+                i.if_token.span,
+                "a piecewise term needs an `else` branch: `if a > b { .. } else { .. }`",
+            );
+            SurfaceExpr {
+                kind: SurfaceKind::Number(0.0),
+                span,
+            }
+        }
+    };
+    let condition = match &*i.cond {
+        Expr::Binary(b) => match b.op {
+            syn::BinOp::Gt(_) => Some(Comparison::Gt),
+            syn::BinOp::Ge(_) => Some(Comparison::Ge),
+            syn::BinOp::Lt(_) => Some(Comparison::Lt),
+            syn::BinOp::Le(_) => Some(Comparison::Le),
+            _ => None,
+        }
+        .map(|cmp| (cmp, expr(&b.left, diag), expr(&b.right, diag))),
+        _ => None,
+    };
+    let kind = match condition {
+        Some((cmp, lhs, rhs)) => SurfaceKind::If {
+            cmp,
+            lhs: Box::new(lhs),
+            rhs: Box::new(rhs),
+            then: Box::new(then),
+            otherwise: Box::new(otherwise),
+        },
+        None => unsupported(
+            i.cond.span(),
+            "the condition of a piecewise term is one comparison: `a > b`, `a >= b`, `a < b` \
+             or `a <= b`",
+            diag,
+        ),
+    };
+    SurfaceExpr { kind, span }
+}
+
+/// The value of `{ expr }`: a block holding a single expression.
+fn block_value(block: &syn::Block, span: Span, diag: &mut Diagnostics) -> SurfaceExpr {
+    match block.stmts.as_slice() {
+        [syn::Stmt::Expr(e, None)] => expr(e, diag),
+        _ => SurfaceExpr {
+            kind: unsupported(
+                span,
+                "each branch of a piecewise term holds one expression, without `;`",
+                diag,
+            ),
+            span,
+        },
+    }
+}

@@ -1,0 +1,3 @@
+//! Front ends: each reads one way of writing a model into a [`crate::ast::ModelDecl`].
+
+pub mod macro_syntax;

@@ -1,0 +1,51 @@
+//! The model compiler: a symbolic model of a dynamic system in, straight-line,
+//! allocation-free Rust out.
+//!
+//! The flow runs one way: tokens (or a model file) -> [`ast::ModelDecl`] ->
+//! [`check`] -> [`model::Model`] -> [`symbolic`] graph -> [`emit`] -> tokens.
+//! [`expand`] is the whole pipeline for the `model!` macro; tests call it directly.
+
+#![forbid(unsafe_code)]
+
+pub mod ast;
+pub mod check;
+pub mod diagnostics;
+pub mod emit;
+pub mod front;
+pub mod model;
+pub mod symbolic;
+
+use proc_macro2::TokenStream;
+
+/// Parses and checks the body of a `model!` invocation into the model IR.
+pub fn parse_model(tokens: TokenStream) -> syn::Result<model::Model> {
+    let decl = front::macro_syntax::parse_model(tokens)?;
+    check::check(&decl)
+}
+
+/// The `model!` macro: the body of an invocation in, the generated module out.
+pub fn expand(tokens: TokenStream) -> syn::Result<TokenStream> {
+    let model = parse_model(tokens)?;
+    Ok(emit::emit_model(&model))
+}
+
+/// Formats generated tokens as a Rust source file (for snapshots and the CLI).
+pub fn format(tokens: TokenStream) -> syn::Result<String> {
+    let file: syn::File = syn::parse2(tokens)?;
+    Ok(prettyplease::unparse(&file))
+}
+
+/// Expands Rust source holding one `model! { .. }` invocation (a demo model file).
+pub fn expand_macro_source(source: &str) -> syn::Result<TokenStream> {
+    let invocation: syn::Macro = syn::parse_str(source.trim().trim_end_matches(';'))?;
+    expand(invocation.tokens)
+}
+
+/// Expands a TOML model file.
+pub fn expand_model_file(source: &str) -> syn::Result<TokenStream> {
+    let _ = source;
+    Err(syn::Error::new(
+        proc_macro2::Span::call_site(),
+        "model files: not yet",
+    ))
+}

@@ -1,0 +1,289 @@
+//! The model IR: one resolved, checked model, independent of how it was written.
+
+use crate::ast::Comparison;
+use proc_macro2::TokenStream;
+
+/// A checked model. Every name is resolved; every state has exactly one equation.
+#[derive(Clone, Debug)]
+pub struct Model {
+    /// Doc comment lines of the model.
+    pub docs: Vec<String>,
+    /// Visibility of the generated module.
+    pub vis: TokenStream,
+    /// Module name.
+    pub name: String,
+    /// Scalar types to generate; the first is the primary one.
+    pub scalars: Vec<Scalar>,
+    /// Named constants with their values.
+    pub constants: Vec<Constant>,
+    /// Physical states `x`, in order; they come first in the state vector.
+    pub states: Vec<Symbol>,
+    /// Parameters: augmented random-walk states after the physical ones.
+    pub params: Vec<Symbol>,
+    /// Inputs `u`.
+    pub inputs: Vec<Symbol>,
+    /// Outputs `y = h(x, u)`.
+    pub outputs: Vec<Output>,
+    /// The dynamics of the physical states.
+    pub dynamics: Dynamics,
+    /// Named intermediates of the dynamics block, referenced by [`Expr::Local`].
+    pub locals: Vec<Local>,
+}
+
+/// Floating-point type of generated code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Scalar {
+    /// Single precision: microcontrollers with a single-precision FPU.
+    F32,
+    /// Double precision: host-side checks.
+    F64,
+}
+
+impl Scalar {
+    /// The Rust type name.
+    pub fn type_name(self) -> &'static str {
+        match self {
+            Scalar::F32 => "f32",
+            Scalar::F64 => "f64",
+        }
+    }
+}
+
+/// A named constant.
+#[derive(Clone, Debug)]
+pub struct Constant {
+    /// Doc comment lines.
+    pub docs: Vec<String>,
+    /// Name as declared.
+    pub name: String,
+    /// Value, evaluated in `f64` at generation time.
+    pub value: f64,
+}
+
+/// A state, parameter or input.
+#[derive(Clone, Debug)]
+pub struct Symbol {
+    /// Doc comment lines.
+    pub docs: Vec<String>,
+    /// Name as declared.
+    pub name: String,
+}
+
+/// A measured output.
+#[derive(Clone, Debug)]
+pub struct Output {
+    /// Doc comment lines.
+    pub docs: Vec<String>,
+    /// Name as declared.
+    pub name: String,
+    /// The measurement.
+    pub expr: Expr,
+}
+
+/// A named intermediate of the dynamics block.
+#[derive(Clone, Debug)]
+pub struct Local {
+    /// Name as declared.
+    pub name: String,
+    /// Value.
+    pub expr: Expr,
+}
+
+/// How the model advances one sample.
+#[derive(Clone, Debug)]
+pub struct Dynamics {
+    /// Discrete, or continuous with its integration rule.
+    pub discretisation: Discretisation,
+    /// One right-hand side per physical state, in state order: `x[k+1]` for discrete
+    /// dynamics, `dx/dt` for continuous ones.
+    pub rhs: Vec<Expr>,
+}
+
+/// Explicit integration rules for continuous dynamics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Forward Euler, as in the papers.
+    Euler,
+    /// Classical fourth-order Runge-Kutta.
+    Rk4,
+}
+
+/// How `x[k+1]` is obtained from the equations.
+#[derive(Clone, Debug)]
+pub enum Discretisation {
+    /// The equations give `x[k+1]` directly.
+    Discrete,
+    /// The equations give `dx/dt`, integrated over one sample period `dt`.
+    Continuous {
+        /// Integration rule.
+        method: Method,
+        /// The sample period: an expression of constants.
+        dt: Expr,
+        /// Integration steps per sample period (at least one).
+        substeps: u32,
+    },
+}
+
+/// Functions of one argument the language knows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Func {
+    /// Sine.
+    Sin,
+    /// Cosine.
+    Cos,
+    /// Tangent.
+    Tan,
+    /// Exponential.
+    Exp,
+    /// Natural logarithm.
+    Ln,
+    /// Square root.
+    Sqrt,
+    /// Absolute value.
+    Abs,
+}
+
+impl Func {
+    /// Every function, for lookups and messages.
+    pub const ALL: [Func; 7] = [
+        Func::Sin,
+        Func::Cos,
+        Func::Tan,
+        Func::Exp,
+        Func::Ln,
+        Func::Sqrt,
+        Func::Abs,
+    ];
+
+    /// The name a model writes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Func::Sin => "sin",
+            Func::Cos => "cos",
+            Func::Tan => "tan",
+            Func::Exp => "exp",
+            Func::Ln => "ln",
+            Func::Sqrt => "sqrt",
+            Func::Abs => "abs",
+        }
+    }
+
+    /// Looks a function up by the name a model writes.
+    pub fn from_name(name: &str) -> Option<Func> {
+        Func::ALL.into_iter().find(|f| f.name() == name)
+    }
+
+    /// Evaluates the function in `f64` (constant folding and tests).
+    pub fn eval(self, x: f64) -> f64 {
+        match self {
+            Func::Sin => x.sin(),
+            Func::Cos => x.cos(),
+            Func::Tan => x.tan(),
+            Func::Exp => x.exp(),
+            Func::Ln => x.ln(),
+            Func::Sqrt => x.sqrt(),
+            Func::Abs => x.abs(),
+        }
+    }
+}
+
+/// A resolved expression tree.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Expr {
+    /// A literal.
+    Number(f64),
+    /// A named constant, by index into [`Model::constants`].
+    Const(usize),
+    /// A physical state, by index into [`Model::states`].
+    State(usize),
+    /// A parameter, by index into [`Model::params`].
+    Param(usize),
+    /// An input, by index into [`Model::inputs`].
+    Input(usize),
+    /// A named intermediate, by index into [`Model::locals`].
+    Local(usize),
+    /// The time `t` in seconds.
+    Time,
+    /// Negation.
+    Neg(Box<Expr>),
+    /// Sum.
+    Add(Box<Expr>, Box<Expr>),
+    /// Difference.
+    Sub(Box<Expr>, Box<Expr>),
+    /// Product.
+    Mul(Box<Expr>, Box<Expr>),
+    /// Quotient.
+    Div(Box<Expr>, Box<Expr>),
+    /// Integer power.
+    Powi(Box<Expr>, i32),
+    /// A function of one argument.
+    Call(Func, Box<Expr>),
+    /// `if lhs cmp rhs { then } else { otherwise }`.
+    Select {
+        /// The comparison.
+        cmp: Comparison,
+        /// Left side of the condition.
+        lhs: Box<Expr>,
+        /// Right side of the condition.
+        rhs: Box<Expr>,
+        /// Value when the condition holds.
+        then: Box<Expr>,
+        /// Value otherwise.
+        otherwise: Box<Expr>,
+    },
+}
+
+impl Model {
+    /// Length of the state vector: physical states followed by parameters.
+    pub fn state_len(&self) -> usize {
+        self.states.len() + self.params.len()
+    }
+
+    /// Names of the state vector's entries, physical states first.
+    pub fn state_names(&self) -> impl Iterator<Item = &str> {
+        self.states
+            .iter()
+            .chain(&self.params)
+            .map(|s| s.name.as_str())
+    }
+
+    /// Whether the time `t` appears anywhere in the model.
+    pub fn uses_time(&self) -> bool {
+        let mut exprs = self
+            .dynamics
+            .rhs
+            .iter()
+            .chain(self.outputs.iter().map(|o| &o.expr))
+            .chain(self.locals.iter().map(|l| &l.expr));
+        exprs.any(|e| e.any(&|e| matches!(e, Expr::Time)))
+    }
+}
+
+impl Expr {
+    /// Whether `pred` holds for this expression or any part of it (locals not followed).
+    pub fn any(&self, pred: &dyn Fn(&Expr) -> bool) -> bool {
+        if pred(self) {
+            return true;
+        }
+        match self {
+            Expr::Number(_)
+            | Expr::Const(_)
+            | Expr::State(_)
+            | Expr::Param(_)
+            | Expr::Input(_)
+            | Expr::Local(_)
+            | Expr::Time => false,
+            Expr::Neg(a) | Expr::Powi(a, _) | Expr::Call(_, a) => a.any(pred),
+            Expr::Add(a, b) | Expr::Sub(a, b) | Expr::Mul(a, b) | Expr::Div(a, b) => {
+                a.any(pred) || b.any(pred)
+            }
+            Expr::Select {
+                lhs,
+                rhs,
+                then,
+                otherwise,
+                ..
+            } => lhs.any(pred) || rhs.any(pred) || then.any(pred) || otherwise.any(pred),
+        }
+    }
+}

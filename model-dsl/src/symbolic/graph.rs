@@ -1,0 +1,583 @@
+//! A hash-consed expression graph.
+//!
+//! Nodes live in one list and refer only to earlier nodes, so the list in order is
+//! straight-line code. Every node is built through a constructor that folds constants and
+//! applies algebraic identities first, then looks the node up: an expression built twice
+//! is one node (common subexpressions are shared by construction), and a structural zero
+//! or one is the literal node, never an operation.
+
+use crate::ast::Comparison;
+use crate::model::Func;
+use std::collections::HashMap;
+
+/// Index of a node in its [`Graph`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct NodeId(u32);
+
+impl NodeId {
+    /// Position in the graph's node list.
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+}
+
+/// Index of a free variable (a state, input, covariance entry...) in its [`Graph`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct VarId(pub u32);
+
+/// Index of a named constant in its [`Graph`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ConstId(pub u32);
+
+/// One operation. Children are always earlier nodes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Node {
+    /// A literal, as the bits of an `f64` (negative zero normalised to zero).
+    Num(u64),
+    /// A named constant, kept by name so generated code reads `TS * x2`.
+    Named(ConstId),
+    /// A free variable.
+    Var(VarId),
+    /// `-a`
+    Neg(NodeId),
+    /// `a + b`, children ordered so `a + b` and `b + a` are one node.
+    Add(NodeId, NodeId),
+    /// `a - b`
+    Sub(NodeId, NodeId),
+    /// `a * b`, children ordered.
+    Mul(NodeId, NodeId),
+    /// `a / b`
+    Div(NodeId, NodeId),
+    /// `f(a)`
+    Call(Func, NodeId),
+    /// `if lhs cmp rhs { then } else { otherwise }`
+    Select {
+        /// The comparison.
+        cmp: Comparison,
+        /// Left side of the condition.
+        lhs: NodeId,
+        /// Right side of the condition.
+        rhs: NodeId,
+        /// Value when the condition holds.
+        then: NodeId,
+        /// Value otherwise.
+        otherwise: NodeId,
+    },
+}
+
+impl Node {
+    /// The node's operands.
+    pub fn children(self) -> Vec<NodeId> {
+        match self {
+            Node::Num(_) | Node::Named(_) | Node::Var(_) => vec![],
+            Node::Neg(a) | Node::Call(_, a) => vec![a],
+            Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => vec![a, b],
+            Node::Select {
+                lhs,
+                rhs,
+                then,
+                otherwise,
+                ..
+            } => vec![lhs, rhs, then, otherwise],
+        }
+    }
+}
+
+/// A free variable's name, used in generated code.
+#[derive(Clone, Debug)]
+pub struct VarInfo {
+    /// Identifier in generated code.
+    pub name: String,
+}
+
+/// A named constant's name and value.
+#[derive(Clone, Debug)]
+pub struct ConstInfo {
+    /// Identifier in generated code.
+    pub name: String,
+    /// Value used when folding.
+    pub value: f64,
+}
+
+/// The expression graph. See the module documentation.
+#[derive(Clone, Debug, Default)]
+pub struct Graph {
+    nodes: Vec<Node>,
+    lookup: HashMap<Node, NodeId>,
+    vars: Vec<VarInfo>,
+    constants: Vec<ConstInfo>,
+    /// Names the model gave some nodes (`let` intermediates), for generated temporaries.
+    name_hints: HashMap<NodeId, String>,
+}
+
+impl Graph {
+    /// An empty graph.
+    pub fn new() -> Graph {
+        Graph::default()
+    }
+
+    /// The node behind an id.
+    pub fn node(&self, id: NodeId) -> Node {
+        self.nodes[id.index()]
+    }
+
+    /// Every node id, in order: children before parents.
+    pub fn ids(&self) -> impl Iterator<Item = NodeId> {
+        (0..self.nodes.len() as u32).map(NodeId)
+    }
+
+    /// Number of nodes.
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Whether the graph has no nodes.
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// A free variable's description.
+    pub fn var_info(&self, var: VarId) -> &VarInfo {
+        &self.vars[var.0 as usize]
+    }
+
+    /// A named constant's description.
+    pub fn const_info(&self, c: ConstId) -> &ConstInfo {
+        &self.constants[c.0 as usize]
+    }
+
+    /// The name the model gave a node, if any.
+    pub fn name_hint(&self, id: NodeId) -> Option<&str> {
+        self.name_hints.get(&id).map(String::as_str)
+    }
+
+    /// Gives `id` a name for generated code, unless it is a leaf or already named.
+    pub fn set_name_hint(&mut self, id: NodeId, name: &str) {
+        if !self.is_leaf(id) {
+            self.name_hints.entry(id).or_insert_with(|| name.to_owned());
+        }
+    }
+
+    /// Whether the node is a literal, named constant or variable.
+    pub fn is_leaf(&self, id: NodeId) -> bool {
+        matches!(self.node(id), Node::Num(_) | Node::Named(_) | Node::Var(_))
+    }
+
+    /// Declares a free variable and returns its node.
+    pub fn var(&mut self, name: &str) -> NodeId {
+        let id = VarId(self.vars.len() as u32);
+        self.vars.push(VarInfo {
+            name: name.to_owned(),
+        });
+        self.intern(Node::Var(id))
+    }
+
+    /// Declares a named constant and returns its node.
+    pub fn named_const(&mut self, name: &str, value: f64) -> NodeId {
+        let id = ConstId(self.constants.len() as u32);
+        self.constants.push(ConstInfo {
+            name: name.to_owned(),
+            value,
+        });
+        self.intern(Node::Named(id))
+    }
+
+    /// A literal.
+    pub fn num(&mut self, value: f64) -> NodeId {
+        let value = if value == 0.0 { 0.0 } else { value };
+        self.intern(Node::Num(value.to_bits()))
+    }
+
+    /// The literal zero.
+    pub fn zero(&mut self) -> NodeId {
+        self.num(0.0)
+    }
+
+    /// The literal one.
+    pub fn one(&mut self) -> NodeId {
+        self.num(1.0)
+    }
+
+    /// The value of a literal node (not of a named constant).
+    pub fn literal(&self, id: NodeId) -> Option<f64> {
+        match self.node(id) {
+            Node::Num(bits) => Some(f64::from_bits(bits)),
+            _ => None,
+        }
+    }
+
+    /// The value of a literal or named constant.
+    pub fn constant_value(&self, id: NodeId) -> Option<f64> {
+        match self.node(id) {
+            Node::Num(bits) => Some(f64::from_bits(bits)),
+            Node::Named(c) => Some(self.const_info(c).value),
+            _ => None,
+        }
+    }
+
+    /// Whether the node is the literal zero: a structural zero.
+    pub fn is_zero(&self, id: NodeId) -> bool {
+        self.literal(id) == Some(0.0)
+    }
+
+    /// Whether the node is the literal one.
+    pub fn is_one(&self, id: NodeId) -> bool {
+        self.literal(id) == Some(1.0)
+    }
+
+    fn intern(&mut self, node: Node) -> NodeId {
+        if let Some(&id) = self.lookup.get(&node) {
+            return id;
+        }
+        let id = NodeId(self.nodes.len() as u32);
+        self.nodes.push(node);
+        self.lookup.insert(node, id);
+        id
+    }
+
+    /// `-a`
+    pub fn neg(&mut self, a: NodeId) -> NodeId {
+        if let Some(v) = self.literal(a) {
+            return self.num(-v);
+        }
+        match self.node(a) {
+            Node::Neg(inner) => inner,
+            Node::Sub(x, y) => self.sub(y, x),
+            _ => self.intern(Node::Neg(a)),
+        }
+    }
+
+    /// `a + b`
+    pub fn add(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        if self.is_zero(a) {
+            return b;
+        }
+        if self.is_zero(b) {
+            return a;
+        }
+        if let (Some(x), Some(y)) = (self.constant_value(a), self.constant_value(b)) {
+            return self.num(x + y);
+        }
+        if a == b {
+            let two = self.num(2.0);
+            return self.mul(two, a);
+        }
+        if let Node::Neg(nb) = self.node(b) {
+            return self.sub(a, nb);
+        }
+        if let Node::Neg(na) = self.node(a) {
+            return self.sub(b, na);
+        }
+        if let Some(v) = self.literal(b).filter(|v| *v < 0.0) {
+            let positive = self.num(-v);
+            return self.sub(a, positive);
+        }
+        if let Some(v) = self.literal(a).filter(|v| *v < 0.0) {
+            let positive = self.num(-v);
+            return self.sub(b, positive);
+        }
+        let (a, b) = self.commutative_order(a, b);
+        self.intern(Node::Add(a, b))
+    }
+
+    /// `a - b`
+    pub fn sub(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        if self.is_zero(b) {
+            return a;
+        }
+        if let (Some(x), Some(y)) = (self.constant_value(a), self.constant_value(b)) {
+            return self.num(x - y);
+        }
+        if self.is_zero(a) {
+            return self.neg(b);
+        }
+        if a == b {
+            return self.zero();
+        }
+        if let Node::Neg(nb) = self.node(b) {
+            return self.add(a, nb);
+        }
+        if let Some(v) = self.literal(b).filter(|v| *v < 0.0) {
+            let positive = self.num(-v);
+            return self.add(a, positive);
+        }
+        if let Node::Neg(na) = self.node(a) {
+            // -x - y = -(x + y)
+            let sum = self.add(na, b);
+            return self.neg(sum);
+        }
+        self.intern(Node::Sub(a, b))
+    }
+
+    /// `a * b`
+    pub fn mul(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        if self.is_zero(a) || self.is_zero(b) {
+            return self.zero();
+        }
+        if self.is_one(a) {
+            return b;
+        }
+        if self.is_one(b) {
+            return a;
+        }
+        if let (Some(x), Some(y)) = (self.constant_value(a), self.constant_value(b)) {
+            return self.num(x * y);
+        }
+        if self.literal(a) == Some(-1.0) {
+            return self.neg(b);
+        }
+        if self.literal(b) == Some(-1.0) {
+            return self.neg(a);
+        }
+        // Move negations outward so `-a * -b` is `a * b` and signs meet in one place.
+        match (self.node(a), self.node(b)) {
+            (Node::Neg(x), Node::Neg(y)) => return self.mul(x, y),
+            (Node::Neg(x), _) => {
+                let p = self.mul(x, b);
+                return self.neg(p);
+            }
+            (_, Node::Neg(y)) => {
+                let p = self.mul(a, y);
+                return self.neg(p);
+            }
+            _ => {}
+        }
+        if let Some(v) = self.literal(a).filter(|v| *v < 0.0) {
+            let positive = self.num(-v);
+            let p = self.mul(positive, b);
+            return self.neg(p);
+        }
+        if let Some(v) = self.literal(b).filter(|v| *v < 0.0) {
+            let positive = self.num(-v);
+            let p = self.mul(a, positive);
+            return self.neg(p);
+        }
+        // Fold chains of constant factors: c1 * (c2 * x) = (c1 c2) * x.
+        if let Some(c1) = self.constant_value(a) {
+            if let Node::Mul(x, y) = self.node(b) {
+                if let Some(c2) = self.constant_value(x) {
+                    let c = self.num(c1 * c2);
+                    return self.mul(c, y);
+                }
+            }
+        }
+        if let Some(c2) = self.constant_value(b) {
+            if let Node::Mul(x, y) = self.node(a) {
+                if let Some(c1) = self.constant_value(x) {
+                    let c = self.num(c1 * c2);
+                    return self.mul(c, y);
+                }
+            }
+        }
+        let (a, b) = self.commutative_order(a, b);
+        self.intern(Node::Mul(a, b))
+    }
+
+    /// `a / b`; division by a literal becomes multiplication by its reciprocal.
+    pub fn div(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        if self.is_one(b) {
+            return a;
+        }
+        if let Some(y) = self.constant_value(b).filter(|y| *y != 0.0) {
+            let reciprocal = self.num(1.0 / y);
+            return self.mul(a, reciprocal);
+        }
+        if self.is_zero(a) {
+            return self.zero();
+        }
+        if a == b {
+            return self.one();
+        }
+        match (self.node(a), self.node(b)) {
+            (Node::Neg(x), Node::Neg(y)) => self.div(x, y),
+            (Node::Neg(x), _) => {
+                let q = self.div(x, b);
+                self.neg(q)
+            }
+            (_, Node::Neg(y)) => {
+                let q = self.div(a, y);
+                self.neg(q)
+            }
+            _ => self.intern(Node::Div(a, b)),
+        }
+    }
+
+    /// `a` to an integer power, as products (squaring) and at most one division.
+    pub fn powi(&mut self, a: NodeId, n: i32) -> NodeId {
+        if n < 0 {
+            let positive = self.powi(a, -n);
+            let one = self.one();
+            return self.div(one, positive);
+        }
+        let mut result = self.one();
+        let mut square = a;
+        let mut n = n;
+        while n > 0 {
+            if n & 1 == 1 {
+                result = self.mul(result, square);
+            }
+            n >>= 1;
+            if n > 0 {
+                square = self.mul(square, square);
+            }
+        }
+        result
+    }
+
+    /// `f(a)`
+    pub fn call(&mut self, f: Func, a: NodeId) -> NodeId {
+        if let Some(x) = self.constant_value(a) {
+            return self.num(f.eval(x));
+        }
+        match (f, self.node(a)) {
+            (Func::Abs, Node::Neg(x)) => self.call(Func::Abs, x),
+            (Func::Cos, Node::Neg(x)) => self.call(Func::Cos, x),
+            (Func::Sin | Func::Tan, Node::Neg(x)) => {
+                let v = self.call(f, x);
+                self.neg(v)
+            }
+            _ => self.intern(Node::Call(f, a)),
+        }
+    }
+
+    /// `if lhs cmp rhs { then } else { otherwise }`
+    pub fn select(
+        &mut self,
+        cmp: Comparison,
+        lhs: NodeId,
+        rhs: NodeId,
+        then: NodeId,
+        otherwise: NodeId,
+    ) -> NodeId {
+        if then == otherwise {
+            return then;
+        }
+        if let (Some(l), Some(r)) = (self.constant_value(lhs), self.constant_value(rhs)) {
+            return if cmp.holds(l, r) { then } else { otherwise };
+        }
+        self.intern(Node::Select {
+            cmp,
+            lhs,
+            rhs,
+            then,
+            otherwise,
+        })
+    }
+
+    /// Orders the operands of a commutative operation so equal expressions written in
+    /// either order are one node: constants, then compound terms, then variables, each by
+    /// age. Compound terms on the left print without parentheses (`TS * x1 * x3`).
+    fn commutative_order(&self, a: NodeId, b: NodeId) -> (NodeId, NodeId) {
+        let key = |id: NodeId| {
+            let class = match self.node(id) {
+                Node::Num(_) | Node::Named(_) => 0,
+                Node::Var(_) => 2,
+                _ => 1,
+            };
+            (class, id)
+        };
+        if key(a) <= key(b) {
+            (a, b)
+        } else {
+            (b, a)
+        }
+    }
+
+    /// Rebuilds `root` with variables replaced by the nodes `map` gives (memoised).
+    pub fn substitute(
+        &mut self,
+        root: NodeId,
+        map: &HashMap<VarId, NodeId>,
+        memo: &mut HashMap<NodeId, NodeId>,
+    ) -> NodeId {
+        if let Some(&done) = memo.get(&root) {
+            return done;
+        }
+        let mut go = |g: &mut Graph, id| g.substitute(id, map, memo);
+        let result = match self.node(root) {
+            Node::Num(_) | Node::Named(_) => root,
+            Node::Var(v) => map.get(&v).copied().unwrap_or(root),
+            Node::Neg(a) => {
+                let a = go(self, a);
+                self.neg(a)
+            }
+            Node::Add(a, b) => {
+                let (a, b) = (go(self, a), go(self, b));
+                self.add(a, b)
+            }
+            Node::Sub(a, b) => {
+                let (a, b) = (go(self, a), go(self, b));
+                self.sub(a, b)
+            }
+            Node::Mul(a, b) => {
+                let (a, b) = (go(self, a), go(self, b));
+                self.mul(a, b)
+            }
+            Node::Div(a, b) => {
+                let (a, b) = (go(self, a), go(self, b));
+                self.div(a, b)
+            }
+            Node::Call(f, a) => {
+                let a = go(self, a);
+                self.call(f, a)
+            }
+            Node::Select {
+                cmp,
+                lhs,
+                rhs,
+                then,
+                otherwise,
+            } => {
+                let (lhs, rhs) = (go(self, lhs), go(self, rhs));
+                let (then, otherwise) = (go(self, then), go(self, otherwise));
+                self.select(cmp, lhs, rhs, then, otherwise)
+            }
+        };
+        memo.insert(root, result);
+        result
+    }
+
+    /// Evaluates `root` in `f64` with the given variable values (tests and folding checks).
+    pub fn eval(&self, root: NodeId, vars: &dyn Fn(VarId) -> f64) -> f64 {
+        let mut values: HashMap<NodeId, f64> = HashMap::new();
+        self.eval_memo(root, vars, &mut values)
+    }
+
+    fn eval_memo(
+        &self,
+        id: NodeId,
+        vars: &dyn Fn(VarId) -> f64,
+        values: &mut HashMap<NodeId, f64>,
+    ) -> f64 {
+        if let Some(&v) = values.get(&id) {
+            return v;
+        }
+        let mut go = |x| self.eval_memo(x, vars, values);
+        let v = match self.node(id) {
+            Node::Num(bits) => f64::from_bits(bits),
+            Node::Named(c) => self.const_info(c).value,
+            Node::Var(v) => vars(v),
+            Node::Neg(a) => -go(a),
+            Node::Add(a, b) => go(a) + go(b),
+            Node::Sub(a, b) => go(a) - go(b),
+            Node::Mul(a, b) => go(a) * go(b),
+            Node::Div(a, b) => go(a) / go(b),
+            Node::Call(f, a) => f.eval(go(a)),
+            Node::Select {
+                cmp,
+                lhs,
+                rhs,
+                then,
+                otherwise,
+            } => {
+                if cmp.holds(go(lhs), go(rhs)) {
+                    go(then)
+                } else {
+                    go(otherwise)
+                }
+            }
+        };
+        values.insert(id, v);
+        v
+    }
+}

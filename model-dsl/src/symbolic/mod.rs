@@ -1,0 +1,10 @@
+//! The symbolic engine: a hash-consed expression graph with simplification,
+//! differentiation and substitution, and the lowering of a model into it.
+
+pub mod diff;
+pub mod graph;
+pub mod model_graph;
+
+pub use diff::Differentiator;
+pub use graph::{Graph, Node, NodeId, VarId};
+pub use model_graph::ModelGraph;

@@ -1,0 +1,275 @@
+//! Lowers a model into the graph: the discrete step `f`, the measurement `h`, and their
+//! Jacobians, all as nodes over the variables `t`, `x` and `u`.
+
+use super::diff::Differentiator;
+use super::graph::{Graph, Node, NodeId, VarId};
+use crate::model::{Discretisation, Expr, Method, Model};
+
+/// A model as graph nodes.
+pub struct ModelGraph {
+    /// The graph holding every node below.
+    pub graph: Graph,
+    /// The time variable.
+    pub t: NodeId,
+    /// The state vector's variables: physical states, then parameters.
+    pub x: Vec<NodeId>,
+    /// The inputs' variables.
+    pub u: Vec<NodeId>,
+    /// Named constants, by index into the model's constants.
+    pub constants: Vec<NodeId>,
+    /// `x[k+1] = f(t, x[k], u[k])`, one node per entry of the state vector.
+    pub f: Vec<NodeId>,
+    /// `y = h(t, x, u)`, one node per output.
+    pub h: Vec<NodeId>,
+}
+
+/// The point at which the dynamics are evaluated: a time and physical states. Parameters,
+/// inputs and constants are always the model's own variables.
+struct Env {
+    t: NodeId,
+    states: Vec<NodeId>,
+    /// Lowered `let` intermediates of this evaluation of the dynamics.
+    locals: Vec<Option<NodeId>>,
+}
+
+impl ModelGraph {
+    /// Builds `f` (discretising continuous dynamics) and `h` for `model`.
+    pub fn build(model: &Model) -> ModelGraph {
+        let mut graph = Graph::new();
+        let t = graph.var("t");
+        let x: Vec<NodeId> = model.state_names().map(|n| graph.var(n)).collect();
+        let u: Vec<NodeId> = model.inputs.iter().map(|s| graph.var(&s.name)).collect();
+        let constants: Vec<NodeId> = model
+            .constants
+            .iter()
+            .map(|c| graph.named_const(&c.name, c.value))
+            .collect();
+        let mut mg = ModelGraph {
+            graph,
+            t,
+            x,
+            u,
+            constants,
+            f: Vec::new(),
+            h: Vec::new(),
+        };
+        let states = mg.x[..model.states.len()].to_vec();
+
+        let next_states = match &model.dynamics.discretisation {
+            Discretisation::Discrete => mg.rhs(model, t, &states),
+            Discretisation::Continuous {
+                method,
+                dt,
+                substeps,
+            } => {
+                let dt = mg.lower(model, dt, &mut Env::at(model, t, Vec::new()));
+                let n = mg.graph.num(f64::from(*substeps));
+                let h = mg.graph.div(dt, n);
+                let mut current = states;
+                let mut time = t;
+                for _ in 0..*substeps {
+                    current = match method {
+                        Method::Euler => mg.euler_step(model, &current, time, h),
+                        Method::Rk4 => mg.rk4_step(model, &current, time, h),
+                    };
+                    time = mg.graph.add(time, h);
+                }
+                current
+            }
+        };
+        // Parameters are random walks: their prediction is themselves.
+        let params = mg.x[model.states.len()..].to_vec();
+        mg.f = next_states.into_iter().chain(params).collect();
+        let states = mg.x[..model.states.len()].to_vec();
+        let mut env = Env::at(model, t, states);
+        mg.h = model
+            .outputs
+            .iter()
+            .map(|output| mg.lower(model, &output.expr, &mut env))
+            .collect();
+        mg
+    }
+
+    /// The right-hand sides of the dynamics at time `t` and physical states `states`.
+    fn rhs(&mut self, model: &Model, t: NodeId, states: &[NodeId]) -> Vec<NodeId> {
+        let mut env = Env::at(model, t, states.to_vec());
+        model
+            .dynamics
+            .rhs
+            .iter()
+            .map(|e| self.lower(model, e, &mut env))
+            .collect()
+    }
+
+    /// One forward Euler step: `x + h f(t, x)`.
+    fn euler_step(&mut self, model: &Model, x: &[NodeId], t: NodeId, h: NodeId) -> Vec<NodeId> {
+        let k1 = self.rhs(model, t, x);
+        self.axpy(x, h, &k1)
+    }
+
+    /// One classical Runge-Kutta step.
+    fn rk4_step(&mut self, model: &Model, x: &[NodeId], t: NodeId, h: NodeId) -> Vec<NodeId> {
+        let half = self.graph.num(0.5);
+        let half_h = self.graph.mul(half, h);
+        let t_mid = self.graph.add(t, half_h);
+        let t_end = self.graph.add(t, h);
+        let k1 = self.rhs(model, t, x);
+        let x2 = self.axpy(x, half_h, &k1);
+        let k2 = self.rhs(model, t_mid, &x2);
+        let x3 = self.axpy(x, half_h, &k2);
+        let k3 = self.rhs(model, t_mid, &x3);
+        let x4 = self.axpy(x, h, &k3);
+        let k4 = self.rhs(model, t_end, &x4);
+        let sixth = self.graph.num(1.0 / 6.0);
+        let h_sixth = self.graph.mul(h, sixth);
+        let two = self.graph.num(2.0);
+        (0..x.len())
+            .map(|i| {
+                let g = &mut self.graph;
+                let middle = g.add(k2[i], k3[i]);
+                let twice_middle = g.mul(two, middle);
+                let ends = g.add(k1[i], k4[i]);
+                let sum = g.add(ends, twice_middle);
+                let step = g.mul(h_sixth, sum);
+                g.add(x[i], step)
+            })
+            .collect()
+    }
+
+    /// `x + a * y`, entry by entry.
+    fn axpy(&mut self, x: &[NodeId], a: NodeId, y: &[NodeId]) -> Vec<NodeId> {
+        x.iter()
+            .zip(y)
+            .map(|(&xi, &yi)| {
+                let step = self.graph.mul(a, yi);
+                self.graph.add(xi, step)
+            })
+            .collect()
+    }
+
+    /// Lowers a model expression at the point `env` describes.
+    fn lower(&mut self, model: &Model, expr: &Expr, env: &mut Env) -> NodeId {
+        match expr {
+            Expr::Number(v) => self.graph.num(*v),
+            Expr::Const(i) => self.constants[*i],
+            Expr::State(i) => env.states[*i],
+            Expr::Param(i) => self.x[model.states.len() + *i],
+            Expr::Input(i) => self.u[*i],
+            Expr::Time => env.t,
+            Expr::Local(i) => {
+                if let Some(done) = env.locals[*i] {
+                    return done;
+                }
+                let local = &model.locals[*i];
+                let node = self.lower(model, &local.expr, env);
+                self.graph.set_name_hint(node, &local.name);
+                env.locals[*i] = Some(node);
+                node
+            }
+            Expr::Neg(a) => {
+                let a = self.lower(model, a, env);
+                self.graph.neg(a)
+            }
+            Expr::Add(a, b) => {
+                let (a, b) = (self.lower(model, a, env), self.lower(model, b, env));
+                self.graph.add(a, b)
+            }
+            Expr::Sub(a, b) => {
+                let (a, b) = (self.lower(model, a, env), self.lower(model, b, env));
+                self.graph.sub(a, b)
+            }
+            Expr::Mul(a, b) => {
+                let (a, b) = (self.lower(model, a, env), self.lower(model, b, env));
+                self.graph.mul(a, b)
+            }
+            Expr::Div(a, b) => {
+                let (a, b) = (self.lower(model, a, env), self.lower(model, b, env));
+                self.graph.div(a, b)
+            }
+            Expr::Powi(a, n) => {
+                let a = self.lower(model, a, env);
+                self.graph.powi(a, *n)
+            }
+            Expr::Call(f, a) => {
+                let a = self.lower(model, a, env);
+                self.graph.call(*f, a)
+            }
+            Expr::Select {
+                cmp,
+                lhs,
+                rhs,
+                then,
+                otherwise,
+            } => {
+                let lhs = self.lower(model, lhs, env);
+                let rhs = self.lower(model, rhs, env);
+                let then = self.lower(model, then, env);
+                let otherwise = self.lower(model, otherwise, env);
+                self.graph.select(*cmp, lhs, rhs, then, otherwise)
+            }
+        }
+    }
+
+    /// The variable behind a variable node.
+    pub fn var_id(&self, node: NodeId) -> VarId {
+        match self.graph.node(node) {
+            Node::Var(v) => v,
+            other => unreachable!("not a variable node: {other:?}"),
+        }
+    }
+
+    /// `d rows[i] / d wrt[j]`, row by row.
+    pub fn jacobian(&mut self, rows: &[NodeId], wrt: &[NodeId]) -> Vec<Vec<NodeId>> {
+        let mut table = vec![Vec::with_capacity(wrt.len()); rows.len()];
+        for &var in wrt {
+            let mut d = Differentiator::new(self.var_id(var));
+            for (row, &r) in table.iter_mut().zip(rows) {
+                row.push(d.diff(&mut self.graph, r));
+            }
+        }
+        table
+    }
+
+    /// The Jacobian of `f` with respect to the state vector.
+    pub fn jacobian_f_wrt_x(&mut self) -> Vec<Vec<NodeId>> {
+        let (f, x) = (self.f.clone(), self.x.clone());
+        self.jacobian(&f, &x)
+    }
+
+    /// The Jacobian of `f` with respect to the inputs.
+    pub fn jacobian_f_wrt_u(&mut self) -> Vec<Vec<NodeId>> {
+        let (f, u) = (self.f.clone(), self.u.clone());
+        self.jacobian(&f, &u)
+    }
+
+    /// The Jacobian of `h` with respect to the state vector.
+    pub fn jacobian_h_wrt_x(&mut self) -> Vec<Vec<NodeId>> {
+        let (h, x) = (self.h.clone(), self.x.clone());
+        self.jacobian(&h, &x)
+    }
+}
+
+/// Lookup of variable values by the order they were declared in a [`ModelGraph`]: `t`,
+/// then `x`, then `u`. For tests and numeric checks of the graph itself.
+pub fn var_values<'a>(t: f64, x: &'a [f64], u: &'a [f64]) -> impl Fn(VarId) -> f64 + 'a {
+    move |v: VarId| {
+        let i = v.0 as usize;
+        if i == 0 {
+            t
+        } else if i <= x.len() {
+            x[i - 1]
+        } else {
+            u[i - 1 - x.len()]
+        }
+    }
+}
+
+impl Env {
+    fn at(model: &Model, t: NodeId, states: Vec<NodeId>) -> Env {
+        Env {
+            t,
+            states,
+            locals: vec![None; model.locals.len()],
+        }
+    }
+}
