@@ -16,7 +16,7 @@ codegen_macros::model! {
     /// unstable (Ts > 2 zeta / wn), so estimated x3, x4 are "Euler-equivalent"
     /// values; map the discrete poles back (s = ln z / Ts) to report wn, zeta.
     pub mod cantilever {
-        scalar f32;
+        scalar f32, f64;
         /// Sample time [s]; "the sampling period has been set to 15 ms" (sect. 4.1).
         const TS = 0.015;
         state

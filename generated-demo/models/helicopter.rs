@@ -12,7 +12,7 @@ codegen_macros::model! {
     /// Units: angles rad, rates rad/s, tau1/tau2 rotor momentum states in TRMS
     /// manual units, u1/u2 control voltages (normalized units, not stated).
     pub mod helicopter {
-        scalar f32;
+        scalar f32, f64;
         /// Sample time [s]: "Advantech PCI 1711 I/O board is used with sample
         /// time of 0.001s" (sect. 6.1).
         const TS = 0.001;

@@ -15,7 +15,7 @@ codegen_macros::model! {
     /// model with the Euler method at a simulation step dt = T/500 (sect. 4.1),
     /// measurements every T = 0.01 s.
     pub mod mass_spring_damper {
-        scalar f32;
+        scalar f32, f64;
         /// Sample time T [s]: "All experiments were sampled by T = 0.01 s" (sect. 4.1).
         const TS = 0.01;
         /// Spring constant k [N/m], fixed after identification (sect. 4.1: k = 533).

@@ -25,7 +25,7 @@ codegen_macros::model! {
     /// 200 Hz ("more high frequent", Appendix 4).  Replace them with the real
     /// Appendix 1 values when available.  Units: SI (m, m/s, kg, N, s).
     pub mod piecewise_beam {
-        scalar f32;
+        scalar f32, f64;
         /// Sample time [s]: "A sampling time of 0.0005 [s] is chosen" (sect. 5.2).
         const TS = 0.0005;
         /// Stiffness of the one-sided spring k_nl [N/m] (sect. 2.2: 1.98e5 N/m).

@@ -15,7 +15,7 @@ codegen_macros::model! {
     /// No input: the filter only tracks the sensor signal (Fig. 1).
     /// Units: those of the position sensor (hub/tip position; not stated).
     pub mod polynomial {
-        scalar f32;
+        scalar f32, f64;
         /// Sample period T [s]: data "sampled at a rate of 100 samples per second".
         const TS = 0.01;
         /// Measurement-noise variance sigma^2 used in both tests (design example).

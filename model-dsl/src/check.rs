@@ -200,7 +200,7 @@ fn check_constants(
     for c in &decl.constants {
         let context = format!("the constant `{}`", c.name.text);
         let value = resolve(&c.value, scope, &[], &context, diag).and_then(|expr| {
-            let value = const_value(&expr, &constants);
+            let value = expr.const_value(&constants);
             if value.is_none() {
                 diag.error(
                     c.value.span,
@@ -638,37 +638,5 @@ fn resolve_call(
 
 /// The value of an expression of literals only, if it is one.
 fn literal_value(expr: &Expr) -> Option<f64> {
-    const_value(expr, &[]).filter(|_| !expr.any(&|e| matches!(e, Expr::Const(_))))
-}
-
-/// Evaluates an expression of literals and constants; `None` if it depends on anything else.
-pub(crate) fn const_value(expr: &Expr, constants: &[Constant]) -> Option<f64> {
-    let go = |e: &Expr| const_value(e, constants);
-    Some(match expr {
-        Expr::Number(v) => *v,
-        Expr::Const(i) => constants.get(*i)?.value,
-        Expr::Neg(a) => -go(a)?,
-        Expr::Add(a, b) => go(a)? + go(b)?,
-        Expr::Sub(a, b) => go(a)? - go(b)?,
-        Expr::Mul(a, b) => go(a)? * go(b)?,
-        Expr::Div(a, b) => go(a)? / go(b)?,
-        Expr::Powi(a, n) => go(a)?.powi(*n),
-        Expr::Call(f, a) => f.eval(go(a)?),
-        Expr::Select {
-            cmp,
-            lhs,
-            rhs,
-            then,
-            otherwise,
-        } => {
-            if cmp.holds(go(lhs)?, go(rhs)?) {
-                go(then)?
-            } else {
-                go(otherwise)?
-            }
-        }
-        Expr::State(_) | Expr::Param(_) | Expr::Input(_) | Expr::Local(_) | Expr::Time => {
-            return None
-        }
-    })
+    expr.const_value(&[])
 }

@@ -12,6 +12,7 @@ pub mod check;
 pub mod diagnostics;
 pub mod emit;
 pub mod front;
+pub mod meval_text;
 pub mod model;
 pub mod symbolic;
 
@@ -35,17 +36,25 @@ pub fn format(tokens: TokenStream) -> syn::Result<String> {
     Ok(prettyplease::unparse(&file))
 }
 
-/// Expands Rust source holding one `model! { .. }` invocation (a demo model file).
-pub fn expand_macro_source(source: &str) -> syn::Result<TokenStream> {
-    let invocation: syn::Macro = syn::parse_str(source.trim().trim_end_matches(';'))?;
-    expand(invocation.tokens)
+/// Parses and checks Rust source holding one `model! { .. }` invocation (a demo model
+/// file) into the model IR.
+pub fn parse_macro_source(source: &str) -> syn::Result<model::Model> {
+    let invocation: syn::Macro = syn::parse_str(source.trim())?;
+    parse_model(invocation.tokens)
 }
 
-/// Expands a TOML model file.
+/// Expands Rust source holding one `model! { .. }` invocation (a demo model file).
+pub fn expand_macro_source(source: &str) -> syn::Result<TokenStream> {
+    Ok(emit::emit_model(&parse_macro_source(source)?))
+}
+
+/// Reads and checks a TOML model file into the model IR.
+pub fn parse_model_file(source: &str) -> syn::Result<model::Model> {
+    let decl = front::model_file::parse_model_file(source)?;
+    check::check(&decl)
+}
+
+/// Expands a TOML model file: the same module the macro would generate.
 pub fn expand_model_file(source: &str) -> syn::Result<TokenStream> {
-    let _ = source;
-    Err(syn::Error::new(
-        proc_macro2::Span::call_site(),
-        "model files: not yet",
-    ))
+    Ok(emit::emit_model(&parse_model_file(source)?))
 }

@@ -286,4 +286,36 @@ impl Expr {
             } => lhs.any(pred) || rhs.any(pred) || then.any(pred) || otherwise.any(pred),
         }
     }
+
+    /// Evaluates an expression of literals and constants; `None` if it depends on anything else.
+    pub fn const_value(&self, constants: &[Constant]) -> Option<f64> {
+        let go = |e: &Expr| e.const_value(constants);
+        Some(match self {
+            Expr::Number(v) => *v,
+            Expr::Const(i) => constants.get(*i)?.value,
+            Expr::Neg(a) => -go(a)?,
+            Expr::Add(a, b) => go(a)? + go(b)?,
+            Expr::Sub(a, b) => go(a)? - go(b)?,
+            Expr::Mul(a, b) => go(a)? * go(b)?,
+            Expr::Div(a, b) => go(a)? / go(b)?,
+            Expr::Powi(a, n) => go(a)?.powi(*n),
+            Expr::Call(f, a) => f.eval(go(a)?),
+            Expr::Select {
+                cmp,
+                lhs,
+                rhs,
+                then,
+                otherwise,
+            } => {
+                if cmp.holds(go(lhs)?, go(rhs)?) {
+                    go(then)?
+                } else {
+                    go(otherwise)?
+                }
+            }
+            Expr::State(_) | Expr::Param(_) | Expr::Input(_) | Expr::Local(_) | Expr::Time => {
+                return None
+            }
+        })
+    }
 }

@@ -1,1 +1,34 @@
+//! Shared helpers of the integration tests: where the demo models are, and reading them.
 
+#![forbid(unsafe_code)]
+
+use std::path::PathBuf;
+
+/// Names of the demo models, as their files in `generated-demo/models/` are named.
+pub const DEMO_MODELS: [&str; 5] = [
+    "cantilever",
+    "mass_spring_damper",
+    "polynomial",
+    "piecewise_beam",
+    "helicopter",
+];
+
+/// Path of a file of the workspace, given relative to its root.
+pub fn workspace_path(relative: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join(relative)
+}
+
+/// Source of a demo model (`model! { .. }` invocation).
+pub fn demo_model_source(name: &str) -> String {
+    let path = workspace_path(&format!("generated-demo/models/{name}.rs"));
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()))
+}
+
+/// The generated code of a demo model, formatted.
+pub fn demo_model_code(name: &str) -> String {
+    let tokens = model_dsl::expand_macro_source(&demo_model_source(name))
+        .unwrap_or_else(|e| panic!("demo model {name} does not expand: {e}"));
+    model_dsl::format(tokens).expect("generated code parses as a Rust file")
+}

@@ -1,0 +1,304 @@
+//! Every demo model's generated `f64` functions against the model evaluated by `meval`:
+//! `f` and `h` agree with the model text (discretised here, independently of the symbolic
+//! engine), and every Jacobian agrees with central finite differences of it, at random
+//! points.
+
+use generated_demo::{cantilever, helicopter, mass_spring_damper, piecewise_beam, polynomial};
+use model_dsl::model::{Discretisation, Method, Model};
+use proptest::prelude::*;
+use proptest::test_runner::{Config, TestRunner};
+use tests::demo_model_source;
+
+/// Relative agreement required of each Jacobian entry.
+const JACOBIAN_RTOL: f64 = 1e-6;
+/// Relative agreement required of `f` and `h` (different evaluation order only).
+const VALUE_RTOL: f64 = 1e-10;
+
+/// The generated functions of one model, behind one signature.
+struct Generated {
+    f: fn(f64, &[f64], &[f64]) -> Vec<f64>,
+    h: fn(f64, &[f64], &[f64]) -> Vec<f64>,
+    jacobian_f_wrt_x: fn(f64, &[f64], &[f64]) -> Vec<Vec<f64>>,
+    jacobian_f_wrt_u: fn(f64, &[f64], &[f64]) -> Vec<Vec<f64>>,
+    jacobian_h_wrt_x: fn(f64, &[f64], &[f64]) -> Vec<Vec<f64>>,
+    nonzero_f_wrt_x: Vec<Vec<bool>>,
+}
+
+fn arr<const N: usize>(v: &[f64]) -> [f64; N] {
+    v.try_into().expect("length matches the model")
+}
+
+fn rows<const N: usize, const M: usize>(m: [[f64; N]; M]) -> Vec<Vec<f64>> {
+    m.iter().map(|r| r.to_vec()).collect()
+}
+
+/// The model as text evaluated by `meval`, discretised the way the model says.
+struct Reference {
+    model: Model,
+    rhs: Vec<meval::Expr>,
+    outputs: Vec<meval::Expr>,
+}
+
+impl Reference {
+    fn new(name: &str) -> Reference {
+        let model = model_dsl::parse_macro_source(&demo_model_source(name))
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let parse = |e: &model_dsl::model::Expr| -> meval::Expr {
+            let text = model_dsl::meval_text::to_meval(&model, e);
+            text.parse()
+                .unwrap_or_else(|err| panic!("{name}: meval cannot parse {text}: {err}"))
+        };
+        let rhs = model.dynamics.rhs.iter().map(parse).collect();
+        let outputs = model.outputs.iter().map(|o| parse(&o.expr)).collect();
+        Reference {
+            model,
+            rhs,
+            outputs,
+        }
+    }
+
+    fn eval(&self, exprs: &[meval::Expr], t: f64, x: &[f64], u: &[f64]) -> Vec<f64> {
+        let mut ctx = model_dsl::meval_text::context(&self.model);
+        ctx.var("t", t);
+        for (name, v) in self.model.state_names().zip(x) {
+            ctx.var(name, *v);
+        }
+        for (s, v) in self.model.inputs.iter().zip(u) {
+            ctx.var(s.name.clone(), *v);
+        }
+        exprs
+            .iter()
+            .map(|e| e.eval_with_context(&ctx).expect("model evaluates"))
+            .collect()
+    }
+
+    /// One sample of the model: the right-hand sides, integrated if continuous.
+    fn f(&self, t: f64, x: &[f64], u: &[f64]) -> Vec<f64> {
+        let n = self.model.states.len();
+        let (physical, params) = x.split_at(n);
+        let with_params = |s: &[f64]| [s, params].concat();
+        let deriv = |t: f64, s: &[f64]| self.eval(&self.rhs, t, &with_params(s), u);
+        let next = match &self.model.dynamics.discretisation {
+            Discretisation::Discrete => deriv(t, physical),
+            Discretisation::Continuous {
+                method,
+                dt,
+                substeps,
+            } => {
+                let dt = dt.const_value(&self.model.constants)
+                    .expect("dt is constant");
+                let h = dt / f64::from(*substeps);
+                let mut s = physical.to_vec();
+                let mut time = t;
+                let axpy = |a: &[f64], c: f64, b: &[f64]| -> Vec<f64> {
+                    a.iter().zip(b).map(|(a, b)| a + c * b).collect()
+                };
+                for _ in 0..*substeps {
+                    s = match method {
+                        Method::Euler => axpy(&s, h, &deriv(time, &s)),
+                        Method::Rk4 => {
+                            let k1 = deriv(time, &s);
+                            let k2 = deriv(time + h / 2.0, &axpy(&s, h / 2.0, &k1));
+                            let k3 = deriv(time + h / 2.0, &axpy(&s, h / 2.0, &k2));
+                            let k4 = deriv(time + h, &axpy(&s, h, &k3));
+                            (0..n)
+                                .map(|i| {
+                                    s[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+                                })
+                                .collect()
+                        }
+                    };
+                    time += h;
+                }
+                s
+            }
+        };
+        with_params(&next)
+    }
+
+    fn h(&self, t: f64, x: &[f64], u: &[f64]) -> Vec<f64> {
+        self.eval(&self.outputs, t, x, u)
+    }
+}
+
+/// Central differences of `g` with respect to `v`, column by column: `[i][j] = d g_i/d v_j`.
+fn central_differences(g: &dyn Fn(&[f64]) -> Vec<f64>, v: &[f64]) -> Vec<Vec<f64>> {
+    let rows = g(v).len();
+    let mut table = vec![vec![0.0; v.len()]; rows];
+    for j in 0..v.len() {
+        let step = 1e-6 * v[j].abs().max(1.0);
+        let (mut plus, mut minus) = (v.to_vec(), v.to_vec());
+        plus[j] += step;
+        minus[j] -= step;
+        let (gp, gm) = (g(&plus), g(&minus));
+        for i in 0..rows {
+            table[i][j] = (gp[i] - gm[i]) / (2.0 * step);
+        }
+    }
+    table
+}
+
+/// Each entry within `JACOBIAN_RTOL` of the finite difference, allowing for the
+/// difference's own rounding error (about `eps |g_i| / step`, bounded by `1e-8 |g_i|`).
+fn assert_jacobian(what: &str, generated: &[Vec<f64>], fd: &[Vec<f64>], values: &[f64]) {
+    assert_eq!(generated.len(), fd.len(), "{what}: row count");
+    for (i, (g_row, fd_row)) in generated.iter().zip(fd).enumerate() {
+        for (j, (&g, &d)) in g_row.iter().zip(fd_row).enumerate() {
+            let tolerance = JACOBIAN_RTOL * g.abs().max(d.abs()) + 1e-8 * values[i].abs().max(1.0);
+            assert!(
+                (g - d).abs() <= tolerance,
+                "{what}[{i}][{j}]: generated {g:e}, finite differences {d:e}"
+            );
+        }
+    }
+}
+
+fn assert_values(what: &str, generated: &[f64], reference: &[f64]) {
+    assert_eq!(generated.len(), reference.len(), "{what}: length");
+    for (i, (&g, &r)) in generated.iter().zip(reference).enumerate() {
+        let tolerance = VALUE_RTOL * g.abs().max(r.abs()).max(1.0);
+        assert!(
+            (g - r).abs() <= tolerance,
+            "{what}[{i}]: generated {g:e}, meval {r:e}"
+        );
+    }
+}
+
+fn check_model(name: &str, generated: &Generated) {
+    let reference = Reference::new(name);
+    let n = reference.model.state_len();
+    let m = reference.model.inputs.len();
+    let point = (
+        0.0..2.0f64,
+        prop::collection::vec(-1.0..1.0f64, n),
+        prop::collection::vec(-1.0..1.0f64, m),
+    );
+    let mut runner = TestRunner::new(Config {
+        cases: 48,
+        failure_persistence: None,
+        ..Config::default()
+    });
+    let result = runner.run(&point, |(t, x, u)| {
+        let f = reference.f(t, &x, &u);
+        assert_values(&format!("{name}: f"), &(generated.f)(t, &x, &u), &f);
+        let y = reference.h(t, &x, &u);
+        assert_values(&format!("{name}: h"), &(generated.h)(t, &x, &u), &y);
+
+        let fd_x = central_differences(&|x| reference.f(t, x, &u), &x);
+        let jfx = (generated.jacobian_f_wrt_x)(t, &x, &u);
+        assert_jacobian(&format!("{name}: df/dx"), &jfx, &fd_x, &f);
+        for (i, row) in jfx.iter().enumerate() {
+            for (j, &value) in row.iter().enumerate() {
+                if !generated.nonzero_f_wrt_x[i][j] {
+                    assert_eq!(value, 0.0, "{name}: df/dx[{i}][{j}] is a structural zero");
+                }
+            }
+        }
+        let fd_u = central_differences(&|u| reference.f(t, &x, u), &u);
+        let jfu = (generated.jacobian_f_wrt_u)(t, &x, &u);
+        assert_jacobian(&format!("{name}: df/du"), &jfu, &fd_u, &f);
+        let fd_hx = central_differences(&|x| reference.h(t, x, &u), &x);
+        let jhx = (generated.jacobian_h_wrt_x)(t, &x, &u);
+        assert_jacobian(&format!("{name}: dh/dx"), &jhx, &fd_hx, &y);
+        Ok(())
+    });
+    if let Err(e) = result {
+        panic!("{name}: {e}");
+    }
+}
+
+#[test]
+fn cantilever_jacobians_match_finite_differences() {
+    use cantilever::in_f64 as g;
+    check_model(
+        "cantilever",
+        &Generated {
+            f: |_, x, u| g::f(&arr(x), &arr(u)).to_vec(),
+            h: |_, x, _| g::h(&arr(x)).to_vec(),
+            jacobian_f_wrt_x: |_, x, u| rows(g::jacobian_f_wrt_x(&arr(x), &arr(u))),
+            jacobian_f_wrt_u: |_, x, u| rows(g::jacobian_f_wrt_u(&arr(x), &arr(u))),
+            jacobian_h_wrt_x: |_, x, _| rows(g::jacobian_h_wrt_x(&arr(x))),
+            nonzero_f_wrt_x: cantilever::JACOBIAN_F_WRT_X_NONZERO
+                .iter()
+                .map(|r| r.to_vec())
+                .collect(),
+        },
+    );
+}
+
+#[test]
+fn mass_spring_damper_jacobians_match_finite_differences() {
+    use mass_spring_damper::in_f64 as g;
+    check_model(
+        "mass_spring_damper",
+        &Generated {
+            f: |_, x, u| g::f(&arr(x), &arr(u)).to_vec(),
+            h: |_, x, _| g::h(&arr(x)).to_vec(),
+            jacobian_f_wrt_x: |_, x, u| rows(g::jacobian_f_wrt_x(&arr(x), &arr(u))),
+            jacobian_f_wrt_u: |_, x, u| rows(g::jacobian_f_wrt_u(&arr(x), &arr(u))),
+            jacobian_h_wrt_x: |_, x, _| rows(g::jacobian_h_wrt_x(&arr(x))),
+            nonzero_f_wrt_x: mass_spring_damper::JACOBIAN_F_WRT_X_NONZERO
+                .iter()
+                .map(|r| r.to_vec())
+                .collect(),
+        },
+    );
+}
+
+#[test]
+fn polynomial_jacobians_match_finite_differences() {
+    use polynomial::in_f64 as g;
+    check_model(
+        "polynomial",
+        &Generated {
+            f: |_, x, _| g::f(&arr(x)).to_vec(),
+            h: |_, x, _| g::h(&arr(x)).to_vec(),
+            jacobian_f_wrt_x: |_, x, _| rows(g::jacobian_f_wrt_x(&arr(x))),
+            // No inputs: df/du has no columns.
+            jacobian_f_wrt_u: |_, x, _| vec![Vec::new(); x.len()],
+            jacobian_h_wrt_x: |_, x, _| rows(g::jacobian_h_wrt_x(&arr(x))),
+            nonzero_f_wrt_x: polynomial::JACOBIAN_F_WRT_X_NONZERO
+                .iter()
+                .map(|r| r.to_vec())
+                .collect(),
+        },
+    );
+}
+
+#[test]
+fn piecewise_beam_jacobians_match_finite_differences() {
+    use piecewise_beam::in_f64 as g;
+    check_model(
+        "piecewise_beam",
+        &Generated {
+            f: |_, x, u| g::f(&arr(x), &arr(u)).to_vec(),
+            h: |_, x, _| g::h(&arr(x)).to_vec(),
+            jacobian_f_wrt_x: |_, x, u| rows(g::jacobian_f_wrt_x(&arr(x), &arr(u))),
+            jacobian_f_wrt_u: |_, x, u| rows(g::jacobian_f_wrt_u(&arr(x), &arr(u))),
+            jacobian_h_wrt_x: |_, x, _| rows(g::jacobian_h_wrt_x(&arr(x))),
+            nonzero_f_wrt_x: piecewise_beam::JACOBIAN_F_WRT_X_NONZERO
+                .iter()
+                .map(|r| r.to_vec())
+                .collect(),
+        },
+    );
+}
+
+#[test]
+fn helicopter_jacobians_match_finite_differences() {
+    use helicopter::in_f64 as g;
+    check_model(
+        "helicopter",
+        &Generated {
+            f: |t, x, u| g::f(t, &arr(x), &arr(u)).to_vec(),
+            h: |t, x, _| g::h(t, &arr(x)).to_vec(),
+            jacobian_f_wrt_x: |t, x, u| rows(g::jacobian_f_wrt_x(t, &arr(x), &arr(u))),
+            jacobian_f_wrt_u: |t, x, u| rows(g::jacobian_f_wrt_u(t, &arr(x), &arr(u))),
+            jacobian_h_wrt_x: |t, x, _| rows(g::jacobian_h_wrt_x(t, &arr(x))),
+            nonzero_f_wrt_x: helicopter::JACOBIAN_F_WRT_X_NONZERO
+                .iter()
+                .map(|r| r.to_vec())
+                .collect(),
+        },
+    );
+}
