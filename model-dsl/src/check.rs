@@ -42,9 +42,9 @@ enum Binding {
     Local(usize),
 }
 
-/// Checks a declaration and resolves it into a [`Model`], reporting every error found.
-pub fn check(decl: &ModelDecl) -> syn::Result<Model> {
-    let mut diag = Diagnostics::default();
+/// Checks a declaration and resolves it into a [`Model`], reporting every error found
+/// together with those the front end already recorded in `diag`.
+pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Model> {
     let mut scope: IndexMap<String, (Binding, Span)> = IndexMap::new();
 
     let scalars = check_scalars(decl, &mut diag);
@@ -82,15 +82,15 @@ pub fn check(decl: &ModelDecl) -> syn::Result<Model> {
     }
 
     let mut outputs = Vec::new();
-    let mut output_names: IndexMap<&str, Span> = IndexMap::new();
+    let mut output_names = std::collections::HashSet::new();
     for out in &decl.outputs {
-        if let Some(&first) = output_names.get(out.name.text.as_str()) {
-            duplicate_error(&mut diag, &out.name, first);
-        } else if let Some(&(_, first)) = scope.get(&out.name.text) {
-            duplicate_error(&mut diag, &out.name, first);
+        if output_names.contains(out.name.text.as_str()) {
+            duplicate_error(&mut diag, &out.name);
+        } else if scope.contains_key(&out.name.text) {
+            duplicate_error(&mut diag, &out.name);
         } else {
             check_name_allowed(&out.name, false, &mut diag);
-            output_names.insert(&out.name.text, out.name.span);
+            output_names.insert(out.name.text.as_str());
         }
         let context = format!("the output `{}`", out.name.text);
         if let Some(expr) = resolve(&out.expr, &scope, &[], &context, &mut diag) {
@@ -243,7 +243,9 @@ fn check_dynamics(
         } => check_discretisation(block.span, method, dt, substeps, scope, diag),
     };
 
-    let mut rhs: Vec<Option<(Expr, Span)>> = vec![None; states.len()];
+    // Per state: `None` until an equation is written, then its right-hand side (`None`
+    // inside when that had errors, already reported: no follow-on "no dynamics" error).
+    let mut rhs: Vec<Option<Option<Expr>>> = vec![None; states.len()];
     for statement in &block.statements {
         match statement {
             Statement::Let { name, value } => {
@@ -325,8 +327,7 @@ fn check_dynamics(
                         ),
                     );
                 }
-                if let Some((_, first)) = &rhs[index] {
-                    let _ = first;
+                if rhs[index].is_some() {
                     diag.error(
                         target.span,
                         format!(
@@ -334,8 +335,8 @@ fn check_dynamics(
                             target.text
                         ),
                     );
-                } else if let Some(expr) = expr {
-                    rhs[index] = Some((expr, target.span));
+                } else {
+                    rhs[index] = Some(expr);
                 }
             }
         }
@@ -344,7 +345,8 @@ fn check_dynamics(
     let mut complete = Vec::with_capacity(states.len());
     for ((slot, state), span) in rhs.into_iter().zip(states).zip(state_spans) {
         match slot {
-            Some((expr, _)) => complete.push(expr),
+            Some(Some(expr)) => complete.push(expr),
+            Some(None) => {}
             None => {
                 let form = if continuous {
                     format!("der({}) = ...;", state.name)
@@ -457,16 +459,15 @@ fn declare(
     binding: Binding,
     diag: &mut Diagnostics,
 ) {
-    if let Some(&(_, first)) = scope.get(&name.text) {
-        duplicate_error(diag, name, first);
+    if scope.contains_key(&name.text) {
+        duplicate_error(diag, name);
         return;
     }
     check_name_allowed(name, matches!(binding, Binding::Const(_)), diag);
     scope.insert(name.text.clone(), (binding, name.span));
 }
 
-fn duplicate_error(diag: &mut Diagnostics, name: &Name, first: Span) {
-    let _ = first;
+fn duplicate_error(diag: &mut Diagnostics, name: &Name) {
     diag.error(
         name.span,
         format!(

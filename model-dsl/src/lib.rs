@@ -20,8 +20,8 @@ use proc_macro2::TokenStream;
 
 /// Parses and checks the body of a `model!` invocation into the model IR.
 pub fn parse_model(tokens: TokenStream) -> syn::Result<model::Model> {
-    let decl = front::macro_syntax::parse_model(tokens)?;
-    check::check(&decl)
+    let (decl, diag) = front::macro_syntax::parse_model(tokens)?;
+    check::check(&decl, diag)
 }
 
 /// The `model!` macro: the body of an invocation in, the generated module out.
@@ -50,8 +50,8 @@ pub fn expand_macro_source(source: &str) -> syn::Result<TokenStream> {
 
 /// Reads and checks a TOML model file into the model IR.
 pub fn parse_model_file(source: &str) -> syn::Result<model::Model> {
-    let decl = front::model_file::parse_model_file(source)?;
-    check::check(&decl)
+    let (decl, diag) = front::model_file::parse_model_file(source)?;
+    check::check(&decl, diag)
 }
 
 /// Expands a TOML model file: the same module the macro would generate.

@@ -85,7 +85,8 @@ impl Reference {
                 dt,
                 substeps,
             } => {
-                let dt = dt.const_value(&self.model.constants)
+                let dt = dt
+                    .const_value(&self.model.constants)
                     .expect("dt is constant");
                 let h = dt / f64::from(*substeps);
                 let mut s = physical.to_vec();

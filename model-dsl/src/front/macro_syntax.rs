@@ -38,11 +38,12 @@ mod kw {
 }
 
 /// Parses the body of a `model!` invocation. Syntax errors stop the parse; mistakes inside
-/// well-formed expressions and doc attributes are collected and reported together.
-pub fn parse_model(tokens: TokenStream) -> syn::Result<ModelDecl> {
+/// well-formed expressions and doc attributes are collected in the returned diagnostics,
+/// for the checker to report together with its own.
+pub fn parse_model(tokens: TokenStream) -> syn::Result<(ModelDecl, Diagnostics)> {
     let mut diag = Diagnostics::default();
     let decl = (|input: ParseStream| parse_decl(input, &mut diag)).parse2(tokens)?;
-    diag.finish(decl)
+    Ok((decl, diag))
 }
 
 fn parse_decl(input: ParseStream, diag: &mut Diagnostics) -> syn::Result<ModelDecl> {

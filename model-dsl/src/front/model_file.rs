@@ -109,8 +109,9 @@ struct Dynamics {
     equations: IndexMap<String, Value>,
 }
 
-/// Reads a TOML model file into a [`ModelDecl`]. Errors name the field they are in.
-pub fn parse_model_file(source: &str) -> syn::Result<ModelDecl> {
+/// Reads a TOML model file into a [`ModelDecl`]. A file TOML cannot read is an error at
+/// once; expression mistakes are collected, each naming its field.
+pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
     let file: ModelFile = toml::from_str(source)
         .map_err(|e| syn::Error::new(Span::call_site(), format!("model file: {e}")))?;
     let mut diag = Diagnostics::default();
@@ -228,7 +229,7 @@ pub fn parse_model_file(source: &str) -> syn::Result<ModelDecl> {
         outputs,
         dynamics,
     };
-    diag.finish(decl)
+    Ok((decl, diag))
 }
 
 /// Parses one `meval` expression into a surface expression.

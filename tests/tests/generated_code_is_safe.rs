@@ -1,0 +1,131 @@
+//! Generated code is straight-line float arithmetic: no heap, no `unsafe`, nothing that can
+//! panic. Checked on the syntax tree of every demo model's generated module, in both
+//! scalar types: any construct outside an allow-list fails the test.
+
+use syn::visit::Visit;
+use tests::{demo_model_code, DEMO_MODELS};
+
+/// What the walk found that generated code must not contain.
+#[derive(Default)]
+struct Findings {
+    problems: Vec<String>,
+}
+
+impl<'ast> Visit<'ast> for Findings {
+    fn visit_expr(&mut self, e: &'ast syn::Expr) {
+        use syn::Expr;
+        let problem = match e {
+            // Indexing can panic: generated code destructures arrays instead.
+            Expr::Index(_) => Some("indexing"),
+            Expr::MethodCall(m) => Some(match m.method.to_string().as_str() {
+                "unwrap" | "expect" => "unwrap/expect",
+                _ => "a method call",
+            }),
+            Expr::Unsafe(_) => Some("unsafe"),
+            Expr::Loop(_) | Expr::While(_) | Expr::ForLoop(_) => Some("a loop"),
+            Expr::Cast(_) => Some("a cast"),
+            Expr::Range(_) => Some("a range (slicing)"),
+            Expr::Call(call) => match &*call.func {
+                // The only calls are `libm` functions of one float.
+                Expr::Path(p) if p.path.segments.first().is_some_and(|s| s.ident == "libm") => None,
+                _ => Some("a call of something other than libm"),
+            },
+            Expr::Lit(lit) => match &lit.lit {
+                syn::Lit::Float(f) if matches!(f.suffix(), "f32" | "f64") => None,
+                // Integer arithmetic could overflow; integers appear only in consts.
+                _ => Some("an untyped or non-float literal in code"),
+            },
+            _ => None,
+        };
+        if let Some(problem) = problem {
+            self.problems
+                .push(format!("{problem}: `{}`", quote_expr(e)));
+        }
+        syn::visit::visit_expr(self, e);
+    }
+
+    fn visit_macro(&mut self, m: &'ast syn::Macro) {
+        let name = m.path.segments.last().map(|s| s.ident.to_string());
+        self.problems.push(format!(
+            "a macro (panic!, assert!, vec!, ...): `{}!`",
+            name.unwrap_or_default()
+        ));
+    }
+
+    fn visit_attribute(&mut self, _: &'ast syn::Attribute) {
+        // Doc comments and `#[inline]`: no code.
+    }
+
+    fn visit_type_array(&mut self, a: &'ast syn::TypeArray) {
+        // The length is a compile-time constant; only the element type is of interest.
+        self.visit_type(&a.elem);
+    }
+
+    fn visit_item_const(&mut self, c: &'ast syn::ItemConst) {
+        // Constants are evaluated at compile time; a panic there is a build error, and
+        // they hold the integer and bool tables (dimensions, zero patterns).
+        let _ = c;
+    }
+
+    fn visit_path(&mut self, p: &'ast syn::Path) {
+        for segment in &p.segments {
+            let name = segment.ident.to_string();
+            if ["alloc", "Vec", "Box", "String", "std"].contains(&name.as_str()) {
+                self.problems.push(format!("heap or std: `{name}`"));
+            }
+        }
+        syn::visit::visit_path(self, p);
+    }
+
+    fn visit_item_fn(&mut self, f: &'ast syn::ItemFn) {
+        if matches!(f.sig.safety, syn::Safety::Unsafe(_)) {
+            self.problems.push(format!("unsafe fn `{}`", f.sig.ident));
+        }
+        syn::visit::visit_item_fn(self, f);
+    }
+}
+
+fn quote_expr(e: &syn::Expr) -> String {
+    use quote::ToTokens;
+    e.to_token_stream().to_string()
+}
+
+#[test]
+fn generated_code_has_no_heap_unsafe_or_panicking_operation() {
+    for name in DEMO_MODELS {
+        let file: syn::File = syn::parse_str(&demo_model_code(name)).expect("parses");
+        let mut findings = Findings::default();
+        findings.visit_file(&file);
+        assert!(
+            findings.problems.is_empty(),
+            "{name}: generated code contains {:#?}",
+            findings.problems
+        );
+    }
+}
+
+#[test]
+fn the_check_rejects_what_it_should() {
+    let bad = r#"
+        pub fn f(x: &[f32; 2], v: Vec<f32>) -> f32 {
+            let a = x[0] + 1;
+            let b = v.first().unwrap();
+            assert!(a > 0.0);
+            a + f32::sqrt(b)
+        }
+    "#;
+    let file: syn::File = syn::parse_str(bad).expect("parses");
+    let mut findings = Findings::default();
+    findings.visit_file(&file);
+    let all = findings.problems.join("\n");
+    for expected in [
+        "indexing",
+        "unwrap",
+        "a macro",
+        "non-float literal",
+        "Vec",
+        "other than libm",
+    ] {
+        assert!(all.contains(expected), "missed {expected} in:\n{all}");
+    }
+}

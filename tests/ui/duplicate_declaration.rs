@@ -1,0 +1,14 @@
+codegen_macros::model! {
+    /// A model with one mistake.
+    pub mod m {
+        scalar f32;
+        state x1, x2;
+        param x1;
+        dynamics discrete {
+            x1 = x1;
+            x2 = x2;
+        }
+    }
+}
+
+fn main() {}

@@ -1,0 +1,11 @@
+codegen_macros::model! {
+    /// A model with one mistake.
+    pub mod m {
+        state x1;
+        dynamics discrete {
+            x1 = x1;
+        }
+    }
+}
+
+fn main() {}

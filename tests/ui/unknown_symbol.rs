@@ -1,0 +1,12 @@
+codegen_macros::model! {
+    /// A model with one mistake.
+    pub mod m {
+        scalar f32;
+        state x1;
+        dynamics discrete {
+            x1 = x1 + gain;
+        }
+    }
+}
+
+fn main() {}
