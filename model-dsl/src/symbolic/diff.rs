@@ -123,3 +123,90 @@ impl Differentiator {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn var_of(g: &Graph, node: NodeId) -> VarId {
+        match g.node(node) {
+            Node::Var(v) => v,
+            _ => unreachable!(),
+        }
+    }
+
+    #[test]
+    fn product_rule_and_structural_zeros() {
+        let mut g = Graph::new();
+        let (x, y) = (g.var("x"), g.var("y"));
+        let xx = g.mul(x, x);
+        let mut d = Differentiator::new(var_of(&g, x));
+        let dxx = d.diff(&mut g, xx);
+        let two = g.num(2.0);
+        assert_eq!(g.node(dxx), Node::Mul(two, x));
+        let mut dy = Differentiator::new(var_of(&g, y));
+        let zero = dy.diff(&mut g, xx);
+        assert!(g.is_zero(zero), "d(x^2)/dy is a structural zero");
+    }
+
+    #[test]
+    fn chain_rule_through_functions() {
+        let mut g = Graph::new();
+        let x = g.var("x");
+        let sin = g.call(Func::Sin, x);
+        let mut d = Differentiator::new(var_of(&g, x));
+        let dsin = d.diff(&mut g, sin);
+        assert_eq!(g.node(dsin), Node::Call(Func::Cos, x));
+        let exp = g.call(Func::Exp, sin);
+        let dexp = d.diff(&mut g, exp);
+        assert_eq!(g.node(dexp), Node::Mul(dsin, exp));
+    }
+
+    #[test]
+    fn piecewise_terms_differentiate_branch_by_branch() {
+        let mut g = Graph::new();
+        let x = g.var("x");
+        let (zero, k) = (g.zero(), g.named_const("K", 3.0));
+        let kx = g.mul(k, x);
+        let spring = g.select(Comparison::Gt, x, zero, kx, zero);
+        let mut d = Differentiator::new(var_of(&g, x));
+        let dspring = d.diff(&mut g, spring);
+        assert_eq!(
+            g.node(dspring),
+            Node::Select {
+                cmp: Comparison::Gt,
+                lhs: x,
+                rhs: zero,
+                then: k,
+                otherwise: zero
+            }
+        );
+    }
+
+    #[test]
+    fn derivatives_match_finite_differences() {
+        let mut g = Graph::new();
+        let x = g.var("x");
+        let (sqrt, ln, tan, abs) = (
+            g.call(Func::Sqrt, x),
+            g.call(Func::Ln, x),
+            g.call(Func::Tan, x),
+            g.call(Func::Abs, x),
+        );
+        let quotient = g.div(sqrt, ln);
+        let product = g.mul(tan, abs);
+        let expr = g.add(quotient, product);
+        let mut d = Differentiator::new(var_of(&g, x));
+        let derivative = d.diff(&mut g, expr);
+        for point in [0.3, 1.7, 2.9] {
+            let at = |v: f64| g.eval(expr, &move |_| v);
+            let h = 1e-6;
+            let fd = (at(point + h) - at(point - h)) / (2.0 * h);
+            let exact = g.eval(derivative, &|_| point);
+            assert!(
+                (fd - exact).abs() < 1e-6 * exact.abs().max(1.0),
+                "{fd} vs {exact}"
+            );
+        }
+    }
+}

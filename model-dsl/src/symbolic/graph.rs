@@ -581,3 +581,107 @@ impl Graph {
         v
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn equal_expressions_are_one_node_in_either_order() {
+        let mut g = Graph::new();
+        let (x, y) = (g.var("x"), g.var("y"));
+        let xy = g.mul(x, y);
+        assert_eq!(g.mul(y, x), xy);
+        let before = g.len();
+        let sum = g.add(xy, x);
+        assert_eq!(g.add(x, xy), sum);
+        assert_eq!(g.len(), before + 1, "only the sum is new");
+    }
+
+    #[test]
+    fn identities_leave_no_operation() {
+        let mut g = Graph::new();
+        let x = g.var("x");
+        let (zero, one) = (g.zero(), g.one());
+        let product = g.mul(x, zero);
+        assert!(g.is_zero(product));
+        assert_eq!(g.add(x, zero), x);
+        assert_eq!(g.mul(one, x), x);
+        let difference = g.sub(x, x);
+        assert!(g.is_zero(difference));
+        let minus_x = g.neg(x);
+        assert_eq!(g.neg(minus_x), x);
+        assert_eq!(g.div(x, one), x);
+        let quotient = g.div(x, x);
+        assert!(g.is_one(quotient));
+    }
+
+    #[test]
+    fn constants_fold_but_a_named_constant_keeps_its_name() {
+        let mut g = Graph::new();
+        let ts = g.named_const("TS", 0.015);
+        let (one, two) = (g.one(), g.num(2.0));
+        assert_eq!(g.mul(ts, one), ts);
+        let doubled = g.mul(ts, two);
+        assert_eq!(g.literal(doubled), Some(0.03));
+        let x = g.var("x");
+        // 2 * (TS * x) = 0.03 * x
+        let ts_x = g.mul(ts, x);
+        let folded = g.mul(two, ts_x);
+        assert_eq!(g.node(folded), Node::Mul(doubled, x));
+    }
+
+    #[test]
+    fn division_by_a_literal_is_a_multiplication() {
+        let mut g = Graph::new();
+        let x = g.var("x");
+        let four = g.num(4.0);
+        let q = g.div(x, four);
+        let quarter = g.num(0.25);
+        assert_eq!(g.node(q), Node::Mul(quarter, x));
+    }
+
+    #[test]
+    fn integer_powers_are_products() {
+        let mut g = Graph::new();
+        let x = g.var("x");
+        let cube = g.powi(x, 3);
+        let square = g.mul(x, x);
+        assert_eq!(g.node(cube), Node::Mul(square, x));
+        let inverse_square = g.powi(x, -2);
+        let one = g.one();
+        assert_eq!(g.node(inverse_square), Node::Div(one, square));
+        assert!(g.is_one(g.clone().powi(x, 0)));
+    }
+
+    #[test]
+    fn negations_move_outward() {
+        let mut g = Graph::new();
+        let (x, y) = (g.var("x"), g.var("y"));
+        let (nx, ny) = (g.neg(x), g.neg(y));
+        let xy = g.mul(x, y);
+        assert_eq!(g.mul(nx, ny), xy);
+        let negated = g.mul(nx, y);
+        assert_eq!(g.node(negated), Node::Neg(xy));
+        let minus_three = g.num(-3.0);
+        let sum = g.add(x, minus_three);
+        let three = g.num(3.0);
+        assert_eq!(g.node(sum), Node::Sub(x, three));
+    }
+
+    #[test]
+    fn simplification_keeps_the_value() {
+        let mut g = Graph::new();
+        let (x, y) = (g.var("x"), g.var("y"));
+        let ts = g.named_const("TS", 0.5);
+        let nx = g.neg(x);
+        let a = g.mul(ts, nx);
+        let b = g.sub(a, y);
+        let c = g.div(b, ts);
+        let d = g.powi(c, 3);
+        let e = g.call(Func::Sin, d);
+        let value = g.eval(e, &|v| if v.0 == 0 { 0.7 } else { -1.3 });
+        let expected = ((0.5 * -0.7 - -1.3) / 0.5f64).powi(3).sin();
+        assert!((value - expected).abs() < 1e-15, "{value} vs {expected}");
+    }
+}

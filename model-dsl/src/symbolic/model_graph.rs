@@ -67,11 +67,14 @@ impl ModelGraph {
                 let h = mg.graph.div(dt, n);
                 let mut current = states;
                 let mut time = t;
-                for _ in 0..*substeps {
+                for step in 1..=*substeps {
                     current = match method {
                         Method::Euler => mg.euler_step(model, &current, time, h),
                         Method::Rk4 => mg.rk4_step(model, &current, time, h),
                     };
+                    if step < *substeps {
+                        mg.name_stage(model, &current, "", &format!("_substep{step}"));
+                    }
                     time = mg.graph.add(time, h);
                 }
                 current
@@ -104,7 +107,16 @@ impl ModelGraph {
     /// One forward Euler step: `x + h f(t, x)`.
     fn euler_step(&mut self, model: &Model, x: &[NodeId], t: NodeId, h: NodeId) -> Vec<NodeId> {
         let k1 = self.rhs(model, t, x);
+        self.name_stage(model, &k1, "der_", "");
         self.axpy(x, h, &k1)
+    }
+
+    /// Names the nodes of one integration stage after the states, for readable code.
+    fn name_stage(&mut self, model: &Model, nodes: &[NodeId], prefix: &str, suffix: &str) {
+        for (node, state) in nodes.iter().zip(&model.states) {
+            let name = format!("{prefix}{}{suffix}", state.name);
+            self.graph.set_name_hint(*node, &name);
+        }
     }
 
     /// One classical Runge-Kutta step.
@@ -120,6 +132,16 @@ impl ModelGraph {
         let k3 = self.rhs(model, t_mid, &x3);
         let x4 = self.axpy(x, h, &k3);
         let k4 = self.rhs(model, t_end, &x4);
+        for (stage, (k, x)) in [(&k1, x), (&k2, &x2[..]), (&k3, &x3[..]), (&k4, &x4[..])]
+            .into_iter()
+            .enumerate()
+        {
+            let n = stage + 1;
+            self.name_stage(model, k, &format!("k{n}_"), "");
+            if n > 1 {
+                self.name_stage(model, x, "", &format!("_stage{n}"));
+            }
+        }
         let sixth = self.graph.num(1.0 / 6.0);
         let h_sixth = self.graph.mul(h, sixth);
         let two = self.graph.num(2.0);
