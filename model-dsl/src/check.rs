@@ -84,9 +84,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Model> {
     let mut outputs = Vec::new();
     let mut output_names = std::collections::HashSet::new();
     for out in &decl.outputs {
-        if output_names.contains(out.name.text.as_str()) {
-            duplicate_error(&mut diag, &out.name);
-        } else if scope.contains_key(&out.name.text) {
+        if output_names.contains(out.name.text.as_str()) || scope.contains_key(&out.name.text) {
             duplicate_error(&mut diag, &out.name);
         } else {
             check_name_allowed(&out.name, false, &mut diag);

@@ -14,13 +14,18 @@ const JACOBIAN_RTOL: f64 = 1e-6;
 /// Relative agreement required of `f` and `h` (different evaluation order only).
 const VALUE_RTOL: f64 = 1e-10;
 
+/// A generated vector function, as `(t, x, u) -> value`.
+type VectorFn = fn(f64, &[f64], &[f64]) -> Vec<f64>;
+/// A generated Jacobian, as `(t, x, u) -> rows`.
+type MatrixFn = fn(f64, &[f64], &[f64]) -> Vec<Vec<f64>>;
+
 /// The generated functions of one model, behind one signature.
 struct Generated {
-    f: fn(f64, &[f64], &[f64]) -> Vec<f64>,
-    h: fn(f64, &[f64], &[f64]) -> Vec<f64>,
-    jacobian_f_wrt_x: fn(f64, &[f64], &[f64]) -> Vec<Vec<f64>>,
-    jacobian_f_wrt_u: fn(f64, &[f64], &[f64]) -> Vec<Vec<f64>>,
-    jacobian_h_wrt_x: fn(f64, &[f64], &[f64]) -> Vec<Vec<f64>>,
+    f: VectorFn,
+    h: VectorFn,
+    jacobian_f_wrt_x: MatrixFn,
+    jacobian_f_wrt_u: MatrixFn,
+    jacobian_h_wrt_x: MatrixFn,
     nonzero_f_wrt_x: Vec<Vec<bool>>,
 }
 
