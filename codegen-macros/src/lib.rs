@@ -11,7 +11,7 @@ use proc_macro::TokenStream;
 /// function. Generated code is `no_std`, allocation-free and panic-free; it calls `libm`
 /// for transcendental functions, so the calling crate depends on `libm`.
 ///
-/// ```ignore
+/// ```
 /// codegen_macros::model! {
 ///     /// Cantilever beam, first mode.
 ///     pub mod cantilever {
@@ -27,6 +27,11 @@ use proc_macro::TokenStream;
 ///         }
 ///     }
 /// }
+///
+/// let x = [1.0, 0.0, -400.0, -1.0, 0.5];
+/// assert_eq!(cantilever::f(&x, &[2.0]), [1.0, -6.0 + 0.015, -400.0, -1.0, 0.5]);
+/// assert_eq!(cantilever::JACOBIAN_F_WRT_X_NONZERO[0], [true, true, false, false, false]);
+/// assert_eq!(cantilever::F_OPS.mul, 7);
 /// ```
 #[proc_macro]
 pub fn model(input: TokenStream) -> TokenStream {
