@@ -24,18 +24,6 @@ pub struct OpCount {
     pub compare: u32,
 }
 
-/// Straight-line code computing some root nodes.
-pub struct Lowered {
-    /// `let` statements in dependency order.
-    pub lets: Vec<TokenStream>,
-    /// One expression per root, referring to the temporaries.
-    pub roots: Vec<TokenStream>,
-    /// Free variables the code reads.
-    pub used_vars: BTreeSet<VarId>,
-    /// What the code computes.
-    pub ops: OpCount,
-}
-
 /// Binding strength of a rendered expression, to place parentheses.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 enum Prec {
@@ -45,69 +33,140 @@ enum Prec {
     Atom,
 }
 
-/// Lowers `roots` of `graph` into code over `scalar`, naming temporaries with `namer`.
-pub fn lower(graph: &Graph, roots: &[NodeId], scalar: Scalar, namer: &mut TempNamer) -> Lowered {
-    // Count uses among the nodes the roots reach; a root counts as one use.
-    let mut uses = vec![0u32; graph.len()];
-    let mut reached = vec![false; graph.len()];
-    let mut stack: Vec<NodeId> = roots.to_vec();
-    for &r in roots {
-        uses[r.index()] += 1;
-    }
-    while let Some(id) = stack.pop() {
-        if std::mem::replace(&mut reached[id.index()], true) {
-            continue;
-        }
-        for child in graph.node(id).children() {
-            uses[child.index()] += 1;
-            stack.push(child);
-        }
-    }
-
-    let mut lowering = Lowering {
-        graph,
-        scalar,
-        lets: Vec::new(),
-        used_vars: BTreeSet::new(),
-        ops: OpCount::default(),
-    };
-    // Children precede parents in the graph, so index order is a valid evaluation order.
-    for id in graph.ids() {
-        let index = id.index();
-        if !reached[index] {
-            continue;
-        }
-        let node = graph.node(id);
-        lowering.count(node);
-        if let Node::Var(v) = node {
-            lowering.used_vars.insert(v);
-        }
-        let shared = uses[index] > 1 || graph.name_hint(id).is_some();
-        let needs_let = !graph.is_leaf(id) && (shared || matches!(node, Node::Select { .. }));
-        if needs_let {
-            let (value, _) = lowering.render_node(node, namer);
-            let name = namer.assign(graph, id);
-            lowering.lets.push(quote! { let #name = #value; });
-        }
-    }
-    let roots = roots.iter().map(|&r| lowering.render(r, namer).0).collect();
-    Lowered {
-        lets: lowering.lets,
-        roots,
-        used_vars: lowering.used_vars,
-        ops: lowering.ops,
-    }
-}
-
-struct Lowering<'g> {
+/// Lowers the nodes of one generated function to straight-line code, in segments.
+///
+/// A function may need statements of its own between computations (a guard before a
+/// division, say). Each [`Lowerer::segment`] emits what its roots need and was not emitted
+/// before; use counts are taken over all of the function's roots up front, so a node that
+/// a later segment also needs is bound to a `let` in the segment that first computes it.
+pub struct Lowerer<'g> {
     graph: &'g Graph,
     scalar: Scalar,
-    lets: Vec<TokenStream>,
+    namer: TempNamer,
+    /// Uses of each node by the function's code; a root occurrence counts as one.
+    uses: Vec<u32>,
+    /// Whether a node's value was already computed by emitted code.
+    emitted: Vec<bool>,
+    statements: Vec<TokenStream>,
     used_vars: BTreeSet<VarId>,
     ops: OpCount,
 }
 
-impl Lowering<'_> {
+impl<'g> Lowerer<'g> {
+    /// A lowerer for a function whose code, all segments together, computes `all_roots`.
+    pub fn new(graph: &'g Graph, scalar: Scalar, namer: TempNamer, all_roots: &[NodeId]) -> Self {
+        let mut uses = vec![0u32; graph.len()];
+        let mut reached = vec![false; graph.len()];
+        let mut stack: Vec<NodeId> = all_roots.to_vec();
+        for &r in all_roots {
+            uses[r.index()] += 1;
+        }
+        while let Some(id) = stack.pop() {
+            if std::mem::replace(&mut reached[id.index()], true) {
+                continue;
+            }
+            for child in graph.node(id).children() {
+                uses[child.index()] += 1;
+                stack.push(child);
+            }
+        }
+        Lowerer {
+            graph,
+            scalar,
+            namer,
+            uses,
+            emitted: vec![false; graph.len()],
+            statements: Vec::new(),
+            used_vars: BTreeSet::new(),
+            ops: OpCount::default(),
+        }
+    }
+
+    /// Emits the `let`s `roots` need and returns an expression for each root.
+    pub fn segment(&mut self, roots: &[NodeId]) -> Vec<TokenStream> {
+        let mut fresh = vec![false; self.graph.len()];
+        let mut stack: Vec<NodeId> = roots.to_vec();
+        while let Some(id) = stack.pop() {
+            if self.emitted[id.index()] || std::mem::replace(&mut fresh[id.index()], true) {
+                continue;
+            }
+            stack.extend(self.graph.node(id).children());
+        }
+        // Children precede parents in the graph, so index order is an evaluation order.
+        for id in self.graph.ids() {
+            if !fresh[id.index()] {
+                continue;
+            }
+            self.emitted[id.index()] = true;
+            let node = self.graph.node(id);
+            self.count(node);
+            if let Node::Var(v) = node {
+                self.used_vars.insert(v);
+            }
+            let shared = self.uses[id.index()] > 1 || self.graph.name_hint(id).is_some();
+            let needs_let =
+                !self.graph.is_leaf(id) && (shared || matches!(node, Node::Select { .. }));
+            if needs_let {
+                let (value, _) = self.render_node(node);
+                let name = self.namer.assign(self.graph, id);
+                self.statements.push(quote! { let #name = #value; });
+            }
+        }
+        roots.iter().map(|&r| self.render(r).0).collect()
+    }
+
+    /// Makes `root` available under a name (a `let` named `name` unless it already has
+    /// one, or is a leaf) and returns that name as an expression.
+    pub fn bind(&mut self, root: NodeId, name: &str) -> TokenStream {
+        if self.namer.get(root).is_none() && !self.graph.is_leaf(root) {
+            self.graph_hint_once(root, name);
+        }
+        self.segment(&[root]).remove(0)
+    }
+
+    fn graph_hint_once(&mut self, root: NodeId, name: &str) {
+        // Counting the root once more makes `segment` bind it; the namer takes `name`.
+        self.uses[root.index()] += 1;
+        if !self.emitted[root.index()] {
+            self.namer.prefer(root, name);
+        }
+    }
+
+    /// Appends a statement of the caller's (a guard, a reciprocal).
+    pub fn statement(&mut self, tokens: TokenStream) {
+        self.statements.push(tokens);
+    }
+
+    /// Counts operations the caller's own statements perform.
+    pub fn count_extra(&mut self, ops: OpCount) {
+        self.ops.add += ops.add;
+        self.ops.mul += ops.mul;
+        self.ops.div += ops.div;
+        self.ops.call += ops.call;
+        self.ops.compare += ops.compare;
+    }
+
+    /// The statements emitted so far, the variables they read, and what they compute.
+    pub fn finish(self) -> Lowered {
+        Lowered {
+            statements: self.statements,
+            used_vars: self.used_vars,
+            ops: self.ops,
+        }
+    }
+}
+
+/// A lowered function body.
+pub struct Lowered {
+    /// Statements in order.
+    pub statements: Vec<TokenStream>,
+    /// Free variables the code reads.
+    pub used_vars: BTreeSet<VarId>,
+    /// What the code computes.
+    pub ops: OpCount,
+}
+
+impl Lowerer<'_> {
     fn count(&mut self, node: Node) {
         let ops = &mut self.ops;
         match node {
@@ -121,18 +180,18 @@ impl Lowering<'_> {
     }
 
     /// A node as an expression: its temporary's name if it has one, else inline.
-    fn render(&self, id: NodeId, namer: &TempNamer) -> (TokenStream, Prec) {
-        if let Some(name) = namer.get(id) {
+    fn render(&self, id: NodeId) -> (TokenStream, Prec) {
+        if let Some(name) = self.namer.get(id) {
             let name = super::names::ident(name);
             return (quote! { #name }, Prec::Atom);
         }
-        self.render_node(self.graph.node(id), namer)
+        self.render_node(self.graph.node(id))
     }
 
-    fn render_node(&self, node: Node, namer: &TempNamer) -> (TokenStream, Prec) {
+    fn render_node(&self, node: Node) -> (TokenStream, Prec) {
         // Operands rendered with at least `min` binding strength, else parenthesised.
         let operand = |id, min: Prec| {
-            let (tokens, prec) = self.render(id, namer);
+            let (tokens, prec) = self.render(id);
             if prec < min {
                 quote! { (#tokens) }
             } else {

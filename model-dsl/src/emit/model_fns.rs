@@ -1,7 +1,7 @@
 //! Emits the model functions `f`, `h` and their Jacobians, with their zero patterns and
 //! operation counts.
 
-use super::lower::{lower, Lowered, OpCount};
+use super::lower::{Lowered, Lowerer, OpCount};
 use super::names::{ident, nonzero_const, ops_const, TempNamer};
 use crate::model::{Discretisation, Expr, Method, Model, Scalar};
 use crate::symbolic::{ModelGraph, NodeId};
@@ -133,13 +133,14 @@ pub fn emit_function(
         .chain(model.state_names())
         .chain(model.inputs.iter().map(|s| s.name.as_str()))
         .chain(["t", "x", "u"]);
-    let mut namer = TempNamer::new(reserved);
+    let namer = TempNamer::new(reserved);
+    let mut lowerer = Lowerer::new(&mg.graph, scalar, namer, &function.roots);
+    let roots = lowerer.segment(&function.roots);
     let Lowered {
-        lets,
-        roots,
+        statements: lets,
         used_vars,
         ops,
-    } = lower(&mg.graph, &function.roots, scalar, &mut namer);
+    } = lowerer.finish();
     let ty = ident(scalar.type_name());
     let used = |node: NodeId| used_vars.contains(&mg.var_id(node));
 

@@ -33,6 +33,8 @@ pub fn index_const(symbol: &str) -> Ident {
 pub struct TempNamer {
     taken: HashSet<String>,
     assigned: HashMap<NodeId, String>,
+    /// Names the emitter chose for particular nodes, used before any other rule.
+    preferred: HashMap<NodeId, String>,
     numbered: usize,
 }
 
@@ -42,6 +44,7 @@ impl TempNamer {
         TempNamer {
             taken: reserved.into_iter().map(str::to_owned).collect(),
             assigned: HashMap::new(),
+            preferred: HashMap::new(),
             numbered: 0,
         }
     }
@@ -51,11 +54,18 @@ impl TempNamer {
         self.assigned.get(&id).map(String::as_str)
     }
 
+    /// Asks for `name` (made unique) when `id` is bound.
+    pub fn prefer(&mut self, id: NodeId, name: &str) {
+        self.preferred.insert(id, name.to_owned());
+    }
+
     /// Names the temporary holding `id`.
     pub fn assign(&mut self, graph: &Graph, id: NodeId) -> Ident {
-        let base = graph
-            .name_hint(id)
-            .map(str::to_owned)
+        let base = self
+            .preferred
+            .get(&id)
+            .cloned()
+            .or_else(|| graph.name_hint(id).map(str::to_owned))
             .or_else(|| self.label(graph, id).filter(|l| l.len() <= MAX_DERIVED_LEN));
         let name = match base {
             Some(base) => self.unique(&base),
