@@ -35,6 +35,47 @@ pub struct ModelDecl {
     pub outputs: Vec<OutputDecl>,
     /// Dynamics blocks; a valid model has exactly one.
     pub dynamics: Vec<DynamicsDecl>,
+    /// What to generate besides the model functions: `generate ekf, dkf(eta = 0.5);`.
+    pub generate: Vec<GenerateDecl>,
+}
+
+/// One item of a `generate` line: a filter or controller and its arguments.
+#[derive(Clone, Debug)]
+pub struct GenerateDecl {
+    /// `ekf`, `dkf` or `lqr`.
+    pub name: Name,
+    /// `name = value` arguments in order.
+    pub args: Vec<GenerateArg>,
+}
+
+/// `name = value` in a `generate` item.
+#[derive(Clone, Debug)]
+pub struct GenerateArg {
+    /// The argument's name.
+    pub name: Name,
+    /// Its value.
+    pub value: ArgValue,
+}
+
+/// Values a `generate` argument takes.
+#[derive(Clone, Debug)]
+pub enum ArgValue {
+    /// A number, with where it was written.
+    Number(f64, Span),
+    /// A name.
+    Name(Name),
+    /// `[a, b]`, with where the list was written.
+    Names(Vec<Name>, Span),
+}
+
+impl ArgValue {
+    /// Where the value was written.
+    pub fn span(&self) -> Span {
+        match self {
+            ArgValue::Number(_, span) | ArgValue::Names(_, span) => *span,
+            ArgValue::Name(name) => name.span,
+        }
+    }
 }
 
 /// `const NAME = expr;`

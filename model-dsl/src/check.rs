@@ -1,12 +1,13 @@
 //! Resolves a [`ModelDecl`] into the model IR, collecting every mistake on the way.
 
 use crate::ast::{
-    BinaryOp, DynamicsDecl, DynamicsKind, ModelDecl, Name, Statement, SurfaceExpr, SurfaceKind,
-    SymbolKind,
+    ArgValue, BinaryOp, DynamicsDecl, DynamicsKind, GenerateArg, GenerateDecl, ModelDecl, Name,
+    Statement, SurfaceExpr, SurfaceKind, SymbolKind,
 };
 use crate::diagnostics::Diagnostics;
 use crate::model::{
-    Constant, Discretisation, Dynamics, Expr, Func, Local, Method, Model, Output, Scalar, Symbol,
+    Constant, Discretisation, DkfSpec, Dynamics, Expr, Func, Generate, Local, LqrSpec, Method,
+    Model, Output, Scalar, Symbol,
 };
 use indexmap::IndexMap;
 use proc_macro2::Span;
@@ -128,6 +129,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Model> {
         }
     };
 
+    let generate = check_generate(decl, &scope, &mut diag);
     let model = dynamics.map(|dynamics| Model {
         docs: decl.docs.clone(),
         vis: decl.vis.clone(),
@@ -140,6 +142,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Model> {
         outputs,
         dynamics,
         locals,
+        generate,
     });
     match model {
         Some(model) => diag.finish(model),
@@ -638,4 +641,159 @@ fn resolve_call(
 /// The value of an expression of literals only, if it is one.
 fn literal_value(expr: &Expr) -> Option<f64> {
     expr.const_value(&[])
+}
+
+/// Checks the `generate` items: known generators, known arguments of the right kinds.
+fn check_generate(
+    decl: &ModelDecl,
+    scope: &IndexMap<String, (Binding, Span)>,
+    diag: &mut Diagnostics,
+) -> Generate {
+    let mut generate = Generate::default();
+    let mut seen = std::collections::HashSet::new();
+    for item in &decl.generate {
+        if !seen.insert(item.name.text.clone()) {
+            diag.error(
+                item.name.span,
+                format!("`{}` is asked for twice", item.name.text),
+            );
+            continue;
+        }
+        let mut args = Args::new(item, diag);
+        match item.name.text.as_str() {
+            "ekf" => generate.ekf = true,
+            "dkf" => {
+                let eta = args.number("eta", 0.5, diag);
+                if !(0.0..=1.0).contains(&eta) {
+                    diag.error(item.name.span, "`eta` weights a split: it lies in 0..=1");
+                }
+                generate.dkf = Some(DkfSpec {
+                    eta,
+                    span: item.name.span,
+                });
+            }
+            "lqr" => {
+                let horizon = args.number("horizon", 50.0, diag);
+                if horizon.fract() != 0.0 || !(1.0..=10_000.0).contains(&horizon) {
+                    diag.error(
+                        item.name.span,
+                        "`horizon` is a whole number of steps, 1 to 10000",
+                    );
+                }
+                let states = args.names(&["states", "state"], diag);
+                let inputs = args.names(&["inputs", "input"], diag);
+                let mut lookup = |names: Vec<Name>, want: SymbolKind| -> Vec<usize> {
+                    names
+                        .iter()
+                        .filter_map(|name| match (scope.get(&name.text), want) {
+                            (Some((Binding::State(i), _)), SymbolKind::State) => Some(*i),
+                            (Some((Binding::Input(i), _)), SymbolKind::Input) => Some(*i),
+                            _ => {
+                                let what = match want {
+                                    SymbolKind::State => "a physical state (`state`)",
+                                    _ => "an input (`input`)",
+                                };
+                                diag.error(name.span, format!("`{}` is not {what}", name.text));
+                                None
+                            }
+                        })
+                        .collect()
+                };
+                let states = lookup(states, SymbolKind::State);
+                let inputs = lookup(inputs, SymbolKind::Input);
+                if states.is_empty() || inputs.is_empty() {
+                    diag.error(
+                        item.name.span,
+                        "the LQR needs the states it regulates and the inputs it computes: \
+                         `lqr(horizon = 50, states = [x1, x2], input = u)`",
+                    );
+                }
+                generate.lqr = Some(LqrSpec {
+                    horizon: horizon as u32,
+                    states,
+                    inputs,
+                });
+            }
+            other => {
+                diag.error(
+                    item.name.span,
+                    format!("unknown generator `{other}`: use `ekf`, `dkf(eta = ..)` or `lqr(..)`"),
+                );
+                continue;
+            }
+        }
+        args.report_unused(diag);
+    }
+    generate
+}
+
+/// The arguments of one `generate` item, taken one by one; what is left is an error.
+struct Args<'a> {
+    item: &'a GenerateDecl,
+    used: Vec<bool>,
+}
+
+impl<'a> Args<'a> {
+    fn new(item: &'a GenerateDecl, diag: &mut Diagnostics) -> Args<'a> {
+        let mut names = std::collections::HashSet::new();
+        for arg in &item.args {
+            if !names.insert(arg.name.text.as_str()) {
+                diag.error(arg.name.span, format!("`{}` is given twice", arg.name.text));
+            }
+        }
+        Args {
+            item,
+            used: vec![false; item.args.len()],
+        }
+    }
+
+    fn take(&mut self, names: &[&str]) -> Option<&'a GenerateArg> {
+        let i = self
+            .item
+            .args
+            .iter()
+            .position(|a| names.contains(&a.name.text.as_str()))?;
+        self.used[i] = true;
+        Some(&self.item.args[i])
+    }
+
+    fn number(&mut self, name: &str, default: f64, diag: &mut Diagnostics) -> f64 {
+        match self.take(&[name]).map(|a| &a.value) {
+            None => default,
+            Some(ArgValue::Number(v, _)) => *v,
+            Some(other) => {
+                diag.error(other.span(), format!("`{name}` takes a number"));
+                default
+            }
+        }
+    }
+
+    fn names(&mut self, names: &[&str], diag: &mut Diagnostics) -> Vec<Name> {
+        match self.take(names).map(|a| &a.value) {
+            None => Vec::new(),
+            Some(ArgValue::Name(n)) => vec![n.clone()],
+            Some(ArgValue::Names(list, _)) => list.clone(),
+            Some(ArgValue::Number(_, span)) => {
+                diag.error(
+                    *span,
+                    format!("`{}` takes a name or a list of names", names[0]),
+                );
+                Vec::new()
+            }
+        }
+    }
+
+    fn report_unused(&self, diag: &mut Diagnostics) {
+        for (arg, used) in self.item.args.iter().zip(&self.used) {
+            if !used {
+                diag.error(
+                    arg.name.span,
+                    format!(
+                        "`{}` takes no argument `{}`",
+                        self.item.name.text, arg.name.text
+                    ),
+                );
+            }
+        }
+    }
 }

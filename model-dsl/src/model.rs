@@ -28,6 +28,46 @@ pub struct Model {
     pub dynamics: Dynamics,
     /// Named intermediates of the dynamics block, referenced by [`Expr::Local`].
     pub locals: Vec<Local>,
+    /// Filters and controllers to generate.
+    pub generate: Generate,
+}
+
+/// Filters and controllers a model asks for.
+#[derive(Clone, Debug, Default)]
+pub struct Generate {
+    /// The extended Kalman filter (Alg. 1).
+    pub ekf: bool,
+    /// The double Kalman filter (Alg. 2), if asked for.
+    pub dkf: Option<DkfSpec>,
+    /// The adaptive finite-horizon LQR (Alg. 3), if asked for.
+    pub lqr: Option<LqrSpec>,
+}
+
+impl Generate {
+    /// Whether anything beyond the model functions is asked for.
+    pub fn any(&self) -> bool {
+        self.ekf || self.dkf.is_some() || self.lqr.is_some()
+    }
+}
+
+/// Options of the double Kalman filter.
+#[derive(Clone, Debug)]
+pub struct DkfSpec {
+    /// Weight of the split of each state-parameter product, eq. (12).
+    pub eta: f64,
+    /// Where `dkf` was written, for errors of the window transform.
+    pub span: proc_macro2::Span,
+}
+
+/// Options of the adaptive LQR.
+#[derive(Clone, Debug)]
+pub struct LqrSpec {
+    /// Steps of the backward Riccati recursion.
+    pub horizon: u32,
+    /// The physical states it regulates, by index into [`Model::states`].
+    pub states: Vec<usize>,
+    /// The inputs it computes, by index into [`Model::inputs`].
+    pub inputs: Vec<usize>,
 }
 
 /// Floating-point type of generated code.

@@ -1,6 +1,8 @@
 //! Generated code is straight-line float arithmetic: no heap, no `unsafe`, nothing that can
 //! panic. Checked on the syntax tree of every demo model's generated module, in both
-//! scalar types: any construct outside an allow-list fails the test.
+//! scalar types: any construct outside an allow-list fails the test. The one loop allowed
+//! is the LQR's `for _ in 0..Self::HORIZON` (a constant range); the only method calls are
+//! `is_finite` and the generated type's own methods on `self`.
 
 use syn::visit::Visit;
 use tests::{demo_model_code, DEMO_MODELS};
@@ -17,10 +19,20 @@ impl<'ast> Visit<'ast> for Findings {
         let problem = match e {
             // Indexing can panic: generated code destructures arrays instead.
             Expr::Index(_) => Some("indexing"),
-            Expr::MethodCall(m) => Some(match m.method.to_string().as_str() {
-                "unwrap" | "expect" => "unwrap/expect",
-                _ => "a method call",
-            }),
+            Expr::MethodCall(m) => {
+                let on_self = matches!(&*m.receiver, Expr::Path(p) if p.path.is_ident("self"));
+                match m.method.to_string().as_str() {
+                    "unwrap" | "expect" => Some("unwrap/expect"),
+                    "is_finite" if m.args.is_empty() => None,
+                    _ if on_self => None,
+                    _ => Some("a method call"),
+                }
+            }
+            Expr::ForLoop(f) if is_horizon_loop(f) => {
+                // Only the body is code of interest; the header is a constant range.
+                syn::visit::visit_block(self, &f.body);
+                return;
+            }
             Expr::Unsafe(_) => Some("unsafe"),
             Expr::Loop(_) | Expr::While(_) | Expr::ForLoop(_) => Some("a loop"),
             Expr::Cast(_) => Some("a cast"),
@@ -61,6 +73,15 @@ impl<'ast> Visit<'ast> for Findings {
         self.visit_type(&a.elem);
     }
 
+    fn visit_impl_item_const(&mut self, _: &'ast syn::ImplItemConst) {
+        // An associated constant (the LQR horizon): evaluated at compile time.
+    }
+
+    fn visit_expr_repeat(&mut self, r: &'ast syn::ExprRepeat) {
+        // `[v; N]`: the length is a compile-time constant; the value is code.
+        self.visit_expr(&r.expr);
+    }
+
     fn visit_item_const(&mut self, c: &'ast syn::ItemConst) {
         // Constants are evaluated at compile time; a panic there is a build error, and
         // they hold the integer and bool tables (dimensions, zero patterns).
@@ -83,6 +104,18 @@ impl<'ast> Visit<'ast> for Findings {
         }
         syn::visit::visit_item_fn(self, f);
     }
+}
+
+/// `for _ in 0..Self::HORIZON { .. }`
+fn is_horizon_loop(f: &syn::ExprForLoop) -> bool {
+    let range_ok = match &*f.expr {
+        syn::Expr::Range(r) => {
+            matches!(r.start.as_deref(), Some(syn::Expr::Lit(l)) if matches!(&l.lit, syn::Lit::Int(i) if i.base10_digits() == "0"))
+                && matches!(r.end.as_deref(), Some(syn::Expr::Path(p)) if p.path.segments.last().is_some_and(|s| s.ident == "HORIZON"))
+        }
+        _ => false,
+    };
+    matches!(&*f.pat, syn::Pat::Wild(_)) && range_ok
 }
 
 fn quote_expr(e: &syn::Expr) -> String {
@@ -111,6 +144,7 @@ fn the_check_rejects_what_it_should() {
             let a = x[0] + 1;
             let b = v.first().unwrap();
             assert!(a > 0.0);
+            for i in 0..v.len() {}
             a + f32::sqrt(b)
         }
     "#;

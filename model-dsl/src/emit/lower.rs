@@ -24,6 +24,41 @@ pub struct OpCount {
     pub compare: u32,
 }
 
+impl OpCount {
+    /// Both counts together.
+    pub fn plus(self, other: OpCount) -> OpCount {
+        OpCount {
+            add: self.add + other.add,
+            mul: self.mul + other.mul,
+            div: self.div + other.div,
+            call: self.call + other.call,
+            compare: self.compare + other.compare,
+        }
+    }
+
+    /// What `self` counts beyond `earlier`, a count taken before it.
+    pub fn minus(self, earlier: OpCount) -> OpCount {
+        OpCount {
+            add: self.add - earlier.add,
+            mul: self.mul - earlier.mul,
+            div: self.div - earlier.div,
+            call: self.call - earlier.call,
+            compare: self.compare - earlier.compare,
+        }
+    }
+
+    /// The count of `n` repetitions.
+    pub fn times(self, n: u32) -> OpCount {
+        OpCount {
+            add: self.add * n,
+            mul: self.mul * n,
+            div: self.div * n,
+            call: self.call * n,
+            compare: self.compare * n,
+        }
+    }
+}
+
 /// Binding strength of a rendered expression, to place parentheses.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 enum Prec {
@@ -118,18 +153,40 @@ impl<'g> Lowerer<'g> {
     /// Makes `root` available under a name (a `let` named `name` unless it already has
     /// one, or is a leaf) and returns that name as an expression.
     pub fn bind(&mut self, root: NodeId, name: &str) -> TokenStream {
-        if self.namer.get(root).is_none() && !self.graph.is_leaf(root) {
-            self.graph_hint_once(root, name);
+        self.prefer_name(root, name);
+        self.force_let(root)
+    }
+
+    /// Makes `root` available under a name of the usual rules (a `let` unless it is a
+    /// leaf) and returns that name as an expression.
+    pub fn force_let(&mut self, root: NodeId) -> TokenStream {
+        if self.namer.get(root).is_none() && !self.emitted[root.index()] {
+            // Counting the root once more makes `segment` bind it to a `let`.
+            self.uses[root.index()] += 1;
         }
         self.segment(&[root]).remove(0)
     }
 
-    fn graph_hint_once(&mut self, root: NodeId, name: &str) {
-        // Counting the root once more makes `segment` bind it; the namer takes `name`.
-        self.uses[root.index()] += 1;
-        if !self.emitted[root.index()] {
-            self.namer.prefer(root, name);
+    /// What the code emitted so far computes.
+    pub fn ops(&self) -> OpCount {
+        self.ops
+    }
+
+    /// Hands over the statements emitted so far, to place them (before a loop, say).
+    pub fn take_statements(&mut self) -> Vec<TokenStream> {
+        std::mem::take(&mut self.statements)
+    }
+
+    /// Asks for `name` when `node` is bound to a `let` (it is, if it is used twice).
+    pub fn prefer_name(&mut self, node: NodeId, name: &str) {
+        if !self.emitted[node.index()] && !self.graph.is_leaf(node) {
+            self.namer.prefer(node, name);
         }
+    }
+
+    /// The graph being lowered.
+    pub fn graph(&self) -> &'g Graph {
+        self.graph
     }
 
     /// Appends a statement of the caller's (a guard, a reciprocal).
@@ -139,11 +196,7 @@ impl<'g> Lowerer<'g> {
 
     /// Counts operations the caller's own statements perform.
     pub fn count_extra(&mut self, ops: OpCount) {
-        self.ops.add += ops.add;
-        self.ops.mul += ops.mul;
-        self.ops.div += ops.div;
-        self.ops.call += ops.call;
-        self.ops.compare += ops.compare;
+        self.ops = self.ops.plus(ops);
     }
 
     /// The statements emitted so far, the variables they read, and what they compute.

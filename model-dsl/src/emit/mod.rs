@@ -1,9 +1,13 @@
 //! Emitters: lower a checked model to Rust tokens. One emitter per generated item;
 //! [`emit_model`] assembles them into the model's module.
 
+pub mod code;
+pub mod ekf;
 pub mod lower;
+pub mod lqr;
 pub mod model_fns;
 pub mod names;
+pub mod status;
 
 use crate::emit::lower::literal;
 use crate::emit::model_fns::{emit_function, model_functions, nonzero_item, ops_item};
@@ -30,6 +34,31 @@ pub fn emit_model(model: &Model) -> TokenStream {
     }
     let nonzero_items = functions.iter().filter_map(|f| nonzero_item(f, &mg));
     let primary_consts = constants(model, primary);
+    let filters = |scalar: Scalar, ops_items: &mut Vec<TokenStream>| {
+        let mut tokens = TokenStream::new();
+        if model.generate.ekf {
+            let ekf = ekf::emit_ekf(model, &mg, scalar);
+            ops_items.push(named_ops_item(
+                "EKF_PREDICT_OPS",
+                "Ekf::predict",
+                ekf.predict_ops,
+            ));
+            ops_items.push(named_ops_item(
+                "EKF_UPDATE_OPS",
+                "Ekf::update",
+                ekf.update_ops,
+            ));
+            tokens.extend(ekf.tokens);
+        }
+        if let Some(spec) = &model.generate.lqr {
+            let lqr = lqr::emit_lqr(model, spec, &mg, scalar);
+            ops_items.push(named_ops_item("LQR_SOLVE_OPS", "Lqr::solve", lqr.solve_ops));
+            tokens.extend(lqr.tokens);
+        }
+        tokens
+    };
+    let primary_filters = filters(primary, &mut ops_items);
+    let status = model.generate.any().then(status::status_enum);
     let secondary = others.iter().map(|&scalar| {
         let module = ident(&format!("in_{}", scalar.type_name()));
         let doc = format!(
@@ -40,11 +69,18 @@ pub fn emit_model(model: &Model) -> TokenStream {
         let fns = functions
             .iter()
             .map(|f| emit_function(model, &mg, f, scalar).0);
+        let filters = filters(scalar, &mut Vec::new());
+        let status = model
+            .generate
+            .any()
+            .then(|| quote! { pub use super::Status; });
         quote! {
             #[doc = #doc]
             pub mod #module {
+                #status
                 #consts
                 #(#fns)*
+                #filters
             }
         }
     });
@@ -65,8 +101,27 @@ pub fn emit_model(model: &Model) -> TokenStream {
             #(#nonzero_items)*
             #primary_consts
             #(#primary_fns)*
+            #status
+            #primary_filters
             #(#secondary)*
         }
+    }
+}
+
+/// `pub const NAME: OpCount = ..;` documenting what `what` computes.
+fn named_ops_item(name: &str, what: &str, ops: lower::OpCount) -> TokenStream {
+    let name = ident(name);
+    let doc = format!(" What `{what}` computes per call.");
+    let lower::OpCount {
+        add,
+        mul,
+        div,
+        call,
+        compare,
+    } = ops;
+    quote! {
+        #[doc = #doc]
+        pub const #name: OpCount = OpCount { add: #add, mul: #mul, div: #div, call: #call, compare: #compare };
     }
 }
 

@@ -7,19 +7,21 @@
 //!                     | ('state' | 'param' | 'input') (doc* IDENT),+ ';'
 //!                     | 'output' (doc* IDENT '=' expr),+ ';'
 //!                     | 'dynamics' ('discrete' | 'continuous' ['(' method [',' 'dt' '=' expr] [',' 'substeps' '=' INT] ')'])
-//!                       '{' (('let' IDENT | IDENT | 'der' '(' IDENT ')') '=' expr ';')* '}' )
+//!                       '{' (('let' IDENT | IDENT | 'der' '(' IDENT ')') '=' expr ';')* '}'
+//!                     | 'generate' (IDENT ['(' (IDENT '=' (number | IDENT | '[' IDENT,* ']')),* ')']),+ ';' )
 //! ```
 //! Expressions are Rust expressions restricted to arithmetic, calls of the model
 //! functions (also as methods, `x.sin()`), and `if a > b { .. } else { .. }`.
 
 use crate::ast::{
-    BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, ModelDecl, Name, OutputDecl,
-    Statement, SurfaceExpr, SurfaceKind, SymbolDecl, SymbolKind,
+    ArgValue, BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg,
+    GenerateDecl, ModelDecl, Name, OutputDecl, Statement, SurfaceExpr, SurfaceKind, SymbolDecl,
+    SymbolKind,
 };
 use crate::diagnostics::Diagnostics;
 use proc_macro2::{Span, TokenStream};
 use quote::ToTokens;
-use syn::parse::{ParseStream, Parser};
+use syn::parse::{Parse, ParseStream, Parser};
 use syn::spanned::Spanned;
 use syn::{braced, parenthesized, Attribute, Expr, Ident, Token};
 
@@ -35,6 +37,7 @@ mod kw {
     syn::custom_keyword!(der);
     syn::custom_keyword!(dt);
     syn::custom_keyword!(substeps);
+    syn::custom_keyword!(generate);
 }
 
 /// Parses the body of a `model!` invocation. Syntax errors stop the parse; mistakes inside
@@ -63,6 +66,7 @@ fn parse_decl(input: ParseStream, diag: &mut Diagnostics) -> syn::Result<ModelDe
         symbols: Vec::new(),
         outputs: Vec::new(),
         dynamics: Vec::new(),
+        generate: Vec::new(),
     };
     while !content.is_empty() {
         parse_item(&content, &mut decl, diag)?;
@@ -148,10 +152,56 @@ fn parse_item(input: ParseStream, decl: &mut ModelDecl, diag: &mut Diagnostics) 
             kind,
             statements,
         });
+    } else if look.peek(kw::generate) {
+        input.parse::<kw::generate>()?;
+        let items = input.parse_terminated_until_semi(parse_generate_item)?;
+        decl.generate.extend(items);
     } else {
         return Err(look.error());
     }
     Ok(())
+}
+
+/// `ekf`, `dkf(eta = 0.5)`, `lqr(horizon = 50, states = [x1, x2], input = u)`
+fn parse_generate_item(input: ParseStream) -> syn::Result<GenerateDecl> {
+    let generator = name(&input.parse::<Ident>()?);
+    let mut args = Vec::new();
+    if input.peek(syn::token::Paren) {
+        let content;
+        parenthesized!(content in input);
+        while !content.is_empty() {
+            let arg_name = name(&content.parse::<Ident>()?);
+            content.parse::<Token![=]>()?;
+            let value = if content.peek(syn::token::Bracket) {
+                let list;
+                let bracket = syn::bracketed!(list in content);
+                let names = list.parse_terminated(Ident::parse, Token![,])?;
+                ArgValue::Names(names.iter().map(name).collect(), bracket.span.join())
+            } else if content.peek(Ident) {
+                ArgValue::Name(name(&content.parse::<Ident>()?))
+            } else {
+                let negative = content.parse::<Option<Token![-]>>()?.is_some();
+                let lit: syn::Lit = content.parse()?;
+                let value = match &lit {
+                    syn::Lit::Int(i) => i.base10_parse::<f64>()?,
+                    syn::Lit::Float(f) => f.base10_parse::<f64>()?,
+                    _ => return Err(syn::Error::new(lit.span(), "expected a number")),
+                };
+                ArgValue::Number(if negative { -value } else { value }, lit.span())
+            };
+            args.push(GenerateArg {
+                name: arg_name,
+                value,
+            });
+            if !content.is_empty() {
+                content.parse::<Token![,]>()?;
+            }
+        }
+    }
+    Ok(GenerateDecl {
+        name: generator,
+        args,
+    })
 }
 
 fn parse_dynamics_kind(input: ParseStream, diag: &mut Diagnostics) -> syn::Result<DynamicsKind> {

@@ -29,8 +29,9 @@
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
 
 use crate::ast::{
-    BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, ModelDecl, Name, OutputDecl,
-    Statement, SurfaceExpr, SurfaceKind, SymbolDecl, SymbolKind,
+    ArgValue, BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg,
+    GenerateDecl, ModelDecl, Name, OutputDecl, Statement, SurfaceExpr, SurfaceKind, SymbolDecl,
+    SymbolKind,
 };
 use crate::diagnostics::Diagnostics;
 use indexmap::IndexMap;
@@ -59,6 +60,8 @@ struct ModelFile {
     #[serde(default, rename = "output")]
     outputs: Vec<Entry>,
     dynamics: Option<Dynamics>,
+    /// `ekf = true`, `dkf = { eta = 0.5 }`, `lqr = { horizon = 50, states = ["x1"], input = "u" }`.
+    generate: Option<toml::Table>,
 }
 
 fn public() -> String {
@@ -228,6 +231,7 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
         symbols,
         outputs,
         dynamics,
+        generate: generate_items(file.generate.as_ref(), &mut diag),
     };
     Ok((decl, diag))
 }
@@ -348,4 +352,57 @@ pub fn comparison_of(function: &str) -> Option<Comparison> {
         "if_le" => Comparison::Le,
         _ => return None,
     })
+}
+
+/// The `[generate]` table as `generate` items.
+fn generate_items(table: Option<&toml::Table>, diag: &mut Diagnostics) -> Vec<GenerateDecl> {
+    let here = Span::call_site();
+    let name = |text: &str| Name {
+        text: text.to_owned(),
+        span: here,
+    };
+    let mut items = Vec::new();
+    for (generator, value) in table.into_iter().flatten() {
+        let args = match value {
+            toml::Value::Boolean(true) => Vec::new(),
+            toml::Value::Boolean(false) => continue,
+            toml::Value::Table(args) => args
+                .iter()
+                .filter_map(|(arg, v)| {
+                    let value = match v {
+                        toml::Value::Integer(i) => ArgValue::Number(*i as f64, here),
+                        toml::Value::Float(f) => ArgValue::Number(*f, here),
+                        toml::Value::String(s) => ArgValue::Name(name(s)),
+                        toml::Value::Array(list) => ArgValue::Names(
+                            list.iter().filter_map(|n| n.as_str().map(name)).collect(),
+                            here,
+                        ),
+                        _ => {
+                            diag.error(
+                                here,
+                                format!("generate.{generator}.{arg}: unsupported value"),
+                            );
+                            return None;
+                        }
+                    };
+                    Some(GenerateArg {
+                        name: name(arg),
+                        value,
+                    })
+                })
+                .collect(),
+            _ => {
+                diag.error(
+                    here,
+                    format!("generate.{generator}: write `true` or a table of arguments"),
+                );
+                continue;
+            }
+        };
+        items.push(GenerateDecl {
+            name: name(generator),
+            args,
+        });
+    }
+    items
 }

@@ -3,6 +3,7 @@
 
 pub mod diff;
 pub mod graph;
+pub mod linalg;
 pub mod model_graph;
 
 pub use diff::Differentiator;

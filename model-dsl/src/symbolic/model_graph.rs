@@ -6,6 +6,7 @@ use super::graph::{Graph, Node, NodeId, VarId};
 use crate::model::{Discretisation, Expr, Method, Model};
 
 /// A model as graph nodes.
+#[derive(Clone)]
 pub struct ModelGraph {
     /// The graph holding every node below.
     pub graph: Graph,

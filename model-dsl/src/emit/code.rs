@@ -1,0 +1,92 @@
+//! Small pieces of generated code that several emitters share.
+
+use super::lower::literal;
+use super::names::ident;
+use crate::model::Scalar;
+use crate::symbolic::{Graph, Node, NodeId, VarId};
+use proc_macro2::TokenStream;
+use quote::quote;
+use std::collections::BTreeSet;
+
+/// `let [a, _, c] = source;` naming the variables the code reads, or nothing if it reads
+/// none of them.
+pub fn destructure(
+    graph: &Graph,
+    source: TokenStream,
+    vars: &[NodeId],
+    used: &BTreeSet<VarId>,
+) -> Option<TokenStream> {
+    let is_used = |node: NodeId| matches!(graph.node(node), Node::Var(v) if used.contains(&v));
+    if !vars.iter().any(|&v| is_used(v)) {
+        return None;
+    }
+    let pattern = vars.iter().map(|&node| match graph.node(node) {
+        Node::Var(v) if used.contains(&v) => {
+            let name = ident(&graph.var_info(v).name);
+            quote! { #name }
+        }
+        _ => quote! { _ },
+    });
+    Some(quote! { let [#(#pattern),*] = #source; })
+}
+
+/// The identifiers of some variable nodes.
+pub fn var_idents(graph: &Graph, vars: &[NodeId]) -> Vec<proc_macro2::Ident> {
+    vars.iter()
+        .map(|&node| match graph.node(node) {
+            Node::Var(v) => ident(&graph.var_info(v).name),
+            other => unreachable!("not a variable: {other:?}"),
+        })
+        .collect()
+}
+
+/// `if !(a.is_finite() && b.is_finite()) { return Status::RejectedInput; }`, or nothing
+/// when there is nothing to check.
+pub fn reject_non_finite(names: &[proc_macro2::Ident]) -> TokenStream {
+    if names.is_empty() {
+        return TokenStream::new();
+    }
+    quote! {
+        if !(#(#names.is_finite())&&*) {
+            return Status::RejectedInput;
+        }
+    }
+}
+
+/// `if !(d > 0.0) { return Status::NonPositiveInnovation; } let inv = 1.0 / d;`: a guarded
+/// reciprocal. The negated comparison also catches NaN.
+pub fn guarded_reciprocal(
+    value: &TokenStream,
+    reciprocal: &proc_macro2::Ident,
+    failure: TokenStream,
+    scalar: Scalar,
+) -> TokenStream {
+    let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
+    quote! {
+        if !(#value > #zero) {
+            return #failure;
+        }
+        let #reciprocal = #one / #value;
+    }
+}
+
+/// Fresh variable names for a packed symmetric matrix: `p11 p12 .. pnn`, or `p_1_10` when
+/// an index has two digits, skipping names in `taken`.
+pub fn packed_names(prefix: &str, n: usize, taken: &dyn Fn(&str) -> bool) -> Vec<String> {
+    let wide = n >= 10;
+    let mut names = Vec::new();
+    for i in 1..=n {
+        for j in i..=n {
+            let mut name = if wide {
+                format!("{prefix}_{i}_{j}")
+            } else {
+                format!("{prefix}{i}{j}")
+            };
+            while taken(&name) {
+                name.push('_');
+            }
+            names.push(name);
+        }
+    }
+    names
+}

@@ -1,0 +1,25 @@
+//! The status every generated filter and controller step returns.
+
+use proc_macro2::TokenStream;
+use quote::quote;
+
+/// The `Status` type of a model's filters.
+pub fn status_enum() -> TokenStream {
+    quote! {
+        /// What a filter or controller step did. On anything but [`Status::Ok`] the filter
+        /// or controller is left exactly as it was.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub enum Status {
+            /// The step was applied.
+            Ok,
+            /// An input or measurement was NaN or infinite.
+            RejectedInput,
+            /// The innovation covariance was not positive definite; it is never divided by.
+            NonPositiveInnovation,
+            /// The step would have produced a non-finite estimate or covariance.
+            NonFinite,
+            /// The Riccati recursion met a non-positive `R + B' P B`; it is never divided by.
+            NonPositiveControlWeight,
+        }
+    }
+}

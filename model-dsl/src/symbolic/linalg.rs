@@ -1,0 +1,240 @@
+//! Matrix algebra on graph nodes. Products are built with the simplifying constructors, so
+//! a structural zero in an operand contributes no operation, and symmetric results are
+//! computed on the upper triangle only.
+
+// Index loops mirror the textbook formulas (L_ij, d_j) more plainly than iterators here.
+#![allow(clippy::needless_range_loop)]
+
+use super::graph::{Graph, NodeId};
+
+/// A dense matrix of nodes, row by row.
+pub type Matrix = Vec<Vec<NodeId>>;
+
+/// Position of entry `(i, j)` (either order) in the row-major packed upper triangle of an
+/// `n x n` symmetric matrix: rows `0..i` hold `i n - i (i - 1) / 2` entries before it.
+pub fn packed_index(n: usize, i: usize, j: usize) -> usize {
+    let (i, j) = if i <= j { (i, j) } else { (j, i) };
+    i * n - i * (i + 1) / 2 + j
+}
+
+/// Length of the packed upper triangle of an `n x n` symmetric matrix.
+pub fn packed_len(n: usize) -> usize {
+    n * (n + 1) / 2
+}
+
+/// The full symmetric matrix whose packed upper triangle is `packed`.
+pub fn symmetric_from_packed(packed: &[NodeId], n: usize) -> Matrix {
+    (0..n)
+        .map(|i| (0..n).map(|j| packed[packed_index(n, i, j)]).collect())
+        .collect()
+}
+
+/// The packed upper triangle of a (symmetric) matrix.
+pub fn packed_upper(m: &Matrix) -> Vec<NodeId> {
+    let n = m.len();
+    (0..n)
+        .flat_map(|i| (i..n).map(move |j| (i, j)))
+        .map(|(i, j)| m[i][j])
+        .collect()
+}
+
+/// `sum_k a_k b_k`
+pub fn dot(g: &mut Graph, a: &[NodeId], b: &[NodeId]) -> NodeId {
+    let mut sum = g.zero();
+    for (&x, &y) in a.iter().zip(b) {
+        let term = g.mul(x, y);
+        sum = g.add(sum, term);
+    }
+    sum
+}
+
+/// `a b`
+pub fn matmul(g: &mut Graph, a: &Matrix, b: &Matrix) -> Matrix {
+    let cols = b.first().map_or(0, Vec::len);
+    a.iter()
+        .map(|row| {
+            (0..cols)
+                .map(|j| {
+                    let column: Vec<NodeId> = b.iter().map(|r| r[j]).collect();
+                    dot(g, row, &column)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// `a'`
+pub fn transpose(a: &Matrix) -> Matrix {
+    let cols = a.first().map_or(0, Vec::len);
+    (0..cols)
+        .map(|j| a.iter().map(|row| row[j]).collect())
+        .collect()
+}
+
+/// `a + b`
+pub fn add(g: &mut Graph, a: &Matrix, b: &Matrix) -> Matrix {
+    a.iter()
+        .zip(b)
+        .map(|(ra, rb)| ra.iter().zip(rb).map(|(&x, &y)| g.add(x, y)).collect())
+        .collect()
+}
+
+/// `a - b`
+pub fn sub(g: &mut Graph, a: &Matrix, b: &Matrix) -> Matrix {
+    a.iter()
+        .zip(b)
+        .map(|(ra, rb)| ra.iter().zip(rb).map(|(&x, &y)| g.sub(x, y)).collect())
+        .collect()
+}
+
+/// `a m b'`, upper triangle only, for a result known to be symmetric (`a = b`, or the
+/// caller's algebra says so); the lower triangle mirrors it.
+pub fn sandwich_symmetric(g: &mut Graph, a: &Matrix, m: &Matrix, b: &Matrix) -> Matrix {
+    let am = matmul(g, a, m);
+    let n = a.len();
+    let mut out = vec![vec![g.zero(); n]; n];
+    for i in 0..n {
+        for j in i..n {
+            let v = dot(g, &am[i], &b[j]);
+            out[i][j] = v;
+            out[j][i] = v;
+        }
+    }
+    out
+}
+
+/// The identity of size `n`.
+pub fn identity(g: &mut Graph, n: usize) -> Matrix {
+    let (zero, one) = (g.zero(), g.one());
+    (0..n)
+        .map(|i| (0..n).map(|j| if i == j { one } else { zero }).collect())
+        .collect()
+}
+
+/// The inverse of a symmetric positive-definite matrix through `S = L D L'`.
+pub struct LdlInverse {
+    /// The pivots `d_j` in order. The caller checks `d_j > 0` before it binds
+    /// `reciprocals[j] = 1 / d_j`: later pivots and the inverse use the reciprocals only.
+    pub pivots: Vec<NodeId>,
+    /// Variables standing for `1 / d_j`.
+    pub reciprocals: Vec<NodeId>,
+    /// `S^-1`, in terms of the reciprocals.
+    pub inverse: Matrix,
+}
+
+/// Builds the unrolled `L D L'` inverse of the symmetric `s`; `reciprocal(j)` declares the
+/// variable that will hold `1 / d_j`.
+pub fn ldl_inverse(
+    g: &mut Graph,
+    s: &Matrix,
+    mut reciprocal: impl FnMut(&mut Graph, usize) -> NodeId,
+) -> LdlInverse {
+    let m = s.len();
+    let zero = g.zero();
+    let mut l = vec![vec![zero; m]; m];
+    let mut d = Vec::with_capacity(m);
+    let mut inv_d: Vec<NodeId> = Vec::with_capacity(m);
+    for j in 0..m {
+        // d_j = S_jj - sum_k L_jk^2 d_k
+        let mut dj = s[j][j];
+        for k in 0..j {
+            let ljk_dk = g.mul(l[j][k], d[k]);
+            let term = g.mul(ljk_dk, l[j][k]);
+            dj = g.sub(dj, term);
+        }
+        d.push(dj);
+        inv_d.push(reciprocal(g, j));
+        // L_ij = (S_ij - sum_k L_ik L_jk d_k) / d_j
+        for i in j + 1..m {
+            let mut v = s[i][j];
+            for k in 0..j {
+                let lik_ljk = g.mul(l[i][k], l[j][k]);
+                let term = g.mul(lik_ljk, d[k]);
+                v = g.sub(v, term);
+            }
+            l[i][j] = g.mul(v, inv_d[j]);
+        }
+    }
+    // X = L^-1 (unit lower triangular), then S^-1 = X' D^-1 X.
+    let one = g.one();
+    let mut x = vec![vec![zero; m]; m];
+    for i in 0..m {
+        x[i][i] = one;
+        for j in 0..i {
+            let mut v = zero;
+            for k in j..i {
+                let term = g.mul(l[i][k], x[k][j]);
+                v = g.add(v, term);
+            }
+            x[i][j] = g.neg(v);
+        }
+    }
+    let mut inverse = vec![vec![zero; m]; m];
+    for i in 0..m {
+        for j in i..m {
+            let mut v = zero;
+            for k in j..m {
+                let scaled = g.mul(x[k][i], inv_d[k]);
+                let term = g.mul(scaled, x[k][j]);
+                v = g.add(v, term);
+            }
+            inverse[i][j] = v;
+            inverse[j][i] = v;
+        }
+    }
+    LdlInverse {
+        pivots: d,
+        reciprocals: inv_d,
+        inverse,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn packed_positions_run_along_the_rows_of_the_upper_triangle() {
+        let order: Vec<usize> = (0..3)
+            .flat_map(|i| (i..3).map(move |j| packed_index(3, i, j)))
+            .collect();
+        assert_eq!(order, vec![0, 1, 2, 3, 4, 5]);
+        assert_eq!(packed_index(3, 2, 1), packed_index(3, 1, 2));
+        assert_eq!(packed_len(5), 15);
+    }
+
+    #[test]
+    fn ldl_inverse_inverts() {
+        let mut g = Graph::new();
+        let values = [[4.0, 1.0, 0.5], [1.0, 3.0, 0.2], [0.5, 0.2, 2.0]];
+        let s: Matrix = values
+            .iter()
+            .map(|row| row.iter().map(|&v| g.num(v)).collect())
+            .collect();
+        let mut names = Vec::new();
+        let ldl = ldl_inverse(&mut g, &s, |g, j| {
+            names.push(j);
+            g.var(&format!("inv_d{j}"))
+        });
+        // Evaluate pivots in order, feeding each reciprocal back in.
+        let mut reciprocal_values: Vec<f64> = Vec::new();
+        for &pivot in &ldl.pivots {
+            let known = reciprocal_values.clone();
+            let d = g.eval(pivot, &move |v| known[v.0 as usize]);
+            reciprocal_values.push(1.0 / d);
+        }
+        for i in 0..3 {
+            for j in 0..3 {
+                let known = reciprocal_values.clone();
+                let product: f64 = (0..3)
+                    .map(|k| {
+                        let known = known.clone();
+                        values[i][k] * g.eval(ldl.inverse[k][j], &move |v| known[v.0 as usize])
+                    })
+                    .sum();
+                let expected = if i == j { 1.0 } else { 0.0 };
+                assert!((product - expected).abs() < 1e-12, "({i},{j}): {product}");
+            }
+        }
+    }
+}
