@@ -4,6 +4,8 @@
 
 use std::path::PathBuf;
 
+pub mod reference;
+
 /// Names of the demo models, as their files in `generated-demo/models/` are named.
 pub const DEMO_MODELS: [&str; 5] = [
     "cantilever",

@@ -1,0 +1,17 @@
+//! Host-side harness of the cantilever experiment (seed 000, sect. 5): a simulated beam,
+//! the PRBS excitation, read-outs of physical parameters from estimates, metrics and the
+//! report (table, CSV, SVG). The filters and the LQR live elsewhere; this module only
+//! feeds them data and reports what they estimated.
+//!
+//! Units throughout: mm, mm/s, V, s (shared/reference/simulating-the-paper.md).
+
+pub mod excitation;
+pub mod metrics;
+pub mod noise;
+pub mod plant;
+pub mod readout;
+pub mod report;
+
+/// Sample time [s], taken from the generated cantilever model so the harness and the
+/// filters can never disagree on it ("the sampling period has been set to 15 ms", sect. 4.1).
+pub const TS: f64 = generated_demo::cantilever::in_f64::TS;
