@@ -53,20 +53,42 @@ pub fn reject_non_finite(names: &[proc_macro2::Ident]) -> TokenStream {
     }
 }
 
-/// `if !(d > 0.0) { return Status::NonPositiveInnovation; } let inv = 1.0 / d;`: a guarded
-/// reciprocal. The negated comparison also catches NaN.
+/// `if !(d > 0.0) { <on_failure> } let inv = 1.0 / d;`: a guarded reciprocal. The negated
+/// comparison also catches NaN. `on_failure` must return.
 pub fn guarded_reciprocal(
     value: &TokenStream,
     reciprocal: &proc_macro2::Ident,
-    failure: TokenStream,
+    on_failure: &TokenStream,
     scalar: Scalar,
 ) -> TokenStream {
     let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
     quote! {
         if !(#value > #zero) {
-            return #failure;
+            #on_failure
         }
         let #reciprocal = #one / #value;
+    }
+}
+
+/// Binds each pivot under its name, checks it is positive (running `on_failure` if not)
+/// and binds its reciprocal, counting the division and comparison.
+pub fn guard_pivots(
+    lowerer: &mut super::lower::Lowerer,
+    pivots: &[NodeId],
+    reciprocals: &[NodeId],
+    names: &[String],
+    on_failure: &TokenStream,
+    scalar: Scalar,
+) {
+    for ((&pivot, &reciprocal), name) in pivots.iter().zip(reciprocals).zip(names) {
+        let value = lowerer.bind(pivot, name);
+        let reciprocal = var_idents(lowerer.graph(), &[reciprocal]).remove(0);
+        lowerer.statement(guarded_reciprocal(&value, &reciprocal, on_failure, scalar));
+        lowerer.count_extra(super::lower::OpCount {
+            div: 1,
+            compare: 1,
+            ..Default::default()
+        });
     }
 }
 

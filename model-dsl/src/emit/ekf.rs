@@ -3,14 +3,12 @@
 //! measurement handled with one guarded reciprocal, several with an unrolled `L D L'` solve,
 //! and the Joseph-form covariance update.
 
-use super::code::{destructure, guarded_reciprocal, packed_names, reject_non_finite, var_idents};
+use super::code::{destructure, guard_pivots, packed_names, reject_non_finite, var_idents};
 use super::lower::{Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
-use crate::symbolic::linalg::{
-    add, identity, ldl_inverse, matmul, packed_len, packed_upper, sandwich_symmetric, sub,
-    symmetric_from_packed, transpose, Matrix,
-};
+use crate::symbolic::kalman;
+use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed, Matrix};
 use crate::symbolic::{Graph, ModelGraph, NodeId};
 use proc_macro2::TokenStream;
 use quote::quote;
@@ -202,8 +200,7 @@ fn predict(model: &Model, mg: &ModelGraph, scalar: Scalar) -> (TokenStream, OpCo
     let p = symmetric_from_packed(&p_vars, n);
     let q = symmetric_from_packed(&q_vars, n);
     let a = g.jacobian_f_wrt_x();
-    let apa = sandwich_symmetric(&mut g.graph, &a, &p, &a);
-    let p_pred = add(&mut g.graph, &apa, &q);
+    let p_pred = kalman::predict_covariance(&mut g.graph, &a, &p, &q);
     let x_pred = g.f.clone();
     let probe = finiteness_probe(&mut g.graph, &x_pred, &p_pred);
     let p_pred = packed_upper(&p_pred);
@@ -288,37 +285,26 @@ fn update(model: &Model, mg: &ModelGraph, scalar: Scalar) -> (TokenStream, OpCou
     let r = symmetric_from_packed(&r_vars, m);
     let c = g.jacobian_h_wrt_x();
     let graph = &mut g.graph;
-
-    // S = C P C' + R, through P C' which the gain reuses.
-    let pct = matmul(graph, &p, &transpose(&c));
-    let cpct = matmul(graph, &c, &pct);
-    let s = add(graph, &cpct, &r);
-    let (pivots, reciprocals, s_inv) = if m == 1 {
-        let inv = graph.var("inv_s");
-        (vec![s[0][0]], vec![inv], vec![vec![inv]])
-    } else {
-        let ldl = ldl_inverse(graph, &s, |g, j| g.var(&format!("inv_d{}", j + 1)));
-        (ldl.pivots, ldl.reciprocals, ldl.inverse)
-    };
-    let k = matmul(graph, &pct, &s_inv);
-    let innovation: Matrix = y_vars
+    let residual: Vec<NodeId> = y_vars
         .iter()
         .zip(&g.h)
-        .map(|(&y, &h)| vec![graph.sub(y, h)])
+        .map(|(&y, &h)| graph.sub(y, h))
         .collect();
-    let correction = matmul(graph, &k, &innovation);
-    let x_new: Vec<NodeId> =
-        g.x.iter()
-            .zip(&correction)
-            .map(|(&x, dx)| graph.add(x, dx[0]))
-            .collect();
-    // Joseph form, eq. of Alg. 1.
-    let eye = identity(graph, n);
-    let kc = matmul(graph, &k, &c);
-    let i_kc = sub(graph, &eye, &kc);
-    let joseph = sandwich_symmetric(graph, &i_kc, &p, &i_kc);
-    let krk = sandwich_symmetric(graph, &k, &r, &k);
-    let p_new_full = add(graph, &joseph, &krk);
+    let reciprocal_name = |j: usize| {
+        if m == 1 {
+            "inv_s".to_owned()
+        } else {
+            format!("inv_d{}", j + 1)
+        }
+    };
+    let kalman::Update {
+        x: x_new,
+        p: p_new_full,
+        pivots,
+        reciprocals,
+    } = kalman::update(graph, &g.x, &p, &residual, &c, &r, |g, j| {
+        g.var(&reciprocal_name(j))
+    });
     let probe = finiteness_probe(graph, &x_new, &p_new_full);
     let p_new = packed_upper(&p_new_full);
 
@@ -329,26 +315,23 @@ fn update(model: &Model, mg: &ModelGraph, scalar: Scalar) -> (TokenStream, OpCou
     let namer = TempNamer::new(avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
     name_results(&mut lowerer, model, &x_new, &p_vars, &p_new, "new");
-    for (j, (&pivot, &reciprocal)) in pivots.iter().zip(&reciprocals).enumerate() {
-        let name = if m == 1 {
-            "innovation_variance".to_owned()
-        } else {
-            format!("d{}", j + 1)
-        };
-        let value = lowerer.bind(pivot, &name);
-        let reciprocal = var_idents(&g.graph, &[reciprocal]).remove(0);
-        lowerer.statement(guarded_reciprocal(
-            &value,
-            &reciprocal,
-            quote! { Status::NonPositiveInnovation },
-            scalar,
-        ));
-        lowerer.count_extra(OpCount {
-            div: 1,
-            compare: 1,
-            ..OpCount::default()
-        });
-    }
+    let pivot_names: Vec<String> = (0..pivots.len())
+        .map(|j| {
+            if m == 1 {
+                "innovation_variance".to_owned()
+            } else {
+                format!("d{}", j + 1)
+            }
+        })
+        .collect();
+    guard_pivots(
+        &mut lowerer,
+        &pivots,
+        &reciprocals,
+        &pivot_names,
+        &quote! { return Status::NonPositiveInnovation; },
+        scalar,
+    );
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
     let Lowered {

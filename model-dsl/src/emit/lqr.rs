@@ -3,7 +3,7 @@
 //! at the current estimate; the backward Riccati recursion runs as a loop over the horizon
 //! whose body is generated straight-line code.
 
-use super::code::{destructure, guarded_reciprocal, reject_non_finite, var_idents};
+use super::code::{destructure, guard_pivots, reject_non_finite, var_idents};
 use super::ekf::{model_names, packed_vars, time_param};
 use super::lower::{literal, Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
@@ -100,26 +100,23 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     let before_loop = lowerer.ops();
     let mut body = Vec::new();
     let outside = lowerer.take_statements();
-    for (j, (&pivot, &reciprocal)) in pivots.iter().zip(&reciprocals).enumerate() {
-        let name = if nu == 1 {
-            "weight".to_owned()
-        } else {
-            format!("d{}", j + 1)
-        };
-        let value = lowerer.bind(pivot, &name);
-        let reciprocal = var_idents(lowerer.graph(), &[reciprocal]).remove(0);
-        lowerer.statement(guarded_reciprocal(
-            &value,
-            &reciprocal,
-            quote! { Status::NonPositiveControlWeight },
-            scalar,
-        ));
-        lowerer.count_extra(OpCount {
-            div: 1,
-            compare: 1,
-            ..OpCount::default()
-        });
-    }
+    let pivot_names: Vec<String> = (0..pivots.len())
+        .map(|j| {
+            if nu == 1 {
+                "weight".to_owned()
+            } else {
+                format!("d{}", j + 1)
+            }
+        })
+        .collect();
+    guard_pivots(
+        &mut lowerer,
+        &pivots,
+        &reciprocals,
+        &pivot_names,
+        &quote! { return Status::NonPositiveControlWeight; },
+        scalar,
+    );
     let values = lowerer.segment(&body_roots);
     body.extend(lowerer.take_statements());
     let per_step = lowerer.ops().minus(before_loop);

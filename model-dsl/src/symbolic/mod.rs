@@ -3,8 +3,10 @@
 
 pub mod diff;
 pub mod graph;
+pub mod kalman;
 pub mod linalg;
 pub mod model_graph;
+pub mod window;
 
 pub use diff::Differentiator;
 pub use graph::{Graph, Node, NodeId, VarId};
