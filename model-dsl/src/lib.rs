@@ -27,7 +27,7 @@ pub fn parse_model(tokens: TokenStream) -> syn::Result<model::Model> {
 /// The `model!` macro: the body of an invocation in, the generated module out.
 pub fn expand(tokens: TokenStream) -> syn::Result<TokenStream> {
     let model = parse_model(tokens)?;
-    Ok(emit::emit_model(&model))
+    emit::emit_model(&model)
 }
 
 /// Formats generated tokens as a Rust source file (for snapshots and the CLI).
@@ -45,7 +45,7 @@ pub fn parse_macro_source(source: &str) -> syn::Result<model::Model> {
 
 /// Expands Rust source holding one `model! { .. }` invocation (a demo model file).
 pub fn expand_macro_source(source: &str) -> syn::Result<TokenStream> {
-    Ok(emit::emit_model(&parse_macro_source(source)?))
+    emit::emit_model(&parse_macro_source(source)?)
 }
 
 /// Reads and checks a TOML model file into the model IR.
@@ -56,5 +56,5 @@ pub fn parse_model_file(source: &str) -> syn::Result<model::Model> {
 
 /// Expands a TOML model file: the same module the macro would generate.
 pub fn expand_model_file(source: &str) -> syn::Result<TokenStream> {
-    Ok(emit::emit_model(&parse_model_file(source)?))
+    emit::emit_model(&parse_model_file(source)?)
 }

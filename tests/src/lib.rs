@@ -4,6 +4,7 @@
 
 use std::path::PathBuf;
 
+pub mod cantilever_sim;
 pub mod reference;
 
 /// Names of the demo models, as their files in `generated-demo/models/` are named.

@@ -340,10 +340,14 @@ impl WindowTransform {
 
     /// Reads the state from the window and builds `F`, `G` of eq. (12) for the step from
     /// the window's last sample `k` to `k+1`, with `u_now = u[k]` and split weight `eta`.
-    /// Records `(phi3, phi4, phi5)` as the last valid parameters unless the window is
-    /// filling or degenerate.
-    pub fn transform(&mut self, u_now: f64, eta: f64) -> LtvModel {
-        let (phi, delta, excitation, status) = self.read_state();
+    /// While the window fills, `phi` is `around` (the AKF's own estimate). Records
+    /// `(phi3, phi4, phi5)` as the last valid parameters unless the window is filling or
+    /// degenerate.
+    pub fn transform(&mut self, u_now: f64, eta: f64, around: &State) -> LtvModel {
+        let (mut phi, delta, excitation, status) = self.read_state();
+        if status == WindowStatus::Filling {
+            phi = [around[0], around[1], around[2], around[3], around[4]];
+        }
         match status {
             WindowStatus::Solved | WindowStatus::InputFree => {
                 self.last_params = [phi[2], phi[3], phi[4]];
@@ -511,7 +515,7 @@ impl Dkf {
             };
         }
         // (a) transform of the step k-1 -> k.   // eq. (12)
-        let model = self.window.transform(u_prev, self.eta);
+        let model = self.window.transform(u_prev, self.eta, &self.xbar);
         let window = Some(model.status);
 
         // (b) AKF.   // eq. (14), Alg. 2 lines 1-6
@@ -562,24 +566,25 @@ pub fn lqr_model(x_est: &[f64; NX]) -> (Matrix2<f64>, Vector2<f64>) {
 }
 
 /// Finite-horizon LQR gain of Alg. 3 for the model of eq. (19) at `x_est`:
-/// `P = Q`; `n` times { `K = (R + B'PB)^-1 B'PA`; `P = A'PA - A'PB K + Q` }; returns the
-/// last `K` (computed from `P` after `n - 1` Riccati steps).
+/// `P = Q`; `n` times { `P = A'PA - A'PB (R + B'PB)^-1 B'PA + Q` }; then
+/// `K = (R + B'PB)^-1 B'PA` from the final `P`, as Alg. 3 lists it.
 ///
 /// `None` if `n == 0` or if `R + B'PB` is not a positive finite number at some step.
 pub fn lqr_gain(x_est: &[f64; NX], n: usize, q: SMatrix<f64, 2, 2>, r: f64) -> Option<Gain> {
-    let (a, b) = lqr_model(x_est);
-    let mut p = q;
-    let mut gain = None;
-    for _ in 0..n {
-        let s = r + (b.transpose() * p * b)[(0, 0)];
-        if !(s.is_finite() && s > 0.0) {
-            return None;
-        }
-        let k: RowVector2<f64> = b.transpose() * p * a / s;
-        p = a.transpose() * p * a - a.transpose() * p * b * k + q;
-        gain = Some(k);
+    if n == 0 {
+        return None;
     }
-    gain
+    let (a, b) = lqr_model(x_est);
+    let gain_of = |p: &SMatrix<f64, 2, 2>| -> Option<RowVector2<f64>> {
+        let s = r + (b.transpose() * p * b)[(0, 0)];
+        (s.is_finite() && s > 0.0).then(|| b.transpose() * p * a / s)
+    };
+    let mut p = q;
+    for _ in 0..n {
+        let k = gain_of(&p)?;
+        p = a.transpose() * p * a - a.transpose() * p * b * k + q; // eq. (19)
+    }
+    gain_of(&p)
 }
 
 /// Control `u = -K [x1, x2]'` saturated to `[-u_max, u_max]` (`u_max >= 0`). A `NaN`

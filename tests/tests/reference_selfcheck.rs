@@ -85,11 +85,14 @@ fn window_transform_is_exact_on_noise_free_data() {
             let u_prev = if k == 0 { 0.0 } else { u[k - 1] };
             w.push(u_prev, h(&xs[k]));
             if !w.is_full() {
-                assert_eq!(w.transform(u[k], eta).status, WindowStatus::Filling);
+                assert_eq!(
+                    w.transform(u[k], eta, &State::zeros()).status,
+                    WindowStatus::Filling
+                );
                 continue;
             }
             full += 1;
-            let m = w.transform(u[k], eta);
+            let m = w.transform(u[k], eta, &State::zeros());
             assert_eq!(m.status, WindowStatus::Solved, "k = {k}");
             assert!(m.excitation > 0.0 && m.excitation <= 1.0);
             assert_all_close(&m.phi, xs[k].as_slice(), &format!("eta {eta}, k {k}: phi"));
@@ -123,7 +126,7 @@ fn input_free_window_freezes_x5_and_solves_for_x3_x4() {
             continue;
         }
         let before = w.last_params();
-        let m = w.transform(u[k], 0.5);
+        let m = w.transform(u[k], 0.5, &State::zeros());
         if k >= 14 {
             seen += 1;
             assert_eq!(m.status, WindowStatus::InputFree, "k = {k}");
@@ -146,7 +149,7 @@ fn degenerate_window_keeps_last_valid_parameters_without_nan() {
     for _ in 0..WINDOW_OUTPUTS {
         w.push(0.0, 0.0);
     }
-    let m = w.transform(0.0, 0.5);
+    let m = w.transform(0.0, 0.5, &State::zeros());
     assert_eq!(m.status, WindowStatus::Degenerate);
     assert_eq!(m.excitation, 0.0);
     assert_eq!([m.phi[2], m.phi[3], m.phi[4]], [-400.0, -1.0, 0.01]);
@@ -156,7 +159,7 @@ fn degenerate_window_keeps_last_valid_parameters_without_nan() {
     for _ in 0..WINDOW_OUTPUTS {
         w.push(3.0, 0.2);
     }
-    let m = w.transform(3.0, 0.5);
+    let m = w.transform(3.0, 0.5, &State::zeros());
     assert_eq!(m.status, WindowStatus::Degenerate);
     assert!(m.excitation < DEFAULT_EXCITATION_THRESHOLD);
     assert_eq!(w.last_params(), [-400.0, -1.0, 0.01]);
@@ -290,10 +293,13 @@ fn lqr_gain_stabilises_the_true_model() {
         .map(|z| z.norm())
         .fold(0.0, f64::max);
     assert!(radius < open, "closed {radius} vs open {open}");
-    // One horizon step is the one-step gain computed from P = Q.
+    // A horizon of one: one Riccati step from P = Q, then the gain from that P (Alg. 3).
     let k1 = lqr_gain(&x_est, 1, Matrix2::identity(), 0.001).unwrap();
-    let s = 0.001 + (b.transpose() * b)[(0, 0)];
-    let expected: SMatrix<f64, 1, 2> = b.transpose() * a / s;
+    let q = Matrix2::<f64>::identity();
+    let k0: SMatrix<f64, 1, 2> = b.transpose() * q * a / (0.001 + (b.transpose() * q * b)[(0, 0)]);
+    let p1 = a.transpose() * q * a - a.transpose() * q * b * k0 + q;
+    let s = 0.001 + (b.transpose() * p1 * b)[(0, 0)];
+    let expected: SMatrix<f64, 1, 2> = b.transpose() * p1 * a / s;
     assert!((k1 - expected).norm() < 1e-12 * expected.norm());
     assert!(lqr_gain(&x_est, 0, Matrix2::identity(), 0.001).is_none());
     assert!(lqr_gain(&x_est, 5, Matrix2::zeros(), 0.0).is_none());

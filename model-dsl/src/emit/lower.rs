@@ -74,6 +74,8 @@ enum Prec {
 /// division, say). Each [`Lowerer::segment`] emits what its roots need and was not emitted
 /// before; use counts are taken over all of the function's roots up front, so a node that
 /// a later segment also needs is bound to a `let` in the segment that first computes it.
+/// Cloning a lowerer forks it: code for alternative branches continues from one point.
+#[derive(Clone)]
 pub struct Lowerer<'g> {
     graph: &'g Graph,
     scalar: Scalar,

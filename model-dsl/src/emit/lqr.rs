@@ -98,8 +98,10 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
         lowerer.force_let(node);
     }
     let before_loop = lowerer.ops();
-    let mut body = Vec::new();
     let outside = lowerer.take_statements();
+    // The gain after the loop comes from a fork taken here, so it does not rely on
+    // temporaries scoped inside the loop body.
+    let mut after = lowerer.clone();
     let pivot_names: Vec<String> = (0..pivots.len())
         .map(|j| {
             if nu == 1 {
@@ -109,24 +111,41 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
             }
         })
         .collect();
+    let failure = quote! { return Status::NonPositiveControlWeight; };
+    // Loop body: P <- A'PA - A'PB K + Q (eq. 19), N times from P = Q.
     guard_pivots(
         &mut lowerer,
         &pivots,
         &reciprocals,
         &pivot_names,
-        &quote! { return Status::NonPositiveControlWeight; },
+        &failure,
         scalar,
     );
-    let values = lowerer.segment(&body_roots);
-    body.extend(lowerer.take_statements());
+    let p_values = lowerer.segment(&p_next);
+    let body = lowerer.take_statements();
     let per_step = lowerer.ops().minus(before_loop);
+    let Lowered { used_vars, .. } = lowerer.finish();
+    // After the loop: F = (R + B'PB)^-1 B'PA from the final P (Alg. 3).
+    guard_pivots(
+        &mut after,
+        &pivots,
+        &reciprocals,
+        &pivot_names,
+        &failure,
+        scalar,
+    );
+    let k_values = after.segment(&k_flat);
+    let gain_statements = after.take_statements();
+    let gain_ops = after.ops().minus(before_loop);
     let Lowered {
-        used_vars, ops: _, ..
-    } = lowerer.finish();
-    let solve_ops = before_loop.plus(per_step.times(spec.horizon));
+        used_vars: used_after,
+        ..
+    } = after.finish();
+    let used_vars: std::collections::BTreeSet<_> = used_vars.union(&used_after).copied().collect();
+    let solve_ops = before_loop
+        .plus(per_step.times(spec.horizon))
+        .plus(gain_ops);
 
-    let (k_values, rest) = values.split_at(k_flat.len());
-    let p_values = &rest[..p_next.len()];
     let graph = &g.graph;
     let ty = ident(scalar.type_name());
     let unpack_x = destructure(graph, quote! { *x }, &g.x, &used_vars);
@@ -277,7 +296,8 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
                 self.gain
             }
 
-            /// Recomputes the gain for the estimate `x` (and the operating input `u`).
+            /// Recomputes the gain for the estimate `x` (and the operating input `u`):
+            /// `HORIZON` Riccati steps from `P = Q`, then `K` from the final `P` (Alg. 3).
             /// Leaves the gain unchanged unless it returns [`Status::Ok`].
             pub fn solve(&mut self, #time #x_name: &[#ty; #n], #u_param) -> Status {
                 #unpack_x
@@ -287,13 +307,14 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
                 #unpack_r
                 #(#outside)*
                 let mut p = self.q;
-                let mut gain = self.gain;
                 for _ in 0..Self::HORIZON {
                     #unpack_p
                     #(#body)*
-                    gain = [#(#k_rows),*];
                     p = [#(#p_values),*];
                 }
+                #unpack_p
+                #(#gain_statements)*
+                let gain = [#(#k_rows),*];
                 let [#(#gain_pattern),*] = gain;
                 if !(#(#gain_rows_flat)+*).is_finite() {
                     return Status::NonFinite;

@@ -2,6 +2,7 @@
 //! [`emit_model`] assembles them into the model's module.
 
 pub mod code;
+pub mod dkf;
 pub mod ekf;
 pub mod lower;
 pub mod lqr;
@@ -17,13 +18,21 @@ use crate::symbolic::ModelGraph;
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
-/// The whole generated module of `model`.
-pub fn emit_model(model: &Model) -> TokenStream {
+/// The whole generated module of `model`, or an error pointing at the generator the model
+/// does not support (the window transform's class, say).
+pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
     let mut mg = ModelGraph::build(model);
     let functions = model_functions(model, &mut mg);
     let Some((&primary, others)) = model.scalars.split_first() else {
-        return TokenStream::new();
+        return Ok(TokenStream::new());
     };
+    if let Some(spec) = &model.generate.dkf {
+        // Derive once up front so a model outside the class is one clear error.
+        let mut probe = mg.clone();
+        if let Err(reason) = crate::symbolic::window::derive(model, &mut probe, spec.eta) {
+            return Err(syn::Error::new(spec.span, format!("`dkf`: {reason}")));
+        }
+    }
 
     let mut ops_items = Vec::new();
     let mut primary_fns = Vec::new();
@@ -49,6 +58,21 @@ pub fn emit_model(model: &Model) -> TokenStream {
                 ekf.update_ops,
             ));
             tokens.extend(ekf.tokens);
+        }
+        if let Some(spec) = &model.generate.dkf {
+            if let Ok(dkf) = dkf::emit_dkf(model, spec, &mg, scalar) {
+                ops_items.push(named_ops_item(
+                    "DKF_TRANSFORM_OPS",
+                    "Dkf::transform",
+                    dkf.transform_ops,
+                ));
+                ops_items.push(named_ops_item(
+                    "DKF_FILTERS_OPS",
+                    "Dkf::step",
+                    dkf.filters_ops,
+                ));
+                tokens.extend(dkf.tokens);
+            }
         }
         if let Some(spec) = &model.generate.lqr {
             let lqr = lqr::emit_lqr(model, spec, &mg, scalar);
@@ -91,7 +115,7 @@ pub fn emit_model(model: &Model) -> TokenStream {
     let dims = dimensions(model);
     let op_count = op_count_struct();
     let index = index_module(model);
-    quote! {
+    Ok(quote! {
         #(#[doc = #docs])*
         #vis mod #name {
             #op_count
@@ -105,7 +129,7 @@ pub fn emit_model(model: &Model) -> TokenStream {
             #primary_filters
             #(#secondary)*
         }
-    }
+    })
 }
 
 /// `pub const NAME: OpCount = ..;` documenting what `what` computes.

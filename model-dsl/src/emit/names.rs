@@ -30,6 +30,7 @@ pub fn index_const(symbol: &str) -> Ident {
 /// Chooses names for the `let` temporaries of one generated function: the model's own
 /// name for a `let` intermediate, else a name built from the operands (`ts_x2` for
 /// `TS * x2`), else `tmp1`, `tmp2`, ... Names never repeat or shadow a model symbol.
+#[derive(Clone)]
 pub struct TempNamer {
     taken: HashSet<String>,
     assigned: HashMap<NodeId, String>,

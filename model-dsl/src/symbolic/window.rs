@@ -298,13 +298,12 @@ pub fn derive(model: &Model, mg: &mut ModelGraph, eta: f64) -> Result<WindowTran
     let mut rhs = Vec::with_capacity(np);
     for e in &equations {
         let row = &rows[e.state];
-        let at = window.point(mg, e.delay);
         let coefficients: Vec<NodeId> = row
             .coefficients
             .iter()
-            .map(|&c| substitute(&mut mg.graph, c, &at))
+            .map(|&c| window.at(mg, c, e.delay))
             .collect();
-        let rest = substitute(&mut mg.graph, row.rest, &at);
+        let rest = window.at(mg, row.rest, e.delay);
         let next = window.state(mg, row.state, e.delay - 1);
         rhs.push(mg.graph.sub(next, rest));
         matrix.push(coefficients);
@@ -429,22 +428,41 @@ fn split(
             r = graph.add(r, term);
         }
         // F[c][s] = dr/ds (phi, u), G[c][j] = dr/du_j (phi, u), d = r(phi) - F phi - G u.
+        // For a row affine in states and inputs, d is r's constant part, exactly.
+        let mut affine_row = true;
+        let mut first: Vec<NodeId> = Vec::new();
+        for &v in state_vars.iter().chain(&input_vars) {
+            let mut dv = Differentiator::new(v);
+            let deriv = dv.diff(graph, r);
+            for &w in state_vars.iter().chain(&input_vars) {
+                let mut dw = Differentiator::new(w);
+                let second = dw.diff(graph, deriv);
+                affine_row &= graph.is_zero(second);
+            }
+            first.push(deriv);
+        }
+        let (state_derivs, input_derivs) = first.split_at(state_vars.len());
         let mut affine = substitute(graph, r, &at_phi);
-        for (s, &sv) in state_vars.iter().enumerate() {
-            let mut ds = Differentiator::new(sv);
-            let deriv = ds.diff(graph, r);
+        for (s, &deriv) in state_derivs.iter().enumerate() {
             let entry = substitute(graph, deriv, &at_phi);
             f[c][s] = entry;
             let term = graph.mul(entry, phi[s]);
             affine = graph.sub(affine, term);
         }
-        for (j, &uv) in input_vars.iter().enumerate() {
-            let mut du = Differentiator::new(uv);
-            let deriv = du.diff(graph, r);
+        for (j, &deriv) in input_derivs.iter().enumerate() {
             let entry = substitute(graph, deriv, &at_phi);
             g[c][j] = entry;
             let term = graph.mul(entry, mg.u[j]);
             affine = graph.sub(affine, term);
+        }
+        if affine_row {
+            let origin: Vec<(VarId, NodeId)> = state_vars
+                .iter()
+                .chain(&input_vars)
+                .map(|&v| (v, zero))
+                .collect();
+            let constant = substitute(graph, r, &origin);
+            affine = substitute(graph, constant, &at_phi);
         }
         d[c] = affine;
     }
@@ -464,6 +482,8 @@ struct Window {
     estimates: HashMap<(usize, usize), NodeId>,
     phi_params: Vec<NodeId>,
     n: usize,
+    /// The physical states' names, for the temporaries holding their window values.
+    names: Vec<String>,
 }
 
 impl Window {
@@ -502,6 +522,7 @@ impl Window {
             estimates: HashMap::new(),
             phi_params: Vec::new(),
             n: model.states.len(),
+            names: model.states.iter().map(|s| s.name.clone()).collect(),
         }
     }
 
@@ -514,19 +535,24 @@ impl Window {
         }
     }
 
-    /// Substitutions putting states (from the window) and inputs at sample `k - delay`.
-    fn point(&mut self, mg: &mut ModelGraph, delay: usize) -> Vec<(VarId, NodeId)> {
-        let mut at = Vec::new();
+    /// `node` with the states it reads (from the window) and the inputs put at sample
+    /// `k - delay`. Only states `node` reads are looked up, so a derived state's own
+    /// definition never asks for itself.
+    fn at(&mut self, mg: &mut ModelGraph, node: NodeId, delay: usize) -> NodeId {
+        let mut reads = BTreeSet::new();
+        free_vars(&mg.graph, node, &mut reads);
+        let mut map = Vec::new();
         for s in 0..self.n {
-            if self.lag[s] <= delay {
+            let var = mg.var_id(mg.x[s]);
+            if reads.contains(&var) {
                 let v = self.state(mg, s, delay);
-                at.push((mg.var_id(mg.x[s]), v));
+                map.push((var, v));
             }
         }
         for j in 0..mg.u.len() {
-            at.push((mg.var_id(mg.u[j]), self.input(mg, j, delay)));
+            map.push((mg.var_id(mg.u[j]), self.input(mg, j, delay)));
         }
-        at
+        substitute(&mut mg.graph, node, &map)
     }
 
     /// State `s` at sample `k - delay` from the window alone (`delay >= lag[s]`).
@@ -538,10 +564,12 @@ impl Window {
             Some((Known::Measured { output }, _)) => self.outputs[output][delay],
             Some((Known::Difference { from, coef, rest }, _)) => {
                 let next = self.state(mg, from, delay - 1);
-                let at = self.point(mg, delay);
-                let rest = substitute(&mut mg.graph, rest, &at);
+                let rest = self.at(mg, rest, delay);
                 let difference = mg.graph.sub(next, rest);
-                mg.graph.div(difference, coef)
+                let value = mg.graph.div(difference, coef);
+                mg.graph
+                    .set_name_hint(value, &window_name(&self.names[s], delay));
+                value
             }
             None => unreachable!("every state is known before values are asked for"),
         };

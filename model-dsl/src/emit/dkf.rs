@@ -1,0 +1,919 @@
+//! The double Kalman filter (Alg. 2): the window transform derived from the model
+//! ([`crate::symbolic::window`]), a linear Kalman filter on the transformed model (AKF),
+//! and a Kalman filter linearised about the AKF's estimate (LKF).
+
+use super::code::{destructure, guard_pivots, var_idents};
+use super::ekf::{finiteness_probe, model_names, packed_vars};
+use super::lower::{literal, Lowered, Lowerer, OpCount};
+use super::names::{ident, TempNamer};
+use crate::model::{DkfSpec, Model, Scalar};
+use crate::symbolic::kalman;
+use crate::symbolic::linalg::{
+    add, matmul, packed_index, packed_len, packed_upper, symmetric_from_packed, Matrix,
+};
+use crate::symbolic::window::{self, column_norms_product, cramer, substitute, WindowTransform};
+use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
+use proc_macro2::{Ident, Literal, TokenStream};
+use quote::quote;
+
+/// Generated DKF code and its cost.
+pub struct DkfCode {
+    /// `WindowStatus`, `DkfStatus`, the window constants and the `Dkf` type.
+    pub tokens: TokenStream,
+    /// Arithmetic of the window transform (the full solve, the costliest branch).
+    pub transform_ops: OpCount,
+    /// Arithmetic of the two filters' step, after the transform.
+    pub filters_ops: OpCount,
+}
+
+/// The DKF of `model` in `scalar`, or why the model is outside the transform's class.
+pub fn emit_dkf(
+    model: &Model,
+    spec: &DkfSpec,
+    mg: &ModelGraph,
+    scalar: Scalar,
+) -> Result<DkfCode, String> {
+    let mut g = mg.clone();
+    let wt = window::derive(model, &mut g, spec.eta)?;
+    let (transform, transform_ops) = transform_fn(model, &g, &wt, scalar);
+    let (step, filters_ops) = step_fn(model, &mut g, &wt, scalar);
+    let push = push_fn(model, &g, &wt, scalar);
+    let ltv = ltv_fn(model, &g, &wt, scalar);
+    let sqrt = ident(match scalar {
+        Scalar::F32 => "sqrtf",
+        Scalar::F64 => "sqrt",
+    });
+
+    let ty = ident(scalar.type_name());
+    let lit = Literal::usize_unsuffixed;
+    let (n, m, np) = (model.state_len(), model.outputs.len(), model.params.len());
+    let window_outputs = wt.output_delays + 1;
+    let window_inputs = wt.input_delays;
+    let [n_len, m_len, p_len, u_len] = [n, m, np, model.inputs.len()].map(lit);
+    let (nn, mm) = (lit(packed_len(n)), lit(packed_len(m)));
+    let outputs_len = lit(m * window_outputs);
+    let inputs_len = lit(model.inputs.len() * window_inputs);
+    let window_outputs_lit = lit(window_outputs);
+    let window_inputs_lit = lit(window_inputs);
+    let zero = literal(0.0, scalar);
+    let default_excitation = literal(
+        match scalar {
+            Scalar::F32 => 1e-6,
+            Scalar::F64 => 1e-9,
+        },
+        scalar,
+    );
+    let pack = |name: &str, size: usize| pack_upper(name, size);
+    let (pack_p0, pack_pbar0, pack_q, pack_qbar, pack_r) = (
+        pack("p0", n),
+        pack("pbar0", n),
+        pack("q", n),
+        pack("qbar", n),
+        pack("r", m),
+    );
+    let params_of_x0 = {
+        let names: Vec<Ident> = model.state_names().map(ident).collect();
+        let params = &names[model.states.len()..];
+        quote! {{
+            let [#(#names),*] = x0;
+            [#(#params),*]
+        }}
+    };
+    let unpack = |field: &str| {
+        let field = ident(field);
+        let names: Vec<Ident> = (0..packed_len(n))
+            .map(|k| ident(&format!("c{k}")))
+            .collect();
+        let rows = (0..n).map(|i| {
+            let entries = (0..n).map(|j| names[packed_index(n, i, j)].clone());
+            quote! { [#(#entries),*] }
+        });
+        quote! {
+            let [#(#names),*] = self.#field;
+            [#(#rows),*]
+        }
+    };
+    let (unpack_p, unpack_pbar) = (unpack("p"), unpack("pbar"));
+    let derivation: Vec<String> = wt.description.iter().map(|l| format!(" - {l}")).collect();
+    let has_u = !model.inputs.is_empty();
+    let u_param = has_u.then(|| quote! { u_prev: &[#ty; #u_len], });
+    let u_param_plain = has_u.then(|| quote! { u: &[#ty; #u_len] });
+    let u_arg_plain = has_u.then(|| quote! { u });
+    let step_doc = format!(
+        " One sample (Alg. 2): builds `F`, `G`, `d` from the window ending at the previous \
+         sample and the input `u[k-1]`, runs the AKF on them, runs the LKF linearised about \
+         the AKF's previous estimate with the same input, and corrects both with `y[k]`; \
+         then pushes `y[k]` and `u[k-1]` into the window. Cost: [`DKF_TRANSFORM_OPS`] plus \
+         [`DKF_FILTERS_OPS`]{}.",
+        if model.scalars.first() == Some(&scalar) {
+            ""
+        } else {
+            " (parent module)"
+        }
+    );
+    let tokens = quote! {
+        /// Double Kalman filter (Alg. 2) of this model.
+        ///
+        /// Stage one, the window transform derived from the model:
+        #(#[doc = #derivation])*
+        ///
+        /// Stage two: a linear Kalman filter (AKF) on `x[k+1] = F x[k] + G u[k] + d`, with
+        /// its own covariance and process noise, then a Kalman filter (LKF) on `f`
+        /// linearised about the AKF's estimate. Until the window is full the transform is
+        /// taken about the AKF's own estimate. A window whose excitation is below the
+        /// threshold keeps the last solved parameters (Case 1); an input that is zero over
+        /// the window freezes the parameters it multiplies (Case 2).
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Dkf {
+            outputs: [#ty; #outputs_len],
+            inputs: [#ty; #inputs_len],
+            filled: [bool; #window_outputs_lit],
+            phi_params: [#ty; #p_len],
+            excitation_sq: #ty,
+            min_excitation: #ty,
+            xbar: [#ty; #n_len],
+            pbar: [#ty; #nn],
+            qbar: [#ty; #nn],
+            x: [#ty; #n_len],
+            p: [#ty; #nn],
+            q: [#ty; #nn],
+            r: [#ty; #mm],
+        }
+
+        impl Dkf {
+            /// Default threshold of the window's excitation measure (Case 1).
+            pub const DEFAULT_MIN_EXCITATION: #ty = #default_excitation;
+
+            /// A filter starting from `x0` for both stages, with the LKF's covariance `p0`
+            /// and process noise `q`, the AKF's `pbar0` and `qbar`, and the measurement
+            /// noise `r`. Symmetric matrices: only upper triangles are read.
+            #[must_use]
+            pub fn new(
+                x0: [#ty; #n_len],
+                p0: &[[#ty; #n_len]; #n_len],
+                q: &[[#ty; #n_len]; #n_len],
+                pbar0: &[[#ty; #n_len]; #n_len],
+                qbar: &[[#ty; #n_len]; #n_len],
+                r: &[[#ty; #m_len]; #m_len],
+            ) -> Dkf {
+                Dkf {
+                    outputs: [#zero; #outputs_len],
+                    inputs: [#zero; #inputs_len],
+                    filled: [false; #window_outputs_lit],
+                    phi_params: #params_of_x0,
+                    excitation_sq: #zero,
+                    min_excitation: Self::DEFAULT_MIN_EXCITATION,
+                    xbar: x0,
+                    pbar: #pack_pbar0,
+                    qbar: #pack_qbar,
+                    x: x0,
+                    p: #pack_p0,
+                    q: #pack_q,
+                    r: #pack_r,
+                }
+            }
+
+            /// The same filter with another excitation threshold (Case 1): windows whose
+            /// excitation measure is not above it keep the last solved parameters.
+            #[must_use]
+            pub fn with_min_excitation(mut self, min_excitation: #ty) -> Dkf {
+                self.min_excitation = min_excitation;
+                self
+            }
+
+            /// The DKF's estimate (the LKF's): physical states, then parameters.
+            #[must_use]
+            pub fn state(&self) -> [#ty; #n_len] {
+                self.x
+            }
+
+            /// The AKF's estimate.
+            #[must_use]
+            pub fn akf_state(&self) -> [#ty; #n_len] {
+                self.xbar
+            }
+
+            /// The LKF's covariance.
+            #[must_use]
+            pub fn covariance(&self) -> [[#ty; #n_len]; #n_len] {
+                #unpack_p
+            }
+
+            /// The AKF's covariance.
+            #[must_use]
+            pub fn akf_covariance(&self) -> [[#ty; #n_len]; #n_len] {
+                #unpack_pbar
+            }
+
+            /// The parameters the last well-excited window gave (or those of `x0`).
+            #[must_use]
+            pub fn window_parameters(&self) -> [#ty; #p_len] {
+                self.phi_params
+            }
+
+            /// The last window's excitation measure, `|det| / prod |column|` of its
+            /// parameter system, in `0..=1` (0 while the window fills). An application can
+            /// pause adaptation while it is low.
+            #[must_use]
+            pub fn excitation(&self) -> #ty {
+                libm::#sqrt(self.excitation_sq)
+            }
+
+            /// What the window holds now says of the state: `phi` (states, then
+            /// parameters) reconstructed from the window that ends at the latest
+            /// measurement, with `u` the input applied from then on, and the window's status.
+            #[must_use]
+            pub fn window_estimate(&self, #u_param_plain) -> ([#ty; #n_len], WindowStatus) {
+                let (phi, window, _) = self.transform(#u_arg_plain);
+                (phi, window)
+            }
+
+            #[doc = #step_doc]
+            pub fn step(&mut self, #u_param y: &[#ty; #m_len]) -> DkfStatus {
+                #step
+            }
+
+            #transform
+
+            #push
+        }
+
+        /// How the window transform went in a DKF step.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub enum WindowStatus {
+            /// The step was rejected before the window was read.
+            Skipped,
+            /// Too few samples yet: the transform was taken about the AKF's own estimate.
+            Filling,
+            /// The window determined every parameter.
+            Solved,
+            /// An input was zero over the window: the parameters it multiplies kept their
+            /// last values and the others were solved from the reduced system (Case 2).
+            InputFree,
+            /// The window's excitation was below the threshold: the last solved parameters
+            /// were kept (Case 1).
+            Degenerate,
+        }
+
+        /// Outcome of [`Dkf::step`].
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub struct DkfStatus {
+            /// What the window transform did.
+            pub window: WindowStatus,
+            /// What the filters did; on anything but [`Status::Ok`] their estimates and
+            /// covariances are unchanged.
+            pub filter: Status,
+        }
+
+        #ltv
+
+        /// Outputs the DKF's window holds, the latest included.
+        pub const WINDOW_OUTPUTS: usize = #window_outputs_lit;
+        /// Past inputs the DKF's window holds.
+        pub const WINDOW_INPUTS: usize = #window_inputs_lit;
+    };
+    Ok(DkfCode {
+        tokens,
+        transform_ops,
+        filters_ops,
+    })
+}
+
+/// `{ let [[a, b], [_, c]] = *name; [a, b, c] }`: the packed upper triangle of an argument.
+pub fn pack_upper(name: &str, size: usize) -> TokenStream {
+    let arg = ident(name);
+    let names: Vec<Vec<Ident>> = (0..size)
+        .map(|i| {
+            (0..size)
+                .map(|j| ident(&format!("{name}_{i}_{j}")))
+                .collect()
+        })
+        .collect();
+    let pattern = names.iter().enumerate().map(|(i, row)| {
+        let entries = row.iter().enumerate().map(|(j, e)| {
+            if j >= i {
+                quote! { #e }
+            } else {
+                quote! { _ }
+            }
+        });
+        quote! { [#(#entries),*] }
+    });
+    let packed = (0..size).flat_map(|i| (i..size).map(move |j| (i, j)));
+    let packed: Vec<Ident> = packed.map(|(i, j)| names[i][j].clone()).collect();
+    quote! {{
+        let [#(#pattern),*] = *#arg;
+        [#(#packed),*]
+    }}
+}
+
+/// The window variables as `let` patterns over the stored history.
+fn window_unpack(
+    graph: &Graph,
+    wt: &WindowTransform,
+    used: &std::collections::BTreeSet<VarId>,
+) -> TokenStream {
+    let outputs: Vec<NodeId> = wt.outputs.iter().flatten().copied().collect();
+    let inputs: Vec<NodeId> = wt.inputs.iter().flatten().copied().collect();
+    let y = destructure(graph, quote! { self.outputs }, &outputs, used);
+    let u = destructure(graph, quote! { self.inputs }, &inputs, used);
+    quote! { #y #u }
+}
+
+/// `fn transform(&self, u) -> (phi, WindowStatus, excitation_sq)`: eqs. (8)-(12).
+fn transform_fn(
+    model: &Model,
+    mg: &ModelGraph,
+    wt: &WindowTransform,
+    scalar: Scalar,
+) -> (TokenStream, OpCount) {
+    let mut g = mg.clone();
+    let np = model.params.len();
+    let graph = &mut g.graph;
+    let (det, numerators) = cramer(graph, &wt.matrix, &wt.rhs);
+    let norms = column_norms_product(graph, &wt.matrix);
+    let det_sq = graph.mul(det, det);
+
+    // Case 2 variants: frozen subsets of the input-only parameters, largest first.
+    let input_only: Vec<usize> = (0..np).filter(|&p| wt.input_only[p].is_some()).collect();
+    let mut subsets: Vec<Vec<usize>> = (1..(1u32 << input_only.len()))
+        .map(|mask| {
+            input_only
+                .iter()
+                .enumerate()
+                .filter(|(bit, _)| mask & (1 << bit) != 0)
+                .map(|(_, &p)| p)
+                .collect()
+        })
+        .collect();
+    subsets.sort_by_key(|s: &Vec<usize>| std::cmp::Reverse(s.len()));
+    struct Reduced {
+        frozen: Vec<usize>,
+        free: Vec<usize>,
+        det: NodeId,
+        det_sq: NodeId,
+        norms: NodeId,
+        numerators: Vec<NodeId>,
+    }
+    let reduced: Vec<Reduced> = subsets
+        .into_iter()
+        .map(|frozen| {
+            let free: Vec<usize> = (0..np).filter(|p| !frozen.contains(p)).collect();
+            let matrix: Matrix = wt.matrix[..free.len()]
+                .iter()
+                .map(|row| free.iter().map(|&p| row[p]).collect())
+                .collect();
+            let (det, numerators) = cramer(graph, &matrix, &wt.rhs[..free.len()]);
+            let norms = column_norms_product(graph, &matrix);
+            let det_sq = graph.mul(det, det);
+            Reduced {
+                frozen,
+                free,
+                det,
+                det_sq,
+                norms,
+                numerators,
+            }
+        })
+        .collect();
+
+    let inv_det = graph.var("inv_det");
+    let solution: Vec<NodeId> = numerators
+        .iter()
+        .map(|&num| graph.mul(num, inv_det))
+        .collect();
+    let reduced_solutions: Vec<Vec<NodeId>> = reduced
+        .iter()
+        .map(|r| {
+            r.numerators
+                .iter()
+                .map(|&num| graph.mul(num, inv_det))
+                .collect()
+        })
+        .collect();
+
+    let mut all_roots = vec![det, det_sq, norms];
+    all_roots.extend(&solution);
+    for (r, sol) in reduced.iter().zip(&reduced_solutions) {
+        all_roots.extend([r.det, r.det_sq, r.norms]);
+        all_roots.extend(sol);
+    }
+    all_roots.extend(&wt.phi_states);
+    let avoid = model_names(model);
+    let namer = TempNamer::new(avoid.iter().map(String::as_str));
+    let mut base = Lowerer::new(&g.graph, scalar, namer, &all_roots);
+    let det_e = base.bind(det, "det");
+    let det_sq_e = base.bind(det_sq, "det_sq");
+    let norms_e = base.bind(norms, "column_norms");
+    let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
+    base.count_extra(OpCount {
+        div: 1,
+        compare: 2,
+        mul: 1,
+        ..OpCount::default()
+    });
+    let head = base.take_statements();
+    let at_fork = base.ops();
+
+    let phi_param_idents = var_idents(&g.graph, &wt.phi_params);
+    let last: Vec<Ident> = model
+        .params
+        .iter()
+        .map(|p| ident(&format!("last_{}", p.name)))
+        .collect();
+
+    // Full solve, in a fork of the lowering so its temporaries stay in its branch.
+    let mut full = base.clone();
+    let full_values = full.segment(&solution);
+    let full_body = full.take_statements();
+    let full_ops = full.ops();
+
+    let mut case2_branches = Vec::new();
+    for (r, sol) in reduced.iter().zip(&reduced_solutions) {
+        let mut fork = base.clone();
+        let conditions: Vec<Ident> = r
+            .frozen
+            .iter()
+            .flat_map(|&p| wt.input_only[p].clone().unwrap_or_default())
+            .map(|node| var_idents(&g.graph, &[node]).remove(0))
+            .collect();
+        let det_r = fork.bind(r.det, "reduced_det");
+        let det_sq_r = fork.bind(r.det_sq, "reduced_det_sq");
+        let norms_r = fork.bind(r.norms, "reduced_column_norms");
+        let guard = fork.take_statements();
+        let values = fork.segment(sol);
+        let body = fork.take_statements();
+        let mut entries: Vec<TokenStream> = last.iter().map(|l| quote! { #l }).collect();
+        for (&p, v) in r.free.iter().zip(values) {
+            entries[p] = v;
+        }
+        case2_branches.push(quote! {
+            else if #(#conditions == #zero)&&* {
+                #(#guard)*
+                if #det_sq_r > threshold * #norms_r {
+                    let inv_det = #one / #det_r;
+                    #(#body)*
+                    ([#(#entries),*], WindowStatus::InputFree)
+                } else {
+                    (self.phi_params, WindowStatus::Degenerate)
+                }
+            }
+        });
+    }
+
+    let phi_values = base.segment(&wt.phi_states);
+    let tail = base.take_statements();
+    let Lowered { used_vars, ops, .. } = base.finish();
+    let mut used = used_vars;
+    // The branches read window variables too; unpack every window variable they use.
+    for node in wt
+        .outputs
+        .iter()
+        .flatten()
+        .chain(wt.inputs.iter().flatten())
+    {
+        if let crate::symbolic::Node::Var(v) = g.graph.node(*node) {
+            used.insert(v);
+        }
+    }
+    let unpack_window = window_unpack(&g.graph, wt, &used);
+    let unpack_u = destructure(&g.graph, quote! { *u }, &g.u, &used);
+    let ty = ident(scalar.type_name());
+    let u_param = (!g.u.is_empty()).then(|| {
+        let len = Literal::usize_unsuffixed(g.u.len());
+        let name = if unpack_u.is_some() {
+            ident("u")
+        } else {
+            ident("_u")
+        };
+        quote! { #name: &[#ty; #len] }
+    });
+    let n = Literal::usize_unsuffixed(model.state_len());
+    let phi_states = phi_values;
+    let tokens = quote! {
+        /// The window transform: the reconstructed `phi` (states, then parameters), the
+        /// window's status and its squared excitation measure (eqs. 8-12).
+        fn transform(&self, #u_param) -> ([#ty; #n], WindowStatus, #ty) {
+            let [.., full] = self.filled;
+            if !full {
+                return (self.xbar, WindowStatus::Filling, #zero);
+            }
+            #unpack_u
+            #unpack_window
+            #(#head)*
+            let excitation_sq = if #norms_e > #zero { #det_sq_e / #norms_e } else { #zero };
+            let threshold = self.min_excitation * self.min_excitation;
+            let [#(#last),*] = self.phi_params;
+            let ([#(#phi_param_idents),*], window) = if #det_sq_e > threshold * #norms_e {
+                let inv_det = #one / #det_e;
+                #(#full_body)*
+                ([#(#full_values),*], WindowStatus::Solved)
+            }
+            #(#case2_branches)*
+            else {
+                ([#(#last),*], WindowStatus::Degenerate)
+            };
+            #(#tail)*
+            ([#(#phi_states,)* #(#phi_param_idents),*], window, excitation_sq)
+        }
+    };
+    // The costliest path: the common code plus the full solve's branch.
+    (tokens, ops.plus(full_ops.minus(at_fork)))
+}
+
+/// The filters' step after the transform (Alg. 2).
+fn step_fn(
+    model: &Model,
+    mg: &mut ModelGraph,
+    wt: &WindowTransform,
+    scalar: Scalar,
+) -> (TokenStream, OpCount) {
+    let g = mg;
+    let n = model.state_len();
+    let m = model.outputs.len();
+    let mut avoid = model_names(model);
+    avoid.extend(["phi", "window", "excitation_sq"].map(String::from));
+    let graph = &mut g.graph;
+    let xbar: Vec<NodeId> = model
+        .state_names()
+        .map(|s| graph.var(&format!("{s}_bar")))
+        .collect();
+    let y_vars: Vec<NodeId> = model
+        .outputs
+        .iter()
+        .map(|o| graph.var(&format!("{}_measured", o.name)))
+        .collect();
+    let pbar_vars = packed_vars(graph, "pbar", n, &avoid);
+    let qbar_vars = packed_vars(graph, "qbar", n, &avoid);
+    let p_vars = packed_vars(graph, "p", n, &avoid);
+    let q_vars = packed_vars(graph, "q", n, &avoid);
+    let r_vars = packed_vars(graph, "r", m, &avoid);
+    let (pbar, qbar) = (
+        symmetric_from_packed(&pbar_vars, n),
+        symmetric_from_packed(&qbar_vars, n),
+    );
+    let (p, q) = (
+        symmetric_from_packed(&p_vars, n),
+        symmetric_from_packed(&q_vars, n),
+    );
+    let r = symmetric_from_packed(&r_vars, m);
+    let x_vars: Vec<VarId> = g.x.iter().map(|&x| g.var_id(x)).collect();
+    let c = g.jacobian_h_wrt_x();
+    let a = g.jacobian_f_wrt_x();
+    let graph = &mut g.graph;
+
+    // AKF: x = F x + G u + d; P = F P F' + Qbar; update with y.
+    let xbar_col: Matrix = xbar.iter().map(|&v| vec![v]).collect();
+    let u_col: Matrix = g.u.iter().map(|&v| vec![v]).collect();
+    let fx = matmul(graph, &wt.f, &xbar_col);
+    let gu = matmul(graph, &wt.g, &u_col);
+    let xbar_pred: Vec<NodeId> = (0..n)
+        .map(|i| {
+            let mut sum = graph.add(fx[i][0], wt.d[i]);
+            if let Some(row) = gu.get(i).filter(|row| !row.is_empty()) {
+                sum = graph.add(sum, row[0]);
+            }
+            sum
+        })
+        .collect();
+    let pbar_pred = kalman::predict_covariance(graph, &wt.f, &pbar, &qbar);
+    let at = |graph: &mut Graph, node: NodeId, point: &[NodeId]| {
+        let map: Vec<(VarId, NodeId)> = x_vars.iter().copied().zip(point.iter().copied()).collect();
+        substitute(graph, node, &map)
+    };
+    let residual_bar: Vec<NodeId> = y_vars
+        .iter()
+        .zip(&g.h)
+        .map(|(&y, &h)| {
+            let h = at(graph, h, &xbar_pred);
+            graph.sub(y, h)
+        })
+        .collect();
+    let c_bar: Matrix = c
+        .iter()
+        .map(|row| row.iter().map(|&e| at(graph, e, &xbar_pred)).collect())
+        .collect();
+    let name_bar = |j: usize| {
+        if m == 1 {
+            "inv_s_bar".to_owned()
+        } else {
+            format!("inv_d{}_bar", j + 1)
+        }
+    };
+    let akf = kalman::update(
+        graph,
+        &xbar_pred,
+        &pbar_pred,
+        &residual_bar,
+        &c_bar,
+        &r,
+        |g, j| g.var(&name_bar(j)),
+    );
+
+    // LKF: linearise f about the AKF's previous estimate with the actual input.
+    let f_at_bar: Vec<NodeId> = g.f.iter().map(|&f| at(graph, f, &xbar)).collect();
+    let a_bar: Matrix = a
+        .iter()
+        .map(|row| row.iter().map(|&e| at(graph, e, &xbar)).collect())
+        .collect();
+    let deviation: Matrix =
+        g.x.iter()
+            .zip(&xbar)
+            .map(|(&x, &xb)| vec![graph.sub(x, xb)])
+            .collect();
+    let a_dev = matmul(graph, &a_bar, &deviation);
+    let x_pred: Vec<NodeId> = (0..n)
+        .map(|i| graph.add(f_at_bar[i], a_dev[i][0]))
+        .collect();
+    let p_pred = kalman::predict_covariance(graph, &a_bar, &p, &q);
+    let residual: Vec<NodeId> = y_vars
+        .iter()
+        .zip(&g.h)
+        .map(|(&y, &h)| {
+            let h = at(graph, h, &x_pred);
+            graph.sub(y, h)
+        })
+        .collect();
+    let c_pred: Matrix = c
+        .iter()
+        .map(|row| row.iter().map(|&e| at(graph, e, &x_pred)).collect())
+        .collect();
+    let name = |j: usize| {
+        if m == 1 {
+            "inv_s".to_owned()
+        } else {
+            format!("inv_d{}", j + 1)
+        }
+    };
+    let lkf = kalman::update(graph, &x_pred, &p_pred, &residual, &c_pred, &r, |g, j| {
+        g.var(&name(j))
+    });
+
+    let mut probe_vector = akf.x.clone();
+    probe_vector.extend(&lkf.x);
+    let both = add(graph, &akf.p, &lkf.p);
+    let probe = finiteness_probe(graph, &probe_vector, &both);
+    let pbar_new = packed_upper(&akf.p);
+    let p_new = packed_upper(&lkf.p);
+    let results: Vec<NodeId> = akf
+        .x
+        .iter()
+        .chain(&pbar_new)
+        .chain(&lkf.x)
+        .chain(&p_new)
+        .copied()
+        .collect();
+    let mut all_roots = results.clone();
+    all_roots.push(probe);
+    all_roots.extend(&akf.pivots);
+    all_roots.extend(&lkf.pivots);
+
+    let namer = TempNamer::new(avoid.iter().map(String::as_str));
+    let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
+    for (&node, s) in akf.x.iter().zip(model.state_names()) {
+        lowerer.prefer_name(node, &format!("{s}_bar_new"));
+    }
+    for (&node, s) in lkf.x.iter().zip(model.state_names()) {
+        lowerer.prefer_name(node, &format!("{s}_new"));
+    }
+    let u_arg = (!g.u.is_empty()).then(|| quote! { u_prev, });
+    let failure = quote! {
+        self.push(#u_arg y);
+        return DkfStatus { window, filter: Status::NonPositiveInnovation };
+    };
+    let pivot_names = |suffix: &str| -> Vec<String> {
+        (0..m)
+            .map(|j| {
+                if m == 1 {
+                    format!("innovation_variance{suffix}")
+                } else {
+                    format!("d{}{suffix}", j + 1)
+                }
+            })
+            .collect()
+    };
+    guard_pivots(
+        &mut lowerer,
+        &akf.pivots,
+        &akf.reciprocals,
+        &pivot_names("_bar"),
+        &failure,
+        scalar,
+    );
+    guard_pivots(
+        &mut lowerer,
+        &lkf.pivots,
+        &lkf.reciprocals,
+        &pivot_names(""),
+        &failure,
+        scalar,
+    );
+    let probe = lowerer.segment(&[probe]).remove(0);
+    let values = lowerer.segment(&results);
+    let Lowered {
+        statements,
+        used_vars,
+        ops,
+    } = lowerer.finish();
+    let graph = &g.graph;
+    let np_len = packed_len(n);
+    let (xbar_values, rest) = values.split_at(n);
+    let (pbar_values, rest) = rest.split_at(np_len);
+    let (x_values, p_values) = rest.split_at(n);
+
+    let u_idents = var_idents(graph, &g.u);
+    let y_idents = var_idents(graph, &y_vars);
+    let checked: Vec<Ident> = u_idents.iter().chain(&y_idents).cloned().collect();
+    let finite = quote! { #(#checked.is_finite())&&* };
+    let unpack_u = (!g.u.is_empty()).then(|| quote! { let [#(#u_idents),*] = *u_prev; });
+    let phi_pattern = destructure(graph, quote! { phi }, &wt.phi, &used_vars);
+    let unpack_xbar = destructure(graph, quote! { self.xbar }, &xbar, &used_vars);
+    let unpack_pbar = destructure(graph, quote! { self.pbar }, &pbar_vars, &used_vars);
+    let unpack_qbar = destructure(graph, quote! { self.qbar }, &qbar_vars, &used_vars);
+    let unpack_x = destructure(graph, quote! { self.x }, &g.x, &used_vars);
+    let unpack_p = destructure(graph, quote! { self.p }, &p_vars, &used_vars);
+    let unpack_q = destructure(graph, quote! { self.q }, &q_vars, &used_vars);
+    let unpack_r = destructure(graph, quote! { self.r }, &r_vars, &used_vars);
+    let phi_params: Vec<Ident> = var_idents(graph, &wt.phi[model.states.len()..]);
+    let keep_params = if !phi_params.is_empty() {
+        quote! {
+            if let WindowStatus::Solved | WindowStatus::InputFree = window {
+                let [.., #(#phi_params),*] = phi;
+                self.phi_params = [#(#phi_params),*];
+            }
+        }
+    } else {
+        TokenStream::new()
+    };
+    let tokens = quote! {
+        #unpack_u
+        let [#(#y_idents),*] = *y;
+        if !(#finite) {
+            // A missing sample breaks the window's sequence: refill it.
+            self.filled = [false; WINDOW_OUTPUTS];
+            return DkfStatus { window: WindowStatus::Skipped, filter: Status::RejectedInput };
+        }
+        let (phi, window, excitation_sq) = self.transform(#u_arg);
+        // The window's findings stand whatever the filters do with this sample.
+        self.excitation_sq = excitation_sq;
+        #keep_params
+        #phi_pattern
+        #unpack_xbar
+        #unpack_pbar
+        #unpack_qbar
+        #unpack_x
+        #unpack_p
+        #unpack_q
+        #unpack_r
+        #(#statements)*
+        if !(#probe).is_finite() {
+            self.push(#u_arg y);
+            return DkfStatus { window, filter: Status::NonFinite };
+        }
+        self.xbar = [#(#xbar_values),*];
+        self.pbar = [#(#pbar_values),*];
+        self.x = [#(#x_values),*];
+        self.p = [#(#p_values),*];
+        self.push(#u_arg y);
+        DkfStatus { window, filter: Status::Ok }
+    };
+    (tokens, ops)
+}
+
+/// `fn push(&mut self, u, y)`: shifts the latest output and input into the window.
+fn push_fn(model: &Model, g: &ModelGraph, wt: &WindowTransform, scalar: Scalar) -> TokenStream {
+    let shift = |vars: &[Vec<NodeId>], new: &[Ident]| {
+        let mut keep_pattern = Vec::new();
+        let mut rebuilt = Vec::new();
+        for (row, new) in vars.iter().zip(new) {
+            let names = var_idents(&g.graph, row);
+            rebuilt.push(quote! { #new });
+            for (d, name) in names.iter().enumerate() {
+                if d + 1 < names.len() {
+                    keep_pattern.push(quote! { #name });
+                    rebuilt.push(quote! { #name });
+                } else {
+                    keep_pattern.push(quote! { _ });
+                }
+            }
+        }
+        (keep_pattern, rebuilt)
+    };
+    let y_new: Vec<Ident> = model
+        .outputs
+        .iter()
+        .map(|o| ident(&format!("{}_new", o.name)))
+        .collect();
+    let u_new: Vec<Ident> = model
+        .inputs
+        .iter()
+        .map(|i| ident(&format!("{}_new", i.name)))
+        .collect();
+    let (y_keep, y_rebuilt) = shift(&wt.outputs, &y_new);
+    let (u_keep, u_rebuilt) = shift(&wt.inputs, &u_new);
+    let filled: Vec<Ident> = (0..=wt.output_delays)
+        .map(|d| ident(&format!("f{d}")))
+        .collect();
+    let filled_keep: Vec<TokenStream> = filled
+        .iter()
+        .enumerate()
+        .map(|(d, f)| {
+            if d < wt.output_delays {
+                quote! { #f }
+            } else {
+                quote! { _ }
+            }
+        })
+        .collect();
+    let filled_new = &filled[..wt.output_delays];
+    let ty = ident(scalar.type_name());
+    let (u_len, y_len) = (
+        Literal::usize_unsuffixed(model.inputs.len()),
+        Literal::usize_unsuffixed(model.outputs.len()),
+    );
+    let has_inputs = !model.inputs.is_empty() && wt.input_delays > 0;
+    let u_param = (!model.inputs.is_empty()).then(|| {
+        let name = if has_inputs { ident("u") } else { ident("_u") };
+        quote! { #name: &[#ty; #u_len], }
+    });
+    let inputs = has_inputs.then(|| {
+        quote! {
+            let [#(#u_new),*] = *u;
+            let [#(#u_keep),*] = self.inputs;
+            self.inputs = [#(#u_rebuilt),*];
+        }
+    });
+    quote! {
+        /// Shifts `y[k]` and `u[k-1]` into the window, dropping the oldest.
+        fn push(&mut self, #u_param y: &[#ty; #y_len]) {
+            let [#(#y_new),*] = *y;
+            let [#(#y_keep),*] = self.outputs;
+            self.outputs = [#(#y_rebuilt),*];
+            #inputs
+            let [#(#filled_keep),*] = self.filled;
+            self.filled = [true, #(#filled_new),*];
+        }
+    }
+}
+
+/// `pub fn ltv_model(phi, u) -> (F, G, d)`: eq. (12) at a reconstructed point.
+fn ltv_fn(model: &Model, mg: &ModelGraph, wt: &WindowTransform, scalar: Scalar) -> TokenStream {
+    let n = model.state_len();
+    let nu = model.inputs.len();
+    let roots: Vec<NodeId> =
+        wt.f.iter()
+            .flatten()
+            .chain(wt.g.iter().flatten())
+            .chain(&wt.d)
+            .copied()
+            .collect();
+    let avoid = model_names(model);
+    let namer = TempNamer::new(avoid.iter().map(String::as_str));
+    let mut lowerer = Lowerer::new(&mg.graph, scalar, namer, &roots);
+    let values = lowerer.segment(&roots);
+    let Lowered {
+        statements,
+        used_vars,
+        ..
+    } = lowerer.finish();
+    let (f_values, rest) = values.split_at(n * n);
+    let (g_values, d_values) = rest.split_at(n * nu);
+    let f_rows = f_values.chunks(n).map(|row| quote! { [#(#row),*] });
+    let g_rows: Vec<TokenStream> = if nu == 0 {
+        (0..n).map(|_| quote! { [] }).collect()
+    } else {
+        g_values
+            .chunks(nu)
+            .map(|row| quote! { [#(#row),*] })
+            .collect()
+    };
+    let ty = ident(scalar.type_name());
+    let (n_len, u_len) = (Literal::usize_unsuffixed(n), Literal::usize_unsuffixed(nu));
+    let phi_name = if wt.phi.iter().any(|&v| reads(&mg.graph, v, &used_vars)) {
+        ident("phi")
+    } else {
+        ident("_phi")
+    };
+    let u_name = if mg.u.iter().any(|&v| reads(&mg.graph, v, &used_vars)) {
+        ident("u")
+    } else {
+        ident("_u")
+    };
+    let unpack_phi = destructure(&mg.graph, quote! { *#phi_name }, &wt.phi, &used_vars);
+    let unpack_u = destructure(&mg.graph, quote! { *#u_name }, &mg.u, &used_vars);
+    quote! {
+        /// The window transform's model at the reconstructed point `phi` with input `u`
+        /// (eq. 12): `(F, G, d)` with `x[k+1] = F x[k] + G u[k] + d`, exact at `x = phi`.
+        #[must_use]
+        pub fn ltv_model(#phi_name: &[#ty; #n_len], #u_name: &[#ty; #u_len]) -> ([[#ty; #n_len]; #n_len], [[#ty; #u_len]; #n_len], [#ty; #n_len]) {
+            #unpack_phi
+            #unpack_u
+            #(#statements)*
+            ([#(#f_rows),*], [#(#g_rows),*], [#(#d_values),*])
+        }
+    }
+}
+
+fn reads(graph: &Graph, node: NodeId, used: &std::collections::BTreeSet<VarId>) -> bool {
+    matches!(graph.node(node), crate::symbolic::Node::Var(v) if used.contains(&v))
+}
