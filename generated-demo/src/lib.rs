@@ -1,4 +1,5 @@
-//! The systems of the five papers in `shared/seeds`, declared once with `model!`.
+//! The systems of the five papers in `shared/seeds`, declared once with `model!`, and two
+//! variants of the cantilever that exercise the window transform on other structures.
 //! The library is `no_std` and builds for `thumbv7em-none-eabihf` as well as the host.
 //! Each model's source lives in `models/`, where the snapshot and Jacobian tests read it.
 
@@ -10,3 +11,5 @@ include!("../models/mass_spring_damper.rs");
 include!("../models/polynomial.rs");
 include!("../models/piecewise_beam.rs");
 include!("../models/helicopter.rs");
+include!("../models/beam_two_actuators.rs");
+include!("../models/duffing_beam.rs");

@@ -8,12 +8,14 @@ pub mod cantilever_sim;
 pub mod reference;
 
 /// Names of the demo models, as their files in `generated-demo/models/` are named.
-pub const DEMO_MODELS: [&str; 5] = [
+pub const DEMO_MODELS: [&str; 7] = [
     "cantilever",
     "mass_spring_damper",
     "polynomial",
     "piecewise_beam",
     "helicopter",
+    "beam_two_actuators",
+    "duffing_beam",
 ];
 
 /// Path of a file of the workspace, given relative to its root.

@@ -258,9 +258,8 @@ impl Graph {
         if let (Some(x), Some(y)) = (self.constant_value(a), self.constant_value(b)) {
             return self.num(x + y);
         }
-        if a == b {
-            let two = self.num(2.0);
-            return self.mul(two, a);
+        if let Some(collected) = self.collect_like_terms(a, b, 1.0) {
+            return collected;
         }
         if let Node::Neg(nb) = self.node(b) {
             return self.sub(a, nb);
@@ -291,8 +290,8 @@ impl Graph {
         if self.is_zero(a) {
             return self.neg(b);
         }
-        if a == b {
-            return self.zero();
+        if let Some(collected) = self.collect_like_terms(a, b, -1.0) {
+            return collected;
         }
         if let Node::Neg(nb) = self.node(b) {
             return self.add(a, nb);
@@ -351,6 +350,21 @@ impl Graph {
             let positive = self.num(-v);
             let p = self.mul(a, positive);
             return self.neg(p);
+        }
+        // Literal factors move outward, c (x) * y = c (x y), so like terms meet as c * t.
+        if self.literal(a).is_none() && self.literal(b).is_none() {
+            if let Node::Mul(c, rest) = self.node(a) {
+                if self.literal(c).is_some() {
+                    let inner = self.mul(rest, b);
+                    return self.mul(c, inner);
+                }
+            }
+            if let Node::Mul(c, rest) = self.node(b) {
+                if self.literal(c).is_some() {
+                    let inner = self.mul(a, rest);
+                    return self.mul(c, inner);
+                }
+            }
         }
         // Fold chains of constant factors: c1 * (c2 * x) = (c1 c2) * x.
         if let Some(c1) = self.constant_value(a) {
@@ -462,6 +476,33 @@ impl Graph {
             then,
             otherwise,
         })
+    }
+
+    /// `c1 t + sign c2 t = (c1 + sign c2) t` when both sides are literal multiples of one
+    /// term `t` (a bare `t` counts as `1 t`).
+    fn collect_like_terms(&mut self, a: NodeId, b: NodeId, sign: f64) -> Option<NodeId> {
+        let (ca, ta) = self.literal_multiple(a);
+        let (cb, tb) = self.literal_multiple(b);
+        if ta != tb || self.literal(ta).is_some() {
+            return None;
+        }
+        let c = self.num(ca + sign * cb);
+        Some(self.mul(c, ta))
+    }
+
+    /// `(c, t)` with the node equal to the literal `c` times `t`.
+    fn literal_multiple(&self, id: NodeId) -> (f64, NodeId) {
+        match self.node(id) {
+            Node::Mul(c, t) => match self.literal(c) {
+                Some(value) => (value, t),
+                None => (1.0, id),
+            },
+            Node::Neg(t) => {
+                let (c, inner) = self.literal_multiple(t);
+                (-c, inner)
+            }
+            _ => (1.0, id),
+        }
     }
 
     /// Orders the operands of a commutative operation so equal expressions written in

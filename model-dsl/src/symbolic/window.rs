@@ -463,6 +463,19 @@ fn split(
                 .collect();
             let constant = substitute(graph, r, &origin);
             affine = substitute(graph, constant, &at_phi);
+        } else {
+            // Term by term: an affine term contributes its constant part exactly, a
+            // nonlinear one its value at phi less its tangent there.
+            affine = zero;
+            for (negative, term) in additive_terms(graph, r) {
+                let part =
+                    affine_correction(graph, term, &state_vars, &input_vars, phi, &mg.u, &at_phi);
+                affine = if negative {
+                    graph.sub(affine, part)
+                } else {
+                    graph.add(affine, part)
+                };
+            }
         }
         d[c] = affine;
     }
@@ -470,6 +483,74 @@ fn split(
         f[n + p][n + p] = one;
     }
     (f, g, d)
+}
+
+/// The additive terms of `node`, each with whether it is subtracted.
+fn additive_terms(graph: &Graph, node: NodeId) -> Vec<(bool, NodeId)> {
+    match graph.node(node) {
+        Node::Add(a, b) => {
+            let mut terms = additive_terms(graph, a);
+            terms.extend(additive_terms(graph, b));
+            terms
+        }
+        Node::Sub(a, b) => {
+            let mut terms = additive_terms(graph, a);
+            terms.extend(
+                additive_terms(graph, b)
+                    .into_iter()
+                    .map(|(neg, t)| (!neg, t)),
+            );
+            terms
+        }
+        Node::Neg(a) => additive_terms(graph, a)
+            .into_iter()
+            .map(|(neg, t)| (!neg, t))
+            .collect(),
+        _ => vec![(false, node)],
+    }
+}
+
+/// What `term` adds to `d`: its constant part if it is affine in the states and inputs,
+/// else `term(phi) - sum_s dterm/ds(phi) phi_s - sum_j dterm/du_j(phi) u_j`.
+fn affine_correction(
+    graph: &mut Graph,
+    term: NodeId,
+    state_vars: &[VarId],
+    input_vars: &[VarId],
+    phi: &[NodeId],
+    inputs: &[NodeId],
+    at_phi: &[(VarId, NodeId)],
+) -> NodeId {
+    let zero = graph.zero();
+    let mut derivatives = Vec::new();
+    let mut affine = true;
+    for &v in state_vars.iter().chain(input_vars) {
+        let mut dv = Differentiator::new(v);
+        let deriv = dv.diff(graph, term);
+        for &w in state_vars.iter().chain(input_vars) {
+            let mut dw = Differentiator::new(w);
+            let second = dw.diff(graph, deriv);
+            affine &= graph.is_zero(second);
+        }
+        derivatives.push(deriv);
+    }
+    if affine {
+        let origin: Vec<(VarId, NodeId)> = state_vars
+            .iter()
+            .chain(input_vars)
+            .map(|&v| (v, zero))
+            .collect();
+        let constant = substitute(graph, term, &origin);
+        return substitute(graph, constant, at_phi);
+    }
+    let mut value = substitute(graph, term, at_phi);
+    let points = phi.iter().take(state_vars.len()).chain(inputs);
+    for (&deriv, &point) in derivatives.iter().zip(points) {
+        let slope = substitute(graph, deriv, at_phi);
+        let tangent = graph.mul(slope, point);
+        value = graph.sub(value, tangent);
+    }
+    value
 }
 
 /// Window variables and the values of states at past samples, built on demand.
