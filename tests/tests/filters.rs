@@ -12,7 +12,6 @@ const RTOL: f64 = 1e-9;
 
 /// The paper's close initial guess and the tuning of shared/reference/simulating-the-paper.md.
 const X0_CLOSE: [f64; 5] = [0.01, 0.0, -400.0, -1.0, 0.01];
-const X0_WRONG: [f64; 5] = [0.01, 0.0, -50000.0, -10.0, 0.01];
 const Q_DIAG: [f64; 5] = [0.0, 0.0, 100.0, 300.0, 1e-3];
 const R: f64 = 0.001;
 

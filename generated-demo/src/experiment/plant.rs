@@ -281,11 +281,6 @@ impl Plant {
         }
     }
 
-    /// Current sample index k.
-    pub fn sample_index(&self) -> u64 {
-        self.k
-    }
-
     /// Current time k TS [s].
     pub fn time(&self) -> f64 {
         self.k as f64 * TS
@@ -299,12 +294,6 @@ impl Plant {
     /// True physical parameters in force at sample k.
     pub fn params(&self) -> Physical {
         self.params
-    }
-
-    /// True Euler-equivalent [x3, x4, x5] in force at sample k: what a filter on the Euler
-    /// model should converge to (for either plant kind: same poles, same DC gain).
-    pub fn euler_params(&self) -> [f64; 3] {
-        self.euler
     }
 
     /// Measured output y[k] = x1[k] + noise[k]; the noise depends only on (seed, k).

@@ -123,19 +123,9 @@ impl Trace {
         self.time.len()
     }
 
-    /// True if no row was begun.
-    pub fn is_empty(&self) -> bool {
-        self.time.is_empty()
-    }
-
     /// The time column [s].
     pub fn time(&self) -> &[f64] {
         &self.time
-    }
-
-    /// Column names in the order they were first set.
-    pub fn names(&self) -> impl Iterator<Item = &str> {
-        self.names.iter().map(String::as_str)
     }
 
     /// The column `name`, one value per row.
@@ -173,7 +163,10 @@ pub fn divergence_time(trace: &Trace, label: &str) -> Option<f64> {
         .find(|&row| {
             // A row before the filter started (all NaN) is not a divergence.
             let started = columns.iter().any(|c| !c[row].is_nan());
-            started && columns.iter().any(|c| !(c[row].abs() <= DIVERGENCE_LIMIT))
+            started
+                && columns
+                    .iter()
+                    .any(|c| c[row].is_nan() || c[row].abs() > DIVERGENCE_LIMIT)
         })
         .map(|row| trace.time[row])
 }

@@ -469,7 +469,7 @@ fn split(
             affine = zero;
             for (negative, term) in additive_terms(graph, r) {
                 let part =
-                    affine_correction(graph, term, &state_vars, &input_vars, phi, &mg.u, &at_phi);
+                    affine_correction(graph, term, state_vars, &input_vars, phi, &mg.u, &at_phi);
                 affine = if negative {
                     graph.sub(affine, part)
                 } else {
