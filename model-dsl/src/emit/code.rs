@@ -112,3 +112,65 @@ pub fn packed_names(prefix: &str, n: usize, taken: &dyn Fn(&str) -> bool) -> Vec
     }
     names
 }
+
+/// `{ let [[a, b], [_, c]] = *name; [a, b, c] }`: the packed upper triangle of the
+/// symmetric matrix argument `name` (its lower triangle is not read).
+pub fn pack_upper(name: &str, size: usize) -> TokenStream {
+    let arg = ident(name);
+    let names: Vec<Vec<proc_macro2::Ident>> = (0..size)
+        .map(|i| {
+            (0..size)
+                .map(|j| ident(&format!("{name}_{i}_{j}")))
+                .collect()
+        })
+        .collect();
+    let pattern = names.iter().enumerate().map(|(i, row)| {
+        let entries = row.iter().enumerate().map(|(j, e)| {
+            if j >= i {
+                quote! { #e }
+            } else {
+                quote! { _ }
+            }
+        });
+        quote! { [#(#entries),*] }
+    });
+    let packed = (0..size).flat_map(|i| (i..size).map(move |j| (i, j)));
+    let packed: Vec<proc_macro2::Ident> = packed.map(|(i, j)| names[i][j].clone()).collect();
+    quote! {{
+        let [#(#pattern),*] = *#arg;
+        [#(#packed),*]
+    }}
+}
+
+/// The full symmetric matrix of the packed field `self.<field>` (`n x n`).
+pub fn unpack_symmetric(field: &str, n: usize) -> TokenStream {
+    let field = ident(field);
+    let names: Vec<proc_macro2::Ident> = (0..crate::symbolic::linalg::packed_len(n))
+        .map(|k| ident(&format!("c{k}")))
+        .collect();
+    let rows = (0..n).map(|i| {
+        let entries = (0..n).map(|j| names[crate::symbolic::linalg::packed_index(n, i, j)].clone());
+        quote! { [#(#entries),*] }
+    });
+    quote! {
+        let [#(#names),*] = self.#field;
+        [#(#rows),*]
+    }
+}
+
+/// The end of a filter step: if `probe` is not finite the filter is left as it was and
+/// `NonFinite` returned, else the new estimate and packed covariance are stored.
+pub fn commit_or_non_finite(
+    probe: &TokenStream,
+    x_values: &[TokenStream],
+    p_values: &[TokenStream],
+) -> TokenStream {
+    quote! {
+        if !(#probe).is_finite() {
+            return Status::NonFinite;
+        }
+        self.x = [#(#x_values),*];
+        self.p = [#(#p_values),*];
+        Status::Ok
+    }
+}

@@ -2,14 +2,14 @@
 //! ([`crate::symbolic::window`]), a linear Kalman filter on the transformed model (AKF),
 //! and a Kalman filter linearised about the AKF's estimate (LKF).
 
-use super::code::{destructure, guard_pivots, var_idents};
+use super::code::{destructure, guard_pivots, pack_upper, unpack_symmetric, var_idents};
 use super::ekf::{finiteness_probe, model_names, packed_vars};
 use super::lower::{literal, Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
 use crate::model::{DkfSpec, Model, Scalar};
 use crate::symbolic::kalman;
 use crate::symbolic::linalg::{
-    add, matmul, packed_index, packed_len, packed_upper, symmetric_from_packed, Matrix,
+    add, matmul, packed_len, packed_upper, symmetric_from_packed, Matrix,
 };
 use crate::symbolic::window::{self, column_norms_product, cramer, substitute, WindowTransform};
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
@@ -63,13 +63,12 @@ pub fn emit_dkf(
         },
         scalar,
     );
-    let pack = |name: &str, size: usize| pack_upper(name, size);
     let (pack_p0, pack_pbar0, pack_q, pack_qbar, pack_r) = (
-        pack("p0", n),
-        pack("pbar0", n),
-        pack("q", n),
-        pack("qbar", n),
-        pack("r", m),
+        pack_upper("p0", n),
+        pack_upper("pbar0", n),
+        pack_upper("q", n),
+        pack_upper("qbar", n),
+        pack_upper("r", m),
     );
     let params_of_x0 = {
         let names: Vec<Ident> = model.state_names().map(ident).collect();
@@ -79,21 +78,7 @@ pub fn emit_dkf(
             [#(#params),*]
         }}
     };
-    let unpack = |field: &str| {
-        let field = ident(field);
-        let names: Vec<Ident> = (0..packed_len(n))
-            .map(|k| ident(&format!("c{k}")))
-            .collect();
-        let rows = (0..n).map(|i| {
-            let entries = (0..n).map(|j| names[packed_index(n, i, j)].clone());
-            quote! { [#(#entries),*] }
-        });
-        quote! {
-            let [#(#names),*] = self.#field;
-            [#(#rows),*]
-        }
-    };
-    let (unpack_p, unpack_pbar) = (unpack("p"), unpack("pbar"));
+    let (unpack_p, unpack_pbar) = (unpack_symmetric("p", n), unpack_symmetric("pbar", n));
     let derivation: Vec<String> = wt.description.iter().map(|l| format!(" - {l}")).collect();
     let has_u = !model.inputs.is_empty();
     let u_param = has_u.then(|| quote! { u_prev: &[#ty; #u_len], });
@@ -277,34 +262,6 @@ pub fn emit_dkf(
         transform_ops,
         filters_ops,
     })
-}
-
-/// `{ let [[a, b], [_, c]] = *name; [a, b, c] }`: the packed upper triangle of an argument.
-pub fn pack_upper(name: &str, size: usize) -> TokenStream {
-    let arg = ident(name);
-    let names: Vec<Vec<Ident>> = (0..size)
-        .map(|i| {
-            (0..size)
-                .map(|j| ident(&format!("{name}_{i}_{j}")))
-                .collect()
-        })
-        .collect();
-    let pattern = names.iter().enumerate().map(|(i, row)| {
-        let entries = row.iter().enumerate().map(|(j, e)| {
-            if j >= i {
-                quote! { #e }
-            } else {
-                quote! { _ }
-            }
-        });
-        quote! { [#(#entries),*] }
-    });
-    let packed = (0..size).flat_map(|i| (i..size).map(move |j| (i, j)));
-    let packed: Vec<Ident> = packed.map(|(i, j)| names[i][j].clone()).collect();
-    quote! {{
-        let [#(#pattern),*] = *#arg;
-        [#(#packed),*]
-    }}
 }
 
 /// The window variables as `let` patterns over the stored history.

@@ -3,7 +3,10 @@
 //! measurement handled with one guarded reciprocal, several with an unrolled `L D L'` solve,
 //! and the Joseph-form covariance update.
 
-use super::code::{destructure, guard_pivots, packed_names, reject_non_finite, var_idents};
+use super::code::{
+    commit_or_non_finite, destructure, guard_pivots, pack_upper, packed_names, reject_non_finite,
+    unpack_symmetric, var_idents,
+};
 use super::lower::{Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
@@ -66,49 +69,8 @@ pub fn emit_ekf(model: &Model, mg: &ModelGraph, scalar: Scalar) -> EkfCode {
         .map(proc_macro2::Literal::usize_unsuffixed);
     let uses_time = model.uses_time();
 
-    let pack = |name: &str, size: usize| {
-        let arg = ident(name);
-        let names: Vec<Vec<proc_macro2::Ident>> = (0..size)
-            .map(|i| {
-                (0..size)
-                    .map(|j| ident(&format!("{name}_{i}_{j}")))
-                    .collect()
-            })
-            .collect();
-        let pattern = names.iter().enumerate().map(|(i, row)| {
-            let entries = row.iter().enumerate().map(|(j, e)| {
-                if j >= i {
-                    quote! { #e }
-                } else {
-                    quote! { _ }
-                }
-            });
-            quote! { [#(#entries),*] }
-        });
-        let upper = (0..size).flat_map(|i| (i..size).map(move |j| (i, j)));
-        let packed: Vec<_> = upper.map(|(i, j)| names[i][j].clone()).collect();
-        quote! {{
-            let [#(#pattern),*] = *#arg;
-            [#(#packed),*]
-        }}
-    };
-    let (pack_p0, pack_q, pack_r) = (pack("p0", n), pack("q", n), pack("r", m));
-    let unpack_p = {
-        let names: Vec<proc_macro2::Ident> = (0..packed_len(n))
-            .map(|k| ident(&format!("p{k}")))
-            .collect();
-        let rows = (0..n).map(|i| {
-            let entries = (0..n).map(|j| {
-                let e = &names[crate::symbolic::linalg::packed_index(n, i, j)];
-                quote! { #e }
-            });
-            quote! { [#(#entries),*] }
-        });
-        quote! {
-            let [#(#names),*] = self.p;
-            [#(#rows),*]
-        }
-    };
+    let (pack_p0, pack_q, pack_r) = (pack_upper("p0", n), pack_upper("q", n), pack_upper("r", m));
+    let unpack_p = unpack_symmetric("p", n);
 
     let time_prev = uses_time.then(|| quote! { t_prev: #ty, });
     let time_now = uses_time.then(|| quote! { t: #ty, });
@@ -219,6 +181,7 @@ fn predict(model: &Model, mg: &ModelGraph, scalar: Scalar) -> (TokenStream, OpCo
         ops,
     } = lowerer.finish();
     let (x_values, p_values) = values.split_at(n);
+    let commit = commit_or_non_finite(&probe, x_values, p_values);
     let graph = &g.graph;
     let u_idents = var_idents(graph, &g.u);
     let unpack_u = (!g.u.is_empty()).then(|| {
@@ -248,12 +211,7 @@ fn predict(model: &Model, mg: &ModelGraph, scalar: Scalar) -> (TokenStream, OpCo
             #unpack_p
             #unpack_q
             #(#statements)*
-            if !(#probe).is_finite() {
-                return Status::NonFinite;
-            }
-            self.x = [#(#x_values),*];
-            self.p = [#(#p_values),*];
-            Status::Ok
+            #commit
         }
     };
     (tokens, ops)
@@ -340,6 +298,7 @@ fn update(model: &Model, mg: &ModelGraph, scalar: Scalar) -> (TokenStream, OpCou
         ops,
     } = lowerer.finish();
     let (x_values, p_values) = values.split_at(n);
+    let commit = commit_or_non_finite(&probe, x_values, p_values);
     let graph = &g.graph;
     let y_idents = var_idents(graph, &y_vars);
     let check_y = reject_non_finite(&y_idents);
@@ -362,12 +321,7 @@ fn update(model: &Model, mg: &ModelGraph, scalar: Scalar) -> (TokenStream, OpCou
             #unpack_p
             #unpack_r
             #(#statements)*
-            if !(#probe).is_finite() {
-                return Status::NonFinite;
-            }
-            self.x = [#(#x_values),*];
-            self.p = [#(#p_values),*];
-            Status::Ok
+            #commit
         }
     };
     (tokens, ops)

@@ -3,7 +3,7 @@
 //! at the current estimate; the backward Riccati recursion runs as a loop over the horizon
 //! whose body is generated straight-line code.
 
-use super::code::{destructure, guard_pivots, reject_non_finite, var_idents};
+use super::code::{destructure, guard_pivots, pack_upper, reject_non_finite, var_idents};
 use super::ekf::{model_names, packed_vars, time_param};
 use super::lower::{literal, Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
@@ -203,33 +203,7 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
         state_names.join(", "),
         input_names.join(", ")
     );
-    let pack = |name: &str, size: usize| {
-        let arg = ident(name);
-        let names: Vec<Vec<proc_macro2::Ident>> = (0..size)
-            .map(|i| {
-                (0..size)
-                    .map(|j| ident(&format!("{name}_{i}_{j}")))
-                    .collect()
-            })
-            .collect();
-        let pattern = names.iter().enumerate().map(|(i, row)| {
-            let entries = row.iter().enumerate().map(|(j, e)| {
-                if j >= i {
-                    quote! { #e }
-                } else {
-                    quote! { _ }
-                }
-            });
-            quote! { [#(#entries),*] }
-        });
-        let packed = (0..size).flat_map(|i| (i..size).map(move |j| (i, j)));
-        let packed: Vec<_> = packed.map(|(i, j)| names[i][j].clone()).collect();
-        quote! {{
-            let [#(#pattern),*] = *#arg;
-            [#(#packed),*]
-        }}
-    };
-    let (pack_q, pack_r) = (pack("q", ns), pack("r", nu));
+    let (pack_q, pack_r) = (pack_upper("q", ns), pack_upper("r", nu));
     let regulated: Vec<proc_macro2::Ident> = state_names.iter().map(|n| ident(n)).collect();
     let regulated_pattern = model.state_names().map(|name| {
         if state_names.contains(&name) {

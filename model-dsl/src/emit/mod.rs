@@ -11,7 +11,9 @@ pub mod names;
 pub mod status;
 
 use crate::emit::lower::literal;
-use crate::emit::model_fns::{emit_function, model_functions, nonzero_item, ops_item};
+use crate::emit::model_fns::{
+    emit_function, model_functions, named_ops_item, nonzero_item, ops_item,
+};
 use crate::emit::names::{ident, index_const};
 use crate::model::{Model, Scalar, Symbol};
 use crate::symbolic::ModelGraph;
@@ -130,23 +132,6 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
             #(#secondary)*
         }
     })
-}
-
-/// `pub const NAME: OpCount = ..;` documenting what `what` computes.
-fn named_ops_item(name: &str, what: &str, ops: lower::OpCount) -> TokenStream {
-    let name = ident(name);
-    let doc = format!(" What `{what}` computes per call.");
-    let lower::OpCount {
-        add,
-        mul,
-        div,
-        call,
-        compare,
-    } = ops;
-    quote! {
-        #[doc = #doc]
-        pub const #name: OpCount = OpCount { add: #add, mul: #mul, div: #div, call: #call, compare: #compare };
-    }
 }
 
 /// The generated twin of [`lower::OpCount`], so generated code needs no support crate.

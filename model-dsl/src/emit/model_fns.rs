@@ -219,8 +219,13 @@ pub fn emit_function(
 
 /// `pub const F_OPS: OpCount = ..;` for a function.
 pub fn ops_item(function: &ModelFunction, ops: OpCount) -> TokenStream {
-    let name = ops_const(function.name);
-    let doc = format!(" What `{}` computes per call.", function.name);
+    named_ops_item(&ops_const(function.name).to_string(), function.name, ops)
+}
+
+/// `pub const NAME: OpCount = ..;` documenting what `what` computes.
+pub fn named_ops_item(name: &str, what: &str, ops: OpCount) -> TokenStream {
+    let name = ident(name);
+    let doc = format!(" What `{what}` computes per call.");
     let OpCount {
         add,
         mul,
