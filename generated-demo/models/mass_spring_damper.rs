@@ -58,6 +58,7 @@ codegen_macros::model! {
         output
             /// measured tip position y = q [m] (C = [1 0], eq. 3)
             y = q;
+        generate ekf;
         // Continuous-discrete EKF: the paper integrates eq. (20) with the Euler method
         // (sect. 3.1) at dt = T/500 (sect. 4.1). Unrolled, 500 Euler steps would be 500
         // copies of the model; one classical RK4 step of T is stable here (|h lambda| is

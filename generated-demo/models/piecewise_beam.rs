@@ -121,6 +121,7 @@ codegen_macros::model! {
             y_act = q_act,
             /// LVDT displacement at the middle of the beam [m]
             y_mid = q_mid;
+        generate ekf;
         // RK4: the paper's own simulations use "a fourth-order Runge-Kutta
         // integration scheme" (sect. 2.4); the dSPACE solver is not named.
         // Two substeps per 0.5 ms sample (0.25 ms, |lambda| dt < 0.35 for the

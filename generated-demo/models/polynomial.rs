@@ -35,6 +35,7 @@ codegen_macros::model! {
         output
             /// measured position, M = [1 0 0 0] ("Data Measurement Vector of one")
             y = z0;
+        generate ekf;
         // x[n+1] = Phi(1) x[n], eqs. (3)-(5), with Phi(1) for m = 3:
         //   [1 1 1 1; 0 1 2 3; 0 0 1 3; 0 0 0 1]
         // (OCR of eq. (4) shows only its first row 1 h .. h^m and second row

@@ -193,9 +193,10 @@ fn predict(model: &Model, mg: &ModelGraph, scalar: Scalar) -> (TokenStream, OpCo
     let unpack_p = destructure(graph, quote! { self.p }, &p_vars, &used_vars);
     let unpack_q = destructure(graph, quote! { self.q }, &q_vars, &used_vars);
     let ty = ident(scalar.type_name());
-    let time = model
-        .uses_time()
-        .then(|| time_param(graph, g.t, &used_vars, &ty));
+    let time = model.uses_time().then(|| {
+        let t = time_param(graph, g.t, &used_vars, &ty);
+        quote! { #t, }
+    });
     let u_param = (!g.u.is_empty()).then(|| {
         let len = proc_macro2::Literal::usize_unsuffixed(g.u.len());
         quote! { u: &[#ty; #len] }
@@ -306,9 +307,10 @@ fn update(model: &Model, mg: &ModelGraph, scalar: Scalar) -> (TokenStream, OpCou
     let unpack_p = destructure(graph, quote! { self.p }, &p_vars, &used_vars);
     let unpack_r = destructure(graph, quote! { self.r }, &r_vars, &used_vars);
     let ty = ident(scalar.type_name());
-    let time = model
-        .uses_time()
-        .then(|| time_param(graph, g.t, &used_vars, &ty));
+    let time = model.uses_time().then(|| {
+        let t = time_param(graph, g.t, &used_vars, &ty);
+        quote! { #t, }
+    });
     let m_len = proc_macro2::Literal::usize_unsuffixed(m);
     let tokens = quote! {
         /// Corrects the estimate with the measurement `y` (Alg. 1, Joseph form). Rejects a

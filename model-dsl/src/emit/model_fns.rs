@@ -226,13 +226,8 @@ pub fn ops_item(function: &ModelFunction, ops: OpCount) -> TokenStream {
 pub fn named_ops_item(name: &str, what: &str, ops: OpCount) -> TokenStream {
     let name = ident(name);
     let doc = format!(" What `{what}` computes per call.");
-    let OpCount {
-        add,
-        mul,
-        div,
-        call,
-        compare,
-    } = ops;
+    let [add, mul, div, call, compare] = [ops.add, ops.mul, ops.div, ops.call, ops.compare]
+        .map(proc_macro2::Literal::u32_unsuffixed);
     quote! {
         #[doc = #doc]
         pub const #name: OpCount = OpCount { add: #add, mul: #mul, div: #div, call: #call, compare: #compare };
