@@ -6,6 +6,8 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
+pub mod sequence;
+
 include!("../models/cantilever.rs");
 include!("../models/mass_spring_damper.rs");
 include!("../models/polynomial.rs");

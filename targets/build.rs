@@ -1,0 +1,28 @@
+//! Puts `memory.x` where the linker finds it, and embeds the measured sequence the host
+//! also uses (`generated_demo::sequence`) as a constant, so target and host filter
+//! exactly the same data.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Samples in the embedded sequence (15 s at 15 ms).
+const SAMPLES: usize = 1000;
+
+fn main() {
+    let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    std::fs::copy("memory.x", out.join("memory.x")).expect("memory.x is readable");
+    println!("cargo:rustc-link-search={}", out.display());
+    println!("cargo:rerun-if-changed=memory.x");
+
+    let mut code = String::new();
+    let _ = writeln!(
+        code,
+        "/// The measured sequence: `(u[k], y[k])`, from `generated_demo::sequence`.\n\
+         pub const SEQUENCE: [(f32, f32); {SAMPLES}] = ["
+    );
+    for sample in generated_demo::sequence::Measured::new().take(SAMPLES) {
+        let _ = writeln!(code, "    ({:?}, {:?}),", sample.u, sample.y);
+    }
+    code.push_str("];\n");
+    std::fs::write(out.join("sequence.rs"), code).expect("OUT_DIR is writable");
+}

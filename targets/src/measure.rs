@@ -1,0 +1,63 @@
+//! Measuring on the emulated Cortex-M4F: executed instructions through SysTick under
+//! QEMU's `-icount shift=0` (one instruction per virtual nanosecond, SysTick at 25 MHz:
+//! 40 instructions per tick, checked against a loop of known length), and the deepest
+//! stack a call uses, by painting the free stack and looking for the first overwritten word.
+
+use cortex_m::peripheral::{syst::SystClkSource, SYST};
+
+/// Instructions per SysTick tick on mps2-an386 under `-icount shift=0`.
+pub const INSTRUCTIONS_PER_TICK: u32 = 40;
+
+/// A free-running 24-bit SysTick counter.
+pub struct Clock {
+    _syst: SYST,
+}
+
+impl Clock {
+    /// Starts SysTick from the core clock, counting down over its full 24-bit range.
+    pub fn start(mut syst: SYST) -> Clock {
+        syst.set_clock_source(SystClkSource::Core);
+        syst.set_reload(0x00FF_FFFF);
+        syst.clear_current();
+        syst.enable_counter();
+        // The counter reads 0 until its first reload.
+        while SYST::get_current() == 0 {}
+        Clock { _syst: syst }
+    }
+
+    /// Instructions executed by `work`, within 40 (one tick); average many calls.
+    pub fn instructions(&self, work: impl FnOnce()) -> u32 {
+        let start = SYST::get_current();
+        work();
+        let end = SYST::get_current();
+        (start.wrapping_sub(end) & 0x00FF_FFFF) * INSTRUCTIONS_PER_TICK
+    }
+}
+
+/// Bytes of stack below the caller's stack pointer that `work` used.
+///
+/// Painting the free stack and reading it back is raw memory access below the stack
+/// pointer, which safe Rust cannot express; it is confined to this function.
+#[allow(unsafe_code)]
+pub fn stack_depth(work: impl FnOnce()) -> usize {
+    const PAINT: u32 = 0xA5A5_A5A5;
+    const SPAN: usize = 8 * 1024;
+    let top = cortex_m::register::msp::read() as usize;
+    // Leave a margin for this function's own pushes at the call below.
+    let (bottom, paint_top) = (top - SPAN, top - 64);
+    let mut address = bottom;
+    while address < paint_top {
+        // SAFETY: [bottom, paint_top) lies in free stack below the stack pointer, within
+        // RAM (the stack starts at the top of 128 KiB and the firmware's frames above
+        // this one are small); nothing else runs (no interrupts are enabled).
+        unsafe { (address as *mut u32).write_volatile(PAINT) };
+        address += 4;
+    }
+    work();
+    let mut address = bottom;
+    // SAFETY: the same region, read back.
+    while address < paint_top && unsafe { (address as *const u32).read_volatile() } == PAINT {
+        address += 4;
+    }
+    top - address
+}
