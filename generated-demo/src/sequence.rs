@@ -11,7 +11,11 @@
 use crate::cantilever::in_f64::f;
 
 /// Euler-equivalent `[x3, x4, x5]` of the beam (wn = 20 rad/s, zeta = 0.026, alpha = 0.5).
-pub const TRUE_PARAMETERS: [f64; 3] = [-393.928_367_564_155_85, -6.940_855_531_862_915, 0.492_410_459_455_194_8];
+pub const TRUE_PARAMETERS: [f64; 3] = [
+    -393.928_367_564_155_85,
+    -6.940_855_531_862_915,
+    0.492_410_459_455_194_8,
+];
 /// Standard deviation of the measurement noise [mm].
 pub const NOISE_SIGMA: f64 = 1e-4;
 

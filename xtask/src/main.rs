@@ -1,16 +1,35 @@
 //! Project automation, after the `cargo xtask` convention.
 //!
 //! `cargo xtask test` is the one command that checks everything CI checks: it installs what
-//! the checks need (the `thumbv7em-none-eabihf` target), then runs formatting, clippy, the
-//! whole test suite, and the Cortex-M4F build of the generated code.
+//! the checks need (the `thumbv7em-none-eabihf` target, `qemu-system-arm` and the ARM
+//! binutils), runs formatting, clippy and the whole test suite, builds the generated code
+//! for the Cortex-M4F, runs the firmware under QEMU, fails if its f32 estimates disagree
+//! with the host's f64 run, and prints the cost table. `cargo xtask cost` prints the table.
 
 #![forbid(unsafe_code)]
 
+mod compare;
+mod cost;
+mod firmware;
+mod setup;
+
 use clap::{Parser, Subcommand};
+use std::path::Path;
 use std::process::{Command, ExitCode};
 
 /// The embedded target the generated code must build for.
 const MCU_TARGET: &str = "thumbv7em-none-eabihf";
+/// The firmware crate, and the image it builds.
+const TARGETS: &str = "targets";
+const FIRMWARE_ELF: &str = "targets/target/thumbv7em-none-eabihf/release/firmware";
+/// Samples in the firmware's embedded sequence (`targets/build.rs`).
+const SEQUENCE_SAMPLES: usize = 1000;
+/// Commands the firmware checks run, with the Debian packages that provide them.
+const FIRMWARE_TOOLS: &[(&str, &str)] = &[
+    ("qemu-system-arm", "qemu-system-arm"),
+    ("arm-none-eabi-nm", "binutils-arm-none-eabi"),
+    ("arm-none-eabi-objdump", "binutils-arm-none-eabi"),
+];
 
 #[derive(Parser)]
 #[command(about = "Project automation")]
@@ -23,10 +42,23 @@ struct Cli {
 enum Task {
     /// Install what the checks need, then run formatting, clippy, all tests and the MCU build.
     Test,
+    /// Run the firmware under QEMU and print what the generated filters cost on the
+    /// Cortex-M4F, beside the nalgebra baseline.
+    Cost,
 }
 
 fn main() -> ExitCode {
     match Cli::parse().task {
+        Task::Cost => match cost() {
+            Ok(table) => {
+                print!("{table}");
+                ExitCode::SUCCESS
+            }
+            Err(message) => {
+                eprintln!("xtask: {message}");
+                ExitCode::FAILURE
+            }
+        },
         Task::Test => match test() {
             Ok(()) => {
                 println!("xtask: every check passed");
@@ -41,7 +73,8 @@ fn main() -> ExitCode {
 }
 
 fn test() -> Result<(), String> {
-    ensure_rust_target(MCU_TARGET)?;
+    setup::rust_target(MCU_TARGET)?;
+    setup::debian_commands(FIRMWARE_TOOLS)?;
     run(
         "formatting",
         cargo().args(["fmt", "--all", "--", "--check"]),
@@ -70,35 +103,38 @@ fn test() -> Result<(), String> {
             MCU_TARGET,
         ]),
     )?;
+    run(
+        "formatting of the firmware",
+        cargo().args(["fmt", "--", "--check"]).current_dir(TARGETS),
+    )?;
+    run(
+        "clippy on the firmware",
+        cargo()
+            .args(["clippy", "--release", "--", "-D", "warnings"])
+            .current_dir(TARGETS),
+    )?;
+    println!("xtask: the firmware under QEMU, against the host");
+    let report = firmware::run(Path::new(TARGETS))?;
+    let host = compare::host_run(SEQUENCE_SAMPLES);
+    println!("xtask: {}", compare::check(&report.estimates, &host)?);
+    print!("{}", cost::table(&report.costs, Path::new(FIRMWARE_ELF))?);
     Ok(())
 }
 
-/// Installs a rustup target if it is missing, with a clear message if that cannot be done.
-fn ensure_rust_target(target: &str) -> Result<(), String> {
-    let installed = Command::new("rustup")
-        .args(["target", "list", "--installed"])
-        .output()
-        .map_err(|e| {
-            format!("cannot run rustup ({e}); install rustup, then `rustup target add {target}`")
-        })?;
-    if String::from_utf8_lossy(&installed.stdout)
-        .lines()
-        .any(|l| l.trim() == target)
-    {
-        return Ok(());
-    }
-    println!("xtask: installing the Rust target {target}");
-    run(
-        &format!("`rustup target add {target}`"),
-        Command::new("rustup").args(["target", "add", target]),
-    )
+/// The firmware's checks and their cost table.
+fn cost() -> Result<String, String> {
+    setup::rust_target(MCU_TARGET)?;
+    setup::debian_commands(FIRMWARE_TOOLS)?;
+    let report = firmware::run(Path::new(TARGETS))?;
+    cost::table(&report.costs, Path::new(FIRMWARE_ELF))
 }
 
 fn cargo() -> Command {
     Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
 }
 
-fn run(what: &str, command: &mut Command) -> Result<(), String> {
+/// Runs a command, naming it in progress and error messages.
+pub fn run(what: &str, command: &mut Command) -> Result<(), String> {
     println!("xtask: {what}");
     let status = command
         .status()

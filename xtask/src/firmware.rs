@@ -1,0 +1,135 @@
+//! Building and running the Cortex-M4F firmware (`targets/`) under QEMU, and reading
+//! what it printed.
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Longest a firmware run may take before it counts as hung.
+const TIMEOUT: Duration = Duration::from_secs(600);
+
+/// One `estimate` line: the sample, the three filters' estimates, the gain and control.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    /// Sample index `k`.
+    pub k: usize,
+    /// EKF from the close guess.
+    pub ekf: [f64; 5],
+    /// DKF from the close guess.
+    pub dkf: [f64; 5],
+    /// DKF from the wrong guess.
+    pub dkf_wrong: [f64; 5],
+    /// LQR gain on the DKF's estimate.
+    pub gain: [f64; 2],
+    /// The control it gives.
+    pub control: f64,
+}
+
+/// One measured kernel: instructions per call and stack bytes, generated and baseline.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cost {
+    /// Kernel name as the firmware prints it (`ekf_step`, ...).
+    pub kernel: String,
+    /// Instructions per call: generated code, nalgebra baseline.
+    pub instructions: (u32, u32),
+    /// Deepest stack use in bytes: generated code, nalgebra baseline.
+    pub stack: (u32, u32),
+}
+
+/// What the firmware reported.
+#[derive(Debug, Default)]
+pub struct Report {
+    /// The estimate lines in order.
+    pub estimates: Vec<Estimate>,
+    /// The cost lines in order.
+    pub costs: Vec<Cost>,
+}
+
+/// Builds the firmware in release mode and runs it under QEMU (the runner in
+/// `targets/.cargo/config.toml`); fails on a non-zero exit, a timeout or a missing `done`.
+pub fn run(targets: &Path) -> Result<Report, String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut child = Command::new(cargo)
+        .args(["run", "--release", "--quiet"])
+        .current_dir(targets)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .map_err(|e| format!("cannot start the firmware build: {e}"))?;
+    let started = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().map_err(|e| e.to_string())? {
+            let output = child.wait_with_output().map_err(|e| e.to_string())?;
+            let text = String::from_utf8_lossy(&output.stdout).into_owned();
+            if !status.success() {
+                return Err(format!(
+                    "the firmware failed ({status}); it printed:\n{text}"
+                ));
+            }
+            return parse(&text);
+        }
+        if started.elapsed() > TIMEOUT {
+            let _ = child.kill();
+            return Err(format!("the firmware did not finish within {TIMEOUT:?}"));
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+fn parse(text: &str) -> Result<Report, String> {
+    let mut report = Report::default();
+    let mut done = false;
+    for line in text.lines() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.as_slice() {
+            ["estimate", k, values @ ..] if values.len() == 18 => {
+                let k = k.parse().map_err(|_| format!("bad sample in `{line}`"))?;
+                let v: Vec<f64> = values
+                    .iter()
+                    .map(|w| w.parse::<f64>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| format!("bad number in `{line}`"))?;
+                let five = |at: usize| [v[at], v[at + 1], v[at + 2], v[at + 3], v[at + 4]];
+                report.estimates.push(Estimate {
+                    k,
+                    ekf: five(0),
+                    dkf: five(5),
+                    dkf_wrong: five(10),
+                    gain: [v[15], v[16]],
+                    control: v[17],
+                });
+            }
+            ["cost", kernel, generated, baseline] => {
+                let parse = |w: &str| {
+                    w.parse::<u32>()
+                        .map_err(|_| format!("bad count in `{line}`"))
+                };
+                report.costs.push(Cost {
+                    kernel: (*kernel).to_owned(),
+                    instructions: (parse(generated)?, parse(baseline)?),
+                    stack: (0, 0),
+                });
+            }
+            ["stack", kernel, generated, baseline] => {
+                let parse = |w: &str| {
+                    w.parse::<u32>()
+                        .map_err(|_| format!("bad size in `{line}`"))
+                };
+                let stack = (parse(generated)?, parse(baseline)?);
+                match report.costs.iter_mut().find(|c| c.kernel == *kernel) {
+                    Some(cost) => cost.stack = stack,
+                    None => return Err(format!("stack before cost for `{kernel}`")),
+                }
+            }
+            ["done"] => done = true,
+            _ => {}
+        }
+    }
+    if !done {
+        return Err("the firmware stopped before `done`".into());
+    }
+    if report.estimates.is_empty() || report.costs.is_empty() {
+        return Err("the firmware printed no estimates or no costs".into());
+    }
+    Ok(report)
+}

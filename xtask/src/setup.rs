@@ -1,0 +1,66 @@
+//! What the checks need on the machine, installed or reported clearly.
+
+use std::process::Command;
+
+/// Installs a rustup target if it is missing.
+pub fn rust_target(target: &str) -> Result<(), String> {
+    let installed = Command::new("rustup")
+        .args(["target", "list", "--installed"])
+        .output()
+        .map_err(|e| {
+            format!("cannot run rustup ({e}); install rustup, then `rustup target add {target}`")
+        })?;
+    if String::from_utf8_lossy(&installed.stdout)
+        .lines()
+        .any(|l| l.trim() == target)
+    {
+        return Ok(());
+    }
+    println!("xtask: installing the Rust target {target}");
+    crate::run(
+        &format!("`rustup target add {target}`"),
+        Command::new("rustup").args(["target", "add", target]),
+    )
+}
+
+/// Makes sure the commands exist, installing their Debian packages with apt-get if not.
+pub fn debian_commands(needed: &[(&str, &str)]) -> Result<(), String> {
+    let missing: Vec<&(&str, &str)> = needed.iter().filter(|(cmd, _)| !exists(cmd)).collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    let packages: Vec<&str> = missing.iter().map(|(_, package)| *package).collect();
+    let hint = format!(
+        "the firmware checks need {}: install them with `apt-get install {}`",
+        missing
+            .iter()
+            .map(|(cmd, _)| *cmd)
+            .collect::<Vec<_>>()
+            .join(", "),
+        packages.join(" ")
+    );
+    if !exists("apt-get") {
+        return Err(hint);
+    }
+    println!("xtask: installing {}", packages.join(" "));
+    let update = crate::run("`apt-get update`", Command::new("apt-get").arg("update"));
+    let install = update.and_then(|()| {
+        crate::run(
+            "`apt-get install`",
+            Command::new("apt-get")
+                .args(["install", "-y"])
+                .args(&packages),
+        )
+    });
+    match install {
+        Ok(()) if missing.iter().all(|(cmd, _)| exists(cmd)) => Ok(()),
+        _ => Err(hint),
+    }
+}
+
+fn exists(command: &str) -> bool {
+    Command::new("sh")
+        .args(["-c", &format!("command -v {command}")])
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
