@@ -12,7 +12,8 @@ use super::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
 use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed, Matrix};
-use crate::symbolic::{Graph, ModelGraph, NodeId};
+use crate::symbolic::window::substitute;
+use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::TokenStream;
 use quote::quote;
 
@@ -24,6 +25,8 @@ pub struct EkfCode {
     pub predict_ops: OpCount,
     /// Arithmetic of `update`.
     pub update_ops: OpCount,
+    /// Arithmetic of `step`.
+    pub step_ops: OpCount,
 }
 
 /// Names already used by the model, which generated variables must avoid.
@@ -61,35 +64,17 @@ pub fn finiteness_probe(graph: &mut Graph, vector: &[NodeId], matrix: &Matrix) -
 
 /// The EKF of `model` in `scalar`.
 pub fn emit_ekf(model: &Model, mg: &ModelGraph, scalar: Scalar) -> EkfCode {
-    let (predict, predict_ops) = predict(model, mg, scalar);
-    let (update, update_ops) = update(model, mg, scalar);
+    let (predict, predict_ops) = method(model, mg, scalar, EkfMethod::Predict);
+    let (update, update_ops) = method(model, mg, scalar, EkfMethod::Update);
+    let (step, step_ops) = method(model, mg, scalar, EkfMethod::Step);
     let ty = ident(scalar.type_name());
     let (n, m) = (model.state_len(), model.outputs.len());
-    let [n_len, m_len, np, mp, u_len] = [n, m, packed_len(n), packed_len(m), model.inputs.len()]
-        .map(proc_macro2::Literal::usize_unsuffixed);
-    let uses_time = model.uses_time();
+    let [n_len, m_len, np, mp] =
+        [n, m, packed_len(n), packed_len(m)].map(proc_macro2::Literal::usize_unsuffixed);
 
     let (pack_p0, pack_q, pack_r) = (pack_upper("p0", n), pack_upper("q", n), pack_upper("r", m));
     let unpack_p = unpack_symmetric("p", n);
 
-    let time_prev = uses_time.then(|| quote! { t_prev: #ty, });
-    let time_now = uses_time.then(|| quote! { t: #ty, });
-    let time_prev_arg = uses_time.then(|| quote! { t_prev, });
-    let time_now_arg = uses_time.then(|| quote! { t, });
-    let has_u = !model.inputs.is_empty();
-    let u_param = has_u.then(|| quote! { u_prev: &[#ty; #u_len], });
-    let u_arg = has_u.then(|| quote! { u_prev });
-    let doc_step = format!(
-        " One sample: predicts `x[k]` from `x[k-1]` with the input `u[k-1]` held over the \
-         sample, then corrects it with the measurement `y[k]`. On any status but \
-         [`Status::Ok`] the filter is left as it was. Cost: [`EKF_PREDICT_OPS`] plus \
-         [`EKF_UPDATE_OPS`]{}.",
-        if model.scalars.first() == Some(&scalar) {
-            ""
-        } else {
-            " (in the parent module)"
-        }
-    );
     let tokens = quote! {
         /// Extended Kalman filter (Alg. 1) of this model: state estimate `x` (physical
         /// states, then parameters) and covariance `P`, stored once as a packed upper
@@ -126,19 +111,7 @@ pub fn emit_ekf(model: &Model, mg: &ModelGraph, scalar: Scalar) -> EkfCode {
                 #unpack_p
             }
 
-            #[doc = #doc_step]
-            pub fn step(&mut self, #time_prev #time_now #u_param y: &[#ty; #m_len]) -> Status {
-                let before = *self;
-                let status = self.predict(#time_prev_arg #u_arg);
-                if status != Status::Ok {
-                    return status;
-                }
-                let status = self.update(#time_now_arg y);
-                if status != Status::Ok {
-                    *self = before;
-                }
-                status
-            }
+            #step
 
             #predict
 
@@ -149,84 +122,40 @@ pub fn emit_ekf(model: &Model, mg: &ModelGraph, scalar: Scalar) -> EkfCode {
         tokens,
         predict_ops,
         update_ops,
+        step_ops,
     }
 }
 
-/// `predict`: `P = A P A' + Q`, `x = f(x, u)`, with `A = df/dx` at the current estimate.
-fn predict(model: &Model, mg: &ModelGraph, scalar: Scalar) -> (TokenStream, OpCount) {
-    let mut g = mg.clone();
-    let n = model.state_len();
-    let avoid = model_names(model);
-    let p_vars = packed_vars(&mut g.graph, "p", n, &avoid);
-    let q_vars = packed_vars(&mut g.graph, "q", n, &avoid);
-    let p = symmetric_from_packed(&p_vars, n);
-    let q = symmetric_from_packed(&q_vars, n);
-    let a = g.jacobian_f_wrt_x();
-    let p_pred = kalman::predict_covariance(&mut g.graph, &a, &p, &q);
-    let x_pred = g.f.clone();
-    let probe = finiteness_probe(&mut g.graph, &x_pred, &p_pred);
-    let p_pred = packed_upper(&p_pred);
-
-    let results: Vec<NodeId> = x_pred.iter().chain(&p_pred).copied().collect();
-    let mut all_roots = results.clone();
-    all_roots.push(probe);
-    let namer = TempNamer::new(avoid.iter().map(String::as_str));
-    let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
-    name_results(&mut lowerer, model, &x_pred, &p_vars, &p_pred, "pred");
-    let probe = lowerer.segment(&[probe]).remove(0);
-    let values = lowerer.segment(&results);
-    let Lowered {
-        statements,
-        used_vars,
-        ops,
-    } = lowerer.finish();
-    let (x_values, p_values) = values.split_at(n);
-    let commit = commit_or_non_finite(&probe, x_values, p_values);
-    let graph = &g.graph;
-    let u_idents = var_idents(graph, &g.u);
-    let unpack_u = (!g.u.is_empty()).then(|| {
-        let u = &u_idents;
-        quote! { let [#(#u),*] = *u; }
-    });
-    let check_u = reject_non_finite(&u_idents);
-    let unpack_x = destructure(graph, quote! { self.x }, &g.x, &used_vars);
-    let unpack_p = destructure(graph, quote! { self.p }, &p_vars, &used_vars);
-    let unpack_q = destructure(graph, quote! { self.q }, &q_vars, &used_vars);
-    let ty = ident(scalar.type_name());
-    let time = model.uses_time().then(|| {
-        let t = time_param(graph, g.t, &used_vars, &ty);
-        quote! { #t, }
-    });
-    let u_param = (!g.u.is_empty()).then(|| {
-        let len = proc_macro2::Literal::usize_unsuffixed(g.u.len());
-        quote! { u: &[#ty; #len] }
-    });
-    let tokens = quote! {
-        /// Predicts the next sample: `x = f(x, u)`, `P = A P A' + Q` with `A = df/dx`
-        /// at the current estimate (Alg. 1). Rejects a non-finite input and leaves the
-        /// filter unchanged unless it returns [`Status::Ok`].
-        pub fn predict(&mut self, #time #u_param) -> Status {
-            #unpack_u
-            #check_u
-            #unpack_x
-            #unpack_p
-            #unpack_q
-            #(#statements)*
-            #commit
-        }
-    };
-    (tokens, ops)
+/// Which of the EKF's methods to generate.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum EkfMethod {
+    /// `P = A P A' + Q`, `x = f(x, u)`.
+    Predict,
+    /// The Joseph-form correction with `y`.
+    Update,
+    /// Both in one straight-line function: nothing stored between them, nothing to undo.
+    Step,
 }
 
-/// `update`: the Kalman gain from `S = C P C' + R` and the Joseph-form covariance
-/// `P = (I - K C) P (I - K C)' + K R K'`, with `C = dh/dx` at the current estimate.
-fn update(model: &Model, mg: &ModelGraph, scalar: Scalar) -> (TokenStream, OpCount) {
+/// One EKF method (Alg. 1): the prediction and/or the correction, built symbolically so
+/// products skip the Jacobians' structural zeros, then lowered with its guards.
+fn method(
+    model: &Model,
+    mg: &ModelGraph,
+    scalar: Scalar,
+    kind: EkfMethod,
+) -> (TokenStream, OpCount) {
     let mut g = mg.clone();
     let n = model.state_len();
     let m = model.outputs.len();
+    let predicts = kind != EkfMethod::Update;
+    let updates = kind != EkfMethod::Predict;
     let avoid = model_names(model);
+    let p_vars = packed_vars(&mut g.graph, "p", n, &avoid);
+    let q_vars = packed_vars(&mut g.graph, "q", n, &avoid);
+    let r_vars = packed_vars(&mut g.graph, "r", m, &avoid);
     let taken = |name: &str| avoid.iter().any(|a| a == name);
-    let y_names: Vec<String> = model
+    let y_vars: Vec<NodeId> = model
         .outputs
         .iter()
         .map(|o| {
@@ -234,46 +163,91 @@ fn update(model: &Model, mg: &ModelGraph, scalar: Scalar) -> (TokenStream, OpCou
             while taken(&name) {
                 name.push('_');
             }
-            name
+            g.graph.var(&name)
         })
         .collect();
-    let y_vars: Vec<NodeId> = y_names.iter().map(|name| g.graph.var(name)).collect();
-    let p_vars = packed_vars(&mut g.graph, "p", n, &avoid);
-    let r_vars = packed_vars(&mut g.graph, "r", m, &avoid);
-    let p = symmetric_from_packed(&p_vars, n);
-    let r = symmetric_from_packed(&r_vars, m);
-    let c = g.jacobian_h_wrt_x();
-    let graph = &mut g.graph;
-    let residual: Vec<NodeId> = y_vars
-        .iter()
-        .zip(&g.h)
-        .map(|(&y, &h)| graph.sub(y, h))
-        .collect();
-    let reciprocal_name = |j: usize| {
-        if m == 1 {
-            "inv_s".to_owned()
-        } else {
-            format!("inv_d{}", j + 1)
-        }
-    };
-    let kalman::Update {
-        x: x_new,
-        p: p_new_full,
-        pivots,
-        reciprocals,
-    } = kalman::update(graph, &g.x, &p, &residual, &c, &r, |g, j| {
-        g.var(&reciprocal_name(j))
-    });
-    let probe = finiteness_probe(graph, &x_new, &p_new_full);
-    let p_new = packed_upper(&p_new_full);
+    // In a step the prediction runs from the previous sample's time, the correction at
+    // the measurement's.
+    let t_prev = (kind == EkfMethod::Step && model.uses_time()).then(|| g.graph.var("t_prev"));
 
-    let results: Vec<NodeId> = x_new.iter().chain(&p_new).copied().collect();
+    let mut x = g.x.clone();
+    let mut p = symmetric_from_packed(&p_vars, n);
+    if predicts {
+        let q = symmetric_from_packed(&q_vars, n);
+        let a = g.jacobian_f_wrt_x();
+        let mut f = g.f.clone();
+        let mut a = a;
+        if let Some(t_prev) = t_prev {
+            let at_prev = [(g.var_id(g.t), t_prev)];
+            f = f
+                .iter()
+                .map(|&e| substitute(&mut g.graph, e, &at_prev))
+                .collect();
+            a = a
+                .iter()
+                .map(|row| {
+                    row.iter()
+                        .map(|&e| substitute(&mut g.graph, e, &at_prev))
+                        .collect()
+                })
+                .collect();
+        }
+        p = kalman::predict_covariance(&mut g.graph, &a, &p, &q);
+        x = f;
+    }
+    let mut pivots = Vec::new();
+    let mut reciprocals = Vec::new();
+    if updates {
+        let r = symmetric_from_packed(&r_vars, m);
+        // h and its Jacobian at the estimate being corrected.
+        let at_x: Vec<(VarId, NodeId)> =
+            g.x.iter()
+                .map(|&v| g.var_id(v))
+                .zip(x.iter().copied())
+                .collect();
+        let c = g.jacobian_h_wrt_x();
+        let c: Matrix = c
+            .iter()
+            .map(|row| {
+                row.iter()
+                    .map(|&e| substitute(&mut g.graph, e, &at_x))
+                    .collect()
+            })
+            .collect();
+        let h: Vec<NodeId> =
+            g.h.iter()
+                .map(|&e| substitute(&mut g.graph, e, &at_x))
+                .collect();
+        let graph = &mut g.graph;
+        let residual: Vec<NodeId> = y_vars
+            .iter()
+            .zip(&h)
+            .map(|(&y, &h)| graph.sub(y, h))
+            .collect();
+        let name = |j: usize| {
+            if m == 1 {
+                "inv_s".to_owned()
+            } else {
+                format!("inv_d{}", j + 1)
+            }
+        };
+        let update = kalman::update(graph, &x, &p, &residual, &c, &r, |g, j| g.var(&name(j)));
+        x = update.x;
+        p = update.p;
+        pivots = update.pivots;
+        reciprocals = update.reciprocals;
+    }
+    let probe = finiteness_probe(&mut g.graph, &x, &p);
+    let p_packed = packed_upper(&p);
+
+    let results: Vec<NodeId> = x.iter().chain(&p_packed).copied().collect();
     let mut all_roots = results.clone();
     all_roots.push(probe);
     all_roots.extend(&pivots);
     let namer = TempNamer::new(avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
-    name_results(&mut lowerer, model, &x_new, &p_vars, &p_new, "new");
+    let suffix = if updates { "new" } else { "pred" };
+    name_results(&mut lowerer, model, &x, &p_vars, &p_packed, suffix);
     let pivot_names: Vec<String> = (0..pivots.len())
         .map(|j| {
             if m == 1 {
@@ -300,27 +274,73 @@ fn update(model: &Model, mg: &ModelGraph, scalar: Scalar) -> (TokenStream, OpCou
     } = lowerer.finish();
     let (x_values, p_values) = values.split_at(n);
     let commit = commit_or_non_finite(&probe, x_values, p_values);
+
     let graph = &g.graph;
+    let ty = ident(scalar.type_name());
+    let u_idents = var_idents(graph, &g.u);
     let y_idents = var_idents(graph, &y_vars);
-    let check_y = reject_non_finite(&y_idents);
+    let mut checked = Vec::new();
+    let mut params = Vec::new();
+    let mut unpack_inputs = Vec::new();
+    if model.uses_time() {
+        if let Some(t_prev) = t_prev {
+            let t_prev = time_param(graph, t_prev, &used_vars, &ty, "t_prev");
+            params.push(quote! { #t_prev });
+        }
+        let t = time_param(graph, g.t, &used_vars, &ty, "t");
+        params.push(quote! { #t });
+    }
+    if predicts && !g.u.is_empty() {
+        let len = proc_macro2::Literal::usize_unsuffixed(g.u.len());
+        let arg = if kind == EkfMethod::Step {
+            ident("u_prev")
+        } else {
+            ident("u")
+        };
+        params.push(quote! { #arg: &[#ty; #len] });
+        unpack_inputs.push(quote! { let [#(#u_idents),*] = *#arg; });
+        checked.extend(u_idents.iter().cloned());
+    }
+    if updates {
+        let len = proc_macro2::Literal::usize_unsuffixed(m);
+        params.push(quote! { y: &[#ty; #len] });
+        unpack_inputs.push(quote! { let [#(#y_idents),*] = *y; });
+        checked.extend(y_idents.iter().cloned());
+    }
+    let check = reject_non_finite(&checked);
     let unpack_x = destructure(graph, quote! { self.x }, &g.x, &used_vars);
     let unpack_p = destructure(graph, quote! { self.p }, &p_vars, &used_vars);
+    let unpack_q = destructure(graph, quote! { self.q }, &q_vars, &used_vars);
     let unpack_r = destructure(graph, quote! { self.r }, &r_vars, &used_vars);
-    let ty = ident(scalar.type_name());
-    let time = model.uses_time().then(|| {
-        let t = time_param(graph, g.t, &used_vars, &ty);
-        quote! { #t, }
-    });
-    let m_len = proc_macro2::Literal::usize_unsuffixed(m);
+    let (name, doc) = match kind {
+        EkfMethod::Predict => (
+            ident("predict"),
+            " Predicts the next sample (Alg. 1): `x = f(x, u)`, `P = A P A' + Q` with \
+             `A = df/dx` at the current estimate. Rejects a non-finite input; leaves the \
+             filter unchanged unless it returns [`Status::Ok`].",
+        ),
+        EkfMethod::Update => (
+            ident("update"),
+            " Corrects the estimate with the measurement `y` (Alg. 1, Joseph form). Rejects \
+             a non-finite measurement and a non-positive innovation variance (never divided \
+             by); leaves the filter unchanged unless it returns [`Status::Ok`].",
+        ),
+        EkfMethod::Step => (
+            ident("step"),
+            " One sample (Alg. 1): predicts `x[k]` from `x[k-1]` with the input `u[k-1]` held \
+             over the sample, then corrects it with the measurement `y[k]`, in one pass that \
+             stores nothing in between. Leaves the filter unchanged unless it returns \
+             [`Status::Ok`].",
+        ),
+    };
     let tokens = quote! {
-        /// Corrects the estimate with the measurement `y` (Alg. 1, Joseph form). Rejects a
-        /// non-finite measurement and a non-positive innovation variance (never divided
-        /// by); leaves the filter unchanged unless it returns [`Status::Ok`].
-        pub fn update(&mut self, #time y: &[#ty; #m_len]) -> Status {
-            let [#(#y_idents),*] = *y;
-            #check_y
+        #[doc = #doc]
+        pub fn #name(&mut self, #(#params),*) -> Status {
+            #(#unpack_inputs)*
+            #check
             #unpack_x
             #unpack_p
+            #unpack_q
             #unpack_r
             #(#statements)*
             #commit
@@ -329,15 +349,20 @@ fn update(model: &Model, mg: &ModelGraph, scalar: Scalar) -> (TokenStream, OpCou
     (tokens, ops)
 }
 
-/// `t: f32`, or `_t: f32` when the code does not read it.
+/// `t: f32` (named `name`), or `_t: f32` when the code does not read it.
 pub fn time_param(
     graph: &Graph,
     t: NodeId,
-    used: &std::collections::BTreeSet<crate::symbolic::VarId>,
+    used: &std::collections::BTreeSet<VarId>,
     ty: &proc_macro2::Ident,
+    name: &str,
 ) -> TokenStream {
     let reads = matches!(graph.node(t), crate::symbolic::Node::Var(v) if used.contains(&v));
-    let name = if reads { ident("t") } else { ident("_t") };
+    let name = if reads {
+        ident(name)
+    } else {
+        ident(&format!("_{name}"))
+    };
     quote! { #name: #ty }
 }
 

@@ -159,7 +159,7 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     let unpack_r = destructure(graph, quote! { self.r }, &r_vars, &used_vars);
     let k_rows = k_values.chunks(ns).map(|row| quote! { [#(#row),*] });
     let time = model.uses_time().then(|| {
-        let t = time_param(graph, g.t, &used_vars, &ty);
+        let t = time_param(graph, g.t, &used_vars, &ty, "t");
         quote! { #t, }
     });
     let x_name = if x_idents.is_empty() {

@@ -2,9 +2,7 @@
 //! covariance prediction and the Joseph-form measurement update (Alg. 1 and 2).
 
 use super::graph::{Graph, NodeId};
-use super::linalg::{
-    add, identity, ldl_inverse, matmul, sandwich_symmetric, sub, transpose, Matrix,
-};
+use super::linalg::{add, ldl_inverse, matmul, sandwich_symmetric, sub, transpose, Matrix};
 
 /// `A P A' + Q`, upper triangle computed once.
 pub fn predict_covariance(g: &mut Graph, a: &Matrix, p: &Matrix, q: &Matrix) -> Matrix {
@@ -39,7 +37,7 @@ pub fn update(
     reciprocal: impl FnMut(&mut Graph, usize) -> NodeId,
 ) -> Update {
     let n = x.len();
-    // P C' is shared by S and the gain.
+    // P C' is shared by S, the gain and the covariance update.
     let pct = matmul(g, p, &transpose(c));
     let cpct = matmul(g, c, &pct);
     let s = add(g, &cpct, r);
@@ -52,14 +50,29 @@ pub fn update(
         .zip(&correction)
         .map(|(&xi, dx)| g.add(xi, dx[0]))
         .collect();
-    let eye = identity(g, n);
-    let kc = matmul(g, &k, c);
-    let i_kc = sub(g, &eye, &kc);
-    let joseph = sandwich_symmetric(g, &i_kc, p, &i_kc);
-    let krk = sandwich_symmetric(g, &k, r, &k);
+    // Joseph form, (I - K C) P (I - K C)' + K R K', associated as M - W K' with
+    // M = P - K (P C')' and W = P C' - K S: the same expression expanded (it holds for
+    // any gain, unlike P - K C P), computed on the upper triangle.
+    let ks = matmul(g, &k, &s);
+    let w = sub(g, &pct, &ks);
+    let zero = g.zero();
+    let mut p_new = vec![vec![zero; n]; n];
+    for i in 0..n {
+        for j in i..n {
+            let mut v = p[i][j];
+            for l in 0..residual.len() {
+                let gain_term = g.mul(k[i][l], pct[j][l]);
+                v = g.sub(v, gain_term);
+                let correction = g.mul(w[i][l], k[j][l]);
+                v = g.sub(v, correction);
+            }
+            p_new[i][j] = v;
+            p_new[j][i] = v;
+        }
+    }
     Update {
         x: x_new,
-        p: add(g, &joseph, &krk),
+        p: p_new,
         pivots: ldl.pivots,
         reciprocals: ldl.reciprocals,
     }
