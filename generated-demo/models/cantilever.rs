@@ -40,7 +40,8 @@ codegen_macros::model! {
         // Forward Euler of eq. (2), i.e. eqs. (3a)-(3b); x3, x4, x5 are held
         // (eqs. 3c-3e): params get no equation, they are random-walk states.
         // The filters and controller of the paper: Alg. 1 (EKF), Alg. 2 (DKF), Alg. 3 (LQR).
-        generate ekf, dkf(eta = 0.5), lqr(horizon = 50, states = [x1, x2], input = u);
+        generate ekf(process_noise = diagonal), dkf(eta = 0.5, process_noise = diagonal),
+            lqr(horizon = 50, states = [x1, x2], input = u);
         dynamics discrete {
             // eq. (3a)
             x1 = x1 + TS * x2;

@@ -128,11 +128,10 @@ fn estimation_runs() -> Trace {
         ..PlantConfig::default()
     };
     let mut plant = Plant::new(config);
-    let q = diag(Q_DIAG);
     let mut filters = [(X0_CLOSE, 2e4, "close"), (X0_WRONG, 2e6, "wrong")].map(|(x0, p3, name)| {
         (
-            Ekf::new(x0, &p0(p3), &q, &[[R]]),
-            Dkf::new(x0, &p0(p3), &q, &p0(p3), &q, &[[R]]),
+            Ekf::new(x0, &p0(p3), &Q_DIAG, &[[R]]),
+            Dkf::new(x0, &p0(p3), &Q_DIAG, &p0(p3), &Q_DIAG, &[[R]]),
             name,
         )
     });
@@ -183,15 +182,14 @@ fn sensitivity() {
             1e-4,
         ),
     ];
-    let q = diag(Q_DIAG);
     for (name, kind, sigma) in cases {
         let mut plant = Plant::new(PlantConfig {
             kind,
             noise: GaussianNoise::new(sigma, 11),
             ..PlantConfig::default()
         });
-        let mut ekf = Ekf::new(X0_CLOSE, &p0(2e4), &q, &[[R]]);
-        let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &q, &p0(2e4), &q, &[[R]]);
+        let mut ekf = Ekf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]);
+        let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
         let mut prbs = Prbs::paper();
         let mut trace = Trace::new();
         let mut u_prev = 0.0;
@@ -239,7 +237,6 @@ fn sensitivity() {
 
 /// Open loop, EKF-LQR and DKF-LQR on the same beam, noise and stinger hits.
 fn closed_loop_runs() -> Trace {
-    let q = diag(Q_DIAG_CONTROL);
     let config = || PlantConfig {
         stinger: STINGER_AT
             .iter()
@@ -253,11 +250,18 @@ fn closed_loop_runs() -> Trace {
     let mut open = Plant::new(config());
     let mut with_ekf = (
         Plant::new(config()),
-        Ekf::new(X0_CLOSE, &p0(2e4), &q, &[[R]]),
+        Ekf::new(X0_CLOSE, &p0(2e4), &Q_DIAG_CONTROL, &[[R]]),
     );
     let mut with_dkf = (
         Plant::new(config()),
-        Dkf::new(X0_CLOSE, &p0(2e4), &q, &p0(2e4), &q, &[[R]]),
+        Dkf::new(
+            X0_CLOSE,
+            &p0(2e4),
+            &Q_DIAG_CONTROL,
+            &p0(2e4),
+            &Q_DIAG_CONTROL,
+            &[[R]],
+        ),
     );
     let lqr = || Lqr::new(&[[1.0, 0.0], [0.0, 1.0]], &[[LQR_R]], Some([U_MAX]));
     let (mut lqr_ekf, mut lqr_dkf) = (lqr(), lqr());

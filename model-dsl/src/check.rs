@@ -6,8 +6,8 @@ use crate::ast::{
 };
 use crate::diagnostics::Diagnostics;
 use crate::model::{
-    Constant, Discretisation, DkfSpec, Dynamics, Expr, Func, Generate, Local, LqrSpec, Method,
-    Model, Output, Scalar, Symbol,
+    Constant, Discretisation, DkfSpec, Dynamics, EkfSpec, Expr, Func, Generate, Local, LqrSpec,
+    Method, Model, Output, Scalar, Symbol,
 };
 use indexmap::IndexMap;
 use proc_macro2::Span;
@@ -661,14 +661,20 @@ fn check_generate(
         }
         let mut args = Args::new(item, diag);
         match item.name.text.as_str() {
-            "ekf" => generate.ekf = true,
+            "ekf" => {
+                generate.ekf = Some(EkfSpec {
+                    diagonal_noise: args.process_noise(diag),
+                });
+            }
             "dkf" => {
                 let eta = args.number("eta", 0.5, diag);
+                let diagonal_noise = args.process_noise(diag);
                 if !(0.0..=1.0).contains(&eta) {
                     diag.error(item.name.span, "`eta` weights a split: it lies in 0..=1");
                 }
                 generate.dkf = Some(DkfSpec {
                     eta,
+                    diagonal_noise,
                     span: item.name.span,
                 });
             }
@@ -779,6 +785,22 @@ impl<'a> Args<'a> {
                     format!("`{}` takes a name or a list of names", names[0]),
                 );
                 Vec::new()
+            }
+        }
+    }
+
+    /// `process_noise = diagonal` or `full` (the default).
+    fn process_noise(&mut self, diag: &mut Diagnostics) -> bool {
+        match self.take(&["process_noise"]).map(|a| &a.value) {
+            None => false,
+            Some(ArgValue::Name(n)) if n.text == "diagonal" => true,
+            Some(ArgValue::Name(n)) if n.text == "full" => false,
+            Some(other) => {
+                diag.error(
+                    other.span(),
+                    "`process_noise` is `diagonal` (only the variances) or `full` (a symmetric matrix)",
+                );
+                false
             }
         }
     }

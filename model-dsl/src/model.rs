@@ -35,8 +35,8 @@ pub struct Model {
 /// Filters and controllers a model asks for.
 #[derive(Clone, Debug, Default)]
 pub struct Generate {
-    /// The extended Kalman filter (Alg. 1).
-    pub ekf: bool,
+    /// The extended Kalman filter (Alg. 1), if asked for.
+    pub ekf: Option<EkfSpec>,
     /// The double Kalman filter (Alg. 2), if asked for.
     pub dkf: Option<DkfSpec>,
     /// The adaptive finite-horizon LQR (Alg. 3), if asked for.
@@ -46,8 +46,16 @@ pub struct Generate {
 impl Generate {
     /// Whether anything beyond the model functions is asked for.
     pub fn any(&self) -> bool {
-        self.ekf || self.dkf.is_some() || self.lqr.is_some()
+        self.ekf.is_some() || self.dkf.is_some() || self.lqr.is_some()
     }
+}
+
+/// Options of the extended Kalman filter.
+#[derive(Clone, Debug, Default)]
+pub struct EkfSpec {
+    /// Whether the process noise covariance is diagonal (stored and added as its
+    /// diagonal only), rather than a full symmetric matrix.
+    pub diagonal_noise: bool,
 }
 
 /// Options of the double Kalman filter.
@@ -55,6 +63,8 @@ impl Generate {
 pub struct DkfSpec {
     /// Weight of the split of each state-parameter product, eq. (12).
     pub eta: f64,
+    /// Whether both process noise covariances (AKF's and LKF's) are diagonal.
+    pub diagonal_noise: bool,
     /// Where `dkf` was written, for errors of the window transform.
     pub span: proc_macro2::Span,
 }

@@ -47,11 +47,11 @@ fn diag(d: [f32; 5]) -> [[f32; 5]; 5] {
 }
 
 fn ekf(x0: [f32; 5], p0: [f32; 5]) -> Ekf {
-    Ekf::new(x0, &diag(p0), &diag(Q), &[[R]])
+    Ekf::new(x0, &diag(p0), &Q, &[[R]])
 }
 
 fn dkf(x0: [f32; 5], p0: [f32; 5]) -> Dkf {
-    Dkf::new(x0, &diag(p0), &diag(Q), &diag(p0), &diag(Q), &[[R]])
+    Dkf::new(x0, &diag(p0), &Q, &diag(p0), &Q, &[[R]])
 }
 
 fn lqr() -> Lqr {

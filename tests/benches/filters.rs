@@ -52,7 +52,7 @@ fn benches(c: &mut Criterion) {
     let q = diag(Q_DIAG);
 
     let mut group = c.benchmark_group("EKF step");
-    let (mut ekf, mut feed) = (Ekf::new(X0, &p0, &q, &[[R]]), Feed::new());
+    let (mut ekf, mut feed) = (Ekf::new(X0, &p0, &Q_DIAG, &[[R]]), Feed::new());
     group.bench_function("generated f64", |b| {
         b.iter(|| {
             let (u, y) = feed.next();
@@ -62,7 +62,7 @@ fn benches(c: &mut Criterion) {
     let mut ekf32 = cantilever::Ekf::new(
         X0.map(|v| v as f32),
         &p0.map(|r| r.map(|v| v as f32)),
-        &q.map(|r| r.map(|v| v as f32)),
+        &Q_DIAG.map(|v| v as f32),
         &[[R as f32]],
     );
     let mut feed = Feed::new();
@@ -84,7 +84,10 @@ fn benches(c: &mut Criterion) {
     group.finish();
 
     let mut group = c.benchmark_group("DKF step");
-    let (mut dkf, mut feed) = (Dkf::new(X0, &p0, &q, &p0, &q, &[[R]]), Feed::new());
+    let (mut dkf, mut feed) = (
+        Dkf::new(X0, &p0, &Q_DIAG, &p0, &Q_DIAG, &[[R]]),
+        Feed::new(),
+    );
     group.bench_function("generated f64", |b| {
         b.iter(|| {
             let (u, y) = feed.next();

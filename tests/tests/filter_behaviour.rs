@@ -36,9 +36,8 @@ fn diverged(x: &[f64; 5]) -> bool {
 
 #[test]
 fn from_the_wrong_guess_the_dkf_converges_and_the_ekf_does_not() {
-    let q = diag(Q_DIAG);
-    let mut ekf = Ekf::new(X0_WRONG, &p0(2e6), &q, &R);
-    let mut dkf = Dkf::new(X0_WRONG, &p0(2e6), &q, &p0(2e6), &q, &R);
+    let mut ekf = Ekf::new(X0_WRONG, &p0(2e6), &Q_DIAG, &R);
+    let mut dkf = Dkf::new(X0_WRONG, &p0(2e6), &Q_DIAG, &p0(2e6), &Q_DIAG, &R);
     let samples = run(1001, 1e-4, 3);
     let ten_seconds = (10.0 / 0.015) as usize;
     let mut ekf_diverged_at = None;
@@ -76,9 +75,8 @@ fn from_the_wrong_guess_the_dkf_converges_and_the_ekf_does_not() {
 
 #[test]
 fn windows_without_excitation_produce_no_nan() {
-    let q = diag(Q_DIAG);
     // Case 1: the beam at rest, no input: every window is degenerate.
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &q, &p0(2e4), &q, &R);
+    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &R);
     for k in 0..50 {
         let status = dkf.step(&[0.0], &[0.0]);
         assert_eq!(status.filter, Status::Ok, "step {k}");
@@ -93,7 +91,7 @@ fn windows_without_excitation_produce_no_nan() {
     }
     assert_eq!(dkf.window_parameters(), [-400.0, -1.0, 0.01]);
     // Case 1 again: a constant input holding the beam still at its deflection.
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &q, &p0(2e4), &q, &R);
+    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &R);
     for _ in 0..50 {
         let status = dkf.step(&[10.0], &[0.0125]);
         assert_ne!(status.window, WindowStatus::Solved);
@@ -103,8 +101,7 @@ fn windows_without_excitation_produce_no_nan() {
 
 #[test]
 fn an_input_free_window_freezes_the_input_gain() {
-    let q = diag(Q_DIAG);
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &q, &p0(2e4), &q, &R);
+    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &R);
     // Excite, then let the beam ring down with no input (Case 2).
     let excited = run(200, 0.0, 1);
     for k in 1..excited.len() {
@@ -135,10 +132,9 @@ fn an_input_free_window_freezes_the_input_gain() {
 
 #[test]
 fn nan_input_leaves_every_filter_unchanged() {
-    let q = diag(Q_DIAG);
     let samples = run(100, 1e-4, 5);
-    let mut ekf = Ekf::new(X0_CLOSE, &p0(2e4), &q, &R);
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &q, &p0(2e4), &q, &R);
+    let mut ekf = Ekf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &R);
+    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &R);
     for k in 1..samples.len() {
         ekf.step(&[samples[k - 1].u], &[samples[k].y]);
         dkf.step(&[samples[k - 1].u], &[samples[k].y]);

@@ -61,7 +61,7 @@ fn data() -> Vec<Sample> {
 #[test]
 fn ekf_agrees_with_the_reference_over_2000_steps() {
     let q = diag(Q_DIAG);
-    let mut ekf = Ekf::new(X0_CLOSE, &p0(2e4), &q, &[[R]]);
+    let mut ekf = Ekf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]);
     let mut reference = reference::Ekf::new(
         State::from(X0_CLOSE),
         mat(&p0(2e4)),
@@ -83,7 +83,7 @@ fn ekf_agrees_with_the_reference_over_2000_steps() {
 #[test]
 fn dkf_agrees_with_the_reference_over_2000_steps() {
     let q = diag(Q_DIAG);
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &q, &p0(2e4), &q, &[[R]]);
+    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
     let mut reference = reference::Dkf::new(
         State::from(X0_CLOSE),
         mat(&p0(2e4)),

@@ -23,8 +23,12 @@ fn input(k: usize, phase: f64) -> f64 {
     60.0 * (7.0 * t + phase).sin() + 40.0 * (23.0 * t + 2.0 * phase).sin()
 }
 
+fn identity_matrix<const N: usize>() -> [[f64; N]; N] {
+    std::array::from_fn(|i| std::array::from_fn(|j| if i == j { 1.0 } else { 0.0 }))
+}
+
 macro_rules! check_exactness {
-    ($module:ident, $x0:expr, $inputs:expr) => {{
+    ($module:ident, $x0:expr, $noise:expr, $inputs:expr) => {{
         use $module::in_f64::{f, ltv_model, Dkf, Status, WindowStatus};
         use $module::{STATE_LEN, WINDOW_OUTPUTS, X_LEN};
         let truth0: [f64; X_LEN] = $x0;
@@ -35,14 +39,8 @@ macro_rules! check_exactness {
             }
             m
         };
-        let mut dkf = Dkf::new(
-            truth0,
-            &identity,
-            &identity,
-            &identity,
-            &identity,
-            &[[1e-3]],
-        );
+        let noise = $noise;
+        let mut dkf = Dkf::new(truth0, &identity, &noise, &identity, &noise, &[[1e-3]]);
         let mut x = truth0;
         let inputs = $inputs;
         let mut checked = 0;
@@ -83,6 +81,7 @@ fn cantilever_transform_is_exact() {
     check_exactness!(
         cantilever,
         [0.2, 0.0, -393.93, -6.941, 0.4924],
+        [1.0; 5],
         |k: usize| [input(k, 0.0)]
     );
 }
@@ -92,6 +91,7 @@ fn two_actuator_transform_is_exact() {
     check_exactness!(
         beam_two_actuators,
         [0.2, 0.0, -393.93, -6.941, 0.4924, -0.3],
+        identity_matrix::<6>(),
         |k: usize| [input(k, 0.0), input(k, 1.3)]
     );
 }
@@ -101,6 +101,7 @@ fn cubic_stiffness_transform_is_exact() {
     check_exactness!(
         duffing_beam,
         [0.2, 0.0, -393.93, -6.941, -50.0, 0.4924],
+        identity_matrix::<6>(),
         |k: usize| [input(k, 0.0)]
     );
 }

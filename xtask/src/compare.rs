@@ -7,7 +7,7 @@ use generated_demo::sequence::Measured;
 
 /// Host estimates at every sample, in the firmware's order.
 pub fn host_run(samples: usize) -> Vec<Estimate> {
-    let q = diag([0.0, 0.0, 100.0, 300.0, 1e-3]);
+    let q = [0.0, 0.0, 100.0, 300.0, 1e-3];
     let r = [[0.001]];
     let close = [0.01, 0.0, -400.0, -1.0, 0.01];
     let wrong = [0.01, 0.0, -50000.0, -10.0, 0.01];

@@ -3,7 +3,7 @@
 //! and a Kalman filter linearised about the AKF's estimate (LKF).
 
 use super::code::{destructure, guard_pivots, pack_upper, unpack_symmetric, var_idents};
-use super::ekf::{finiteness_probe, model_names, packed_vars};
+use super::ekf::{finiteness_probe, model_names, noise_argument, noise_vars, packed_vars};
 use super::lower::{literal, Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
 use crate::model::{DkfSpec, Model, Scalar};
@@ -36,7 +36,7 @@ pub fn emit_dkf(
     let mut g = mg.clone();
     let wt = window::derive(model, &mut g, spec.eta)?;
     let (transform, transform_ops) = transform_fn(model, &g, &wt, scalar);
-    let (step, filters_ops) = step_fn(model, &mut g, &wt, scalar);
+    let (step, filters_ops) = step_fn(model, &mut g, &wt, scalar, spec.diagonal_noise);
     let push = push_fn(model, &g, &wt, scalar);
     let ltv = ltv_fn(model, &g, &wt, scalar);
     let sqrt = ident(match scalar {
@@ -63,13 +63,13 @@ pub fn emit_dkf(
         },
         scalar,
     );
-    let (pack_p0, pack_pbar0, pack_q, pack_qbar, pack_r) = (
+    let (pack_p0, pack_pbar0, pack_r) = (
         pack_upper("p0", n),
         pack_upper("pbar0", n),
-        pack_upper("q", n),
-        pack_upper("qbar", n),
         pack_upper("r", m),
     );
+    let (q_param, q_field, pack_q) = noise_argument("q", n, spec.diagonal_noise, &ty);
+    let (qbar_param, qbar_field, pack_qbar) = noise_argument("qbar", n, spec.diagonal_noise, &ty);
     let params_of_x0 = {
         let names: Vec<Ident> = model.state_names().map(ident).collect();
         let params = &names[model.states.len()..];
@@ -96,6 +96,15 @@ pub fn emit_dkf(
             " (parent module)"
         }
     );
+    let new_doc = if spec.diagonal_noise {
+        " A filter starting from `x0` for both stages, with the LKF's covariance `p0` and \
+         process noise variances `q` (diagonal), the AKF's `pbar0` and `qbar`, and the \
+         measurement noise `r`. Symmetric matrices: only upper triangles are read."
+    } else {
+        " A filter starting from `x0` for both stages, with the LKF's covariance `p0` and \
+         process noise `q`, the AKF's `pbar0` and `qbar`, and the measurement noise `r`. \
+         Symmetric matrices: only upper triangles are read."
+    };
     let tokens = quote! {
         /// Double Kalman filter (Alg. 2) of this model.
         ///
@@ -118,10 +127,10 @@ pub fn emit_dkf(
             min_excitation: #ty,
             xbar: [#ty; #n_len],
             pbar: [#ty; #nn],
-            qbar: [#ty; #nn],
+            qbar: #qbar_field,
             x: [#ty; #n_len],
             p: [#ty; #nn],
-            q: [#ty; #nn],
+            q: #q_field,
             r: [#ty; #mm],
         }
 
@@ -129,16 +138,14 @@ pub fn emit_dkf(
             /// Default threshold of the window's excitation measure (Case 1).
             pub const DEFAULT_MIN_EXCITATION: #ty = #default_excitation;
 
-            /// A filter starting from `x0` for both stages, with the LKF's covariance `p0`
-            /// and process noise `q`, the AKF's `pbar0` and `qbar`, and the measurement
-            /// noise `r`. Symmetric matrices: only upper triangles are read.
+            #[doc = #new_doc]
             #[must_use]
             pub fn new(
                 x0: [#ty; #n_len],
                 p0: &[[#ty; #n_len]; #n_len],
-                q: &[[#ty; #n_len]; #n_len],
+                #q_param,
                 pbar0: &[[#ty; #n_len]; #n_len],
-                qbar: &[[#ty; #n_len]; #n_len],
+                #qbar_param,
                 r: &[[#ty; #m_len]; #m_len],
             ) -> Dkf {
                 Dkf {
@@ -484,6 +491,7 @@ fn step_fn(
     mg: &mut ModelGraph,
     wt: &WindowTransform,
     scalar: Scalar,
+    diagonal_noise: bool,
 ) -> (TokenStream, OpCount) {
     let g = mg;
     let n = model.state_len();
@@ -501,18 +509,12 @@ fn step_fn(
         .map(|o| graph.var(&format!("{}_measured", o.name)))
         .collect();
     let pbar_vars = packed_vars(graph, "pbar", n, &avoid);
-    let qbar_vars = packed_vars(graph, "qbar", n, &avoid);
+    let (qbar_vars, qbar) = noise_vars(graph, "qbar", n, diagonal_noise, &avoid);
     let p_vars = packed_vars(graph, "p", n, &avoid);
-    let q_vars = packed_vars(graph, "q", n, &avoid);
+    let (q_vars, q) = noise_vars(graph, "q", n, diagonal_noise, &avoid);
     let r_vars = packed_vars(graph, "r", m, &avoid);
-    let (pbar, qbar) = (
-        symmetric_from_packed(&pbar_vars, n),
-        symmetric_from_packed(&qbar_vars, n),
-    );
-    let (p, q) = (
-        symmetric_from_packed(&p_vars, n),
-        symmetric_from_packed(&q_vars, n),
-    );
+    let pbar = symmetric_from_packed(&pbar_vars, n);
+    let p = symmetric_from_packed(&p_vars, n);
     let r = symmetric_from_packed(&r_vars, m);
     let x_vars: Vec<VarId> = g.x.iter().map(|&x| g.var_id(x)).collect();
     let c = g.jacobian_h_wrt_x();

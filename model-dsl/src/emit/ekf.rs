@@ -9,7 +9,7 @@ use super::code::{
 };
 use super::lower::{Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
-use crate::model::{Model, Scalar};
+use crate::model::{EkfSpec, Model, Scalar};
 use crate::symbolic::kalman;
 use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed, Matrix};
 use crate::symbolic::window::substitute;
@@ -51,6 +51,60 @@ pub fn packed_vars(graph: &mut Graph, prefix: &str, n: usize, avoid: &[String]) 
         .collect()
 }
 
+/// A process noise covariance: its variables (the packed upper triangle, or only the
+/// diagonal) and the matrix they make (structural zeros off the diagonal if diagonal).
+pub fn noise_vars(
+    graph: &mut Graph,
+    prefix: &str,
+    n: usize,
+    diagonal: bool,
+    avoid: &[String],
+) -> (Vec<NodeId>, Matrix) {
+    let packed = packed_vars(graph, prefix, n, avoid);
+    if !diagonal {
+        let matrix = symmetric_from_packed(&packed, n);
+        return (packed, matrix);
+    }
+    let variances: Vec<NodeId> = (0..n)
+        .map(|i| packed[crate::symbolic::linalg::packed_index(n, i, i)])
+        .collect();
+    let zero = graph.zero();
+    let matrix = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| if i == j { variances[i] } else { zero })
+                .collect()
+        })
+        .collect();
+    (variances, matrix)
+}
+
+/// The constructor argument, field type and stored value of a process noise covariance:
+/// `q: &[[S; n]; n]` packed to its upper triangle, or `q: &[S; n]`, its variances.
+pub fn noise_argument(
+    name: &str,
+    n: usize,
+    diagonal: bool,
+    ty: &proc_macro2::Ident,
+) -> (TokenStream, TokenStream, TokenStream) {
+    let arg = ident(name);
+    let n_len = proc_macro2::Literal::usize_unsuffixed(n);
+    if diagonal {
+        (
+            quote! { #arg: &[#ty; #n_len] },
+            quote! { [#ty; #n_len] },
+            quote! { *#arg },
+        )
+    } else {
+        let packed = proc_macro2::Literal::usize_unsuffixed(packed_len(n));
+        (
+            quote! { #arg: &[[#ty; #n_len]; #n_len] },
+            quote! { [#ty; #packed] },
+            pack_upper(name, n),
+        )
+    }
+}
+
 /// The sum of a vector and of a matrix's diagonal: finite exactly when all of them are
 /// (a NaN or infinity anywhere makes it non-finite), so one check guards a whole result.
 pub fn finiteness_probe(graph: &mut Graph, vector: &[NodeId], matrix: &Matrix) -> NodeId {
@@ -63,18 +117,29 @@ pub fn finiteness_probe(graph: &mut Graph, vector: &[NodeId], matrix: &Matrix) -
 }
 
 /// The EKF of `model` in `scalar`.
-pub fn emit_ekf(model: &Model, mg: &ModelGraph, scalar: Scalar) -> EkfCode {
-    let (predict, predict_ops) = method(model, mg, scalar, EkfMethod::Predict);
-    let (update, update_ops) = method(model, mg, scalar, EkfMethod::Update);
-    let (step, step_ops) = method(model, mg, scalar, EkfMethod::Step);
+pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) -> EkfCode {
+    let diagonal = spec.diagonal_noise;
+    let (predict, predict_ops) = method(model, mg, scalar, EkfMethod::Predict, diagonal);
+    let (update, update_ops) = method(model, mg, scalar, EkfMethod::Update, diagonal);
+    let (step, step_ops) = method(model, mg, scalar, EkfMethod::Step, diagonal);
     let ty = ident(scalar.type_name());
     let (n, m) = (model.state_len(), model.outputs.len());
     let [n_len, m_len, np, mp] =
         [n, m, packed_len(n), packed_len(m)].map(proc_macro2::Literal::usize_unsuffixed);
 
-    let (pack_p0, pack_q, pack_r) = (pack_upper("p0", n), pack_upper("q", n), pack_upper("r", m));
+    let (pack_p0, pack_r) = (pack_upper("p0", n), pack_upper("r", m));
+    let (q_param, q_field, pack_q) = noise_argument("q", n, diagonal, &ty);
     let unpack_p = unpack_symmetric("p", n);
 
+    let new_doc = if diagonal {
+        " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
+         variances `q` (a diagonal covariance) and the measurement noise covariance `r`. The \
+         matrices are symmetric: only their upper triangles are read."
+    } else {
+        " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
+         covariance `q` and the measurement noise covariance `r`. The matrices are \
+         symmetric: only their upper triangles are read."
+    };
     let tokens = quote! {
         /// Extended Kalman filter (Alg. 1) of this model: state estimate `x` (physical
         /// states, then parameters) and covariance `P`, stored once as a packed upper
@@ -86,16 +151,14 @@ pub fn emit_ekf(model: &Model, mg: &ModelGraph, scalar: Scalar) -> EkfCode {
         pub struct Ekf {
             x: [#ty; #n_len],
             p: [#ty; #np],
-            q: [#ty; #np],
+            q: #q_field,
             r: [#ty; #mp],
         }
 
         impl Ekf {
-            /// A filter from the initial estimate `x0` and covariance `p0`, the process
-            /// noise covariance `q` and the measurement noise covariance `r`. The matrices
-            /// are symmetric: only their upper triangles are read.
+            #[doc = #new_doc]
             #[must_use]
-            pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len], q: &[[#ty; #n_len]; #n_len], r: &[[#ty; #m_len]; #m_len]) -> Ekf {
+            pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len], #q_param, r: &[[#ty; #m_len]; #m_len]) -> Ekf {
                 Ekf { x: x0, p: #pack_p0, q: #pack_q, r: #pack_r }
             }
 
@@ -144,6 +207,7 @@ fn method(
     mg: &ModelGraph,
     scalar: Scalar,
     kind: EkfMethod,
+    diagonal_noise: bool,
 ) -> (TokenStream, OpCount) {
     let mut g = mg.clone();
     let n = model.state_len();
@@ -152,7 +216,7 @@ fn method(
     let updates = kind != EkfMethod::Predict;
     let avoid = model_names(model);
     let p_vars = packed_vars(&mut g.graph, "p", n, &avoid);
-    let q_vars = packed_vars(&mut g.graph, "q", n, &avoid);
+    let (q_vars, q) = noise_vars(&mut g.graph, "q", n, diagonal_noise, &avoid);
     let r_vars = packed_vars(&mut g.graph, "r", m, &avoid);
     let taken = |name: &str| avoid.iter().any(|a| a == name);
     let y_vars: Vec<NodeId> = model
@@ -173,7 +237,6 @@ fn method(
     let mut x = g.x.clone();
     let mut p = symmetric_from_packed(&p_vars, n);
     if predicts {
-        let q = symmetric_from_packed(&q_vars, n);
         let a = g.jacobian_f_wrt_x();
         let mut f = g.f.clone();
         let mut a = a;

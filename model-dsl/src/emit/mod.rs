@@ -47,8 +47,8 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
     let primary_consts = constants(model, primary);
     let filters = |scalar: Scalar, ops_items: &mut Vec<TokenStream>| {
         let mut tokens = TokenStream::new();
-        if model.generate.ekf {
-            let ekf = ekf::emit_ekf(model, &mg, scalar);
+        if let Some(spec) = &model.generate.ekf {
+            let ekf = ekf::emit_ekf(model, spec, &mg, scalar);
             ops_items.push(named_ops_item(
                 "EKF_PREDICT_OPS",
                 "Ekf::predict",
