@@ -629,6 +629,18 @@ fn step_fn(
 
     let namer = TempNamer::new(avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
+    for (source, vars) in [
+        (quote! { phi }, &wt.phi),
+        (quote! { self.xbar }, &xbar),
+        (quote! { self.pbar }, &pbar_vars),
+        (quote! { self.qbar }, &qbar_vars),
+        (quote! { self.x }, &g.x),
+        (quote! { self.p }, &p_vars),
+        (quote! { self.q }, &q_vars),
+        (quote! { self.r }, &r_vars),
+    ] {
+        lowerer.read_lazily(&source, vars);
+    }
     for (&node, s) in akf.x.iter().zip(model.state_names()) {
         lowerer.prefer_name(node, &format!("{s}_bar_new"));
     }
@@ -685,16 +697,9 @@ fn step_fn(
     let checked: Vec<Ident> = u_idents.iter().chain(&y_idents).cloned().collect();
     let finite = quote! { #(#checked.is_finite())&&* };
     let unpack_u = (!g.u.is_empty()).then(|| quote! { let [#(#u_idents),*] = *u_prev; });
-    let phi_pattern = destructure(graph, quote! { phi }, &wt.phi, &used_vars);
-    let unpack_xbar = destructure(graph, quote! { self.xbar }, &xbar, &used_vars);
-    let unpack_pbar = destructure(graph, quote! { self.pbar }, &pbar_vars, &used_vars);
-    let unpack_qbar = destructure(graph, quote! { self.qbar }, &qbar_vars, &used_vars);
-    let unpack_x = destructure(graph, quote! { self.x }, &g.x, &used_vars);
-    let unpack_p = destructure(graph, quote! { self.p }, &p_vars, &used_vars);
-    let unpack_q = destructure(graph, quote! { self.q }, &q_vars, &used_vars);
-    let unpack_r = destructure(graph, quote! { self.r }, &r_vars, &used_vars);
+    let reads_phi = wt.phi.iter().any(|&v| reads(graph, v, &used_vars));
     let phi_params: Vec<Ident> = var_idents(graph, &wt.phi[model.states.len()..]);
-    let keep_params = if !phi_params.is_empty() {
+    let keep_params = if reads_phi || !phi_params.is_empty() {
         quote! {
             if let WindowStatus::Solved | WindowStatus::InputFree = window {
                 let [.., #(#phi_params),*] = phi;
@@ -716,14 +721,6 @@ fn step_fn(
         // The window's findings stand whatever the filters do with this sample.
         self.excitation_sq = excitation_sq;
         #keep_params
-        #phi_pattern
-        #unpack_xbar
-        #unpack_pbar
-        #unpack_qbar
-        #unpack_x
-        #unpack_p
-        #unpack_q
-        #unpack_r
         #(#statements)*
         if !(#probe).is_finite() {
             self.push(#u_arg y);

@@ -4,7 +4,7 @@
 //! and the Joseph-form covariance update.
 
 use super::code::{
-    commit_or_non_finite, destructure, guard_pivots, pack_upper, packed_names, reject_non_finite,
+    commit_or_non_finite, guard_pivots, pack_upper, packed_names, reject_non_finite,
     unpack_symmetric, var_idents,
 };
 use super::lower::{Lowered, Lowerer, OpCount};
@@ -309,6 +309,10 @@ fn method(
     all_roots.extend(&pivots);
     let namer = TempNamer::new(avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
+    lowerer.read_lazily(&quote! { self.x }, &g.x);
+    lowerer.read_lazily(&quote! { self.p }, &p_vars);
+    lowerer.read_lazily(&quote! { self.q }, &q_vars);
+    lowerer.read_lazily(&quote! { self.r }, &r_vars);
     let suffix = if updates { "new" } else { "pred" };
     name_results(&mut lowerer, model, &x, &p_vars, &p_packed, suffix);
     let pivot_names: Vec<String> = (0..pivots.len())
@@ -371,10 +375,6 @@ fn method(
         checked.extend(y_idents.iter().cloned());
     }
     let check = reject_non_finite(&checked);
-    let unpack_x = destructure(graph, quote! { self.x }, &g.x, &used_vars);
-    let unpack_p = destructure(graph, quote! { self.p }, &p_vars, &used_vars);
-    let unpack_q = destructure(graph, quote! { self.q }, &q_vars, &used_vars);
-    let unpack_r = destructure(graph, quote! { self.r }, &r_vars, &used_vars);
     let (name, doc) = match kind {
         EkfMethod::Predict => (
             ident("predict"),
@@ -401,10 +401,6 @@ fn method(
         pub fn #name(&mut self, #(#params),*) -> Status {
             #(#unpack_inputs)*
             #check
-            #unpack_x
-            #unpack_p
-            #unpack_q
-            #unpack_r
             #(#statements)*
             #commit
         }

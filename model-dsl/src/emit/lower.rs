@@ -87,6 +87,8 @@ pub struct Lowerer<'g> {
     statements: Vec<TokenStream>,
     used_vars: BTreeSet<VarId>,
     ops: OpCount,
+    /// Statements that read a variable, emitted just before its first use.
+    reads: std::collections::HashMap<NodeId, TokenStream>,
 }
 
 impl<'g> Lowerer<'g> {
@@ -116,29 +118,66 @@ impl<'g> Lowerer<'g> {
             statements: Vec::new(),
             used_vars: BTreeSet::new(),
             ops: OpCount::default(),
+            reads: std::collections::HashMap::new(),
+        }
+    }
+
+    /// Reads each of `vars` from the array `source` (`self.p`, say) where it is first used,
+    /// as `let [_, _, p13, ..] = self.p;`, rather than all of them up front: a value read
+    /// early stays live (in a register, or spilled to the stack) until its use.
+    pub fn read_lazily(&mut self, source: &TokenStream, vars: &[NodeId]) {
+        let len = vars.len();
+        for (position, &var) in vars.iter().enumerate() {
+            let Node::Var(v) = self.graph.node(var) else {
+                continue;
+            };
+            let name = super::names::ident(&self.graph.var_info(v).name);
+            let before = (0..position).map(|_| quote! { _ });
+            let pattern = if position + 1 == len {
+                quote! { [.., #name] }
+            } else {
+                quote! { [#(#before,)* #name, ..] }
+            };
+            self.reads.insert(var, quote! { let #pattern = #source; });
         }
     }
 
     /// Emits the `let`s `roots` need and returns an expression for each root.
+    ///
+    /// Values are scheduled depth-first from each root in turn, so each is computed just
+    /// before its first use, as careful hand-written code would: live ranges stay short,
+    /// and so does the register pressure on the target (spills cost loads and stores).
     pub fn segment(&mut self, roots: &[NodeId]) -> Vec<TokenStream> {
-        let mut fresh = vec![false; self.graph.len()];
-        let mut stack: Vec<NodeId> = roots.to_vec();
-        while let Some(id) = stack.pop() {
-            if self.emitted[id.index()] || std::mem::replace(&mut fresh[id.index()], true) {
-                continue;
+        let mut order = Vec::new();
+        let mut visited = vec![false; self.graph.len()];
+        for &root in roots {
+            let mut stack = vec![(root, false)];
+            while let Some((id, children_done)) = stack.pop() {
+                if children_done {
+                    order.push(id);
+                    continue;
+                }
+                if self.emitted[id.index()] || std::mem::replace(&mut visited[id.index()], true) {
+                    continue;
+                }
+                stack.push((id, true));
+                let children = self.graph.node(id).children();
+                for &child in children.iter().rev() {
+                    if !self.emitted[child.index()] && !visited[child.index()] {
+                        stack.push((child, false));
+                    }
+                }
             }
-            stack.extend(self.graph.node(id).children());
         }
-        // Children precede parents in the graph, so index order is an evaluation order.
-        for id in self.graph.ids() {
-            if !fresh[id.index()] {
-                continue;
-            }
+        for id in order {
             self.emitted[id.index()] = true;
             let node = self.graph.node(id);
             self.count(node);
             if let Node::Var(v) = node {
                 self.used_vars.insert(v);
+                if let Some(read) = self.reads.remove(&id) {
+                    self.statements.push(read);
+                }
             }
             let shared = self.uses[id.index()] > 1 || self.graph.name_hint(id).is_some();
             let needs_let =
