@@ -136,5 +136,15 @@ pub fn table(costs: &[Cost], elf: &Path) -> Result<String, String> {
             cost.stack.1,
         ));
     }
+    out.push_str(
+        "\nGenerated functions in the image (.text bytes; the rest is inlined into them):\n",
+    );
+    for (name, bytes) in program
+        .size
+        .iter()
+        .filter(|(name, _)| name.starts_with("generated_demo::"))
+    {
+        out.push_str(&format!("  {bytes:>6}  {name}\n"));
+    }
     Ok(out)
 }
