@@ -174,3 +174,28 @@ pub fn commit_or_non_finite(
         Status::Ok
     }
 }
+
+/// Names in generated code for pivot `j` of a guarded `L D L'` solve of size `m` and for
+/// its reciprocal: `(scalar, scalar_reciprocal)` when `m == 1` (`innovation_variance`,
+/// `inv_s`), else `d1`, `inv_d1`, ...; `suffix` is appended (`_bar` for the AKF).
+pub fn pivot_names(
+    m: usize,
+    j: usize,
+    (scalar, scalar_reciprocal): (&str, &str),
+    suffix: &str,
+) -> (String, String) {
+    if m == 1 {
+        (
+            format!("{scalar}{suffix}"),
+            format!("{scalar_reciprocal}{suffix}"),
+        )
+    } else {
+        (
+            format!("d{}{suffix}", j + 1),
+            format!("inv_d{}{suffix}", j + 1),
+        )
+    }
+}
+
+/// The pivot names of an innovation covariance (`innovation_variance` / `inv_s`).
+pub const INNOVATION: (&str, &str) = ("innovation_variance", "inv_s");

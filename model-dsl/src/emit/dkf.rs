@@ -2,7 +2,9 @@
 //! ([`crate::symbolic::window`]), a linear Kalman filter on the transformed model (AKF),
 //! and a Kalman filter linearised about the AKF's estimate (LKF).
 
-use super::code::{destructure, guard_pivots, pack_upper, unpack_symmetric, var_idents};
+use super::code::{
+    destructure, guard_pivots, pack_upper, pivot_names, unpack_symmetric, var_idents, INNOVATION,
+};
 use super::ekf::{finiteness_probe, model_names, noise_argument, noise_vars, packed_vars};
 use super::lower::{literal, Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
@@ -552,13 +554,6 @@ fn step_fn(
         .iter()
         .map(|row| row.iter().map(|&e| at(graph, e, &xbar_pred)).collect())
         .collect();
-    let name_bar = |j: usize| {
-        if m == 1 {
-            "inv_s_bar".to_owned()
-        } else {
-            format!("inv_d{}_bar", j + 1)
-        }
-    };
     let akf = kalman::update(
         graph,
         &xbar_pred,
@@ -566,7 +561,7 @@ fn step_fn(
         &residual_bar,
         &c_bar,
         &r,
-        |g, j| g.var(&name_bar(j)),
+        |g, j| g.var(&pivot_names(m, j, INNOVATION, "_bar").1),
     );
 
     // LKF: linearise f about the AKF's previous estimate with the actual input.
@@ -597,15 +592,8 @@ fn step_fn(
         .iter()
         .map(|row| row.iter().map(|&e| at(graph, e, &x_pred)).collect())
         .collect();
-    let name = |j: usize| {
-        if m == 1 {
-            "inv_s".to_owned()
-        } else {
-            format!("inv_d{}", j + 1)
-        }
-    };
     let lkf = kalman::update(graph, &x_pred, &p_pred, &residual, &c_pred, &r, |g, j| {
-        g.var(&name(j))
+        g.var(&pivot_names(m, j, INNOVATION, "").1)
     });
 
     let mut probe_vector = akf.x.clone();
@@ -652,22 +640,16 @@ fn step_fn(
         self.push(#u_arg y);
         return DkfStatus { window, filter: Status::NonPositiveInnovation };
     };
-    let pivot_names = |suffix: &str| -> Vec<String> {
+    let names = |suffix: &str| -> Vec<String> {
         (0..m)
-            .map(|j| {
-                if m == 1 {
-                    format!("innovation_variance{suffix}")
-                } else {
-                    format!("d{}{suffix}", j + 1)
-                }
-            })
+            .map(|j| pivot_names(m, j, INNOVATION, suffix).0)
             .collect()
     };
     guard_pivots(
         &mut lowerer,
         &akf.pivots,
         &akf.reciprocals,
-        &pivot_names("_bar"),
+        &names("_bar"),
         &failure,
         scalar,
     );
@@ -675,7 +657,7 @@ fn step_fn(
         &mut lowerer,
         &lkf.pivots,
         &lkf.reciprocals,
-        &pivot_names(""),
+        &names(""),
         &failure,
         scalar,
     );

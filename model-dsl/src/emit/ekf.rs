@@ -4,8 +4,8 @@
 //! and the Joseph-form covariance update.
 
 use super::code::{
-    commit_or_non_finite, guard_pivots, pack_upper, packed_names, reject_non_finite,
-    unpack_symmetric, var_idents,
+    commit_or_non_finite, guard_pivots, pack_upper, packed_names, pivot_names, reject_non_finite,
+    unpack_symmetric, var_idents, INNOVATION,
 };
 use super::lower::{Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
@@ -287,14 +287,9 @@ fn method(
             .zip(&h)
             .map(|(&y, &h)| graph.sub(y, h))
             .collect();
-        let name = |j: usize| {
-            if m == 1 {
-                "inv_s".to_owned()
-            } else {
-                format!("inv_d{}", j + 1)
-            }
-        };
-        let update = kalman::update(graph, &x, &p, &residual, &c, &r, |g, j| g.var(&name(j)));
+        let update = kalman::update(graph, &x, &p, &residual, &c, &r, |g, j| {
+            g.var(&pivot_names(m, j, INNOVATION, "").1)
+        });
         x = update.x;
         p = update.p;
         pivots = update.pivots;
@@ -315,20 +310,14 @@ fn method(
     lowerer.read_lazily(&quote! { self.r }, &r_vars);
     let suffix = if updates { "new" } else { "pred" };
     name_results(&mut lowerer, model, &x, &p_vars, &p_packed, suffix);
-    let pivot_names: Vec<String> = (0..pivots.len())
-        .map(|j| {
-            if m == 1 {
-                "innovation_variance".to_owned()
-            } else {
-                format!("d{}", j + 1)
-            }
-        })
+    let names: Vec<String> = (0..pivots.len())
+        .map(|j| pivot_names(m, j, INNOVATION, "").0)
         .collect();
     guard_pivots(
         &mut lowerer,
         &pivots,
         &reciprocals,
-        &pivot_names,
+        &names,
         &quote! { return Status::NonPositiveInnovation; },
         scalar,
     );

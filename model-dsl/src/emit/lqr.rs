@@ -3,7 +3,9 @@
 //! at the current estimate; the backward Riccati recursion runs as a loop over the horizon
 //! whose body is generated straight-line code.
 
-use super::code::{destructure, guard_pivots, pack_upper, reject_non_finite, var_idents};
+use super::code::{
+    destructure, guard_pivots, pack_upper, pivot_names, reject_non_finite, var_idents,
+};
 use super::ekf::{model_names, packed_vars, time_param};
 use super::lower::{literal, Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
@@ -49,13 +51,11 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     let btpb = matmul(graph, &transpose(&b), &pb);
     let weight = add(graph, &r, &btpb);
     let btpa = matmul(graph, &transpose(&pb), &a);
-    let (pivots, reciprocals, weight_inv) = if nu == 1 {
-        let inv = graph.var("inv_weight");
-        (vec![weight[0][0]], vec![inv], vec![vec![inv]])
-    } else {
-        let ldl = ldl_inverse(graph, &weight, |g, j| g.var(&format!("inv_d{}", j + 1)));
-        (ldl.pivots, ldl.reciprocals, ldl.inverse)
-    };
+    const WEIGHT: (&str, &str) = ("weight", "inv_weight");
+    let ldl = ldl_inverse(graph, &weight, |g, j| {
+        g.var(&pivot_names(nu, j, WEIGHT, "").1)
+    });
+    let (pivots, reciprocals, weight_inv) = (ldl.pivots, ldl.reciprocals, ldl.inverse);
     let k = matmul(graph, &weight_inv, &btpa);
     let at = transpose(&a);
     let atpa = sandwich_symmetric(graph, &at, &p, &at);
@@ -102,14 +102,8 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     // The gain after the loop comes from a fork taken here, so it does not rely on
     // temporaries scoped inside the loop body.
     let mut after = lowerer.clone();
-    let pivot_names: Vec<String> = (0..pivots.len())
-        .map(|j| {
-            if nu == 1 {
-                "weight".to_owned()
-            } else {
-                format!("d{}", j + 1)
-            }
-        })
+    let names: Vec<String> = (0..pivots.len())
+        .map(|j| pivot_names(nu, j, WEIGHT, "").0)
         .collect();
     let failure = quote! { return Status::NonPositiveControlWeight; };
     // Loop body: P <- A'PA - A'PB K + Q (eq. 19), N times from P = Q.
@@ -117,7 +111,7 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
         &mut lowerer,
         &pivots,
         &reciprocals,
-        &pivot_names,
+        &names,
         &failure,
         scalar,
     );
@@ -126,14 +120,7 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     let per_step = lowerer.ops().minus(before_loop);
     let Lowered { used_vars, .. } = lowerer.finish();
     // After the loop: F = (R + B'PB)^-1 B'PA from the final P (Alg. 3).
-    guard_pivots(
-        &mut after,
-        &pivots,
-        &reciprocals,
-        &pivot_names,
-        &failure,
-        scalar,
-    );
+    guard_pivots(&mut after, &pivots, &reciprocals, &names, &failure, scalar);
     let k_values = after.segment(&k_flat);
     let gain_statements = after.take_statements();
     let gain_ops = after.ops().minus(before_loop);
