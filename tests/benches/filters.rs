@@ -10,18 +10,7 @@ use nalgebra::{Matrix2, SMatrix};
 use std::hint::black_box;
 use tests::cantilever_sim::{run, Sample};
 use tests::reference::{self, State};
-
-const X0: [f64; 5] = [0.01, 0.0, -400.0, -1.0, 0.01];
-const Q_DIAG: [f64; 5] = [0.0, 0.0, 100.0, 300.0, 1e-3];
-const R: f64 = 0.001;
-
-fn diag(d: [f64; 5]) -> [[f64; 5]; 5] {
-    let mut m = [[0.0; 5]; 5];
-    for (i, v) in d.into_iter().enumerate() {
-        m[i][i] = v;
-    }
-    m
-}
+use tests::tuning::{diag, Q_DIAG, R, X0_CLOSE as X0};
 
 fn mat(m: &[[f64; 5]; 5]) -> SMatrix<f64, 5, 5> {
     SMatrix::from_fn(|i, j| m[i][j])

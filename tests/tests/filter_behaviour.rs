@@ -4,24 +4,9 @@
 use generated_demo::cantilever::in_f64::{Dkf, Ekf, Lqr, Status, WindowStatus};
 use tests::cantilever_sim::run;
 use tests::reference::poles_readout;
+use tests::tuning::{p0, Q_DIAG, R, X0_CLOSE, X0_WRONG};
 
-const X0_WRONG: [f64; 5] = [0.01, 0.0, -50000.0, -10.0, 0.01];
-const X0_CLOSE: [f64; 5] = [0.01, 0.0, -400.0, -1.0, 0.01];
-const Q_DIAG: [f64; 5] = [0.0, 0.0, 100.0, 300.0, 1e-3];
-const R: [[f64; 1]; 1] = [[0.001]];
 const TRUE_WN: f64 = 20.0;
-
-fn diag(d: [f64; 5]) -> [[f64; 5]; 5] {
-    let mut m = [[0.0; 5]; 5];
-    for (i, v) in d.into_iter().enumerate() {
-        m[i][i] = v;
-    }
-    m
-}
-
-fn p0(p3: f64) -> [[f64; 5]; 5] {
-    diag([0.1, 1.0, p3, 1000.0, 0.1])
-}
 
 /// wn read from the Euler model's poles (shared/reference/simulating-the-paper.md).
 fn wn(x: &[f64; 5]) -> f64 {
@@ -36,8 +21,8 @@ fn diverged(x: &[f64; 5]) -> bool {
 
 #[test]
 fn from_the_wrong_guess_the_dkf_converges_and_the_ekf_does_not() {
-    let mut ekf = Ekf::new(X0_WRONG, &p0(2e6), &Q_DIAG, &R);
-    let mut dkf = Dkf::new(X0_WRONG, &p0(2e6), &Q_DIAG, &p0(2e6), &Q_DIAG, &R);
+    let mut ekf = Ekf::new(X0_WRONG, &p0(2e6), &Q_DIAG, &[[R]]);
+    let mut dkf = Dkf::new(X0_WRONG, &p0(2e6), &Q_DIAG, &p0(2e6), &Q_DIAG, &[[R]]);
     let samples = run(1001, 1e-4, 3);
     let ten_seconds = (10.0 / 0.015) as usize;
     let mut ekf_diverged_at = None;
@@ -76,7 +61,7 @@ fn from_the_wrong_guess_the_dkf_converges_and_the_ekf_does_not() {
 #[test]
 fn windows_without_excitation_produce_no_nan() {
     // Case 1: the beam at rest, no input: every window is degenerate.
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &R);
+    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
     for k in 0..50 {
         let status = dkf.step(&[0.0], &[0.0]);
         assert_eq!(status.filter, Status::Ok, "step {k}");
@@ -91,7 +76,7 @@ fn windows_without_excitation_produce_no_nan() {
     }
     assert_eq!(dkf.window_parameters(), [-400.0, -1.0, 0.01]);
     // Case 1 again: a constant input holding the beam still at its deflection.
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &R);
+    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
     for _ in 0..50 {
         let status = dkf.step(&[10.0], &[0.0125]);
         assert_ne!(status.window, WindowStatus::Solved);
@@ -101,7 +86,7 @@ fn windows_without_excitation_produce_no_nan() {
 
 #[test]
 fn an_input_free_window_freezes_the_input_gain() {
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &R);
+    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
     // Excite, then let the beam ring down with no input (Case 2).
     let excited = run(200, 0.0, 1);
     for k in 1..excited.len() {
@@ -133,8 +118,8 @@ fn an_input_free_window_freezes_the_input_gain() {
 #[test]
 fn nan_input_leaves_every_filter_unchanged() {
     let samples = run(100, 1e-4, 5);
-    let mut ekf = Ekf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &R);
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &R);
+    let mut ekf = Ekf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]);
+    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
     for k in 1..samples.len() {
         ekf.step(&[samples[k - 1].u], &[samples[k].y]);
         dkf.step(&[samples[k - 1].u], &[samples[k].y]);

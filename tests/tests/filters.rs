@@ -6,26 +6,10 @@ use generated_demo::cantilever::in_f64::{Dkf, Ekf, Lqr, Status, WindowStatus};
 use nalgebra::{Matrix2, SMatrix};
 use tests::cantilever_sim::{run, Sample};
 use tests::reference::{self, State};
+use tests::tuning::{diag, p0, Q_DIAG, R, X0_CLOSE};
 
 /// Relative agreement required between generated code and the reference.
 const RTOL: f64 = 1e-9;
-
-/// The paper's close initial guess and the tuning of shared/reference/simulating-the-paper.md.
-const X0_CLOSE: [f64; 5] = [0.01, 0.0, -400.0, -1.0, 0.01];
-const Q_DIAG: [f64; 5] = [0.0, 0.0, 100.0, 300.0, 1e-3];
-const R: f64 = 0.001;
-
-fn diag(d: [f64; 5]) -> [[f64; 5]; 5] {
-    let mut m = [[0.0; 5]; 5];
-    for (i, v) in d.into_iter().enumerate() {
-        m[i][i] = v;
-    }
-    m
-}
-
-fn p0(p3: f64) -> [[f64; 5]; 5] {
-    diag([0.1, 1.0, p3, 1000.0, 0.1])
-}
 
 fn mat(m: &[[f64; 5]; 5]) -> SMatrix<f64, 5, 5> {
     SMatrix::from_fn(|i, j| m[i][j])
