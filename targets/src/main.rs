@@ -115,8 +115,8 @@ fn generated_ekf_step(filter: &mut Ekf, u_prev: f32, y: f32) -> Status {
 }
 
 #[inline(never)]
-fn generated_dkf_step(filter: &mut Dkf, u_prev: f32, y: f32) -> Status {
-    filter.step(&[u_prev], &[y]).filter
+fn generated_dkf_step(filter: &mut Dkf, u_prev: f32, y: f32) -> bool {
+    filter.step(&[u_prev], &[y]).is_ok()
 }
 
 #[inline(never)]

@@ -442,9 +442,10 @@ impl WindowTransform {
 /// Outcome of a [`Dkf::step`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DkfStatus {
-    /// Whether the step was applied (see [`StepStatus`]; a non-positive innovation variance
-    /// in either stage is reported as [`StepStatus::NonPositiveInnovation`]).
-    pub step: StepStatus,
+    /// Whether the AKF's update was applied (see [`StepStatus`]).
+    pub akf: StepStatus,
+    /// Whether the LKF's update was applied; each stage commits on its own.
+    pub lkf: StepStatus,
     /// How the window transform used by the step was obtained; `None` if the step was
     /// rejected before the transform.
     pub window: Option<WindowStatus>,
@@ -503,14 +504,16 @@ impl Dkf {
     /// 4. push `(u[k-1], y[k])` into the window.
     ///
     /// A non-finite `u_prev` or `y` is rejected: estimates and covariances are unchanged and
-    /// the window is emptied (its samples would no longer be consecutive). On a non-positive
-    /// innovation variance the estimates and covariances are unchanged but the window still
-    /// records the (valid) sample and its transform's last valid parameters.
+    /// the window is emptied (its samples would no longer be consecutive). A stage whose
+    /// innovation variance is not positive keeps its estimate and covariance (the other
+    /// stage commits on its own); the window still records the (valid) sample and its
+    /// transform's last valid parameters.
     pub fn step(&mut self, u_prev: f64, y: f64) -> DkfStatus {
         if !(u_prev.is_finite() && y.is_finite()) {
             self.window.reset();
             return DkfStatus {
-                step: StepStatus::Rejected,
+                akf: StepStatus::Rejected,
+                lkf: StepStatus::Rejected,
                 window: None,
             };
         }
@@ -534,22 +537,28 @@ impl Dkf {
         self.window.push(u_prev, y);
         self.last = Some(model);
 
-        match (akf, lkf) {
-            (Some((xbar, pbar)), Some((x, p))) => {
-                self.xbar = xbar;
-                self.pbar = pbar;
-                self.x = x;
-                self.p = p;
-                DkfStatus {
-                    step: StepStatus::Ok,
-                    window,
-                }
+        // Each stage is a filter of its own: it commits, or stays as it was.
+        let status = |update: &Option<(State, Mat5)>| {
+            if update.is_some() {
+                StepStatus::Ok
+            } else {
+                StepStatus::NonPositiveInnovation
             }
-            _ => DkfStatus {
-                step: StepStatus::NonPositiveInnovation,
-                window,
-            },
+        };
+        let statuses = DkfStatus {
+            akf: status(&akf),
+            lkf: status(&lkf),
+            window,
+        };
+        if let Some((xbar, pbar)) = akf {
+            self.xbar = xbar;
+            self.pbar = pbar;
         }
+        if let Some((x, p)) = lkf {
+            self.x = x;
+            self.p = p;
+        }
+        statuses
     }
 }
 

@@ -83,7 +83,7 @@ fn dkf_agrees_with_the_reference_over_2000_steps() {
         let (u_prev, y) = (samples[k - 1].u, samples[k].y);
         let status = dkf.step(&[u_prev], &[y]);
         let expected = reference.step(u_prev, y);
-        assert_eq!(status.filter, Status::Ok, "step {k}");
+        assert!(status.is_ok(), "step {k}: {status:?}");
         let window = match expected.window {
             Some(reference::WindowStatus::Filling) => WindowStatus::Filling,
             Some(reference::WindowStatus::Solved) => WindowStatus::Solved,

@@ -182,7 +182,7 @@ fn dkf_follows_noise_free_data_exactly_with_zero_covariances() {
             dkf.x = xs[k - 1];
         }
         let status = dkf.step(u_prev, h(&xs[k]));
-        assert_eq!(status.step, StepStatus::Ok);
+        assert_eq!((status.akf, status.lkf), (StepStatus::Ok, StepStatus::Ok));
         if k >= WINDOW_OUTPUTS {
             assert_eq!(status.window, Some(WindowStatus::Solved));
             assert_all_close(
@@ -209,18 +209,24 @@ fn dkf_rejects_non_finite_samples_and_restarts_its_window() {
     assert!(dkf.window.is_full());
     let before = dkf.clone();
     let s = dkf.step(f64::NAN, 0.1);
-    assert_eq!(s.step, StepStatus::Rejected);
+    assert_eq!((s.akf, s.lkf), (StepStatus::Rejected, StepStatus::Rejected));
     assert_eq!(
         (dkf.x, dkf.p, dkf.xbar, dkf.pbar),
         (before.x, before.p, before.xbar, before.pbar)
     );
     assert!(dkf.window.is_empty());
-    assert_eq!(dkf.step(1.0, f64::INFINITY).step, StepStatus::Rejected);
-    // A negative R makes S <= 0: estimates unchanged.
+    assert_eq!(dkf.step(1.0, f64::INFINITY).lkf, StepStatus::Rejected);
+    // A negative R makes S <= 0 in both stages: both estimates unchanged.
     dkf.r = Mat1::new(-1e9);
     let before = dkf.clone();
     let s = dkf.step(1.0, 0.1);
-    assert_eq!(s.step, StepStatus::NonPositiveInnovation);
+    assert_eq!(
+        (s.akf, s.lkf),
+        (
+            StepStatus::NonPositiveInnovation,
+            StepStatus::NonPositiveInnovation
+        )
+    );
     assert_eq!(
         (dkf.x, dkf.p, dkf.xbar, dkf.pbar),
         (before.x, before.p, before.xbar, before.pbar)

@@ -10,9 +10,7 @@ use super::lower::{literal, Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
 use crate::model::{DkfSpec, Model, Scalar};
 use crate::symbolic::kalman;
-use crate::symbolic::linalg::{
-    add, matmul, packed_len, packed_upper, symmetric_from_packed, Matrix,
-};
+use crate::symbolic::linalg::{matmul, packed_len, packed_upper, symmetric_from_packed, Matrix};
 use crate::symbolic::window::{self, column_norms_product, cramer, substitute, WindowTransform};
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::{Ident, Literal, TokenStream};
@@ -38,7 +36,7 @@ pub fn emit_dkf(
     let mut g = mg.clone();
     let wt = window::derive(model, &mut g, spec.eta)?;
     let (transform, transform_ops) = transform_fn(model, &g, &wt, scalar);
-    let (step, filters_ops) = step_fn(model, &mut g, &wt, scalar, spec.diagonal_noise);
+    let (step, stages, filters_ops) = step_fn(model, &mut g, &wt, scalar, spec.diagonal_noise);
     let push = push_fn(model, &g, &wt, scalar);
     let ltv = ltv_fn(model, &g, &wt, scalar);
     let sqrt = ident(match scalar {
@@ -227,6 +225,8 @@ pub fn emit_dkf(
                 #step
             }
 
+            #stages
+
             #transform
 
             #push
@@ -249,14 +249,24 @@ pub fn emit_dkf(
             Degenerate,
         }
 
-        /// Outcome of [`Dkf::step`].
+        /// Outcome of [`Dkf::step`]: the window's, and each filter stage's.
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
         pub struct DkfStatus {
             /// What the window transform did.
             pub window: WindowStatus,
-            /// What the filters did; on anything but [`Status::Ok`] their estimates and
-            /// covariances are unchanged.
-            pub filter: Status,
+            /// What the AKF did; on anything but [`Status::Ok`] its estimate and covariance
+            /// are unchanged.
+            pub akf: Status,
+            /// What the LKF (the DKF's estimate) did; likewise.
+            pub lkf: Status,
+        }
+
+        impl DkfStatus {
+            /// Whether both filter stages were applied.
+            #[must_use]
+            pub fn is_ok(&self) -> bool {
+                self.akf == Status::Ok && self.lkf == Status::Ok
+            }
         }
 
         #ltv
@@ -487,14 +497,104 @@ fn transform_fn(
     (tokens, ops.plus(full_ops.minus(at_fork)))
 }
 
-/// The filters' step after the transform (Alg. 2).
+/// One stage of the DKF's filtering, lowered into its own method: it reads what it needs
+/// where it first needs it and commits its own estimate and covariance, so the two stages
+/// never hold their results at once.
+struct Stage<'a> {
+    /// Method name (`akf_step`, `lkf_step`).
+    name: &'static str,
+    /// Its documentation.
+    doc: &'static str,
+    /// Extra parameters before `u_prev` and `y` (the AKF's `phi`).
+    params: TokenStream,
+    /// Arrays read lazily, with the variables they hold.
+    reads: Vec<(TokenStream, &'a [NodeId])>,
+    /// The stage's measurement update.
+    update: kalman::Update,
+    /// Suffix of its pivot names (`_bar` for the AKF).
+    suffix: &'static str,
+    /// Fields it stores into: estimate, packed covariance.
+    fields: (TokenStream, TokenStream),
+    /// Names of its new estimate's entries.
+    result_names: Vec<String>,
+}
+
+fn stage_method(
+    g: &ModelGraph,
+    avoid: &[String],
+    scalar: Scalar,
+    stage: Stage,
+) -> (TokenStream, OpCount) {
+    let Stage {
+        name,
+        doc,
+        params,
+        reads,
+        update,
+        suffix,
+        fields: (x_field, p_field),
+        result_names,
+    } = stage;
+    let n = update.x.len();
+    let m = update.pivots.len();
+    let mut graph = g.graph.clone();
+    let probe = finiteness_probe(&mut graph, &update.x, &update.p);
+    let p_new = packed_upper(&update.p);
+    let results: Vec<NodeId> = update.x.iter().chain(&p_new).copied().collect();
+    let mut all_roots = results.clone();
+    all_roots.push(probe);
+    all_roots.extend(&update.pivots);
+    let namer = TempNamer::new(avoid.iter().map(String::as_str));
+    let mut lowerer = Lowerer::new(&graph, scalar, namer, &all_roots);
+    for (source, vars) in &reads {
+        lowerer.read_lazily(source, vars);
+    }
+    for (&node, result) in update.x.iter().zip(&result_names) {
+        lowerer.prefer_name(node, result);
+    }
+    let names: Vec<String> = (0..m)
+        .map(|j| pivot_names(m, j, INNOVATION, suffix).0)
+        .collect();
+    guard_pivots(
+        &mut lowerer,
+        &update.pivots,
+        &update.reciprocals,
+        &names,
+        &quote! { return Status::NonPositiveInnovation; },
+        scalar,
+    );
+    let probe = lowerer.segment(&[probe]).remove(0);
+    let values = lowerer.segment(&results);
+    let Lowered {
+        statements, ops, ..
+    } = lowerer.finish();
+    let (x_values, p_values) = values.split_at(n);
+    let name = ident(name);
+    let doc = format!(" {doc}");
+    let tokens = quote! {
+        #[doc = #doc]
+        fn #name(&mut self, #params) -> Status {
+            #(#statements)*
+            if !(#probe).is_finite() {
+                return Status::NonFinite;
+            }
+            self.#x_field = [#(#x_values),*];
+            self.#p_field = [#(#p_values),*];
+            Status::Ok
+        }
+    };
+    (tokens, ops)
+}
+
+/// The DKF's step (Alg. 2) after the transform: its body, the two stage methods, and
+/// what the stages compute.
 fn step_fn(
     model: &Model,
     mg: &mut ModelGraph,
     wt: &WindowTransform,
     scalar: Scalar,
     diagonal_noise: bool,
-) -> (TokenStream, OpCount) {
+) -> (TokenStream, TokenStream, OpCount) {
     let g = mg;
     let n = model.state_len();
     let m = model.outputs.len();
@@ -522,6 +622,27 @@ fn step_fn(
     let c = g.jacobian_h_wrt_x();
     let a = g.jacobian_f_wrt_x();
     let graph = &mut g.graph;
+    let at = |graph: &mut Graph, node: NodeId, point: &[NodeId]| {
+        let map: Vec<(VarId, NodeId)> = x_vars.iter().copied().zip(point.iter().copied()).collect();
+        substitute(graph, node, &map)
+    };
+    let correct = |graph: &mut Graph, x: &[NodeId], p: &Matrix, suffix: &str| {
+        let residual: Vec<NodeId> = y_vars
+            .iter()
+            .zip(&g.h)
+            .map(|(&y, &h)| {
+                let h = at(graph, h, x);
+                graph.sub(y, h)
+            })
+            .collect();
+        let c_at: Matrix = c
+            .iter()
+            .map(|row| row.iter().map(|&e| at(graph, e, x)).collect())
+            .collect();
+        kalman::update(graph, x, p, &residual, &c_at, &r, |g, j| {
+            g.var(&pivot_names(m, j, INNOVATION, suffix).1)
+        })
+    };
 
     // AKF: x = F x + G u + d; P = F P F' + Qbar; update with y.
     let xbar_col: Matrix = xbar.iter().map(|&v| vec![v]).collect();
@@ -538,31 +659,7 @@ fn step_fn(
         })
         .collect();
     let pbar_pred = kalman::predict_covariance(graph, &wt.f, &pbar, &qbar);
-    let at = |graph: &mut Graph, node: NodeId, point: &[NodeId]| {
-        let map: Vec<(VarId, NodeId)> = x_vars.iter().copied().zip(point.iter().copied()).collect();
-        substitute(graph, node, &map)
-    };
-    let residual_bar: Vec<NodeId> = y_vars
-        .iter()
-        .zip(&g.h)
-        .map(|(&y, &h)| {
-            let h = at(graph, h, &xbar_pred);
-            graph.sub(y, h)
-        })
-        .collect();
-    let c_bar: Matrix = c
-        .iter()
-        .map(|row| row.iter().map(|&e| at(graph, e, &xbar_pred)).collect())
-        .collect();
-    let akf = kalman::update(
-        graph,
-        &xbar_pred,
-        &pbar_pred,
-        &residual_bar,
-        &c_bar,
-        &r,
-        |g, j| g.var(&pivot_names(m, j, INNOVATION, "_bar").1),
-    );
+    let akf = correct(graph, &xbar_pred, &pbar_pred, "_bar");
 
     // LKF: linearise f about the AKF's previous estimate with the actual input.
     let f_at_bar: Vec<NodeId> = g.f.iter().map(|&f| at(graph, f, &xbar)).collect();
@@ -580,142 +677,112 @@ fn step_fn(
         .map(|i| graph.add(f_at_bar[i], a_dev[i][0]))
         .collect();
     let p_pred = kalman::predict_covariance(graph, &a_bar, &p, &q);
-    let residual: Vec<NodeId> = y_vars
-        .iter()
-        .zip(&g.h)
-        .map(|(&y, &h)| {
-            let h = at(graph, h, &x_pred);
-            graph.sub(y, h)
-        })
-        .collect();
-    let c_pred: Matrix = c
-        .iter()
-        .map(|row| row.iter().map(|&e| at(graph, e, &x_pred)).collect())
-        .collect();
-    let lkf = kalman::update(graph, &x_pred, &p_pred, &residual, &c_pred, &r, |g, j| {
-        g.var(&pivot_names(m, j, INNOVATION, "").1)
-    });
+    let lkf = correct(graph, &x_pred, &p_pred, "");
 
-    let mut probe_vector = akf.x.clone();
-    probe_vector.extend(&lkf.x);
-    let both = add(graph, &akf.p, &lkf.p);
-    let probe = finiteness_probe(graph, &probe_vector, &both);
-    let pbar_new = packed_upper(&akf.p);
-    let p_new = packed_upper(&lkf.p);
-    let results: Vec<NodeId> = akf
-        .x
-        .iter()
-        .chain(&pbar_new)
-        .chain(&lkf.x)
-        .chain(&p_new)
-        .copied()
-        .collect();
-    let mut all_roots = results.clone();
-    all_roots.push(probe);
-    all_roots.extend(&akf.pivots);
-    all_roots.extend(&lkf.pivots);
-
-    let namer = TempNamer::new(avoid.iter().map(String::as_str));
-    let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
-    for (source, vars) in [
-        (quote! { phi }, &wt.phi),
-        (quote! { self.xbar }, &xbar),
-        (quote! { self.pbar }, &pbar_vars),
-        (quote! { self.qbar }, &qbar_vars),
-        (quote! { self.x }, &g.x),
-        (quote! { self.p }, &p_vars),
-        (quote! { self.q }, &q_vars),
-        (quote! { self.r }, &r_vars),
-    ] {
-        lowerer.read_lazily(&source, vars);
-    }
-    for (&node, s) in akf.x.iter().zip(model.state_names()) {
-        lowerer.prefer_name(node, &format!("{s}_bar_new"));
-    }
-    for (&node, s) in lkf.x.iter().zip(model.state_names()) {
-        lowerer.prefer_name(node, &format!("{s}_new"));
-    }
-    let u_arg = (!g.u.is_empty()).then(|| quote! { u_prev, });
-    let failure = quote! {
-        self.push(#u_arg y);
-        return DkfStatus { window, filter: Status::NonPositiveInnovation };
-    };
+    let ty = ident(scalar.type_name());
+    let (u_len, y_len, n_len) = (
+        Literal::usize_unsuffixed(model.inputs.len()),
+        Literal::usize_unsuffixed(m),
+        Literal::usize_unsuffixed(n),
+    );
+    let u_param = (!g.u.is_empty()).then(|| quote! { u_prev: &[#ty; #u_len], });
+    let g: &ModelGraph = g;
+    let lkf_reads = vec![
+        (quote! { self.xbar }, &xbar[..]),
+        (quote! { self.x }, &g.x[..]),
+        (quote! { self.p }, &p_vars[..]),
+        (quote! { self.q }, &q_vars[..]),
+        (quote! { self.r }, &r_vars[..]),
+        (quote! { *u_prev }, &g.u[..]),
+        (quote! { *y }, &y_vars[..]),
+    ];
+    let akf_reads = vec![
+        (quote! { *phi }, &wt.phi[..]),
+        (quote! { self.xbar }, &xbar[..]),
+        (quote! { self.pbar }, &pbar_vars[..]),
+        (quote! { self.qbar }, &qbar_vars[..]),
+        (quote! { self.r }, &r_vars[..]),
+        (quote! { *u_prev }, &g.u[..]),
+        (quote! { *y }, &y_vars[..]),
+    ];
     let names = |suffix: &str| -> Vec<String> {
-        (0..m)
-            .map(|j| pivot_names(m, j, INNOVATION, suffix).0)
+        model
+            .state_names()
+            .map(|s| format!("{s}{suffix}_new"))
             .collect()
     };
-    guard_pivots(
-        &mut lowerer,
-        &akf.pivots,
-        &akf.reciprocals,
-        &names("_bar"),
-        &failure,
+    let (lkf_method, lkf_ops) = stage_method(
+        g,
+        &avoid,
         scalar,
+        Stage {
+            name: "lkf_step",
+            doc: "The LKF (Alg. 2): `f` linearised about the AKF's estimate of the previous \
+                  sample with the input `u[k-1]`, then corrected with `y[k]` (Joseph form).",
+            params: quote! { #u_param y: &[#ty; #y_len] },
+            reads: lkf_reads,
+            update: lkf,
+            suffix: "",
+            fields: (quote! { x }, quote! { p }),
+            result_names: names(""),
+        },
     );
-    guard_pivots(
-        &mut lowerer,
-        &lkf.pivots,
-        &lkf.reciprocals,
-        &names(""),
-        &failure,
+    let (akf_method, akf_ops) = stage_method(
+        g,
+        &avoid,
         scalar,
+        Stage {
+            name: "akf_step",
+            doc: "The AKF (Alg. 2): a linear Kalman filter on the transformed model at `phi`, \
+                  then corrected with `y[k]` (Joseph form).",
+            params: quote! { phi: &[#ty; #n_len], #u_param y: &[#ty; #y_len] },
+            reads: akf_reads,
+            update: akf,
+            suffix: "_bar",
+            fields: (quote! { xbar }, quote! { pbar }),
+            result_names: names("_bar"),
+        },
     );
-    let probe = lowerer.segment(&[probe]).remove(0);
-    let values = lowerer.segment(&results);
-    let Lowered {
-        statements,
-        used_vars,
-        ops,
-    } = lowerer.finish();
-    let graph = &g.graph;
-    let np_len = packed_len(n);
-    let (xbar_values, rest) = values.split_at(n);
-    let (pbar_values, rest) = rest.split_at(np_len);
-    let (x_values, p_values) = rest.split_at(n);
 
+    let graph = &g.graph;
     let u_idents = var_idents(graph, &g.u);
     let y_idents = var_idents(graph, &y_vars);
     let checked: Vec<Ident> = u_idents.iter().chain(&y_idents).cloned().collect();
     let finite = quote! { #(#checked.is_finite())&&* };
     let unpack_u = (!g.u.is_empty()).then(|| quote! { let [#(#u_idents),*] = *u_prev; });
-    let reads_phi = wt.phi.iter().any(|&v| reads(graph, v, &used_vars));
+    let u_arg = (!g.u.is_empty()).then(|| quote! { u_prev, });
     let phi_params: Vec<Ident> = var_idents(graph, &wt.phi[model.states.len()..]);
-    let keep_params = if reads_phi || !phi_params.is_empty() {
-        quote! {
-            if let WindowStatus::Solved | WindowStatus::InputFree = window {
-                let [.., #(#phi_params),*] = phi;
-                self.phi_params = [#(#phi_params),*];
-            }
-        }
-    } else {
-        TokenStream::new()
-    };
-    let tokens = quote! {
+    let body = quote! {
         #unpack_u
         let [#(#y_idents),*] = *y;
         if !(#finite) {
             // A missing sample breaks the window's sequence: refill it.
             self.filled = [false; WINDOW_OUTPUTS];
-            return DkfStatus { window: WindowStatus::Skipped, filter: Status::RejectedInput };
+            return DkfStatus {
+                window: WindowStatus::Skipped,
+                akf: Status::RejectedInput,
+                lkf: Status::RejectedInput,
+            };
         }
         let (phi, window, excitation_sq) = self.transform(#u_arg);
         // The window's findings stand whatever the filters do with this sample.
         self.excitation_sq = excitation_sq;
-        #keep_params
-        #(#statements)*
-        if !(#probe).is_finite() {
-            self.push(#u_arg y);
-            return DkfStatus { window, filter: Status::NonFinite };
+        if let WindowStatus::Solved | WindowStatus::InputFree = window {
+            let [.., #(#phi_params),*] = phi;
+            self.phi_params = [#(#phi_params),*];
         }
-        self.xbar = [#(#xbar_values),*];
-        self.pbar = [#(#pbar_values),*];
-        self.x = [#(#x_values),*];
-        self.p = [#(#p_values),*];
+        // The LKF linearises about the AKF's estimate of the previous sample: it runs first.
+        let lkf = self.lkf_step(#u_arg y);
+        let akf = self.akf_step(&phi, #u_arg y);
         self.push(#u_arg y);
-        DkfStatus { window, filter: Status::Ok }
+        DkfStatus { window, akf, lkf }
     };
-    (tokens, ops)
+    let methods = quote! {
+        #lkf_method
+
+        #akf_method
+    };
+    (body, methods, akf_ops.plus(lkf_ops))
 }
 
 /// `fn push(&mut self, u, y)`: shifts the latest output and input into the window.
