@@ -343,6 +343,7 @@ fn print_generated_costs() {
         ("jacobian_f_wrt_x", cantilever::JACOBIAN_F_WRT_X_OPS),
         ("Ekf::predict", cantilever::EKF_PREDICT_OPS),
         ("Ekf::update", cantilever::EKF_UPDATE_OPS),
+        ("Ekf::step (fused)", cantilever::EKF_STEP_OPS),
         ("Dkf transform", cantilever::DKF_TRANSFORM_OPS),
         ("Dkf filters", cantilever::DKF_FILTERS_OPS),
         ("Lqr::solve (N = 50)", cantilever::LQR_SOLVE_OPS),

@@ -59,6 +59,7 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
                 "Ekf::update",
                 ekf.update_ops,
             ));
+            ops_items.push(named_ops_item("EKF_STEP_OPS", "Ekf::step", ekf.step_ops));
             tokens.extend(ekf.tokens);
         }
         if let Some(spec) = &model.generate.dkf {
