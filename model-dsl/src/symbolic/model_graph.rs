@@ -272,21 +272,6 @@ impl ModelGraph {
     }
 }
 
-/// Lookup of variable values by the order they were declared in a [`ModelGraph`]: `t`,
-/// then `x`, then `u`. For tests and numeric checks of the graph itself.
-pub fn var_values<'a>(t: f64, x: &'a [f64], u: &'a [f64]) -> impl Fn(VarId) -> f64 + 'a {
-    move |v: VarId| {
-        let i = v.0 as usize;
-        if i == 0 {
-            t
-        } else if i <= x.len() {
-            x[i - 1]
-        } else {
-            u[i - 1 - x.len()]
-        }
-    }
-}
-
 impl Env {
     fn at(model: &Model, t: NodeId, states: Vec<NodeId>) -> Env {
         Env {
