@@ -3,7 +3,7 @@
 //! engine), and every Jacobian agrees with central finite differences of it, at random
 //! points.
 
-use generated_demo::{cantilever, helicopter, mass_spring_damper, piecewise_beam, polynomial};
+use generated_demo::{helicopter, polynomial};
 use model_dsl::model::{Discretisation, Method, Model};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
@@ -213,41 +213,36 @@ fn check_model(name: &str, generated: &Generated) {
     }
 }
 
-#[test]
-fn cantilever_jacobians_match_finite_differences() {
-    use cantilever::in_f64 as g;
-    check_model(
-        "cantilever",
-        &Generated {
+/// Structural non-zeros as rows.
+fn nonzero<const N: usize>(pattern: &[[bool; N]; N]) -> Vec<Vec<bool>> {
+    pattern.iter().map(|r| r.to_vec()).collect()
+}
+
+/// The adapters of a model without time and with inputs (`f(x, u)`, `h(x)`).
+macro_rules! time_invariant_with_inputs {
+    ($module:ident) => {{
+        use generated_demo::$module::in_f64 as g;
+        Generated {
             f: |_, x, u| g::f(&arr(x), &arr(u)).to_vec(),
             h: |_, x, _| g::h(&arr(x)).to_vec(),
             jacobian_f_wrt_x: |_, x, u| rows(g::jacobian_f_wrt_x(&arr(x), &arr(u))),
             jacobian_f_wrt_u: |_, x, u| rows(g::jacobian_f_wrt_u(&arr(x), &arr(u))),
             jacobian_h_wrt_x: |_, x, _| rows(g::jacobian_h_wrt_x(&arr(x))),
-            nonzero_f_wrt_x: cantilever::JACOBIAN_F_WRT_X_NONZERO
-                .iter()
-                .map(|r| r.to_vec())
-                .collect(),
-        },
-    );
+            nonzero_f_wrt_x: nonzero(&generated_demo::$module::JACOBIAN_F_WRT_X_NONZERO),
+        }
+    }};
+}
+
+#[test]
+fn cantilever_jacobians_match_finite_differences() {
+    check_model("cantilever", &time_invariant_with_inputs!(cantilever));
 }
 
 #[test]
 fn mass_spring_damper_jacobians_match_finite_differences() {
-    use mass_spring_damper::in_f64 as g;
     check_model(
         "mass_spring_damper",
-        &Generated {
-            f: |_, x, u| g::f(&arr(x), &arr(u)).to_vec(),
-            h: |_, x, _| g::h(&arr(x)).to_vec(),
-            jacobian_f_wrt_x: |_, x, u| rows(g::jacobian_f_wrt_x(&arr(x), &arr(u))),
-            jacobian_f_wrt_u: |_, x, u| rows(g::jacobian_f_wrt_u(&arr(x), &arr(u))),
-            jacobian_h_wrt_x: |_, x, _| rows(g::jacobian_h_wrt_x(&arr(x))),
-            nonzero_f_wrt_x: mass_spring_damper::JACOBIAN_F_WRT_X_NONZERO
-                .iter()
-                .map(|r| r.to_vec())
-                .collect(),
-        },
+        &time_invariant_with_inputs!(mass_spring_damper),
     );
 }
 
@@ -263,30 +258,16 @@ fn polynomial_jacobians_match_finite_differences() {
             // No inputs: df/du has no columns.
             jacobian_f_wrt_u: |_, x, _| vec![Vec::new(); x.len()],
             jacobian_h_wrt_x: |_, x, _| rows(g::jacobian_h_wrt_x(&arr(x))),
-            nonzero_f_wrt_x: polynomial::JACOBIAN_F_WRT_X_NONZERO
-                .iter()
-                .map(|r| r.to_vec())
-                .collect(),
+            nonzero_f_wrt_x: nonzero(&polynomial::JACOBIAN_F_WRT_X_NONZERO),
         },
     );
 }
 
 #[test]
 fn piecewise_beam_jacobians_match_finite_differences() {
-    use piecewise_beam::in_f64 as g;
     check_model(
         "piecewise_beam",
-        &Generated {
-            f: |_, x, u| g::f(&arr(x), &arr(u)).to_vec(),
-            h: |_, x, _| g::h(&arr(x)).to_vec(),
-            jacobian_f_wrt_x: |_, x, u| rows(g::jacobian_f_wrt_x(&arr(x), &arr(u))),
-            jacobian_f_wrt_u: |_, x, u| rows(g::jacobian_f_wrt_u(&arr(x), &arr(u))),
-            jacobian_h_wrt_x: |_, x, _| rows(g::jacobian_h_wrt_x(&arr(x))),
-            nonzero_f_wrt_x: piecewise_beam::JACOBIAN_F_WRT_X_NONZERO
-                .iter()
-                .map(|r| r.to_vec())
-                .collect(),
-        },
+        &time_invariant_with_inputs!(piecewise_beam),
     );
 }
 
@@ -301,10 +282,20 @@ fn helicopter_jacobians_match_finite_differences() {
             jacobian_f_wrt_x: |t, x, u| rows(g::jacobian_f_wrt_x(t, &arr(x), &arr(u))),
             jacobian_f_wrt_u: |t, x, u| rows(g::jacobian_f_wrt_u(t, &arr(x), &arr(u))),
             jacobian_h_wrt_x: |t, x, _| rows(g::jacobian_h_wrt_x(t, &arr(x))),
-            nonzero_f_wrt_x: helicopter::JACOBIAN_F_WRT_X_NONZERO
-                .iter()
-                .map(|r| r.to_vec())
-                .collect(),
+            nonzero_f_wrt_x: nonzero(&helicopter::JACOBIAN_F_WRT_X_NONZERO),
         },
     );
+}
+
+#[test]
+fn beam_two_actuators_jacobians_match_finite_differences() {
+    check_model(
+        "beam_two_actuators",
+        &time_invariant_with_inputs!(beam_two_actuators),
+    );
+}
+
+#[test]
+fn duffing_beam_jacobians_match_finite_differences() {
+    check_model("duffing_beam", &time_invariant_with_inputs!(duffing_beam));
 }
