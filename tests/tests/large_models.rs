@@ -62,3 +62,26 @@ fn a_100_state_ekf_is_shallow_and_its_size_grows_with_the_covariance() {
         "code grew {growth:.1} times from 50 to 100 states"
     );
 }
+
+#[test]
+fn ten_thousand_chained_lets_expand_without_exhausting_the_stack() {
+    // Each intermediate uses the last, so the graph is 10,000 operations deep: the passes
+    // over it (differentiation, substitution, lowering) must not recurse per level.
+    let mut lets = String::new();
+    for i in 1..=10_000 {
+        lets += &format!("let a{i} = a{} * x1 + 1.0;\n", i - 1);
+    }
+    let source = format!(
+        "model! {{ pub mod chained {{ scalar f64; state x1; input u; output y = x1;
+         dynamics discrete {{ let a0 = x1; {lets} x1 = a10000 + u; }} }} }}"
+    );
+    let tokens = model_dsl::expand_macro_source(&source).expect("the chain expands");
+    let file: syn::File = syn::parse2(tokens).expect("generated code parses");
+    let mut shape = Shape::default();
+    shape.visit_file(&file);
+    assert!(
+        shape.deepest <= 64,
+        "expressions nest {} deep",
+        shape.deepest
+    );
+}
