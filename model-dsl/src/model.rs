@@ -339,10 +339,16 @@ impl Expr {
 
     /// Evaluates an expression of literals and constants; `None` if it depends on anything else.
     pub fn const_value(&self, constants: &[Constant]) -> Option<f64> {
-        let go = |e: &Expr| e.const_value(constants);
+        self.fold(&|i| constants.get(i).map(|c| c.value))
+    }
+
+    /// Evaluates an expression of literals and constants, given the value of constant `i`
+    /// as `constant(i)`; `None` if it depends on anything else.
+    pub fn fold(&self, constant: &dyn Fn(usize) -> Option<f64>) -> Option<f64> {
+        let go = |e: &Expr| e.fold(constant);
         Some(match self {
             Expr::Number(v) => *v,
-            Expr::Const(i) => constants.get(*i)?.value,
+            Expr::Const(i) => constant(*i)?,
             Expr::Neg(a) => -go(a)?,
             Expr::Add(a, b) => go(a)? + go(b)?,
             Expr::Sub(a, b) => go(a)? - go(b)?,

@@ -46,8 +46,8 @@ struct ModelFile {
     name: String,
     #[serde(default)]
     doc: String,
-    #[serde(default = "public")]
-    visibility: String,
+    #[serde(default)]
+    visibility: Visibility,
     scalar: OneOrMany,
     #[serde(default, rename = "const")]
     constants: Vec<Entry>,
@@ -64,8 +64,30 @@ struct ModelFile {
     generate: Option<toml::Table>,
 }
 
-fn public() -> String {
-    "pub".into()
+/// Who may use the generated module: a closed set, so nothing of the file becomes tokens
+/// unchecked.
+#[derive(Deserialize, Default, Clone, Copy)]
+enum Visibility {
+    #[default]
+    #[serde(rename = "pub")]
+    Public,
+    #[serde(rename = "pub(crate)")]
+    Crate,
+    #[serde(rename = "pub(super)")]
+    Super,
+    #[serde(rename = "private")]
+    Private,
+}
+
+impl Visibility {
+    fn tokens(self) -> TokenStream {
+        match self {
+            Visibility::Public => quote::quote! { pub },
+            Visibility::Crate => quote::quote! { pub(crate) },
+            Visibility::Super => quote::quote! { pub(super) },
+            Visibility::Private => TokenStream::new(),
+        }
+    }
 }
 
 #[derive(Deserialize)]
@@ -137,13 +159,7 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
         Value::Text(text) => parse_expression(text, field, diag),
     };
 
-    let vis = TokenStream::from_str(&file.visibility).unwrap_or_else(|_| {
-        diag.error(
-            here,
-            format!("visibility: `{}` is not a Rust visibility", file.visibility),
-        );
-        TokenStream::new()
-    });
+    let vis = file.visibility.tokens();
     let scalars = match &file.scalar {
         OneOrMany::One(s) => vec![name(s)],
         OneOrMany::Many(list) => list.iter().map(|s| name(s)).collect(),
@@ -259,6 +275,13 @@ fn parse_expression(text: &str, field: &str, diag: &mut Diagnostics) -> SurfaceE
     let mut stack: Vec<SurfaceExpr> = Vec::new();
     for token in parsed.iter() {
         let made = match token {
+            Token::Number(v) if !v.is_finite() => {
+                diag.error(
+                    here,
+                    format!("{field}: `{text}` holds {v}: every number must be finite"),
+                );
+                return zero;
+            }
             Token::Number(v) => node(SurfaceKind::Number(*v)),
             Token::Var(v) if v == "pi" => node(SurfaceKind::Number(std::f64::consts::PI)),
             Token::Var(v) => node(SurfaceKind::Name(v.clone())),
