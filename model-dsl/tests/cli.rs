@@ -3,8 +3,10 @@
 
 use std::process::Command;
 
-fn errors_for(file_name: &str, source: &str) -> String {
-    let dir = std::env::temp_dir().join(format!("model-codegen-cli-{}", std::process::id()));
+/// Runs `model-codegen` on `source` saved as `file_name` in a directory of the test's own
+/// (`test`), and returns what it printed, with the path shortened to the file name.
+fn errors_for(test: &str, file_name: &str, source: &str) -> String {
+    let dir = std::env::temp_dir().join(format!("model-codegen-{test}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temporary directory");
     let path = dir.join(file_name);
     std::fs::write(&path, source).expect("model written");
@@ -20,6 +22,7 @@ fn errors_for(file_name: &str, source: &str) -> String {
 #[test]
 fn model_file_errors_give_line_column_and_the_line() {
     let errors = errors_for(
+        "toml-field",
         "bad.toml",
         "name = \"m\"\nscalar = \"f32\"\n\n[[state]]\nname = \"x\"\n\n[dynamics]\n\
          kind = \"discrete\"\n\n[dynamics.equations]\nx = \"x + y9\"\n",
@@ -37,6 +40,7 @@ fn model_file_errors_give_line_column_and_the_line() {
 #[test]
 fn model_file_syntax_errors_are_placed_too() {
     let errors = errors_for(
+        "toml-field",
         "bad.toml",
         "name = \"m\"\nscalar = \"f32\"\nvisibility = \"1\"\n",
     );
@@ -49,6 +53,7 @@ fn model_file_syntax_errors_are_placed_too() {
 #[test]
 fn macro_file_errors_give_line_column_and_the_line() {
     let errors = errors_for(
+        "macro",
         "bad.rs",
         "// A model with a mistake.\ncodegen_macros::model! {\n    pub mod m {\n        \
          scalar f32;\n        state x1;\n        dynamics discrete {\n            \
