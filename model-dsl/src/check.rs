@@ -796,7 +796,9 @@ fn check_generate(decl: &ModelDecl, scope: &Scope, diag: &mut Diagnostics) -> Ge
                 continue;
             }
             "ekf" => {
+                let gate = args.gate(diag);
                 generate.ekf = Some(EkfSpec {
+                    gate,
                     diagonal_noise: args.process_noise(diag),
                 });
             }
@@ -906,6 +908,25 @@ impl<'a> Args<'a> {
             Some(other) => {
                 diag.error(other.span(), format!("`{name}` takes a number"));
                 (default, other.span())
+            }
+        }
+    }
+
+    /// `gate = 10.83` (the default threshold on the normalised innovation squared) or
+    /// `gate = off` (a gate that is open until set at run time); `None` without `gate`.
+    fn gate(&mut self, diag: &mut Diagnostics) -> Option<f64> {
+        match self.take(&["gate"]).map(|a| &a.value) {
+            None => None,
+            Some(ArgValue::Number(v, _)) if *v > 0.0 && v.is_finite() => Some(*v),
+            Some(ArgValue::Name(n)) if n.text == "off" => Some(f64::INFINITY),
+            Some(other) => {
+                diag.error(
+                    other.span(),
+                    "`gate` is a threshold on the normalised innovation squared, a positive \
+                     number (a chi-square quantile: 10.83 rejects one in a thousand \
+                     consistent scalar measurements), or `off` to set it at run time",
+                );
+                None
             }
         }
     }

@@ -56,6 +56,9 @@ pub struct EkfSpec {
     /// Whether the process noise covariance is diagonal (stored and added as its
     /// diagonal only), rather than a full symmetric matrix.
     pub diagonal_noise: bool,
+    /// The innovation gate: a measurement whose normalised innovation squared exceeds it
+    /// is rejected as an outlier (`None`: no gate is generated).
+    pub gate: Option<f64>,
 }
 
 /// Options of the double Kalman filter.
