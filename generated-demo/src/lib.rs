@@ -10,6 +10,7 @@ pub mod sequence;
 
 include!("../models/cantilever.rs");
 include!("../models/mass_spring_damper.rs");
+include!("../models/blade_identification.rs");
 include!("../models/polynomial.rs");
 include!("../models/piecewise_beam.rs");
 include!("../models/helicopter.rs");

@@ -9,7 +9,7 @@ pub mod reference;
 pub mod tuning;
 
 /// Names of the demo models, as their files in `generated-demo/models/` are named.
-pub const DEMO_MODELS: [&str; 7] = [
+pub const DEMO_MODELS: [&str; 8] = [
     "cantilever",
     "mass_spring_damper",
     "polynomial",
@@ -17,6 +17,7 @@ pub const DEMO_MODELS: [&str; 7] = [
     "helicopter",
     "beam_two_actuators",
     "duffing_beam",
+    "blade_identification",
 ];
 
 /// Path of a file of the workspace, given relative to its root.

@@ -1,0 +1,178 @@
+//! Stages of the continuous filters on graph nodes: one explicit integration sub-step of an
+//! ODE system, the covariance rate `F P + P F' + Q` (hybrid EKF, seed 001 eq. 21) and the
+//! Riccati rate of the continuous-time EKF (seed 004 eq. 5, with Reif et al.'s prescribed
+//! degree of stability, eq. 26). Symmetric rates are built on the upper triangle.
+
+// Index loops mirror the formulas' subscripts (P_ij, K_il) more plainly than iterators.
+#![allow(clippy::needless_range_loop)]
+
+use super::graph::{Graph, NodeId, VarId};
+use super::linalg::{matmul, packed_upper, symmetric_from_packed, transpose, Matrix};
+use crate::model::Method;
+use std::collections::HashMap;
+
+/// The right-hand side of an ODE system `dz/dt = rate(t, z)`, built as nodes.
+pub type Rate<'a> = dyn FnMut(&mut Graph, NodeId, &[NodeId]) -> Vec<NodeId> + 'a;
+
+/// One explicit step of length `h` from time `t` of `dz/dt = rate(t, z)`: forward Euler
+/// `z + h k1`, or classical Runge-Kutta `z + h/6 (k1 + 2 k2 + 2 k3 + k4)`.
+pub fn integrate_substep(
+    g: &mut Graph,
+    method: Method,
+    h: NodeId,
+    t: NodeId,
+    z: &[NodeId],
+    rate: &mut Rate<'_>,
+) -> Vec<NodeId> {
+    let axpy = |g: &mut Graph, a: NodeId, y: &[NodeId]| -> Vec<NodeId> {
+        z.iter()
+            .zip(y)
+            .map(|(&zi, &yi)| {
+                let step = g.mul(a, yi);
+                g.add(zi, step)
+            })
+            .collect()
+    };
+    match method {
+        Method::Euler => {
+            let k1 = rate(g, t, z);
+            axpy(g, h, &k1)
+        }
+        Method::Rk4 => {
+            let half = g.num(0.5);
+            let half_h = g.mul(half, h);
+            let t_mid = g.add(t, half_h);
+            let t_end = g.add(t, h);
+            let k1 = rate(g, t, z);
+            let z2 = axpy(g, half_h, &k1);
+            let k2 = rate(g, t_mid, &z2);
+            let z3 = axpy(g, half_h, &k2);
+            let k3 = rate(g, t_mid, &z3);
+            let z4 = axpy(g, h, &k3);
+            let k4 = rate(g, t_end, &z4);
+            let sixth = g.num(1.0 / 6.0);
+            let h_sixth = g.mul(h, sixth);
+            let two = g.num(2.0);
+            (0..z.len())
+                .map(|i| {
+                    let middle = g.add(k2[i], k3[i]);
+                    let twice_middle = g.mul(two, middle);
+                    let ends = g.add(k1[i], k4[i]);
+                    let sum = g.add(ends, twice_middle);
+                    let step = g.mul(h_sixth, sum);
+                    g.add(z[i], step)
+                })
+                .collect()
+        }
+    }
+}
+
+/// `F P + P F' + Q + 2 alpha P` (the last term only with `two_alpha`), upper triangle
+/// computed once: seed 001 eq. (21), and with `alpha` the Riccati equation of Reif et al.,
+/// where `(F + alpha I) P + P (F + alpha I)' = F P + P F' + 2 alpha P`.
+pub fn covariance_rate(
+    g: &mut Graph,
+    f: &Matrix,
+    p: &Matrix,
+    q: &Matrix,
+    two_alpha: Option<NodeId>,
+) -> Matrix {
+    let n = p.len();
+    let fp = matmul(g, f, p);
+    let zero = g.zero();
+    let mut rate = vec![vec![zero; n]; n];
+    for i in 0..n {
+        for j in i..n {
+            // (P F')_ij = (F P)_ji since P is symmetric.
+            let mut v = g.add(fp[i][j], fp[j][i]);
+            v = g.add(v, q[i][j]);
+            if let Some(two_alpha) = two_alpha {
+                let growth = g.mul(two_alpha, p[i][j]);
+                v = g.add(v, growth);
+            }
+            rate[i][j] = v;
+            rate[j][i] = v;
+        }
+    }
+    rate
+}
+
+/// The measurement terms of the continuous-time EKF (seed 004 eq. 5): the gain
+/// `K = P H' R^-1` and `rate - K (P H')'`, i.e. `rate - P H' R^-1 H P`, upper triangle.
+pub fn riccati_measurement_terms(
+    g: &mut Graph,
+    rate: &Matrix,
+    p: &Matrix,
+    h: &Matrix,
+    r_inv: &Matrix,
+) -> (Matrix, Matrix) {
+    let n = p.len();
+    let pht = matmul(g, p, &transpose(h));
+    let gain = matmul(g, &pht, r_inv);
+    let mut out = rate.clone();
+    for i in 0..n {
+        for j in i..n {
+            let mut v = rate[i][j];
+            for l in 0..pht.first().map_or(0, Vec::len) {
+                let term = g.mul(gain[i][l], pht[j][l]);
+                v = g.sub(v, term);
+            }
+            out[i][j] = v;
+            out[j][i] = v;
+        }
+    }
+    (gain, out)
+}
+
+/// A state vector `x` followed by the packed upper triangle of its covariance, as one
+/// vector for [`integrate_substep`].
+pub fn join(x: &[NodeId], p: &Matrix) -> Vec<NodeId> {
+    x.iter().copied().chain(packed_upper(p)).collect()
+}
+
+/// Splits a joined vector (see [`join`]) of a state of length `n` back into `x` and `P`.
+pub fn split(z: &[NodeId], n: usize) -> (Vec<NodeId>, Matrix) {
+    let (x, packed) = z.split_at(n);
+    (x.to_vec(), symmetric_from_packed(packed, n))
+}
+
+/// Expressions over variables, re-evaluated at other points by substitution: the model's
+/// right-hand side, its Jacobian and the measurement, built once over the variables.
+pub struct AtPoint {
+    vars: Vec<VarId>,
+}
+
+impl AtPoint {
+    /// Substitution of the variables `vars` (in order) by the values a call gives.
+    pub fn new(vars: Vec<VarId>) -> AtPoint {
+        AtPoint { vars }
+    }
+
+    /// `exprs` with the variables replaced by `values`; unchanged when every value is its
+    /// own variable (the Euler stage, the fused update), so no node is rebuilt.
+    pub fn eval(&self, g: &mut Graph, values: &[NodeId], exprs: &[NodeId]) -> Vec<NodeId> {
+        let map: HashMap<VarId, NodeId> = self
+            .vars
+            .iter()
+            .copied()
+            .zip(values.iter().copied())
+            .filter(|&(v, node)| g.node(node) != super::graph::Node::Var(v))
+            .collect();
+        if map.is_empty() {
+            return exprs.to_vec();
+        }
+        let mut memo = HashMap::new();
+        exprs
+            .iter()
+            .map(|&e| g.substitute(e, &map, &mut memo))
+            .collect()
+    }
+
+    /// A matrix of expressions at `values`.
+    pub fn eval_matrix(&self, g: &mut Graph, values: &[NodeId], m: &Matrix) -> Matrix {
+        let cols = m.first().map_or(0, Vec::len);
+        let flat: Vec<NodeId> = m.iter().flatten().copied().collect();
+        let done = self.eval(g, values, &flat);
+        done.chunks(cols.max(1)).map(<[NodeId]>::to_vec).collect()
+    }
+}
