@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 
 pub mod cantilever_sim;
+pub mod continuous_reference;
 pub mod reference;
 pub mod tuning;
 
