@@ -130,6 +130,7 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
     let (pack_p0, pack_r) = (pack_upper("p0", n), pack_upper("r", m));
     let (q_param, q_field, pack_q) = noise_argument("q", n, diagonal, &ty);
     let unpack_p = unpack_symmetric("p", n);
+    let setters = super::tuning::noise_setters(n, m, diagonal, &ty);
 
     let new_doc = if diagonal {
         " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
@@ -173,6 +174,8 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
             pub fn covariance(&self) -> [[#ty; #n_len]; #n_len] {
                 #unpack_p
             }
+
+            #setters
 
             #step
 

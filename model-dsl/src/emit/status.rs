@@ -9,6 +9,7 @@ pub fn status_enum() -> TokenStream {
         /// What a filter or controller step did. On anything but [`Status::Ok`] the filter
         /// or controller is left exactly as it was.
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        #[must_use = "a step that did not return `Status::Ok` left the filter unchanged"]
         pub enum Status {
             /// The step was applied.
             Ok,

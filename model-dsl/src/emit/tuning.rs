@@ -10,8 +10,22 @@ use quote::quote;
 /// `set_process_noise` and `set_measurement_noise` for a filter whose fields `q` (packed,
 /// or its `n` variances if `diagonal_q`) and `r` (packed, `m x m`) hold the noise.
 pub fn noise_setters(n: usize, m: usize, diagonal_q: bool, ty: &proc_macro2::Ident) -> TokenStream {
+    let set_q = process_noise_setter("set_process_noise", "q", n, diagonal_q, ty);
+    let set_r = measurement_noise_setter(m, ty);
+    quote! { #set_q #set_r }
+}
+
+/// `fn <method>(&mut self, q) -> Status` replacing the process noise field `field` (packed,
+/// or its `n` variances if `diagonal`).
+pub fn process_noise_setter(
+    method: &str,
+    field: &str,
+    n: usize,
+    diagonal: bool,
+    ty: &proc_macro2::Ident,
+) -> TokenStream {
     let n_len = Literal::usize_unsuffixed(n);
-    let (q_param, q_packed, q_len) = if diagonal_q {
+    let (param, packed, len) = if diagonal {
         (quote! { q: &[#ty; #n_len] }, quote! { *q }, n)
     } else {
         (
@@ -20,28 +34,38 @@ pub fn noise_setters(n: usize, m: usize, diagonal_q: bool, ty: &proc_macro2::Ide
             packed_len(n),
         )
     };
-    let set_q = setter("q", &q_packed, q_len);
-    let m_len = Literal::usize_unsuffixed(m);
-    let set_r = setter("r", &pack_upper("r", m), packed_len(m));
-    let q_doc = if diagonal_q {
-        " Replaces the process noise variances (the diagonal of `Q`). Rejects a non-finite \
-         entry with [`Status::RejectedInput`], leaving the filter unchanged."
+    let body = setter(field, &packed, len);
+    let doc = if diagonal {
+        format!(
+            " Replaces the process noise variances `{field}` (a diagonal matrix). Rejects a \
+             non-finite entry with [`Status::RejectedInput`], leaving the filter unchanged."
+        )
     } else {
-        " Replaces the process noise covariance `Q` (symmetric: its upper triangle is read). \
-         Rejects a non-finite entry with [`Status::RejectedInput`], leaving the filter \
-         unchanged."
+        format!(
+            " Replaces the process noise covariance `{field}` (symmetric: its upper triangle \
+             is read). Rejects a non-finite entry with [`Status::RejectedInput`], leaving \
+             the filter unchanged."
+        )
     };
+    let method = ident(method);
     quote! {
-        #[doc = #q_doc]
-        pub fn set_process_noise(&mut self, #q_param) -> Status {
-            #set_q
+        #[doc = #doc]
+        pub fn #method(&mut self, #param) -> Status {
+            #body
         }
+    }
+}
 
+/// `fn set_measurement_noise(&mut self, r) -> Status` for the packed field `r` (`m x m`).
+pub fn measurement_noise_setter(m: usize, ty: &proc_macro2::Ident) -> TokenStream {
+    let m_len = Literal::usize_unsuffixed(m);
+    let body = setter("r", &pack_upper("r", m), packed_len(m));
+    quote! {
         /// Replaces the measurement noise covariance `R` (symmetric: its upper triangle is
         /// read). Rejects a non-finite entry with [`Status::RejectedInput`], leaving the
         /// filter unchanged.
         pub fn set_measurement_noise(&mut self, r: &[[#ty; #m_len]; #m_len]) -> Status {
-            #set_r
+            #body
         }
     }
 }
