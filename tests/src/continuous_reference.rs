@@ -6,8 +6,9 @@
 //! test that uses it (nothing comes from the code generator but the model constants).
 //!
 //! Both integrate state and covariance together over one sample with the model's rule
-//! (forward Euler or classical RK4) and number of sub-steps, the time running from the
-//! previous sample in steps of `dt / substeps`.
+//! and number of sub-steps, the time running from the previous sample in steps of
+//! `dt / substeps`: classical RK4 on `P' = A P + P A' + S`, or for forward Euler the
+//! covariance of the Euler step, `(I + h A) P (I + h A)' + h S`.
 
 use nalgebra::{SMatrix, SVector};
 
@@ -41,11 +42,16 @@ pub struct Model<const N: usize, const M: usize, const U: usize> {
 /// The state and covariance of a filter.
 pub type Estimate<const N: usize> = (SVector<f64, N>, SMatrix<f64, N, N>);
 
-/// The joint rate `d(x, P)/dt` at `(t, x, P)`.
+/// The joint rate at `(t, x, P)`: `dx/dt`, and `A`, `S` of `dP/dt = A P + P A' + S`.
 type JointRate<'a, const N: usize> =
-    &'a dyn Fn(f64, &SVector<f64, N>, &SMatrix<f64, N, N>) -> Estimate<N>;
+    &'a dyn Fn(
+        f64,
+        &SVector<f64, N>,
+        &SMatrix<f64, N, N>,
+    ) -> (SVector<f64, N>, SMatrix<f64, N, N>, SMatrix<f64, N, N>);
 
-/// One sub-step of `d(x, P)/dt = rate(t, x, P)` of length `h` from `t`.
+/// One sub-step of length `h` from `t`. RK4 integrates `dP/dt = A P + P A' + S`; forward
+/// Euler takes the covariance of the Euler step, `(I + h A) P (I + h A)' + h S`.
 fn substep<const N: usize>(
     rule: Rule,
     h: f64,
@@ -53,16 +59,23 @@ fn substep<const N: usize>(
     (x, p): Estimate<N>,
     rate: JointRate<'_, N>,
 ) -> Estimate<N> {
+    let derivative = |t: f64, x: &SVector<f64, N>, p: &SMatrix<f64, N, N>| {
+        let (dx, a, s) = rate(t, x, p);
+        (dx, a * p + p * a.transpose() + s)
+    };
     match rule {
         Rule::Euler => {
-            let (dx, dp) = rate(t, &x, &p);
-            (x + dx * h, p + dp * h)
+            let (dx, a, s) = rate(t, &x, &p);
+            let phi = SMatrix::<f64, N, N>::identity() + a * h;
+            (x + dx * h, phi * p * phi.transpose() + s * h)
         }
         Rule::Rk4 => {
-            let (k1x, k1p) = rate(t, &x, &p);
-            let (k2x, k2p) = rate(t + 0.5 * h, &(x + k1x * (0.5 * h)), &(p + k1p * (0.5 * h)));
-            let (k3x, k3p) = rate(t + 0.5 * h, &(x + k2x * (0.5 * h)), &(p + k2p * (0.5 * h)));
-            let (k4x, k4p) = rate(t + h, &(x + k3x * h), &(p + k3p * h));
+            let (k1x, k1p) = derivative(t, &x, &p);
+            let (k2x, k2p) =
+                derivative(t + 0.5 * h, &(x + k1x * (0.5 * h)), &(p + k1p * (0.5 * h)));
+            let (k3x, k3p) =
+                derivative(t + 0.5 * h, &(x + k2x * (0.5 * h)), &(p + k2p * (0.5 * h)));
+            let (k4x, k4p) = derivative(t + h, &(x + k3x * h), &(p + k3p * h));
             (
                 x + (k1x + k4x + (k2x + k3x) * 2.0) * (h / 6.0),
                 p + (k1p + k4p + (k2p + k3p) * 2.0) * (h / 6.0),
@@ -106,9 +119,8 @@ impl<const N: usize, const M: usize, const U: usize> HybridEkf<'_, N, M, U> {
     /// eq. (21) over one sample from `t_prev` with `u` held.
     pub fn predict(&mut self, t_prev: f64, u: &[f64; U]) {
         let (model, q) = (self.model, self.q);
-        let rate = |t: f64, x: &SVector<f64, N>, p: &SMatrix<f64, N, N>| {
-            let f = (model.jacobian)(t, x, u);
-            ((model.rate)(t, x, u), f * p + p * f.transpose() + q)
+        let rate = |t: f64, x: &SVector<f64, N>, _: &SMatrix<f64, N, N>| {
+            ((model.rate)(t, x, u), (model.jacobian)(t, x, u), q)
         };
         self.estimate = integrate(
             model.rule,
@@ -159,8 +171,7 @@ impl<const N: usize, const M: usize, const U: usize> ContinuousEkf<'_, N, M, U> 
             let c = (model.jacobian_h)(t, x);
             let gain = p * c.transpose() * r_inv;
             let dx = (model.rate)(t, x, u) + gain * (y - (model.h)(t, x));
-            let dp = f * p + p * f.transpose() + q - gain * c * p;
-            (dx, dp)
+            (dx, f, q - gain * c * p)
         };
         self.estimate = integrate(
             model.rule,

@@ -435,12 +435,11 @@ codegen_macros::model! {
     }
 }
 
-/// The hybrid EKF with one Euler sub-step against the discrete EKF of the same Euler model,
-/// whose process noise is the density times the step, `Q = h Q_c`. Their updates are the
-/// same Kalman stage and agree exactly. Their predictions differ by what the Euler rule
-/// leaves out: the discrete EKF propagates `A P A' + Q` with `A = I + h F`, the hybrid EKF
-/// one Euler step of `P' = F P + P F' + Q_c`, so
-/// `P_discrete - P_hybrid = h^2 F P F'` exactly, and the estimates are the same Euler step.
+/// The hybrid EKF with one Euler sub-step is the discrete EKF of the same Euler model,
+/// whose process noise is the density times the step, `Q = h Q_c`: the Euler sub-step of
+/// the covariance is the covariance of the Euler step, `(I + h F) P (I + h F)' + h Q_c`,
+/// and the update is the same Kalman stage. Checked from 200 states and covariances: the
+/// updates agree exactly, the predictions to rounding.
 #[test]
 fn hybrid_ekf_with_one_euler_substep_is_the_discrete_ekf_of_the_euler_model() {
     use blade_one_euler_step::{Ekf, HybridEkf, Status, TS};
@@ -488,17 +487,19 @@ fn hybrid_ekf_with_one_euler_substep_is_the_discrete_ekf_of_the_euler_model() {
             dx <= 1e-15,
             "case {case}: predicted estimates differ by {dx:e}"
         );
-        let f = (blade_identification::MODEL.jacobian)(0.0, &SVector::from(x0), &u);
-        let p = SMatrix::<f64, 6, 6>::from_fn(|i, j| p0[i][j]);
-        let expected = SMatrix::<f64, 6, 6>::from_fn(|i, j| hybrid.covariance()[i][j])
-            + f * p * f.transpose() * (TS * TS);
-        let generated = SMatrix::<f64, 6, 6>::from_fn(|i, j| ekf.covariance()[i][j]);
-        let dp = relative_difference(generated.as_slice(), expected.as_slice(), generated.amax());
+        let p_scale = flat(&ekf.covariance())
+            .iter()
+            .fold(0.0_f64, |m, v| m.max(v.abs()));
+        let dp = relative_difference(
+            &flat(&hybrid.covariance()),
+            &flat(&ekf.covariance()),
+            p_scale,
+        );
         assert!(
-            dp <= 1e-12,
-            "case {case}: P_discrete - P_hybrid - h^2 F P F' is {dp:e}"
+            dp <= 1e-13,
+            "case {case}: predicted covariances differ by {dp:e}"
         );
         worst = worst.max(dp);
     }
-    println!("one Euler sub-step: P_discrete = P_hybrid + h^2 F P F' within {worst:.1e}");
+    println!("one Euler sub-step: the predicted covariances agree within {worst:.1e}");
 }

@@ -14,9 +14,10 @@ use super::ekf::{
 use super::lower::{Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
 use super::substeps::{lower_loop, Carried, P_SUB, T_SUB, X_SUB};
-use crate::model::{HybridEkfSpec, Model, Scalar};
+use crate::model::{HybridEkfSpec, Method, Model, Scalar};
 use crate::symbolic::continuous::{
-    covariance_rate, integrate_substep, join, riccati_measurement_terms, split, AtPoint,
+    covariance_rate, euler_covariance_step, integrate_substep, join, riccati_measurement_terms,
+    split, AtPoint,
 };
 use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed, Matrix};
 use crate::symbolic::{kalman, ModelGraph, NodeId};
@@ -210,7 +211,29 @@ pub(super) fn method(
             join(&dx, &dp)
         };
         let t0 = if looped { t_sub } else { t_start };
-        let z = integrate_substep(graph, rule, h, t0, &join(&x, &p), &mut rate);
+        let z = match rule {
+            // The covariance of the Euler step itself (see `euler_covariance_step`).
+            Method::Euler => {
+                let point: Vec<NodeId> = std::iter::once(t0).chain(x.iter().copied()).collect();
+                let mut dx = at.eval(graph, &point, &rate_x);
+                let f = at.eval_matrix(graph, &point, &jacobian);
+                let mut s = q.clone();
+                if let Some(terms) = &measurement {
+                    (dx, s) = terms.apply(graph, &point, &y_vars, &dx, &q, &p);
+                }
+                let p_next = euler_covariance_step(graph, h, &f, alpha_var, &p, &s);
+                let x_next: Vec<NodeId> = x
+                    .iter()
+                    .zip(&dx)
+                    .map(|(&xi, &di)| {
+                        let step = graph.mul(h, di);
+                        graph.add(xi, step)
+                    })
+                    .collect();
+                join(&x_next, &p_next)
+            }
+            Method::Rk4 => integrate_substep(graph, rule, h, t0, &join(&x, &p), &mut rate),
+        };
         if looped {
             loop_next = z;
             if uses_time {

@@ -97,6 +97,51 @@ pub fn covariance_rate(
     rate
 }
 
+/// One forward Euler sub-step of length `h` of the covariance equation
+/// `P' = A P + P A' + S` (`A = F`, or `F + alpha I` with `alpha`), taken as the covariance
+/// of the Euler step itself: `(I + h A) P (I + h A)' + h S`, i.e.
+/// `P + h (A P + P A' + S) + h^2 A P A'`. The last term, which a plain Euler step of the
+/// ODE leaves out, is what keeps `P` positive semi-definite for any `h` (each term is), and
+/// with it one Euler sub-step is exactly the discrete EKF's `A_d P A_d' + Q` of the Euler
+/// model (`A_d = I + h F`, `Q = h Q_c`). Upper triangle computed once.
+pub fn euler_covariance_step(
+    g: &mut Graph,
+    h: NodeId,
+    f: &Matrix,
+    alpha: Option<NodeId>,
+    p: &Matrix,
+    s: &Matrix,
+) -> Matrix {
+    let n = p.len();
+    let mut a = f.clone();
+    if let Some(alpha) = alpha {
+        for i in 0..n {
+            a[i][i] = g.add(f[i][i], alpha);
+        }
+    }
+    let ap = matmul(g, &a, p);
+    let zero = g.zero();
+    let mut out = vec![vec![zero; n]; n];
+    for i in 0..n {
+        for j in i..n {
+            let mut rate = g.add(ap[i][j], ap[j][i]);
+            rate = g.add(rate, s[i][j]);
+            let mut second = zero;
+            for k in 0..n {
+                let term = g.mul(ap[i][k], a[j][k]);
+                second = g.add(second, term);
+            }
+            let h_second = g.mul(h, second);
+            let bracket = g.add(rate, h_second);
+            let step = g.mul(h, bracket);
+            let v = g.add(p[i][j], step);
+            out[i][j] = v;
+            out[j][i] = v;
+        }
+    }
+    out
+}
+
 /// The measurement terms of the continuous-time EKF (seed 004 eq. 5): the gain
 /// `K = P H' R^-1` and `rate - K (P H')'`, i.e. `rate - P H' R^-1 H P`, upper triangle.
 pub fn riccati_measurement_terms(
