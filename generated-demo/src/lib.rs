@@ -6,6 +6,7 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
+pub mod continuous_sequence;
 pub mod sequence;
 
 include!("../models/cantilever.rs");

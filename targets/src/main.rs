@@ -14,6 +14,7 @@
 #![deny(unsafe_code)]
 
 mod baseline;
+mod continuous;
 mod measure;
 
 use core::hint::black_box;
@@ -66,7 +67,9 @@ fn main() -> ! {
     };
     let clock = Clock::start(peripherals.SYST);
     estimates();
+    continuous::estimates();
     costs(&clock);
+    continuous::costs(&clock);
     hprintln!("done");
     debug::exit(debug::EXIT_SUCCESS);
     // Not reached under QEMU, which exits above.

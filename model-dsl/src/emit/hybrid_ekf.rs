@@ -347,6 +347,8 @@ pub(super) fn method(
         ops,
     } = lowerer.finish();
     let total = ops.plus(per_substep.times(if looped { substeps } else { 0 }));
+    // With one sub-step, unrolled, the step is that sub-step (and the update).
+    let per_substep = if looped { per_substep } else { total };
     let (x_values, p_values) = values.split_at(n);
     let commit = commit_or_non_finite(&probe, x_values, p_values);
 
