@@ -503,3 +503,138 @@ fn hybrid_ekf_with_one_euler_substep_is_the_discrete_ekf_of_the_euler_model() {
     }
     println!("one Euler sub-step: the predicted covariances agree within {worst:.1e}");
 }
+
+codegen_macros::model! {
+    /// A damped pendulum with a decaying input gain: explicit time, a transcendental
+    /// term, RK4 with four looped sub-steps, both continuous filters.
+    mod pendulum {
+        scalar f64;
+        /// Sample time [s].
+        const TS = 0.02;
+        state x1, x2;
+        param c;
+        input u;
+        output y = x1;
+        generate hybrid_ekf, continuous_ekf(alpha = 0.3);
+        dynamics continuous(rk4, dt = TS, substeps = 4) {
+            der(x1) = x2;
+            der(x2) = -9.0 * sin(x1) - c * x2 + exp(-0.5 * t) * u;
+        }
+    }
+}
+
+/// The pendulum's hand-written `dx/dt` and Jacobian.
+mod pendulum_model {
+    use nalgebra::{SMatrix, SVector};
+    use tests::continuous_reference::{Model, Rule};
+
+    fn rate(t: f64, x: &SVector<f64, 3>, u: &[f64; 1]) -> SVector<f64, 3> {
+        SVector::from([
+            x[1],
+            -9.0 * x[0].sin() - x[2] * x[1] + (-0.5 * t).exp() * u[0],
+            0.0,
+        ])
+    }
+
+    fn jacobian(_t: f64, x: &SVector<f64, 3>, _u: &[f64; 1]) -> SMatrix<f64, 3, 3> {
+        SMatrix::<f64, 3, 3>::new(
+            0.0,
+            1.0,
+            0.0,
+            -9.0 * x[0].cos(),
+            -x[2],
+            -x[1],
+            0.0,
+            0.0,
+            0.0,
+        )
+    }
+
+    /// The model.
+    pub const MODEL: Model<3, 1, 1> = Model {
+        rate,
+        jacobian,
+        h: |_, x| SVector::from([x[0]]),
+        jacobian_h: |_, _| SMatrix::<f64, 1, 3>::new(1.0, 0.0, 0.0),
+        rule: Rule::Rk4,
+        dt: 0.02,
+        substeps: 4,
+    };
+}
+
+/// Both continuous filters with sub-steps in a loop, RK4 and explicit time (the running
+/// time is carried by the loop) against the references over 2000 samples.
+#[test]
+fn looped_rk4_substeps_with_time_agree_with_the_references() {
+    use pendulum::{ContinuousEkf as Ct, HybridEkf as Hybrid, Status, TS};
+    assert_eq!(Hybrid::SUBSTEPS, 4);
+    let x0 = [0.3, 0.0, 0.5];
+    let p0 = diagonal([0.1, 0.1, 0.1]);
+    // A full process noise (the default, not `diagonal`), with a coupling.
+    let q = SMatrix::<f64, 3, 3>::new(1e-4, 2e-5, 0.0, 2e-5, 1e-3, 0.0, 0.0, 0.0, 1e-3);
+    let r = 1e-3;
+    let mut hybrid = Hybrid::new(x0, &to_array(&p0), &to_array(&q), &[[r]]);
+    let mut ct = Ct::new(x0, &to_array(&p0), &to_array(&q), &[[r]]);
+    let mut hybrid_reference = HybridEkf {
+        model: &pendulum_model::MODEL,
+        estimate: (SVector::from(x0), p0),
+        q,
+        r: SMatrix::<f64, 1, 1>::new(r),
+    };
+    let mut ct_reference = ContinuousEkf {
+        model: &pendulum_model::MODEL,
+        estimate: (SVector::from(x0), p0),
+        q,
+        r: SMatrix::<f64, 1, 1>::new(r),
+        alpha: Ct::ALPHA,
+    };
+    let mut truth = SVector::from([1.0, 0.0, 0.8]);
+    let (mut worst_x, mut worst_p) = (0.0_f64, 0.0_f64);
+    for k in 1..=2000 {
+        let t_prev = (k - 1) as f64 * TS;
+        let t = k as f64 * TS;
+        let u = [2.0 * (1.3 * t_prev).sin()];
+        // The truth: the reference's own RK4, ten steps per sample.
+        for i in 0..10 {
+            let h = TS / 10.0;
+            let s = t_prev + i as f64 * h;
+            let rate = |s: f64, x: &SVector<f64, 3>| (pendulum_model::MODEL.rate)(s, x, &u);
+            let k1 = rate(s, &truth);
+            let k2 = rate(s + h / 2.0, &(truth + k1 * (h / 2.0)));
+            let k3 = rate(s + h / 2.0, &(truth + k2 * (h / 2.0)));
+            let k4 = rate(s + h, &(truth + k3 * h));
+            truth += (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0);
+        }
+        let y = [truth[0] + wobble(k, 1e-2)];
+        assert_eq!(
+            hybrid.step(t_prev, t, &u, &y),
+            Status::Ok,
+            "hybrid, sample {k}"
+        );
+        hybrid_reference.predict(t_prev, &u);
+        hybrid_reference.update(t, &SVector::from(y));
+        assert_eq!(
+            ct.step(t_prev, &u, &y),
+            Status::Ok,
+            "continuous, sample {k}"
+        );
+        ct_reference.step(t_prev, &u, &SVector::from(y));
+        for (what, generated, reference) in [
+            (
+                "hybrid",
+                (hybrid.state(), hybrid.covariance()),
+                &hybrid_reference.estimate,
+            ),
+            (
+                "continuous",
+                (ct.state(), ct.covariance()),
+                &ct_reference.estimate,
+            ),
+        ] {
+            let (dx, dp) = compare(&format!("{what}, sample {k}"), generated, reference);
+            (worst_x, worst_p) = (worst_x.max(dx), worst_p.max(dp));
+            assert_spd(&format!("{what}, sample {k}"), &generated.1);
+        }
+    }
+    println!("looped RK4 with time: x within {worst_x:.1e}, P within {worst_p:.1e}");
+}
