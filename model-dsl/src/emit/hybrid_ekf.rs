@@ -192,7 +192,14 @@ pub(super) fn method(
     // The continuous-time EKF's measurement terms: R^-1 (guarded pivots, computed once
     // per sample), and h, H over the measurement's time and the state.
     let measurement = continuous.then(|| ContinuousTerms::new(&mut g, &r_vars, m));
-    let alpha_var = matches!(kind, Kind::Continuous { alpha: true }).then(|| g.graph.var("alpha"));
+    let alpha_var = matches!(kind, Kind::Continuous { alpha: true }).then(|| {
+        // A model symbol may be called `alpha`: the local must not shadow it.
+        let mut name = String::from("alpha");
+        while avoid.contains(&name) {
+            name.push('_');
+        }
+        g.graph.var(&name)
+    });
     let two_alpha = alpha_var.map(|alpha| {
         let two = g.graph.num(2.0);
         g.graph.mul(two, alpha)
@@ -264,8 +271,9 @@ pub(super) fn method(
     let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
     lowerer.read_lazily(&quote! { self.q }, &q_vars);
     lowerer.read_lazily(&quote! { self.r }, &r_vars);
-    if alpha_var.is_some() {
-        lowerer.statement(quote! { let alpha = self.alpha; });
+    if let Some(alpha) = alpha_var {
+        let name = var_idents(&g.graph, &[alpha]).remove(0);
+        lowerer.statement(quote! { let #name = self.alpha; });
     }
     if let Some(terms) = &measurement {
         let names: Vec<String> = (0..m)
