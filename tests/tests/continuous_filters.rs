@@ -638,3 +638,41 @@ fn looped_rk4_substeps_with_time_agree_with_the_references() {
     }
     println!("looped RK4 with time: x within {worst_x:.1e}, P within {worst_p:.1e}");
 }
+
+/// A NaN or infinite input or measurement is rejected and leaves either continuous filter
+/// exactly as it was, as does a step whose result would not be finite.
+#[test]
+fn non_finite_inputs_leave_the_continuous_filters_unchanged() {
+    use pendulum::{ContinuousEkf as Ct, HybridEkf as Hybrid, Status};
+    let p0 = to_array(&diagonal([0.1, 0.1, 0.1]));
+    let q = to_array(&diagonal([1e-4, 1e-3, 1e-3]));
+    let mut hybrid = Hybrid::new([0.3, 0.0, 0.5], &p0, &q, &[[1e-3]]);
+    let mut ct = Ct::new([0.3, 0.0, 0.5], &p0, &q, &[[1e-3]]);
+    for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        let (hybrid_before, ct_before) = (hybrid, ct);
+        assert_eq!(
+            hybrid.step(0.0, 0.02, &[bad], &[0.1]),
+            Status::RejectedInput
+        );
+        assert_eq!(
+            hybrid.step(0.0, 0.02, &[0.1], &[bad]),
+            Status::RejectedInput
+        );
+        assert_eq!(hybrid.predict(0.0, &[bad]), Status::RejectedInput);
+        assert_eq!(hybrid.update(0.02, &[bad]), Status::RejectedInput);
+        assert_eq!(ct.step(0.0, &[bad], &[0.1]), Status::RejectedInput);
+        assert_eq!(ct.step(0.0, &[0.1], &[bad]), Status::RejectedInput);
+        assert_eq!((hybrid, ct), (hybrid_before, ct_before));
+    }
+    // A huge input overflows the integration, nothing changed: the hybrid EKF's guard on the
+    // (now NaN) innovation variance stops it before its update divides, the continuous
+    // filter's final check after the integration.
+    let (hybrid_before, ct_before) = (hybrid, ct);
+    assert_eq!(
+        hybrid.step(0.0, 0.02, &[1e308], &[0.1]),
+        Status::NonPositiveInnovation
+    );
+    assert_eq!(hybrid.predict(0.0, &[1e308]), Status::NonFinite);
+    assert_eq!(ct.step(0.0, &[1e308], &[0.1]), Status::NonFinite);
+    assert_eq!((hybrid, ct), (hybrid_before, ct_before));
+}

@@ -221,3 +221,70 @@ impl AtPoint {
         done.chunks(cols.max(1)).map(<[NodeId]>::to_vec).collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn constant(g: &mut Graph, m: [[f64; 2]; 2]) -> Matrix {
+        m.iter()
+            .map(|row| row.iter().map(|&v| g.num(v)).collect())
+            .collect()
+    }
+
+    fn value(g: &Graph, m: &Matrix) -> [[f64; 2]; 2] {
+        let no_vars = |_| f64::NAN;
+        std::array::from_fn(|i| std::array::from_fn(|j| g.eval(m[i][j], &no_vars)))
+    }
+
+    #[test]
+    fn covariance_rate_is_f_p_plus_p_f_transposed_plus_q_plus_two_alpha_p() {
+        let mut g = Graph::new();
+        let f = constant(&mut g, [[0.0, 1.0], [-4.0, -0.5]]);
+        let p = constant(&mut g, [[2.0, 0.3], [0.3, 1.0]]);
+        let q = constant(&mut g, [[0.1, 0.0], [0.0, 0.2]]);
+        let two_alpha = g.num(2.0 * 0.25);
+        let rate = covariance_rate(&mut g, &f, &p, &q, Some(two_alpha));
+        // F P = [[0.3, 1], [-8.15, -1.7]]; F P + (F P)' + Q + 0.5 P:
+        let expected = [
+            [0.6 + 0.1 + 1.0, 1.0 - 8.15 + 0.15],
+            [1.0 - 8.15 + 0.15, -3.4 + 0.2 + 0.5],
+        ];
+        for (row, want) in value(&g, &rate).iter().zip(expected) {
+            for (v, w) in row.iter().zip(want) {
+                assert!((v - w).abs() < 1e-12, "{v} vs {w}");
+            }
+        }
+    }
+
+    #[test]
+    fn euler_covariance_step_is_the_covariance_of_the_euler_step() {
+        let mut g = Graph::new();
+        let f = constant(&mut g, [[0.0, 1.0], [-4.0, -0.5]]);
+        let p = constant(&mut g, [[2.0, 0.3], [0.3, 1.0]]);
+        let s = constant(&mut g, [[0.1, 0.0], [0.0, 0.2]]);
+        let (h, alpha) = (0.1, 0.25);
+        let (h_node, alpha_node) = (g.num(h), g.num(alpha));
+        let step = euler_covariance_step(&mut g, h_node, &f, Some(alpha_node), &p, &s);
+        // (I + h (F + alpha I)) P (I + h (F + alpha I))' + h S, by hand.
+        let phi = [[1.0 + h * alpha, h], [-4.0 * h, 1.0 + h * (-0.5 + alpha)]];
+        let pm = [[2.0, 0.3], [0.3, 1.0]];
+        let sm = [[0.1, 0.0], [0.0, 0.2]];
+        let got = value(&g, &step);
+        for i in 0..2 {
+            for j in 0..2 {
+                let mut want = h * sm[i][j];
+                for k in 0..2 {
+                    for l in 0..2 {
+                        want += phi[i][k] * pm[k][l] * phi[j][l];
+                    }
+                }
+                assert!(
+                    (got[i][j] - want).abs() < 1e-12,
+                    "({i},{j}): {} vs {want}",
+                    got[i][j]
+                );
+            }
+        }
+    }
+}
