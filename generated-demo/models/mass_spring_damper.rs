@@ -58,13 +58,12 @@ codegen_macros::model! {
         output
             /// measured tip position y = q [m] (C = [1 0], eq. 3)
             y = q;
-        generate ekf;
-        // Continuous-discrete EKF: the paper integrates eq. (20) with the Euler method
-        // (sect. 3.1) at dt = T/500 (sect. 4.1). Unrolled, 500 Euler steps would be 500
-        // copies of the model; one classical RK4 step of T is stable here (|h lambda| is
-        // about 0.63 for the fastest pole, RK4's bound on the imaginary axis is 2.8)
-        // and more accurate than 500 Euler steps, so the filter model uses RK4.
-        dynamics continuous(rk4, dt = TS) {
+        // The continuous-discrete (hybrid) EKF of sect. 3.2: state and covariance
+        // (eq. 21) integrated between samples, Joseph update at each sample. The paper
+        // integrates eq. (20) with the Euler method (sect. 3.1) at dt = T/500 (sect. 4.1):
+        // the 500 sub-steps run as a loop whose body is one Euler step.
+        generate hybrid_ekf(process_noise = diagonal);
+        dynamics continuous(euler, dt = TS, substeps = 500) {
             // eq. (20), first line
             der(q) = qd;
             // eq. (20), second line: q'' = (1/m)(-k q - b q' + c u) + x_C5

@@ -6,10 +6,12 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
+pub mod continuous_sequence;
 pub mod sequence;
 
 include!("../models/cantilever.rs");
 include!("../models/mass_spring_damper.rs");
+include!("../models/blade_identification.rs");
 include!("../models/polynomial.rs");
 include!("../models/piecewise_beam.rs");
 include!("../models/helicopter.rs");

@@ -7,6 +7,9 @@
 //! 2. Adaptive LQR (Alg. 3) closed loop with two stinger hits: RMS tip displacement for
 //!    open loop, EKF-LQR and DKF-LQR.
 //! 3. Traces as CSV and plots as SVG in `out/`, and what the generated code costs.
+//! 4. Seed 001's blade with the generated hybrid EKFs (`experiment::blade`) and seed
+//!    004's helicopter with the continuous-time EKF, standard and with a prescribed degree
+//!    of stability (`experiment::trms`).
 //!
 //! The host runs the generated `f64` code; the `f32` code is what runs on the MCU.
 
@@ -96,10 +99,14 @@ fn main() -> Result<(), Box<dyn Error>> {
     report::write_csv(&closed, std::fs::File::create(out.join("closed_loop.csv"))?)?;
     plot_displacement(&closed, &out.join("displacement.svg"))?;
 
+    experiment::blade::run(out)?;
+    experiment::trms::run(out)?;
+
     print_generated_costs();
     println!(
-        "\nWrote out/estimation.csv, out/closed_loop.csv, out/wn.svg, out/displacement.svg \
-         in {:.2} s.",
+        "\nWrote out/estimation.csv, out/closed_loop.csv, out/wn.svg, out/displacement.svg, \
+         out/blade.csv, out/blade_mass.svg, out/blade_identification.svg, out/helicopter.csv, \
+         out/helicopter_surge.csv, out/helicopter_pitch.svg, out/helicopter_surge.svg in {:.2} s.",
         started.elapsed().as_secs_f64()
     );
     Ok(())

@@ -6,8 +6,8 @@ use crate::ast::{
 };
 use crate::diagnostics::Diagnostics;
 use crate::model::{
-    Constant, Discretisation, DkfSpec, Dynamics, EkfSpec, Expr, Func, Generate, Local, LqrSpec,
-    Method, Model, Output, Scalar, Symbol,
+    Constant, ContinuousEkfSpec, Discretisation, DkfSpec, Dynamics, EkfSpec, Expr, Func, Generate,
+    HybridEkfSpec, Local, LqrSpec, Method, Model, Output, Scalar, Symbol,
 };
 use indexmap::IndexMap;
 use proc_macro2::Span;
@@ -15,6 +15,7 @@ use proc_macro2::Span;
 /// Items the generated module defines; a constant (also an item) may not take their names.
 const GENERATED_ITEMS: &[&str] = &[
     "f",
+    "F_SUBSTEPS",
     "h",
     "jacobian_f_wrt_x",
     "jacobian_f_wrt_u",
@@ -511,11 +512,16 @@ fn check_discretisation(
             None
         }
         Some((n, span)) => match u32::try_from(*n) {
-            Ok(n) if n <= 64 => Some(n),
+            Ok(n) if n <= crate::model::SUBSTEPS_MAX => Some(n),
             _ => {
                 diag.error(
                     *span,
-                    "`substeps` above 64 would generate huge code: use at most 64",
+                    format!(
+                        "`substeps` is at most {}: sub-steps above {} run in a loop, but \
+                         each still costs time on the target",
+                        crate::model::SUBSTEPS_MAX,
+                        crate::model::UNROLLED_SUBSTEPS_MAX
+                    ),
                 );
                 None
             }
@@ -575,7 +581,7 @@ fn check_identifier(name: &Name, diag: &mut Diagnostics) {
             name.span,
             format!("raw identifiers are not supported: choose a name that is not the keyword `{keyword}`"),
         );
-    } else if syn::parse_str::<syn::Ident>(&name.text).is_err() {
+    } else if !is_identifier(&name.text) {
         diag.error(
             name.span,
             format!(
@@ -585,6 +591,18 @@ fn check_identifier(name: &Name, diag: &mut Diagnostics) {
             ),
         );
     }
+}
+
+/// Whether `text` is one Rust identifier, character by character (a parser would skip a
+/// trailing comment, `x // y`), and not a keyword.
+fn is_identifier(text: &str) -> bool {
+    let mut chars = text.chars();
+    let starts = chars
+        .next()
+        .is_some_and(|c| c == '_' || unicode_ident::is_xid_start(c));
+    starts
+        && chars.all(unicode_ident::is_xid_continue)
+        && syn::parse_str::<syn::Ident>(text).is_ok()
 }
 
 /// Names that differ only in case would give the same constant in the generated `index`
@@ -856,17 +874,85 @@ fn check_generate(decl: &ModelDecl, scope: &Scope, diag: &mut Diagnostics) -> Ge
                     inputs,
                 });
             }
+            "hybrid_ekf" => {
+                require_continuous(decl, item, diag);
+                generate.hybrid_ekf = Some(HybridEkfSpec {
+                    diagonal_noise: args.process_noise(diag),
+                });
+            }
+            "continuous_ekf" => {
+                require_continuous(decl, item, diag);
+                let alpha = args.optional_number("alpha", diag);
+                if let Some((a, span)) = alpha.filter(|(a, _)| !(*a >= 0.0 && a.is_finite())) {
+                    diag.error(
+                        span,
+                        format!(
+                            "`alpha`, the prescribed degree of stability, is finite and at \
+                             least 0 (per second), not {a}"
+                        ),
+                    );
+                }
+                generate.continuous_ekf = Some(ContinuousEkfSpec {
+                    diagonal_noise: args.process_noise(diag),
+                    alpha: alpha.map(|(a, _)| a),
+                });
+            }
             other => {
                 diag.error(
                     item.name.span,
-                    format!("unknown generator `{other}`: use `ekf`, `dkf(eta = ..)` or `lqr(..)`"),
+                    format!(
+                        "unknown generator `{other}`: use `ekf`, `dkf(eta = ..)`, `lqr(..)`, \
+                         `hybrid_ekf` or `continuous_ekf(alpha = ..)`"
+                    ),
                 );
                 continue;
             }
         }
+        if matches!(item.name.text.as_str(), "ekf" | "dkf" | "lqr") {
+            require_unrolled(decl, item, diag);
+        }
         args.report_unused(diag);
     }
     generate
+}
+
+/// The continuous filters integrate `dx/dt` between samples: the model must give it.
+fn require_continuous(decl: &ModelDecl, item: &GenerateDecl, diag: &mut Diagnostics) {
+    let continuous = decl
+        .dynamics
+        .iter()
+        .any(|d| matches!(d.kind, DynamicsKind::Continuous { .. }));
+    if !continuous {
+        diag.error(
+            item.name.span,
+            format!(
+                "`{}` integrates the continuous dynamics between samples: declare them as \
+                 `dynamics continuous(euler, dt = TS) {{ der(x) = ..; }}`",
+                item.name.text
+            ),
+        );
+    }
+}
+
+/// The discrete filters and the LQR are built on the unrolled step `f` and its Jacobian.
+fn require_unrolled(decl: &ModelDecl, item: &GenerateDecl, diag: &mut Diagnostics) {
+    let looped = decl.dynamics.iter().any(|d| match &d.kind {
+        DynamicsKind::Continuous { substeps, .. } => substeps
+            .as_ref()
+            .is_some_and(|(n, _)| *n > u64::from(crate::model::UNROLLED_SUBSTEPS_MAX)),
+        DynamicsKind::Discrete => false,
+    });
+    if looped {
+        diag.error(
+            item.name.span,
+            format!(
+                "`{}` differentiates the unrolled sample step, which allows at most {} \
+                 sub-steps: use fewer, or `hybrid_ekf`, which integrates them in a loop",
+                item.name.text,
+                crate::model::UNROLLED_SUBSTEPS_MAX
+            ),
+        );
+    }
 }
 
 /// The arguments of one `generate` item, taken one by one; what is left is an error.
@@ -926,6 +1012,17 @@ impl<'a> Args<'a> {
                      number (a chi-square quantile: 10.83 rejects one in a thousand \
                      consistent scalar measurements), or `off` to set it at run time",
                 );
+                None
+            }
+        }
+    }
+
+    fn optional_number(&mut self, name: &str, diag: &mut Diagnostics) -> Option<(f64, Span)> {
+        match self.take(&[name]).map(|a| &a.value) {
+            None => None,
+            Some(ArgValue::Number(v, span)) => Some((*v, *span)),
+            Some(other) => {
+                diag.error(other.span(), format!("`{name}` takes a number"));
                 None
             }
         }

@@ -41,13 +41,38 @@ pub struct Generate {
     pub dkf: Option<DkfSpec>,
     /// The adaptive finite-horizon LQR (Alg. 3), if asked for.
     pub lqr: Option<LqrSpec>,
+    /// The hybrid (continuous-discrete) EKF, if asked for.
+    pub hybrid_ekf: Option<HybridEkfSpec>,
+    /// The continuous-time EKF, if asked for.
+    pub continuous_ekf: Option<ContinuousEkfSpec>,
 }
 
 impl Generate {
     /// Whether anything beyond the model functions is asked for.
     pub fn any(&self) -> bool {
-        self.ekf.is_some() || self.dkf.is_some() || self.lqr.is_some()
+        self.ekf.is_some()
+            || self.dkf.is_some()
+            || self.lqr.is_some()
+            || self.hybrid_ekf.is_some()
+            || self.continuous_ekf.is_some()
     }
+}
+
+/// Options of the hybrid (continuous-discrete) EKF.
+#[derive(Clone, Debug, Default)]
+pub struct HybridEkfSpec {
+    /// Whether the process noise spectral density is diagonal.
+    pub diagonal_noise: bool,
+}
+
+/// Options of the continuous-time EKF.
+#[derive(Clone, Debug, Default)]
+pub struct ContinuousEkfSpec {
+    /// Whether the process noise spectral density is diagonal.
+    pub diagonal_noise: bool,
+    /// The default prescribed degree of stability `alpha >= 0` (Reif et al.), if the
+    /// filter has one: `F` is replaced by `F + alpha I` in its Riccati equation.
+    pub alpha: Option<f64>,
 }
 
 /// Options of the extended Kalman filter.
@@ -160,6 +185,13 @@ pub enum Method {
     /// Classical fourth-order Runge-Kutta.
     Rk4,
 }
+
+/// The most integration sub-steps per sample that the discrete step `f` (and the
+/// filters built on it: `ekf`, `dkf`, `lqr`) unrolls; more are integrated in a loop.
+pub const UNROLLED_SUBSTEPS_MAX: u32 = 64;
+
+/// The most integration sub-steps per sample a model may declare.
+pub const SUBSTEPS_MAX: u32 = 100_000;
 
 /// How `x[k+1]` is obtained from the equations.
 #[derive(Clone, Debug)]
@@ -284,6 +316,13 @@ pub enum Expr {
         /// Value otherwise.
         otherwise: Box<Expr>,
     },
+}
+
+impl Discretisation {
+    /// Whether the sub-steps are too many to unroll: `f` is then generated as a loop.
+    pub fn is_looped(&self) -> bool {
+        matches!(self, Discretisation::Continuous { substeps, .. } if *substeps > UNROLLED_SUBSTEPS_MAX)
+    }
 }
 
 impl Model {

@@ -14,6 +14,7 @@
 #![deny(unsafe_code)]
 
 mod baseline;
+mod continuous;
 mod measure;
 
 use core::hint::black_box;
@@ -66,7 +67,9 @@ fn main() -> ! {
     };
     let clock = Clock::start(peripherals.SYST);
     estimates();
+    continuous::estimates();
     costs(&clock);
+    continuous::costs(&clock);
     hprintln!("done");
     debug::exit(debug::EXIT_SUCCESS);
     // Not reached under QEMU, which exits above.
@@ -190,7 +193,7 @@ fn warmed<T>(mut filter: T, mut step: impl FnMut(&mut T, f32, f32)) -> T {
 
 fn costs(clock: &Clock) {
     let step_ekf = |f: &mut Ekf, u: f32, y: f32| {
-        black_box(generated_ekf_step(f, u, y));
+        let _ = black_box(generated_ekf_step(f, u, y));
     };
     let step_dkf = |f: &mut Dkf, u: f32, y: f32| {
         black_box(generated_dkf_step(f, u, y));
@@ -230,7 +233,7 @@ fn costs(clock: &Clock) {
     let mut controller = lqr();
     let lqr_costs = (
         per_call(clock, |_, _| {
-            black_box(generated_lqr_solve(&mut controller, black_box(&estimate)));
+            let _ = black_box(generated_lqr_solve(&mut controller, black_box(&estimate)));
         }),
         per_call(clock, |_, _| {
             black_box(baseline_lqr_solve(black_box(&estimate)));
@@ -238,7 +241,7 @@ fn costs(clock: &Clock) {
     );
     let lqr_stacks = (
         stack_depth(|| {
-            black_box(generated_lqr_solve(&mut controller, &estimate));
+            let _ = black_box(generated_lqr_solve(&mut controller, &estimate));
         }),
         stack_depth(|| {
             black_box(baseline_lqr_solve(&estimate));

@@ -5,12 +5,13 @@
 use std::path::PathBuf;
 
 pub mod cantilever_sim;
+pub mod continuous_reference;
 pub mod reference;
 pub mod scale;
 pub mod tuning;
 
 /// Names of the demo models, as their files in `generated-demo/models/` are named.
-pub const DEMO_MODELS: [&str; 7] = [
+pub const DEMO_MODELS: [&str; 8] = [
     "cantilever",
     "mass_spring_damper",
     "polynomial",
@@ -18,6 +19,7 @@ pub const DEMO_MODELS: [&str; 7] = [
     "helicopter",
     "beam_two_actuators",
     "duffing_beam",
+    "blade_identification",
 ];
 
 /// Path of a file of the workspace, given relative to its root.

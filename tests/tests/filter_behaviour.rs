@@ -90,7 +90,8 @@ fn an_input_free_window_freezes_the_input_gain() {
     // Excite, then let the beam ring down with no input (Case 2).
     let excited = run(200, 0.0, 1);
     for k in 1..excited.len() {
-        dkf.step(&[excited[k - 1].u], &[excited[k].y]);
+        let status = dkf.step(&[excited[k - 1].u], &[excited[k].y]);
+        assert!(status.is_ok(), "{status:?}");
     }
     let mut solved_gain = dkf.window_parameters()[2];
     let mut x = excited[excited.len() - 1].truth;
@@ -121,8 +122,9 @@ fn nan_input_leaves_every_filter_unchanged() {
     let mut ekf = Ekf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]);
     let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
     for k in 1..samples.len() {
-        ekf.step(&[samples[k - 1].u], &[samples[k].y]);
-        dkf.step(&[samples[k - 1].u], &[samples[k].y]);
+        assert_eq!(ekf.step(&[samples[k - 1].u], &[samples[k].y]), Status::Ok);
+        let status = dkf.step(&[samples[k - 1].u], &[samples[k].y]);
+        assert!(status.is_ok(), "{status:?}");
     }
     for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
         let (ekf_before, dkf_before) = (ekf, dkf);

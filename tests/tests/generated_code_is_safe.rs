@@ -1,8 +1,9 @@
 //! Generated code is straight-line float arithmetic: no heap, no `unsafe`, nothing that can
 //! panic. Checked on the syntax tree of every demo model's generated module, in both
-//! scalar types: any construct outside an allow-list fails the test. The one loop allowed
-//! is the LQR's `for _ in 0..Self::HORIZON` (a constant range); the only method calls are
-//! `is_finite` and the generated type's own methods on `self`.
+//! scalar types: any construct outside an allow-list fails the test. The loops allowed run
+//! over a constant range with no counter: the LQR's `for _ in 0..Self::HORIZON` and the
+//! integration sub-steps, `for _ in 0..Self::SUBSTEPS` or `0..F_SUBSTEPS`; the only method
+//! calls are `is_finite` and the generated type's own methods on `self`.
 
 use syn::visit::Visit;
 use tests::{demo_model_code, DEMO_MODELS};
@@ -108,12 +109,19 @@ impl<'ast> Visit<'ast> for Findings {
     }
 }
 
-/// `for _ in 0..Self::HORIZON { .. }`
+/// `for _ in 0..Self::HORIZON { .. }` (the LQR's horizon), `for _ in 0..Self::SUBSTEPS`
+/// (a continuous filter's sub-steps) or `for _ in 0..F_SUBSTEPS` (a looped `f`): a
+/// constant number of iterations, with no counter the body could misuse.
 fn is_horizon_loop(f: &syn::ExprForLoop) -> bool {
+    let constant_end = |p: &syn::ExprPath| {
+        p.path.segments.last().is_some_and(|s| {
+            s.ident == "HORIZON" || s.ident == "SUBSTEPS" || s.ident == "F_SUBSTEPS"
+        })
+    };
     let range_ok = match &*f.expr {
         syn::Expr::Range(r) => {
             matches!(r.start.as_deref(), Some(syn::Expr::Lit(l)) if matches!(&l.lit, syn::Lit::Int(i) if i.base10_digits() == "0"))
-                && matches!(r.end.as_deref(), Some(syn::Expr::Path(p)) if p.path.segments.last().is_some_and(|s| s.ident == "HORIZON"))
+                && matches!(r.end.as_deref(), Some(syn::Expr::Path(p)) if constant_end(p))
         }
         _ => false,
     };

@@ -23,10 +23,16 @@ type MatrixFn = fn(f64, &[f64], &[f64]) -> Vec<Vec<f64>>;
 struct Generated {
     f: VectorFn,
     h: VectorFn,
-    jacobian_f_wrt_x: MatrixFn,
-    jacobian_f_wrt_u: MatrixFn,
+    /// `None` for a model whose sub-steps run in a loop: its `f` has no Jacobians.
+    jacobians_f: Option<JacobiansF>,
     jacobian_h_wrt_x: MatrixFn,
-    nonzero_f_wrt_x: Vec<Vec<bool>>,
+}
+
+/// The Jacobians of the unrolled step `f` and the structural zeros of `df/dx`.
+struct JacobiansF {
+    wrt_x: MatrixFn,
+    wrt_u: MatrixFn,
+    nonzero_wrt_x: Vec<Vec<bool>>,
 }
 
 fn arr<const N: usize>(v: &[f64]) -> [f64; N] {
@@ -190,19 +196,21 @@ fn check_model(name: &str, generated: &Generated) {
         let y = reference.h(t, &x, &u);
         assert_values(&format!("{name}: h"), &(generated.h)(t, &x, &u), &y);
 
-        let fd_x = central_differences(&|x| reference.f(t, x, &u), &x);
-        let jfx = (generated.jacobian_f_wrt_x)(t, &x, &u);
-        assert_jacobian(&format!("{name}: df/dx"), &jfx, &fd_x, &f);
-        for (i, row) in jfx.iter().enumerate() {
-            for (j, &value) in row.iter().enumerate() {
-                if !generated.nonzero_f_wrt_x[i][j] {
-                    assert_eq!(value, 0.0, "{name}: df/dx[{i}][{j}] is a structural zero");
+        if let Some(jacobians) = &generated.jacobians_f {
+            let fd_x = central_differences(&|x| reference.f(t, x, &u), &x);
+            let jfx = (jacobians.wrt_x)(t, &x, &u);
+            assert_jacobian(&format!("{name}: df/dx"), &jfx, &fd_x, &f);
+            for (i, row) in jfx.iter().enumerate() {
+                for (j, &value) in row.iter().enumerate() {
+                    if !jacobians.nonzero_wrt_x[i][j] {
+                        assert_eq!(value, 0.0, "{name}: df/dx[{i}][{j}] is a structural zero");
+                    }
                 }
             }
+            let fd_u = central_differences(&|u| reference.f(t, &x, u), &u);
+            let jfu = (jacobians.wrt_u)(t, &x, &u);
+            assert_jacobian(&format!("{name}: df/du"), &jfu, &fd_u, &f);
         }
-        let fd_u = central_differences(&|u| reference.f(t, &x, u), &u);
-        let jfu = (generated.jacobian_f_wrt_u)(t, &x, &u);
-        assert_jacobian(&format!("{name}: df/du"), &jfu, &fd_u, &f);
         let fd_hx = central_differences(&|x| reference.h(t, x, &u), &x);
         let jhx = (generated.jacobian_h_wrt_x)(t, &x, &u);
         assert_jacobian(&format!("{name}: dh/dx"), &jhx, &fd_hx, &y);
@@ -225,10 +233,26 @@ macro_rules! time_invariant_with_inputs {
         Generated {
             f: |_, x, u| g::f(&arr(x), &arr(u)).to_vec(),
             h: |_, x, _| g::h(&arr(x)).to_vec(),
-            jacobian_f_wrt_x: |_, x, u| rows(g::jacobian_f_wrt_x(&arr(x), &arr(u))),
-            jacobian_f_wrt_u: |_, x, u| rows(g::jacobian_f_wrt_u(&arr(x), &arr(u))),
+            jacobians_f: Some(JacobiansF {
+                wrt_x: |_, x, u| rows(g::jacobian_f_wrt_x(&arr(x), &arr(u))),
+                wrt_u: |_, x, u| rows(g::jacobian_f_wrt_u(&arr(x), &arr(u))),
+                nonzero_wrt_x: nonzero(&generated_demo::$module::JACOBIAN_F_WRT_X_NONZERO),
+            }),
             jacobian_h_wrt_x: |_, x, _| rows(g::jacobian_h_wrt_x(&arr(x))),
-            nonzero_f_wrt_x: nonzero(&generated_demo::$module::JACOBIAN_F_WRT_X_NONZERO),
+        }
+    }};
+}
+
+/// The adapters of a time-invariant model with inputs whose sub-steps run in a loop:
+/// `f(x, u)` with no Jacobians, `h(x)`.
+macro_rules! looped_with_inputs {
+    ($module:ident) => {{
+        use generated_demo::$module::in_f64 as g;
+        Generated {
+            f: |_, x, u| g::f(&arr(x), &arr(u)).to_vec(),
+            h: |_, x, _| g::h(&arr(x)).to_vec(),
+            jacobians_f: None,
+            jacobian_h_wrt_x: |_, x, _| rows(g::jacobian_h_wrt_x(&arr(x))),
         }
     }};
 }
@@ -242,7 +266,15 @@ fn cantilever_jacobians_match_finite_differences() {
 fn mass_spring_damper_jacobians_match_finite_differences() {
     check_model(
         "mass_spring_damper",
-        &time_invariant_with_inputs!(mass_spring_damper),
+        &looped_with_inputs!(mass_spring_damper),
+    );
+}
+
+#[test]
+fn blade_identification_jacobians_match_finite_differences() {
+    check_model(
+        "blade_identification",
+        &looped_with_inputs!(blade_identification),
     );
 }
 
@@ -254,11 +286,13 @@ fn polynomial_jacobians_match_finite_differences() {
         &Generated {
             f: |_, x, _| g::f(&arr(x)).to_vec(),
             h: |_, x, _| g::h(&arr(x)).to_vec(),
-            jacobian_f_wrt_x: |_, x, _| rows(g::jacobian_f_wrt_x(&arr(x))),
-            // No inputs: df/du has no columns.
-            jacobian_f_wrt_u: |_, x, _| vec![Vec::new(); x.len()],
+            jacobians_f: Some(JacobiansF {
+                wrt_x: |_, x, _| rows(g::jacobian_f_wrt_x(&arr(x))),
+                // No inputs: df/du has no columns.
+                wrt_u: |_, x, _| vec![Vec::new(); x.len()],
+                nonzero_wrt_x: nonzero(&polynomial::JACOBIAN_F_WRT_X_NONZERO),
+            }),
             jacobian_h_wrt_x: |_, x, _| rows(g::jacobian_h_wrt_x(&arr(x))),
-            nonzero_f_wrt_x: nonzero(&polynomial::JACOBIAN_F_WRT_X_NONZERO),
         },
     );
 }
@@ -279,10 +313,12 @@ fn helicopter_jacobians_match_finite_differences() {
         &Generated {
             f: |t, x, u| g::f(t, &arr(x), &arr(u)).to_vec(),
             h: |t, x, _| g::h(t, &arr(x)).to_vec(),
-            jacobian_f_wrt_x: |t, x, u| rows(g::jacobian_f_wrt_x(t, &arr(x), &arr(u))),
-            jacobian_f_wrt_u: |t, x, u| rows(g::jacobian_f_wrt_u(t, &arr(x), &arr(u))),
+            jacobians_f: Some(JacobiansF {
+                wrt_x: |t, x, u| rows(g::jacobian_f_wrt_x(t, &arr(x), &arr(u))),
+                wrt_u: |t, x, u| rows(g::jacobian_f_wrt_u(t, &arr(x), &arr(u))),
+                nonzero_wrt_x: nonzero(&helicopter::JACOBIAN_F_WRT_X_NONZERO),
+            }),
             jacobian_h_wrt_x: |t, x, _| rows(g::jacobian_h_wrt_x(t, &arr(x))),
-            nonzero_f_wrt_x: nonzero(&helicopter::JACOBIAN_F_WRT_X_NONZERO),
         },
     );
 }

@@ -96,7 +96,7 @@ fn small_model(name: &str, visibility: &str, equation: &str) -> String {
 
 #[test]
 fn model_file_names_must_be_identifiers() {
-    for bad in ["", "my model", "1st", "fn", "r#type"] {
+    for bad in ["", "my model", "1st", "fn", "r#type", "m//comment", "x²"] {
         let errors = errors_of(&small_model(bad, "", "x"));
         assert!(
             errors.contains("not a Rust identifier") || errors.contains("raw identifiers"),

@@ -43,6 +43,10 @@ pub struct Report {
     pub estimates: Vec<Estimate>,
     /// The cost lines in order.
     pub costs: Vec<Cost>,
+    /// The `continuous` lines (the helicopter's continuous-time EKF): sample, estimate.
+    pub continuous: Vec<(usize, Vec<f64>)>,
+    /// The `hybrid` lines (the blade's hybrid EKF): sample, estimate.
+    pub hybrid: Vec<(usize, Vec<f64>)>,
 }
 
 /// Builds the firmware in release mode and runs it under QEMU (the runner in
@@ -76,6 +80,17 @@ pub fn run(targets: &Path) -> Result<Report, String> {
     }
 }
 
+/// The sample index and the numbers of a `<tag> k v1 v2 ..` line.
+fn sample_line(line: &str, k: &str, values: &[&str]) -> Result<(usize, Vec<f64>), String> {
+    let k = k.parse().map_err(|_| format!("bad sample in `{line}`"))?;
+    let v = values
+        .iter()
+        .map(|w| w.parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("bad number in `{line}`"))?;
+    Ok((k, v))
+}
+
 fn parse(text: &str) -> Result<Report, String> {
     let mut report = Report::default();
     let mut done = false;
@@ -83,12 +98,7 @@ fn parse(text: &str) -> Result<Report, String> {
         let words: Vec<&str> = line.split_whitespace().collect();
         match words.as_slice() {
             ["estimate", k, values @ ..] if values.len() == 18 => {
-                let k = k.parse().map_err(|_| format!("bad sample in `{line}`"))?;
-                let v: Vec<f64> = values
-                    .iter()
-                    .map(|w| w.parse::<f64>())
-                    .collect::<Result<_, _>>()
-                    .map_err(|_| format!("bad number in `{line}`"))?;
+                let (k, v) = sample_line(line, k, values)?;
                 let five = |at: usize| [v[at], v[at + 1], v[at + 2], v[at + 3], v[at + 4]];
                 report.estimates.push(Estimate {
                     k,
@@ -119,6 +129,14 @@ fn parse(text: &str) -> Result<Report, String> {
                 match report.costs.iter_mut().find(|c| c.kernel == *kernel) {
                     Some(cost) => cost.stack = stack,
                     None => return Err(format!("stack before cost for `{kernel}`")),
+                }
+            }
+            [tag @ ("continuous" | "hybrid"), k, values @ ..] => {
+                let sample = sample_line(line, k, values)?;
+                if *tag == "continuous" {
+                    report.continuous.push(sample);
+                } else {
+                    report.hybrid.push(sample);
                 }
             }
             ["done"] => done = true,

@@ -5,12 +5,14 @@
 //!
 //! Units throughout: mm, mm/s, V, s (shared/reference/simulating-the-paper.md).
 
+pub mod blade;
 pub mod excitation;
 pub mod metrics;
 pub mod noise;
 pub mod plant;
 pub mod readout;
 pub mod report;
+pub mod trms;
 
 /// Sample time [s], taken from the generated cantilever model so the harness and the
 /// filters can never disagree on it ("the sampling period has been set to 15 ms", sect. 4.1).

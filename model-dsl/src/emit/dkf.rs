@@ -79,6 +79,18 @@ pub fn emit_dkf(
         }}
     };
     let (unpack_p, unpack_pbar) = (unpack_symmetric("p", n), unpack_symmetric("pbar", n));
+    // Run-time tuning: the LKF's `q`, the AKF's `qbar`, the shared `r`.
+    let setters = {
+        let diagonal = spec.diagonal_noise;
+        let tuning =
+            |method, field| super::tuning::process_noise_setter(method, field, n, diagonal, &ty);
+        let (set_q, set_qbar) = (
+            tuning("set_process_noise", "q"),
+            tuning("set_akf_process_noise", "qbar"),
+        );
+        let set_r = super::tuning::measurement_noise_setter(m, &ty);
+        quote! { #set_q #set_qbar #set_r }
+    };
     let derivation: Vec<String> = wt.description.iter().map(|l| format!(" - {l}")).collect();
     let has_u = !model.inputs.is_empty();
     let u_param = has_u.then(|| quote! { u_prev: &[#ty; #u_len], });
@@ -220,6 +232,8 @@ pub fn emit_dkf(
                 (phi, window)
             }
 
+            #setters
+
             #[doc = #step_doc]
             pub fn step(&mut self, #u_param y: &[#ty; #m_len]) -> DkfStatus {
                 #step
@@ -251,6 +265,7 @@ pub fn emit_dkf(
 
         /// Outcome of [`Dkf::step`]: the window's, and each filter stage's.
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        #[must_use = "a filter stage that did not return `Status::Ok` left its estimate unchanged"]
         pub struct DkfStatus {
             /// What the window transform did.
             pub window: WindowStatus,
@@ -748,7 +763,7 @@ fn step_fn(
     let u_idents = var_idents(graph, &g.u);
     let y_idents = var_idents(graph, &y_vars);
     let checked: Vec<Ident> = u_idents.iter().chain(&y_idents).cloned().collect();
-    let finite = quote! { #(#checked.is_finite())&&* };
+    let finite = super::code::all_finite(&checked);
     let unpack_u = (!g.u.is_empty()).then(|| quote! { let [#(#u_idents),*] = *u_prev; });
     let u_arg = (!g.u.is_empty()).then(|| quote! { u_prev, });
     let phi_params: Vec<Ident> = var_idents(graph, &wt.phi[model.states.len()..]);

@@ -135,6 +135,7 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
     if spec.gate.is_some() {
         gate_methods.extend(keep_prediction_method(model, &ty));
     }
+    let setters = super::tuning::noise_setters(n, m, diagonal, &ty);
 
     let new_doc = if diagonal {
         " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
@@ -219,6 +220,8 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
             pub fn covariance(&self) -> [[#ty; #n_len]; #n_len] {
                 #unpack_p
             }
+
+            #setters
 
             #step
 

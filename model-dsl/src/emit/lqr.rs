@@ -315,7 +315,11 @@ fn symmetric_product(g: &mut Graph, a: &Matrix, b: &Matrix) -> Matrix {
 
 /// Nodes the loop body reads that do not change from one iteration to the next: operands
 /// of loop-dependent nodes that depend on no loop variable, and are not leaves.
-fn loop_invariant_operands(g: &Graph, roots: &[NodeId], loop_vars: &[NodeId]) -> Vec<NodeId> {
+pub(crate) fn loop_invariant_operands(
+    g: &Graph,
+    roots: &[NodeId],
+    loop_vars: &[NodeId],
+) -> Vec<NodeId> {
     let mut varies = vec![false; g.len()];
     for id in g.ids() {
         varies[id.index()] =

@@ -2,14 +2,18 @@
 //! [`emit_model`] assembles them into the model's module.
 
 pub mod code;
+pub mod ct_ekf;
 pub mod dkf;
 pub mod ekf;
+pub mod hybrid_ekf;
 pub mod lower;
 pub mod lqr;
 pub mod model_fns;
 pub mod names;
 pub mod scopes;
 pub mod status;
+pub mod substeps;
+pub mod tuning;
 
 use crate::emit::lower::literal;
 use crate::emit::model_fns::{
@@ -43,6 +47,17 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
         let (code, ops) = emit_function(model, &mg, function, primary);
         primary_fns.push(code);
         ops_items.push(ops_item(function, ops));
+    }
+    let looped_f = |scalar: Scalar| {
+        model
+            .dynamics
+            .discretisation
+            .is_looped()
+            .then(|| substeps::looped_f(model, &mg, scalar))
+    };
+    if let Some((f, constant, ops)) = looped_f(primary) {
+        primary_fns.insert(0, quote! { #constant #f });
+        ops_items.insert(0, named_ops_item("F_OPS", "f", ops));
     }
     let nonzero_items = functions.iter().filter_map(|f| nonzero_item(f, &mg));
     let primary_consts = constants(model, primary);
@@ -83,6 +98,34 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
             ops_items.push(named_ops_item("LQR_SOLVE_OPS", "Lqr::solve", lqr.solve_ops));
             tokens.extend(lqr.tokens);
         }
+        if let Some(spec) = &model.generate.hybrid_ekf {
+            let hybrid = hybrid_ekf::emit_hybrid_ekf(model, spec, &mg, scalar);
+            ops_items.push(named_ops_item(
+                "HYBRID_EKF_SUBSTEP_OPS",
+                "one sub-step of HybridEkf::step",
+                hybrid.substep_ops,
+            ));
+            ops_items.push(named_ops_item(
+                "HYBRID_EKF_STEP_OPS",
+                "HybridEkf::step",
+                hybrid.step_ops,
+            ));
+            tokens.extend(hybrid.tokens);
+        }
+        if let Some(spec) = &model.generate.continuous_ekf {
+            let ct = ct_ekf::emit_continuous_ekf(model, spec, &mg, scalar);
+            ops_items.push(named_ops_item(
+                "CONTINUOUS_EKF_SUBSTEP_OPS",
+                "one sub-step of ContinuousEkf::step",
+                ct.substep_ops,
+            ));
+            ops_items.push(named_ops_item(
+                "CONTINUOUS_EKF_STEP_OPS",
+                "ContinuousEkf::step",
+                ct.step_ops,
+            ));
+            tokens.extend(ct.tokens);
+        }
         tokens
     };
     let primary_filters = filters(primary, &mut ops_items);
@@ -94,6 +137,7 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
             scalar.type_name()
         );
         let consts = constants(model, scalar);
+        let looped = looped_f(scalar).map(|(f, _, _)| quote! { use super::F_SUBSTEPS; #f });
         let fns = functions
             .iter()
             .map(|f| emit_function(model, &mg, f, scalar).0);
@@ -107,6 +151,7 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
             pub mod #module {
                 #status
                 #consts
+                #looped
                 #(#fns)*
                 #filters
             }

@@ -45,6 +45,9 @@ pub fn model_functions(model: &Model, mg: &mut ModelGraph) -> Vec<ModelFunction>
     let flat = |m: Vec<Vec<NodeId>>| m.into_iter().flatten().collect::<Vec<_>>();
     let n = model.state_len();
 
+    // With too many sub-steps to unroll, `f` is a loop (`substeps::looped_f`) and has no
+    // Jacobians.
+    let looped = model.dynamics.discretisation.is_looped();
     let mut functions = vec![ModelFunction {
         name: "f",
         doc: format!(
@@ -85,6 +88,9 @@ pub fn model_functions(model: &Model, mg: &mut ModelGraph) -> Vec<ModelFunction>
             roots: flat(mg.jacobian_f_wrt_u()),
             rows: n,
         });
+    }
+    if looped {
+        functions.retain(|f| f.name == "h");
     }
     if !model.outputs.is_empty() {
         functions.push(ModelFunction {

@@ -10,6 +10,7 @@ pub fn status_enum() -> TokenStream {
         /// or controller is left exactly as it was, except as
         /// [`Status::OutlierRejected`] says.
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        #[must_use = "a step that did not return `Status::Ok` left the filter unchanged"]
         pub enum Status {
             /// The step was applied.
             Ok,

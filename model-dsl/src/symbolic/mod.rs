@@ -1,6 +1,7 @@
 //! The symbolic engine: a hash-consed expression graph with simplification,
 //! differentiation and substitution, and the lowering of a model into it.
 
+pub mod continuous;
 pub mod diff;
 pub mod graph;
 pub mod kalman;

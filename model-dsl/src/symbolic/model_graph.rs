@@ -58,6 +58,11 @@ impl ModelGraph {
 
         let next_states = match &model.dynamics.discretisation {
             Discretisation::Discrete => mg.rhs(model, t, &states),
+            // Too many sub-steps to unroll: `f` is generated as a loop of sub-steps
+            // (`emit::substeps`), and no unrolled step exists.
+            Discretisation::Continuous { .. } if model.dynamics.discretisation.is_looped() => {
+                Vec::new()
+            }
             Discretisation::Continuous {
                 method,
                 dt,
@@ -83,7 +88,9 @@ impl ModelGraph {
         };
         // Parameters are random walks: their prediction is themselves.
         let params = mg.x[model.states.len()..].to_vec();
-        mg.f = next_states.into_iter().chain(params).collect();
+        if !model.dynamics.discretisation.is_looped() {
+            mg.f = next_states.into_iter().chain(params).collect();
+        }
         let states = mg.x[..model.states.len()].to_vec();
         let mut env = Env::at(model, t, states);
         mg.h = model
@@ -110,6 +117,32 @@ impl ModelGraph {
             .iter()
             .map(|e| self.lower(model, e, &mut env))
             .collect()
+    }
+
+    /// `dx/dt` of the whole state vector at time `t` and physical states `states`: the
+    /// model's right-hand sides, then zeros for the parameters (random walks).
+    pub fn derivative(&mut self, model: &Model, t: NodeId, states: &[NodeId]) -> Vec<NodeId> {
+        let mut rates = self.rhs(model, t, &states[..model.states.len()]);
+        rates.extend(model.params.iter().map(|_| self.graph.zero()));
+        rates
+    }
+
+    /// The integration rule of continuous dynamics, the length of one sub-step
+    /// (`dt / substeps`) and the number of sub-steps per sample; `None` if discrete.
+    pub fn substep(&mut self, model: &Model) -> Option<(Method, NodeId, u32)> {
+        let Discretisation::Continuous {
+            method,
+            dt,
+            substeps,
+        } = &model.dynamics.discretisation
+        else {
+            return None;
+        };
+        let t = self.t;
+        let dt = self.lower(model, dt, &mut Env::at(model, t, Vec::new()));
+        let n = self.graph.num(f64::from(*substeps));
+        let h = self.graph.div(dt, n);
+        Some((*method, h, *substeps))
     }
 
     /// One forward Euler step: `x + h f(t, x)`.

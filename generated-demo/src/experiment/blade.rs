@@ -1,0 +1,308 @@
+//! The blade of seed 001 (Takacs, Poloni, Rohal-Ilkiv, "Adaptive predictive control of
+//! transient vibrations of cantilevers with changing weight", sect. 4) on a simulated
+//! mass-spring-damper with the generated hybrid EKFs (500 Euler sub-steps per 10 ms
+//! sample, as the paper's `dt = T/500`):
+//!
+//! - identification mode, 0-20 s: white-noise input, no disturbance, the six-state filter
+//!   of eq. (19) (`blade_identification`) from the paper's `x0`, `P0`, `R`, `Q~`;
+//! - control mode, 20-80 s: the five-state filter of eq. (20) (`mass_spring_damper`, `k`,
+//!   `b`, `c` fixed, a second-order shaping filter for the disturbance) on a blade hit
+//!   every 4 s whose mass rises by 54 g between 40 and 60 s.
+//!
+//! The controller (the paper's MPC) is not part of this issue: the blade runs open loop
+//! with a small white-noise dither in control mode.
+
+use super::metrics::mean;
+use super::noise::GaussianNoise;
+use super::report::{self, Line, Trace};
+use generated_demo::{blade_identification as ident, mass_spring_damper as control};
+use std::error::Error;
+use std::path::Path;
+
+/// The simulated blade's parameters: the paper's identified values (sect. 4.1).
+const K: f64 = 533.0;
+const B: f64 = 0.11;
+const C: f64 = 8.0e-4;
+const M: f64 = 0.20;
+/// The weight added at 40 s and removed at 60 s [kg] (sect. 4).
+const ADDED_MASS: f64 = 0.054;
+const LOADED: (f64, f64) = (40.0, 60.0);
+/// Identification until 20 s, then control mode until 80 s (sect. 4).
+const IDENTIFICATION_END: f64 = 20.0;
+const END: f64 = 80.0;
+/// Stinger hits every 4 s in control mode: a half-sine force of `HIT_FORCE` over
+/// `HIT_DURATION` (the paper's `F_e = 4 N`, `T_e = 0.1 s`).
+const HIT_EVERY: f64 = 4.0;
+const HIT_FORCE: f64 = 4.0;
+const HIT_DURATION: f64 = 0.1;
+/// The first hit, 2 s into control mode.
+const FIRST_HIT: f64 = 22.0;
+/// White input: sigma 50 V clipped to +-100 V in identification; a 5 V dither after.
+const INPUT_SIGMA: f64 = 50.0;
+const DITHER_SIGMA: f64 = 5.0;
+/// Laser noise: "1 % of 10^-3 m" (sect. 4.1).
+const NOISE_SIGMA: f64 = 1e-5;
+/// The plant is integrated with classical RK4 at this many steps per sample.
+const PLANT_STEPS: u32 = 20;
+
+/// The blade's mass at time `t`.
+fn mass(t: f64) -> f64 {
+    if (LOADED.0..LOADED.1).contains(&t) {
+        M + ADDED_MASS
+    } else {
+        M
+    }
+}
+
+/// The stinger's force at time `t`: a hit every `HIT_EVERY` seconds from `FIRST_HIT`.
+fn hit_force(t: f64) -> f64 {
+    if t < FIRST_HIT {
+        return 0.0;
+    }
+    let since = (t - FIRST_HIT) % HIT_EVERY;
+    if since < HIT_DURATION {
+        HIT_FORCE * (std::f64::consts::PI * since / HIT_DURATION).sin()
+    } else {
+        0.0
+    }
+}
+
+/// eq. (1), `m q'' + b q' + k q = c u + F_e`, over one sample with `u` held.
+fn plant_step(t: f64, x: [f64; 2], u: f64, dt: f64) -> [f64; 2] {
+    let rate = |t: f64, x: [f64; 2]| [x[1], (C * u + hit_force(t) - K * x[0] - B * x[1]) / mass(t)];
+    let h = dt / f64::from(PLANT_STEPS);
+    let mut x = x;
+    let mut t = t;
+    let axpy = |x: [f64; 2], a: f64, k: [f64; 2]| [x[0] + a * k[0], x[1] + a * k[1]];
+    for _ in 0..PLANT_STEPS {
+        let k1 = rate(t, x);
+        let k2 = rate(t + h / 2.0, axpy(x, h / 2.0, k1));
+        let k3 = rate(t + h / 2.0, axpy(x, h / 2.0, k2));
+        let k4 = rate(t + h, axpy(x, h, k3));
+        x = [
+            x[0] + h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
+            x[1] + h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
+        ];
+        t += h;
+    }
+    x
+}
+
+fn diag<const N: usize>(d: [f64; N]) -> [[f64; N]; N] {
+    std::array::from_fn(|i| std::array::from_fn(|j| if i == j { d[i] } else { 0.0 }))
+}
+
+/// The median of the last `width` values (the paper's 50-sample running median of the
+/// weight estimate).
+fn median_of_last(values: &[f64], width: usize) -> f64 {
+    let mut window: Vec<f64> = values[values.len().saturating_sub(width)..].to_vec();
+    window.sort_by(f64::total_cmp);
+    window[window.len() / 2]
+}
+
+/// Seconds after `from` until `series` enters and stays (for 2 s) within 5 % of `target`.
+fn tracking_delay(t: &[f64], series: &[f64], from: f64, to: f64, target: f64) -> Option<f64> {
+    let inside = |v: f64| (v / target - 1.0).abs() <= 0.05;
+    let start = t.iter().position(|&s| s >= from)?;
+    let end = t.iter().position(|&s| s >= to).unwrap_or(t.len());
+    (start..end)
+        .find(|&i| {
+            let hold = t[i] + 2.0;
+            (i..end)
+                .take_while(|&j| t[j] <= hold)
+                .all(|j| inside(series[j]))
+        })
+        .map(|i| t[i] - from)
+}
+
+/// Runs both modes, prints the tables, writes `out/blade.csv`, `out/blade_mass.svg` and
+/// `out/blade_identification.svg`.
+pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
+    let ts = ident::in_f64::TS;
+    // sect. 4.1: x0, P0, R_I; Q~_I has five entries for six states in the text: read as
+    // [q', k, b, c, 1/m] with no noise on the position, Q = Q~ / T.
+    let q_ident = [0.0, 1e-4, 10.0, 1e-5, 1e-11, 1e-2].map(|q| q / ts);
+    let mut identification = ident::in_f64::HybridEkf::new(
+        [0.0, 0.0, 450.0, 0.1, 5e-4, 2.0],
+        &diag([1e-5, 1.0, 1e4, 1e-2, 1e-6, 0.1]),
+        &q_ident,
+        &[[1e-10]],
+    );
+    // sect. 4.1, control mode: x0 = [0 0 2 0 0], P0 = diag[1e-5 1 1e-4 0 0], R_C = 1e-6,
+    // Q~_C = diag[2 alpha_n (0.63 F_e)^2, 1e2] on the shaping filter's drive and on 1/m
+    // (ours in the order [q, q', eta1, eta2, 1/m]).
+    let alpha_n = control::in_f64::ALPHA_N;
+    let q_control = [
+        0.0,
+        0.0,
+        0.0,
+        2.0 * alpha_n * (0.63 * HIT_FORCE).powi(2) / ts,
+        1e2 / ts,
+    ];
+    let mut controlled: Option<control::in_f64::HybridEkf> = None;
+    let input = GaussianNoise::new(1.0, 11);
+    let noise = GaussianNoise::new(NOISE_SIGMA, 12);
+    let mut trace = Trace::new();
+    let mut x = [0.0; 2];
+    let mut u_prev = 0.0;
+    let mut rejected = 0;
+    let mut raw_masses = Vec::new();
+    let samples = (END / ts).round() as u64;
+    for k in 1..=samples {
+        let t_prev = (k - 1) as f64 * ts;
+        let t = k as f64 * ts;
+        x = plant_step(t_prev, x, u_prev, ts);
+        let y = x[0] + noise.sample(k);
+        trace.begin(t);
+        trace.set("q true", x[0]);
+        trace.set("m true", mass(t));
+        trace.set("u", u_prev);
+        if t <= IDENTIFICATION_END + 1e-9 {
+            if identification.step(&[u_prev], &[y]) != ident::in_f64::Status::Ok {
+                rejected += 1;
+            }
+            let [q, _, k_hat, b_hat, c_hat, inv_m] = identification.state();
+            for (name, v) in [
+                ("q id", q),
+                ("k id", k_hat),
+                ("b id", b_hat),
+                ("c id", c_hat),
+            ] {
+                trace.set(name, v);
+            }
+            trace.set("m id", 1.0 / inv_m);
+        } else {
+            let filter = controlled.get_or_insert_with(|| {
+                control::in_f64::HybridEkf::new(
+                    [0.0, 0.0, 0.0, 0.0, 2.0],
+                    &diag([1e-5, 1.0, 0.0, 0.0, 1e-4]),
+                    &q_control,
+                    &[[1e-6]],
+                )
+            });
+            if filter.step(&[u_prev], &[y]) != control::in_f64::Status::Ok {
+                rejected += 1;
+            }
+            let [q, _, _, _, inv_m] = filter.state();
+            trace.set("q control", q);
+            trace.set("m control", 1.0 / inv_m);
+            raw_masses.push(1.0 / inv_m);
+            trace.set("m median", median_of_last(&raw_masses, 50));
+        }
+        let sigma = if t < IDENTIFICATION_END {
+            INPUT_SIGMA
+        } else {
+            DITHER_SIGMA
+        };
+        u_prev = (sigma * input.sample(k)).clamp(-100.0, 100.0);
+    }
+    let time = trace.time().to_vec();
+    let column = |name: &str| trace.column(name).unwrap_or(&[]).to_vec();
+    let median = column("m median");
+
+    println!("\nBlade of seed 001, identification mode (eq. 19, hybrid EKF, 500 Euler sub-steps");
+    println!("per 10 ms sample; white input sigma {INPUT_SIGMA} V, laser noise {NOISE_SIGMA} m),");
+    println!("means over 15-20 s:\n");
+    println!(
+        "{:<10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}",
+        "", "k", "b", "c", "m", "k/m", "b/m", "c/m"
+    );
+    let at = |name: &str| mean(&time, &column(name), 15.0, IDENTIFICATION_END);
+    let (k_hat, b_hat, c_hat, m_hat) = (at("k id"), at("b id"), at("c id"), at("m id"));
+    println!(
+        "{:<10} {:>10.1} {:>10.4} {:>10.3e} {:>10.4} {:>10.1} {:>10.4} {:>10.3e}",
+        "truth",
+        K,
+        B,
+        C,
+        M,
+        K / M,
+        B / M,
+        C / M
+    );
+    println!(
+        "{:<10} {:>10.1} {:>10.4} {:>10.3e} {:>10.4} {:>10.1} {:>10.4} {:>10.3e}",
+        "EKF",
+        k_hat,
+        b_hat,
+        c_hat,
+        m_hat,
+        k_hat / m_hat,
+        b_hat / m_hat,
+        c_hat / m_hat
+    );
+    println!(
+        "{:<10} {:>10.1} {:>10.4} {:>10.3e} {:>10.4}",
+        "paper", 533.0, 0.11, 8.0e-4, 0.20
+    );
+    println!("(eq. 19 determines k/m, b/m and c/m; how they split into k, b, c and m rests on");
+    println!("the prior x0, P0, as in the paper.)");
+
+    let m_loaded = M + ADDED_MASS;
+    println!("\nControl mode (eq. 20: 1/m and a shaping filter; k, b, c fixed), hits every {HIT_EVERY} s,");
+    println!(
+        "+{:.0} g from {} to {} s; mass estimate m = 1/x3, raw and 50-sample median:\n",
+        ADDED_MASS * 1e3,
+        LOADED.0,
+        LOADED.1
+    );
+    println!(
+        "{:<22} {:>8} {:>8} {:>8} {:>14}",
+        "window", "true m", "raw", "median", "tracking delay"
+    );
+    let windows = [
+        ("nominal 25-40 s", 25.0, LOADED.0, M, None),
+        (
+            "loaded 40-60 s",
+            LOADED.0,
+            LOADED.1,
+            m_loaded,
+            Some(LOADED.0),
+        ),
+        ("nominal again 60-80 s", LOADED.1, END, M, Some(LOADED.1)),
+    ];
+    for (label, from, to, truth, change) in windows {
+        let raw = mean(
+            &time,
+            &column("m control"),
+            from.max(from + 5.0 * f64::from(change.is_some())),
+            to,
+        );
+        let filtered = mean(
+            &time,
+            &median,
+            from.max(from + 5.0 * f64::from(change.is_some())),
+            to,
+        );
+        let delay = change
+            .and_then(|c| tracking_delay(&time, &median, c, to, truth))
+            .map_or_else(|| "-".to_owned(), |d| format!("{d:.2} s"));
+        println!("{label:<22} {truth:>8.4} {raw:>8.4} {filtered:>8.4} {delay:>14}");
+    }
+    println!("(means after the first 5 s of each window; delay: until the median stays within 5 % for 2 s)");
+    if rejected > 0 {
+        println!("{rejected} filter steps were rejected");
+    }
+
+    report::write_csv(&trace, std::fs::File::create(out.join("blade.csv"))?)?;
+    let lines: Vec<Line> = ["m true", "m control", "m median"]
+        .iter()
+        .filter_map(|n| trace.line(n))
+        .collect();
+    report::plot_lines(
+        &out.join("blade_mass.svg"),
+        "Blade mass estimate (control mode)",
+        "m [kg]",
+        &lines,
+        Some((0.0, 0.6)),
+    )?;
+    let lines: Vec<Line> = ["k id"].iter().filter_map(|n| trace.line(n)).collect();
+    report::plot_lines(
+        &out.join("blade_identification.svg"),
+        "Identified spring constant",
+        "k [N/m]",
+        &lines,
+        None,
+    )?;
+    Ok(())
+}

@@ -1,0 +1,229 @@
+//! Integration sub-steps as a loop: the body is one sub-step, lowered straight-line with
+//! its structural zeros skipped; what does not change from one sub-step to the next is
+//! computed once before the loop. The continuous filters use it for their propagation
+//! between samples, and `f` for models with more sub-steps than are worth unrolling.
+
+use super::lower::{Lowerer, OpCount};
+use super::lqr::loop_invariant_operands;
+use super::names::ident;
+use crate::model::{Model, Scalar};
+use crate::symbolic::continuous::{integrate_substep, AtPoint};
+use crate::symbolic::{ModelGraph, NodeId, VarId};
+use proc_macro2::TokenStream;
+use quote::quote;
+use std::collections::BTreeSet;
+
+/// Name of the loop's running state vector in generated code.
+pub const X_SUB: &str = "x_sub";
+/// Name of the loop's running packed covariance in generated code.
+pub const P_SUB: &str = "p_sub";
+/// Name of the loop's running time in generated code.
+pub const T_SUB: &str = "t_sub";
+
+/// A value the loop carries from one sub-step to the next.
+pub struct Carried<'a> {
+    /// Its name in generated code: an array destructured into `vars`, or (`scalar`) the
+    /// one variable itself.
+    pub name: &'static str,
+    /// Its value before the first sub-step (`self.x`, `t_prev`).
+    pub initial: TokenStream,
+    /// The variables the body reads.
+    pub vars: &'a [NodeId],
+    /// Their values after one sub-step.
+    pub next: &'a [NodeId],
+    /// Whether it is a single variable rather than an array.
+    pub scalar: bool,
+}
+
+/// A lowered loop of sub-steps.
+pub struct SubstepLoop {
+    /// The loop-invariant statements, then the loop itself.
+    pub code: TokenStream,
+    /// What one sub-step computes.
+    pub per_substep: OpCount,
+    /// What the code before the loop computes (guards, invariants), from the lowerer's
+    /// state when it was called.
+    pub before: OpCount,
+    /// Variables the body reads.
+    pub used_vars: BTreeSet<VarId>,
+}
+
+/// Lowers `carried` as `for _ in 0..#count { .. }` (`count` names a constant: `Self::SUBSTEPS`).
+/// Statements already emitted on `lowerer` (guards) come first. On return `lowerer`
+/// continues after the loop: what the code computes next reads the carried arrays by
+/// their names.
+pub fn lower_loop(
+    lowerer: &mut Lowerer,
+    carried: &[Carried<'_>],
+    count: &TokenStream,
+) -> SubstepLoop {
+    let graph = lowerer.graph();
+    // A carried value a sub-step leaves as it is (a parameter: a random walk has no
+    // drift) is loop-invariant: what depends on it alone is computed before the loop,
+    // reading it from the initial value.
+    let loop_vars: Vec<NodeId> = carried
+        .iter()
+        .flat_map(|c| c.vars.iter().zip(c.next))
+        .filter(|(var, next)| var != next)
+        .map(|(&var, _)| var)
+        .collect();
+    for c in carried.iter().filter(|c| !c.scalar) {
+        lowerer.read_lazily(&c.initial, c.vars);
+    }
+    let roots: Vec<NodeId> = carried.iter().flat_map(|c| c.next).copied().collect();
+    for node in loop_invariant_operands(graph, &roots, &loop_vars) {
+        lowerer.force_let(node);
+    }
+    let before = lowerer.ops();
+    let outside = lowerer.take_statements();
+
+    let mut body = lowerer.clone();
+    for c in carried.iter().filter(|c| !c.scalar) {
+        let name = ident(c.name);
+        body.read_lazily(&quote! { #name }, c.vars);
+    }
+    let values = body.segment(&roots);
+    let statements = body.take_statements();
+    let per_substep = body.ops().minus(before);
+    let used_vars = body.finish().used_vars;
+
+    let mut start = Vec::new();
+    let mut assign = Vec::new();
+    let mut values = values.into_iter();
+    for c in carried {
+        let name = ident(c.name);
+        let initial = &c.initial;
+        start.push(quote! { let mut #name = #initial; });
+        let next: Vec<TokenStream> = values.by_ref().take(c.next.len()).collect();
+        if c.scalar {
+            assign.push(quote! { #name = #(#next)*; });
+        } else {
+            assign.push(quote! { #name = [#(#next),*]; });
+        }
+    }
+    let code = quote! {
+        #(#outside)*
+        #(#start)*
+        for _ in 0..#count {
+            #(#statements)*
+            #(#assign)*
+        }
+    };
+    SubstepLoop {
+        code,
+        per_substep,
+        before,
+        used_vars,
+    }
+}
+
+/// Name of the constant holding the sub-steps of a looped `f`.
+pub const F_SUBSTEPS: &str = "F_SUBSTEPS";
+
+/// `f` of a model whose sub-steps are too many to unroll: one sub-step of the model's rule,
+/// straight-line, in a loop of `F_SUBSTEPS`; the constant itself; and what `f` computes.
+pub fn looped_f(
+    model: &Model,
+    mg: &ModelGraph,
+    scalar: Scalar,
+) -> (TokenStream, TokenStream, OpCount) {
+    let mut g = mg.clone();
+    let (rule, h, substeps) = g
+        .substep(model)
+        .expect("only continuous dynamics have sub-steps");
+    let ns = model.states.len();
+    let t_sub = g.graph.var(T_SUB);
+    let states = g.x[..ns].to_vec();
+    let rates = g.derivative(model, t_sub, &g.x.clone());
+    let rates = rates[..ns].to_vec();
+    let at = AtPoint::new(
+        std::iter::once(t_sub)
+            .chain(states.iter().copied())
+            .map(|v| g.var_id(v))
+            .collect(),
+    );
+    let mut rate = |gr: &mut crate::symbolic::Graph, t: NodeId, z: &[NodeId]| {
+        let point: Vec<NodeId> = std::iter::once(t).chain(z.iter().copied()).collect();
+        at.eval(gr, &point, &rates)
+    };
+    let mut next = integrate_substep(&mut g.graph, rule, h, t_sub, &states, &mut rate);
+    let uses_time = model.uses_time();
+    if uses_time {
+        next.push(g.graph.add(t_sub, h));
+    }
+    let reserved = model
+        .constants
+        .iter()
+        .map(|c| c.name.as_str())
+        .chain(model.state_names())
+        .chain(model.inputs.iter().map(|s| s.name.as_str()))
+        .chain(["t", "x", "u", X_SUB, T_SUB, F_SUBSTEPS]);
+    let namer = super::names::TempNamer::new(reserved);
+    let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &next);
+    let (state_next, t_next) = next.split_at(ns);
+    let state_idents = super::code::var_idents(&g.graph, &states);
+    let mut carried = vec![Carried {
+        name: X_SUB,
+        initial: quote! { [#(#state_idents),*] },
+        vars: &states,
+        next: state_next,
+        scalar: false,
+    }];
+    let t_vars = [t_sub];
+    if uses_time {
+        carried.push(Carried {
+            name: T_SUB,
+            initial: quote! { t },
+            vars: &t_vars,
+            next: t_next,
+            scalar: true,
+        });
+    }
+    let count = ident(F_SUBSTEPS);
+    let lowered = lower_loop(&mut lowerer, &carried, &quote! { #count });
+    let ops = lowered.before.plus(lowered.per_substep.times(substeps));
+    let ty = ident(scalar.type_name());
+    let x_idents = super::code::var_idents(&g.graph, &g.x);
+    let n = proc_macro2::Literal::usize_unsuffixed(g.x.len());
+    let time = uses_time.then(|| quote! { t: #ty, });
+    let u_param = (!g.u.is_empty()).then(|| {
+        let u_idents = super::code::var_idents(&g.graph, &g.u);
+        let len = proc_macro2::Literal::usize_unsuffixed(g.u.len());
+        (
+            quote! { u: &[#ty; #len] },
+            quote! { let [#(#u_idents),*] = *u; },
+        )
+    });
+    let (u_arg, u_unpack) = u_param.unzip();
+    let x_sub = ident(X_SUB);
+    let code = lowered.code;
+    let method = match rule {
+        crate::model::Method::Euler => "forward Euler",
+        crate::model::Method::Rk4 => "classical fourth-order Runge-Kutta",
+    };
+    let doc = format!(
+        " One sample of the dynamics, `x[k+1] = f(x[k], u[k])`, integrating the continuous \
+         dynamics with {method} ({substeps} steps per sample, in a loop: too many to \
+         unroll, so there are no Jacobians of `f`; the continuous filters differentiate \
+         `dx/dt` instead)."
+    );
+    let substeps = proc_macro2::Literal::u32_unsuffixed(substeps);
+    let f = quote! {
+        #[doc = #doc]
+        #[doc = ""]
+        #[doc = " Cost: see [`F_OPS`]."]
+        #[must_use]
+        pub fn f(#time x: &[#ty; #n], #u_arg) -> [#ty; #n] {
+            let [#(#x_idents),*] = *x;
+            #u_unpack
+            #code
+            let [#(#state_idents),*] = #x_sub;
+            [#(#x_idents),*]
+        }
+    };
+    let constant = quote! {
+        /// Integration sub-steps of one sample of [`f`].
+        pub const F_SUBSTEPS: u32 = #substeps;
+    };
+    (f, constant, ops)
+}

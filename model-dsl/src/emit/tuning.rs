@@ -1,0 +1,87 @@
+//! Run-time tuning of the generated filters: setters for the process and measurement noise,
+//! which reject a non-finite entry and leave the filter unchanged.
+
+use super::code::{all_finite, pack_upper};
+use super::names::ident;
+use crate::symbolic::linalg::packed_len;
+use proc_macro2::{Literal, TokenStream};
+use quote::quote;
+
+/// `set_process_noise` and `set_measurement_noise` for a filter whose fields `q` (packed,
+/// or its `n` variances if `diagonal_q`) and `r` (packed, `m x m`) hold the noise.
+pub fn noise_setters(n: usize, m: usize, diagonal_q: bool, ty: &proc_macro2::Ident) -> TokenStream {
+    let set_q = process_noise_setter("set_process_noise", "q", n, diagonal_q, ty);
+    let set_r = measurement_noise_setter(m, ty);
+    quote! { #set_q #set_r }
+}
+
+/// `fn <method>(&mut self, q) -> Status` replacing the process noise field `field` (packed,
+/// or its `n` variances if `diagonal`).
+pub fn process_noise_setter(
+    method: &str,
+    field: &str,
+    n: usize,
+    diagonal: bool,
+    ty: &proc_macro2::Ident,
+) -> TokenStream {
+    let n_len = Literal::usize_unsuffixed(n);
+    let (param, packed, len) = if diagonal {
+        (quote! { q: &[#ty; #n_len] }, quote! { *q }, n)
+    } else {
+        (
+            quote! { q: &[[#ty; #n_len]; #n_len] },
+            pack_upper("q", n),
+            packed_len(n),
+        )
+    };
+    let body = setter(field, &packed, len);
+    let doc = if diagonal {
+        format!(
+            " Replaces the process noise variances `{field}` (a diagonal matrix). Rejects a \
+             non-finite entry with [`Status::RejectedInput`], leaving the filter unchanged."
+        )
+    } else {
+        format!(
+            " Replaces the process noise covariance `{field}` (symmetric: its upper triangle \
+             is read). Rejects a non-finite entry with [`Status::RejectedInput`], leaving \
+             the filter unchanged."
+        )
+    };
+    let method = ident(method);
+    quote! {
+        #[doc = #doc]
+        pub fn #method(&mut self, #param) -> Status {
+            #body
+        }
+    }
+}
+
+/// `fn set_measurement_noise(&mut self, r) -> Status` for the packed field `r` (`m x m`).
+pub fn measurement_noise_setter(m: usize, ty: &proc_macro2::Ident) -> TokenStream {
+    let m_len = Literal::usize_unsuffixed(m);
+    let body = setter("r", &pack_upper("r", m), packed_len(m));
+    quote! {
+        /// Replaces the measurement noise covariance `R` (symmetric: its upper triangle is
+        /// read). Rejects a non-finite entry with [`Status::RejectedInput`], leaving the
+        /// filter unchanged.
+        pub fn set_measurement_noise(&mut self, r: &[[#ty; #m_len]; #m_len]) -> Status {
+            #body
+        }
+    }
+}
+
+/// `let packed = ..; let [c0, ..] = packed; if !(c0.is_finite() && ..) { reject } self.field = packed;`
+fn setter(field: &str, packed: &TokenStream, len: usize) -> TokenStream {
+    let field = ident(field);
+    let names: Vec<proc_macro2::Ident> = (0..len).map(|k| ident(&format!("c{k}"))).collect();
+    let finite = all_finite(&names);
+    quote! {
+        let packed = #packed;
+        let [#(#names),*] = packed;
+        if !(#finite) {
+            return Status::RejectedInput;
+        }
+        self.#field = packed;
+        Status::Ok
+    }
+}

@@ -1,0 +1,290 @@
+//! Stages of the continuous filters on graph nodes: one explicit integration sub-step of an
+//! ODE system, the covariance rate `F P + P F' + Q` (hybrid EKF, seed 001 eq. 21) and the
+//! Riccati rate of the continuous-time EKF (seed 004 eq. 5, with Reif et al.'s prescribed
+//! degree of stability, eq. 26). Symmetric rates are built on the upper triangle.
+
+// Index loops mirror the formulas' subscripts (P_ij, K_il) more plainly than iterators.
+#![allow(clippy::needless_range_loop)]
+
+use super::graph::{Graph, NodeId, VarId};
+use super::linalg::{matmul, packed_upper, symmetric_from_packed, transpose, Matrix};
+use crate::model::Method;
+use std::collections::HashMap;
+
+/// The right-hand side of an ODE system `dz/dt = rate(t, z)`, built as nodes.
+pub type Rate<'a> = dyn FnMut(&mut Graph, NodeId, &[NodeId]) -> Vec<NodeId> + 'a;
+
+/// One explicit step of length `h` from time `t` of `dz/dt = rate(t, z)`: forward Euler
+/// `z + h k1`, or classical Runge-Kutta `z + h/6 (k1 + 2 k2 + 2 k3 + k4)`.
+pub fn integrate_substep(
+    g: &mut Graph,
+    method: Method,
+    h: NodeId,
+    t: NodeId,
+    z: &[NodeId],
+    rate: &mut Rate<'_>,
+) -> Vec<NodeId> {
+    let axpy = |g: &mut Graph, a: NodeId, y: &[NodeId]| -> Vec<NodeId> {
+        z.iter()
+            .zip(y)
+            .map(|(&zi, &yi)| {
+                let step = g.mul(a, yi);
+                g.add(zi, step)
+            })
+            .collect()
+    };
+    match method {
+        Method::Euler => {
+            let k1 = rate(g, t, z);
+            axpy(g, h, &k1)
+        }
+        Method::Rk4 => {
+            let half = g.num(0.5);
+            let half_h = g.mul(half, h);
+            let t_mid = g.add(t, half_h);
+            let t_end = g.add(t, h);
+            let k1 = rate(g, t, z);
+            let z2 = axpy(g, half_h, &k1);
+            let k2 = rate(g, t_mid, &z2);
+            let z3 = axpy(g, half_h, &k2);
+            let k3 = rate(g, t_mid, &z3);
+            let z4 = axpy(g, h, &k3);
+            let k4 = rate(g, t_end, &z4);
+            let sixth = g.num(1.0 / 6.0);
+            let h_sixth = g.mul(h, sixth);
+            let two = g.num(2.0);
+            (0..z.len())
+                .map(|i| {
+                    let middle = g.add(k2[i], k3[i]);
+                    let twice_middle = g.mul(two, middle);
+                    let ends = g.add(k1[i], k4[i]);
+                    let sum = g.add(ends, twice_middle);
+                    let step = g.mul(h_sixth, sum);
+                    g.add(z[i], step)
+                })
+                .collect()
+        }
+    }
+}
+
+/// `F P + P F' + Q + 2 alpha P` (the last term only with `two_alpha`), upper triangle
+/// computed once: seed 001 eq. (21), and with `alpha` the Riccati equation of Reif et al.,
+/// where `(F + alpha I) P + P (F + alpha I)' = F P + P F' + 2 alpha P`.
+pub fn covariance_rate(
+    g: &mut Graph,
+    f: &Matrix,
+    p: &Matrix,
+    q: &Matrix,
+    two_alpha: Option<NodeId>,
+) -> Matrix {
+    let n = p.len();
+    let fp = matmul(g, f, p);
+    let zero = g.zero();
+    let mut rate = vec![vec![zero; n]; n];
+    for i in 0..n {
+        for j in i..n {
+            // (P F')_ij = (F P)_ji since P is symmetric.
+            let mut v = g.add(fp[i][j], fp[j][i]);
+            v = g.add(v, q[i][j]);
+            if let Some(two_alpha) = two_alpha {
+                let growth = g.mul(two_alpha, p[i][j]);
+                v = g.add(v, growth);
+            }
+            rate[i][j] = v;
+            rate[j][i] = v;
+        }
+    }
+    rate
+}
+
+/// One forward Euler sub-step of length `h` of the covariance equation
+/// `P' = A P + P A' + S` (`A = F`, or `F + alpha I` with `alpha`), taken as the covariance
+/// of the Euler step itself: `(I + h A) P (I + h A)' + h S`, i.e.
+/// `P + h (A P + P A' + S) + h^2 A P A'`. The last term, which a plain Euler step of the
+/// ODE leaves out, is what keeps `P` positive semi-definite for any `h` (each term is), and
+/// with it one Euler sub-step is exactly the discrete EKF's `A_d P A_d' + Q` of the Euler
+/// model (`A_d = I + h F`, `Q = h Q_c`). Upper triangle computed once.
+pub fn euler_covariance_step(
+    g: &mut Graph,
+    h: NodeId,
+    f: &Matrix,
+    alpha: Option<NodeId>,
+    p: &Matrix,
+    s: &Matrix,
+) -> Matrix {
+    let n = p.len();
+    let mut a = f.clone();
+    if let Some(alpha) = alpha {
+        for i in 0..n {
+            a[i][i] = g.add(f[i][i], alpha);
+        }
+    }
+    let ap = matmul(g, &a, p);
+    let zero = g.zero();
+    let mut out = vec![vec![zero; n]; n];
+    for i in 0..n {
+        for j in i..n {
+            let mut rate = g.add(ap[i][j], ap[j][i]);
+            rate = g.add(rate, s[i][j]);
+            let mut second = zero;
+            for k in 0..n {
+                let term = g.mul(ap[i][k], a[j][k]);
+                second = g.add(second, term);
+            }
+            let h_second = g.mul(h, second);
+            let bracket = g.add(rate, h_second);
+            let step = g.mul(h, bracket);
+            let v = g.add(p[i][j], step);
+            out[i][j] = v;
+            out[j][i] = v;
+        }
+    }
+    out
+}
+
+/// The measurement terms of the continuous-time EKF (seed 004 eq. 5): the gain
+/// `K = P H' R^-1` and `rate - K (P H')'`, i.e. `rate - P H' R^-1 H P`, upper triangle.
+pub fn riccati_measurement_terms(
+    g: &mut Graph,
+    rate: &Matrix,
+    p: &Matrix,
+    h: &Matrix,
+    r_inv: &Matrix,
+) -> (Matrix, Matrix) {
+    let n = p.len();
+    let pht = matmul(g, p, &transpose(h));
+    let gain = matmul(g, &pht, r_inv);
+    let mut out = rate.clone();
+    for i in 0..n {
+        for j in i..n {
+            let mut v = rate[i][j];
+            for l in 0..pht.first().map_or(0, Vec::len) {
+                let term = g.mul(gain[i][l], pht[j][l]);
+                v = g.sub(v, term);
+            }
+            out[i][j] = v;
+            out[j][i] = v;
+        }
+    }
+    (gain, out)
+}
+
+/// A state vector `x` followed by the packed upper triangle of its covariance, as one
+/// vector for [`integrate_substep`].
+pub fn join(x: &[NodeId], p: &Matrix) -> Vec<NodeId> {
+    x.iter().copied().chain(packed_upper(p)).collect()
+}
+
+/// Splits a joined vector (see [`join`]) of a state of length `n` back into `x` and `P`.
+pub fn split(z: &[NodeId], n: usize) -> (Vec<NodeId>, Matrix) {
+    let (x, packed) = z.split_at(n);
+    (x.to_vec(), symmetric_from_packed(packed, n))
+}
+
+/// Expressions over variables, re-evaluated at other points by substitution: the model's
+/// right-hand side, its Jacobian and the measurement, built once over the variables.
+pub struct AtPoint {
+    vars: Vec<VarId>,
+}
+
+impl AtPoint {
+    /// Substitution of the variables `vars` (in order) by the values a call gives.
+    pub fn new(vars: Vec<VarId>) -> AtPoint {
+        AtPoint { vars }
+    }
+
+    /// `exprs` with the variables replaced by `values`; unchanged when every value is its
+    /// own variable (the Euler stage, the fused update), so no node is rebuilt.
+    pub fn eval(&self, g: &mut Graph, values: &[NodeId], exprs: &[NodeId]) -> Vec<NodeId> {
+        let map: HashMap<VarId, NodeId> = self
+            .vars
+            .iter()
+            .copied()
+            .zip(values.iter().copied())
+            .filter(|&(v, node)| g.node(node) != super::graph::Node::Var(v))
+            .collect();
+        if map.is_empty() {
+            return exprs.to_vec();
+        }
+        let mut memo = HashMap::new();
+        exprs
+            .iter()
+            .map(|&e| g.substitute(e, &map, &mut memo))
+            .collect()
+    }
+
+    /// A matrix of expressions at `values`.
+    pub fn eval_matrix(&self, g: &mut Graph, values: &[NodeId], m: &Matrix) -> Matrix {
+        let cols = m.first().map_or(0, Vec::len);
+        let flat: Vec<NodeId> = m.iter().flatten().copied().collect();
+        let done = self.eval(g, values, &flat);
+        done.chunks(cols.max(1)).map(<[NodeId]>::to_vec).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn constant(g: &mut Graph, m: [[f64; 2]; 2]) -> Matrix {
+        m.iter()
+            .map(|row| row.iter().map(|&v| g.num(v)).collect())
+            .collect()
+    }
+
+    fn value(g: &Graph, m: &Matrix) -> [[f64; 2]; 2] {
+        let no_vars = |_| f64::NAN;
+        std::array::from_fn(|i| std::array::from_fn(|j| g.eval(m[i][j], &no_vars)))
+    }
+
+    #[test]
+    fn covariance_rate_is_f_p_plus_p_f_transposed_plus_q_plus_two_alpha_p() {
+        let mut g = Graph::new();
+        let f = constant(&mut g, [[0.0, 1.0], [-4.0, -0.5]]);
+        let p = constant(&mut g, [[2.0, 0.3], [0.3, 1.0]]);
+        let q = constant(&mut g, [[0.1, 0.0], [0.0, 0.2]]);
+        let two_alpha = g.num(2.0 * 0.25);
+        let rate = covariance_rate(&mut g, &f, &p, &q, Some(two_alpha));
+        // F P = [[0.3, 1], [-8.15, -1.7]]; F P + (F P)' + Q + 0.5 P:
+        let expected = [
+            [0.6 + 0.1 + 1.0, 1.0 - 8.15 + 0.15],
+            [1.0 - 8.15 + 0.15, -3.4 + 0.2 + 0.5],
+        ];
+        for (row, want) in value(&g, &rate).iter().zip(expected) {
+            for (v, w) in row.iter().zip(want) {
+                assert!((v - w).abs() < 1e-12, "{v} vs {w}");
+            }
+        }
+    }
+
+    #[test]
+    fn euler_covariance_step_is_the_covariance_of_the_euler_step() {
+        let mut g = Graph::new();
+        let f = constant(&mut g, [[0.0, 1.0], [-4.0, -0.5]]);
+        let p = constant(&mut g, [[2.0, 0.3], [0.3, 1.0]]);
+        let s = constant(&mut g, [[0.1, 0.0], [0.0, 0.2]]);
+        let (h, alpha) = (0.1, 0.25);
+        let (h_node, alpha_node) = (g.num(h), g.num(alpha));
+        let step = euler_covariance_step(&mut g, h_node, &f, Some(alpha_node), &p, &s);
+        // (I + h (F + alpha I)) P (I + h (F + alpha I))' + h S, by hand.
+        let phi = [[1.0 + h * alpha, h], [-4.0 * h, 1.0 + h * (-0.5 + alpha)]];
+        let pm = [[2.0, 0.3], [0.3, 1.0]];
+        let sm = [[0.1, 0.0], [0.0, 0.2]];
+        let got = value(&g, &step);
+        for i in 0..2 {
+            for j in 0..2 {
+                let mut want = h * sm[i][j];
+                for k in 0..2 {
+                    for l in 0..2 {
+                        want += phi[i][k] * pm[k][l] * phi[j][l];
+                    }
+                }
+                assert!(
+                    (got[i][j] - want).abs() < 1e-12,
+                    "({i},{j}): {} vs {want}",
+                    got[i][j]
+                );
+            }
+        }
+    }
+}

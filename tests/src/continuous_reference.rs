@@ -1,0 +1,200 @@
+//! Independent `f64` references of the continuous filters, written densely with nalgebra:
+//! the hybrid (continuous-discrete) EKF of seed 001 (eq. 21 between samples, the Joseph
+//! update of eqs. 24-26 at the sample) and the continuous-time EKF of seed 004 (eq. 5, with
+//! the prescribed degree of stability of eq. 26). `P` is a full matrix, the gain uses a
+//! matrix inverse, and each model's `dx/dt` and Jacobian are written out by hand by the
+//! test that uses it (nothing comes from the code generator but the model constants).
+//!
+//! Both integrate state and covariance together over one sample with the model's rule
+//! and number of sub-steps, the time running from the previous sample in steps of
+//! `dt / substeps`: classical RK4 on `P' = A P + P A' + S`, or for forward Euler the
+//! covariance of the Euler step, `(I + h A) P (I + h A)' + h S`.
+
+use nalgebra::{SMatrix, SVector};
+
+/// An explicit integration rule.
+#[derive(Clone, Copy, Debug)]
+pub enum Rule {
+    /// Forward Euler.
+    Euler,
+    /// Classical fourth-order Runge-Kutta.
+    Rk4,
+}
+
+/// A continuous model: `dx/dt = f(t, x, u)`, `df/dx`, `y = h(t, x)`, `dh/dx`.
+pub struct Model<const N: usize, const M: usize, const U: usize> {
+    /// `dx/dt`.
+    pub rate: fn(f64, &SVector<f64, N>, &[f64; U]) -> SVector<f64, N>,
+    /// `df/dx`.
+    pub jacobian: fn(f64, &SVector<f64, N>, &[f64; U]) -> SMatrix<f64, N, N>,
+    /// `h`.
+    pub h: fn(f64, &SVector<f64, N>) -> SVector<f64, M>,
+    /// `dh/dx`.
+    pub jacobian_h: fn(f64, &SVector<f64, N>) -> SMatrix<f64, M, N>,
+    /// Integration rule.
+    pub rule: Rule,
+    /// Sample period.
+    pub dt: f64,
+    /// Sub-steps per sample.
+    pub substeps: u32,
+}
+
+/// The state and covariance of a filter.
+pub type Estimate<const N: usize> = (SVector<f64, N>, SMatrix<f64, N, N>);
+
+/// The joint rate at `(t, x, P)`: `dx/dt`, and `A`, `S` of `dP/dt = A P + P A' + S`.
+type JointRate<'a, const N: usize> =
+    &'a dyn Fn(
+        f64,
+        &SVector<f64, N>,
+        &SMatrix<f64, N, N>,
+    ) -> (SVector<f64, N>, SMatrix<f64, N, N>, SMatrix<f64, N, N>);
+
+/// One sub-step of length `h` from `t`. RK4 integrates `dP/dt = A P + P A' + S`; forward
+/// Euler takes the covariance of the Euler step, `(I + h A) P (I + h A)' + h S`.
+fn substep<const N: usize>(
+    rule: Rule,
+    h: f64,
+    t: f64,
+    (x, p): Estimate<N>,
+    rate: JointRate<'_, N>,
+) -> Estimate<N> {
+    let derivative = |t: f64, x: &SVector<f64, N>, p: &SMatrix<f64, N, N>| {
+        let (dx, a, s) = rate(t, x, p);
+        (dx, a * p + p * a.transpose() + s)
+    };
+    match rule {
+        Rule::Euler => {
+            let (dx, a, s) = rate(t, &x, &p);
+            let phi = SMatrix::<f64, N, N>::identity() + a * h;
+            (x + dx * h, phi * p * phi.transpose() + s * h)
+        }
+        Rule::Rk4 => {
+            let (k1x, k1p) = derivative(t, &x, &p);
+            let (k2x, k2p) =
+                derivative(t + 0.5 * h, &(x + k1x * (0.5 * h)), &(p + k1p * (0.5 * h)));
+            let (k3x, k3p) =
+                derivative(t + 0.5 * h, &(x + k2x * (0.5 * h)), &(p + k2p * (0.5 * h)));
+            let (k4x, k4p) = derivative(t + h, &(x + k3x * h), &(p + k3p * h));
+            (
+                x + (k1x + k4x + (k2x + k3x) * 2.0) * (h / 6.0),
+                p + (k1p + k4p + (k2p + k3p) * 2.0) * (h / 6.0),
+            )
+        }
+    }
+}
+
+/// Integrates over one sample from `t_prev`.
+fn integrate<const N: usize>(
+    rule: Rule,
+    dt: f64,
+    substeps: u32,
+    t_prev: f64,
+    estimate: Estimate<N>,
+    rate: JointRate<'_, N>,
+) -> Estimate<N> {
+    let h = dt / f64::from(substeps);
+    let mut t = t_prev;
+    let mut estimate = estimate;
+    for _ in 0..substeps {
+        estimate = substep(rule, h, t, estimate, rate);
+        t += h;
+    }
+    estimate
+}
+
+/// The hybrid EKF (seed 001): `Q` is a spectral density.
+pub struct HybridEkf<'m, const N: usize, const M: usize, const U: usize> {
+    /// The model.
+    pub model: &'m Model<N, M, U>,
+    /// Estimate and covariance.
+    pub estimate: Estimate<N>,
+    /// Process noise spectral density.
+    pub q: SMatrix<f64, N, N>,
+    /// Measurement noise covariance.
+    pub r: SMatrix<f64, M, M>,
+}
+
+impl<const N: usize, const M: usize, const U: usize> HybridEkf<'_, N, M, U> {
+    /// eq. (21) over one sample from `t_prev` with `u` held.
+    pub fn predict(&mut self, t_prev: f64, u: &[f64; U]) {
+        let (model, q) = (self.model, self.q);
+        let rate = |t: f64, x: &SVector<f64, N>, _: &SMatrix<f64, N, N>| {
+            ((model.rate)(t, x, u), (model.jacobian)(t, x, u), q)
+        };
+        self.estimate = integrate(
+            model.rule,
+            model.dt,
+            model.substeps,
+            t_prev,
+            self.estimate,
+            &rate,
+        );
+    }
+
+    /// eqs. (24)-(26), Joseph form, with a matrix inverse.
+    pub fn update(&mut self, t: f64, y: &SVector<f64, M>) {
+        let (x, p) = self.estimate;
+        let c = (self.model.jacobian_h)(t, &x);
+        let s = c * p * c.transpose() + self.r;
+        let gain = p * c.transpose() * s.try_inverse().expect("S invertible");
+        let x = x + gain * (y - (self.model.h)(t, &x));
+        let i_kc = SMatrix::<f64, N, N>::identity() - gain * c;
+        let p = i_kc * p * i_kc.transpose() + gain * self.r * gain.transpose();
+        self.estimate = (x, p);
+    }
+}
+
+/// The continuous-time EKF (seed 004 eq. 5) with a prescribed degree of stability `alpha`
+/// (eq. 26; `alpha = 0` is the standard filter). `Q` and `R` are spectral densities.
+pub struct ContinuousEkf<'m, const N: usize, const M: usize, const U: usize> {
+    /// The model.
+    pub model: &'m Model<N, M, U>,
+    /// Estimate and covariance.
+    pub estimate: Estimate<N>,
+    /// Process noise spectral density.
+    pub q: SMatrix<f64, N, N>,
+    /// Measurement noise spectral density.
+    pub r: SMatrix<f64, M, M>,
+    /// Prescribed degree of stability.
+    pub alpha: f64,
+}
+
+impl<const N: usize, const M: usize, const U: usize> ContinuousEkf<'_, N, M, U> {
+    /// One sample from `t_prev` with `u` and `y` held.
+    pub fn step(&mut self, t_prev: f64, u: &[f64; U], y: &SVector<f64, M>) {
+        let model = self.model;
+        let (q, alpha) = (self.q, self.alpha);
+        let r_inv = self.r.try_inverse().expect("R invertible");
+        let rate = |t: f64, x: &SVector<f64, N>, p: &SMatrix<f64, N, N>| {
+            let f = (model.jacobian)(t, x, u) + SMatrix::<f64, N, N>::identity() * alpha;
+            let c = (model.jacobian_h)(t, x);
+            let gain = p * c.transpose() * r_inv;
+            let dx = (model.rate)(t, x, u) + gain * (y - (model.h)(t, x));
+            (dx, f, q - gain * c * p)
+        };
+        self.estimate = integrate(
+            model.rule,
+            model.dt,
+            model.substeps,
+            t_prev,
+            self.estimate,
+            &rate,
+        );
+    }
+}
+
+/// A diagonal matrix.
+pub fn diagonal<const N: usize>(d: [f64; N]) -> SMatrix<f64, N, N> {
+    SMatrix::from_diagonal(&SVector::from(d))
+}
+
+/// The largest entry-wise difference of `generated` from `reference`, relative to the
+/// larger of the entry and `scale`.
+pub fn relative_difference(generated: &[f64], reference: &[f64], scale: f64) -> f64 {
+    generated
+        .iter()
+        .zip(reference)
+        .map(|(&g, &r)| (g - r).abs() / g.abs().max(r.abs()).max(scale).max(f64::MIN_POSITIVE))
+        .fold(0.0, f64::max)
+}

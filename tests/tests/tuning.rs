@@ -1,0 +1,99 @@
+//! Run-time tuning of every generated filter: `Q` and `R` set after construction act as if
+//! given to `new`, and a non-finite entry (or a negative `alpha`) is rejected, leaving the
+//! filter exactly as it was.
+
+use generated_demo::{cantilever, helicopter, mass_spring_damper};
+use tests::tuning::{diag, p0, Q_DIAG, R, X0_CLOSE};
+
+#[test]
+fn ekf_and_dkf_noise_setters() {
+    use cantilever::in_f64::{Dkf, Ekf, Status};
+    let q2 = [0.0, 0.0, 50.0, 100.0, 1e-4];
+    let mut ekf = Ekf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]);
+    let before = ekf;
+    assert_eq!(
+        ekf.set_process_noise(&[0.0, f64::NAN, 0.0, 0.0, 0.0]),
+        Status::RejectedInput
+    );
+    assert_eq!(
+        ekf.set_measurement_noise(&[[f64::INFINITY]]),
+        Status::RejectedInput
+    );
+    assert_eq!(ekf, before);
+    assert_eq!(ekf.set_process_noise(&q2), Status::Ok);
+    assert_eq!(ekf.set_measurement_noise(&[[2.0 * R]]), Status::Ok);
+    assert_eq!(ekf, Ekf::new(X0_CLOSE, &p0(2e4), &q2, &[[2.0 * R]]));
+
+    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
+    let before = dkf;
+    assert_eq!(
+        dkf.set_akf_process_noise(&[f64::NAN; 5]),
+        Status::RejectedInput
+    );
+    assert_eq!(dkf, before);
+    assert_eq!(dkf.set_process_noise(&q2), Status::Ok);
+    assert_eq!(dkf.set_akf_process_noise(&Q_DIAG), Status::Ok);
+    assert_eq!(dkf.set_measurement_noise(&[[2.0 * R]]), Status::Ok);
+    assert_eq!(
+        dkf,
+        Dkf::new(X0_CLOSE, &p0(2e4), &q2, &p0(2e4), &Q_DIAG, &[[2.0 * R]])
+    );
+}
+
+#[test]
+fn hybrid_ekf_noise_setters() {
+    use mass_spring_damper::in_f64::{HybridEkf, Status};
+    let x0 = [0.0, 0.0, 0.0, 0.0, 2.0];
+    let p = [1e-5, 1.0, 1e-4, 1e-6, 1e-6];
+    let q = [0.0, 0.0, 0.0, 3e4, 1e4];
+    let mut filter = HybridEkf::new(x0, &diag(p), &q, &[[1e-6]]);
+    let before = filter;
+    assert_eq!(
+        filter.set_measurement_noise(&[[f64::NAN]]),
+        Status::RejectedInput
+    );
+    assert_eq!(filter, before);
+    assert_eq!(filter.set_process_noise(&[1.0; 5]), Status::Ok);
+    assert_eq!(filter.set_measurement_noise(&[[1e-4]]), Status::Ok);
+    let mut fresh = HybridEkf::new(x0, &diag(p), &[1.0; 5], &[[1e-4]]);
+    assert_eq!(filter.step(&[10.0], &[1e-3]), Status::Ok);
+    assert_eq!(fresh.step(&[10.0], &[1e-3]), Status::Ok);
+    assert_eq!(filter, fresh);
+}
+
+#[test]
+fn continuous_ekf_noise_and_alpha_setters() {
+    use helicopter::in_f64::{ContinuousEkf, Status};
+    let x0 = [0.05, 0.0, -0.05, 0.0, 0.0, 0.0];
+    let p: [[f64; 6]; 6] =
+        std::array::from_fn(|i| std::array::from_fn(|j| if i == j { 1.0 } else { 0.0 }));
+    let q = [0.0099, 0.0022, 0.0894, 0.0017, 1.2678, 1.27];
+    let r = [[0.0007, 0.0], [0.0, 0.00193]];
+    let mut filter = ContinuousEkf::new(x0, &p, &q, &r);
+    assert_eq!(filter.alpha(), ContinuousEkf::ALPHA);
+    let before = filter;
+    assert_eq!(filter.set_alpha(-0.1), Status::RejectedInput);
+    assert_eq!(filter.set_alpha(f64::NAN), Status::RejectedInput);
+    assert_eq!(
+        filter.set_process_noise(&[f64::NEG_INFINITY; 6]),
+        Status::RejectedInput
+    );
+    assert_eq!(filter, before);
+    // R must be positive definite: checked (never divided by) at the step.
+    assert_eq!(
+        filter.set_measurement_noise(&[[0.0, 0.0], [0.0, 1.0]]),
+        Status::Ok
+    );
+    assert_eq!(
+        filter.step(0.0, &[0.0; 2], &[0.0; 2]),
+        Status::NonPositiveInnovation
+    );
+    assert_eq!(filter.set_measurement_noise(&r), Status::Ok);
+    assert_eq!(filter, before);
+    assert_eq!(filter.set_alpha(0.0), Status::Ok);
+    assert_eq!(filter.step(0.0, &[0.1; 2], &[0.01, 0.0]), Status::Ok);
+    assert_eq!(
+        filter.step(0.001, &[f64::NAN, 0.1], &[0.01, 0.0]),
+        Status::RejectedInput
+    );
+}
