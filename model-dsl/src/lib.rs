@@ -14,6 +14,7 @@ pub mod emit;
 pub mod front;
 pub mod meval_text;
 pub mod model;
+pub mod numerics;
 pub mod symbolic;
 
 use proc_macro2::TokenStream;
