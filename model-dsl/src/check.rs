@@ -129,7 +129,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Model> {
         }
     };
 
-    let generate = check_generate(decl, &scope, &mut diag);
+    let generate = check_generate(decl, &scope, &constants, &mut diag);
     let model = dynamics.map(|dynamics| Model {
         docs: decl.docs.clone(),
         vis: decl.vis.clone(),
@@ -647,6 +647,7 @@ fn literal_value(expr: &Expr) -> Option<f64> {
 fn check_generate(
     decl: &ModelDecl,
     scope: &IndexMap<String, (Binding, Span)>,
+    constants: &[Constant],
     diag: &mut Diagnostics,
 ) -> Generate {
     let mut generate = Generate::default();
@@ -720,10 +721,23 @@ fn check_generate(
                     inputs,
                 });
             }
+            "polynomial_kf" => {
+                let value = |name: &Name| constant_value(scope, constants, name);
+                generate.polynomial_kf =
+                    crate::check_designs::polynomial_kf(item, &mut args, &value, diag);
+            }
+            "switched_observer" => {
+                let value = |name: &Name| constant_value(scope, constants, name);
+                generate.switched_observer =
+                    crate::check_designs::switched_observer(item, &mut args, &value, diag);
+            }
             other => {
                 diag.error(
                     item.name.span,
-                    format!("unknown generator `{other}`: use `ekf`, `dkf(eta = ..)` or `lqr(..)`"),
+                    format!(
+                        "unknown generator `{other}`: use `ekf`, `dkf(eta = ..)`, `lqr(..)`, \
+                         `polynomial_kf(..)` or `switched_observer(..)`"
+                    ),
                 );
                 continue;
             }
@@ -733,8 +747,20 @@ fn check_generate(
     generate
 }
 
+/// The value of the model constant `name`, if it names one.
+fn constant_value(
+    scope: &IndexMap<String, (Binding, Span)>,
+    constants: &[Constant],
+    name: &Name,
+) -> Option<f64> {
+    match scope.get(&name.text) {
+        Some((Binding::Const(i), _)) => constants.get(*i).map(|c| c.value),
+        _ => None,
+    }
+}
+
 /// The arguments of one `generate` item, taken one by one; what is left is an error.
-struct Args<'a> {
+pub(crate) struct Args<'a> {
     item: &'a GenerateDecl,
     used: Vec<bool>,
 }
@@ -753,7 +779,7 @@ impl<'a> Args<'a> {
         }
     }
 
-    fn take(&mut self, names: &[&str]) -> Option<&'a GenerateArg> {
+    pub(crate) fn take(&mut self, names: &[&str]) -> Option<&'a GenerateArg> {
         let i = self
             .item
             .args

@@ -8,6 +8,7 @@ pub mod lower;
 pub mod lqr;
 pub mod model_fns;
 pub mod names;
+pub mod polynomial_kf;
 pub mod status;
 
 use crate::emit::lower::literal;
@@ -33,6 +34,16 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
         let mut probe = mg.clone();
         if let Err(reason) = crate::symbolic::window::derive(model, &mut probe, spec.eta) {
             return Err(syn::Error::new(spec.span, format!("`dkf`: {reason}")));
+        }
+    }
+
+    if let Some(spec) = &model.generate.polynomial_kf {
+        let mut probe = mg.clone();
+        if let Err(reason) = crate::symbolic::polynomial::check_family(model, spec, &mut probe) {
+            return Err(syn::Error::new(
+                spec.span,
+                format!("`polynomial_kf`: {reason}"),
+            ));
         }
     }
 
@@ -76,6 +87,20 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
                 ));
                 tokens.extend(dkf.tokens);
             }
+        }
+        if let Some(spec) = &model.generate.polynomial_kf {
+            let kf = polynomial_kf::emit_polynomial_kf(model, spec, scalar);
+            ops_items.push(named_ops_item(
+                "POLYNOMIAL_KF_STEP_OPS",
+                "PolynomialKf::step (recursive)",
+                kf.step_ops,
+            ));
+            ops_items.push(named_ops_item(
+                "POLYNOMIAL_KF_FIT_OPS",
+                "PolynomialKf::step (re-initialising)",
+                kf.fit_ops,
+            ));
+            tokens.extend(kf.tokens);
         }
         if let Some(spec) = &model.generate.lqr {
             let lqr = lqr::emit_lqr(model, spec, &mg, scalar);

@@ -6,6 +6,7 @@ pub mod graph;
 pub mod kalman;
 pub mod linalg;
 pub mod model_graph;
+pub mod polynomial;
 pub mod window;
 
 pub use diff::Differentiator;
