@@ -10,6 +10,7 @@ pub mod model_fns;
 pub mod names;
 pub mod polynomial_kf;
 pub mod status;
+pub mod switched_observer;
 
 use crate::emit::lower::literal;
 use crate::emit::model_fns::{
@@ -46,6 +47,11 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
             ));
         }
     }
+
+    let switched = match &model.generate.switched_observer {
+        Some(spec) => Some(switched_observer::designs(model, spec, &mg)?),
+        None => None,
+    };
 
     let mut ops_items = Vec::new();
     let mut primary_fns = Vec::new();
@@ -101,6 +107,15 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
                 kf.fit_ops,
             ));
             tokens.extend(kf.tokens);
+        }
+        if let Some((regimes, designs)) = &switched {
+            let code = switched_observer::emit_switched_observers(model, regimes, designs, scalar);
+            ops_items.push(named_ops_item(
+                "SWITCHED_OBSERVER_STEP_OPS",
+                "the switched observers' step",
+                code.step_ops,
+            ));
+            tokens.extend(code.tokens);
         }
         if let Some(spec) = &model.generate.lqr {
             let lqr = lqr::emit_lqr(model, spec, &mg, scalar);
