@@ -7,10 +7,16 @@
 //! 2. Adaptive LQR (Alg. 3) closed loop with two stinger hits: RMS tip displacement for
 //!    open loop, EKF-LQR and DKF-LQR.
 //! 3. Traces as CSV and plots as SVG in `out/`, and what the generated code costs.
+//! 4. Seed 003: the generated switched observers on a piecewise-linear beam, and the
+//!    switching example of its Fig. 3.1 ([`switched_beam`]).
+//! 5. Seed 002: the generated polynomial Kalman filter on a hub signal for several
+//!    fading factors and re-initialisation periods ([`hub_polynomial`]).
 //!
 //! The host runs the generated `f64` code; the `f32` code is what runs on the MCU.
 
 mod experiment;
+mod hub_polynomial;
+mod switched_beam;
 
 use experiment::excitation::Prbs;
 use experiment::metrics::{mean, rms};
@@ -97,9 +103,13 @@ fn main() -> Result<(), Box<dyn Error>> {
     plot_displacement(&closed, &out.join("displacement.svg"))?;
 
     print_generated_costs();
+    switched_beam::experiment(out)?;
+    hub_polynomial::experiment(out)?;
     println!(
-        "\nWrote out/estimation.csv, out/closed_loop.csv, out/wn.svg, out/displacement.svg \
-         in {:.2} s.",
+        "\nWrote out/estimation.csv, out/closed_loop.csv, out/wn.svg, out/displacement.svg, \
+         out/beam_20hz.csv, out/beam_35hz.csv, out/beam_velocity.svg, \
+         out/switching_example.csv, out/switching_example.svg, out/hub_estimates.csv, \
+         out/hub_velocity.svg in {:.2} s.",
         started.elapsed().as_secs_f64()
     );
     Ok(())
