@@ -6,6 +6,7 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
+pub mod observer_sequences;
 pub mod sequence;
 
 include!("../models/cantilever.rs");

@@ -15,6 +15,8 @@
 
 mod baseline;
 mod measure;
+mod observers;
+mod observers_baseline;
 
 use core::hint::black_box;
 use cortex_m_rt::entry;
@@ -66,7 +68,9 @@ fn main() -> ! {
     };
     let clock = Clock::start(peripherals.SYST);
     estimates();
+    observers::estimates();
     costs(&clock);
+    observers::costs(&clock);
     hprintln!("done");
     debug::exit(debug::EXIT_SUCCESS);
     // Not reached under QEMU, which exits above.

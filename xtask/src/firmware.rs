@@ -43,6 +43,10 @@ pub struct Report {
     pub estimates: Vec<Estimate>,
     /// The cost lines in order.
     pub costs: Vec<Cost>,
+    /// `observer k x..`: the piecewise beam's linear-error-dynamics observer.
+    pub observer: Vec<(usize, Vec<f64>)>,
+    /// `polykf k x..`: the polynomial Kalman filter.
+    pub polykf: Vec<(usize, Vec<f64>)>,
 }
 
 /// Builds the firmware in release mode and runs it under QEMU (the runner in
@@ -119,6 +123,19 @@ fn parse(text: &str) -> Result<Report, String> {
                 match report.costs.iter_mut().find(|c| c.kernel == *kernel) {
                     Some(cost) => cost.stack = stack,
                     None => return Err(format!("stack before cost for `{kernel}`")),
+                }
+            }
+            [tag @ ("observer" | "polykf"), k, values @ ..] => {
+                let k = k.parse().map_err(|_| format!("bad sample in `{line}`"))?;
+                let v: Vec<f64> = values
+                    .iter()
+                    .map(|w| w.parse::<f64>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| format!("bad number in `{line}`"))?;
+                if *tag == "observer" {
+                    report.observer.push((k, v));
+                } else {
+                    report.polykf.push((k, v));
                 }
             }
             ["done"] => done = true,

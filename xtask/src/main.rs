@@ -9,6 +9,7 @@
 #![forbid(unsafe_code)]
 
 mod compare;
+mod compare_observers;
 mod cost;
 mod firmware;
 mod setup;
@@ -117,6 +118,7 @@ fn test() -> Result<(), String> {
     let report = firmware::run(Path::new(TARGETS))?;
     let host = compare::host_run(SEQUENCE_SAMPLES);
     println!("xtask: {}", compare::check(&report.estimates, &host)?);
+    println!("xtask: {}", compare_observers::check(&report)?);
     print!("{}", cost::table(&report.costs, Path::new(FIRMWARE_ELF))?);
     Ok(())
 }
