@@ -15,12 +15,15 @@ use generated_demo::polynomial::PolynomialKf;
 
 include!(concat!(env!("OUT_DIR"), "/observer_sequences.rs"));
 
-/// The polynomial filter's prior: wide, so the first re-initialisation takes over.
+/// The polynomial filter's prior, scaled to the state of eq. (2), `x_j = T^j/j! z^(j)`:
+/// standard deviations of 1 rad, 1 rad/s, 10 rad/s^2 and 100 rad/s^3. (A prior of `I`
+/// would claim 1e4 to 1e12 times that for the higher states, and its first updates then
+/// cancel catastrophically in `f32`.)
 pub const POLY_P0: [[f32; 4]; 4] = [
     [1.0, 0.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0, 0.0],
-    [0.0, 0.0, 1.0, 0.0],
-    [0.0, 0.0, 0.0, 1.0],
+    [0.0, 1e-4, 0.0, 0.0],
+    [0.0, 0.0, 2.5e-7, 0.0],
+    [0.0, 0.0, 0.0, 2.78e-10],
 ];
 
 fn print_line(tag: &str, k: usize, values: &[f32]) {
