@@ -17,126 +17,37 @@ use crate::experiment::report::{self, Line, Trace};
 use std::error::Error;
 use std::path::Path;
 
-/// The other configurations of the experiment, one generated filter each.
+/// The other configurations of the experiment, one generated filter each: the hub model
+/// of `models/polynomial.rs` with another fading factor and re-initialisation period.
 mod variants {
-    codegen_macros::model! {
-        /// The hub filter with fading factor 0.0, re-initialised every 100 samples.
-        pub mod fade_0 {
-            scalar f64;
-            state z0, z1, z2, z3;
-            output y = z0;
-            generate polynomial_kf(order = 3, dt = 0.01, fading = 0.0, noise_variance = 1e-4,
-                reinit_every = 100, window = 25);
-            dynamics discrete {
-                z0 = z0 + z1 + z2 + z3;
-                z1 = z1 + 2.0 * z2 + 3.0 * z3;
-                z2 = z2 + 3.0 * z3;
-                z3 = z3;
+    macro_rules! hub_filter_model {
+        ($name:ident, fading = $fading:tt, reinit_every = $period:tt) => {
+            codegen_macros::model! {
+                /// A hub filter of the seed 002 experiment.
+                pub mod $name {
+                    scalar f64;
+                    state z0, z1, z2, z3;
+                    output y = z0;
+                    generate polynomial_kf(order = 3, dt = 0.01, fading = $fading,
+                        noise_variance = 1e-4, reinit_every = $period, window = 25);
+                    dynamics discrete {
+                        z0 = z0 + z1 + z2 + z3;
+                        z1 = z1 + 2.0 * z2 + 3.0 * z3;
+                        z2 = z2 + 3.0 * z3;
+                        z3 = z3;
+                    }
+                }
             }
-        }
+        };
     }
 
-    codegen_macros::model! {
-        /// The hub filter with fading factor 1e-12, re-initialised every 100 samples.
-        pub mod fade_1e12 {
-            scalar f64;
-            state z0, z1, z2, z3;
-            output y = z0;
-            generate polynomial_kf(order = 3, dt = 0.01, fading = 1e-12, noise_variance = 1e-4,
-                reinit_every = 100, window = 25);
-            dynamics discrete {
-                z0 = z0 + z1 + z2 + z3;
-                z1 = z1 + 2.0 * z2 + 3.0 * z3;
-                z2 = z2 + 3.0 * z3;
-                z3 = z3;
-            }
-        }
-    }
-
-    codegen_macros::model! {
-        /// The hub filter with fading factor 1e-10, re-initialised every 100 samples.
-        pub mod fade_1e10 {
-            scalar f64;
-            state z0, z1, z2, z3;
-            output y = z0;
-            generate polynomial_kf(order = 3, dt = 0.01, fading = 1e-10, noise_variance = 1e-4,
-                reinit_every = 100, window = 25);
-            dynamics discrete {
-                z0 = z0 + z1 + z2 + z3;
-                z1 = z1 + 2.0 * z2 + 3.0 * z3;
-                z2 = z2 + 3.0 * z3;
-                z3 = z3;
-            }
-        }
-    }
-
-    codegen_macros::model! {
-        /// The hub filter with fading factor 1e-8, re-initialised every 100 samples.
-        pub mod fade_1e8 {
-            scalar f64;
-            state z0, z1, z2, z3;
-            output y = z0;
-            generate polynomial_kf(order = 3, dt = 0.01, fading = 1e-8, noise_variance = 1e-4,
-                reinit_every = 100, window = 25);
-            dynamics discrete {
-                z0 = z0 + z1 + z2 + z3;
-                z1 = z1 + 2.0 * z2 + 3.0 * z3;
-                z2 = z2 + 3.0 * z3;
-                z3 = z3;
-            }
-        }
-    }
-
-    codegen_macros::model! {
-        /// The hub filter with fading factor 1e-6, re-initialised every 100 samples.
-        pub mod fade_1e6 {
-            scalar f64;
-            state z0, z1, z2, z3;
-            output y = z0;
-            generate polynomial_kf(order = 3, dt = 0.01, fading = 1e-6, noise_variance = 1e-4,
-                reinit_every = 100, window = 25);
-            dynamics discrete {
-                z0 = z0 + z1 + z2 + z3;
-                z1 = z1 + 2.0 * z2 + 3.0 * z3;
-                z2 = z2 + 3.0 * z3;
-                z3 = z3;
-            }
-        }
-    }
-
-    codegen_macros::model! {
-        /// The hub filter with fading factor 1e-9, re-initialised every 50 samples.
-        pub mod fade_1e9_every_50 {
-            scalar f64;
-            state z0, z1, z2, z3;
-            output y = z0;
-            generate polynomial_kf(order = 3, dt = 0.01, fading = 1e-9, noise_variance = 1e-4,
-                reinit_every = 50, window = 25);
-            dynamics discrete {
-                z0 = z0 + z1 + z2 + z3;
-                z1 = z1 + 2.0 * z2 + 3.0 * z3;
-                z2 = z2 + 3.0 * z3;
-                z3 = z3;
-            }
-        }
-    }
-
-    codegen_macros::model! {
-        /// The hub filter with fading factor 1e-9, re-initialised every 400 samples.
-        pub mod fade_1e9_every_400 {
-            scalar f64;
-            state z0, z1, z2, z3;
-            output y = z0;
-            generate polynomial_kf(order = 3, dt = 0.01, fading = 1e-9, noise_variance = 1e-4,
-                reinit_every = 400, window = 25);
-            dynamics discrete {
-                z0 = z0 + z1 + z2 + z3;
-                z1 = z1 + 2.0 * z2 + 3.0 * z3;
-                z2 = z2 + 3.0 * z3;
-                z3 = z3;
-            }
-        }
-    }
+    hub_filter_model!(fade_0, fading = 0.0, reinit_every = 100);
+    hub_filter_model!(fade_1e12, fading = 1e-12, reinit_every = 100);
+    hub_filter_model!(fade_1e10, fading = 1e-10, reinit_every = 100);
+    hub_filter_model!(fade_1e8, fading = 1e-8, reinit_every = 100);
+    hub_filter_model!(fade_1e6, fading = 1e-6, reinit_every = 100);
+    hub_filter_model!(fade_1e9_every_50, fading = 1e-9, reinit_every = 50);
+    hub_filter_model!(fade_1e9_every_400, fading = 1e-9, reinit_every = 400);
 }
 
 /// Sample period [s] and run length [s].

@@ -4,26 +4,15 @@
 
 use model_dsl::numerics::{self, Mat};
 use nalgebra::DMatrix;
+use tests::rng::Lcg;
 
-/// A deterministic generator of entries in [-1, 1) (a 64-bit LCG), so failures reproduce.
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    }
-
-    fn mat(&mut self, rows: usize, cols: usize) -> Mat {
-        Mat::from_rows(
-            &(0..rows)
-                .map(|_| (0..cols).map(|_| self.next()).collect())
-                .collect::<Vec<_>>(),
-        )
-    }
+/// A random `rows x cols` matrix with entries in [-1, 1).
+fn random_mat(rng: &mut Lcg, rows: usize, cols: usize) -> Mat {
+    Mat::from_rows(
+        &(0..rows)
+            .map(|_| (0..cols).map(|_| rng.uniform()).collect())
+            .collect::<Vec<_>>(),
+    )
 }
 
 fn to_na(m: &Mat) -> DMatrix<f64> {
@@ -39,7 +28,7 @@ fn pseudo_inverse_matches_nalgebra_svd() {
     let mut rng = Lcg(7);
     for (rows, cols) in [(7, 4), (4, 7), (6, 6), (12, 4), (1, 5)] {
         for _ in 0..20 {
-            let a = rng.mat(rows, cols);
+            let a = random_mat(&mut rng, rows, cols);
             let ours = numerics::pinv(&a);
             let theirs = to_na(&a).pseudo_inverse(1e-12).unwrap();
             let diff = max_diff(&ours, &theirs);
@@ -48,7 +37,7 @@ fn pseudo_inverse_matches_nalgebra_svd() {
     }
     // Rank-deficient: a 6 x 5 matrix of rank 3.
     for _ in 0..20 {
-        let a = &rng.mat(6, 3) * &rng.mat(3, 5);
+        let a = &random_mat(&mut rng, 6, 3) * &random_mat(&mut rng, 3, 5);
         let ours = numerics::pinv(&a);
         let na = to_na(&a);
         let svd = na.clone().svd(true, true);
@@ -112,7 +101,7 @@ fn eigenvalues_match_nalgebra() {
     let mut rng = Lcg(11);
     for n in [1, 2, 3, 5, 6, 8, 12] {
         for _ in 0..20 {
-            let a = rng.mat(n, n);
+            let a = random_mat(&mut rng, n, n);
             let ours = numerics::eigenvalues(&a).expect("converges");
             let mut theirs: Vec<(f64, f64)> = to_na(&a)
                 .complex_eigenvalues()
@@ -156,7 +145,7 @@ fn na_dare_residual(a: &Mat, b: &Mat, q: &Mat, r: &Mat, x: &Mat) -> f64 {
 }
 
 fn spd(rng: &mut Lcg, n: usize, floor: f64) -> Mat {
-    let m = rng.mat(n, n);
+    let m = random_mat(rng, n, n);
     &(&m * &m.t()) + &Mat::identity(n).scale(floor)
 }
 
@@ -166,8 +155,8 @@ fn dare_residual_is_below_1e_10_and_the_loop_is_stable() {
     for (n, m) in [(2, 1), (4, 2), (6, 2), (6, 1)] {
         for trial in 0..20 {
             // Unstable open loops as well as stable ones.
-            let a = rng.mat(n, n).scale(if trial % 2 == 0 { 1.4 } else { 0.5 });
-            let b = rng.mat(n, m);
+            let a = random_mat(&mut rng, n, n).scale(if trial % 2 == 0 { 1.4 } else { 0.5 });
+            let b = random_mat(&mut rng, n, m);
             let q = spd(&mut rng, n, 0.1);
             let r = spd(&mut rng, m, 0.5);
             let x = numerics::dare(&a, &b, &q, &r).expect("solvable");
@@ -220,8 +209,8 @@ fn care_residual_is_below_1e_10_and_the_loop_is_hurwitz() {
     let mut rng = Lcg(5);
     for (n, m) in [(2, 1), (4, 2), (6, 2)] {
         for trial in 0..20 {
-            let a = rng.mat(n, n).scale(if trial % 2 == 0 { 2.0 } else { 0.5 });
-            let b = rng.mat(n, m);
+            let a = random_mat(&mut rng, n, n).scale(if trial % 2 == 0 { 2.0 } else { 0.5 });
+            let b = random_mat(&mut rng, n, m);
             let q = spd(&mut rng, n, 0.1);
             let r = spd(&mut rng, m, 0.5);
             let x = numerics::care(&a, &b, &q, &r).expect("solvable");
@@ -244,8 +233,8 @@ fn care_residual_is_below_1e_10_and_the_loop_is_hurwitz() {
 #[test]
 fn observability_rank_sees_an_unmeasured_decoupled_mode() {
     let mut rng = Lcg(9);
-    let a = rng.mat(4, 4);
-    let c = rng.mat(1, 4);
+    let a = random_mat(&mut rng, 4, 4);
+    let c = random_mat(&mut rng, 1, 4);
     assert_eq!(numerics::observability_rank(&a, &c), 4);
     // Block diagonal with the second block unmeasured: rank 2.
     let mut blocked = Mat::zeros(4, 4);

@@ -7,21 +7,9 @@
 
 use generated_demo::piecewise_beam::in_f64 as beam;
 use nalgebra::{DMatrix, DVector};
+use tests::rng::Lcg;
 
 const N: usize = 6;
-
-/// A deterministic generator of numbers in [-1, 1).
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    }
-}
 
 fn f(x: &DVector<f64>, u: f64) -> DVector<f64> {
     let x: [f64; N] = core::array::from_fn(|i| x[i]);
@@ -186,9 +174,9 @@ fn linear_error_dynamics_hold_under_arbitrary_switching() {
     let mut common_departure = 0.0_f64;
     let mut regimes_seen = [0; 2];
     for _ in 0..500 {
-        let x = DVector::from_fn(N, |i, _| if i < 3 { 2e-3 } else { 0.1 } * rng.next());
-        let e = DVector::from_fn(N, |i, _| if i < 3 { 1e-3 } else { 1e-2 } * rng.next());
-        let u = 40.0 * rng.next();
+        let x = DVector::from_fn(N, |i, _| if i < 3 { 2e-3 } else { 0.1 } * rng.uniform());
+        let e = DVector::from_fn(N, |i, _| if i < 3 { 1e-3 } else { 1e-2 } * rng.uniform());
+        let u = 40.0 * rng.uniform();
         regimes_seen[usize::from(x[1] > 0.0)] += 1;
         let x_next = f(&x, u);
         let y = [x[0], x[1]];
