@@ -31,81 +31,20 @@ pub fn emit_polynomial_kf(
     spec: &PolynomialKfSpec,
     scalar: Scalar,
 ) -> PolynomialKfCode {
-    let n = spec.order + 1;
     let avoid = model_names(model);
     let taken = |name: &str| avoid.iter().any(|a| a == name);
-    let old_window: Vec<String> = (1..=spec.window)
-        .map(|i| fresh(&format!("w{i}"), &taken))
-        .collect();
-    let measured = fresh("y_measured", &taken);
-    // The window after this sample: the oldest sample drops out, `y` comes in.
-    let new_window: Vec<String> = old_window[1..]
-        .iter()
-        .cloned()
-        .chain([measured.clone()])
-        .collect();
+    let window = WindowNames::new(spec.window, &taken);
     let fit = polynomial::window_fit(spec);
-    let fit_code = fit_branch(&avoid, &fit, &new_window, scalar);
-    let kf = recursive_step(model, spec, &measured, scalar);
-
+    let fit_code = fit_branch(&avoid, &fit, &window.new, scalar);
+    let fit_ops = fit_code.ops;
+    let kf = recursive_step(model, spec, &window.measured, scalar);
+    let step_ops = kf.ops;
     let ty = ident(scalar.type_name());
-    let lit = |v: f64| literal(v, scalar);
-    let [n_len, np_len, w_len] = [n, packed_len(n), spec.window].map(Literal::usize_unsuffixed);
-    let order = Literal::usize_unsuffixed(spec.order);
-    let reinit = Literal::u32_unsuffixed(spec.reinit_every);
-    let (window_f, reinit_f, dt) = (
-        lit(spec.window as f64),
-        lit(f64::from(spec.reinit_every)),
-        lit(spec.dt),
-    );
-    let (zero, one) = (lit(0.0), lit(1.0));
-    let matrix_literal = |m: &crate::numerics::Mat| {
-        let rows = m.to_rows();
-        let rows = rows.iter().map(|row| {
-            let row = row.iter().map(|&v| lit(v));
-            quote! { [#(#row),*] }
-        });
-        quote! { [#(#rows),*] }
-    };
-    let (fit_gain, fit_cov) = (matrix_literal(&fit.gain), matrix_literal(&fit.covariance));
-    let fit_p_packed = (0..n)
-        .flat_map(|i| (i..n).map(move |j| (i, j)))
-        .map(|(i, j)| lit(fit.covariance[(i, j)]));
-    let x_idents: Vec<proc_macro2::Ident> = (0..n).map(|j| ident(&format!("x{j}"))).collect();
-    let derivatives = x_idents.iter().zip(derivative_scales(spec)).map(|(x, s)| {
-        if s == 1.0 {
-            quote! { #x }
-        } else {
-            let s = lit(s);
-            quote! { #s * #x }
-        }
-    });
-    let unpack_p = unpack_symmetric("p", n);
-    let pack_p0 = super::code::pack_upper("p0", n);
-    let old_idents: Vec<proc_macro2::Ident> = old_window.iter().map(|w| ident(w)).collect();
-    let mut old_pattern = vec![quote! { _ }];
-    old_pattern.extend(old_idents[1..].iter().map(|w| quote! { #w }));
-    let new_idents: Vec<proc_macro2::Ident> = new_window.iter().map(|w| ident(w)).collect();
-    let measured = ident(&measured);
-    let FitCode {
-        statements: fit_statements,
-        x_values: fit_x,
-        ops: fit_ops,
-    } = fit_code;
-    let RecursiveCode {
-        statements,
-        x_values,
-        p_values,
-        probe,
-        ops: step_ops,
-    } = kf;
-    let step_doc = format!(
-        " One sample: the window takes `y`; every {} samples, once the window holds its {} \
-         samples, the estimate and covariance are re-initialised from the window fit, \
-         otherwise the recursive filter runs (eq. 5-9). Rejects a non-finite `y`; leaves \
-         the filter unchanged unless it returns [`Status::Ok`].",
-        spec.reinit_every, spec.window
-    );
+    let [n_len, np_len, w_len] =
+        [spec.order + 1, packed_len(spec.order + 1), spec.window].map(Literal::usize_unsuffixed);
+    let constants = associated_constants(spec, &fit, scalar);
+    let accessors = accessors(spec, scalar);
+    let step = step_method(spec, &fit, &window, fit_code, kf, scalar);
     let tokens = quote! {
         /// Polynomial Kalman filter (Shults, Brubaker and Lee, "A fast algorithm for control
         /// and estimation using a polynomial state-space structure"): the state
@@ -126,83 +65,196 @@ pub fn emit_polynomial_kf(
         }
 
         impl PolynomialKf {
-            /// Order `m` of the polynomial.
-            pub const ORDER: usize = #order;
-            /// Samples in the re-initialisation window.
-            pub const WINDOW: usize = #w_len;
-            /// Samples between re-initialisations.
-            pub const REINIT_EVERY: u32 = #reinit;
-            /// Sample period `T` [s].
-            pub const SAMPLE_PERIOD: #ty = #dt;
-            /// The window fit, `x = FIT_GAIN [y[k-N+1], .., y[k]]` (oldest sample first):
-            /// the pseudo-inverse of the polynomial's design matrix at the newest sample.
-            pub const FIT_GAIN: [[#ty; #w_len]; #n_len] = #fit_gain;
-            /// The covariance of the window fit, `sigma^2 FIT_GAIN FIT_GAIN'`.
-            pub const FIT_COVARIANCE: [[#ty; #n_len]; #n_len] = #fit_cov;
-
-            /// A filter from the estimate `x0` (scaled as the state) and covariance `p0`
-            /// (only its upper triangle is read), with an empty window: it runs the
-            /// recursive filter from this prior until its first re-initialisation.
-            #[must_use]
-            pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len]) -> PolynomialKf {
-                PolynomialKf { x: x0, p: #pack_p0, window: [#zero; #w_len], filled: #zero, since: #zero }
-            }
-
-            /// The state estimate, scaled as eq. (2): `[z, T z', .., T^m/m! z^(m)]`.
-            #[must_use]
-            pub fn state(&self) -> [#ty; #n_len] {
-                self.x
-            }
-
-            /// The position and its derivatives in physical units:
-            /// `[z, dz/dt, .., d^m z/dt^m]`, from `d^j z/dt^j = j!/T^j x_j`.
-            #[must_use]
-            pub fn derivatives(&self) -> [#ty; #n_len] {
-                let [#(#x_idents),*] = self.x;
-                [#(#derivatives),*]
-            }
-
-            /// The estimate's covariance (of the scaled state).
-            #[must_use]
-            pub fn covariance(&self) -> [[#ty; #n_len]; #n_len] {
-                #unpack_p
-            }
-
-            #[doc = #step_doc]
-            pub fn step(&mut self, y: #ty) -> Status {
-                if !y.is_finite() {
-                    return Status::RejectedInput;
-                }
-                let #measured = y;
-                let [#(#old_pattern),*] = self.window;
-                let filled = if self.filled < #window_f { self.filled + #one } else { self.filled };
-                let since = self.since + #one;
-                if since >= #reinit_f && filled >= #window_f {
-                    #(#fit_statements)*
-                    self.x = [#(#fit_x),*];
-                    self.p = [#(#fit_p_packed),*];
-                    self.window = [#(#new_idents),*];
-                    self.filled = filled;
-                    self.since = #zero;
-                    return Status::Ok;
-                }
-                #(#statements)*
-                if !(#probe).is_finite() {
-                    return Status::NonFinite;
-                }
-                self.x = [#(#x_values),*];
-                self.p = [#(#p_values),*];
-                self.window = [#(#new_idents),*];
-                self.filled = filled;
-                self.since = since;
-                Status::Ok
-            }
+            #constants
+            #accessors
+            #step
         }
     };
     PolynomialKfCode {
         tokens,
         step_ops,
         fit_ops,
+    }
+}
+
+/// The names of the window's entries in the step: as stored (`w1` oldest) and after this
+/// sample (the oldest drops out, the measurement comes in).
+struct WindowNames {
+    old: Vec<String>,
+    new: Vec<String>,
+    measured: String,
+}
+
+impl WindowNames {
+    fn new(window: usize, taken: &dyn Fn(&str) -> bool) -> WindowNames {
+        let old: Vec<String> = (1..=window)
+            .map(|i| fresh(&format!("w{i}"), taken))
+            .collect();
+        let measured = fresh("y_measured", taken);
+        let new = old[1..].iter().cloned().chain([measured.clone()]).collect();
+        WindowNames { old, new, measured }
+    }
+}
+
+/// A matrix as a nested array literal.
+fn matrix_literal(m: &crate::numerics::Mat, scalar: Scalar) -> TokenStream {
+    let rows = m.to_rows();
+    let rows = rows.iter().map(|row| {
+        let row = row.iter().map(|&v| literal(v, scalar));
+        quote! { [#(#row),*] }
+    });
+    quote! { [#(#rows),*] }
+}
+
+/// `ORDER`, `WINDOW`, `REINIT_EVERY`, `SAMPLE_PERIOD`, `FIT_GAIN`, `FIT_COVARIANCE`.
+fn associated_constants(spec: &PolynomialKfSpec, fit: &WindowFit, scalar: Scalar) -> TokenStream {
+    let ty = ident(scalar.type_name());
+    let [n_len, w_len] = [spec.order + 1, spec.window].map(Literal::usize_unsuffixed);
+    let order = Literal::usize_unsuffixed(spec.order);
+    let reinit = Literal::u32_unsuffixed(spec.reinit_every);
+    let dt = literal(spec.dt, scalar);
+    let (fit_gain, fit_cov) = (
+        matrix_literal(&fit.gain, scalar),
+        matrix_literal(&fit.covariance, scalar),
+    );
+    quote! {
+        /// Order `m` of the polynomial.
+        pub const ORDER: usize = #order;
+        /// Samples in the re-initialisation window.
+        pub const WINDOW: usize = #w_len;
+        /// Samples between re-initialisations.
+        pub const REINIT_EVERY: u32 = #reinit;
+        /// Sample period `T` [s].
+        pub const SAMPLE_PERIOD: #ty = #dt;
+        /// The window fit, `x = FIT_GAIN [y[k-N+1], .., y[k]]` (oldest sample first):
+        /// the pseudo-inverse of the polynomial's design matrix at the newest sample.
+        pub const FIT_GAIN: [[#ty; #w_len]; #n_len] = #fit_gain;
+        /// The covariance of the window fit, `sigma^2 FIT_GAIN FIT_GAIN'`.
+        pub const FIT_COVARIANCE: [[#ty; #n_len]; #n_len] = #fit_cov;
+    }
+}
+
+/// `new`, `state`, `derivatives` and `covariance`.
+fn accessors(spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStream {
+    let n = spec.order + 1;
+    let ty = ident(scalar.type_name());
+    let [n_len, w_len] = [n, spec.window].map(Literal::usize_unsuffixed);
+    let zero = literal(0.0, scalar);
+    let x_idents: Vec<proc_macro2::Ident> = (0..n).map(|j| ident(&format!("x{j}"))).collect();
+    let derivatives = x_idents.iter().zip(derivative_scales(spec)).map(|(x, s)| {
+        if s == 1.0 {
+            quote! { #x }
+        } else {
+            let s = literal(s, scalar);
+            quote! { #s * #x }
+        }
+    });
+    let unpack_p = unpack_symmetric("p", n);
+    let pack_p0 = super::code::pack_upper("p0", n);
+    quote! {
+        /// A filter from the estimate `x0` (scaled as the state) and covariance `p0`
+        /// (only its upper triangle is read), with an empty window: it runs the
+        /// recursive filter from this prior until its first re-initialisation.
+        #[must_use]
+        pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len]) -> PolynomialKf {
+            PolynomialKf { x: x0, p: #pack_p0, window: [#zero; #w_len], filled: #zero, since: #zero }
+        }
+
+        /// The state estimate, scaled as eq. (2): `[z, T z', .., T^m/m! z^(m)]`.
+        #[must_use]
+        pub fn state(&self) -> [#ty; #n_len] {
+            self.x
+        }
+
+        /// The position and its derivatives in physical units:
+        /// `[z, dz/dt, .., d^m z/dt^m]`, from `d^j z/dt^j = j!/T^j x_j`.
+        #[must_use]
+        pub fn derivatives(&self) -> [#ty; #n_len] {
+            let [#(#x_idents),*] = self.x;
+            [#(#derivatives),*]
+        }
+
+        /// The estimate's covariance (of the scaled state).
+        #[must_use]
+        pub fn covariance(&self) -> [[#ty; #n_len]; #n_len] {
+            #unpack_p
+        }
+    }
+}
+
+/// `step`: the window shift, the re-initialising branch, the recursive filter.
+fn step_method(
+    spec: &PolynomialKfSpec,
+    fit: &WindowFit,
+    window: &WindowNames,
+    fit_code: FitCode,
+    kf: RecursiveCode,
+    scalar: Scalar,
+) -> TokenStream {
+    let n = spec.order + 1;
+    let ty = ident(scalar.type_name());
+    let lit = |v: f64| literal(v, scalar);
+    let (window_f, reinit_f) = (lit(spec.window as f64), lit(f64::from(spec.reinit_every)));
+    let (zero, one) = (lit(0.0), lit(1.0));
+    let fit_p_packed = (0..n)
+        .flat_map(|i| (i..n).map(move |j| (i, j)))
+        .map(|(i, j)| lit(fit.covariance[(i, j)]));
+    let mut old_pattern = vec![quote! { _ }];
+    old_pattern.extend(window.old[1..].iter().map(|w| {
+        let w = ident(w);
+        quote! { #w }
+    }));
+    let new_idents: Vec<proc_macro2::Ident> = window.new.iter().map(|w| ident(w)).collect();
+    let measured = ident(&window.measured);
+    let FitCode {
+        statements: fit_statements,
+        x_values: fit_x,
+        ..
+    } = fit_code;
+    let RecursiveCode {
+        statements,
+        x_values,
+        p_values,
+        probe,
+        ..
+    } = kf;
+    let step_doc = format!(
+        " One sample: the window takes `y`; every {} samples, once the window holds its {} \
+         samples, the estimate and covariance are re-initialised from the window fit, \
+         otherwise the recursive filter runs (eq. 5-9). Rejects a non-finite `y`; leaves \
+         the filter unchanged unless it returns [`Status::Ok`].",
+        spec.reinit_every, spec.window
+    );
+    quote! {
+        #[doc = #step_doc]
+        pub fn step(&mut self, y: #ty) -> Status {
+            if !y.is_finite() {
+                return Status::RejectedInput;
+            }
+            let #measured = y;
+            let [#(#old_pattern),*] = self.window;
+            let filled = if self.filled < #window_f { self.filled + #one } else { self.filled };
+            let since = self.since + #one;
+            if since >= #reinit_f && filled >= #window_f {
+                #(#fit_statements)*
+                self.x = [#(#fit_x),*];
+                self.p = [#(#fit_p_packed),*];
+                self.window = [#(#new_idents),*];
+                self.filled = filled;
+                self.since = #zero;
+                return Status::Ok;
+            }
+            #(#statements)*
+            if !(#probe).is_finite() {
+                return Status::NonFinite;
+            }
+            self.x = [#(#x_values),*];
+            self.p = [#(#p_values),*];
+            self.window = [#(#new_idents),*];
+            self.filled = filled;
+            self.since = since;
+            Status::Ok
+        }
     }
 }
 
