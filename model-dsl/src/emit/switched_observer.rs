@@ -9,7 +9,6 @@ use super::lower::{literal, Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
 use crate::numerics::Mat;
-use crate::symbolic::linalg::dot;
 use crate::symbolic::switched::{Designs, Gains, Regimes};
 use crate::symbolic::{Graph, NodeId};
 use proc_macro2::{Literal, TokenStream};
@@ -146,6 +145,29 @@ fn matrix_literal(mat: &Mat, scalar: Scalar) -> TokenStream {
     quote! { [#(#rows),*] }
 }
 
+/// One regime's prediction: its statements and the new estimate, reading `self.x` where
+/// first used.
+fn lower_branch(
+    g: &Graph,
+    avoid: &[String],
+    x: &[NodeId],
+    values: &[NodeId],
+    scalar: Scalar,
+) -> (TokenStream, OpCount) {
+    let namer = TempNamer::new(avoid.iter().map(String::as_str));
+    let mut lowerer = Lowerer::new(g, scalar, namer, values);
+    lowerer.read_lazily(&quote! { self.x }, x);
+    let exprs = lowerer.segment(values);
+    let Lowered {
+        statements, ops, ..
+    } = lowerer.finish();
+    let tokens = quote! {
+        #(#statements)*
+        [#(#exprs),*]
+    };
+    (tokens, ops)
+}
+
 /// One observer type with its gains.
 fn observer_type(
     model: &Model,
@@ -167,53 +189,18 @@ fn observer_type(
         .iter()
         .map(|o| g.var(&format!("{}_measured", o.name)))
         .collect();
-    let next: Vec<Vec<NodeId>> = (0..2)
-        .map(|i| {
-            (0..n)
-                .map(|row| {
-                    let mut coefficients = Vec::new();
-                    let mut operands = Vec::new();
-                    for (j, &xj) in x.iter().enumerate() {
-                        coefficients.push(gains.f[i][(row, j)]);
-                        operands.push(xj);
-                    }
-                    for (j, &uj) in u.iter().enumerate() {
-                        coefficients.push(regimes.b[i][(row, j)]);
-                        operands.push(uj);
-                    }
-                    for (j, &yj) in y.iter().enumerate() {
-                        coefficients.push(gains.k[i][(row, j)]);
-                        operands.push(yj);
-                    }
-                    let coefficients: Vec<NodeId> =
-                        coefficients.iter().map(|&v| g.num(v)).collect();
-                    let sum = dot(&mut g, &coefficients, &operands);
-                    let offset = g.num(regimes.offset[i][row]);
-                    g.add(sum, offset)
-                })
-                .collect()
+    let next = crate::symbolic::switched::observer_step(&mut g, regimes, gains, &x, &u, &y);
+    let mut ops = OpCount::default();
+    let branches: Vec<TokenStream> = next
+        .iter()
+        .map(|values| {
+            let (tokens, branch_ops) = lower_branch(&g, &avoid, &x, values, scalar);
+            if branch_ops.mul + branch_ops.add > ops.mul + ops.add {
+                ops = branch_ops;
+            }
+            tokens
         })
         .collect();
-    let mut branches = Vec::new();
-    let mut ops = OpCount::default();
-    for values in &next {
-        let namer = TempNamer::new(avoid.iter().map(String::as_str));
-        let mut lowerer = Lowerer::new(&g, scalar, namer, values);
-        lowerer.read_lazily(&quote! { self.x }, &x);
-        let exprs = lowerer.segment(values);
-        let Lowered {
-            statements,
-            ops: branch_ops,
-            ..
-        } = lowerer.finish();
-        if branch_ops.mul + branch_ops.add > ops.mul + ops.add {
-            ops = branch_ops;
-        }
-        branches.push(quote! {
-            #(#statements)*
-            [#(#exprs),*]
-        });
-    }
     let (regime1, regime2) = (&branches[0], &branches[1]);
     let u_idents = var_idents(&g, &u);
     let y_idents = var_idents(&g, &y);

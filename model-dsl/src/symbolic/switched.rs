@@ -282,31 +282,8 @@ pub fn design(
             spec.measurement_noise.len()
         )));
     }
-    for (i, a) in regimes.a.iter().enumerate() {
-        let rank = numerics::observability_rank(a, &regimes.c);
-        if rank < n {
-            return Err((
-                Culprit::Generator,
-                format!(
-                    "regime {}: the state is not observable from the outputs (observability \
-                     rank {rank} of {n})",
-                    i + 1
-                ),
-            ));
-        }
-    }
-    let q = Mat::diagonal(&spec.process_noise);
-    let r = Mat::diagonal(&spec.measurement_noise);
-    let mut kalman = Vec::new();
-    for (i, a) in regimes.a.iter().enumerate() {
-        let (k, _) = numerics::kalman_predictor_gain(a, &regimes.c, &q, &r).map_err(|e| {
-            noise(format!(
-                "regime {}: the Kalman gain's Riccati equation: {e}",
-                i + 1
-            ))
-        })?;
-        kalman.push(k);
-    }
+    observable(regimes).map_err(|msg| (Culprit::Generator, msg))?;
+    let kalman = kalman_gains(regimes, spec).map_err(noise)?;
     let switched_kalman = certified(
         regimes,
         [kalman[0].clone(), kalman[1].clone()],
@@ -335,21 +312,7 @@ pub fn design(
         }
         None => kalman[0].clone(),
     };
-    // A_s C^+ C = A_s is what makes (A_s - K_s C) = 0 solvable (eq. 5.6-5.7).
-    let a_s = &regimes.a[1] - &regimes.a[0];
-    let c_pinv = numerics::pinv(&regimes.c);
-    let k_s = &a_s * &c_pinv;
-    let leftover = (&a_s - &(&k_s * &regimes.c)).max_abs();
-    if leftover > 1e-12 * regimes.a[0].max_abs() {
-        return Err((
-            Culprit::Generator,
-            format!(
-                "linear error dynamics need the regimes to differ only through measured \
-                 states (A_2 - A_1 = K_s C); here A_2 - A_1 reaches states the outputs do not \
-                 measure (residual {leftover:.3e})"
-            ),
-        ));
-    }
+    let k_s = switching_gain(regimes).map_err(|msg| (Culprit::Generator, msg))?;
     let k2 = &k1 + &k_s;
     let linear_error = certified(regimes, [k1.clone(), k2], "linear error dynamics")
         .map_err(|msg| (k1_culprit, msg))?;
@@ -360,6 +323,51 @@ pub fn design(
         switched_kalman,
         common_gain,
     })
+}
+
+/// Checks that the state is observable from the outputs in each regime.
+fn observable(regimes: &Regimes) -> Result<(), String> {
+    let n = regimes.c.cols();
+    for (i, a) in regimes.a.iter().enumerate() {
+        let rank = numerics::observability_rank(a, &regimes.c);
+        if rank < n {
+            return Err(format!(
+                "regime {}: the state is not observable from the outputs (observability \
+                 rank {rank} of {n})",
+                i + 1
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The steady-state Kalman gain of each regime's one-step predictor.
+fn kalman_gains(regimes: &Regimes, spec: &SwitchedObserverSpec) -> Result<[Mat; 2], String> {
+    let q = Mat::diagonal(&spec.process_noise);
+    let r = Mat::diagonal(&spec.measurement_noise);
+    let gain = |i: usize| {
+        numerics::kalman_predictor_gain(&regimes.a[i], &regimes.c, &q, &r)
+            .map(|(k, _)| k)
+            .map_err(|e| format!("regime {}: the Kalman gain's Riccati equation: {e}", i + 1))
+    };
+    Ok([gain(0)?, gain(1)?])
+}
+
+/// `K_s = A_s C^+` with `A_s = A_2 - A_1`, the extra gain of regime 2 that cancels the
+/// switched dynamics (eq. 5.7), if `A_s C^+ C = A_s`: what makes `A_s - K_s C = 0`
+/// solvable (eq. 5.6).
+fn switching_gain(regimes: &Regimes) -> Result<Mat, String> {
+    let a_s = &regimes.a[1] - &regimes.a[0];
+    let k_s = &a_s * &numerics::pinv(&regimes.c);
+    let leftover = (&a_s - &(&k_s * &regimes.c)).max_abs();
+    if leftover > 1e-12 * regimes.a[0].max_abs() {
+        return Err(format!(
+            "linear error dynamics need the regimes to differ only through measured \
+             states (A_2 - A_1 = K_s C); here A_2 - A_1 reaches states the outputs do not \
+             measure (residual {leftover:.3e})"
+        ));
+    }
+    Ok(k_s)
 }
 
 /// The gains with their observer matrices, if every regime's `A_i - K_i C` is Schur
@@ -381,4 +389,34 @@ fn certified(regimes: &Regimes, k: [Mat; 2], what: &str) -> Result<Gains, String
         radius[i] = pole.abs();
     }
     Ok(Gains { k, f, radius })
+}
+
+/// The observer's prediction in each regime as nodes:
+/// `x[k+1] = F_i x + B_i u + K_i y + c_i` with the literals of the design (zeros skipped).
+pub fn observer_step(
+    g: &mut Graph,
+    regimes: &Regimes,
+    gains: &Gains,
+    x: &[NodeId],
+    u: &[NodeId],
+    y: &[NodeId],
+) -> [Vec<NodeId>; 2] {
+    [0, 1].map(|i| {
+        (0..x.len())
+            .map(|row| {
+                let terms = [(&gains.f[i], x), (&regimes.b[i], u), (&gains.k[i], y)];
+                let mut coefficients = Vec::new();
+                let mut operands = Vec::new();
+                for (matrix, vars) in terms {
+                    for (j, &var) in vars.iter().enumerate() {
+                        coefficients.push(g.num(matrix[(row, j)]));
+                        operands.push(var);
+                    }
+                }
+                let sum = super::linalg::dot(g, &coefficients, &operands);
+                let offset = g.num(regimes.offset[i][row]);
+                g.add(sum, offset)
+            })
+            .collect()
+    })
 }
