@@ -113,7 +113,7 @@ pub fn emit_switched_observers(
         /// `C = dh/dx`.
         pub const OUTPUT_C: [[#ty; #n_len]; #m_len] = #regime_c;
 
-        /// Whether the measurement `y` selects regime 2 (#regime_doc).
+        /// Whether the measurement `y` selects regime 2.
         #[doc = #regime_doc]
         #[must_use]
         pub fn in_regime_2(y: &[#ty; #m_len]) -> bool {
