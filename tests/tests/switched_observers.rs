@@ -208,3 +208,61 @@ fn linear_error_dynamics_hold_under_arbitrary_switching() {
         "linear error dynamics: largest departure {worst:e}; common gain {common_departure:e}"
     );
 }
+
+/// The `k1` option: a given gain is used for regime 1 and `K2 = K1 + A_s C^+` follows, on
+/// a small model whose second output measures a combination of states (so `C^+` is not
+/// `C'`).
+#[test]
+fn a_given_k1_is_used_and_k2_follows_through_the_pseudo_inverse() {
+    let source = r#"
+        codegen_macros::model! {
+            /// Two masses; a one-sided spring on the first.
+            pub mod given {
+                scalar f64;
+                const Q = 1e-6;
+                const R = 1e-4;
+                const K11 = 0.3;
+                const K12 = 0.0;
+                const K21 = 0.1;
+                const K22 = 0.2;
+                state x1, x2;
+                output y1 = x1, y2 = x1 + x2;
+                generate switched_observer(process_noise = [Q, Q], measurement_noise = [R, R],
+                    k1 = [K11, K12, K21, K22]);
+                dynamics discrete {
+                    x1 = 0.9 * x1 + 0.1 * x2 - if x1 > 0.0 { 0.2 * x1 } else { 0.0 };
+                    x2 = -0.1 * x1 + 0.8 * x2;
+                }
+            }
+        }
+    "#;
+    let model = model_dsl::parse_macro_source(source).expect("a valid model");
+    let mg = model_dsl::symbolic::ModelGraph::build(&model);
+    let regimes = model_dsl::symbolic::switched::regimes(&model, &mg).expect("piecewise linear");
+    let spec = model
+        .generate
+        .switched_observer
+        .as_ref()
+        .expect("asked for");
+    let designs = model_dsl::symbolic::switched::design(&regimes, spec).expect("designable");
+    let to_na =
+        |m: &model_dsl::numerics::Mat| DMatrix::from_fn(m.rows(), m.cols(), |i, j| m[(i, j)]);
+    let k1 = DMatrix::from_row_slice(2, 2, &[0.3, 0.0, 0.1, 0.2]);
+    let led = &designs.linear_error;
+    assert_eq!(to_na(&led.k[0]), k1);
+    let c = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 1.0, 1.0]);
+    let a1 = DMatrix::from_row_slice(2, 2, &[0.9, 0.1, -0.1, 0.8]);
+    let a2 = DMatrix::from_row_slice(2, 2, &[0.7, 0.1, -0.1, 0.8]);
+    assert!((to_na(&regimes.a[0]) - &a1).amax() < 1e-15);
+    assert!((to_na(&regimes.a[1]) - &a2).amax() < 1e-15);
+    let k2 = &k1 + (&a2 - &a1) * c.clone().try_inverse().unwrap();
+    assert!((to_na(&led.k[1]) - &k2).amax() < 1e-14);
+    let f1 = &a1 - &k1 * &c;
+    let f2 = &a2 - &k2 * &c;
+    assert!(
+        (f1 - f2).amax() < 1e-14,
+        "one error matrix for both regimes"
+    );
+    // The generated code compiles from the same source (checked by expanding it).
+    let _ = model_dsl::expand_macro_source(source).expect("expands");
+}
