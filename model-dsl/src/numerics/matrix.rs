@@ -59,12 +59,12 @@ impl Mat {
         self.cols
     }
 
-    /// The rows as vectors.
+    /// The rows as vectors (`rows` empty ones when there are no columns).
     pub fn to_rows(&self) -> Vec<Vec<f64>> {
-        self.data
-            .chunks(self.cols.max(1))
-            .map(<[f64]>::to_vec)
-            .collect()
+        if self.cols == 0 {
+            return vec![Vec::new(); self.rows];
+        }
+        self.data.chunks(self.cols).map(<[f64]>::to_vec).collect()
     }
 
     /// The transpose.
