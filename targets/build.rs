@@ -25,4 +25,32 @@ fn main() {
     }
     code.push_str("];\n");
     std::fs::write(out.join("sequence.rs"), code).expect("OUT_DIR is writable");
+    observer_sequences(&out);
+}
+
+/// Samples of the beam (0.5 s at 0.5 ms) and hub (10 s at 10 ms) sequences.
+const OBSERVER_SAMPLES: usize = 1000;
+
+/// Embeds the sequences of the compile-time designed observers
+/// (`generated_demo::observer_sequences`).
+pub fn observer_sequences(out: &std::path::Path) {
+    use generated_demo::observer_sequences::{BeamMeasured, HubMeasured};
+    let mut code = String::new();
+    let _ = writeln!(
+        code,
+        "/// The beam sequence `(u[k], [y_act[k], y_mid[k]])`.\n\
+         pub const BEAM_SEQUENCE: [(f32, [f32; 2]); {OBSERVER_SAMPLES}] = ["
+    );
+    for s in BeamMeasured::new().take(OBSERVER_SAMPLES) {
+        let _ = writeln!(code, "    ({:?}, [{:?}, {:?}]),", s.u, s.y[0], s.y[1]);
+    }
+    let _ = writeln!(
+        code,
+        "];\n/// The hub sequence `y[k]`.\npub const HUB_SEQUENCE: [f32; {OBSERVER_SAMPLES}] = ["
+    );
+    for y in HubMeasured::new().take(OBSERVER_SAMPLES) {
+        let _ = writeln!(code, "    {y:?},");
+    }
+    code.push_str("];\n");
+    std::fs::write(out.join("observer_sequences.rs"), code).expect("OUT_DIR is writable");
 }

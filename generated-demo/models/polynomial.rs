@@ -35,7 +35,14 @@ codegen_macros::model! {
         output
             /// measured position, M = [1 0 0 0] ("Data Measurement Vector of one")
             y = z0;
-        generate ekf;
+        /// Samples of the least-squares window that re-initialises the filter (the paper
+        /// does not give its length; 25 samples = 0.25 s, a quarter of the period).
+        const FIT_WINDOW = 25;
+        /// Samples between re-initialisations: "reinitialized every 100 samples, 1 second".
+        const REINIT_EVERY = 100;
+        generate ekf,
+            polynomial_kf(order = 3, dt = TS, fading = FADE, noise_variance = SIGMA2,
+                reinit_every = REINIT_EVERY, window = FIT_WINDOW);
         // x[n+1] = Phi(1) x[n], eqs. (3)-(5), with Phi(1) for m = 3:
         //   [1 1 1 1; 0 1 2 3; 0 0 1 3; 0 0 0 1]
         // (OCR of eq. (4) shows only its first row 1 h .. h^m and second row

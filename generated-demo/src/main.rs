@@ -10,10 +10,16 @@
 //! 4. Seed 001's blade with the generated hybrid EKFs (`experiment::blade`) and seed
 //!    004's helicopter with the continuous-time EKF, standard and with a prescribed degree
 //!    of stability (`experiment::trms`).
+//! 5. Seed 003: the generated switched observers on a piecewise-linear beam, and the
+//!    switching example of its Fig. 3.1 ([`switched_beam`]).
+//! 6. Seed 002: the generated polynomial Kalman filter on a hub signal for several
+//!    fading factors and re-initialisation periods ([`hub_polynomial`]).
 //!
 //! The host runs the generated `f64` code; the `f32` code is what runs on the MCU.
 
 mod experiment;
+mod hub_polynomial;
+mod switched_beam;
 
 use experiment::excitation::Prbs;
 use experiment::metrics::{mean, rms};
@@ -103,10 +109,15 @@ fn main() -> Result<(), Box<dyn Error>> {
     experiment::trms::run(out)?;
 
     print_generated_costs();
+    switched_beam::experiment(out)?;
+    hub_polynomial::experiment(out)?;
     println!(
         "\nWrote out/estimation.csv, out/closed_loop.csv, out/wn.svg, out/displacement.svg, \
          out/blade.csv, out/blade_mass.svg, out/blade_identification.svg, out/helicopter.csv, \
-         out/helicopter_surge.csv, out/helicopter_pitch.svg, out/helicopter_surge.svg in {:.2} s.",
+         out/helicopter_surge.csv, out/helicopter_pitch.svg, out/helicopter_surge.svg, \
+         out/beam_20hz.csv, out/beam_35hz.csv, out/beam_velocity.svg, \
+         out/switching_example.csv, out/switching_example.svg, out/hub_estimates.csv, \
+         out/hub_velocity.svg in {:.2} s.",
         started.elapsed().as_secs_f64()
     );
     Ok(())

@@ -897,12 +897,23 @@ fn check_generate(decl: &ModelDecl, scope: &Scope, diag: &mut Diagnostics) -> Ge
                     alpha: alpha.map(|(a, _)| a),
                 });
             }
+            "polynomial_kf" => {
+                let value = |name: &Name| constant_value(scope, name);
+                generate.polynomial_kf =
+                    crate::check_designs::polynomial_kf(item, &mut args, &value, diag);
+            }
+            "switched_observer" => {
+                let value = |name: &Name| constant_value(scope, name);
+                generate.switched_observer =
+                    crate::check_designs::switched_observer(item, &mut args, &value, diag);
+            }
             other => {
                 diag.error(
                     item.name.span,
                     format!(
                         "unknown generator `{other}`: use `ekf`, `dkf(eta = ..)`, `lqr(..)`, \
-                         `hybrid_ekf` or `continuous_ekf(alpha = ..)`"
+                         `hybrid_ekf`, `continuous_ekf(alpha = ..)`, `polynomial_kf(..)` or \
+                         `switched_observer(..)`"
                     ),
                 );
                 continue;
@@ -955,8 +966,16 @@ fn require_unrolled(decl: &ModelDecl, item: &GenerateDecl, diag: &mut Diagnostic
     }
 }
 
+/// The value of the model constant `name`, if it names one.
+fn constant_value(scope: &Scope, name: &Name) -> Option<f64> {
+    match scope.names.get(&name.text) {
+        Some((Binding::Const(i), _)) => scope.const_values.get(*i).copied(),
+        _ => None,
+    }
+}
+
 /// The arguments of one `generate` item, taken one by one; what is left is an error.
-struct Args<'a> {
+pub(crate) struct Args<'a> {
     item: &'a GenerateDecl,
     used: Vec<bool>,
 }
@@ -975,7 +994,7 @@ impl<'a> Args<'a> {
         }
     }
 
-    fn take(&mut self, names: &[&str]) -> Option<&'a GenerateArg> {
+    pub(crate) fn take(&mut self, names: &[&str]) -> Option<&'a GenerateArg> {
         let i = self
             .item
             .args

@@ -9,11 +9,13 @@
 
 pub mod ast;
 pub mod check;
+mod check_designs;
 pub mod diagnostics;
 pub mod emit;
 pub mod front;
 pub mod meval_text;
 pub mod model;
+pub mod numerics;
 pub mod symbolic;
 
 use proc_macro2::TokenStream;

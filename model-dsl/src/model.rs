@@ -45,6 +45,10 @@ pub struct Generate {
     pub hybrid_ekf: Option<HybridEkfSpec>,
     /// The continuous-time EKF, if asked for.
     pub continuous_ekf: Option<ContinuousEkfSpec>,
+    /// The polynomial Kalman filter with fading and re-initialisation, if asked for.
+    pub polynomial_kf: Option<PolynomialKfSpec>,
+    /// The switched observers of a piecewise-linear model, if asked for.
+    pub switched_observer: Option<SwitchedObserverSpec>,
 }
 
 impl Generate {
@@ -55,6 +59,8 @@ impl Generate {
             || self.lqr.is_some()
             || self.hybrid_ekf.is_some()
             || self.continuous_ekf.is_some()
+            || self.polynomial_kf.is_some()
+            || self.switched_observer.is_some()
     }
 }
 
@@ -106,6 +112,44 @@ pub struct LqrSpec {
     pub states: Vec<usize>,
     /// The inputs it computes, by index into [`Model::inputs`].
     pub inputs: Vec<usize>,
+}
+
+/// Options of the polynomial Kalman filter (Shults, Brubaker and Lee, "A fast algorithm
+/// for control and estimation using a polynomial state-space structure").
+#[derive(Clone, Debug)]
+pub struct PolynomialKfSpec {
+    /// Order `m` of the polynomial: the state has `m + 1` entries.
+    pub order: usize,
+    /// Sample period `T` [s], for the derivatives in physical units.
+    pub dt: f64,
+    /// Fading factor `f`: the process noise is `f I`.
+    pub fading: f64,
+    /// Measurement noise variance `sigma^2`.
+    pub noise_variance: f64,
+    /// Samples between re-initialisations from the window fit.
+    pub reinit_every: u32,
+    /// Samples in the least-squares window.
+    pub window: usize,
+    /// Where `polynomial_kf` was written, for errors about the model.
+    pub span: proc_macro2::Span,
+}
+
+/// Options of the switched observers (per-regime gains designed at generation time).
+#[derive(Clone, Debug)]
+pub struct SwitchedObserverSpec {
+    /// Diagonal of the process noise covariance `Q`, one entry per state.
+    pub process_noise: Vec<f64>,
+    /// Diagonal of the measurement noise covariance `R`, one entry per output.
+    pub measurement_noise: Vec<f64>,
+    /// The gain `K1` of the first regime (row-major, states x outputs), if given; else it
+    /// is regime 1's steady-state Kalman gain.
+    pub k1: Option<Vec<f64>>,
+    /// Where `switched_observer` was written.
+    pub span: proc_macro2::Span,
+    /// Where the noise covariances were written (errors of the Kalman designs).
+    pub noise_span: proc_macro2::Span,
+    /// Where `k1` was written, if it was (errors of the linear-error-dynamics design).
+    pub k1_span: Option<proc_macro2::Span>,
 }
 
 /// Floating-point type of generated code.

@@ -16,6 +16,8 @@
 mod baseline;
 mod continuous;
 mod measure;
+mod observers;
+mod observers_baseline;
 
 use core::hint::black_box;
 use cortex_m_rt::entry;
@@ -68,8 +70,10 @@ fn main() -> ! {
     let clock = Clock::start(peripherals.SYST);
     estimates();
     continuous::estimates();
+    observers::estimates();
     costs(&clock);
     continuous::costs(&clock);
+    observers::costs(&clock);
     hprintln!("done");
     debug::exit(debug::EXIT_SUCCESS);
     // Not reached under QEMU, which exits above.

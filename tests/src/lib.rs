@@ -7,6 +7,7 @@ use std::path::PathBuf;
 pub mod cantilever_sim;
 pub mod continuous_reference;
 pub mod reference;
+pub mod rng;
 pub mod scale;
 pub mod tuning;
 

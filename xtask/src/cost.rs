@@ -7,7 +7,7 @@ use std::path::Path;
 use std::process::Command;
 
 /// Per kernel: label, goal in instructions, the C peer's figure (CasADi 3.8, -O2).
-const KERNELS: [(&str, &str, Option<u32>, Option<u32>); 6] = [
+const KERNELS: [(&str, &str, Option<u32>, Option<u32>); 8] = [
     ("ekf_step", "EKF step", Some(210), Some(254)),
     ("dkf_step", "DKF step", Some(540), Some(649)),
     ("lqr_solve", "LQR solve (N = 50)", Some(2500), None),
@@ -19,6 +19,13 @@ const KERNELS: [(&str, &str, Option<u32>, Option<u32>); 6] = [
         None,
     ),
     ("hybrid_ekf_step", "hybrid EKF step (500 sub)", None, None),
+    (
+        "switched_observer_step",
+        "switched observer step",
+        None,
+        None,
+    ),
+    ("polynomial_kf_step", "polynomial KF step (avg)", None, None),
 ];
 
 /// The firmware's functions: their sizes and whom they call.

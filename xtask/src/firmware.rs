@@ -47,6 +47,10 @@ pub struct Report {
     pub continuous: Vec<(usize, Vec<f64>)>,
     /// The `hybrid` lines (the blade's hybrid EKF): sample, estimate.
     pub hybrid: Vec<(usize, Vec<f64>)>,
+    /// `observer k x..`: the piecewise beam's linear-error-dynamics observer.
+    pub observer: Vec<(usize, Vec<f64>)>,
+    /// `polykf k x..`: the polynomial Kalman filter.
+    pub polykf: Vec<(usize, Vec<f64>)>,
 }
 
 /// Builds the firmware in release mode and runs it under QEMU (the runner in
@@ -131,12 +135,13 @@ fn parse(text: &str) -> Result<Report, String> {
                     None => return Err(format!("stack before cost for `{kernel}`")),
                 }
             }
-            [tag @ ("continuous" | "hybrid"), k, values @ ..] => {
+            [tag @ ("continuous" | "hybrid" | "observer" | "polykf"), k, values @ ..] => {
                 let sample = sample_line(line, k, values)?;
-                if *tag == "continuous" {
-                    report.continuous.push(sample);
-                } else {
-                    report.hybrid.push(sample);
+                match *tag {
+                    "continuous" => report.continuous.push(sample),
+                    "hybrid" => report.hybrid.push(sample),
+                    "observer" => report.observer.push(sample),
+                    _ => report.polykf.push(sample),
                 }
             }
             ["done"] => done = true,

@@ -10,6 +10,7 @@
 
 mod compare;
 mod compare_continuous;
+mod compare_observers;
 mod cost;
 mod firmware;
 mod setup;
@@ -122,6 +123,7 @@ fn test() -> Result<(), String> {
         "xtask: {}",
         compare_continuous::check(&report.continuous, &report.hybrid)?
     );
+    println!("xtask: {}", compare_observers::check(&report)?);
     print!("{}", cost::table(&report.costs, Path::new(FIRMWARE_ELF))?);
     Ok(())
 }

@@ -10,9 +10,11 @@ pub mod lower;
 pub mod lqr;
 pub mod model_fns;
 pub mod names;
+pub mod polynomial_kf;
 pub mod scopes;
 pub mod status;
 pub mod substeps;
+pub mod switched_observer;
 pub mod tuning;
 
 use crate::emit::lower::literal;
@@ -40,6 +42,21 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
             return Err(syn::Error::new(spec.span, format!("`dkf`: {reason}")));
         }
     }
+
+    if let Some(spec) = &model.generate.polynomial_kf {
+        let mut probe = mg.clone();
+        if let Err(reason) = crate::symbolic::polynomial::check_family(model, spec, &mut probe) {
+            return Err(syn::Error::new(
+                spec.span,
+                format!("`polynomial_kf`: {reason}"),
+            ));
+        }
+    }
+
+    let switched = match &model.generate.switched_observer {
+        Some(spec) => Some(switched_observer::designs(model, spec, &mg)?),
+        None => None,
+    };
 
     let mut ops_items = Vec::new();
     let mut primary_fns = Vec::new();
@@ -92,6 +109,29 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
                 ));
                 tokens.extend(dkf.tokens);
             }
+        }
+        if let Some(spec) = &model.generate.polynomial_kf {
+            let kf = polynomial_kf::emit_polynomial_kf(model, spec, scalar);
+            ops_items.push(named_ops_item(
+                "POLYNOMIAL_KF_STEP_OPS",
+                "PolynomialKf::step (recursive)",
+                kf.step_ops,
+            ));
+            ops_items.push(named_ops_item(
+                "POLYNOMIAL_KF_FIT_OPS",
+                "PolynomialKf::step (re-initialising)",
+                kf.fit_ops,
+            ));
+            tokens.extend(kf.tokens);
+        }
+        if let Some((regimes, designs)) = &switched {
+            let code = switched_observer::emit_switched_observers(model, regimes, designs, scalar);
+            ops_items.push(named_ops_item(
+                "SWITCHED_OBSERVER_STEP_OPS",
+                "the switched observers' step",
+                code.step_ops,
+            ));
+            tokens.extend(code.tokens);
         }
         if let Some(spec) = &model.generate.lqr {
             let lqr = lqr::emit_lqr(model, spec, &mg, scalar);

@@ -7,6 +7,8 @@ pub mod graph;
 pub mod kalman;
 pub mod linalg;
 pub mod model_graph;
+pub mod polynomial;
+pub mod switched;
 pub mod window;
 
 pub use diff::Differentiator;

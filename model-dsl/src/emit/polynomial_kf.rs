@@ -1,0 +1,381 @@
+//! The polynomial Kalman filter (Shults, Brubaker and Lee): the recursive step of
+//! [`crate::symbolic::polynomial::step`] lowered to straight-line code, and the periodic
+//! re-initialisation from the window fit whose constant matrix is computed at generation
+//! time. The window is a shift register (destructured, never indexed); the counters are
+//! floats (exact below 2^24), so the code has no integer arithmetic.
+
+use super::code::{guard_pivots, pivot_names, unpack_symmetric, INNOVATION};
+use super::ekf::{finiteness_probe, model_names, packed_vars};
+use super::lower::{literal, Lowered, Lowerer, OpCount};
+use super::names::{ident, TempNamer};
+use crate::model::{Model, PolynomialKfSpec, Scalar};
+use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed};
+use crate::symbolic::polynomial::{self, WindowFit};
+use crate::symbolic::{Graph, NodeId};
+use proc_macro2::{Literal, TokenStream};
+use quote::quote;
+
+/// Generated polynomial KF and its costs.
+pub struct PolynomialKfCode {
+    /// The `PolynomialKf` type.
+    pub tokens: TokenStream,
+    /// Arithmetic of a recursive step.
+    pub step_ops: OpCount,
+    /// Arithmetic of a re-initialising step (the window fit).
+    pub fit_ops: OpCount,
+}
+
+/// The `PolynomialKf` of `model` in `scalar`.
+pub fn emit_polynomial_kf(
+    model: &Model,
+    spec: &PolynomialKfSpec,
+    scalar: Scalar,
+) -> PolynomialKfCode {
+    let avoid = model_names(model);
+    let taken = |name: &str| avoid.iter().any(|a| a == name);
+    let window = WindowNames::new(spec.window, &taken);
+    let fit = polynomial::window_fit(spec);
+    let fit_code = fit_branch(&avoid, &fit, &window.new, scalar);
+    let fit_ops = fit_code.ops;
+    let kf = recursive_step(model, spec, &window.measured, scalar);
+    let step_ops = kf.ops;
+    let ty = ident(scalar.type_name());
+    let [n_len, np_len, w_len] =
+        [spec.order + 1, packed_len(spec.order + 1), spec.window].map(Literal::usize_unsuffixed);
+    let constants = associated_constants(spec, &fit, scalar);
+    let accessors = accessors(spec, scalar);
+    let step = step_method(spec, &fit, &window, fit_code, kf, scalar);
+    let tokens = quote! {
+        /// Polynomial Kalman filter (Shults, Brubaker and Lee, "A fast algorithm for control
+        /// and estimation using a polynomial state-space structure"): the state
+        /// `x = [z, T z', .., T^m/m! z^(m)]` of eq. (2) follows `x[n+1] = Phi(1) x[n]`
+        /// (eq. 3-4) with process noise `f I` (the fading factor `f`) and measurement
+        /// variance `sigma^2` (eq. 5-9, Joseph form). Every `REINIT_EVERY` samples, once
+        /// its window is full, it is re-initialised by the non-recursive filter: the
+        /// least-squares polynomial through the last `WINDOW` samples, `x = FIT_GAIN y`
+        /// (a constant matrix computed when the code was generated), with the fit's
+        /// covariance `FIT_COVARIANCE = sigma^2 FIT_GAIN FIT_GAIN'`.
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct PolynomialKf {
+            x: [#ty; #n_len],
+            p: [#ty; #np_len],
+            window: [#ty; #w_len],
+            filled: #ty,
+            since: #ty,
+        }
+
+        impl PolynomialKf {
+            #constants
+            #accessors
+            #step
+        }
+    };
+    PolynomialKfCode {
+        tokens,
+        step_ops,
+        fit_ops,
+    }
+}
+
+/// The names of the window's entries in the step: as stored (`w1` oldest) and after this
+/// sample (the oldest drops out, the measurement comes in).
+struct WindowNames {
+    old: Vec<String>,
+    new: Vec<String>,
+    measured: String,
+}
+
+impl WindowNames {
+    fn new(window: usize, taken: &dyn Fn(&str) -> bool) -> WindowNames {
+        let old: Vec<String> = (1..=window)
+            .map(|i| fresh(&format!("w{i}"), taken))
+            .collect();
+        let measured = fresh("y_measured", taken);
+        let new = old[1..].iter().cloned().chain([measured.clone()]).collect();
+        WindowNames { old, new, measured }
+    }
+}
+
+/// A matrix as a nested array literal.
+fn matrix_literal(m: &crate::numerics::Mat, scalar: Scalar) -> TokenStream {
+    let rows = m.to_rows();
+    let rows = rows.iter().map(|row| {
+        let row = row.iter().map(|&v| literal(v, scalar));
+        quote! { [#(#row),*] }
+    });
+    quote! { [#(#rows),*] }
+}
+
+/// `ORDER`, `WINDOW`, `REINIT_EVERY`, `SAMPLE_PERIOD`, `FIT_GAIN`, `FIT_COVARIANCE`.
+fn associated_constants(spec: &PolynomialKfSpec, fit: &WindowFit, scalar: Scalar) -> TokenStream {
+    let ty = ident(scalar.type_name());
+    let [n_len, w_len] = [spec.order + 1, spec.window].map(Literal::usize_unsuffixed);
+    let order = Literal::usize_unsuffixed(spec.order);
+    let reinit = Literal::u32_unsuffixed(spec.reinit_every);
+    let dt = literal(spec.dt, scalar);
+    let (fit_gain, fit_cov) = (
+        matrix_literal(&fit.gain, scalar),
+        matrix_literal(&fit.covariance, scalar),
+    );
+    quote! {
+        /// Order `m` of the polynomial.
+        pub const ORDER: usize = #order;
+        /// Samples in the re-initialisation window.
+        pub const WINDOW: usize = #w_len;
+        /// Samples between re-initialisations.
+        pub const REINIT_EVERY: u32 = #reinit;
+        /// Sample period `T` [s].
+        pub const SAMPLE_PERIOD: #ty = #dt;
+        /// The window fit, `x = FIT_GAIN [y[k-N+1], .., y[k]]` (oldest sample first):
+        /// the pseudo-inverse of the polynomial's design matrix at the newest sample.
+        pub const FIT_GAIN: [[#ty; #w_len]; #n_len] = #fit_gain;
+        /// The covariance of the window fit, `sigma^2 FIT_GAIN FIT_GAIN'`.
+        pub const FIT_COVARIANCE: [[#ty; #n_len]; #n_len] = #fit_cov;
+    }
+}
+
+/// `new`, `state`, `derivatives` and `covariance`.
+fn accessors(spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStream {
+    let n = spec.order + 1;
+    let ty = ident(scalar.type_name());
+    let [n_len, w_len] = [n, spec.window].map(Literal::usize_unsuffixed);
+    let zero = literal(0.0, scalar);
+    let x_idents: Vec<proc_macro2::Ident> = (0..n).map(|j| ident(&format!("x{j}"))).collect();
+    let derivatives = x_idents.iter().zip(derivative_scales(spec)).map(|(x, s)| {
+        if s == 1.0 {
+            quote! { #x }
+        } else {
+            let s = literal(s, scalar);
+            quote! { #s * #x }
+        }
+    });
+    let unpack_p = unpack_symmetric("p", n);
+    let pack_p0 = super::code::pack_upper("p0", n);
+    quote! {
+        /// A filter from the estimate `x0` (scaled as the state) and covariance `p0`
+        /// (only its upper triangle is read), with an empty window: it runs the
+        /// recursive filter from this prior until its first re-initialisation.
+        #[must_use]
+        pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len]) -> PolynomialKf {
+            PolynomialKf { x: x0, p: #pack_p0, window: [#zero; #w_len], filled: #zero, since: #zero }
+        }
+
+        /// The state estimate, scaled as eq. (2): `[z, T z', .., T^m/m! z^(m)]`.
+        #[must_use]
+        pub fn state(&self) -> [#ty; #n_len] {
+            self.x
+        }
+
+        /// The position and its derivatives in physical units:
+        /// `[z, dz/dt, .., d^m z/dt^m]`, from `d^j z/dt^j = j!/T^j x_j`.
+        #[must_use]
+        pub fn derivatives(&self) -> [#ty; #n_len] {
+            let [#(#x_idents),*] = self.x;
+            [#(#derivatives),*]
+        }
+
+        /// The estimate's covariance (of the scaled state).
+        #[must_use]
+        pub fn covariance(&self) -> [[#ty; #n_len]; #n_len] {
+            #unpack_p
+        }
+    }
+}
+
+/// `step`: the window shift, the re-initialising branch, the recursive filter.
+fn step_method(
+    spec: &PolynomialKfSpec,
+    fit: &WindowFit,
+    window: &WindowNames,
+    fit_code: FitCode,
+    kf: RecursiveCode,
+    scalar: Scalar,
+) -> TokenStream {
+    let n = spec.order + 1;
+    let ty = ident(scalar.type_name());
+    let lit = |v: f64| literal(v, scalar);
+    let (window_f, reinit_f) = (lit(spec.window as f64), lit(f64::from(spec.reinit_every)));
+    let (zero, one) = (lit(0.0), lit(1.0));
+    let fit_p_packed = (0..n)
+        .flat_map(|i| (i..n).map(move |j| (i, j)))
+        .map(|(i, j)| lit(fit.covariance[(i, j)]));
+    let mut old_pattern = vec![quote! { _ }];
+    old_pattern.extend(window.old[1..].iter().map(|w| {
+        let w = ident(w);
+        quote! { #w }
+    }));
+    let new_idents: Vec<proc_macro2::Ident> = window.new.iter().map(|w| ident(w)).collect();
+    let measured = ident(&window.measured);
+    let FitCode {
+        statements: fit_statements,
+        x_values: fit_x,
+        ..
+    } = fit_code;
+    let RecursiveCode {
+        statements,
+        x_values,
+        p_values,
+        probe,
+        ..
+    } = kf;
+    let step_doc = format!(
+        " One sample: the window takes `y`; every {} samples, once the window holds its {} \
+         samples, the estimate and covariance are re-initialised from the window fit, \
+         otherwise the recursive filter runs (eq. 5-9). Rejects a non-finite `y`; leaves \
+         the filter unchanged unless it returns [`Status::Ok`].",
+        spec.reinit_every, spec.window
+    );
+    quote! {
+        #[doc = #step_doc]
+        pub fn step(&mut self, y: #ty) -> Status {
+            if !y.is_finite() {
+                return Status::RejectedInput;
+            }
+            let #measured = y;
+            let [#(#old_pattern),*] = self.window;
+            let filled = if self.filled < #window_f { self.filled + #one } else { self.filled };
+            let since = self.since + #one;
+            if since >= #reinit_f && filled >= #window_f {
+                #(#fit_statements)*
+                self.x = [#(#fit_x),*];
+                self.p = [#(#fit_p_packed),*];
+                self.window = [#(#new_idents),*];
+                self.filled = filled;
+                self.since = #zero;
+                return Status::Ok;
+            }
+            #(#statements)*
+            if !(#probe).is_finite() {
+                return Status::NonFinite;
+            }
+            self.x = [#(#x_values),*];
+            self.p = [#(#p_values),*];
+            self.window = [#(#new_idents),*];
+            self.filled = filled;
+            self.since = since;
+            Status::Ok
+        }
+    }
+}
+
+/// `j! / T^j`, the factor from the scaled state to the `j`-th derivative.
+fn derivative_scales(spec: &PolynomialKfSpec) -> Vec<f64> {
+    let mut factorial = 1.0;
+    (0..=spec.order)
+        .map(|j| {
+            if j > 0 {
+                factorial *= j as f64;
+            }
+            factorial / spec.dt.powi(j as i32)
+        })
+        .collect()
+}
+
+/// The lowered window fit.
+struct FitCode {
+    statements: Vec<TokenStream>,
+    x_values: Vec<TokenStream>,
+    ops: OpCount,
+}
+
+/// `x = FIT_GAIN window`, unrolled with literal coefficients.
+fn fit_branch(avoid: &[String], fit: &WindowFit, window: &[String], scalar: Scalar) -> FitCode {
+    let mut g = Graph::new();
+    let vars: Vec<NodeId> = window.iter().map(|w| g.var(w)).collect();
+    let x: Vec<NodeId> = fit
+        .gain
+        .to_rows()
+        .iter()
+        .map(|row| {
+            let coefficients: Vec<NodeId> = row.iter().map(|&v| g.num(v)).collect();
+            crate::symbolic::linalg::dot(&mut g, &coefficients, &vars)
+        })
+        .collect();
+    let namer = TempNamer::new(
+        avoid
+            .iter()
+            .map(String::as_str)
+            .chain(window.iter().map(String::as_str)),
+    );
+    let mut lowerer = Lowerer::new(&g, scalar, namer, &x);
+    let x_values = lowerer.segment(&x);
+    let Lowered {
+        statements, ops, ..
+    } = lowerer.finish();
+    FitCode {
+        statements,
+        x_values,
+        ops,
+    }
+}
+
+/// The lowered recursive step.
+struct RecursiveCode {
+    statements: Vec<TokenStream>,
+    x_values: Vec<TokenStream>,
+    p_values: Vec<TokenStream>,
+    probe: TokenStream,
+    ops: OpCount,
+}
+
+/// Prediction and Joseph-form update, reading `self.x` and `self.p` at first use.
+fn recursive_step(
+    model: &Model,
+    spec: &PolynomialKfSpec,
+    measured: &str,
+    scalar: Scalar,
+) -> RecursiveCode {
+    let n = spec.order + 1;
+    let avoid = model_names(model);
+    let mut g = Graph::new();
+    let x_vars: Vec<NodeId> = model.states.iter().map(|s| g.var(&s.name)).collect();
+    let p_vars = packed_vars(&mut g, "p", n, &avoid);
+    let measured = g.var(measured);
+    let p = symmetric_from_packed(&p_vars, n);
+    let update = polynomial::step(&mut g, spec, &x_vars, &p, measured, |g, j| {
+        g.var(&pivot_names(1, j, INNOVATION, "").1)
+    });
+    let probe = finiteness_probe(&mut g, &update.x, &update.p);
+    let p_packed = packed_upper(&update.p);
+    let results: Vec<NodeId> = update.x.iter().chain(&p_packed).copied().collect();
+    let mut roots = results.clone();
+    roots.push(probe);
+    roots.extend(&update.pivots);
+    let namer = TempNamer::new(avoid.iter().map(String::as_str));
+    let mut lowerer = Lowerer::new(&g, scalar, namer, &roots);
+    lowerer.read_lazily(&quote! { self.x }, &x_vars);
+    lowerer.read_lazily(&quote! { self.p }, &p_vars);
+    for (&node, state) in update.x.iter().zip(&model.states) {
+        lowerer.prefer_name(node, &format!("{}_new", state.name));
+    }
+    let names = vec![pivot_names(1, 0, INNOVATION, "").0];
+    guard_pivots(
+        &mut lowerer,
+        &update.pivots,
+        &update.reciprocals,
+        &names,
+        &quote! { return Status::NonPositiveInnovation; },
+        scalar,
+    );
+    let probe = lowerer.segment(&[probe]).remove(0);
+    let values = lowerer.segment(&results);
+    let Lowered {
+        statements, ops, ..
+    } = lowerer.finish();
+    let (x_values, p_values) = values.split_at(n);
+    RecursiveCode {
+        statements,
+        x_values: x_values.to_vec(),
+        p_values: p_values.to_vec(),
+        probe,
+        ops,
+    }
+}
+
+fn fresh(name: &str, taken: &dyn Fn(&str) -> bool) -> String {
+    let mut name = name.to_owned();
+    while taken(&name) {
+        name.push('_');
+    }
+    name
+}
