@@ -163,6 +163,19 @@ fn nothing(u_prev: f32, y: f32) -> f32 {
     u_prev + y
 }
 
+/// Marks the start of measured calls for `cargo xtask`'s instruction trace, which
+/// follows each kernel call between the two markers to estimate its cycles.
+#[inline(never)]
+fn trace_begin() {
+    black_box(1_u32);
+}
+
+/// Marks the end of measured calls (see [`trace_begin`]).
+#[inline(never)]
+fn trace_end() {
+    black_box(2_u32);
+}
+
 /// Instructions per call of `kernel` over the measured samples, harness loop excluded.
 fn per_call(clock: &Clock, mut kernel: impl FnMut(f32, f32)) -> u32 {
     let samples = &SEQUENCE[WARM_UP..WARM_UP + MEASURED];
@@ -171,11 +184,13 @@ fn per_call(clock: &Clock, mut kernel: impl FnMut(f32, f32)) -> u32 {
             black_box(nothing(black_box(window[0].0), black_box(window[1].1)));
         }
     });
+    trace_begin();
     let total = clock.instructions(|| {
         for window in samples.windows(2) {
             kernel(black_box(window[0].0), black_box(window[1].1));
         }
     });
+    trace_end();
     let calls = (samples.len() - 1) as u32;
     (total.saturating_sub(overhead) + calls / 2) / calls
 }

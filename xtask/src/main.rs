@@ -4,14 +4,18 @@
 //! the checks need (the `thumbv7em-none-eabihf` target, `qemu-system-arm` and the ARM
 //! binutils), runs formatting, clippy and the whole test suite, builds the generated code
 //! for the Cortex-M4F, runs the firmware under QEMU, fails if its f32 estimates disagree
-//! with the host's f64 run, and prints the cost table. `cargo xtask cost` prints the table.
+//! with the host's f64 run, and prints the cost table (instructions counted by the firmware,
+//! cycles estimated from a second, traced run). `cargo xtask cost` prints the table.
 
 #![forbid(unsafe_code)]
 
 mod compare;
 mod cost;
 mod firmware;
+mod program;
 mod setup;
+mod timing;
+mod trace;
 
 use clap::{Parser, Subcommand};
 use std::path::Path;
@@ -117,7 +121,7 @@ fn test() -> Result<(), String> {
     let report = firmware::run(Path::new(TARGETS))?;
     let host = compare::host_run(SEQUENCE_SAMPLES);
     println!("xtask: {}", compare::check(&report.estimates, &host)?);
-    print!("{}", cost::table(&report.costs, Path::new(FIRMWARE_ELF))?);
+    print!("{}", cost_table(&report)?);
     Ok(())
 }
 
@@ -126,7 +130,17 @@ fn cost() -> Result<String, String> {
     setup::rust_target(MCU_TARGET)?;
     setup::debian_commands(FIRMWARE_TOOLS)?;
     let report = firmware::run(Path::new(TARGETS))?;
-    cost::table(&report.costs, Path::new(FIRMWARE_ELF))
+    cost_table(&report)
+}
+
+/// The cost table of a firmware run: its counts, and the cycles of a traced second run.
+fn cost_table(report: &firmware::Report) -> Result<String, String> {
+    let elf = Path::new(FIRMWARE_ELF);
+    let program = program::Program::read(elf)?;
+    println!("xtask: the firmware again, traced instruction by instruction (cycle estimates)");
+    let wrappers = cost::wrappers(&report.costs, &program);
+    let traced = trace::run(elf, &program, &wrappers)?;
+    cost::table(&report.costs, &program, &traced)
 }
 
 fn cargo() -> Command {
