@@ -78,6 +78,8 @@ const TRACE_SLACK: f64 = 8.0;
 /// The table, as text. Fails if a kernel is missing or if the trace and the instruction
 /// counter disagree (the trace then did not follow the calls the counter measured).
 pub fn table(
+    build: &str,
+    full: bool,
     costs: &[Cost],
     program: &Program,
     traced: &BTreeMap<String, Traced>,
@@ -119,7 +121,11 @@ pub fn table(
             stack: cost.stack,
         });
     }
-    Ok(render(&rows, program))
+    if full {
+        Ok(render(build, &rows, program))
+    } else {
+        Ok(format!("The firmware {build}:\n{}", main_table(&rows)))
+    }
 }
 
 /// One side of a row: generated code or the baseline.
@@ -138,17 +144,11 @@ struct Row<'k> {
     stack: (u32, u32),
 }
 
-fn render(rows: &[Row], program: &Program) -> String {
+/// The table of instructions, cycles and microseconds.
+fn main_table(rows: &[Row]) -> String {
     let us = |cycles: f64| cycles / CLOCK_MHZ;
     let show = |v: Option<u32>| v.map_or("-".to_owned(), |v| v.to_string());
     let mut out = String::new();
-    out.push_str(
-        "Cortex-M4F under QEMU (mps2-an386): f32, opt-level 3, fat LTO. Instructions per call in\n\
-         steady state (SysTick under -icount, call overhead excluded); cycles estimated from an\n\
-         instruction trace of the same calls, each instruction weighted by the Cortex-M4 TRM's\n\
-         timings (zero wait states, taken branch 3 cycles: xtask/src/timing.rs); microseconds\n\
-         at 168 MHz, the paper's STM32F407 clock. gen: generated code, nalg: nalgebra.\n\n",
-    );
     out.push_str(&format!(
         "{:<28} {:>15} {:>15} {:>15}   {:>5} {:>6}   {:>9} {:>8}\n",
         "",
@@ -189,6 +189,20 @@ fn render(rows: &[Row], program: &Program) -> String {
             peer,
         ));
     }
+    out
+}
+
+fn render(build: &str, rows: &[Row], program: &Program) -> String {
+    let us = |cycles: f64| cycles / CLOCK_MHZ;
+    let mut out = format!("The firmware {build}.\n");
+    out.push_str(
+        "Cortex-M4F under QEMU (mps2-an386): f32, opt-level 3, fat LTO. Instructions per call in\n\
+         steady state (SysTick under -icount, call overhead excluded); cycles estimated from an\n\
+         instruction trace of the same calls, each instruction weighted by the Cortex-M4 TRM's\n\
+         timings (zero wait states, taken branch 3 cycles: xtask/src/timing.rs); microseconds\n\
+         at 168 MHz, the paper's STM32F407 clock. gen: generated code, nalg: nalgebra.\n\n",
+    );
+    out.push_str(&main_table(rows));
     out.push_str(&format!(
         "\n{:<28} {:>9} {:>9}   {:>9} {:>9}   {:>10}\n",
         "kernel", "text gen", "text nalg", "stack gen", "stack nalg", "cyc/ins gen"

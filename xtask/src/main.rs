@@ -25,7 +25,6 @@ use std::process::{Command, ExitCode};
 const MCU_TARGET: &str = "thumbv7em-none-eabihf";
 /// The firmware crate, and the image it builds.
 const TARGETS: &str = "targets";
-const FIRMWARE_ELF: &str = "targets/target/thumbv7em-none-eabihf/release/firmware";
 /// Samples in the firmware's embedded sequence (`targets/build.rs`).
 const SEQUENCE_SAMPLES: usize = 1000;
 /// Commands the firmware checks run, with the Debian packages that provide them.
@@ -117,30 +116,66 @@ fn test() -> Result<(), String> {
             .args(["clippy", "--release", "--", "-D", "warnings"])
             .current_dir(TARGETS),
     )?;
-    println!("xtask: the firmware under QEMU, against the host");
-    let report = firmware::run(Path::new(TARGETS))?;
     let host = compare::host_run(SEQUENCE_SAMPLES);
-    println!("xtask: {}", compare::check(&report.estimates, &host)?);
-    print!("{}", cost_table(&report)?);
+    let mut tables = Vec::new();
+    for build in firmware::BUILDS {
+        println!(
+            "xtask: the firmware {} under QEMU, against the host",
+            build.name
+        );
+        let report = firmware::run(Path::new(TARGETS), build)?;
+        println!("xtask: {}", compare::check(&report.estimates, &host)?);
+        println!("xtask: {}", check_fused(&report, build)?);
+        tables.push(cost_table(&report, build)?);
+    }
+    print!("{}", tables.join("\n"));
     Ok(())
+}
+
+/// Checks what the build does with `a * b + c`: in the FMA build, exactly what
+/// `libm::fmaf` gives (one rounding); otherwise, not always (rounded after the multiply).
+fn check_fused(report: &firmware::Report, build: firmware::Build) -> Result<String, String> {
+    let (differing, of) = report
+        .fused
+        .ok_or("the firmware did not compare multiply-adds with libm::fmaf")?;
+    match (build.fused, differing) {
+        (true, 0) => Ok(format!(
+            "all {of} multiply-adds equal libm::fmaf bit for bit (vfma.f32)"
+        )),
+        (false, d) if d > 0 => Ok(format!(
+            "{d} of {of} multiply-adds differ from libm::fmaf (vmla.f32, two roundings)"
+        )),
+        _ => Err(format!(
+            "the firmware {}: {differing} of {of} multiply-adds differ from libm::fmaf",
+            build.name
+        )),
+    }
 }
 
 /// The firmware's checks and their cost table.
 fn cost() -> Result<String, String> {
     setup::rust_target(MCU_TARGET)?;
     setup::debian_commands(FIRMWARE_TOOLS)?;
-    let report = firmware::run(Path::new(TARGETS))?;
-    cost_table(&report)
+    let mut tables = Vec::new();
+    for build in firmware::BUILDS {
+        let report = firmware::run(Path::new(TARGETS), build)?;
+        tables.push(cost_table(&report, build)?);
+    }
+    Ok(tables.join("\n"))
 }
 
 /// The cost table of a firmware run: its counts, and the cycles of a traced second run.
-fn cost_table(report: &firmware::Report) -> Result<String, String> {
-    let elf = Path::new(FIRMWARE_ELF);
-    let program = program::Program::read(elf)?;
-    println!("xtask: the firmware again, traced instruction by instruction (cycle estimates)");
+fn cost_table(report: &firmware::Report, build: firmware::Build) -> Result<String, String> {
+    let elf = build.elf(Path::new(TARGETS));
+    let program = program::Program::read(&elf)?;
+    println!(
+        "xtask: the firmware {} again, traced instruction by instruction (cycle estimates)",
+        build.name
+    );
     let wrappers = cost::wrappers(&report.costs, &program);
-    let traced = trace::run(elf, &program, &wrappers)?;
-    cost::table(&report.costs, &program, &traced)
+    let traced = trace::run(&elf, &program, &wrappers)?;
+    // The default build in full; the others, their main table.
+    cost::table(build.name, !build.fused, &report.costs, &program, &traced)
 }
 
 fn cargo() -> Command {
