@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 pub mod cantilever_sim;
 pub mod reference;
+pub mod scale;
 pub mod tuning;
 
 /// Names of the demo models, as their files in `generated-demo/models/` are named.

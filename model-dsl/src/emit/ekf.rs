@@ -330,6 +330,7 @@ fn method(
     } = lowerer.finish();
     let (x_values, p_values) = values.split_at(n);
     let commit = commit_or_non_finite(&probe, x_values, p_values);
+    let statements = super::scopes::scoped(statements, &commit);
 
     let graph = &g.graph;
     let ty = ident(scalar.type_name());

@@ -9,6 +9,15 @@ use quote::quote;
 use std::collections::BTreeSet;
 use std::str::FromStr;
 
+/// The longest array [`Lowerer::read_lazily`] reads one name at a time (a 10-state
+/// covariance, packed, has 55 entries).
+pub const LAZY_READ_MAX_LEN: usize = 64;
+
+/// The deepest an expression is written inline before a part of it is named by a `let`:
+/// a 100-term sum nested to the right would otherwise be 100 parentheses deep, which
+/// rustc's parser (and ours, when the code is formatted) recurses through.
+const MAX_INLINE_DEPTH: u32 = 24;
+
 /// Arithmetic a generated function performs, counted from the emitted code.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct OpCount {
@@ -87,8 +96,12 @@ pub struct Lowerer<'g> {
     statements: Vec<TokenStream>,
     used_vars: BTreeSet<VarId>,
     ops: OpCount,
-    /// Statements that read a variable, emitted just before its first use.
-    reads: std::collections::HashMap<NodeId, TokenStream>,
+    /// Statements that read variables, emitted just before the first use of any variable
+    /// they name; `read_of` maps a variable to its statement.
+    reads: Vec<Option<TokenStream>>,
+    /// How deeply each emitted node nests where it is written inline (0 once named).
+    inline_depth: Vec<u32>,
+    read_of: std::collections::HashMap<NodeId, usize>,
     /// Nodes the use counts have reached.
     reached: Vec<bool>,
     /// Variables that stand for a value computed here (see [`Lowerer::define`]).
@@ -107,7 +120,9 @@ impl<'g> Lowerer<'g> {
             statements: Vec::new(),
             used_vars: BTreeSet::new(),
             ops: OpCount::default(),
-            reads: std::collections::HashMap::new(),
+            reads: Vec::new(),
+            inline_depth: vec![0; graph.len()],
+            read_of: std::collections::HashMap::new(),
             reached: vec![false; graph.len()],
             definitions: std::collections::HashMap::new(),
         };
@@ -158,20 +173,45 @@ impl<'g> Lowerer<'g> {
     /// Reads each of `vars` from the array `source` (`self.p`, say) where it is first used,
     /// as `let [_, _, p13, ..] = self.p;`, rather than all of them up front: a value read
     /// early stays live (in a register, or spilled to the stack) until its use.
+    ///
+    /// One-name patterns grow with the position they read, so an array longer than
+    /// [`LAZY_READ_MAX_LEN`] is read by one pattern naming every variable the function uses,
+    /// at the first use of any of them: code stays linear in the array's length (a
+    /// 100-state covariance has 5050 entries), and a filter that large spills regardless.
     pub fn read_lazily(&mut self, source: &TokenStream, vars: &[NodeId]) {
+        let names: Vec<Option<proc_macro2::Ident>> = vars
+            .iter()
+            .map(|&var| match self.graph.node(var) {
+                Node::Var(v) => Some(super::names::ident(&self.graph.var_info(v).name)),
+                _ => None,
+            })
+            .collect();
+        if vars.len() > LAZY_READ_MAX_LEN {
+            let pattern = vars.iter().zip(&names).map(|(&var, name)| match name {
+                Some(name) if self.uses[var.index()] > 0 => quote! { #name },
+                _ => quote! { _ },
+            });
+            self.reads
+                .push(Some(quote! { let [#(#pattern),*] = #source; }));
+            let read = self.reads.len() - 1;
+            for &var in vars {
+                self.read_of.insert(var, read);
+            }
+            return;
+        }
         let len = vars.len();
-        for (position, &var) in vars.iter().enumerate() {
-            let Node::Var(v) = self.graph.node(var) else {
+        for (position, (&var, name)) in vars.iter().zip(&names).enumerate() {
+            let Some(name) = name else {
                 continue;
             };
-            let name = super::names::ident(&self.graph.var_info(v).name);
             let before = (0..position).map(|_| quote! { _ });
             let pattern = if position + 1 == len {
                 quote! { [.., #name] }
             } else {
                 quote! { [#(#before,)* #name, ..] }
             };
-            self.reads.insert(var, quote! { let #pattern = #source; });
+            self.reads.push(Some(quote! { let #pattern = #source; }));
+            self.read_of.insert(var, self.reads.len() - 1);
         }
     }
 
@@ -212,13 +252,14 @@ impl<'g> Lowerer<'g> {
                 self.statements.push(quote! { let #name = #value; });
             } else if let Node::Var(v) = node {
                 self.used_vars.insert(v);
-                if let Some(read) = self.reads.remove(&id) {
-                    self.statements.push(read);
-                }
+                let read = self.read_of.get(&id).and_then(|&i| self.reads[i].take());
+                self.statements.extend(read);
             }
             let shared = self.uses[id.index()] > 1 || self.graph.name_hint(id).is_some();
-            let needs_let =
-                !self.graph.is_leaf(id) && (shared || matches!(node, Node::Select { .. }));
+            let depth = self.inline_depth_of(node);
+            let needs_let = !self.graph.is_leaf(id)
+                && (shared || matches!(node, Node::Select { .. }) || depth > MAX_INLINE_DEPTH);
+            self.inline_depth[id.index()] = if needs_let { 0 } else { depth };
             if needs_let {
                 let (value, _) = self.render_node(node);
                 let name = self.namer.assign(self.graph, id);
@@ -226,6 +267,14 @@ impl<'g> Lowerer<'g> {
             }
         }
         roots.iter().map(|&r| self.render(r).0).collect()
+    }
+
+    /// How deeply `node` would nest if written inline: one more than its deepest operand
+    /// that is written inline too (leaves and named values count nothing).
+    fn inline_depth_of(&self, node: Node) -> u32 {
+        let children = node.children();
+        let deepest = children.iter().map(|c| self.inline_depth[c.index()]).max();
+        deepest.map_or(0, |d| d + 1)
     }
 
     /// Makes `root` available under a name (a `let` named `name` unless it already has

@@ -8,6 +8,7 @@ pub mod lower;
 pub mod lqr;
 pub mod model_fns;
 pub mod names;
+pub mod scopes;
 pub mod status;
 
 use crate::emit::lower::literal;

@@ -202,6 +202,7 @@ pub fn emit_function(
     } else {
         format!(" Cost: see [`{ops_name}`](super::{ops_name}).")
     };
+    let lets = super::scopes::scoped(lets, &value);
     let tokens = quote! {
         #[doc = #doc]
         #[doc = ""]

@@ -44,6 +44,7 @@ mod kw {
 /// well-formed expressions and doc attributes are collected in the returned diagnostics,
 /// for the checker to report together with its own.
 pub fn parse_model(tokens: TokenStream) -> syn::Result<(ModelDecl, Diagnostics)> {
+    super::limits::check_tokens(&tokens)?;
     let mut diag = Diagnostics::default();
     let decl = (|input: ParseStream| parse_decl(input, &mut diag)).parse2(tokens)?;
     Ok((decl, diag))

@@ -243,6 +243,10 @@ fn parse_expression(text: &str, field: &str, diag: &mut Diagnostics) -> SurfaceE
         kind: SurfaceKind::Number(0.0),
         span: here,
     };
+    if let Err(message) = super::limits::check_expression_text(text) {
+        diag.error(here, format!("{field}: {message}"));
+        return zero;
+    }
     let parsed = match meval::Expr::from_str(text) {
         Ok(parsed) => parsed,
         Err(e) => {

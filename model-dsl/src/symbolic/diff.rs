@@ -11,6 +11,17 @@ pub struct Differentiator {
     memo: HashMap<NodeId, NodeId>,
 }
 
+/// The operands a node's derivative is built from: a piecewise term differentiates its
+/// branches, not its condition.
+fn operands_to_differentiate(node: Node) -> Vec<NodeId> {
+    match node {
+        Node::Select {
+            then, otherwise, ..
+        } => vec![then, otherwise],
+        other => other.children(),
+    }
+}
+
 impl Differentiator {
     /// A differentiator with respect to `var`.
     pub fn new(var: VarId) -> Differentiator {
@@ -22,11 +33,24 @@ impl Differentiator {
 
     /// `d root / d var`. Built with the simplifying constructors, so a derivative that is
     /// structurally zero is the literal zero node.
+    ///
+    /// Works through the nodes in the graph's order (operands first) rather than by
+    /// recursion, so a model whose `let`s chain ten thousand deep cannot exhaust the stack.
     pub fn diff(&mut self, g: &mut Graph, root: NodeId) -> NodeId {
-        if let Some(&d) = self.memo.get(&root) {
-            return d;
+        let pending = g.pending_from(root, operands_to_differentiate, |id| {
+            self.memo.contains_key(&id)
+        });
+        for id in pending {
+            let d = self.diff_node(g, id);
+            self.memo.insert(id, d);
         }
-        let d = match g.node(root) {
+        self.memo[&root]
+    }
+
+    /// The derivative of one node whose operands' derivatives are known.
+    fn diff_node(&mut self, g: &mut Graph, root: NodeId) -> NodeId {
+        let known = |memo: &HashMap<NodeId, NodeId>, id: NodeId| memo[&id];
+        match g.node(root) {
             Node::Num(_) | Node::Named(_) => g.zero(),
             Node::Var(v) => {
                 if v == self.var {
@@ -36,26 +60,26 @@ impl Differentiator {
                 }
             }
             Node::Neg(a) => {
-                let da = self.diff(g, a);
+                let da = known(&self.memo, a);
                 g.neg(da)
             }
             Node::Add(a, b) => {
-                let (da, db) = (self.diff(g, a), self.diff(g, b));
+                let (da, db) = (known(&self.memo, a), known(&self.memo, b));
                 g.add(da, db)
             }
             Node::Sub(a, b) => {
-                let (da, db) = (self.diff(g, a), self.diff(g, b));
+                let (da, db) = (known(&self.memo, a), known(&self.memo, b));
                 g.sub(da, db)
             }
             Node::Mul(a, b) => {
                 // (ab)' = a'b + ab'
-                let (da, db) = (self.diff(g, a), self.diff(g, b));
+                let (da, db) = (known(&self.memo, a), known(&self.memo, b));
                 let (left, right) = (g.mul(da, b), g.mul(a, db));
                 g.add(left, right)
             }
             Node::Div(a, b) => {
                 // (a/b)' = a'/b - a b' / b^2
-                let (da, db) = (self.diff(g, a), self.diff(g, b));
+                let (da, db) = (known(&self.memo, a), known(&self.memo, b));
                 let first = g.div(da, b);
                 let b_squared = g.mul(b, b);
                 let a_db = g.mul(a, db);
@@ -63,9 +87,9 @@ impl Differentiator {
                 g.sub(first, second)
             }
             Node::Call(f, a) => {
-                let da = self.diff(g, a);
+                let da = known(&self.memo, a);
                 if g.is_zero(da) {
-                    return self.remember(root, da);
+                    return da;
                 }
                 let outer = self.derivative_of(g, f, a, root);
                 g.mul(outer, da)
@@ -78,16 +102,10 @@ impl Differentiator {
                 otherwise,
             } => {
                 // Piecewise terms differentiate branch by branch (the kink has measure zero).
-                let (dt, de) = (self.diff(g, then), self.diff(g, otherwise));
+                let (dt, de) = (known(&self.memo, then), known(&self.memo, otherwise));
                 g.select(cmp, lhs, rhs, dt, de)
             }
-        };
-        self.remember(root, d)
-    }
-
-    fn remember(&mut self, root: NodeId, d: NodeId) -> NodeId {
-        self.memo.insert(root, d);
-        d
+        }
     }
 
     /// `f'(a)`, given `call` = `f(a)` so results such as `exp` can reuse it.

@@ -524,6 +524,29 @@ impl Graph {
         }
     }
 
+    /// The nodes `root` depends on through `operands` (itself included) that `done` does
+    /// not already hold, operands first: the order to compute something for each of them
+    /// without recursion. Operands are always earlier nodes, so ascending ids are that order.
+    pub fn pending_from(
+        &self,
+        root: NodeId,
+        operands: impl Fn(Node) -> Vec<NodeId>,
+        done: impl Fn(NodeId) -> bool,
+    ) -> Vec<NodeId> {
+        let mut seen = std::collections::HashSet::new();
+        let mut stack = vec![root];
+        let mut pending = Vec::new();
+        while let Some(id) = stack.pop() {
+            if done(id) || !seen.insert(id) {
+                continue;
+            }
+            pending.push(id);
+            stack.extend(operands(self.node(id)));
+        }
+        pending.sort_unstable();
+        pending
+    }
+
     /// Rebuilds `root` with variables replaced by the nodes `map` gives (memoised).
     pub fn substitute(
         &mut self,
@@ -531,95 +554,62 @@ impl Graph {
         map: &HashMap<VarId, NodeId>,
         memo: &mut HashMap<NodeId, NodeId>,
     ) -> NodeId {
-        if let Some(&done) = memo.get(&root) {
-            return done;
+        for id in self.pending_from(root, Node::children, |id| memo.contains_key(&id)) {
+            let new = |a: NodeId| memo[&a];
+            let result = match self.node(id) {
+                Node::Num(_) | Node::Named(_) => id,
+                Node::Var(v) => map.get(&v).copied().unwrap_or(id),
+                Node::Neg(a) => self.neg(new(a)),
+                Node::Add(a, b) => self.add(new(a), new(b)),
+                Node::Sub(a, b) => self.sub(new(a), new(b)),
+                Node::Mul(a, b) => self.mul(new(a), new(b)),
+                Node::Div(a, b) => self.div(new(a), new(b)),
+                Node::Call(f, a) => self.call(f, new(a)),
+                Node::Select {
+                    cmp,
+                    lhs,
+                    rhs,
+                    then,
+                    otherwise,
+                } => self.select(cmp, new(lhs), new(rhs), new(then), new(otherwise)),
+            };
+            memo.insert(id, result);
         }
-        let mut go = |g: &mut Graph, id| g.substitute(id, map, memo);
-        let result = match self.node(root) {
-            Node::Num(_) | Node::Named(_) => root,
-            Node::Var(v) => map.get(&v).copied().unwrap_or(root),
-            Node::Neg(a) => {
-                let a = go(self, a);
-                self.neg(a)
-            }
-            Node::Add(a, b) => {
-                let (a, b) = (go(self, a), go(self, b));
-                self.add(a, b)
-            }
-            Node::Sub(a, b) => {
-                let (a, b) = (go(self, a), go(self, b));
-                self.sub(a, b)
-            }
-            Node::Mul(a, b) => {
-                let (a, b) = (go(self, a), go(self, b));
-                self.mul(a, b)
-            }
-            Node::Div(a, b) => {
-                let (a, b) = (go(self, a), go(self, b));
-                self.div(a, b)
-            }
-            Node::Call(f, a) => {
-                let a = go(self, a);
-                self.call(f, a)
-            }
-            Node::Select {
-                cmp,
-                lhs,
-                rhs,
-                then,
-                otherwise,
-            } => {
-                let (lhs, rhs) = (go(self, lhs), go(self, rhs));
-                let (then, otherwise) = (go(self, then), go(self, otherwise));
-                self.select(cmp, lhs, rhs, then, otherwise)
-            }
-        };
-        memo.insert(root, result);
-        result
+        memo[&root]
     }
 
     /// Evaluates `root` in `f64` with the given variable values (tests and folding checks).
     pub fn eval(&self, root: NodeId, vars: &dyn Fn(VarId) -> f64) -> f64 {
         let mut values: HashMap<NodeId, f64> = HashMap::new();
-        self.eval_memo(root, vars, &mut values)
-    }
-
-    fn eval_memo(
-        &self,
-        id: NodeId,
-        vars: &dyn Fn(VarId) -> f64,
-        values: &mut HashMap<NodeId, f64>,
-    ) -> f64 {
-        if let Some(&v) = values.get(&id) {
-            return v;
-        }
-        let mut go = |x| self.eval_memo(x, vars, values);
-        let v = match self.node(id) {
-            Node::Num(bits) => f64::from_bits(bits),
-            Node::Named(c) => self.const_info(c).value,
-            Node::Var(v) => vars(v),
-            Node::Neg(a) => -go(a),
-            Node::Add(a, b) => go(a) + go(b),
-            Node::Sub(a, b) => go(a) - go(b),
-            Node::Mul(a, b) => go(a) * go(b),
-            Node::Div(a, b) => go(a) / go(b),
-            Node::Call(f, a) => f.eval(go(a)),
-            Node::Select {
-                cmp,
-                lhs,
-                rhs,
-                then,
-                otherwise,
-            } => {
-                if cmp.holds(go(lhs), go(rhs)) {
-                    go(then)
-                } else {
-                    go(otherwise)
+        for id in self.pending_from(root, Node::children, |_| false) {
+            let value = |a: NodeId| values[&a];
+            let v = match self.node(id) {
+                Node::Num(bits) => f64::from_bits(bits),
+                Node::Named(c) => self.const_info(c).value,
+                Node::Var(v) => vars(v),
+                Node::Neg(a) => -value(a),
+                Node::Add(a, b) => value(a) + value(b),
+                Node::Sub(a, b) => value(a) - value(b),
+                Node::Mul(a, b) => value(a) * value(b),
+                Node::Div(a, b) => value(a) / value(b),
+                Node::Call(f, a) => f.eval(value(a)),
+                Node::Select {
+                    cmp,
+                    lhs,
+                    rhs,
+                    then,
+                    otherwise,
+                } => {
+                    if cmp.holds(value(lhs), value(rhs)) {
+                        value(then)
+                    } else {
+                        value(otherwise)
+                    }
                 }
-            }
-        };
-        values.insert(id, v);
-        v
+            };
+            values.insert(id, v);
+        }
+        values[&root]
     }
 }
 

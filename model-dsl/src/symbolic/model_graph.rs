@@ -97,6 +97,13 @@ impl ModelGraph {
     /// The right-hand sides of the dynamics at time `t` and physical states `states`.
     fn rhs(&mut self, model: &Model, t: NodeId, states: &[NodeId]) -> Vec<NodeId> {
         let mut env = Env::at(model, t, states.to_vec());
+        // Intermediates in the order they are written (each reads only earlier ones), so
+        // lowering one never recurses through a chain of them.
+        for (i, local) in model.locals.iter().enumerate() {
+            let node = self.lower(model, &local.expr, &mut env);
+            self.graph.set_name_hint(node, &local.name);
+            env.locals[i] = Some(node);
+        }
         model
             .dynamics
             .rhs

@@ -1,0 +1,170 @@
+//! Groups a long run of generated statements into blocks.
+//!
+//! Every `let` opens a scope nested in the one before it. rustc's debug information walks
+//! those scopes recursively (LLVM's `DwarfCompileUnit::createAndAddScopeChildren`), so a
+//! function of some five thousand `let`s (the step of a 100-state EKF) overflows the
+//! compiler's stack in a debug build. Grouping the statements into blocks of at most
+//! [`BLOCK_LEN`], each handing on the names later code reads,
+//! `let [a, b] = { let t = ..; let a = ..; let b = ..; [a, b] };`, keeps the nesting
+//! near `BLOCK_LEN + statements / BLOCK_LEN`. Every name handed on is a scalar, so an
+//! array carries them (rustc checks a 250-element tuple far more slowly). Short functions
+//! are left exactly as they are.
+
+use proc_macro2::{Ident, TokenStream, TokenTree};
+use quote::quote;
+use std::collections::HashSet;
+
+/// The most statements one block holds, and the longest run left ungrouped.
+pub const BLOCK_LEN: usize = 1024;
+
+/// A statement binding more names than this is never put in a block.
+const WIDE_STATEMENT: usize = 16;
+
+/// `statements` as they are when there are at most [`BLOCK_LEN`] of them, else grouped into
+/// blocks that hand on every name a later statement or `tail` (the rest of the function
+/// body) reads.
+pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStream> {
+    if statements.len() <= BLOCK_LEN {
+        return statements;
+    }
+    let defined: Vec<Vec<Ident>> = statements.iter().map(defined_names).collect();
+    let mut read_later: HashSet<String> = HashSet::new();
+    read_names(tail.clone(), &mut read_later);
+    // Walking backwards, a block hands on what it defines that is read after it. A
+    // statement binding many names at once (reading a whole covariance) stays outside any
+    // block: handing its thousands of names on through an array costs rustc far more
+    // than the one scope it opens.
+    let mut blocks = Vec::new();
+    let mut end = statements.len();
+    while end > 0 {
+        if defined[end - 1].len() > WIDE_STATEMENT {
+            blocks.push(statements[end - 1].clone());
+            read_names(statements[end - 1].clone(), &mut read_later);
+            end -= 1;
+            continue;
+        }
+        let floor = end.saturating_sub(BLOCK_LEN);
+        let start = (floor..end)
+            .rev()
+            .find(|&i| defined[i].len() > WIDE_STATEMENT)
+            .map_or(floor, |wide| wide + 1);
+        let exported: Vec<&Ident> = defined[start..end]
+            .iter()
+            .flatten()
+            .filter(|name| read_later.contains(&name.to_string()))
+            .collect();
+        let body = &statements[start..end];
+        blocks.push(match exported.as_slice() {
+            [] => quote! { { #(#body)* } },
+            [one] => quote! { let #one = { #(#body)* #one }; },
+            many => quote! { let [#(#many),*] = { #(#body)* [#(#many),*] }; },
+        });
+        for statement in body {
+            read_names(statement.clone(), &mut read_later);
+        }
+        end = start;
+    }
+    blocks.reverse();
+    blocks
+}
+
+/// The names a statement binds with its top-level `let`s (a guarded reciprocal is an `if`
+/// and a `let` in one statement).
+fn defined_names(statement: &TokenStream) -> Vec<Ident> {
+    let mut names = Vec::new();
+    let mut in_pattern = false;
+    for token in statement.clone() {
+        match token {
+            TokenTree::Ident(ident) if !in_pattern && ident == "let" => in_pattern = true,
+            TokenTree::Punct(p) if in_pattern && p.as_char() == '=' => in_pattern = false,
+            other if in_pattern => pattern_names(other, &mut names),
+            _ => {}
+        }
+    }
+    names
+}
+
+/// Identifiers bound by a pattern: every identifier but `_` and `mut`.
+fn pattern_names(token: TokenTree, names: &mut Vec<Ident>) {
+    match token {
+        TokenTree::Ident(ident) if ident != "mut" && ident != "_" => names.push(ident),
+        TokenTree::Group(group) => {
+            for inner in group.stream() {
+                pattern_names(inner, names);
+            }
+        }
+        _ => {}
+    }
+}
+
+/// Adds the names `tokens` reads: identifiers that are not a field or method after `.`
+/// nor a path segment after `::`.
+fn read_names(tokens: TokenStream, names: &mut HashSet<String>) {
+    let mut after_accessor = false;
+    let mut previous_colon = false;
+    for token in tokens {
+        match &token {
+            TokenTree::Ident(ident) if !after_accessor => {
+                names.insert(ident.to_string());
+            }
+            TokenTree::Group(group) => read_names(group.stream(), names),
+            _ => {}
+        }
+        let (dot, colon) = match &token {
+            TokenTree::Punct(p) => (p.as_char() == '.', p.as_char() == ':'),
+            _ => (false, false),
+        };
+        after_accessor = dot || (colon && previous_colon);
+        previous_colon = colon;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn statements(n: usize) -> Vec<TokenStream> {
+        let mut out = vec![quote! { if !(d > 0.0) { return; } let [a0, _, b0, ..] = self.p; }];
+        for i in 1..n {
+            let (prev, this) = (
+                quote::format_ident!("a{}", i - 1),
+                quote::format_ident!("a{i}"),
+            );
+            out.push(quote! { let #this = #prev * b0; });
+        }
+        out
+    }
+
+    #[test]
+    fn short_runs_are_left_alone() {
+        let before = statements(BLOCK_LEN);
+        let after = scoped(before.clone(), &quote! { a0 });
+        assert_eq!(
+            before.iter().map(ToString::to_string).collect::<Vec<_>>(),
+            after.iter().map(ToString::to_string).collect::<Vec<_>>()
+        );
+    }
+
+    #[test]
+    fn blocks_hand_on_exactly_what_later_code_reads() {
+        let n = 3 * BLOCK_LEN + 5;
+        let last = quote::format_ident!("a{}", n - 1);
+        let blocks = scoped(statements(n), &quote! { self.x = [#last]; });
+        assert_eq!(blocks.len(), 4);
+        let squeeze = |t: &TokenStream| t.to_string().replace(' ', "");
+        // Blocks are cut from the end: the first holds statements 0..5. It defines `b0`,
+        // read by every later block, and `a0`..`a4`, of which only `a4` is read after it.
+        assert!(squeeze(&blocks[0]).starts_with("let[b0,a4]={if!(d>0.0){return;}let[a0"));
+        assert!(squeeze(&blocks[0]).ends_with("[b0,a4]};"));
+        // The last block hands on only what the tail reads.
+        assert!(squeeze(&blocks[3]).starts_with(&format!("let{last}={{")));
+        assert!(squeeze(&blocks[3]).ends_with(&format!("{last}}};")));
+        // A name after `.` or `::` is not a read.
+        let mut reads = HashSet::new();
+        read_names(quote! { libm::sinf(self.p) + q }, &mut reads);
+        assert_eq!(
+            reads,
+            HashSet::from(["libm".into(), "self".into(), "q".into()])
+        );
+    }
+}

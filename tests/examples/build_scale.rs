@@ -1,0 +1,126 @@
+//! What building a large model costs: an integrator chain of 20 to 100 states with an EKF,
+//! declared with `model!` in a scratch crate and built in a debug build (the one a user
+//! iterates with), without incremental compilation. Prints, per size, the generated
+//! code's size, the build's wall time and the build's peak memory (the largest resident
+//! set of cargo, rustc and the macro). A benchmark, not a test: the numbers depend on the
+//! machine.
+//!
+//! ```text
+//! cargo run --release -p tests --example build_scale [-- 20 40 60 100]
+//! ```
+
+use nix::sys::resource::{getrusage, UsageWho};
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+use std::time::Instant;
+use tests::scale::integrator_chain;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if let [flag, dir] = args.as_slice() {
+        if flag == "--build-once" {
+            return build_once(Path::new(dir));
+        }
+    }
+    let sizes: Vec<usize> = if args.is_empty() {
+        vec![20, 40, 60, 100]
+    } else {
+        match args.iter().map(|a| a.parse()).collect() {
+            Ok(sizes) => sizes,
+            Err(_) => {
+                eprintln!("usage: build_scale [STATES ...]");
+                return ExitCode::FAILURE;
+            }
+        }
+    };
+    match run(&sizes) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("build_scale: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(sizes: &[usize]) -> Result<(), String> {
+    let workspace = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let dir = workspace.join("target/build-scale");
+    std::fs::create_dir_all(dir.join("src")).map_err(|e| e.to_string())?;
+    let manifest = format!(
+        "[package]\nname = \"build-scale\"\nversion = \"0.0.0\"\nedition = \"2021\"\n\
+         publish = false\n\n[dependencies]\ncodegen-macros = {{ path = {:?} }}\nlibm = \"0.2\"\n\n\
+         [workspace]\n",
+        workspace
+            .join("codegen-macros")
+            .canonicalize()
+            .map_err(|e| e.to_string())?
+    );
+    std::fs::write(dir.join("Cargo.toml"), manifest).map_err(|e| e.to_string())?;
+    // Build the dependencies (and the macro) first, so each measured build is the model's.
+    write_model(&dir, 2)?;
+    measure(&dir)?;
+    println!("states  generated code   build (debug)   peak memory");
+    for &n in sizes {
+        write_model(&dir, n)?;
+        let tokens = model_dsl::expand_macro_source(&integrator_chain(n, true))
+            .map_err(|e| format!("{n} states: {e}"))?;
+        let code_bytes = tokens.to_string().len();
+        let (seconds, peak_kib) = measure(&dir)?;
+        println!(
+            "{n:>6}  {:>10.1} MB   {seconds:>11.1} s   {:>8.2} GB",
+            code_bytes as f64 / 1e6,
+            peak_kib as f64 / (1024.0 * 1024.0)
+        );
+    }
+    Ok(())
+}
+
+fn write_model(dir: &Path, n: usize) -> Result<(), String> {
+    let source = format!(
+        "//! Scratch crate of the build benchmark.\nuse codegen_macros::model;\n{}",
+        integrator_chain(n, true)
+    );
+    std::fs::write(dir.join("src/lib.rs"), source).map_err(|e| e.to_string())
+}
+
+/// Builds the scratch crate in a child of this program, so the peak memory it reports is
+/// that build's alone. Returns seconds and KiB.
+fn measure(dir: &Path) -> Result<(f64, u64), String> {
+    let me = std::env::current_exe().map_err(|e| e.to_string())?;
+    let start = Instant::now();
+    let output = Command::new(me)
+        .arg("--build-once")
+        .arg(dir)
+        .output()
+        .map_err(|e| e.to_string())?;
+    let seconds = start.elapsed().as_secs_f64();
+    if !output.status.success() {
+        return Err(format!(
+            "the scratch build failed:\n{}",
+            String::from_utf8_lossy(&output.stderr)
+        ));
+    }
+    let text = String::from_utf8_lossy(&output.stdout);
+    let peak = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("unexpected output: {text}"))?;
+    Ok((seconds, peak))
+}
+
+/// The child: builds once and prints the largest resident set of what it ran, in KiB.
+fn build_once(dir: &Path) -> ExitCode {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let status = Command::new(cargo)
+        .args(["build", "--quiet"])
+        .env("CARGO_INCREMENTAL", "0")
+        .current_dir(dir)
+        .status();
+    match (status, getrusage(UsageWho::RUSAGE_CHILDREN)) {
+        (Ok(s), Ok(usage)) if s.success() => {
+            println!("{}", usage.max_rss());
+            ExitCode::SUCCESS
+        }
+        _ => ExitCode::FAILURE,
+    }
+}
