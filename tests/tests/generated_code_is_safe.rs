@@ -44,6 +44,8 @@ impl<'ast> Visit<'ast> for Findings {
             },
             Expr::Lit(lit) => match &lit.lit {
                 syn::Lit::Float(f) if matches!(f.suffix(), "f32" | "f64") => None,
+                // The DKF window's fill flags.
+                syn::Lit::Bool(_) => None,
                 // Integer arithmetic could overflow; integers appear only in consts.
                 _ => Some("an untyped or non-float literal in code"),
             },

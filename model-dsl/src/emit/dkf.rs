@@ -119,9 +119,9 @@ pub fn emit_dkf(
         /// the window freezes the parameters it multiplies (Case 2).
         #[derive(Clone, Copy, Debug, PartialEq)]
         pub struct Dkf {
-            // Not-a-number marks a slot not yet filled (only finite samples are pushed).
             outputs: [#ty; #outputs_len],
             inputs: [#ty; #inputs_len],
+            filled: [bool; #window_outputs_lit],
             phi_params: [#ty; #p_len],
             window_det_sq: #ty,
             window_column_norms: #ty,
@@ -150,8 +150,9 @@ pub fn emit_dkf(
                 r: &[[#ty; #m_len]; #m_len],
             ) -> Dkf {
                 Dkf {
-                    outputs: [#ty::NAN; #outputs_len],
+                    outputs: [#zero; #outputs_len],
                     inputs: [#zero; #inputs_len],
+                    filled: [false; #window_outputs_lit],
                     phi_params: #params_of_x0,
                     window_det_sq: #zero,
                     window_column_norms: #zero,
@@ -482,9 +483,8 @@ fn transform_fn(
         /// the parameters to keep: those solved, else the last solved (eqs. 8-12).
         #[allow(clippy::type_complexity)]
         fn transform(&self, #u_param) -> ([#ty; #n], WindowStatus, [#ty; 2], [#ty; #np_len]) {
-            // The oldest slot is filled last (not-a-number until then).
-            let [.., oldest] = self.outputs;
-            if !oldest.is_finite() {
+            let [.., full] = self.filled;
+            if !full {
                 return (self.xbar, WindowStatus::Filling, [#zero, #zero], self.phi_params);
             }
             #unpack_u
@@ -724,7 +724,6 @@ fn step_fn(
         Literal::usize_unsuffixed(m),
         Literal::usize_unsuffixed(n),
     );
-    let outputs_len = Literal::usize_unsuffixed(m * (wt.output_delays + 1));
     let u_param = (!g.u.is_empty()).then(|| quote! { u_prev: &[#ty; #u_len], });
     let g: &ModelGraph = g;
     let lkf_reads = vec![
@@ -821,7 +820,7 @@ fn step_fn(
         /// A missing sample breaks the window's sequence: empties the window (it refills)
         /// and rejects the sample, leaving both filters as they were.
         fn reject_sample(&mut self) -> DkfStatus {
-            self.outputs = [#ty::NAN; #outputs_len];
+            self.filled = [false; WINDOW_OUTPUTS];
             DkfStatus {
                 window: WindowStatus::Skipped,
                 akf: Status::RejectedInput,
@@ -905,6 +904,21 @@ fn push_fn(model: &Model, g: &ModelGraph, wt: &WindowTransform, scalar: Scalar) 
         .collect();
     let (y_keep, y_rebuilt) = shift(&wt.outputs, &y_new);
     let (u_keep, u_rebuilt) = shift(&wt.inputs, &u_new);
+    let filled: Vec<Ident> = (0..=wt.output_delays)
+        .map(|d| ident(&format!("f{d}")))
+        .collect();
+    let filled_keep: Vec<TokenStream> = filled
+        .iter()
+        .enumerate()
+        .map(|(d, f)| {
+            if d < wt.output_delays {
+                quote! { #f }
+            } else {
+                quote! { _ }
+            }
+        })
+        .collect();
+    let filled_new = &filled[..wt.output_delays];
     let ty = ident(scalar.type_name());
     let (u_len, y_len) = (
         Literal::usize_unsuffixed(model.inputs.len()),
@@ -929,6 +943,8 @@ fn push_fn(model: &Model, g: &ModelGraph, wt: &WindowTransform, scalar: Scalar) 
             let [#(#y_keep),*] = self.outputs;
             self.outputs = [#(#y_rebuilt),*];
             #inputs
+            let [#(#filled_keep),*] = self.filled;
+            self.filled = [true, #(#filled_new),*];
         }
     }
 }
