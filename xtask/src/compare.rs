@@ -53,7 +53,7 @@ fn diag(d: [f64; 5]) -> [[f64; 5]; 5] {
 pub const RTOL: f64 = 1e-4;
 /// Per state entry, the magnitude below which the tolerance stops shrinking: mm, mm/s,
 /// 1/s^2, 1/s, mm/(s^2 V).
-const FLOORS: [f64; 5] = [0.1, 1.0, 1.0, 0.1, 0.01];
+pub const FLOORS: [f64; 5] = [0.1, 1.0, 1.0, 0.1, 0.01];
 
 /// Checks every printed estimate against the host run, and that the DKF from the wrong
 /// guess converges on the target as on the host (wn within 2% of the truth by 10 s).

@@ -9,6 +9,7 @@
 
 #![forbid(unsafe_code)]
 
+mod accuracy;
 mod compare;
 mod cost;
 mod firmware;
@@ -48,10 +49,20 @@ enum Task {
     /// Run the firmware under QEMU and print what the generated filters cost on the
     /// Cortex-M4F, beside the nalgebra baseline.
     Cost,
+    /// On the host, how far the f32 filters drift from f64 over many noise sequences.
+    Accuracy {
+        /// How many sequences (the first is the CI's).
+        #[arg(default_value_t = 40)]
+        sequences: u64,
+    },
 }
 
 fn main() -> ExitCode {
     match Cli::parse().task {
+        Task::Accuracy { sequences } => {
+            print!("{}", accuracy::report(sequences));
+            ExitCode::SUCCESS
+        }
         Task::Cost => match cost() {
             Ok(table) => {
                 print!("{table}");
