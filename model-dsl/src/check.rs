@@ -31,6 +31,12 @@ const GENERATED_ITEMS: &[&str] = &[
     "X_NAMES",
     "U_NAMES",
     "Y_NAMES",
+    "Ekf",
+    "Dkf",
+    "DkfStatus",
+    "Lqr",
+    "Status",
+    "ltv_model",
 ];
 
 /// What a name in an expression refers to.
@@ -43,12 +49,63 @@ enum Binding {
     Local(usize),
 }
 
+/// The names declared so far, and what expressions need to know of them.
+struct Scope {
+    names: IndexMap<String, (Binding, Span)>,
+    /// The values of the constants declared so far, by index.
+    const_values: Vec<f64>,
+    /// The model's scalar types: every constant must be finite in each.
+    scalars: Vec<Scalar>,
+    /// What each name of the model is, declared yet or not, for a name used before (or
+    /// where) it can be.
+    declared: std::collections::HashMap<String, &'static str>,
+}
+
+impl Scope {
+    fn new(decl: &ModelDecl) -> Scope {
+        let mut declared = std::collections::HashMap::new();
+        for sym in &decl.symbols {
+            let what = match sym.kind {
+                SymbolKind::State => "a state",
+                SymbolKind::Param => "a parameter",
+                SymbolKind::Input => "an input",
+            };
+            declared.insert(sym.name.text.clone(), what);
+        }
+        for out in &decl.outputs {
+            declared.insert(out.name.text.clone(), "an output");
+        }
+        for statement in decl.dynamics.iter().flat_map(|d| &d.statements) {
+            if let Statement::Let { name, .. } = statement {
+                declared.insert(name.text.clone(), "an intermediate of `dynamics`");
+            }
+        }
+        Scope {
+            names: IndexMap::new(),
+            const_values: Vec::new(),
+            scalars: Vec::new(),
+            declared,
+        }
+    }
+
+    fn get(&self, name: &str) -> Option<&(Binding, Span)> {
+        self.names.get(name)
+    }
+
+    fn contains_key(&self, name: &str) -> bool {
+        self.names.contains_key(name)
+    }
+}
+
 /// Checks a declaration and resolves it into a [`Model`], reporting every error found
 /// together with those the front end already recorded in `diag`.
 pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Model> {
-    let mut scope: IndexMap<String, (Binding, Span)> = IndexMap::new();
+    let mut scope = Scope::new(decl);
 
+    check_identifier(&decl.name, &mut diag);
+    check_case_collisions(decl, &mut diag);
     let scalars = check_scalars(decl, &mut diag);
+    scope.scalars = scalars.clone();
     let constants = check_constants(decl, &mut scope, &mut diag);
 
     let (mut states, mut params, mut inputs) = (Vec::new(), Vec::new(), Vec::new());
@@ -192,16 +249,12 @@ fn check_scalars(decl: &ModelDecl, diag: &mut Diagnostics) -> Vec<Scalar> {
     scalars
 }
 
-fn check_constants(
-    decl: &ModelDecl,
-    scope: &mut IndexMap<String, (Binding, Span)>,
-    diag: &mut Diagnostics,
-) -> Vec<Constant> {
+fn check_constants(decl: &ModelDecl, scope: &mut Scope, diag: &mut Diagnostics) -> Vec<Constant> {
     let mut constants = Vec::new();
     for c in &decl.constants {
         let context = format!("the constant `{}`", c.name.text);
         let value = resolve(&c.value, scope, &[], &context, diag).and_then(|expr| {
-            let value = expr.const_value(&constants);
+            let value = expr.fold(&|i| scope.const_values.get(i).copied());
             if value.is_none() {
                 diag.error(
                     c.value.span,
@@ -210,25 +263,46 @@ fn check_constants(
             }
             value
         });
-        if let Some(value) = value {
-            if !value.is_finite() {
-                diag.error(c.value.span, format!("{context} evaluates to {value}"));
-            }
-        }
         constants.push(Constant {
             docs: c.docs.clone(),
             name: c.name.text.clone(),
             value: value.unwrap_or(0.0),
         });
+        scope.const_values.push(value.unwrap_or(0.0));
         declare(scope, &c.name, Binding::Const(constants.len() - 1), diag);
     }
     constants
 }
 
+/// Why `value` cannot be a literal of the model's scalar types, if it cannot: it must be
+/// finite, and a non-zero value must not round to zero or overflow in `f32`.
+fn unrepresentable(value: f64, scalars: &[Scalar]) -> Option<String> {
+    if !value.is_finite() {
+        return Some(format!(
+            "evaluates to {value}: every constant must be a finite number"
+        ));
+    }
+    let narrow = value as f32;
+    if scalars.contains(&Scalar::F32) && (narrow.is_infinite() || (narrow == 0.0 && value != 0.0)) {
+        let what = if narrow == 0.0 {
+            "rounds to zero"
+        } else {
+            "overflows"
+        };
+        return Some(format!(
+            "evaluates to {value:e}, which {what} in f32 (its normal numbers run from \
+             {:e} to {:e}): rescale the model's units",
+            f32::MIN_POSITIVE,
+            f32::MAX
+        ));
+    }
+    None
+}
+
 #[allow(clippy::too_many_arguments)]
 fn check_dynamics(
     block: &DynamicsDecl,
-    scope: &mut IndexMap<String, (Binding, Span)>,
+    scope: &mut Scope,
     state_spans: &[Span],
     states: &[Symbol],
     locals: &mut Vec<Local>,
@@ -373,7 +447,7 @@ fn check_discretisation(
     method: &Option<Name>,
     dt: &Option<SurfaceExpr>,
     substeps: &Option<(u64, Span)>,
-    scope: &IndexMap<String, (Binding, Span)>,
+    scope: &Scope,
     diag: &mut Diagnostics,
 ) -> Option<Discretisation> {
     let hint = "write `dynamics continuous(euler, dt = TS)` or `dynamics continuous(rk4, dt = TS, substeps = 2)`";
@@ -454,18 +528,13 @@ fn check_discretisation(
     })
 }
 
-fn declare(
-    scope: &mut IndexMap<String, (Binding, Span)>,
-    name: &Name,
-    binding: Binding,
-    diag: &mut Diagnostics,
-) {
+fn declare(scope: &mut Scope, name: &Name, binding: Binding, diag: &mut Diagnostics) {
     if scope.contains_key(&name.text) {
         duplicate_error(diag, name);
         return;
     }
     check_name_allowed(name, matches!(binding, Binding::Const(_)), diag);
-    scope.insert(name.text.clone(), (binding, name.span));
+    scope.names.insert(name.text.clone(), (binding, name.span));
 }
 
 fn duplicate_error(diag: &mut Diagnostics, name: &Name) {
@@ -492,18 +561,60 @@ fn check_name_allowed(name: &Name, is_item: bool, diag: &mut Diagnostics) {
                 name.text
             ),
         );
+    } else {
+        check_identifier(name, diag);
+    }
+}
+
+/// A name that becomes an identifier of the generated code must be a plain Rust
+/// identifier: model files can hold any text, and a raw identifier (`r#type`) would need
+/// its `r#` at every use, in every name derived from it (`index::R#TYPE` is none).
+fn check_identifier(name: &Name, diag: &mut Diagnostics) {
+    if let Some(keyword) = name.text.strip_prefix("r#") {
+        diag.error(
+            name.span,
+            format!("raw identifiers are not supported: choose a name that is not the keyword `{keyword}`"),
+        );
     } else if syn::parse_str::<syn::Ident>(&name.text).is_err() {
         diag.error(
             name.span,
-            format!("`{}` is not a valid Rust identifier", name.text),
+            format!(
+                "`{}` is not a Rust identifier: use letters, digits and `_`, starting with a \
+                 letter, and no keyword",
+                name.text
+            ),
         );
+    }
+}
+
+/// Names that differ only in case would give the same constant in the generated `index`
+/// module (`x2` and `X2` are both `index::X2`).
+fn check_case_collisions(decl: &ModelDecl, diag: &mut Diagnostics) {
+    let mut seen: std::collections::HashMap<String, &Name> = std::collections::HashMap::new();
+    let names = decl.symbols.iter().map(|s| &s.name);
+    for name in names.chain(decl.outputs.iter().map(|o| &o.name)) {
+        match seen.get(&name.text.to_uppercase()) {
+            Some(first) if first.text != name.text => diag.error(
+                name.span,
+                format!(
+                    "`{}` and `{}` differ only in case: both would be `index::{}` in the \
+                     generated code; choose names that differ in their letters",
+                    name.text,
+                    first.text,
+                    name.text.to_uppercase()
+                ),
+            ),
+            _ => {
+                seen.insert(name.text.to_uppercase(), name);
+            }
+        }
     }
 }
 
 /// Resolves names and function calls; returns `None` after recording an error.
 fn resolve(
     expr: &SurfaceExpr,
-    scope: &IndexMap<String, (Binding, Span)>,
+    scope: &Scope,
     locals: &[Local],
     context: &str,
     diag: &mut Diagnostics,
@@ -525,6 +636,18 @@ fn resolve(
                 return None;
             }
             None if name == "t" => Expr::Time,
+            None if scope.declared.contains_key(name) => {
+                let what = scope.declared[name];
+                diag.error(
+                    expr.span,
+                    format!(
+                        "{context} cannot use `{name}`, {what}: a constant is a number fixed \
+                         when the code is generated; compute a value that depends on the \
+                         model's variables with `let` inside `dynamics`"
+                    ),
+                );
+                return None;
+            }
             None => {
                 diag.error(
                     expr.span,
@@ -547,7 +670,7 @@ fn resolve(
                 BinaryOp::Div => Expr::Div(a, b),
             }
         }
-        SurfaceKind::Call(func, args) => return resolve_call(expr, func, args, &mut go, diag),
+        SurfaceKind::Call(func, args) => resolve_call(expr, func, args, &mut go, diag)?,
         SurfaceKind::If {
             cmp,
             lhs,
@@ -567,9 +690,18 @@ fn resolve(
         }
     })
     .and_then(|e| {
-        if let (Expr::Div(_, divisor), SurfaceKind::Binary(_, _, surface_divisor)) = (&e, &expr.kind) {
-            if literal_value(divisor) == Some(0.0) {
+        if let (Expr::Div(_, divisor), SurfaceKind::Binary(_, _, surface_divisor)) =
+            (&e, &expr.kind)
+        {
+            if divisor.fold(&|i| scope.const_values.get(i).copied()) == Some(0.0) {
                 diag.error(surface_divisor.span, "division by zero");
+                return None;
+            }
+        }
+        // Every constant part is folded into a literal of the generated code.
+        if let Some(value) = e.fold(&|i| scope.const_values.get(i).copied()) {
+            if let Some(why) = unrepresentable(value, &scope.scalars) {
+                diag.error(expr.span, format!("in {context}, this {why}"));
                 return None;
             }
         }
@@ -638,17 +770,8 @@ fn resolve_call(
     Some(Expr::Call(f, Box::new(go(&args[0], diag)?)))
 }
 
-/// The value of an expression of literals only, if it is one.
-fn literal_value(expr: &Expr) -> Option<f64> {
-    expr.const_value(&[])
-}
-
 /// Checks the `generate` items: known generators, known arguments of the right kinds.
-fn check_generate(
-    decl: &ModelDecl,
-    scope: &IndexMap<String, (Binding, Span)>,
-    diag: &mut Diagnostics,
-) -> Generate {
+fn check_generate(decl: &ModelDecl, scope: &Scope, diag: &mut Diagnostics) -> Generate {
     let mut generate = Generate::default();
     let mut seen = std::collections::HashSet::new();
     for item in &decl.generate {
@@ -661,16 +784,29 @@ fn check_generate(
         }
         let mut args = Args::new(item, diag);
         match item.name.text.as_str() {
+            "ekf" | "dkf" if decl.outputs.is_empty() => {
+                diag.error(
+                    item.name.span,
+                    format!(
+                        "`{}` corrects its estimate with measurements: declare them with \
+                         `output y = ...;`",
+                        item.name.text
+                    ),
+                );
+                continue;
+            }
             "ekf" => {
+                let gate = args.gate(diag);
                 generate.ekf = Some(EkfSpec {
+                    gate,
                     diagonal_noise: args.process_noise(diag),
                 });
             }
             "dkf" => {
-                let eta = args.number("eta", 0.5, diag);
+                let (eta, eta_span) = args.number("eta", 0.5, diag);
                 let diagonal_noise = args.process_noise(diag);
                 if !(0.0..=1.0).contains(&eta) {
-                    diag.error(item.name.span, "`eta` weights a split: it lies in 0..=1");
+                    diag.error(eta_span, "`eta` weights a split: it lies in 0..=1");
                 }
                 generate.dkf = Some(DkfSpec {
                     eta,
@@ -679,10 +815,10 @@ fn check_generate(
                 });
             }
             "lqr" => {
-                let horizon = args.number("horizon", 50.0, diag);
+                let (horizon, horizon_span) = args.number("horizon", 50.0, diag);
                 if horizon.fract() != 0.0 || !(1.0..=10_000.0).contains(&horizon) {
                     diag.error(
-                        item.name.span,
+                        horizon_span,
                         "`horizon` is a whole number of steps, 1 to 10000",
                     );
                 }
@@ -763,13 +899,34 @@ impl<'a> Args<'a> {
         Some(&self.item.args[i])
     }
 
-    fn number(&mut self, name: &str, default: f64, diag: &mut Diagnostics) -> f64 {
+    /// The number given as `name`, or `default`, with where to report a wrong value: the
+    /// value, or the generator's name when the default is taken.
+    fn number(&mut self, name: &str, default: f64, diag: &mut Diagnostics) -> (f64, Span) {
         match self.take(&[name]).map(|a| &a.value) {
-            None => default,
-            Some(ArgValue::Number(v, _)) => *v,
+            None => (default, self.item.name.span),
+            Some(ArgValue::Number(v, span)) => (*v, *span),
             Some(other) => {
                 diag.error(other.span(), format!("`{name}` takes a number"));
-                default
+                (default, other.span())
+            }
+        }
+    }
+
+    /// `gate = 10.83` (the default threshold on the normalised innovation squared) or
+    /// `gate = off` (a gate that is open until set at run time); `None` without `gate`.
+    fn gate(&mut self, diag: &mut Diagnostics) -> Option<f64> {
+        match self.take(&["gate"]).map(|a| &a.value) {
+            None => None,
+            Some(ArgValue::Number(v, _)) if *v > 0.0 && v.is_finite() => Some(*v),
+            Some(ArgValue::Name(n)) if n.text == "off" => Some(f64::INFINITY),
+            Some(other) => {
+                diag.error(
+                    other.span(),
+                    "`gate` is a threshold on the normalised innovation squared, a positive \
+                     number (a chi-square quantile: 10.83 rejects one in a thousand \
+                     consistent scalar measurements), or `off` to set it at run time",
+                );
+                None
             }
         }
     }

@@ -39,7 +39,8 @@ pub fn format(tokens: TokenStream) -> syn::Result<String> {
 /// Parses and checks Rust source holding one `model! { .. }` invocation (a demo model
 /// file) into the model IR.
 pub fn parse_macro_source(source: &str) -> syn::Result<model::Model> {
-    let invocation: syn::Macro = syn::parse_str(source.trim())?;
+    // Not trimmed: spans then give the file's own lines and columns.
+    let invocation: syn::Macro = syn::parse_str(source)?;
     parse_model(invocation.tokens)
 }
 

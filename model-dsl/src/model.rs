@@ -56,6 +56,9 @@ pub struct EkfSpec {
     /// Whether the process noise covariance is diagonal (stored and added as its
     /// diagonal only), rather than a full symmetric matrix.
     pub diagonal_noise: bool,
+    /// The innovation gate: a measurement whose normalised innovation squared exceeds it
+    /// is rejected as an outlier (`None`: no gate is generated).
+    pub gate: Option<f64>,
 }
 
 /// Options of the double Kalman filter.
@@ -339,10 +342,16 @@ impl Expr {
 
     /// Evaluates an expression of literals and constants; `None` if it depends on anything else.
     pub fn const_value(&self, constants: &[Constant]) -> Option<f64> {
-        let go = |e: &Expr| e.const_value(constants);
+        self.fold(&|i| constants.get(i).map(|c| c.value))
+    }
+
+    /// Evaluates an expression of literals and constants, given the value of constant `i`
+    /// as `constant(i)`; `None` if it depends on anything else.
+    pub fn fold(&self, constant: &dyn Fn(usize) -> Option<f64>) -> Option<f64> {
+        let go = |e: &Expr| e.fold(constant);
         Some(match self {
             Expr::Number(v) => *v,
-            Expr::Const(i) => constants.get(*i)?.value,
+            Expr::Const(i) => constant(*i)?,
             Expr::Neg(a) => -go(a)?,
             Expr::Add(a, b) => go(a)? + go(b)?,
             Expr::Sub(a, b) => go(a)? - go(b)?,

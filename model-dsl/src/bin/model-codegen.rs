@@ -42,9 +42,31 @@ fn main() -> ExitCode {
         }
         Err(errors) => {
             for error in errors {
-                eprintln!("error: {}: {error}", args.model.display());
+                eprint!("{}", report(&args.model, &source, &error));
             }
             ExitCode::FAILURE
         }
     }
+}
+
+/// `file:line:column: error: message`, then the offending line with a caret under the
+/// column, as rustc prints them; just `file: error: message` where the error has no place.
+fn report(path: &std::path::Path, source: &str, error: &syn::Error) -> String {
+    let start = error.span().start();
+    let Some(line) = start
+        .line
+        .checked_sub(1)
+        .and_then(|i| source.lines().nth(i))
+    else {
+        return format!("{}: error: {error}\n", path.display());
+    };
+    let gutter = " ".repeat(start.line.to_string().len());
+    format!(
+        "{}:{}:{}: error: {error}\n{gutter} |\n{} | {line}\n{gutter} | {}^\n",
+        path.display(),
+        start.line,
+        start.column + 1,
+        start.line,
+        " ".repeat(start.column)
+    )
 }

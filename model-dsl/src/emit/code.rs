@@ -165,12 +165,23 @@ pub fn commit_or_non_finite(
     x_values: &[TokenStream],
     p_values: &[TokenStream],
 ) -> TokenStream {
+    commit_or_non_finite_with(probe, x_values, p_values, &TokenStream::new())
+}
+
+/// [`commit_or_non_finite`], storing `also` (more assignments) with the estimate.
+pub fn commit_or_non_finite_with(
+    probe: &TokenStream,
+    x_values: &[TokenStream],
+    p_values: &[TokenStream],
+    also: &TokenStream,
+) -> TokenStream {
     quote! {
         if !(#probe).is_finite() {
             return Status::NonFinite;
         }
         self.x = [#(#x_values),*];
         self.p = [#(#p_values),*];
+        #also
         Status::Ok
     }
 }

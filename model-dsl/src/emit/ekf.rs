@@ -4,8 +4,8 @@
 //! and the Joseph-form covariance update.
 
 use super::code::{
-    commit_or_non_finite, guard_pivots, pack_upper, packed_names, pivot_names, reject_non_finite,
-    unpack_symmetric, var_idents, INNOVATION,
+    commit_or_non_finite_with, guard_pivots, pack_upper, packed_names, pivot_names,
+    reject_non_finite, unpack_symmetric, var_idents, INNOVATION,
 };
 use super::lower::{Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
@@ -119,9 +119,9 @@ pub fn finiteness_probe(graph: &mut Graph, vector: &[NodeId], matrix: &Matrix) -
 /// The EKF of `model` in `scalar`.
 pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) -> EkfCode {
     let diagonal = spec.diagonal_noise;
-    let (predict, predict_ops) = method(model, mg, scalar, EkfMethod::Predict, diagonal);
-    let (update, update_ops) = method(model, mg, scalar, EkfMethod::Update, diagonal);
-    let (step, step_ops) = method(model, mg, scalar, EkfMethod::Step, diagonal);
+    let (predict, predict_ops) = method(model, mg, scalar, EkfMethod::Predict, spec);
+    let (update, update_ops) = method(model, mg, scalar, EkfMethod::Update, spec);
+    let (step, step_ops) = method(model, mg, scalar, EkfMethod::Step, spec);
     let ty = ident(scalar.type_name());
     let (n, m) = (model.state_len(), model.outputs.len());
     let [n_len, m_len, np, mp] =
@@ -130,6 +130,11 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
     let (pack_p0, pack_r) = (pack_upper("p0", n), pack_upper("r", m));
     let (q_param, q_field, pack_q) = noise_argument("q", n, diagonal, &ty);
     let unpack_p = unpack_symmetric("p", n);
+    let zero = super::lower::literal(0.0, scalar);
+    let (gate_field, gate_init, mut gate_methods) = gate_items(spec.gate, &ty, scalar);
+    if spec.gate.is_some() {
+        gate_methods.extend(keep_prediction_method(model, &ty));
+    }
 
     let new_doc = if diagonal {
         " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
@@ -153,14 +158,55 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
             p: [#ty; #np],
             q: #q_field,
             r: [#ty; #mp],
+            innovation: [#ty; #m_len],
+            nis: #ty,
+            #gate_field
         }
 
         impl Ekf {
             #[doc = #new_doc]
             #[must_use]
             pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len], #q_param, r: &[[#ty; #m_len]; #m_len]) -> Ekf {
-                Ekf { x: x0, p: #pack_p0, q: #pack_q, r: #pack_r }
+                Ekf {
+                    x: x0,
+                    p: #pack_p0,
+                    q: #pack_q,
+                    r: #pack_r,
+                    innovation: [#zero; #m_len],
+                    nis: #zero,
+                    #gate_init
+                }
             }
+
+            /// Starts the filter again from the estimate `x0` and covariance `p0` (only its
+            /// upper triangle is read), keeping the noise covariances: the way back after
+            /// a fault (a run of [`Status::NonFinite`] or of rejected outliers) or a
+            /// restart of the plant. The innovation is cleared.
+            pub fn reset(&mut self, x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len]) {
+                self.x = x0;
+                self.p = #pack_p0;
+                self.innovation = [#zero; #m_len];
+                self.nis = #zero;
+            }
+
+            /// The innovation `y - h(x)` of the last measurement used or rejected: what
+            /// the measurement said that the prediction did not.
+            #[must_use]
+            pub fn innovation(&self) -> [#ty; #m_len] {
+                self.innovation
+            }
+
+            /// The normalised innovation squared `r' S^-1 r` of the last measurement used
+            /// or rejected (`S` the innovation covariance). While the model and noise
+            /// levels are right it is chi-square distributed with as many degrees of
+            /// freedom as measurements (mean `Y_LEN`); a run of large values says the
+            /// model, the tuning or the sensor is wrong.
+            #[must_use]
+            pub fn normalised_innovation_squared(&self) -> #ty {
+                self.nis
+            }
+
+            #gate_methods
 
             /// The state estimate: physical states, then parameters.
             #[must_use]
@@ -189,6 +235,50 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
     }
 }
 
+/// The innovation gate's field, its initial value and its methods, when it is asked for.
+fn gate_items(
+    gate: Option<f64>,
+    ty: &proc_macro2::Ident,
+    scalar: Scalar,
+) -> (TokenStream, TokenStream, TokenStream) {
+    let Some(gate) = gate else {
+        return Default::default();
+    };
+    let default = super::lower::literal(gate, scalar);
+    let generated = if gate.is_finite() {
+        format!("{gate}")
+    } else {
+        "infinity (open)".to_owned()
+    };
+    let doc = format!(
+        " The innovation gate: a measurement whose normalised innovation squared exceeds it \
+         is rejected ([`Status::OutlierRejected`]). Generated as {generated}."
+    );
+    (
+        quote! { gate: #ty, },
+        quote! { gate: #default, },
+        quote! {
+            #[doc = #doc]
+            #[must_use]
+            pub fn innovation_gate(&self) -> #ty {
+                self.gate
+            }
+
+            /// Sets the innovation gate (a chi-square quantile for `Y_LEN` degrees of
+            /// freedom: 10.83 rejects one in a thousand consistent scalar measurements;
+            /// infinity opens it). Rejects a threshold that is not positive, leaving the
+            /// gate as it was.
+            pub fn set_innovation_gate(&mut self, threshold: #ty) -> Status {
+                if !(threshold > 0.0) {
+                    return Status::RejectedInput;
+                }
+                self.gate = threshold;
+                Status::Ok
+            }
+        },
+    )
+}
+
 /// Which of the EKF's methods to generate.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum EkfMethod {
@@ -207,8 +297,9 @@ fn method(
     mg: &ModelGraph,
     scalar: Scalar,
     kind: EkfMethod,
-    diagonal_noise: bool,
+    spec: &EkfSpec,
 ) -> (TokenStream, OpCount) {
+    let diagonal_noise = spec.diagonal_noise;
     let mut g = mg.clone();
     let n = model.state_len();
     let m = model.outputs.len();
@@ -260,6 +351,8 @@ fn method(
     }
     let mut pivots = Vec::new();
     let mut reciprocals = Vec::new();
+    let mut innovation = Vec::new();
+    let mut nis = None;
     if updates {
         let r = symmetric_from_packed(&r_vars, m);
         // h and its Jacobian at the estimate being corrected.
@@ -294,14 +387,19 @@ fn method(
         p = update.p;
         pivots = update.pivots;
         reciprocals = update.reciprocals;
+        innovation = residual;
+        nis = Some(update.nis);
     }
     let probe = finiteness_probe(&mut g.graph, &x, &p);
     let p_packed = packed_upper(&p);
+    let gated = updates && spec.gate.is_some();
 
     let results: Vec<NodeId> = x.iter().chain(&p_packed).copied().collect();
     let mut all_roots = results.clone();
     all_roots.push(probe);
     all_roots.extend(&pivots);
+    all_roots.extend(&innovation);
+    all_roots.extend(nis);
     let namer = TempNamer::new(avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
     lowerer.read_lazily(&quote! { self.x }, &g.x);
@@ -321,15 +419,50 @@ fn method(
         &quote! { return Status::NonPositiveInnovation; },
         scalar,
     );
+    let innovation_names: Vec<String> = model
+        .outputs
+        .iter()
+        .map(|o| format!("{}_innovation", o.name))
+        .collect();
+    for (&r, name) in innovation.iter().zip(&innovation_names) {
+        lowerer.prefer_name(r, name);
+    }
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
+    // The innovation and its normalised square come last, where they hold no register
+    // while the update runs; so does the gate's test, just before the commit (an outlier
+    // costs a whole update, the usual sample nothing more).
+    let mut store_innovation = TokenStream::new();
+    if let Some(nis) = nis {
+        let innovation_values = lowerer.segment(&innovation);
+        let nis = lowerer.bind(nis, "nis");
+        store_innovation = store_innovation_tokens(&innovation_values, &nis);
+        if gated {
+            let keep_prediction = (kind == EkfMethod::Step).then(|| {
+                let args = prediction_arguments(model);
+                quote! {
+                    self.keep_prediction(#(#args,)* [#(#innovation_values),*], #nis)
+                }
+            });
+            let rejection = outlier_rejection(keep_prediction, &store_innovation);
+            lowerer.statement(quote! {
+                if !(#nis <= self.gate) {
+                    #rejection
+                }
+            });
+            lowerer.count_extra(OpCount {
+                compare: 1,
+                ..Default::default()
+            });
+        }
+    }
     let Lowered {
         statements,
         used_vars,
         ops,
     } = lowerer.finish();
     let (x_values, p_values) = values.split_at(n);
-    let commit = commit_or_non_finite(&probe, x_values, p_values);
+    let commit = commit_or_non_finite_with(&probe, x_values, p_values, &store_innovation);
     let statements = super::scopes::scoped(statements, &commit);
 
     let graph = &g.graph;
@@ -341,7 +474,12 @@ fn method(
     let mut unpack_inputs = Vec::new();
     if model.uses_time() {
         if let Some(t_prev) = t_prev {
-            let t_prev = time_param(graph, t_prev, &used_vars, &ty, "t_prev");
+            // A gated step passes it on to `predict` when it rejects an outlier.
+            let t_prev = if gated {
+                quote! { t_prev: #ty }
+            } else {
+                time_param(graph, t_prev, &used_vars, &ty, "t_prev")
+            };
             params.push(quote! { #t_prev });
         }
         let t = time_param(graph, g.t, &used_vars, &ty, "t");
@@ -396,6 +534,73 @@ fn method(
         }
     };
     (tokens, ops)
+}
+
+/// `self.innovation = [..]; self.nis = ..;`
+fn store_innovation_tokens(innovation: &[TokenStream], nis: &TokenStream) -> TokenStream {
+    quote! {
+        self.innovation = [#(#innovation),*];
+        self.nis = #nis;
+    }
+}
+
+/// What a gated update does with an outlier: store its innovation and return
+/// `OutlierRejected`. A step keeps its prediction, as `predict` alone would have, through
+/// the cold, out-of-line `keep_prediction` (`keep_prediction`: its call), so the usual
+/// sample pays only for the test.
+fn outlier_rejection(
+    keep_prediction: Option<TokenStream>,
+    store_innovation: &TokenStream,
+) -> TokenStream {
+    match keep_prediction {
+        Some(call) => quote! { return #call; },
+        None => quote! {
+            #store_innovation
+            return Status::OutlierRejected;
+        },
+    }
+}
+
+/// The arguments a step passes on to `predict`: `t_prev` and `u_prev` where the model has
+/// them.
+fn prediction_arguments(model: &Model) -> Vec<TokenStream> {
+    let mut args = Vec::new();
+    if model.uses_time() {
+        args.push(quote! { t_prev });
+    }
+    if !model.inputs.is_empty() {
+        args.push(quote! { u_prev });
+    }
+    args
+}
+
+/// `fn keep_prediction`: a gated step's answer to an outlier.
+fn keep_prediction_method(model: &Model, ty: &proc_macro2::Ident) -> TokenStream {
+    let m = proc_macro2::Literal::usize_unsuffixed(model.outputs.len());
+    let mut params = Vec::new();
+    if model.uses_time() {
+        params.push(quote! { t_prev: #ty });
+    }
+    if !model.inputs.is_empty() {
+        let u = proc_macro2::Literal::usize_unsuffixed(model.inputs.len());
+        params.push(quote! { u_prev: &[#ty; #u] });
+    }
+    let args = prediction_arguments(model);
+    quote! {
+        /// A step's outlier: the prediction is kept, the measurement only recorded. Out of
+        /// line and cold, so the usual sample does not pay for it.
+        #[cold]
+        #[inline(never)]
+        fn keep_prediction(&mut self, #(#params,)* innovation: [#ty; #m], nis: #ty) -> Status {
+            let predicted = self.predict(#(#args),*);
+            if predicted != Status::Ok {
+                return predicted;
+            }
+            self.innovation = innovation;
+            self.nis = nis;
+            Status::OutlierRejected
+        }
+    }
 }
 
 /// `t: f32` (named `name`), or `_t: f32` when the code does not read it.

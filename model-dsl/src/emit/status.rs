@@ -7,7 +7,8 @@ use quote::quote;
 pub fn status_enum() -> TokenStream {
     quote! {
         /// What a filter or controller step did. On anything but [`Status::Ok`] the filter
-        /// or controller is left exactly as it was.
+        /// or controller is left exactly as it was, except as
+        /// [`Status::OutlierRejected`] says.
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
         pub enum Status {
             /// The step was applied.
@@ -20,6 +21,10 @@ pub fn status_enum() -> TokenStream {
             NonFinite,
             /// The Riccati recursion met a non-positive `R + B' P B`; it is never divided by.
             NonPositiveControlWeight,
+            /// The measurement's normalised innovation squared exceeded the innovation gate:
+            /// it was not used. An update leaves the estimate as it was; a step keeps the
+            /// prediction. The filter's innovation describes the rejected measurement.
+            OutlierRejected,
         }
     }
 }

@@ -46,7 +46,15 @@ mod kw {
 pub fn parse_model(tokens: TokenStream) -> syn::Result<(ModelDecl, Diagnostics)> {
     super::limits::check_tokens(&tokens)?;
     let mut diag = Diagnostics::default();
-    let decl = (|input: ParseStream| parse_decl(input, &mut diag)).parse2(tokens)?;
+    let decl = (|input: ParseStream| {
+        let decl = parse_decl(input, &mut diag)?;
+        if !input.is_empty() {
+            return Err(input
+                .error("one `model!` declares one model: give this one its own `model! { .. }`"));
+        }
+        Ok(decl)
+    })
+    .parse2(tokens)?;
     Ok((decl, diag))
 }
 
@@ -252,6 +260,13 @@ fn parse_dynamics_kind(input: ParseStream, diag: &mut Diagnostics) -> syn::Resul
 }
 
 fn parse_statement(input: ParseStream, diag: &mut Diagnostics) -> syn::Result<Statement> {
+    for attr in Attribute::parse_outer(input)? {
+        diag.error(
+            attr.span(),
+            "a doc comment inside `dynamics` documents nothing: write `//` for a comment, \
+             or document the state where it is declared",
+        );
+    }
     let statement = if input.parse::<Option<Token![let]>>()?.is_some() {
         let ident: Ident = input.parse()?;
         input.parse::<Token![=]>()?;
@@ -348,6 +363,14 @@ fn expr(e: &Expr, diag: &mut Diagnostics) -> SurfaceExpr {
         },
         Expr::Path(p) => match p.path.get_ident() {
             Some(ident) if p.qself.is_none() => SurfaceKind::Name(ident.to_string()),
+            None if p.path.segments.len() > 1 => {
+                let path = p.path.to_token_stream().to_string().replace(' ', "");
+                let message = format!(
+                    "`{path}` is a path: a model sees only its own names; write the value \
+                     here, or declare it in the model (`const NAME = ..;`)"
+                );
+                unsupported(span, &message, diag)
+            }
             _ => unsupported(span, "write a plain name such as `x1`", diag),
         },
         Expr::Paren(p) => return expr(&p.expr, diag),

@@ -39,16 +39,17 @@ use meval::tokenizer::{Operation, Token};
 use proc_macro2::{Span, TokenStream};
 use serde::Deserialize;
 use std::str::FromStr;
+use toml::Spanned;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ModelFile {
-    name: String,
+    name: Spanned<String>,
     #[serde(default)]
     doc: String,
-    #[serde(default = "public")]
-    visibility: String,
-    scalar: OneOrMany,
+    #[serde(default)]
+    visibility: Visibility,
+    scalar: Spanned<OneOrMany>,
     #[serde(default, rename = "const")]
     constants: Vec<Entry>,
     #[serde(default, rename = "state")]
@@ -61,11 +62,33 @@ struct ModelFile {
     outputs: Vec<Entry>,
     dynamics: Option<Dynamics>,
     /// `ekf = true`, `dkf = { eta = 0.5 }`, `lqr = { horizon = 50, states = ["x1"], input = "u" }`.
-    generate: Option<toml::Table>,
+    generate: Option<IndexMap<String, Spanned<toml::Value>>>,
 }
 
-fn public() -> String {
-    "pub".into()
+/// Who may use the generated module: a closed set, so nothing of the file becomes tokens
+/// unchecked.
+#[derive(Deserialize, Default, Clone, Copy)]
+enum Visibility {
+    #[default]
+    #[serde(rename = "pub")]
+    Public,
+    #[serde(rename = "pub(crate)")]
+    Crate,
+    #[serde(rename = "pub(super)")]
+    Super,
+    #[serde(rename = "private")]
+    Private,
+}
+
+impl Visibility {
+    fn tokens(self) -> TokenStream {
+        match self {
+            Visibility::Public => quote::quote! { pub },
+            Visibility::Crate => quote::quote! { pub(crate) },
+            Visibility::Super => quote::quote! { pub(super) },
+            Visibility::Private => TokenStream::new(),
+        }
+    }
 }
 
 #[derive(Deserialize)]
@@ -78,7 +101,7 @@ enum OneOrMany {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Symbol {
-    name: String,
+    name: Spanned<String>,
     #[serde(default)]
     doc: String,
 }
@@ -87,8 +110,8 @@ struct Symbol {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Entry {
-    name: String,
-    value: Value,
+    name: Spanned<String>,
+    value: Spanned<Value>,
     #[serde(default)]
     doc: String,
 }
@@ -103,25 +126,72 @@ enum Value {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Dynamics {
-    kind: String,
-    method: Option<String>,
-    dt: Option<Value>,
-    substeps: Option<u64>,
+    kind: Spanned<String>,
+    method: Option<Spanned<String>>,
+    dt: Option<Spanned<Value>>,
+    substeps: Option<Spanned<u64>>,
     #[serde(default, rename = "let")]
     lets: Vec<Entry>,
-    equations: IndexMap<String, Value>,
+    equations: IndexMap<String, Spanned<Value>>,
+}
+
+/// Spans for places in a model file, so its errors point at line and column as the
+/// macro's do. Each character of the file becomes one punctuation token of a synthetic
+/// token stream with the file's line structure; the token's span is that place.
+/// (Outside a procedural macro proc-macro2 records line and column for parsed text.)
+struct Places {
+    /// The span of each character, and the byte offset where it starts.
+    spans: Vec<(usize, Span)>,
+}
+
+impl Places {
+    fn of(source: &str) -> Places {
+        let shadow: String = source
+            .chars()
+            .map(|c| if c == '\n' { '\n' } else { '.' })
+            .collect();
+        let spans = match TokenStream::from_str(&shadow) {
+            Ok(tokens) => tokens.into_iter().map(|t| t.span()).collect(),
+            Err(_) => Vec::new(),
+        };
+        let starts = source
+            .char_indices()
+            .filter(|(_, c)| *c != '\n')
+            .map(|(i, _)| i);
+        Places {
+            spans: starts.zip(spans).collect(),
+        }
+    }
+
+    /// The span of the character at (or last before) byte `offset`.
+    fn at(&self, offset: usize) -> Span {
+        let i = self.spans.partition_point(|(start, _)| *start <= offset);
+        i.checked_sub(1)
+            .and_then(|i| self.spans.get(i))
+            .map_or_else(Span::call_site, |(_, span)| *span)
+    }
+
+    fn of_field<T>(&self, field: &Spanned<T>) -> Span {
+        self.at(field.span().start)
+    }
 }
 
 /// Reads a TOML model file into a [`ModelDecl`]. A file TOML cannot read is an error at
-/// once; expression mistakes are collected, each naming its field.
+/// once; expression mistakes are collected, each naming its field. Every error points at
+/// the field's line and column.
 pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
-    let file: ModelFile = toml::from_str(source)
-        .map_err(|e| syn::Error::new(Span::call_site(), format!("model file: {e}")))?;
+    let places = Places::of(source);
+    let file: ModelFile = toml::from_str(source).map_err(|e| {
+        let span = e
+            .span()
+            .map_or_else(Span::call_site, |r| places.at(r.start));
+        syn::Error::new(span, format!("model file: {}", e.message()))
+    })?;
     let mut diag = Diagnostics::default();
-    let here = Span::call_site();
-    let name = |text: &str| Name {
-        text: text.to_owned(),
-        span: here,
+    let top = places.at(0);
+    let name = |field: &Spanned<String>| Name {
+        text: field.get_ref().clone(),
+        span: places.of_field(field),
     };
     let docs = |doc: &str| -> Vec<String> {
         doc.lines()
@@ -129,24 +199,26 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
             .map(|l| format!(" {l}"))
             .collect()
     };
-    let expr = |value: &Value, field: &str, diag: &mut Diagnostics| match value {
-        Value::Number(v) => SurfaceExpr {
-            kind: SurfaceKind::Number(*v),
-            span: here,
-        },
-        Value::Text(text) => parse_expression(text, field, diag),
+    let expr = |value: &Spanned<Value>, field: &str, diag: &mut Diagnostics| {
+        let span = places.of_field(value);
+        match value.get_ref() {
+            Value::Number(v) => SurfaceExpr {
+                kind: SurfaceKind::Number(*v),
+                span,
+            },
+            Value::Text(text) => parse_expression(text, field, span, diag),
+        }
     };
 
-    let vis = TokenStream::from_str(&file.visibility).unwrap_or_else(|_| {
-        diag.error(
-            here,
-            format!("visibility: `{}` is not a Rust visibility", file.visibility),
-        );
-        TokenStream::new()
-    });
-    let scalars = match &file.scalar {
-        OneOrMany::One(s) => vec![name(s)],
-        OneOrMany::Many(list) => list.iter().map(|s| name(s)).collect(),
+    let vis = file.visibility.tokens();
+    let scalar_span = places.of_field(&file.scalar);
+    let scalar_name = |text: &String| Name {
+        text: text.clone(),
+        span: scalar_span,
+    };
+    let scalars = match file.scalar.get_ref() {
+        OneOrMany::One(s) => vec![scalar_name(s)],
+        OneOrMany::Many(list) => list.iter().map(scalar_name).collect(),
     };
     let constants = file
         .constants
@@ -154,7 +226,11 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
         .map(|c| ConstDecl {
             docs: docs(&c.doc),
             name: name(&c.name),
-            value: expr(&c.value, &format!("const `{}`", c.name), &mut diag),
+            value: expr(
+                &c.value,
+                &format!("const `{}`", c.name.get_ref()),
+                &mut diag,
+            ),
         })
         .collect();
     let symbols = [
@@ -177,23 +253,31 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
         .map(|o| OutputDecl {
             docs: docs(&o.doc),
             name: name(&o.name),
-            expr: expr(&o.value, &format!("output `{}`", o.name), &mut diag),
+            expr: expr(
+                &o.value,
+                &format!("output `{}`", o.name.get_ref()),
+                &mut diag,
+            ),
         })
         .collect();
     let dynamics = file
         .dynamics
         .iter()
         .map(|d| {
-            let kind = match d.kind.as_str() {
+            let kind_span = places.of_field(&d.kind);
+            let kind = match d.kind.get_ref().as_str() {
                 "discrete" => DynamicsKind::Discrete,
                 "continuous" => DynamicsKind::Continuous {
-                    method: d.method.as_deref().map(name),
+                    method: d.method.as_ref().map(name),
                     dt: d.dt.as_ref().map(|v| expr(v, "dynamics.dt", &mut diag)),
-                    substeps: d.substeps.map(|n| (n, here)),
+                    substeps: d
+                        .substeps
+                        .as_ref()
+                        .map(|n| (*n.get_ref(), places.of_field(n))),
                 },
                 other => {
                     diag.error(
-                        here,
+                        kind_span,
                         format!("dynamics.kind: `{other}` is neither `discrete` nor `continuous`"),
                     );
                     DynamicsKind::Discrete
@@ -202,20 +286,26 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
             let derivative = matches!(kind, DynamicsKind::Continuous { .. });
             let lets = d.lets.iter().map(|l| Statement::Let {
                 name: name(&l.name),
-                value: expr(&l.value, &format!("dynamics.let `{}`", l.name), &mut diag),
+                value: expr(
+                    &l.value,
+                    &format!("dynamics.let `{}`", l.name.get_ref()),
+                    &mut diag,
+                ),
             });
             let mut statements: Vec<Statement> = lets.collect();
-            statements.extend(
-                d.equations
-                    .iter()
-                    .map(|(state, value)| Statement::Equation {
-                        target: name(state),
-                        derivative,
-                        value: expr(value, &format!("dynamics.equations.{state}"), &mut diag),
-                    }),
-            );
+            statements.extend(d.equations.iter().map(|(state, value)| {
+                Statement::Equation {
+                    // The state's name is a key: its place is taken to be the value's.
+                    target: Name {
+                        text: state.clone(),
+                        span: places.of_field(value),
+                    },
+                    derivative,
+                    value: expr(value, &format!("dynamics.equations.{state}"), &mut diag),
+                }
+            }));
             DynamicsDecl {
-                span: here,
+                span: kind_span,
                 kind,
                 statements,
             }
@@ -226,19 +316,18 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
         vis,
         name: name(&file.name),
         scalars,
-        span: here,
+        span: top,
         constants,
         symbols,
         outputs,
         dynamics,
-        generate: generate_items(file.generate.as_ref(), &mut diag),
+        generate: generate_items(file.generate.as_ref(), &places, &mut diag),
     };
     Ok((decl, diag))
 }
 
 /// Parses one `meval` expression into a surface expression.
-fn parse_expression(text: &str, field: &str, diag: &mut Diagnostics) -> SurfaceExpr {
-    let here = Span::call_site();
+fn parse_expression(text: &str, field: &str, here: Span, diag: &mut Diagnostics) -> SurfaceExpr {
     let zero = SurfaceExpr {
         kind: SurfaceKind::Number(0.0),
         span: here,
@@ -259,6 +348,13 @@ fn parse_expression(text: &str, field: &str, diag: &mut Diagnostics) -> SurfaceE
     let mut stack: Vec<SurfaceExpr> = Vec::new();
     for token in parsed.iter() {
         let made = match token {
+            Token::Number(v) if !v.is_finite() => {
+                diag.error(
+                    here,
+                    format!("{field}: `{text}` holds {v}: every number must be finite"),
+                );
+                return zero;
+            }
             Token::Number(v) => node(SurfaceKind::Number(*v)),
             Token::Var(v) if v == "pi" => node(SurfaceKind::Number(std::f64::consts::PI)),
             Token::Var(v) => node(SurfaceKind::Name(v.clone())),
@@ -303,7 +399,7 @@ fn parse_expression(text: &str, field: &str, diag: &mut Diagnostics) -> SurfaceE
                     break;
                 }
                 let args = stack.split_off(stack.len() - n);
-                piecewise(f, &args).unwrap_or_else(|| {
+                piecewise(f, &args, here).unwrap_or_else(|| {
                     node(SurfaceKind::Call(
                         Name {
                             text: f.clone(),
@@ -330,7 +426,7 @@ fn parse_expression(text: &str, field: &str, diag: &mut Diagnostics) -> SurfaceE
 }
 
 /// `if_gt(a, b, then, else)` and its siblings as a piecewise term.
-fn piecewise(function: &str, args: &[SurfaceExpr]) -> Option<SurfaceExpr> {
+fn piecewise(function: &str, args: &[SurfaceExpr], here: Span) -> Option<SurfaceExpr> {
     let cmp = comparison_of(function)?;
     let [lhs, rhs, then, otherwise] = args else {
         return None;
@@ -343,7 +439,7 @@ fn piecewise(function: &str, args: &[SurfaceExpr]) -> Option<SurfaceExpr> {
             then: Box::new(then.clone()),
             otherwise: Box::new(otherwise.clone()),
         },
-        span: Span::call_site(),
+        span: here,
     })
 }
 
@@ -358,16 +454,20 @@ pub fn comparison_of(function: &str) -> Option<Comparison> {
     })
 }
 
-/// The `[generate]` table as `generate` items.
-fn generate_items(table: Option<&toml::Table>, diag: &mut Diagnostics) -> Vec<GenerateDecl> {
-    let here = Span::call_site();
-    let name = |text: &str| Name {
-        text: text.to_owned(),
-        span: here,
-    };
+/// The `[generate]` table as `generate` items; everything of one item points at its value.
+fn generate_items(
+    table: Option<&IndexMap<String, Spanned<toml::Value>>>,
+    places: &Places,
+    diag: &mut Diagnostics,
+) -> Vec<GenerateDecl> {
     let mut items = Vec::new();
     for (generator, value) in table.into_iter().flatten() {
-        let args = match value {
+        let here = places.of_field(value);
+        let name = |text: &str| Name {
+            text: text.to_owned(),
+            span: here,
+        };
+        let args = match value.get_ref() {
             toml::Value::Boolean(true) => Vec::new(),
             toml::Value::Boolean(false) => continue,
             toml::Value::Table(args) => args

@@ -21,6 +21,9 @@ pub struct Update {
     pub pivots: Vec<NodeId>,
     /// Variables standing for the pivots' reciprocals.
     pub reciprocals: Vec<NodeId>,
+    /// The normalised innovation squared, `r' S^-1 r`: chi-square distributed with as many
+    /// degrees of freedom as measurements while the filter is consistent.
+    pub nis: NodeId,
 }
 
 /// The update of estimate `x`, covariance `p` with innovation `residual = y - h(x)`,
@@ -44,6 +47,12 @@ pub fn update(
     let ldl = ldl_inverse(g, &s, reciprocal);
     let k = matmul(g, &pct, &ldl.inverse);
     let innovation: Matrix = residual.iter().map(|&e| vec![e]).collect();
+    let s_inverse_r = matmul(g, &ldl.inverse, &innovation);
+    let mut nis = g.zero();
+    for (&ri, sr) in residual.iter().zip(&s_inverse_r) {
+        let term = g.mul(ri, sr[0]);
+        nis = g.add(nis, term);
+    }
     let correction = matmul(g, &k, &innovation);
     let x_new = x
         .iter()
@@ -75,5 +84,6 @@ pub fn update(
         p: p_new,
         pivots: ldl.pivots,
         reciprocals: ldl.reciprocals,
+        nis,
     }
 }
