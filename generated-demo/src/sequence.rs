@@ -59,6 +59,17 @@ impl Measured {
         }
     }
 
+    /// The same beam and input with another measurement noise sequence, from `seed`
+    /// (`new()` is seed `0x2545_F491_4F6C_DD1D`; zero, which the generator cannot use, is
+    /// taken as one).
+    #[must_use]
+    pub fn with_noise_seed(seed: u64) -> Measured {
+        Measured {
+            noise: seed.max(1),
+            ..Measured::new()
+        }
+    }
+
     /// Uniform noise in `[-1, 1)` from a 64-bit xorshift generator.
     fn unit_noise(&mut self) -> f64 {
         self.noise ^= self.noise << 13;

@@ -7,7 +7,7 @@
 //! then `cost`/`stack` lines for `continuous_ekf_step` and `hybrid_ekf_step` (no nalgebra
 //! baseline: printed as 0).
 
-use crate::measure::{stack_depth, Clock};
+use crate::measure::{per_call, report, stack_depth, Clock};
 use core::hint::black_box;
 use cortex_m_semihosting::{hprint, hprintln};
 use generated_demo::continuous_sequence::{blade_tuning, helicopter_tuning, Blade, Helicopter};
@@ -65,12 +65,6 @@ fn generated_hybrid_ekf_step(filter: &mut HybridEkf, u: &[f32; 1], y: &[f32; 1])
     filter.step(u, y)
 }
 
-/// Does nothing: the harness loop's own cost.
-#[inline(never)]
-fn nothing(t: f32, y: f32) -> f32 {
-    t + y
-}
-
 fn print(tag: &str, k: usize, values: &[f32]) {
     hprint!("{} {}", tag, k);
     for value in values {
@@ -111,28 +105,6 @@ pub fn estimates() {
     }
 }
 
-/// Instructions per call of `step` over `samples`, the harness loop excluded.
-fn per_call<S: Copy>(
-    clock: &Clock,
-    samples: &[S],
-    mut step: impl FnMut(S),
-    probe: impl Fn(S) -> (f32, f32),
-) -> u32 {
-    let overhead = clock.instructions(|| {
-        for &s in samples {
-            let (a, b) = probe(s);
-            black_box(nothing(black_box(a), black_box(b)));
-        }
-    });
-    let total = clock.instructions(|| {
-        for &s in samples {
-            step(black_box(s));
-        }
-    });
-    let calls = samples.len() as u32;
-    (total.saturating_sub(overhead) + calls / 2) / calls
-}
-
 /// Measures `step` on `filter` in steady state: after the first `warm_up` samples of
 /// `sequence`, over the next `N`; prints its `cost` and `stack` lines as `kernel`.
 fn measure<S: Copy, F, const N: usize>(
@@ -142,7 +114,6 @@ fn measure<S: Copy, F, const N: usize>(
     warm_up: usize,
     mut filter: F,
     step: impl Fn(&mut F, S),
-    probe: impl Fn(S) -> (f32, f32),
 ) {
     for sample in sequence.by_ref().take(warm_up) {
         step(&mut filter, sample);
@@ -154,10 +125,9 @@ fn measure<S: Copy, F, const N: usize>(
     for slot in samples.iter_mut().skip(1) {
         *slot = sequence.next().unwrap_or(first);
     }
-    let cost = per_call(clock, &samples, |s| step(&mut filter, s), probe);
+    let cost = per_call(clock, samples.iter().copied(), |s| step(&mut filter, s));
     let stack = stack_depth(|| step(&mut filter, first));
-    hprintln!("cost {} {} 0", kernel, cost);
-    hprintln!("stack {} {} 0", kernel, stack);
+    report(kernel, (cost, 0), (stack, 0));
 }
 
 /// Measures both kernels in steady state (after the first half of each sequence).
@@ -173,7 +143,6 @@ pub fn costs(clock: &Clock) {
                 filter, s.t_prev, &s.u_prev, &s.y,
             ));
         },
-        |s| (s.t_prev, s.y[0]),
     );
     measure::<_, _, MEASURED_BLADE>(
         clock,
@@ -184,6 +153,5 @@ pub fn costs(clock: &Clock) {
         |filter, s| {
             let _ = black_box(generated_hybrid_ekf_step(filter, &s.u_prev, &s.y));
         },
-        |s| (s.t_prev, s.y[0]),
     );
 }

@@ -61,3 +61,54 @@ pub fn stack_depth(work: impl FnOnce()) -> usize {
     }
     top - address
 }
+
+/// Does nothing with a sample: the harness loop's own cost, subtracted from a kernel's.
+#[inline(never)]
+fn nothing<S>(sample: S) -> S {
+    sample
+}
+
+/// Marks the start of measured calls for `cargo xtask`'s instruction trace, which
+/// follows each kernel call between the two markers to estimate its cycles.
+#[inline(never)]
+fn trace_begin() {
+    core::hint::black_box(1_u32);
+}
+
+/// Marks the end of measured calls (see [`trace_begin`]).
+#[inline(never)]
+fn trace_end() {
+    core::hint::black_box(2_u32);
+}
+
+/// Instructions per call of `kernel` over `samples`, the harness loop excluded: the same
+/// loop passing each sample to [`nothing`] instead is measured and subtracted. The
+/// kernel's calls lie between the trace markers.
+pub fn per_call<S: Copy>(
+    clock: &Clock,
+    samples: impl Iterator<Item = S> + Clone,
+    mut kernel: impl FnMut(S),
+) -> u32 {
+    use core::hint::black_box;
+    let calls = samples.clone().count() as u32;
+    let overhead = clock.instructions(|| {
+        for sample in samples.clone() {
+            black_box(nothing(black_box(sample)));
+        }
+    });
+    trace_begin();
+    let total = clock.instructions(|| {
+        for sample in samples {
+            kernel(black_box(sample));
+        }
+    });
+    trace_end();
+    (total.saturating_sub(overhead) + calls / 2) / calls.max(1)
+}
+
+/// Prints a kernel's `cost` and `stack` lines: generated code, then the nalgebra baseline
+/// (0 where there is none).
+pub fn report(kernel: &str, instructions: (u32, u32), stack: (usize, usize)) {
+    cortex_m_semihosting::hprintln!("cost {} {} {}", kernel, instructions.0, instructions.1);
+    cortex_m_semihosting::hprintln!("stack {} {} {}", kernel, stack.0, stack.1);
+}

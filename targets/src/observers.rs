@@ -6,7 +6,7 @@
 //! Output: `observer k <x1..x6>` and `polykf k <x0..x3>` every tenth sample, then `cost`
 //! and `stack` lines for `switched_observer_step` and `polynomial_kf_step`.
 
-use crate::measure::{stack_depth, Clock};
+use crate::measure::{per_call, report, stack_depth, Clock};
 use crate::observers_baseline as baseline;
 use core::hint::black_box;
 use cortex_m_semihosting::{hprint, hprintln};
@@ -76,29 +76,6 @@ fn baseline_polynomial_kf_step(kf: &mut baseline::PolynomialKf, y: f32) {
     kf.step(y);
 }
 
-/// Does nothing: the harness's own loop, subtracted from every kernel.
-#[inline(never)]
-fn nothing(u: f32, y: &[f32; 2]) -> f32 {
-    u + y[0]
-}
-
-/// Instructions per call of `kernel(k)` for `k` in `range`, harness loop excluded.
-fn per_call(clock: &Clock, range: core::ops::Range<usize>, mut kernel: impl FnMut(usize)) -> u32 {
-    let calls = range.len() as u32;
-    let overhead = clock.instructions(|| {
-        for k in range.clone() {
-            let (u, y) = BEAM_SEQUENCE[k];
-            black_box(nothing(black_box(u), black_box(&y)));
-        }
-    });
-    let total = clock.instructions(|| {
-        for k in range.clone() {
-            kernel(black_box(k));
-        }
-    });
-    (total.saturating_sub(overhead) + calls / 2) / calls
-}
-
 /// Per-call cost of one switched-observer step and one polynomial-KF step (averaged over
 /// 800 samples, so over 8 re-initialisations of the polynomial filter).
 pub fn costs(clock: &Clock) {
@@ -109,12 +86,10 @@ pub fn costs(clock: &Clock) {
         baseline_switched_observer_step(black_box(&mut plain), *u, y);
     }
     let costs = (
-        per_call(clock, 100..900, |k| {
-            let (u, y) = BEAM_SEQUENCE[k];
+        per_call(clock, BEAM_SEQUENCE[100..900].iter().copied(), |(u, y)| {
             generated_switched_observer_step(black_box(&mut generated), u, &y);
         }),
-        per_call(clock, 100..900, |k| {
-            let (u, y) = BEAM_SEQUENCE[k];
+        per_call(clock, BEAM_SEQUENCE[100..900].iter().copied(), |(u, y)| {
             baseline_switched_observer_step(black_box(&mut plain), u, &y);
         }),
     );
@@ -135,11 +110,11 @@ pub fn costs(clock: &Clock) {
         baseline_polynomial_kf_step(black_box(&mut plain), *y);
     }
     let costs = (
-        per_call(clock, 100..900, |k| {
-            generated_polynomial_kf_step(black_box(&mut generated), HUB_SEQUENCE[k]);
+        per_call(clock, HUB_SEQUENCE[100..900].iter().copied(), |y| {
+            generated_polynomial_kf_step(black_box(&mut generated), y);
         }),
-        per_call(clock, 100..900, |k| {
-            baseline_polynomial_kf_step(black_box(&mut plain), HUB_SEQUENCE[k]);
+        per_call(clock, HUB_SEQUENCE[100..900].iter().copied(), |y| {
+            baseline_polynomial_kf_step(black_box(&mut plain), y);
         }),
     );
     let stacks = (
@@ -147,9 +122,4 @@ pub fn costs(clock: &Clock) {
         stack_depth(|| baseline_polynomial_kf_step(black_box(&mut plain), 0.1)),
     );
     report("polynomial_kf_step", costs, stacks);
-}
-
-fn report(kernel: &str, instructions: (u32, u32), stack: (usize, usize)) {
-    hprintln!("cost {} {} {}", kernel, instructions.0, instructions.1);
-    hprintln!("stack {} {} {}", kernel, stack.0, stack.1);
 }

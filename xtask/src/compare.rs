@@ -53,27 +53,32 @@ fn diag(d: [f64; 5]) -> [[f64; 5]; 5] {
 pub const RTOL: f64 = 1e-4;
 /// Per state entry, the magnitude below which the tolerance stops shrinking: mm, mm/s,
 /// 1/s^2, 1/s, mm/(s^2 V).
-const FLOORS: [f64; 5] = [0.1, 1.0, 1.0, 0.1, 0.01];
+pub const FLOORS: [f64; 5] = [0.1, 1.0, 1.0, 0.1, 0.01];
 
 /// Checks every printed estimate against the host run, and that the DKF from the wrong
 /// guess converges on the target as on the host (wn within 2% of the truth by 10 s).
-/// Returns a one-line summary, or the first disagreement.
+/// Returns a summary (the largest relative difference, overall and per filter), or the
+/// first disagreement.
 pub fn check(target: &[Estimate], host: &[Estimate]) -> Result<String, String> {
-    let mut worst = 0.0f64;
+    // Largest relative difference: EKF, DKF, DKF from the wrong guess, LQR gain and control.
+    let mut worst = [0.0f64; 4];
     for t in target {
         let h = host
             .get(t.k.wrapping_sub(1))
             .filter(|h| h.k == t.k)
             .ok_or_else(|| format!("the host has no sample {}", t.k))?;
-        for (name, tv, hv) in [
+        for (group, (name, tv, hv)) in [
             ("EKF", t.ekf, h.ekf),
             ("DKF", t.dkf, h.dkf),
             ("DKF (wrong guess)", t.dkf_wrong, h.dkf_wrong),
-        ] {
+        ]
+        .into_iter()
+        .enumerate()
+        {
             for i in 0..5 {
                 let scale = hv[i].abs().max(FLOORS[i]);
                 let error = (tv[i] - hv[i]).abs() / scale;
-                worst = worst.max(error);
+                worst[group] = worst[group].max(error);
                 if error.is_nan() || error > RTOL {
                     return Err(format!(
                         "{name} x{} at sample {}: target {} vs host {} (relative {error:.1e}, allowed {RTOL:e})",
@@ -91,7 +96,7 @@ pub fn check(target: &[Estimate], host: &[Estimate]) -> Result<String, String> {
             ("control", t.control, h.control, 1.0),
         ] {
             let error = (tv - hv).abs() / hv.abs().max(floor);
-            worst = worst.max(error);
+            worst[3] = worst[3].max(error);
             if error.is_nan() || error > RTOL {
                 return Err(format!(
                     "{name} at sample {}: target {tv} vs host {hv} (relative {error:.1e})",
@@ -110,10 +115,13 @@ pub fn check(target: &[Estimate], host: &[Estimate]) -> Result<String, String> {
             "the f32 DKF from the wrong guess has wn = {wn} at 10 s on the target (truth 20)"
         ));
     }
+    let [ekf, dkf, dkf_wrong, lqr] = worst;
+    let overall = worst.into_iter().fold(0.0, f64::max);
     Ok(format!(
         "{} estimates of EKF, DKF, DKF from the wrong guess and LQR agree with the host's f64 \
-         run within {worst:.1e} relative (allowed {RTOL:e}); the wrong-guess DKF's wn at 10 s on \
-         the target: {wn:.2} rad/s",
+         run within {overall:.1e} relative (allowed {RTOL:e}; EKF {ekf:.1e}, DKF {dkf:.1e}, \
+         DKF from the wrong guess {dkf_wrong:.1e}, LQR {lqr:.1e}); the wrong-guess DKF's wn at \
+         10 s on the target: {wn:.2} rad/s",
         target.len()
     ))
 }

@@ -1,169 +1,306 @@
-//! The cost table: instructions per call (from the firmware), code size and stack per
-//! kernel, generated code beside the nalgebra baseline, against the goals.
+//! The cost table: per kernel, instructions per call (from the firmware), estimated cycles
+//! (from an instruction trace of the same calls) and microseconds at the paper's 168 MHz,
+//! code size and stack, generated code beside the nalgebra baseline, against the goals,
+//! the C peer and the paper.
 
 use crate::firmware::Cost;
-use std::collections::{BTreeMap, BTreeSet};
-use std::path::Path;
-use std::process::Command;
+use crate::program::Program;
+use crate::timing;
+use crate::trace::Traced;
+use std::collections::BTreeMap;
 
-/// Per kernel: label, goal in instructions, the C peer's figure (CasADi 3.8, -O2).
-const KERNELS: [(&str, &str, Option<u32>, Option<u32>); 8] = [
-    ("ekf_step", "EKF step", Some(210), Some(254)),
-    ("dkf_step", "DKF step", Some(540), Some(649)),
-    ("lqr_solve", "LQR solve (N = 50)", Some(2500), None),
-    ("loop", "whole loop (DKF + LQR + u)", Some(3500), None),
-    (
-        "continuous_ekf_step",
-        "continuous EKF step (heli)",
-        None,
-        None,
-    ),
-    ("hybrid_ekf_step", "hybrid EKF step (500 sub)", None, None),
-    (
-        "switched_observer_step",
-        "switched observer step",
-        None,
-        None,
-    ),
-    ("polynomial_kf_step", "polynomial KF step (avg)", None, None),
+/// The paper's clock: an STM32F407 at 168 MHz.
+const CLOCK_MHZ: f64 = 168.0;
+
+/// A measured kernel, as the firmware names it, with what it is compared against.
+struct Kernel {
+    /// The firmware's name (`dkf_step`): its wrappers are `generated_<name>` and
+    /// `baseline_<name>`.
+    name: &'static str,
+    /// Row label.
+    label: &'static str,
+    /// Goal in instructions per call.
+    goal: Option<u32>,
+    /// The C peer's instructions per call (CasADi 3.8 C, arm-none-eabi-gcc 12 -O2, hard
+    /// float, measured the same way; shared/reference/cortex-m4-measurement.md).
+    c_peer: Option<u32>,
+    /// The paper's time on its STM32F407 at 168 MHz, in milliseconds.
+    paper_ms: Option<f64>,
+}
+
+/// The kernels, in table order.
+const KERNELS: &[Kernel] = &[
+    Kernel {
+        name: "ekf_step",
+        label: "EKF step",
+        goal: Some(210),
+        c_peer: Some(254),
+        paper_ms: Some(6.92),
+    },
+    Kernel {
+        name: "dkf_step",
+        label: "DKF step",
+        goal: Some(540),
+        c_peer: Some(649),
+        paper_ms: Some(11.67),
+    },
+    Kernel {
+        name: "lqr_solve",
+        label: "LQR solve (N = 50)",
+        goal: Some(2500),
+        c_peer: None,
+        paper_ms: None,
+    },
+    Kernel {
+        name: "loop",
+        label: "whole loop (DKF + LQR + u)",
+        goal: Some(3500),
+        c_peer: None,
+        paper_ms: None,
+    },
+    Kernel {
+        name: "continuous_ekf_step",
+        label: "continuous EKF step (heli)",
+        goal: None,
+        c_peer: None,
+        paper_ms: None,
+    },
+    Kernel {
+        name: "hybrid_ekf_step",
+        label: "hybrid EKF step (500 sub)",
+        goal: None,
+        c_peer: None,
+        paper_ms: None,
+    },
+    Kernel {
+        name: "switched_observer_step",
+        label: "switched observer step",
+        goal: None,
+        c_peer: None,
+        paper_ms: None,
+    },
+    Kernel {
+        name: "polynomial_kf_step",
+        label: "polynomial KF step (avg)",
+        goal: None,
+        c_peer: None,
+        paper_ms: None,
+    },
 ];
 
-/// The firmware's functions: their sizes and whom they call.
-struct Program {
-    size: BTreeMap<String, u64>,
-    calls: BTreeMap<String, BTreeSet<String>>,
+/// The wrapper functions of every kernel the firmware measured, generated then
+/// baseline, for the trace.
+pub fn wrappers(costs: &[Cost], program: &Program) -> Vec<String> {
+    costs
+        .iter()
+        .flat_map(|c| ["generated", "baseline"].map(|side| format!("{side}_{}", c.kernel)))
+        .filter_map(|w| program.function(&w))
+        .collect()
 }
 
-impl Program {
-    fn read(elf: &Path) -> Result<Program, String> {
-        let text = |args: &[&str], tool: &str| -> Result<String, String> {
-            let out = Command::new(tool)
-                .args(args)
-                .arg(elf)
-                .output()
-                .map_err(|e| format!("cannot run {tool}: {e}"))?;
-            Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+/// Largest difference, in instructions per call, allowed between the trace's count and
+/// the counter's: the trace follows the wrapper alone, the counter subtracts a harness
+/// loop whose call of an empty function costs a few instructions.
+const TRACE_SLACK: f64 = 8.0;
+
+/// The table, as text. Fails if a kernel is missing or if the trace and the instruction
+/// counter disagree (the trace then did not follow the calls the counter measured).
+pub fn table(
+    build: &str,
+    full: bool,
+    costs: &[Cost],
+    program: &Program,
+    traced: &BTreeMap<String, Traced>,
+) -> Result<String, String> {
+    let mut rows = Vec::new();
+    for kernel in KERNELS {
+        let Some(cost) = costs.iter().find(|c| c.kernel == kernel.name) else {
+            return Err(format!("the firmware did not measure `{}`", kernel.name));
         };
-        let mut size = BTreeMap::new();
-        for line in text(&["-S", "--demangle", "--defined-only"], "arm-none-eabi-nm")?.lines() {
-            let words: Vec<&str> = line.splitn(4, ' ').collect();
-            if let [_, bytes, kind, name] = words[..] {
-                if kind.eq_ignore_ascii_case("t") {
-                    size.insert(name.to_owned(), u64::from_str_radix(bytes, 16).unwrap_or(0));
-                }
+        let side = |prefix: &str, instructions: u32| -> Result<Side, String> {
+            let wrapper = program
+                .function(&format!("{prefix}_{}", kernel.name))
+                .ok_or_else(|| format!("no `{prefix}_{}` in the firmware", kernel.name))?;
+            let trace = traced
+                .get(&wrapper)
+                .filter(|t| t.calls > 0)
+                .ok_or_else(|| format!("the trace saw no call of `{wrapper}`"))?;
+            let seen = trace.instructions_per_call();
+            if (seen - f64::from(instructions)).abs() > TRACE_SLACK {
+                return Err(format!(
+                    "`{wrapper}`: the trace saw {seen:.1} instructions per call, the counter \
+                     {instructions}"
+                ));
             }
-        }
-        let mut calls: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-        let mut current = String::new();
-        for line in text(&["-d", "--demangle"], "arm-none-eabi-objdump")?.lines() {
-            if let Some(name) = line.strip_suffix(">:").and_then(|l| l.split_once(" <")) {
-                current = name.1.to_owned();
-            } else if let Some((_, target)) = line.split_once(" <") {
-                let is_branch = ["\tbl\t", "\tb.w\t", "\tb\t"]
-                    .iter()
-                    .any(|b| line.contains(b));
-                if let Some(callee) = target.strip_suffix('>').filter(|_| is_branch) {
-                    if !callee.contains('+') && callee != current {
-                        calls
-                            .entry(current.clone())
-                            .or_default()
-                            .insert(callee.to_owned());
-                    }
-                }
-            }
-        }
-        Ok(Program { size, calls })
+            let calls = trace.calls as f64;
+            Ok(Side {
+                instructions,
+                cycles: trace.cycles_per_call(),
+                groups: trace
+                    .groups
+                    .map(|(i, c)| (i as f64 / calls, c as f64 / calls)),
+                text: program.reachable_size(&wrapper),
+            })
+        };
+        rows.push(Row {
+            kernel,
+            generated: side("generated", cost.instructions.0)?,
+            // A kernel without a nalgebra baseline reports 0 instructions for it.
+            baseline: match cost.instructions.1 {
+                0 => None,
+                instructions => Some(side("baseline", instructions)?),
+            },
+            stack: cost.stack,
+        });
     }
-
-    /// Bytes of code `root` can execute: itself and everything it calls, once each.
-    fn reachable_size(&self, root: &str) -> Option<u64> {
-        let mut seen = BTreeSet::new();
-        let mut stack = vec![root.to_owned()];
-        while let Some(f) = stack.pop() {
-            if seen.insert(f.clone()) {
-                stack.extend(self.calls.get(&f).into_iter().flatten().cloned());
-            }
-        }
-        let sizes: Vec<u64> = seen
-            .iter()
-            .filter_map(|f| self.size.get(f))
-            .copied()
-            .collect();
-        (!sizes.is_empty() && self.size.contains_key(root)).then(|| sizes.iter().sum())
-    }
-
-    /// The kernel wrapper whose demangled name ends with `::name`.
-    fn function(&self, name: &str) -> Option<String> {
-        let suffix = format!("::{name}");
-        self.size.keys().find(|k| k.ends_with(&suffix)).cloned()
+    if full {
+        Ok(render(build, &rows, program))
+    } else {
+        Ok(format!("The firmware {build}:\n{}", main_table(&rows)))
     }
 }
 
-/// The table, as text.
-pub fn table(costs: &[Cost], elf: &Path) -> Result<String, String> {
-    let program = Program::read(elf)?;
-    let code = |kernel: &str, side: &str| {
-        program
-            .function(&format!("{side}_{kernel}"))
-            .and_then(|f| program.reachable_size(&f))
-            .map_or("?".to_owned(), |b| b.to_string())
-    };
+/// One side of a row: generated code or the baseline.
+struct Side {
+    instructions: u32,
+    cycles: f64,
+    /// Per call, instructions and cycles by group ([`timing::GROUPS`]).
+    groups: [(f64, f64); timing::GROUPS.len()],
+    text: Option<u64>,
+}
+
+struct Row<'k> {
+    kernel: &'k Kernel,
+    generated: Side,
+    baseline: Option<Side>,
+    stack: (u32, u32),
+}
+
+/// The table of instructions, cycles and microseconds.
+fn main_table(rows: &[Row]) -> String {
+    let us = |cycles: f64| cycles / CLOCK_MHZ;
+    let show = |v: Option<u32>| v.map_or("-".to_owned(), |v| v.to_string());
     let mut out = String::new();
-    out.push_str(
-        "Cortex-M4F under QEMU (mps2-an386, -icount): f32, opt-level 3, fat LTO; instructions\n\
-         per call in steady state (call overhead excluded), code bytes reachable from the\n\
-         kernel, deepest stack use. Instructions, not cycles: vdiv takes 14 cycles, loads 2.\n\n",
-    );
     out.push_str(&format!(
-        "{:<28} {:>9} {:>9} {:>6} {:>6}   {:>9} {:>9}   {:>9} {:>9}\n",
-        "kernel",
-        "generated",
-        "nalgebra",
+        "{:<28} {:>15} {:>15} {:>15}   {:>5} {:>6}   {:>9} {:>8}\n",
+        "",
+        "instructions",
+        "cycles (est.)",
+        "us at 168 MHz",
         "goal",
         "C peer",
-        "text gen",
-        "text nalg",
-        "stack gen",
-        "stack nalg"
+        "nalg/gen",
+        "peer/gen"
     ));
-    for (kernel, label, goal, peer) in KERNELS {
-        let Some(cost) = costs.iter().find(|c| c.kernel == kernel) else {
-            return Err(format!("the firmware did not measure `{kernel}`"));
+    out.push_str(&format!(
+        "{:<28} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7}   {:>5} {:>6}   {:>4} {:>4} {:>8}\n",
+        "kernel", "gen", "nalg", "gen", "nalg", "gen", "nalg", "", "", "ins", "cyc", "ins"
+    ));
+    for row in rows {
+        let (g, b) = (&row.generated, row.baseline.as_ref());
+        let verdict = match row.kernel.goal {
+            Some(goal) if g.instructions >= goal => "  (above the goal)",
+            _ => "",
         };
-        let show = |v: Option<u32>| v.map_or("-".to_owned(), |v| v.to_string());
-        let verdict = match goal {
-            Some(g) if cost.instructions.0 < g => "",
-            Some(_) => "  (above the goal)",
-            None => "",
-        };
-        let loop_kernel = if kernel == "loop" { "loop" } else { kernel };
+        let peer = row.kernel.c_peer.map_or("-".to_owned(), |p| {
+            format!("{:.2}", f64::from(p) / f64::from(g.instructions))
+        });
+        let baseline = |value: &dyn Fn(&Side) -> String| b.map_or("-".to_owned(), value);
         out.push_str(&format!(
-            "{:<28} {:>9} {:>9} {:>6} {:>6}   {:>9} {:>9}   {:>9} {:>9}{verdict}\n",
-            label,
-            cost.instructions.0,
-            // Kernels without a nalgebra baseline report 0.
-            show(Some(cost.instructions.1).filter(|&v| v > 0)),
-            show(goal),
-            show(peer),
-            code(loop_kernel, "generated"),
-            if cost.instructions.1 > 0 {
-                code(loop_kernel, "baseline")
+            "{:<28} {:>7} {:>7} {:>7.0} {:>7} {:>7.2} {:>7}   {:>5} {:>6}   {:>4} {:>4} {:>8}{verdict}\n",
+            row.kernel.label,
+            g.instructions,
+            baseline(&|b| b.instructions.to_string()),
+            g.cycles,
+            baseline(&|b| format!("{:.0}", b.cycles)),
+            us(g.cycles),
+            baseline(&|b| format!("{:.2}", us(b.cycles))),
+            show(row.kernel.goal),
+            show(row.kernel.c_peer),
+            baseline(&|b| format!("{:.1}", f64::from(b.instructions) / f64::from(g.instructions))),
+            baseline(&|b| format!("{:.1}", b.cycles / g.cycles)),
+            peer,
+        ));
+    }
+    out
+}
+
+fn render(build: &str, rows: &[Row], program: &Program) -> String {
+    let us = |cycles: f64| cycles / CLOCK_MHZ;
+    let mut out = format!("The firmware {build}.\n");
+    out.push_str(
+        "Cortex-M4F under QEMU (mps2-an386): f32, opt-level 3, fat LTO. Instructions per call in\n\
+         steady state (SysTick under -icount, call overhead excluded); cycles estimated from an\n\
+         instruction trace of the same calls, each instruction weighted by the Cortex-M4 TRM's\n\
+         timings (zero wait states, taken branch 3 cycles: xtask/src/timing.rs); microseconds\n\
+         at 168 MHz, the paper's STM32F407 clock. gen: generated code, nalg: nalgebra.\n\n",
+    );
+    out.push_str(&main_table(rows));
+    out.push_str(&format!(
+        "\n{:<28} {:>9} {:>9}   {:>9} {:>9}   {:>10}\n",
+        "kernel", "text gen", "text nalg", "stack gen", "stack nalg", "cyc/ins gen"
+    ));
+    for row in rows {
+        let text = |s: &Side| s.text.map_or("?".to_owned(), |b| b.to_string());
+        out.push_str(&format!(
+            "{:<28} {:>9} {:>9}   {:>9} {:>9}   {:>10.2}\n",
+            row.kernel.label,
+            text(&row.generated),
+            row.baseline.as_ref().map_or("-".to_owned(), text),
+            row.stack.0,
+            if row.baseline.is_some() {
+                row.stack.1.to_string()
             } else {
                 "-".to_owned()
             },
-            cost.stack.0,
-            show(Some(cost.stack.1).filter(|_| cost.instructions.1 > 0)),
+            row.generated.cycles / f64::from(row.generated.instructions),
         ));
+    }
+    out.push_str(
+        "\nWhere the generated code's estimated cycles go, per call (instructions / cycles):\n",
+    );
+    out.push_str(&format!("{:<28}", "kernel"));
+    for group in timing::GROUPS {
+        out.push_str(&format!(" {group:>11}"));
+    }
+    out.push('\n');
+    for row in rows {
+        out.push_str(&format!("{:<28}", row.kernel.label));
+        for (instructions, cycles) in row.generated.groups {
+            out.push_str(&format!(
+                " {:>13}",
+                format!("{instructions:.0} / {cycles:.0}")
+            ));
+        }
+        out.push('\n');
+    }
+    let paper: Vec<String> = rows
+        .iter()
+        .filter_map(|row| {
+            let ms = row.kernel.paper_ms?;
+            let ours = us(row.generated.cycles);
+            Some(format!(
+                "{:<10} {ms:>6} ms   generated {ours:>6.2} us   ({:.0} times less)",
+                row.kernel.label,
+                ms * 1000.0 / ours
+            ))
+        })
+        .collect();
+    if !paper.is_empty() {
+        out.push_str("\nThe paper's C on its STM32F407 at 168 MHz, against the estimate here:\n");
+        for line in paper {
+            out.push_str(&format!("  {line}\n"));
+        }
     }
     out.push_str(
         "\nGenerated functions in the image (.text bytes; the rest is inlined into them):\n",
     );
-    for (name, bytes) in program
-        .size
+    for (name, &(_, bytes)) in program
+        .functions
         .iter()
         .filter(|(name, _)| name.starts_with("generated_demo::"))
     {
         out.push_str(&format!("  {bytes:>6}  {name}\n"));
     }
-    Ok(out)
+    out
 }

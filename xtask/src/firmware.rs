@@ -1,9 +1,53 @@
 //! Building and running the Cortex-M4F firmware (`targets/`) under QEMU, and reading
 //! what it printed.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+
+/// A build of the firmware: the generated code is the same, the compiler's options differ.
+#[derive(Clone, Copy, Debug)]
+pub struct Build {
+    /// How the tables and messages name it.
+    pub name: &'static str,
+    /// Cargo's target directory, relative to `targets/`.
+    target_dir: &'static str,
+    /// Extra `rustflags` for the MCU target.
+    rustflags: Option<&'static str>,
+    /// Whether `a * b + c` must compile to one fused, singly rounded `vfma.f32`.
+    pub fused: bool,
+}
+
+/// The builds measured: LLVM's default, whose multiply-adds are chained `vmla.f32` (rounded
+/// after the multiply, as the source), and the fused multiply-add option, which lets LLVM
+/// contract every `a * b + c` into `vfma.f32` (no source change, no `unsafe`).
+pub const BUILDS: [Build; 2] = [
+    Build {
+        name: "without FMA",
+        target_dir: "target",
+        rustflags: None,
+        fused: false,
+    },
+    Build {
+        name: "with FMA (-C llvm-args=--fp-contract=fast)",
+        target_dir: "target/fma",
+        rustflags: Some("-C llvm-args=--fp-contract=fast"),
+        fused: true,
+    },
+];
+
+/// The variable that adds `rustflags` for the MCU target to those of
+/// `targets/.cargo/config.toml`.
+const RUSTFLAGS_VARIABLE: &str = "CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS";
+
+impl Build {
+    /// The image it builds.
+    pub fn elf(&self, targets: &Path) -> PathBuf {
+        targets
+            .join(self.target_dir)
+            .join("thumbv7em-none-eabihf/release/firmware")
+    }
+}
 
 /// Longest a firmware run may take before it counts as hung.
 const TIMEOUT: Duration = Duration::from_secs(600);
@@ -51,15 +95,24 @@ pub struct Report {
     pub observer: Vec<(usize, Vec<f64>)>,
     /// `polykf k x..`: the polynomial Kalman filter.
     pub polykf: Vec<(usize, Vec<f64>)>,
+    /// Of the multiply-adds compared with `libm::fmaf`: how many differed, of how many.
+    pub fused: Option<(u32, u32)>,
 }
 
 /// Builds the firmware in release mode and runs it under QEMU (the runner in
 /// `targets/.cargo/config.toml`); fails on a non-zero exit, a timeout or a missing `done`.
-pub fn run(targets: &Path) -> Result<Report, String> {
+pub fn run(targets: &Path, build: Build) -> Result<Report, String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut child = Command::new(cargo)
+    let mut command = Command::new(cargo);
+    command
         .args(["run", "--release", "--quiet"])
         .current_dir(targets)
+        .env("CARGO_TARGET_DIR", build.target_dir);
+    match build.rustflags {
+        Some(flags) => command.env(RUSTFLAGS_VARIABLE, flags),
+        None => command.env_remove(RUSTFLAGS_VARIABLE),
+    };
+    let mut child = command
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
         .spawn()
@@ -143,6 +196,13 @@ fn parse(text: &str) -> Result<Report, String> {
                     "observer" => report.observer.push(sample),
                     _ => report.polykf.push(sample),
                 }
+            }
+            ["fused", differing, of] => {
+                let parse = |w: &str| {
+                    w.parse::<u32>()
+                        .map_err(|_| format!("bad count in `{line}`"))
+                };
+                report.fused = Some((parse(differing)?, parse(of)?));
             }
             ["done"] => done = true,
             _ => {}

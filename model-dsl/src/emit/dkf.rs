@@ -97,11 +97,11 @@ pub fn emit_dkf(
     let u_param_plain = has_u.then(|| quote! { u: &[#ty; #u_len] });
     let u_arg_plain = has_u.then(|| quote! { u });
     let step_doc = format!(
-        " One sample (Alg. 2): builds `F`, `G`, `d` from the window ending at the previous \
-         sample and the input `u[k-1]`, runs the AKF on them, runs the LKF linearised about \
-         the AKF's previous estimate with the same input, and corrects both with `y[k]`; \
-         then pushes `y[k]` and `u[k-1]` into the window. Cost: [`DKF_TRANSFORM_OPS`] plus \
-         [`DKF_FILTERS_OPS`]{}.",
+        " One sample (Alg. 2): runs the LKF linearised about the AKF's previous estimate \
+         with the input `u[k-1]`, builds `F`, `G`, `d` from the window ending at the \
+         previous sample and the same input, runs the AKF on them, each filter corrected \
+         with `y[k]`; then pushes `y[k]` and `u[k-1]` into the window. Cost: \
+         [`DKF_TRANSFORM_OPS`] plus [`DKF_FILTERS_OPS`]{}.",
         if model.scalars.first() == Some(&scalar) {
             ""
         } else {
@@ -135,8 +135,9 @@ pub fn emit_dkf(
             inputs: [#ty; #inputs_len],
             filled: [bool; #window_outputs_lit],
             phi_params: [#ty; #p_len],
-            excitation_sq: #ty,
-            min_excitation: #ty,
+            window_det_sq: #ty,
+            window_column_norms: #ty,
+            min_excitation_sq: #ty,
             xbar: [#ty; #n_len],
             pbar: [#ty; #nn],
             qbar: #qbar_field,
@@ -165,8 +166,10 @@ pub fn emit_dkf(
                     inputs: [#zero; #inputs_len],
                     filled: [false; #window_outputs_lit],
                     phi_params: #params_of_x0,
-                    excitation_sq: #zero,
-                    min_excitation: Self::DEFAULT_MIN_EXCITATION,
+                    window_det_sq: #zero,
+                    window_column_norms: #zero,
+                    min_excitation_sq: Self::DEFAULT_MIN_EXCITATION
+                        * Self::DEFAULT_MIN_EXCITATION,
                     xbar: x0,
                     pbar: #pack_pbar0,
                     qbar: #pack_qbar,
@@ -181,7 +184,7 @@ pub fn emit_dkf(
             /// excitation measure is not above it keep the last solved parameters.
             #[must_use]
             pub fn with_min_excitation(mut self, min_excitation: #ty) -> Dkf {
-                self.min_excitation = min_excitation;
+                self.min_excitation_sq = min_excitation * min_excitation;
                 self
             }
 
@@ -220,7 +223,12 @@ pub fn emit_dkf(
             /// pause adaptation while it is low.
             #[must_use]
             pub fn excitation(&self) -> #ty {
-                libm::#sqrt(self.excitation_sq)
+                // Stored as its two squared terms: the step itself never divides them.
+                if self.window_column_norms > #zero {
+                    libm::#sqrt(self.window_det_sq / self.window_column_norms)
+                } else {
+                    #zero
+                }
             }
 
             /// What the window holds now says of the state: `phi` (states, then
@@ -228,7 +236,7 @@ pub fn emit_dkf(
             /// measurement, with `u` the input applied from then on, and the window's status.
             #[must_use]
             pub fn window_estimate(&self, #u_param_plain) -> ([#ty; #n_len], WindowStatus) {
-                let (phi, window, _) = self.transform(#u_arg_plain);
+                let (phi, window, ..) = self.transform(#u_arg_plain);
                 (phi, window)
             }
 
@@ -311,7 +319,8 @@ fn window_unpack(
     quote! { #y #u }
 }
 
-/// `fn transform(&self, u) -> (phi, WindowStatus, excitation_sq)`: eqs. (8)-(12).
+/// `fn transform(&self, u) -> (phi, WindowStatus, [det_sq, column_norms], parameters)`:
+/// eqs. (8)-(12).
 fn transform_fn(
     model: &Model,
     mg: &ModelGraph,
@@ -399,7 +408,7 @@ fn transform_fn(
     let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
     base.count_extra(OpCount {
         div: 1,
-        compare: 2,
+        compare: 1,
         mul: 1,
         ..OpCount::default()
     });
@@ -480,20 +489,23 @@ fn transform_fn(
         quote! { #name: &[#ty; #len] }
     });
     let n = Literal::usize_unsuffixed(model.state_len());
+    let np_len = Literal::usize_unsuffixed(np);
     let phi_states = phi_values;
     let tokens = quote! {
         /// The window transform: the reconstructed `phi` (states, then parameters), the
-        /// window's status and its squared excitation measure (eqs. 8-12).
-        fn transform(&self, #u_param) -> ([#ty; #n], WindowStatus, #ty) {
+        /// window's status, the squared determinant and product of squared column norms
+        /// of its parameter system (whose ratio is the squared excitation measure), and
+        /// the parameters to keep: those solved, else the last solved (eqs. 8-12).
+        #[allow(clippy::type_complexity)]
+        fn transform(&self, #u_param) -> ([#ty; #n], WindowStatus, [#ty; 2], [#ty; #np_len]) {
             let [.., full] = self.filled;
             if !full {
-                return (self.xbar, WindowStatus::Filling, #zero);
+                return (self.xbar, WindowStatus::Filling, [#zero, #zero], self.phi_params);
             }
             #unpack_u
             #unpack_window
             #(#head)*
-            let excitation_sq = if #norms_e > #zero { #det_sq_e / #norms_e } else { #zero };
-            let threshold = self.min_excitation * self.min_excitation;
+            let threshold = self.min_excitation_sq;
             let [#(#last),*] = self.phi_params;
             let ([#(#phi_param_idents),*], window) = if #det_sq_e > threshold * #norms_e {
                 let inv_det = #one / #det_e;
@@ -505,7 +517,12 @@ fn transform_fn(
                 ([#(#last),*], WindowStatus::Degenerate)
             };
             #(#tail)*
-            ([#(#phi_states,)* #(#phi_param_idents),*], window, excitation_sq)
+            (
+                [#(#phi_states,)* #(#phi_param_idents),*],
+                window,
+                [#det_sq_e, #norms_e],
+                [#(#phi_param_idents),*],
+            )
         }
     };
     // The costliest path: the common code plus the full solve's branch.
@@ -532,6 +549,8 @@ struct Stage<'a> {
     fields: (TokenStream, TokenStream),
     /// Names of its new estimate's entries.
     result_names: Vec<String>,
+    /// Variables the stage computes before use, with their values.
+    definitions: Vec<(NodeId, NodeId)>,
 }
 
 fn stage_method(
@@ -549,6 +568,7 @@ fn stage_method(
         suffix,
         fields: (x_field, p_field),
         result_names,
+        definitions,
     } = stage;
     let n = update.x.len();
     let m = update.pivots.len();
@@ -563,6 +583,9 @@ fn stage_method(
     let mut lowerer = Lowerer::new(&graph, scalar, namer, &all_roots);
     for (source, vars) in &reads {
         lowerer.read_lazily(source, vars);
+    }
+    for (var, value) in definitions {
+        lowerer.define(var, value);
     }
     for (&node, result) in update.x.iter().zip(&result_names) {
         lowerer.prefer_name(node, result);
@@ -614,7 +637,7 @@ fn step_fn(
     let n = model.state_len();
     let m = model.outputs.len();
     let mut avoid = model_names(model);
-    avoid.extend(["phi", "window", "excitation_sq"].map(String::from));
+    avoid.extend(["phi", "window", "excitation"].map(String::from));
     let graph = &mut g.graph;
     let xbar: Vec<NodeId> = model
         .state_names()
@@ -659,11 +682,15 @@ fn step_fn(
         })
     };
 
-    // AKF: x = F x + G u + d; P = F P F' + Qbar; update with y.
+    // AKF: x = F x + G u + d; P = F P F' + Qbar; update with y. F and G's computed
+    // entries are variables the stage defines once (see `Lowerer::define`).
+    let mut akf_definitions = Vec::new();
+    let f = entry_vars(graph, &wt.f, "f", &avoid, &mut akf_definitions);
+    let g_matrix = entry_vars(graph, &wt.g, "g", &avoid, &mut akf_definitions);
     let xbar_col: Matrix = xbar.iter().map(|&v| vec![v]).collect();
     let u_col: Matrix = g.u.iter().map(|&v| vec![v]).collect();
-    let fx = matmul(graph, &wt.f, &xbar_col);
-    let gu = matmul(graph, &wt.g, &u_col);
+    let fx = matmul(graph, &f, &xbar_col);
+    let gu = matmul(graph, &g_matrix, &u_col);
     let xbar_pred: Vec<NodeId> = (0..n)
         .map(|i| {
             let mut sum = graph.add(fx[i][0], wt.d[i]);
@@ -673,7 +700,7 @@ fn step_fn(
             sum
         })
         .collect();
-    let pbar_pred = kalman::predict_covariance(graph, &wt.f, &pbar, &qbar);
+    let pbar_pred = kalman::predict_covariance(graph, &f, &pbar, &qbar);
     let akf = correct(graph, &xbar_pred, &pbar_pred, "_bar");
 
     // LKF: linearise f about the AKF's previous estimate with the actual input.
@@ -688,8 +715,20 @@ fn step_fn(
             .map(|(&x, &xb)| vec![graph.sub(x, xb)])
             .collect();
     let a_dev = matmul(graph, &a_bar, &deviation);
+    // A row of `f` affine in the state has a Jacobian row free of the state, and then
+    // f(xbar) + A (x - xbar) is exactly f(x): that is computed instead, with fewer roundings.
     let x_pred: Vec<NodeId> = (0..n)
-        .map(|i| graph.add(f_at_bar[i], a_dev[i][0]))
+        .map(|i| {
+            let mut read = std::collections::BTreeSet::new();
+            for &entry in &a[i] {
+                window::free_vars(graph, entry, &mut read);
+            }
+            if x_vars.iter().any(|x| read.contains(x)) {
+                graph.add(f_at_bar[i], a_dev[i][0])
+            } else {
+                g.f[i]
+            }
+        })
         .collect();
     let p_pred = kalman::predict_covariance(graph, &a_bar, &p, &q);
     let lkf = correct(graph, &x_pred, &p_pred, "");
@@ -740,6 +779,7 @@ fn step_fn(
             suffix: "",
             fields: (quote! { x }, quote! { p }),
             result_names: names(""),
+            definitions: Vec::new(),
         },
     );
     let (akf_method, akf_ops) = stage_method(
@@ -756,6 +796,7 @@ fn step_fn(
             suffix: "_bar",
             fields: (quote! { xbar }, quote! { pbar }),
             result_names: names("_bar"),
+            definitions: akf_definitions,
         },
     );
 
@@ -763,41 +804,88 @@ fn step_fn(
     let u_idents = var_idents(graph, &g.u);
     let y_idents = var_idents(graph, &y_vars);
     let checked: Vec<Ident> = u_idents.iter().chain(&y_idents).cloned().collect();
-    let finite = super::code::all_finite(&checked);
+    // One test and branch per value: joined by `&&`, the tests are combined into flags
+    // before one branch, which costs more on the target.
+    let reject_non_finite = checked.iter().map(|v| {
+        quote! {
+            if !#v.is_finite() {
+                return self.reject_sample();
+            }
+        }
+    });
     let unpack_u = (!g.u.is_empty()).then(|| quote! { let [#(#u_idents),*] = *u_prev; });
     let u_arg = (!g.u.is_empty()).then(|| quote! { u_prev, });
-    let phi_params: Vec<Ident> = var_idents(graph, &wt.phi[model.states.len()..]);
     let body = quote! {
         #unpack_u
         let [#(#y_idents),*] = *y;
-        if !(#finite) {
-            // A missing sample breaks the window's sequence: refill it.
-            self.filled = [false; WINDOW_OUTPUTS];
-            return DkfStatus {
-                window: WindowStatus::Skipped,
-                akf: Status::RejectedInput,
-                lkf: Status::RejectedInput,
-            };
-        }
-        let (phi, window, excitation_sq) = self.transform(#u_arg);
-        // The window's findings stand whatever the filters do with this sample.
-        self.excitation_sq = excitation_sq;
-        if let WindowStatus::Solved | WindowStatus::InputFree = window {
-            let [.., #(#phi_params),*] = phi;
-            self.phi_params = [#(#phi_params),*];
-        }
-        // The LKF linearises about the AKF's estimate of the previous sample: it runs first.
+        #(#reject_non_finite)*
+        // The LKF linearises about the AKF's estimate of the previous sample: it runs
+        // first, and before the transform, so that `phi` is not held across it.
         let lkf = self.lkf_step(#u_arg y);
+        let (phi, window, [det_sq, column_norms], parameters) = self.transform(#u_arg);
+        // The window's findings stand whatever the filters do with this sample.
+        self.window_det_sq = det_sq;
+        self.window_column_norms = column_norms;
+        self.phi_params = parameters;
         let akf = self.akf_step(&phi, #u_arg y);
         self.push(#u_arg y);
         DkfStatus { window, akf, lkf }
     };
     let methods = quote! {
+        /// A missing sample breaks the window's sequence: empties the window (it refills)
+        /// and rejects the sample, leaving both filters as they were.
+        fn reject_sample(&mut self) -> DkfStatus {
+            self.filled = [false; WINDOW_OUTPUTS];
+            DkfStatus {
+                window: WindowStatus::Skipped,
+                akf: Status::RejectedInput,
+                lkf: Status::RejectedInput,
+            }
+        }
+
         #lkf_method
 
         #akf_method
     };
     (body, methods, akf_ops.plus(lkf_ops))
+}
+
+/// `matrix` with each computed entry (not a literal, constant or variable) replaced by a
+/// variable `{prefix}{row}{column}` (1-based), recorded in `definitions` with its value.
+fn entry_vars(
+    graph: &mut Graph,
+    matrix: &Matrix,
+    prefix: &str,
+    avoid: &[String],
+    definitions: &mut Vec<(NodeId, NodeId)>,
+) -> Matrix {
+    let wide = matrix.len() >= 10 || matrix.first().is_some_and(|row| row.len() >= 10);
+    let mut entry = |graph: &mut Graph, i: usize, j: usize, value: NodeId| {
+        if graph.is_leaf(value) {
+            return value;
+        }
+        let mut name = if wide {
+            format!("{prefix}_{}_{}", i + 1, j + 1)
+        } else {
+            format!("{prefix}{}{}", i + 1, j + 1)
+        };
+        while avoid.contains(&name) {
+            name.push('_');
+        }
+        let var = graph.var(&name);
+        definitions.push((var, value));
+        var
+    };
+    matrix
+        .iter()
+        .enumerate()
+        .map(|(i, row)| {
+            row.iter()
+                .enumerate()
+                .map(|(j, &value)| entry(graph, i, j, value))
+                .collect()
+        })
+        .collect()
 }
 
 /// `fn push(&mut self, u, y)`: shifts the latest output and input into the window.

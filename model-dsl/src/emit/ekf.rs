@@ -136,6 +136,8 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
         gate_methods.extend(keep_prediction_method(model, &ty));
     }
     let setters = super::tuning::noise_setters(n, m, diagonal, &ty);
+    let identity = packed_identity(m, scalar);
+    let nis_method = nis_method(model, scalar);
 
     let new_doc = if diagonal {
         " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
@@ -160,7 +162,7 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
             q: #q_field,
             r: [#ty; #mp],
             innovation: [#ty; #m_len],
-            nis: #ty,
+            innovation_covariance: [#ty; #mp],
             #gate_field
         }
 
@@ -174,7 +176,7 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
                     q: #pack_q,
                     r: #pack_r,
                     innovation: [#zero; #m_len],
-                    nis: #zero,
+                    innovation_covariance: #identity,
                     #gate_init
                 }
             }
@@ -187,7 +189,7 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
                 self.x = x0;
                 self.p = #pack_p0;
                 self.innovation = [#zero; #m_len];
-                self.nis = #zero;
+                self.innovation_covariance = #identity;
             }
 
             /// The innovation `y - h(x)` of the last measurement used or rejected: what
@@ -197,15 +199,7 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
                 self.innovation
             }
 
-            /// The normalised innovation squared `r' S^-1 r` of the last measurement used
-            /// or rejected (`S` the innovation covariance). While the model and noise
-            /// levels are right it is chi-square distributed with as many degrees of
-            /// freedom as measurements (mean `Y_LEN`); a run of large values says the
-            /// model, the tuning or the sensor is wrong.
-            #[must_use]
-            pub fn normalised_innovation_squared(&self) -> #ty {
-                self.nis
-            }
+            #nis_method
 
             #gate_methods
 
@@ -235,6 +229,76 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
         predict_ops,
         update_ops,
         step_ops,
+    }
+}
+
+/// `[1.0, 0.0, .., 1.0]`: the packed `m x m` identity, the innovation covariance before any
+/// measurement (with a zero innovation, a normalised square of 0).
+fn packed_identity(m: usize, scalar: Scalar) -> TokenStream {
+    let entries = (0..m).flat_map(|i| {
+        (i..m).map(move |j| super::lower::literal(if i == j { 1.0 } else { 0.0 }, scalar))
+    });
+    quote! { [#(#entries),*] }
+}
+
+/// `fn normalised_innovation_squared(&self)`: `r' S^-1 r` from the stored innovation `r`
+/// and its covariance `S`, through the same guarded `L D L'` inverse as the update. Computed
+/// when asked, so a step that does not gate pays only for storing `S`.
+fn nis_method(model: &Model, scalar: Scalar) -> TokenStream {
+    let m = model.outputs.len();
+    let mut graph = Graph::new();
+    let avoid = model_names(model);
+    let innovation: Vec<NodeId> = model
+        .outputs
+        .iter()
+        .map(|o| {
+            let mut name = format!("{}_innovation", o.name);
+            while avoid.contains(&name) {
+                name.push('_');
+            }
+            graph.var(&name)
+        })
+        .collect();
+    let s_vars = packed_vars(&mut graph, "s", m, &avoid);
+    let s = symmetric_from_packed(&s_vars, m);
+    let ldl = crate::symbolic::linalg::ldl_inverse(&mut graph, &s, |g, j| {
+        g.var(&pivot_names(m, j, INNOVATION, "").1)
+    });
+    let nis = kalman::normalised_innovation_squared(&mut graph, &innovation, &ldl.inverse);
+    let mut roots = ldl.pivots.clone();
+    roots.push(nis);
+    let namer = TempNamer::new(avoid.iter().map(String::as_str));
+    let mut lowerer = Lowerer::new(&graph, scalar, namer, &roots);
+    lowerer.read_lazily(&quote! { self.innovation }, &innovation);
+    lowerer.read_lazily(&quote! { self.innovation_covariance }, &s_vars);
+    let names: Vec<String> = (0..m)
+        .map(|j| pivot_names(m, j, INNOVATION, "").0)
+        .collect();
+    let ty = ident(scalar.type_name());
+    // The stored covariance passed this test when its measurement was used: a failure here
+    // cannot happen, and would read as "inconsistent".
+    let on_failure = quote! { return #ty::INFINITY; };
+    guard_pivots(
+        &mut lowerer,
+        &ldl.pivots,
+        &ldl.reciprocals,
+        &names,
+        &on_failure,
+        scalar,
+    );
+    let value = lowerer.segment(&[nis]).remove(0);
+    let statements = lowerer.finish().statements;
+    quote! {
+        /// The normalised innovation squared `r' S^-1 r` of the last measurement used
+        /// or rejected (`r` its innovation, `S` the innovation covariance). While the
+        /// model and noise levels are right it is chi-square distributed with as many
+        /// degrees of freedom as measurements (mean `Y_LEN`); a run of large values says
+        /// the model, the tuning or the sensor is wrong. 0 before the first measurement.
+        #[must_use]
+        pub fn normalised_innovation_squared(&self) -> #ty {
+            #(#statements)*
+            #value
+        }
     }
 }
 
@@ -355,6 +419,7 @@ fn method(
     let mut pivots = Vec::new();
     let mut reciprocals = Vec::new();
     let mut innovation = Vec::new();
+    let mut innovation_covariance = Vec::new();
     let mut nis = None;
     if updates {
         let r = symmetric_from_packed(&r_vars, m);
@@ -391,7 +456,10 @@ fn method(
         pivots = update.pivots;
         reciprocals = update.reciprocals;
         innovation = residual;
-        nis = Some(update.nis);
+        innovation_covariance = packed_upper(&update.s);
+        // Only the gate needs it at once; otherwise `normalised_innovation_squared()`
+        // computes it from the stored innovation and its covariance when asked.
+        nis = spec.gate.is_some().then_some(update.nis);
     }
     let probe = finiteness_probe(&mut g.graph, &x, &p);
     let p_packed = packed_upper(&p);
@@ -402,6 +470,7 @@ fn method(
     all_roots.push(probe);
     all_roots.extend(&pivots);
     all_roots.extend(&innovation);
+    all_roots.extend(&innovation_covariance);
     all_roots.extend(nis);
     let namer = TempNamer::new(avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
@@ -436,15 +505,18 @@ fn method(
     // while the update runs; so does the gate's test, just before the commit (an outlier
     // costs a whole update, the usual sample nothing more).
     let mut store_innovation = TokenStream::new();
-    if let Some(nis) = nis {
+    if updates {
         let innovation_values = lowerer.segment(&innovation);
-        let nis = lowerer.bind(nis, "nis");
-        store_innovation = store_innovation_tokens(&innovation_values, &nis);
-        if gated {
+        let covariance_values = lowerer.segment(&innovation_covariance);
+        store_innovation = store_innovation_tokens(&innovation_values, &covariance_values);
+        if let Some(nis) = nis {
+            let nis = lowerer.bind(nis, "nis");
             let keep_prediction = (kind == EkfMethod::Step).then(|| {
                 let args = prediction_arguments(model);
                 quote! {
-                    self.keep_prediction(#(#args,)* [#(#innovation_values),*], #nis)
+                    self.keep_prediction(
+                        #(#args,)* [#(#innovation_values),*], [#(#covariance_values),*],
+                    )
                 }
             });
             let rejection = outlier_rejection(keep_prediction, &store_innovation);
@@ -539,11 +611,11 @@ fn method(
     (tokens, ops)
 }
 
-/// `self.innovation = [..]; self.nis = ..;`
-fn store_innovation_tokens(innovation: &[TokenStream], nis: &TokenStream) -> TokenStream {
+/// `self.innovation = [..]; self.innovation_covariance = [..];`
+fn store_innovation_tokens(innovation: &[TokenStream], covariance: &[TokenStream]) -> TokenStream {
     quote! {
         self.innovation = [#(#innovation),*];
-        self.nis = #nis;
+        self.innovation_covariance = [#(#covariance),*];
     }
 }
 
@@ -580,6 +652,7 @@ fn prediction_arguments(model: &Model) -> Vec<TokenStream> {
 /// `fn keep_prediction`: a gated step's answer to an outlier.
 fn keep_prediction_method(model: &Model, ty: &proc_macro2::Ident) -> TokenStream {
     let m = proc_macro2::Literal::usize_unsuffixed(model.outputs.len());
+    let mp = proc_macro2::Literal::usize_unsuffixed(packed_len(model.outputs.len()));
     let mut params = Vec::new();
     if model.uses_time() {
         params.push(quote! { t_prev: #ty });
@@ -594,13 +667,18 @@ fn keep_prediction_method(model: &Model, ty: &proc_macro2::Ident) -> TokenStream
         /// line and cold, so the usual sample does not pay for it.
         #[cold]
         #[inline(never)]
-        fn keep_prediction(&mut self, #(#params,)* innovation: [#ty; #m], nis: #ty) -> Status {
+        fn keep_prediction(
+            &mut self,
+            #(#params,)*
+            innovation: [#ty; #m],
+            innovation_covariance: [#ty; #mp],
+        ) -> Status {
             let predicted = self.predict(#(#args),*);
             if predicted != Status::Ok {
                 return predicted;
             }
             self.innovation = innovation;
-            self.nis = nis;
+            self.innovation_covariance = innovation_covariance;
             Status::OutlierRejected
         }
     }

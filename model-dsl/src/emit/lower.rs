@@ -102,31 +102,20 @@ pub struct Lowerer<'g> {
     /// How deeply each emitted node nests where it is written inline (0 once named).
     inline_depth: Vec<u32>,
     read_of: std::collections::HashMap<NodeId, usize>,
+    /// Nodes the use counts have reached.
+    reached: Vec<bool>,
+    /// Variables that stand for a value computed here (see [`Lowerer::define`]).
+    definitions: std::collections::HashMap<NodeId, NodeId>,
 }
 
 impl<'g> Lowerer<'g> {
     /// A lowerer for a function whose code, all segments together, computes `all_roots`.
     pub fn new(graph: &'g Graph, scalar: Scalar, namer: TempNamer, all_roots: &[NodeId]) -> Self {
-        let mut uses = vec![0u32; graph.len()];
-        let mut reached = vec![false; graph.len()];
-        let mut stack: Vec<NodeId> = all_roots.to_vec();
-        for &r in all_roots {
-            uses[r.index()] += 1;
-        }
-        while let Some(id) = stack.pop() {
-            if std::mem::replace(&mut reached[id.index()], true) {
-                continue;
-            }
-            for child in graph.node(id).children() {
-                uses[child.index()] += 1;
-                stack.push(child);
-            }
-        }
-        Lowerer {
+        let mut lowerer = Lowerer {
             graph,
             scalar,
             namer,
-            uses,
+            uses: vec![0; graph.len()],
             emitted: vec![false; graph.len()],
             statements: Vec::new(),
             used_vars: BTreeSet::new(),
@@ -134,6 +123,50 @@ impl<'g> Lowerer<'g> {
             reads: Vec::new(),
             inline_depth: vec![0; graph.len()],
             read_of: std::collections::HashMap::new(),
+            reached: vec![false; graph.len()],
+            definitions: std::collections::HashMap::new(),
+        };
+        lowerer.count_uses(all_roots);
+        lowerer
+    }
+
+    /// Counts one use of each of `roots` and, once per node newly reached, one use of
+    /// each of its operands.
+    fn count_uses(&mut self, roots: &[NodeId]) {
+        let mut stack: Vec<NodeId> = roots.to_vec();
+        for &r in roots {
+            self.uses[r.index()] += 1;
+        }
+        while let Some(id) = stack.pop() {
+            if std::mem::replace(&mut self.reached[id.index()], true) {
+                continue;
+            }
+            for child in self.operands(id) {
+                self.uses[child.index()] += 1;
+                stack.push(child);
+            }
+        }
+    }
+
+    /// A node's operands; a defined variable's is its value.
+    fn operands(&self, id: NodeId) -> Vec<NodeId> {
+        match self.definitions.get(&id) {
+            Some(&value) => vec![value],
+            None => self.graph.node(id).children(),
+        }
+    }
+
+    /// Makes the variable `var` stand for `value`: where the code first uses `var`, it
+    /// computes `let var = value;`. A stage built on a matrix whose entries are
+    /// variables (`f21` for `eta TS phi_x3`, say) so reuses each entry once computed;
+    /// built on the entries themselves, the simplifier would move their literal factors
+    /// out of every product (`c (x y)`) and multiply by them again each time.
+    /// Call before the first [`Lowerer::segment`].
+    pub fn define(&mut self, var: NodeId, value: NodeId) {
+        debug_assert!(matches!(self.graph.node(var), Node::Var(_)));
+        self.definitions.insert(var, value);
+        if self.reached[var.index()] {
+            self.count_uses(&[value]);
         }
     }
 
@@ -201,7 +234,7 @@ impl<'g> Lowerer<'g> {
                     continue;
                 }
                 stack.push((id, true));
-                let children = self.graph.node(id).children();
+                let children = self.operands(id);
                 for &child in children.iter().rev() {
                     if !self.emitted[child.index()] && !visited[child.index()] {
                         stack.push((child, false));
@@ -213,7 +246,11 @@ impl<'g> Lowerer<'g> {
             self.emitted[id.index()] = true;
             let node = self.graph.node(id);
             self.count(node);
-            if let Node::Var(v) = node {
+            if let Some(&value) = self.definitions.get(&id) {
+                let name = self.render(id).0;
+                let value = self.render(value).0;
+                self.statements.push(quote! { let #name = #value; });
+            } else if let Node::Var(v) = node {
                 self.used_vars.insert(v);
                 let read = self.read_of.get(&id).and_then(|&i| self.reads[i].take());
                 self.statements.extend(read);

@@ -21,9 +21,27 @@ pub struct Update {
     pub pivots: Vec<NodeId>,
     /// Variables standing for the pivots' reciprocals.
     pub reciprocals: Vec<NodeId>,
+    /// The innovation covariance `S = C P C' + R` (symmetric; both triangles filled).
+    pub s: Matrix,
     /// The normalised innovation squared, `r' S^-1 r`: chi-square distributed with as many
     /// degrees of freedom as measurements while the filter is consistent.
     pub nis: NodeId,
+}
+
+/// The normalised innovation squared `r' S^-1 r` of `residual`, given `S^-1`.
+pub fn normalised_innovation_squared(
+    g: &mut Graph,
+    residual: &[NodeId],
+    s_inverse: &Matrix,
+) -> NodeId {
+    let innovation: Matrix = residual.iter().map(|&e| vec![e]).collect();
+    let s_inverse_r = matmul(g, s_inverse, &innovation);
+    let mut nis = g.zero();
+    for (&ri, sr) in residual.iter().zip(&s_inverse_r) {
+        let term = g.mul(ri, sr[0]);
+        nis = g.add(nis, term);
+    }
+    nis
 }
 
 /// The update of estimate `x`, covariance `p` with innovation `residual = y - h(x)`,
@@ -47,12 +65,7 @@ pub fn update(
     let ldl = ldl_inverse(g, &s, reciprocal);
     let k = matmul(g, &pct, &ldl.inverse);
     let innovation: Matrix = residual.iter().map(|&e| vec![e]).collect();
-    let s_inverse_r = matmul(g, &ldl.inverse, &innovation);
-    let mut nis = g.zero();
-    for (&ri, sr) in residual.iter().zip(&s_inverse_r) {
-        let term = g.mul(ri, sr[0]);
-        nis = g.add(nis, term);
-    }
+    let nis = normalised_innovation_squared(g, residual, &ldl.inverse);
     let correction = matmul(g, &k, &innovation);
     let x_new = x
         .iter()
@@ -84,6 +97,7 @@ pub fn update(
         p: p_new,
         pivots: ldl.pivots,
         reciprocals: ldl.reciprocals,
+        s,
         nis,
     }
 }
