@@ -39,9 +39,12 @@ codegen_macros::model! {
             y = x1;
         // Forward Euler of eq. (2), i.e. eqs. (3a)-(3b); x3, x4, x5 are held
         // (eqs. 3c-3e): params get no equation, they are random-walk states.
-        // The filters and controller of the paper: Alg. 1 (EKF), Alg. 2 (DKF), Alg. 3 (LQR).
+        // The filters and controller of the paper: Alg. 1 (EKF), Alg. 2 (DKF), Alg. 3 (LQR);
+        // and the EKF with an innovation gate at the chi-square 99.9% quantile, which
+        // rejects a measurement spike instead of being thrown off by it.
         generate ekf(process_noise = diagonal), dkf(eta = 0.5, process_noise = diagonal),
-            lqr(horizon = 50, states = [x1, x2], input = u);
+            lqr(horizon = 50, states = [x1, x2], input = u),
+            ekf(process_noise = diagonal, gate = 10.83, name = GatedEkf);
         dynamics discrete {
             // eq. (3a)
             x1 = x1 + TS * x2;

@@ -37,6 +37,13 @@ const GENERATED_ITEMS: &[&str] = &[
     "DkfStatus",
     "Lqr",
     "Status",
+    "WindowStatus",
+    "HybridEkf",
+    "ContinuousEkf",
+    "PolynomialKf",
+    "LinearErrorObserver",
+    "SwitchedKalmanObserver",
+    "CommonGainObserver",
     "ltv_model",
 ];
 
@@ -793,11 +800,22 @@ fn check_generate(decl: &ModelDecl, scope: &Scope, diag: &mut Diagnostics) -> Ge
     let mut generate = Generate::default();
     let mut seen = std::collections::HashSet::new();
     for item in &decl.generate {
-        if !seen.insert(item.name.text.clone()) {
-            diag.error(
-                item.name.span,
-                format!("`{}` is asked for twice", item.name.text),
-            );
+        // Several EKFs may be asked for under different type names.
+        let key = match item.name.text.as_str() {
+            "ekf" => format!("ekf {}", ekf_type_name(item)),
+            other => other.to_owned(),
+        };
+        if !seen.insert(key) {
+            let message = if item.name.text == "ekf" {
+                format!(
+                    "an `ekf` of type `{}` is asked for twice: give the second another type \
+                     name, `ekf(name = GatedEkf)`",
+                    ekf_type_name(item)
+                )
+            } else {
+                format!("`{}` is asked for twice", item.name.text)
+            };
+            diag.error(item.name.span, message);
             continue;
         }
         let mut args = Args::new(item, diag);
@@ -814,8 +832,10 @@ fn check_generate(decl: &ModelDecl, scope: &Scope, diag: &mut Diagnostics) -> Ge
                 continue;
             }
             "ekf" => {
+                let type_name = args.type_name("Ekf", diag);
                 let gate = args.gate(diag);
-                generate.ekf = Some(EkfSpec {
+                generate.ekf.push(EkfSpec {
+                    type_name,
                     gate,
                     diagonal_noise: args.process_noise(diag),
                 });
@@ -927,6 +947,30 @@ fn check_generate(decl: &ModelDecl, scope: &Scope, diag: &mut Diagnostics) -> Ge
     generate
 }
 
+/// The type name an `ekf` item asks for (`Ekf` unless `name = ..`), for telling two apart.
+fn ekf_type_name(item: &GenerateDecl) -> String {
+    item.args
+        .iter()
+        .find(|a| a.name.text == "name")
+        .and_then(|a| match &a.value {
+            ArgValue::Name(n) => Some(n.text.clone()),
+            _ => None,
+        })
+        .unwrap_or_else(|| "Ekf".to_owned())
+}
+
+/// An UpperCamelCase identifier (`GatedEkf`): a capital first, then letters and digits.
+fn is_type_name(text: &str) -> bool {
+    text.chars().next().is_some_and(|c| c.is_ascii_uppercase())
+        && text.chars().all(|c| c.is_ascii_alphanumeric())
+        && text.chars().any(|c| c.is_ascii_lowercase())
+}
+
+/// A type the generated module defines whatever the model asks for, or may define.
+fn generated_type(text: &str) -> bool {
+    GENERATED_ITEMS.contains(&text) || text == "Self"
+}
+
 /// The continuous filters integrate `dx/dt` between samples: the model must give it.
 fn require_continuous(decl: &ModelDecl, item: &GenerateDecl, diag: &mut Diagnostics) {
     let continuous = decl
@@ -1032,6 +1076,36 @@ impl<'a> Args<'a> {
                      consistent scalar measurements), or `off` to set it at run time",
                 );
                 None
+            }
+        }
+    }
+
+    /// `name = GatedEkf`: the generated type's name, or `default`. An UpperCamelCase
+    /// identifier that names none of the module's other items.
+    fn type_name(&mut self, default: &str, diag: &mut Diagnostics) -> String {
+        match self.take(&["name"]).map(|a| &a.value) {
+            None => default.to_owned(),
+            Some(ArgValue::Name(n)) if n.text == default => default.to_owned(),
+            Some(ArgValue::Name(n)) if is_type_name(&n.text) && !generated_type(&n.text) => {
+                n.text.clone()
+            }
+            Some(ArgValue::Name(n)) if generated_type(&n.text) => {
+                diag.error(
+                    n.span,
+                    format!(
+                        "`{}` is already an item of the generated module: choose another \
+                         type name",
+                        n.text
+                    ),
+                );
+                default.to_owned()
+            }
+            Some(other) => {
+                diag.error(
+                    other.span(),
+                    "`name` is the generated type's name, in UpperCamelCase: `name = GatedEkf`",
+                );
+                default.to_owned()
             }
         }
     }

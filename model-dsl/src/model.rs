@@ -35,8 +35,9 @@ pub struct Model {
 /// Filters and controllers a model asks for.
 #[derive(Clone, Debug, Default)]
 pub struct Generate {
-    /// The extended Kalman filter (Alg. 1), if asked for.
-    pub ekf: Option<EkfSpec>,
+    /// The extended Kalman filters (Alg. 1) asked for: usually one, `Ekf`; more under other
+    /// type names (`ekf(gate = 10.83, name = GatedEkf)`).
+    pub ekf: Vec<EkfSpec>,
     /// The double Kalman filter (Alg. 2), if asked for.
     pub dkf: Option<DkfSpec>,
     /// The adaptive finite-horizon LQR (Alg. 3), if asked for.
@@ -54,7 +55,7 @@ pub struct Generate {
 impl Generate {
     /// Whether anything beyond the model functions is asked for.
     pub fn any(&self) -> bool {
-        self.ekf.is_some()
+        !self.ekf.is_empty()
             || self.dkf.is_some()
             || self.lqr.is_some()
             || self.hybrid_ekf.is_some()
@@ -84,6 +85,8 @@ pub struct ContinuousEkfSpec {
 /// Options of the extended Kalman filter.
 #[derive(Clone, Debug, Default)]
 pub struct EkfSpec {
+    /// The generated type's name, `Ekf` unless `name = ..` is given.
+    pub type_name: String,
     /// Whether the process noise covariance is diagonal (stored and added as its
     /// diagonal only), rather than a full symmetric matrix.
     pub diagonal_noise: bool,

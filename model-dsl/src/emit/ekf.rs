@@ -136,6 +136,8 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
         gate_methods.extend(keep_prediction_method(model, &ty));
     }
     let setters = super::tuning::noise_setters(n, m, diagonal, &ty);
+    let type_name = ident(&spec.type_name);
+    let (type_doc, convention_doc) = type_doc(spec);
     let identity = packed_identity(m, scalar);
     let nis_method = nis_method(model, scalar);
 
@@ -149,14 +151,11 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
          symmetric: only their upper triangles are read."
     };
     let tokens = quote! {
-        /// Extended Kalman filter (Alg. 1) of this model: state estimate `x` (physical
-        /// states, then parameters) and covariance `P`, stored once as a packed upper
-        /// triangle; Joseph-form update.
+        #[doc = #type_doc]
         ///
-        /// Index convention (all filters of this module): [`Ekf::step`] at sample `k` takes
-        /// the input `u[k-1]` applied since the previous sample and the measurement `y[k]`.
+        #[doc = #convention_doc]
         #[derive(Clone, Copy, Debug, PartialEq)]
-        pub struct Ekf {
+        pub struct #type_name {
             x: [#ty; #n_len],
             p: [#ty; #np],
             q: #q_field,
@@ -166,11 +165,11 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
             #gate_field
         }
 
-        impl Ekf {
+        impl #type_name {
             #[doc = #new_doc]
             #[must_use]
-            pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len], #q_param, r: &[[#ty; #m_len]; #m_len]) -> Ekf {
-                Ekf {
+            pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len], #q_param, r: &[[#ty; #m_len]; #m_len]) -> #type_name {
+                #type_name {
                     x: x0,
                     p: #pack_p0,
                     q: #pack_q,
@@ -230,6 +229,27 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
         update_ops,
         step_ops,
     }
+}
+
+/// The filter type's documentation: what it is (with its gate), then the index convention.
+fn type_doc(spec: &EkfSpec) -> (String, String) {
+    let gate = if spec.gate.is_some() {
+        " A measurement whose normalised innovation squared exceeds the innovation gate is \
+         rejected as an outlier."
+    } else {
+        ""
+    };
+    let what = format!(
+        " Extended Kalman filter (Alg. 1) of this model: state estimate `x` (physical states, \
+         then parameters) and covariance `P`, stored once as a packed upper triangle; \
+         Joseph-form update.{gate}"
+    );
+    let convention = format!(
+        " Index convention (all filters of this module): [`{}::step`] at sample `k` takes \
+         the input `u[k-1]` applied since the previous sample and the measurement `y[k]`.",
+        spec.type_name
+    );
+    (what, convention)
 }
 
 /// `[1.0, 0.0, .., 1.0]`: the packed `m x m` identity, the innovation covariance before any

@@ -80,19 +80,19 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
     let primary_consts = constants(model, primary);
     let filters = |scalar: Scalar, ops_items: &mut Vec<TokenStream>| {
         let mut tokens = TokenStream::new();
-        if let Some(spec) = &model.generate.ekf {
+        for spec in &model.generate.ekf {
             let ekf = ekf::emit_ekf(model, spec, &mg, scalar);
-            ops_items.push(named_ops_item(
-                "EKF_PREDICT_OPS",
-                "Ekf::predict",
-                ekf.predict_ops,
-            ));
-            ops_items.push(named_ops_item(
-                "EKF_UPDATE_OPS",
-                "Ekf::update",
-                ekf.update_ops,
-            ));
-            ops_items.push(named_ops_item("EKF_STEP_OPS", "Ekf::step", ekf.step_ops));
+            // `Ekf` gives `EKF_STEP_OPS`, `GatedEkf` `GATED_EKF_STEP_OPS`.
+            let prefix = names::screaming_snake(&spec.type_name);
+            for (method, ops) in [
+                ("predict", ekf.predict_ops),
+                ("update", ekf.update_ops),
+                ("step", ekf.step_ops),
+            ] {
+                let constant = format!("{prefix}_{}_OPS", method.to_uppercase());
+                let what = format!("{}::{method}", spec.type_name);
+                ops_items.push(named_ops_item(&constant, &what, ops));
+            }
             tokens.extend(ekf.tokens);
         }
         if let Some(spec) = &model.generate.dkf {

@@ -22,6 +22,18 @@ pub fn nonzero_const(function: &str) -> Ident {
     ident(&format!("{}_NONZERO", function.to_uppercase()))
 }
 
+/// `GATED_EKF` for the type name `GatedEkf`: a word break before each capital.
+pub fn screaming_snake(type_name: &str) -> String {
+    let mut out = String::new();
+    for (i, c) in type_name.chars().enumerate() {
+        if c.is_ascii_uppercase() && i > 0 {
+            out.push('_');
+        }
+        out.push(c.to_ascii_uppercase());
+    }
+    out
+}
+
 /// The index constant of a symbol: `X1` for `x1`.
 pub fn index_const(symbol: &str) -> Ident {
     ident(&symbol.to_uppercase())
