@@ -105,6 +105,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     report::write_csv(&closed, std::fs::File::create(out.join("closed_loop.csv"))?)?;
     plot_displacement(&closed, &out.join("displacement.svg"))?;
 
+    experiment::outliers::run(out)?;
     experiment::blade::run(out)?;
     experiment::trms::run(out)?;
 
@@ -113,7 +114,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     hub_polynomial::experiment(out)?;
     println!(
         "\nWrote out/estimation.csv, out/closed_loop.csv, out/wn.svg, out/displacement.svg, \
-         out/blade.csv, out/blade_mass.svg, out/blade_identification.svg, out/helicopter.csv, \
+         out/outliers.csv, out/outliers.svg, out/blade.csv, out/blade_mass.svg, out/blade_identification.svg, out/helicopter.csv, \
          out/helicopter_surge.csv, out/helicopter_pitch.svg, out/helicopter_surge.svg, \
          out/beam_20hz.csv, out/beam_35hz.csv, out/beam_velocity.svg, \
          out/switching_example.csv, out/switching_example.svg, out/hub_estimates.csv, \
@@ -362,6 +363,7 @@ fn print_generated_costs() {
         ("Ekf::predict", cantilever::EKF_PREDICT_OPS),
         ("Ekf::update", cantilever::EKF_UPDATE_OPS),
         ("Ekf::step (fused)", cantilever::EKF_STEP_OPS),
+        ("GatedEkf::step", cantilever::GATED_EKF_STEP_OPS),
         ("Dkf transform", cantilever::DKF_TRANSFORM_OPS),
         ("Dkf filters", cantilever::DKF_FILTERS_OPS),
         ("Lqr::solve (N = 50)", cantilever::LQR_SOLVE_OPS),

@@ -56,6 +56,19 @@ fn two_measurement_ekf_agrees_with_a_dense_ekf() {
         let gain = p * c.transpose() * s.try_inverse().expect("S invertible");
         let hx = h(t, &xa);
         let innovation = SVector::<f64, 2>::new(y[0] - hx[0], y[1] - hx[1]);
+        // The innovation and its normalised square, r' S^-1 r, as the filter reports them.
+        let nis = (innovation.transpose() * s.try_inverse().expect("S invertible") * innovation)[0];
+        for (i, (&g, &d)) in ekf.innovation().iter().zip(innovation.iter()).enumerate() {
+            assert!(
+                (g - d).abs() <= 1e-9 * g.abs().max(d.abs()).max(1e-9),
+                "innovation[{i}] at {k}: {g} vs {d}"
+            );
+        }
+        let reported = ekf.normalised_innovation_squared();
+        assert!(
+            (reported - nis).abs() <= 1e-9 * nis.max(1e-9),
+            "NIS at {k}: {reported} vs {nis}"
+        );
         x += gain * innovation;
         let i_kc = M6::identity() - gain * c;
         p = i_kc * p * i_kc.transpose() + gain * r * gain.transpose();

@@ -9,6 +9,7 @@ pub mod blade;
 pub mod excitation;
 pub mod metrics;
 pub mod noise;
+pub mod outliers;
 pub mod plant;
 pub mod readout;
 pub mod report;
