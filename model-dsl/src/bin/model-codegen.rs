@@ -58,7 +58,13 @@ fn report(path: &std::path::Path, source: &str, error: &syn::Error) -> String {
         .checked_sub(1)
         .and_then(|i| source.lines().nth(i))
     else {
-        return format!("{}: error: {error}\n", path.display());
+        // syn places "unexpected end of input" nowhere: it is the end of the model.
+        let place = if error.to_string().contains("end of input") {
+            " (at the end of the model's braces)"
+        } else {
+            ""
+        };
+        return format!("{}: error: {error}{place}\n", path.display());
     };
     let gutter = " ".repeat(start.line.to_string().len());
     format!(
