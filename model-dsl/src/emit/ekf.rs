@@ -332,6 +332,7 @@ fn gate_items(
         return Default::default();
     };
     let default = super::lower::literal(gate, scalar);
+    let zero = super::lower::literal(0.0, scalar);
     let generated = if gate.is_finite() {
         format!("{gate}")
     } else {
@@ -356,7 +357,7 @@ fn gate_items(
             /// infinity opens it). Rejects a threshold that is not positive, leaving the
             /// gate as it was.
             pub fn set_innovation_gate(&mut self, threshold: #ty) -> Status {
-                if !(threshold > 0.0) {
+                if !(threshold > #zero) {
                     return Status::RejectedInput;
                 }
                 self.gate = threshold;

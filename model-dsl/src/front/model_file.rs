@@ -455,6 +455,8 @@ pub fn comparison_of(function: &str) -> Option<Comparison> {
 }
 
 /// The `[generate]` table as `generate` items; everything of one item points at its value.
+/// A generator's value is `true`, a table of arguments, or a list of tables for several
+/// of its kind (`ekf = [{ .. }, { name = "GatedEkf", .. }]`).
 fn generate_items(
     table: Option<&IndexMap<String, Spanned<toml::Value>>>,
     places: &Places,
@@ -463,50 +465,69 @@ fn generate_items(
     let mut items = Vec::new();
     for (generator, value) in table.into_iter().flatten() {
         let here = places.of_field(value);
-        let name = |text: &str| Name {
-            text: text.to_owned(),
-            span: here,
-        };
-        let args = match value.get_ref() {
-            toml::Value::Boolean(true) => Vec::new(),
-            toml::Value::Boolean(false) => continue,
-            toml::Value::Table(args) => args
-                .iter()
-                .filter_map(|(arg, v)| {
-                    let value = match v {
-                        toml::Value::Integer(i) => ArgValue::Number(*i as f64, here),
-                        toml::Value::Float(f) => ArgValue::Number(*f, here),
-                        toml::Value::String(s) => ArgValue::Name(name(s)),
-                        toml::Value::Array(list) => ArgValue::Names(
-                            list.iter().filter_map(|n| n.as_str().map(name)).collect(),
-                            here,
-                        ),
-                        _ => {
-                            diag.error(
-                                here,
-                                format!("generate.{generator}.{arg}: unsupported value"),
-                            );
-                            return None;
-                        }
-                    };
-                    Some(GenerateArg {
-                        name: name(arg),
-                        value,
-                    })
-                })
-                .collect(),
-            _ => {
-                diag.error(
-                    here,
-                    format!("generate.{generator}: write `true` or a table of arguments"),
-                );
-                continue;
-            }
-        };
-        items.push(GenerateDecl {
-            name: name(generator),
+        let item = |args| GenerateDecl {
+            name: Name {
+                text: generator.clone(),
+                span: here,
+            },
             args,
-        });
+        };
+        match value.get_ref() {
+            toml::Value::Boolean(true) => items.push(item(Vec::new())),
+            toml::Value::Boolean(false) => {}
+            toml::Value::Table(args) => {
+                items.push(item(generate_args(generator, args, here, diag)))
+            }
+            toml::Value::Array(list) if list.iter().all(toml::Value::is_table) => {
+                for args in list.iter().filter_map(toml::Value::as_table) {
+                    items.push(item(generate_args(generator, args, here, diag)));
+                }
+            }
+            _ => diag.error(
+                here,
+                format!(
+                    "generate.{generator}: write `true`, a table of arguments, or a list of \
+                     tables for several"
+                ),
+            ),
+        }
     }
     items
+}
+
+/// One generator's arguments: numbers, names (strings) and lists of names.
+fn generate_args(
+    generator: &str,
+    args: &toml::Table,
+    here: Span,
+    diag: &mut Diagnostics,
+) -> Vec<GenerateArg> {
+    let name = |text: &str| Name {
+        text: text.to_owned(),
+        span: here,
+    };
+    args.iter()
+        .filter_map(|(arg, v)| {
+            let value = match v {
+                toml::Value::Integer(i) => ArgValue::Number(*i as f64, here),
+                toml::Value::Float(f) => ArgValue::Number(*f, here),
+                toml::Value::String(s) => ArgValue::Name(name(s)),
+                toml::Value::Array(list) => ArgValue::Names(
+                    list.iter().filter_map(|n| n.as_str().map(name)).collect(),
+                    here,
+                ),
+                _ => {
+                    diag.error(
+                        here,
+                        format!("generate.{generator}.{arg}: unsupported value"),
+                    );
+                    return None;
+                }
+            };
+            Some(GenerateArg {
+                name: name(arg),
+                value,
+            })
+        })
+        .collect()
 }
