@@ -84,18 +84,21 @@ pub fn guarded_reciprocal(
     }
 }
 
-/// Binds each pivot under its name, checks it is positive (running `on_failure` if not)
-/// and binds its reciprocal, counting the division and comparison.
+/// Binds each pivot of an `L D L'` solve under its name ([`pivot_names`] with `prefixes`
+/// and `suffix`), checks it is positive (running `on_failure` if not) and binds its
+/// reciprocal, counting the division and comparison.
 pub fn guard_pivots(
     lowerer: &mut super::lower::Lowerer,
     pivots: &[NodeId],
     reciprocals: &[NodeId],
-    names: &[String],
+    (prefixes, suffix): ((&str, &str), &str),
     on_failure: &TokenStream,
     scalar: Scalar,
 ) {
-    for ((&pivot, &reciprocal), name) in pivots.iter().zip(reciprocals).zip(names) {
-        let value = lowerer.bind(pivot, name);
+    let m = pivots.len();
+    for (j, (&pivot, &reciprocal)) in pivots.iter().zip(reciprocals).enumerate() {
+        let name = pivot_names(m, j, prefixes, suffix).0;
+        let value = lowerer.bind(pivot, &name);
         let reciprocal = var_idents(lowerer.graph(), &[reciprocal]).remove(0);
         lowerer.statement(guarded_reciprocal(&value, &reciprocal, on_failure, scalar));
         lowerer.count_extra(super::lower::OpCount {
@@ -154,6 +157,26 @@ pub fn pack_upper(name: &str, size: usize) -> TokenStream {
         let [#(#pattern),*] = *#arg;
         [#(#packed),*]
     }}
+}
+
+/// `state()` and `covariance()` of a filter whose fields `x` (`n` entries) and `p` (packed)
+/// hold its estimate.
+pub fn estimate_accessors(n: usize, ty: &proc_macro2::Ident) -> TokenStream {
+    let n_len = proc_macro2::Literal::usize_unsuffixed(n);
+    let unpack_p = unpack_symmetric("p", n);
+    quote! {
+        /// The state estimate: physical states, then parameters.
+        #[must_use]
+        pub fn state(&self) -> [#ty; #n_len] {
+            self.x
+        }
+
+        /// The estimate's covariance.
+        #[must_use]
+        pub fn covariance(&self) -> [[#ty; #n_len]; #n_len] {
+            #unpack_p
+        }
+    }
 }
 
 /// The full symmetric matrix of the packed field `self.<field>` (`n x n`).

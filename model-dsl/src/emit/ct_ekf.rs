@@ -5,7 +5,7 @@
 //! and sub-steps; optionally with a prescribed degree of stability `alpha` (Reif et al.,
 //! the paper's eq. 26): `F + alpha I` in place of `F` in the Riccati equation.
 
-use super::code::{pack_upper, unpack_symmetric};
+use super::code::pack_upper;
 use super::ekf::noise_argument;
 use super::hybrid_ekf::{method, Kind};
 use super::lower::{literal, OpCount};
@@ -44,7 +44,7 @@ pub fn emit_continuous_ekf(
         [n, m, packed_len(n), packed_len(m)].map(Literal::usize_unsuffixed);
     let (pack_p0, pack_r) = (pack_upper("p0", n), pack_upper("r", m));
     let (q_param, q_field, pack_q) = noise_argument("q", n, diagonal, &ty);
-    let unpack_p = unpack_symmetric("p", n);
+    let accessors = super::code::estimate_accessors(n, &ty);
     let setters = super::tuning::noise_setters(n, m, diagonal, &ty);
     let substeps = mg.clone().substep(model).map_or(1, |(_, _, n)| n);
     let substeps_lit = Literal::u32_unsuffixed(substeps);
@@ -113,17 +113,7 @@ pub fn emit_continuous_ekf(
                 ContinuousEkf { x: x0, p: #pack_p0, q: #pack_q, r: #pack_r, #alpha_init }
             }
 
-            /// The state estimate: physical states, then parameters.
-            #[must_use]
-            pub fn state(&self) -> [#ty; #n_len] {
-                self.x
-            }
-
-            /// The estimate's covariance.
-            #[must_use]
-            pub fn covariance(&self) -> [[#ty; #n_len]; #n_len] {
-                #unpack_p
-            }
+            #accessors
 
             #alpha_items
 

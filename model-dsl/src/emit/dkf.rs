@@ -571,7 +571,6 @@ fn stage_method(
         definitions,
     } = stage;
     let n = update.x.len();
-    let m = update.pivots.len();
     let mut graph = g.graph.clone();
     let probe = finiteness_probe(&mut graph, &update.x, &update.p);
     let p_new = packed_upper(&update.p);
@@ -590,14 +589,11 @@ fn stage_method(
     for (&node, result) in update.x.iter().zip(&result_names) {
         lowerer.prefer_name(node, result);
     }
-    let names: Vec<String> = (0..m)
-        .map(|j| pivot_names(m, j, INNOVATION, suffix).0)
-        .collect();
     guard_pivots(
         &mut lowerer,
         &update.pivots,
         &update.reciprocals,
-        &names,
+        (INNOVATION, suffix),
         &quote! { return Status::NonPositiveInnovation; },
         scalar,
     );

@@ -5,7 +5,7 @@
 
 use super::code::{
     commit_or_non_finite_with, guard_pivots, pack_upper, packed_names, pivot_names,
-    reject_non_finite, unpack_symmetric, var_idents, INNOVATION,
+    reject_non_finite, var_idents, INNOVATION,
 };
 use super::lower::{Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
@@ -129,7 +129,7 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
 
     let (pack_p0, pack_r) = (pack_upper("p0", n), pack_upper("r", m));
     let (q_param, q_field, pack_q) = noise_argument("q", n, diagonal, &ty);
-    let unpack_p = unpack_symmetric("p", n);
+    let accessors = super::code::estimate_accessors(n, &ty);
     let zero = super::lower::literal(0.0, scalar);
     let (gate_field, gate_init, mut gate_methods) = gate_items(spec.gate, &ty, scalar);
     if spec.gate.is_some() {
@@ -202,17 +202,7 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
 
             #gate_methods
 
-            /// The state estimate: physical states, then parameters.
-            #[must_use]
-            pub fn state(&self) -> [#ty; #n_len] {
-                self.x
-            }
-
-            /// The estimate's covariance.
-            #[must_use]
-            pub fn covariance(&self) -> [[#ty; #n_len]; #n_len] {
-                #unpack_p
-            }
+            #accessors
 
             #setters
 
@@ -291,9 +281,6 @@ fn nis_method(model: &Model, scalar: Scalar) -> TokenStream {
     let mut lowerer = Lowerer::new(&graph, scalar, namer, &roots);
     lowerer.read_lazily(&quote! { self.innovation }, &innovation);
     lowerer.read_lazily(&quote! { self.innovation_covariance }, &s_vars);
-    let names: Vec<String> = (0..m)
-        .map(|j| pivot_names(m, j, INNOVATION, "").0)
-        .collect();
     let ty = ident(scalar.type_name());
     // The stored covariance passed this test when its measurement was used: a failure here
     // cannot happen, and would read as "inconsistent".
@@ -302,7 +289,7 @@ fn nis_method(model: &Model, scalar: Scalar) -> TokenStream {
         &mut lowerer,
         &ldl.pivots,
         &ldl.reciprocals,
-        &names,
+        (INNOVATION, ""),
         &on_failure,
         scalar,
     );
@@ -501,14 +488,11 @@ fn method(
     lowerer.read_lazily(&quote! { self.r }, &r_vars);
     let suffix = if updates { "new" } else { "pred" };
     name_results(&mut lowerer, model, &x, &p_vars, &p_packed, suffix);
-    let names: Vec<String> = (0..pivots.len())
-        .map(|j| pivot_names(m, j, INNOVATION, "").0)
-        .collect();
     guard_pivots(
         &mut lowerer,
         &pivots,
         &reciprocals,
-        &names,
+        (INNOVATION, ""),
         &quote! { return Status::NonPositiveInnovation; },
         scalar,
     );

@@ -5,8 +5,8 @@
 //! at each sample the discrete Joseph-form update (eqs. 24-26), shared with the EKF.
 
 use super::code::{
-    commit_or_non_finite, guard_pivots, pack_upper, pivot_names, reject_non_finite,
-    unpack_symmetric, var_idents, INNOVATION,
+    commit_or_non_finite, guard_pivots, pack_upper, pivot_names, reject_non_finite, var_idents,
+    INNOVATION,
 };
 use super::ekf::{
     finiteness_probe, model_names, noise_argument, noise_vars, packed_vars, time_param,
@@ -68,7 +68,7 @@ pub fn emit_hybrid_ekf(
         [n, m, packed_len(n), packed_len(m)].map(Literal::usize_unsuffixed);
     let (pack_p0, pack_r) = (pack_upper("p0", n), pack_upper("r", m));
     let (q_param, q_field, pack_q) = noise_argument("q", n, diagonal, &ty);
-    let unpack_p = unpack_symmetric("p", n);
+    let accessors = super::code::estimate_accessors(n, &ty);
     let setters = super::tuning::noise_setters(n, m, diagonal, &ty);
     let substeps = mg.clone().substep(model).map_or(1, |(_, _, n)| n);
     let substeps_lit = Literal::u32_unsuffixed(substeps);
@@ -113,17 +113,7 @@ pub fn emit_hybrid_ekf(
                 HybridEkf { x: x0, p: #pack_p0, q: #pack_q, r: #pack_r }
             }
 
-            /// The state estimate: physical states, then parameters.
-            #[must_use]
-            pub fn state(&self) -> [#ty; #n_len] {
-                self.x
-            }
-
-            /// The estimate's covariance.
-            #[must_use]
-            pub fn covariance(&self) -> [[#ty; #n_len]; #n_len] {
-                #unpack_p
-            }
+            #accessors
 
             #setters
 
@@ -276,14 +266,11 @@ pub(super) fn method(
         lowerer.statement(quote! { let #name = self.alpha; });
     }
     if let Some(terms) = &measurement {
-        let names: Vec<String> = (0..m)
-            .map(|j| pivot_names(m, j, MEASUREMENT, "").0)
-            .collect();
         guard_pivots(
             &mut lowerer,
             &terms.r_pivots,
             &terms.r_reciprocals,
-            &names,
+            (MEASUREMENT, ""),
             &quote! { return Status::NonPositiveInnovation; },
             scalar,
         );
@@ -336,14 +323,11 @@ pub(super) fn method(
     for (&node, name) in x.iter().zip(model.state_names()) {
         lowerer.prefer_name(node, &format!("{name}_{suffix}"));
     }
-    let names: Vec<String> = (0..pivots.len())
-        .map(|j| pivot_names(m, j, INNOVATION, "").0)
-        .collect();
     guard_pivots(
         &mut lowerer,
         &pivots,
         &reciprocals,
-        &names,
+        (INNOVATION, ""),
         &quote! { return Status::NonPositiveInnovation; },
         scalar,
     );

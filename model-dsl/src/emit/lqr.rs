@@ -102,16 +102,13 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     // The gain after the loop comes from a fork taken here, so it does not rely on
     // temporaries scoped inside the loop body.
     let mut after = lowerer.clone();
-    let names: Vec<String> = (0..pivots.len())
-        .map(|j| pivot_names(nu, j, WEIGHT, "").0)
-        .collect();
     let failure = quote! { return Status::NonPositiveControlWeight; };
     // Loop body: P <- A'PA - A'PB K + Q (eq. 19), N times from P = Q.
     guard_pivots(
         &mut lowerer,
         &pivots,
         &reciprocals,
-        &names,
+        (WEIGHT, ""),
         &failure,
         scalar,
     );
@@ -120,7 +117,14 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     let per_step = lowerer.ops().minus(before_loop);
     let Lowered { used_vars, .. } = lowerer.finish();
     // After the loop: F = (R + B'PB)^-1 B'PA from the final P (Alg. 3).
-    guard_pivots(&mut after, &pivots, &reciprocals, &names, &failure, scalar);
+    guard_pivots(
+        &mut after,
+        &pivots,
+        &reciprocals,
+        (WEIGHT, ""),
+        &failure,
+        scalar,
+    );
     let k_values = after.segment(&k_flat);
     let gain_statements = after.take_statements();
     let gain_ops = after.ops().minus(before_loop);

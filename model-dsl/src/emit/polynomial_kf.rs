@@ -348,12 +348,11 @@ fn recursive_step(
     for (&node, state) in update.x.iter().zip(&model.states) {
         lowerer.prefer_name(node, &format!("{}_new", state.name));
     }
-    let names = vec![pivot_names(1, 0, INNOVATION, "").0];
     guard_pivots(
         &mut lowerer,
         &update.pivots,
         &update.reciprocals,
-        &names,
+        (INNOVATION, ""),
         &quote! { return Status::NonPositiveInnovation; },
         scalar,
     );
