@@ -26,6 +26,7 @@ use experiment::metrics::{mean, rms};
 use experiment::noise::GaussianNoise;
 use experiment::plant::{saturate, Kick, MassChange, Physical, Plant, PlantConfig, PlantKind};
 use experiment::report::{self, Line, Trace};
+use experiment::tuning::{p0, Q_DIAG, R, X0_CLOSE, X0_WRONG};
 use experiment::TS;
 use generated_demo::cantilever;
 use generated_demo::cantilever::in_f64::{Dkf, Ekf, Lqr, Status};
@@ -33,17 +34,11 @@ use std::error::Error;
 use std::path::Path;
 use std::time::Instant;
 
-/// The paper's initial guesses (sect. 5, with x3 of the close guess near the beam's).
-const X0_CLOSE: [f64; 5] = [0.01, 0.0, -400.0, -1.0, 0.01];
-const X0_WRONG: [f64; 5] = [0.01, 0.0, -50000.0, -10.0, 0.01];
-/// One process noise for EKF, AKF and LKF, and the paper's R (simulating-the-paper.md).
-const Q_DIAG: [f64; 5] = [0.0, 0.0, 100.0, 300.0, 1e-3];
 /// In the closed loop a stinger hit is a jump of the tip velocity the model cannot
 /// predict: with no process noise on `x2` the filters would explain it by the parameters
 /// (the gain's sign flips, and so does the feedback). 100 (mm/s)^2 per sample lets it be
 /// a velocity disturbance, as it is.
 const Q_DIAG_CONTROL: [f64; 5] = [0.0, 100.0, 100.0, 300.0, 1e-3];
-const R: f64 = 0.001;
 /// The LQR of Alg. 3: N = 50, Q = I, R = 0.001, actuator limit +-100 V.
 const LQR_R: f64 = 0.001;
 const U_MAX: f64 = 100.0;
@@ -122,19 +117,6 @@ fn main() -> Result<(), Box<dyn Error>> {
         started.elapsed().as_secs_f64()
     );
     Ok(())
-}
-
-fn diag(d: [f64; 5]) -> [[f64; 5]; 5] {
-    let mut m = [[0.0; 5]; 5];
-    for (i, v) in d.into_iter().enumerate() {
-        m[i][i] = v;
-    }
-    m
-}
-
-/// The initial covariance of the tuning note: p3 = 2e4 (close) or 2e6 (wrong guess).
-fn p0(p3: f64) -> [[f64; 5]; 5] {
-    diag([0.1, 1.0, p3, 1000.0, 0.1])
 }
 
 /// EKF and DKF from both guesses on one simulated run.

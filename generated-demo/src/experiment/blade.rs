@@ -12,6 +12,7 @@
 //! The controller (the paper's MPC) is not part of this issue: the blade runs open loop
 //! with a small white-noise dither in control mode.
 
+use super::diag;
 use super::metrics::mean;
 use super::noise::GaussianNoise;
 use super::report::{self, Line, Trace};
@@ -86,10 +87,6 @@ fn plant_step(t: f64, x: [f64; 2], u: f64, dt: f64) -> [f64; 2] {
         t += h;
     }
     x
-}
-
-fn diag<const N: usize>(d: [f64; N]) -> [[f64; N]; N] {
-    std::array::from_fn(|i| std::array::from_fn(|j| if i == j { d[i] } else { 0.0 }))
 }
 
 /// The median of the last `width` values (the paper's 50-sample running median of the

@@ -14,6 +14,12 @@ pub mod plant;
 pub mod readout;
 pub mod report;
 pub mod trms;
+pub mod tuning;
+
+/// The diagonal matrix with `d` on its diagonal (the tunings are diagonal covariances).
+pub fn diag<T: Copy + Default, const N: usize>(d: [T; N]) -> [[T; N]; N] {
+    std::array::from_fn(|i| std::array::from_fn(|j| if i == j { d[i] } else { T::default() }))
+}
 
 /// Sample time [s], taken from the generated cantilever model so the harness and the
 /// filters can never disagree on it ("the sampling period has been set to 15 ms", sect. 4.1).

@@ -9,16 +9,12 @@ use super::noise::GaussianNoise;
 use super::plant::{Plant, PlantConfig};
 use super::readout;
 use super::report::{self, Line, Trace};
+use super::tuning::{p0, Q_DIAG, R, X0_CLOSE};
 use super::TS;
 use generated_demo::cantilever::{Ekf, GatedEkf, Status};
 use std::error::Error;
 use std::path::Path;
 
-/// The close initial guess, its covariance diagonal, Q and R of the estimation runs.
-const X0: [f32; 5] = [0.01, 0.0, -400.0, -1.0, 0.01];
-const P0_DIAG: [f32; 5] = [0.1, 1.0, 2e4, 1000.0, 0.1];
-const Q_DIAG: [f32; 5] = [0.0, 0.0, 100.0, 300.0, 1e-3];
-const R: f32 = 0.001;
 /// When the fault starts and how long the run lasts [s].
 const FAULT_AT: f64 = 10.0;
 const RUN_END: f64 = 20.0;
@@ -91,12 +87,12 @@ struct Filters {
 
 impl Filters {
     fn new() -> Self {
-        let p0 = diag(P0_DIAG);
+        let (x0, p0, q, r) = tuning_f32();
         Filters {
-            ungated: Ekf::new(X0, &p0, &Q_DIAG, &[[R]]),
-            recovering: Ekf::new(X0, &p0, &Q_DIAG, &[[R]]),
+            ungated: Ekf::new(x0, &p0, &q, &[[r]]),
+            recovering: Ekf::new(x0, &p0, &q, &[[r]]),
             failed_in_a_row: 0,
-            gated: GatedEkf::new(X0, &p0, &Q_DIAG, &[[R]]),
+            gated: GatedEkf::new(x0, &p0, &q, &[[r]]),
         }
     }
 
@@ -113,7 +109,8 @@ impl Filters {
         outcomes[1].record(status, self.recovering.state());
         if self.failed_in_a_row >= RESET_AFTER {
             // The documented way back: start again from the prior.
-            self.recovering.reset(X0, &diag(P0_DIAG));
+            let (x0, p0, ..) = tuning_f32();
+            self.recovering.reset(x0, &p0);
             self.failed_in_a_row = 0;
             outcomes[1].resets += 1;
         }
@@ -229,10 +226,13 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
     Ok(())
 }
 
-fn diag(d: [f32; 5]) -> [[f32; 5]; 5] {
-    let mut m = [[0.0; 5]; 5];
-    for (i, v) in d.into_iter().enumerate() {
-        m[i][i] = v;
-    }
-    m
+/// The estimation runs' tuning from the close guess, in `f32`: `x0`, `p0`, `q`, `r`.
+fn tuning_f32() -> ([f32; 5], [[f32; 5]; 5], [f32; 5], f32) {
+    let narrow = |v: f64| v as f32;
+    (
+        X0_CLOSE.map(narrow),
+        p0(2e4).map(|row| row.map(narrow)),
+        Q_DIAG.map(narrow),
+        narrow(R),
+    )
 }
