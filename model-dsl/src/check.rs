@@ -1,8 +1,8 @@
 //! Resolves a [`ModelDecl`] into the model IR, collecting every mistake on the way.
 
 use crate::ast::{
-    ArgValue, BinaryOp, DynamicsDecl, DynamicsKind, GenerateArg, GenerateDecl, ModelDecl, Name,
-    Statement, SurfaceExpr, SurfaceKind, SymbolKind,
+    ArgValue, BinaryOp, Comparison, DynamicsDecl, DynamicsKind, GenerateArg, GenerateDecl,
+    ModelDecl, Name, Statement, SurfaceExpr, SurfaceKind, SymbolKind,
 };
 use crate::diagnostics::Diagnostics;
 use crate::model::{
@@ -695,7 +695,9 @@ fn resolve(
                 BinaryOp::Div => Expr::Div(a, b),
             }
         }
-        SurfaceKind::Call(func, args) => resolve_call(expr, func, args, &mut go, diag)?,
+        SurfaceKind::Call(func, args) => {
+            resolve_call(expr, func, args, &scope.const_values, &mut go, diag)?
+        },
         SurfaceKind::If {
             cmp,
             lhs,
@@ -738,6 +740,7 @@ fn resolve_call(
     expr: &SurfaceExpr,
     func: &Name,
     args: &[SurfaceExpr],
+    const_values: &[f64],
     go: &mut dyn FnMut(&SurfaceExpr, &mut Diagnostics) -> Option<Expr>,
     diag: &mut Diagnostics,
 ) -> Option<Expr> {
@@ -770,12 +773,15 @@ fn resolve_call(
         };
         return Some(Expr::Powi(Box::new(base?), exponent));
     }
+    if let Some(resolved) = resolve_piecewise_call(expr, func, args, const_values, go, diag) {
+        return resolved;
+    }
     let Some(f) = Func::from_name(&func.text) else {
         let known: Vec<_> = Func::ALL.iter().map(|f| f.name()).collect();
         diag.error(
             func.span,
             format!(
-                "unsupported function `{}`: use one of {}, powi",
+                "unsupported function `{}`: use one of {}, powi, atan2, min, max, clamp",
                 func.text,
                 known.join(", ")
             ),
@@ -787,12 +793,78 @@ fn resolve_call(
     };
     if args.len() != 1 {
         diag.error(
-            expr.span,
+            func.span,
             format!("`{}` takes 1 argument, found {}", func.text, args.len()),
         );
         return None;
     }
     Some(Expr::Call(f, Box::new(go(&args[0], diag)?)))
+}
+
+/// `atan2(y, x)`, `min(a, b)`, `max(a, b)` and `clamp(x, lo, hi)` (a saturation); `None`
+/// for any other function. The last three are piecewise terms, so they are differentiated
+/// branch by branch like `if`: `min(a, b)` is `if a < b { a } else { b }`, `max(a, b)` is
+/// `if a > b { a } else { b }`, and `clamp(x, lo, hi)` is
+/// `if x < lo { lo } else { if x > hi { hi } else { x } }`. As methods they read as in Rust
+/// (`y.atan2(x)`, `a.min(b)`, `x.clamp(lo, hi)`).
+fn resolve_piecewise_call(
+    expr: &SurfaceExpr,
+    func: &Name,
+    args: &[SurfaceExpr],
+    const_values: &[f64],
+    go: &mut dyn FnMut(&SurfaceExpr, &mut Diagnostics) -> Option<Expr>,
+    diag: &mut Diagnostics,
+) -> Option<Option<Expr>> {
+    let usage = match func.text.as_str() {
+        "atan2" => "`atan2(y, x)` takes 2 arguments",
+        "min" => "`min(a, b)` takes 2 arguments",
+        "max" => "`max(a, b)` takes 2 arguments",
+        "clamp" => "`clamp(x, lo, hi)` (a saturation) takes 3 arguments",
+        _ => return None,
+    };
+    let arity = if func.text == "clamp" { 3 } else { 2 };
+    if args.len() != arity {
+        diag.error(func.span, format!("{usage}, found {}", args.len()));
+        for arg in args {
+            go(arg, diag);
+        }
+        return Some(None);
+    }
+    let resolved: Vec<Option<Expr>> = args.iter().map(|a| go(a, diag)).collect();
+    let Some(resolved) = resolved.into_iter().collect::<Option<Vec<Expr>>>() else {
+        return Some(None);
+    };
+    let select = |cmp, lhs: &Expr, rhs: &Expr, then: &Expr, otherwise: Expr| Expr::Select {
+        cmp,
+        lhs: Box::new(lhs.clone()),
+        rhs: Box::new(rhs.clone()),
+        then: Box::new(then.clone()),
+        otherwise: Box::new(otherwise),
+    };
+    Some(Some(match (func.text.as_str(), resolved.as_slice()) {
+        ("atan2", [y, x]) => Expr::Atan2(Box::new(y.clone()), Box::new(x.clone())),
+        ("min", [a, b]) => select(Comparison::Lt, a, b, a, b.clone()),
+        ("max", [a, b]) => select(Comparison::Gt, a, b, a, b.clone()),
+        ("clamp", [x, lo, hi]) => {
+            let constant = |i: usize| const_values.get(i).copied();
+            let bounds = (lo.fold(&constant), hi.fold(&constant));
+            if let (Some(lo_value), Some(hi_value)) = bounds {
+                if lo_value > hi_value {
+                    diag.error(
+                        expr.span,
+                        format!(
+                            "`clamp(x, lo, hi)` needs `lo <= hi`, found {lo_value} > {hi_value}: \
+                             write the lower bound first"
+                        ),
+                    );
+                    return Some(None);
+                }
+            }
+            let upper = select(Comparison::Gt, x, hi, hi, x.clone());
+            select(Comparison::Lt, x, lo, lo, upper)
+        }
+        _ => return Some(None),
+    }))
 }
 
 /// Checks the `generate` items: known generators, known arguments of the right kinds.

@@ -25,6 +25,7 @@ pub fn to_meval(model: &Model, expr: &Expr) -> String {
         Expr::Div(a, b) => format!("({} / {})", go(a), go(b)),
         Expr::Powi(a, n) => format!("({}^({n}))", go(a)),
         Expr::Call(f, a) => format!("{}({})", f.name(), go(a)),
+        Expr::Atan2(y, x) => format!("atan2({}, {})", go(y), go(x)),
         Expr::Select {
             cmp,
             lhs,

@@ -273,11 +273,13 @@ pub enum Func {
     Sqrt,
     /// Absolute value.
     Abs,
+    /// Hyperbolic tangent.
+    Tanh,
 }
 
 impl Func {
     /// Every function, for lookups and messages.
-    pub const ALL: [Func; 7] = [
+    pub const ALL: [Func; 8] = [
         Func::Sin,
         Func::Cos,
         Func::Tan,
@@ -285,6 +287,7 @@ impl Func {
         Func::Ln,
         Func::Sqrt,
         Func::Abs,
+        Func::Tanh,
     ];
 
     /// The name a model writes.
@@ -297,6 +300,7 @@ impl Func {
             Func::Ln => "ln",
             Func::Sqrt => "sqrt",
             Func::Abs => "abs",
+            Func::Tanh => "tanh",
         }
     }
 
@@ -315,6 +319,7 @@ impl Func {
             Func::Ln => x.ln(),
             Func::Sqrt => x.sqrt(),
             Func::Abs => x.abs(),
+            Func::Tanh => x.tanh(),
         }
     }
 }
@@ -350,6 +355,8 @@ pub enum Expr {
     Powi(Box<Expr>, i32),
     /// A function of one argument.
     Call(Func, Box<Expr>),
+    /// `atan2(y, x)`: the angle of the point `(x, y)`, in `-pi..=pi`.
+    Atan2(Box<Expr>, Box<Expr>),
     /// `if lhs cmp rhs { then } else { otherwise }`.
     Select {
         /// The comparison.
@@ -413,9 +420,11 @@ impl Expr {
             | Expr::Local(_)
             | Expr::Time => false,
             Expr::Neg(a) | Expr::Powi(a, _) | Expr::Call(_, a) => a.any(pred),
-            Expr::Add(a, b) | Expr::Sub(a, b) | Expr::Mul(a, b) | Expr::Div(a, b) => {
-                a.any(pred) || b.any(pred)
-            }
+            Expr::Add(a, b)
+            | Expr::Sub(a, b)
+            | Expr::Mul(a, b)
+            | Expr::Div(a, b)
+            | Expr::Atan2(a, b) => a.any(pred) || b.any(pred),
             Expr::Select {
                 lhs,
                 rhs,
@@ -445,6 +454,7 @@ impl Expr {
             Expr::Div(a, b) => go(a)? / go(b)?,
             Expr::Powi(a, n) => go(a)?.powi(*n),
             Expr::Call(f, a) => f.eval(go(a)?),
+            Expr::Atan2(y, x) => go(y)?.atan2(go(x)?),
             Expr::Select {
                 cmp,
                 lhs,

@@ -233,7 +233,7 @@ fn op_count_struct() -> TokenStream {
             pub mul: u32,
             /// Divisions.
             pub div: u32,
-            /// Library calls (`sin cos tan exp ln sqrt abs`, through `libm`).
+            /// Library calls (`sin cos tan tanh exp ln sqrt abs atan2`, through `libm`).
             pub call: u32,
             /// Comparisons of piecewise terms.
             pub compare: u32,

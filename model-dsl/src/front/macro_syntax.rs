@@ -11,7 +11,8 @@
 //!                     | 'generate' (IDENT ['(' (IDENT '=' (number | IDENT | '[' IDENT,* ']')),* ')']),+ ';' )
 //! ```
 //! Expressions are Rust expressions restricted to arithmetic, calls of the model
-//! functions (also as methods, `x.sin()`), and `if a > b { .. } else { .. }`.
+//! functions (`sin cos tan tanh exp ln sqrt abs powi atan2 min max clamp`, also as methods,
+//! `x.sin()`, `y.atan2(x)`), and `if a > b { .. } else { .. }`.
 
 use crate::ast::{
     ArgValue, BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg,

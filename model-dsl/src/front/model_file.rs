@@ -24,7 +24,8 @@
 //! x1 = "x1 + TS * x2"
 //! ```
 //! Expressions are parsed by `meval`: `+ - * / ^` (integer powers), functions
-//! `sin cos tan exp ln sqrt abs`, and the piecewise functions `if_gt(a, b, then, else)`,
+//! `sin cos tan tanh exp ln sqrt abs`, `atan2(y, x)`, `min(a, b)`, `max(a, b)`,
+//! `clamp(x, lo, hi)` (a saturation), and the piecewise functions `if_gt(a, b, then, else)`,
 //! `if_ge`, `if_lt`, `if_le` for `if a > b { then } else { else }` and so on.
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
 

@@ -257,6 +257,10 @@ impl ModelGraph {
                 let a = self.lower(model, a, env);
                 self.graph.call(*f, a)
             }
+            Expr::Atan2(y, x) => {
+                let (y, x) = (self.lower(model, y, env), self.lower(model, x, env));
+                self.graph.atan2(y, x)
+            }
             Expr::Select {
                 cmp,
                 lhs,
