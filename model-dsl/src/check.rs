@@ -32,6 +32,8 @@ const GENERATED_ITEMS: &[&str] = &[
     "X_NAMES",
     "U_NAMES",
     "Y_NAMES",
+    "KNOWN_LEN",
+    "KNOWN_NAMES",
     "Ekf",
     "Dkf",
     "DkfStatus",
@@ -54,6 +56,7 @@ enum Binding {
     State(usize),
     Param(usize),
     Input(usize),
+    Known(usize),
     Local(usize),
 }
 
@@ -77,6 +80,7 @@ impl Scope {
                 SymbolKind::State => "a state",
                 SymbolKind::Param => "a parameter",
                 SymbolKind::Input => "an input",
+                SymbolKind::Known => "a constant known at run time",
             };
             declared.insert(sym.name.text.clone(), what);
         }
@@ -117,6 +121,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Model> {
     let constants = check_constants(decl, &mut scope, &mut diag);
 
     let (mut states, mut params, mut inputs) = (Vec::new(), Vec::new(), Vec::new());
+    let mut known = Vec::new();
     let mut state_spans = Vec::new();
     for sym in &decl.symbols {
         let symbol = Symbol {
@@ -136,6 +141,10 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Model> {
             SymbolKind::Input => {
                 inputs.push(symbol);
                 Binding::Input(inputs.len() - 1)
+            }
+            SymbolKind::Known => {
+                known.push(symbol);
+                Binding::Known(known.len() - 1)
             }
         };
         declare(&mut scope, &sym.name, binding, &mut diag);
@@ -195,6 +204,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Model> {
     };
 
     let generate = check_generate(decl, &scope, &mut diag);
+    check_known_support(decl, &mut diag);
     let model = dynamics.map(|dynamics| Model {
         docs: decl.docs.clone(),
         vis: decl.vis.clone(),
@@ -204,6 +214,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Model> {
         states,
         params,
         inputs,
+        known,
         outputs,
         dynamics,
         locals,
@@ -366,6 +377,17 @@ fn check_dynamics(
                             target.span,
                             format!(
                                 "`{}` is an input: it is given each sample, not computed",
+                                target.text
+                            ),
+                        );
+                        continue;
+                    }
+                    Some((Binding::Known(_), _)) => {
+                        diag.error(
+                            target.span,
+                            format!(
+                                "`{}` is known at run time: it is given when the filter is \
+                                 made, not computed; declare it with `state` if it evolves",
                                 target.text
                             ),
                         );
@@ -652,6 +674,7 @@ fn resolve(
             Some((Binding::State(i), _)) => Expr::State(*i),
             Some((Binding::Param(i), _)) => Expr::Param(*i),
             Some((Binding::Input(i), _)) => Expr::Input(*i),
+            Some((Binding::Known(i), _)) => Expr::Known(*i),
             Some((Binding::Local(i), _)) if *i < locals.len() => Expr::Local(*i),
             Some((Binding::Local(_), _)) => {
                 diag.error(
@@ -865,6 +888,49 @@ fn resolve_piecewise_call(
         }
         _ => return Some(None),
     }))
+}
+
+/// A constant known only at run time enters the model functions, the EKF and the LQR as
+/// an argument or a stored value; the other generators compute their design or derive
+/// their window transform when the code is generated, or integrate in a loop that does not
+/// carry it, so they need every coefficient as a number then.
+fn check_known_support(decl: &ModelDecl, diag: &mut Diagnostics) {
+    let Some(first) = decl.symbols.iter().find(|s| s.kind == SymbolKind::Known) else {
+        return;
+    };
+    for item in &decl.generate {
+        if !matches!(item.name.text.as_str(), "ekf" | "lqr") {
+            diag.error(
+                item.name.span,
+                format!(
+                    "`{}` needs every coefficient when the code is generated, and `{}` is \
+                     known only at run time: declare it with `const`, or use `ekf` and `lqr`",
+                    item.name.text, first.name.text
+                ),
+            );
+        }
+    }
+    if let Some(DynamicsDecl {
+        kind:
+            DynamicsKind::Continuous {
+                substeps: Some((n, span)),
+                ..
+            },
+        ..
+    }) = decl.dynamics.first()
+    {
+        if *n > u64::from(crate::model::UNROLLED_SUBSTEPS_MAX) {
+            diag.error(
+                *span,
+                format!(
+                    "sub-steps past {} run as a loop, which does not read `{}`, known at run \
+                     time: use at most {0} sub-steps, or declare it with `const`",
+                    crate::model::UNROLLED_SUBSTEPS_MAX,
+                    first.name.text
+                ),
+            );
+        }
+    }
 }
 
 /// Checks the `generate` items: known generators, known arguments of the right kinds.

@@ -16,6 +16,7 @@ pub fn to_meval(model: &Model, expr: &Expr) -> String {
         Expr::State(i) => model.states[*i].name.clone(),
         Expr::Param(i) => model.params[*i].name.clone(),
         Expr::Input(i) => model.inputs[*i].name.clone(),
+        Expr::Known(i) => model.known[*i].name.clone(),
         Expr::Local(i) => format!("({})", go(&model.locals[*i].expr)),
         Expr::Time => "t".into(),
         Expr::Neg(a) => format!("(-{})", go(a)),

@@ -22,6 +22,9 @@ pub struct Model {
     pub params: Vec<Symbol>,
     /// Inputs `u`.
     pub inputs: Vec<Symbol>,
+    /// Constants known only at run time (`known`), supplied to the model functions as
+    /// `known` and stored by the filters and controller.
+    pub known: Vec<Symbol>,
     /// Outputs `y = h(x, u)`.
     pub outputs: Vec<Output>,
     /// The dynamics of the physical states.
@@ -337,6 +340,8 @@ pub enum Expr {
     Param(usize),
     /// An input, by index into [`Model::inputs`].
     Input(usize),
+    /// A constant known at run time, by index into [`Model::known`].
+    Known(usize),
     /// A named intermediate, by index into [`Model::locals`].
     Local(usize),
     /// The time `t` in seconds.
@@ -417,6 +422,7 @@ impl Expr {
             | Expr::State(_)
             | Expr::Param(_)
             | Expr::Input(_)
+            | Expr::Known(_)
             | Expr::Local(_)
             | Expr::Time => false,
             Expr::Neg(a) | Expr::Powi(a, _) | Expr::Call(_, a) => a.any(pred),
@@ -468,9 +474,12 @@ impl Expr {
                     go(otherwise)?
                 }
             }
-            Expr::State(_) | Expr::Param(_) | Expr::Input(_) | Expr::Local(_) | Expr::Time => {
-                return None
-            }
+            Expr::State(_)
+            | Expr::Param(_)
+            | Expr::Input(_)
+            | Expr::Known(_)
+            | Expr::Local(_)
+            | Expr::Time => return None,
         })
     }
 }

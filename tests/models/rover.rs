@@ -28,6 +28,6 @@ codegen_macros::model! {
             heading = heading + TS * speed * tanh(delta / STEER_MAX) * STEER_MAX / WHEELBASE;
             speed = min(speed + TS * (push - drag * speed), V_MAX);
         }
-        generate ekf;
+        generate ekf, lqr(horizon = 50, states = [heading, speed], inputs = [throttle, steer]);
     }
 }

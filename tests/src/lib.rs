@@ -25,7 +25,7 @@ pub const DEMO_MODELS: [&str; 8] = [
 
 /// Names of the test models in `tests/models/` (`model! { .. }` invocations that exercise
 /// parts of the language the demo models do not use).
-pub const TEST_MODELS: [&str; 1] = ["rover"];
+pub const TEST_MODELS: [&str; 2] = ["rover", "rover_known"];
 
 /// The generated code of a test model, formatted.
 pub fn test_model_code(name: &str) -> String {

@@ -37,8 +37,9 @@ pub fn model_names(model: &Model) -> Vec<String> {
         .map(|c| c.name.clone())
         .chain(model.state_names().map(str::to_owned))
         .chain(model.inputs.iter().map(|s| s.name.clone()))
+        .chain(model.known.iter().map(|s| s.name.clone()))
         .chain(model.outputs.iter().map(|o| o.name.clone()))
-        .chain(["t", "x", "u", "y", "self", "status"].map(String::from))
+        .chain(["t", "x", "u", "y", "self", "status", "known"].map(String::from))
         .collect()
 }
 
@@ -140,6 +141,9 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
     let (type_doc, convention_doc) = type_doc(spec);
     let identity = packed_identity(m, scalar);
     let nis_method = nis_method(model, scalar);
+    let known = super::known::known_items(model, &ty);
+    let (known_field, known_param, known_init, known_methods) =
+        (known.field, known.param, known.init, known.methods);
 
     let new_doc = if diagonal {
         " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
@@ -163,12 +167,13 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
             innovation: [#ty; #m_len],
             innovation_covariance: [#ty; #mp],
             #gate_field
+            #known_field
         }
 
         impl #type_name {
             #[doc = #new_doc]
             #[must_use]
-            pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len], #q_param, r: &[[#ty; #m_len]; #m_len]) -> #type_name {
+            pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len], #q_param, r: &[[#ty; #m_len]; #m_len] #known_param) -> #type_name {
                 #type_name {
                     x: x0,
                     p: #pack_p0,
@@ -177,6 +182,7 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
                     innovation: [#zero; #m_len],
                     innovation_covariance: #identity,
                     #gate_init
+                    #known_init
                 }
             }
 
@@ -205,6 +211,8 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
             #accessors
 
             #setters
+
+            #known_methods
 
             #step
 
@@ -486,6 +494,7 @@ fn method(
     lowerer.read_lazily(&quote! { self.p }, &p_vars);
     lowerer.read_lazily(&quote! { self.q }, &q_vars);
     lowerer.read_lazily(&quote! { self.r }, &r_vars);
+    lowerer.read_lazily(&quote! { self.known }, &g.known);
     let suffix = if updates { "new" } else { "pred" };
     name_results(&mut lowerer, model, &x, &p_vars, &p_packed, suffix);
     guard_pivots(
