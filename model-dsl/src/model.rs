@@ -126,7 +126,7 @@ pub struct LqrSpec {
 pub struct PolynomialKfSpec {
     /// Order `m` of the polynomial: the state has `m + 1` entries.
     pub order: usize,
-    /// Sample period `T` [s], for the derivatives in physical units.
+    /// Sample period `T` \[s\], for the derivatives in physical units.
     pub dt: f64,
     /// Fading factor `f`: the process noise is `f I`.
     pub fading: f64,

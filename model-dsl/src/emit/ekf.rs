@@ -248,7 +248,8 @@ fn type_doc(spec: &EkfSpec) -> (String, String) {
         ""
     };
     let what = format!(
-        " Extended Kalman filter (Alg. 1) of this model: state estimate `x` (physical states, \
+        " Extended Kalman filter of this model (Algorithm 1 of the double Kalman filter paper, \
+         which compares the EKF with the DKF on a vibrating cantilever beam): state estimate `x` (physical states, \
          then parameters) and covariance `P`, stored once as a packed upper triangle; \
          Joseph-form update.{gate}"
     );
@@ -643,19 +644,19 @@ fn method(
         }
         EkfMethod::Predict => (
             ident("predict"),
-            " Predicts the next sample (Alg. 1): `x = f(x, u)`, `P = A P A' + Q` with \
+            " Predicts the next sample: `x = f(x, u)`, `P = A P A' + Q` with \
              `A = df/dx` at the current estimate. Rejects a non-finite input; leaves the \
              filter unchanged unless it returns [`Status::Ok`].",
         ),
         EkfMethod::Update => (
             ident("update"),
-            " Corrects the estimate with the measurement `y` (Alg. 1, Joseph form). Rejects \
+            " Corrects the estimate with the measurement `y` (Joseph form). Rejects \
              a non-finite measurement and a non-positive innovation variance (never divided \
              by); leaves the filter unchanged unless it returns [`Status::Ok`].",
         ),
         EkfMethod::Step => (
             ident("step"),
-            " One sample (Alg. 1): predicts `x[k]` from `x[k-1]` with the input `u[k-1]` held \
+            " One sample: predicts `x[k]` from `x[k-1]` with the input `u[k-1]` held \
              over the sample, then corrects it with the measurement `y[k]`, in one pass that \
              stores nothing in between. Leaves the filter unchanged unless it returns \
              [`Status::Ok`].",

@@ -167,11 +167,11 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     let solve_doc = if u_param.is_some() {
         " Recomputes the gain for the estimate `x` and the input `u` the model is \
          linearised at (the operating input: `A` and `B` depend on it): `HORIZON` Riccati \
-         steps from `P = Q`, then `K` from the final `P` (Alg. 3). Leaves the gain \
+         steps from `P = Q`, then `K` from the final `P`. Leaves the gain \
          unchanged unless it returns [`Status::Ok`]."
     } else {
         " Recomputes the gain for the estimate `x` (`A` and `B` do not depend on the input): \
-         `HORIZON` Riccati steps from `P = Q`, then `K` from the final `P` (Alg. 3). Leaves \
+         `HORIZON` Riccati steps from `P = Q`, then `K` from the final `P`. Leaves \
          the gain unchanged unless it returns [`Status::Ok`]."
     };
     let known = super::known::known_items(model, &ty);
@@ -198,9 +198,9 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
         .map(|&i| model.inputs[i].name.as_str())
         .collect();
     let doc = format!(
-        " Adaptive finite-horizon LQR (Alg. 3) regulating `[{}]` with `[{}]`. At each \
+        " Adaptive finite-horizon LQR (Algorithm 3 of the double Kalman filter paper) regulating `[{}]` with `[{}]`. At each \
          [`Lqr::solve`] the physical sub-model `A = df/d[{0}]`, `B = df/d[{1}]` is taken at \
-         the current estimate, and the backward Riccati recursion (eq. 19, `R` inside the \
+         the current estimate, and the backward Riccati recursion (eq. (19) of that paper, `R` inside the \
          inverse) runs over the horizon; [`Lqr::control`] then gives `u = -K x`, saturated.",
         state_names.join(", "),
         input_names.join(", ")

@@ -100,7 +100,7 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
             if let Ok(dkf) = dkf::emit_dkf(model, spec, &mg, scalar) {
                 ops_items.push(named_ops_item(
                     "DKF_TRANSFORM_OPS",
-                    "Dkf::transform",
+                    "the window transform of Dkf::step",
                     dkf.transform_ops,
                 ));
                 ops_items.push(named_ops_item(
