@@ -281,7 +281,7 @@ fn closed_loop_runs() -> Trace {
 
         let (plant, ekf) = &mut with_ekf;
         let _ = ekf.step(&[u_ekf], &[plant.output()]);
-        u_ekf = control(&mut lqr_ekf, &ekf.state(), u_ekf, identifying, dither);
+        u_ekf = control(&mut lqr_ekf, &ekf.state(), identifying, dither);
         trace.set("EKF-LQR x1", plant.state()[0]);
         trace.set("EKF-LQR u", u_ekf);
         trace.set_estimate("EKF-LQR", &ekf.state());
@@ -289,7 +289,7 @@ fn closed_loop_runs() -> Trace {
 
         let (plant, dkf) = &mut with_dkf;
         let _ = dkf.step(&[u_dkf], &[plant.output()]);
-        u_dkf = control(&mut lqr_dkf, &dkf.state(), u_dkf, identifying, dither);
+        u_dkf = control(&mut lqr_dkf, &dkf.state(), identifying, dither);
         trace.set("DKF-LQR x1", plant.state()[0]);
         trace.set("DKF-LQR u", u_dkf);
         trace.set_estimate("DKF-LQR", &dkf.state());
@@ -300,11 +300,11 @@ fn closed_loop_runs() -> Trace {
 
 /// The PRBS while identifying; then the adaptive LQR's control for `estimate` (the gain
 /// is re-solved every sample; if that fails the last gain stays in use).
-fn control(lqr: &mut Lqr, estimate: &[f64; 5], u_prev: f64, identifying: bool, dither: f64) -> f64 {
+fn control(lqr: &mut Lqr, estimate: &[f64; 5], identifying: bool, dither: f64) -> f64 {
     if identifying {
         return dither;
     }
-    let _: Status = lqr.solve(estimate, &[u_prev]);
+    let _: Status = lqr.solve(estimate);
     saturate(lqr.control(estimate)[0])
 }
 

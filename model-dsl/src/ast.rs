@@ -98,6 +98,9 @@ pub enum SymbolKind {
     Param,
     /// An input known at each sample.
     Input,
+    /// A constant known only at run time (a calibration value): supplied when a filter or
+    /// controller is made, never estimated.
+    Known,
 }
 
 /// One name in a `state`, `param` or `input` list.

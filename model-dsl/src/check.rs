@@ -1,8 +1,8 @@
 //! Resolves a [`ModelDecl`] into the model IR, collecting every mistake on the way.
 
 use crate::ast::{
-    ArgValue, BinaryOp, DynamicsDecl, DynamicsKind, GenerateArg, GenerateDecl, ModelDecl, Name,
-    Statement, SurfaceExpr, SurfaceKind, SymbolKind,
+    ArgValue, BinaryOp, Comparison, DynamicsDecl, DynamicsKind, GenerateArg, GenerateDecl,
+    ModelDecl, Name, Statement, SurfaceExpr, SurfaceKind, SymbolKind,
 };
 use crate::diagnostics::Diagnostics;
 use crate::model::{
@@ -32,6 +32,8 @@ const GENERATED_ITEMS: &[&str] = &[
     "X_NAMES",
     "U_NAMES",
     "Y_NAMES",
+    "KNOWN_LEN",
+    "KNOWN_NAMES",
     "Ekf",
     "Dkf",
     "DkfStatus",
@@ -54,6 +56,7 @@ enum Binding {
     State(usize),
     Param(usize),
     Input(usize),
+    Known(usize),
     Local(usize),
 }
 
@@ -77,6 +80,7 @@ impl Scope {
                 SymbolKind::State => "a state",
                 SymbolKind::Param => "a parameter",
                 SymbolKind::Input => "an input",
+                SymbolKind::Known => "a constant known at run time",
             };
             declared.insert(sym.name.text.clone(), what);
         }
@@ -117,6 +121,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Model> {
     let constants = check_constants(decl, &mut scope, &mut diag);
 
     let (mut states, mut params, mut inputs) = (Vec::new(), Vec::new(), Vec::new());
+    let mut known = Vec::new();
     let mut state_spans = Vec::new();
     for sym in &decl.symbols {
         let symbol = Symbol {
@@ -136,6 +141,10 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Model> {
             SymbolKind::Input => {
                 inputs.push(symbol);
                 Binding::Input(inputs.len() - 1)
+            }
+            SymbolKind::Known => {
+                known.push(symbol);
+                Binding::Known(known.len() - 1)
             }
         };
         declare(&mut scope, &sym.name, binding, &mut diag);
@@ -195,6 +204,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Model> {
     };
 
     let generate = check_generate(decl, &scope, &mut diag);
+    check_known_support(decl, &mut diag);
     let model = dynamics.map(|dynamics| Model {
         docs: decl.docs.clone(),
         vis: decl.vis.clone(),
@@ -204,6 +214,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Model> {
         states,
         params,
         inputs,
+        known,
         outputs,
         dynamics,
         locals,
@@ -366,6 +377,17 @@ fn check_dynamics(
                             target.span,
                             format!(
                                 "`{}` is an input: it is given each sample, not computed",
+                                target.text
+                            ),
+                        );
+                        continue;
+                    }
+                    Some((Binding::Known(_), _)) => {
+                        diag.error(
+                            target.span,
+                            format!(
+                                "`{}` is known at run time: it is given when the filter is \
+                                 made, not computed; declare it with `state` if it evolves",
                                 target.text
                             ),
                         );
@@ -652,6 +674,7 @@ fn resolve(
             Some((Binding::State(i), _)) => Expr::State(*i),
             Some((Binding::Param(i), _)) => Expr::Param(*i),
             Some((Binding::Input(i), _)) => Expr::Input(*i),
+            Some((Binding::Known(i), _)) => Expr::Known(*i),
             Some((Binding::Local(i), _)) if *i < locals.len() => Expr::Local(*i),
             Some((Binding::Local(_), _)) => {
                 diag.error(
@@ -695,7 +718,9 @@ fn resolve(
                 BinaryOp::Div => Expr::Div(a, b),
             }
         }
-        SurfaceKind::Call(func, args) => resolve_call(expr, func, args, &mut go, diag)?,
+        SurfaceKind::Call(func, args) => {
+            resolve_call(expr, func, args, &scope.const_values, &mut go, diag)?
+        },
         SurfaceKind::If {
             cmp,
             lhs,
@@ -738,6 +763,7 @@ fn resolve_call(
     expr: &SurfaceExpr,
     func: &Name,
     args: &[SurfaceExpr],
+    const_values: &[f64],
     go: &mut dyn FnMut(&SurfaceExpr, &mut Diagnostics) -> Option<Expr>,
     diag: &mut Diagnostics,
 ) -> Option<Expr> {
@@ -770,12 +796,15 @@ fn resolve_call(
         };
         return Some(Expr::Powi(Box::new(base?), exponent));
     }
+    if let Some(resolved) = resolve_piecewise_call(expr, func, args, const_values, go, diag) {
+        return resolved;
+    }
     let Some(f) = Func::from_name(&func.text) else {
         let known: Vec<_> = Func::ALL.iter().map(|f| f.name()).collect();
         diag.error(
             func.span,
             format!(
-                "unsupported function `{}`: use one of {}, powi",
+                "unsupported function `{}`: use one of {}, powi, atan2, min, max, clamp",
                 func.text,
                 known.join(", ")
             ),
@@ -787,12 +816,121 @@ fn resolve_call(
     };
     if args.len() != 1 {
         diag.error(
-            expr.span,
+            func.span,
             format!("`{}` takes 1 argument, found {}", func.text, args.len()),
         );
         return None;
     }
     Some(Expr::Call(f, Box::new(go(&args[0], diag)?)))
+}
+
+/// `atan2(y, x)`, `min(a, b)`, `max(a, b)` and `clamp(x, lo, hi)` (a saturation); `None`
+/// for any other function. The last three are piecewise terms, so they are differentiated
+/// branch by branch like `if`: `min(a, b)` is `if a < b { a } else { b }`, `max(a, b)` is
+/// `if a > b { a } else { b }`, and `clamp(x, lo, hi)` is
+/// `if x < lo { lo } else { if x > hi { hi } else { x } }`. As methods they read as in Rust
+/// (`y.atan2(x)`, `a.min(b)`, `x.clamp(lo, hi)`).
+fn resolve_piecewise_call(
+    expr: &SurfaceExpr,
+    func: &Name,
+    args: &[SurfaceExpr],
+    const_values: &[f64],
+    go: &mut dyn FnMut(&SurfaceExpr, &mut Diagnostics) -> Option<Expr>,
+    diag: &mut Diagnostics,
+) -> Option<Option<Expr>> {
+    let usage = match func.text.as_str() {
+        "atan2" => "`atan2(y, x)` takes 2 arguments",
+        "min" => "`min(a, b)` takes 2 arguments",
+        "max" => "`max(a, b)` takes 2 arguments",
+        "clamp" => "`clamp(x, lo, hi)` (a saturation) takes 3 arguments",
+        _ => return None,
+    };
+    let arity = if func.text == "clamp" { 3 } else { 2 };
+    if args.len() != arity {
+        diag.error(func.span, format!("{usage}, found {}", args.len()));
+        for arg in args {
+            go(arg, diag);
+        }
+        return Some(None);
+    }
+    let resolved: Vec<Option<Expr>> = args.iter().map(|a| go(a, diag)).collect();
+    let Some(resolved) = resolved.into_iter().collect::<Option<Vec<Expr>>>() else {
+        return Some(None);
+    };
+    let select = |cmp, lhs: &Expr, rhs: &Expr, then: &Expr, otherwise: Expr| Expr::Select {
+        cmp,
+        lhs: Box::new(lhs.clone()),
+        rhs: Box::new(rhs.clone()),
+        then: Box::new(then.clone()),
+        otherwise: Box::new(otherwise),
+    };
+    Some(Some(match (func.text.as_str(), resolved.as_slice()) {
+        ("atan2", [y, x]) => Expr::Atan2(Box::new(y.clone()), Box::new(x.clone())),
+        ("min", [a, b]) => select(Comparison::Lt, a, b, a, b.clone()),
+        ("max", [a, b]) => select(Comparison::Gt, a, b, a, b.clone()),
+        ("clamp", [x, lo, hi]) => {
+            let constant = |i: usize| const_values.get(i).copied();
+            let bounds = (lo.fold(&constant), hi.fold(&constant));
+            if let (Some(lo_value), Some(hi_value)) = bounds {
+                if lo_value > hi_value {
+                    diag.error(
+                        expr.span,
+                        format!(
+                            "`clamp(x, lo, hi)` needs `lo <= hi`, found {lo_value} > {hi_value}: \
+                             write the lower bound first"
+                        ),
+                    );
+                    return Some(None);
+                }
+            }
+            let upper = select(Comparison::Gt, x, hi, hi, x.clone());
+            select(Comparison::Lt, x, lo, lo, upper)
+        }
+        _ => return Some(None),
+    }))
+}
+
+/// A constant known only at run time enters the model functions, the EKF and the LQR as
+/// an argument or a stored value; the other generators compute their design or derive
+/// their window transform when the code is generated, or integrate in a loop that does not
+/// carry it, so they need every coefficient as a number then.
+fn check_known_support(decl: &ModelDecl, diag: &mut Diagnostics) {
+    let Some(first) = decl.symbols.iter().find(|s| s.kind == SymbolKind::Known) else {
+        return;
+    };
+    for item in &decl.generate {
+        if !matches!(item.name.text.as_str(), "ekf" | "lqr") {
+            diag.error(
+                item.name.span,
+                format!(
+                    "`{}` needs every coefficient when the code is generated, and `{}` is \
+                     known only at run time: declare it with `const`, or use `ekf` and `lqr`",
+                    item.name.text, first.name.text
+                ),
+            );
+        }
+    }
+    if let Some(DynamicsDecl {
+        kind:
+            DynamicsKind::Continuous {
+                substeps: Some((n, span)),
+                ..
+            },
+        ..
+    }) = decl.dynamics.first()
+    {
+        if *n > u64::from(crate::model::UNROLLED_SUBSTEPS_MAX) {
+            diag.error(
+                *span,
+                format!(
+                    "sub-steps past {} run as a loop, which does not read `{}`, known at run \
+                     time: use at most {0} sub-steps, or declare it with `const`",
+                    crate::model::UNROLLED_SUBSTEPS_MAX,
+                    first.name.text
+                ),
+            );
+        }
+    }
 }
 
 /// Checks the `generate` items: known generators, known arguments of the right kinds.

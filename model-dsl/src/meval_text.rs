@@ -16,6 +16,7 @@ pub fn to_meval(model: &Model, expr: &Expr) -> String {
         Expr::State(i) => model.states[*i].name.clone(),
         Expr::Param(i) => model.params[*i].name.clone(),
         Expr::Input(i) => model.inputs[*i].name.clone(),
+        Expr::Known(i) => model.known[*i].name.clone(),
         Expr::Local(i) => format!("({})", go(&model.locals[*i].expr)),
         Expr::Time => "t".into(),
         Expr::Neg(a) => format!("(-{})", go(a)),
@@ -25,6 +26,7 @@ pub fn to_meval(model: &Model, expr: &Expr) -> String {
         Expr::Div(a, b) => format!("({} / {})", go(a), go(b)),
         Expr::Powi(a, n) => format!("({}^({n}))", go(a)),
         Expr::Call(f, a) => format!("{}({})", f.name(), go(a)),
+        Expr::Atan2(y, x) => format!("atan2({}, {})", go(y), go(x)),
         Expr::Select {
             cmp,
             lhs,

@@ -22,6 +22,9 @@ pub struct Model {
     pub params: Vec<Symbol>,
     /// Inputs `u`.
     pub inputs: Vec<Symbol>,
+    /// Constants known only at run time (`known`), supplied to the model functions as
+    /// `known` and stored by the filters and controller.
+    pub known: Vec<Symbol>,
     /// Outputs `y = h(x, u)`.
     pub outputs: Vec<Output>,
     /// The dynamics of the physical states.
@@ -123,7 +126,7 @@ pub struct LqrSpec {
 pub struct PolynomialKfSpec {
     /// Order `m` of the polynomial: the state has `m + 1` entries.
     pub order: usize,
-    /// Sample period `T` [s], for the derivatives in physical units.
+    /// Sample period `T` \[s\], for the derivatives in physical units.
     pub dt: f64,
     /// Fading factor `f`: the process noise is `f I`.
     pub fading: f64,
@@ -273,11 +276,13 @@ pub enum Func {
     Sqrt,
     /// Absolute value.
     Abs,
+    /// Hyperbolic tangent.
+    Tanh,
 }
 
 impl Func {
     /// Every function, for lookups and messages.
-    pub const ALL: [Func; 7] = [
+    pub const ALL: [Func; 8] = [
         Func::Sin,
         Func::Cos,
         Func::Tan,
@@ -285,6 +290,7 @@ impl Func {
         Func::Ln,
         Func::Sqrt,
         Func::Abs,
+        Func::Tanh,
     ];
 
     /// The name a model writes.
@@ -297,6 +303,7 @@ impl Func {
             Func::Ln => "ln",
             Func::Sqrt => "sqrt",
             Func::Abs => "abs",
+            Func::Tanh => "tanh",
         }
     }
 
@@ -315,6 +322,7 @@ impl Func {
             Func::Ln => x.ln(),
             Func::Sqrt => x.sqrt(),
             Func::Abs => x.abs(),
+            Func::Tanh => x.tanh(),
         }
     }
 }
@@ -332,6 +340,8 @@ pub enum Expr {
     Param(usize),
     /// An input, by index into [`Model::inputs`].
     Input(usize),
+    /// A constant known at run time, by index into [`Model::known`].
+    Known(usize),
     /// A named intermediate, by index into [`Model::locals`].
     Local(usize),
     /// The time `t` in seconds.
@@ -350,6 +360,8 @@ pub enum Expr {
     Powi(Box<Expr>, i32),
     /// A function of one argument.
     Call(Func, Box<Expr>),
+    /// `atan2(y, x)`: the angle of the point `(x, y)`, in `-pi..=pi`.
+    Atan2(Box<Expr>, Box<Expr>),
     /// `if lhs cmp rhs { then } else { otherwise }`.
     Select {
         /// The comparison.
@@ -410,12 +422,15 @@ impl Expr {
             | Expr::State(_)
             | Expr::Param(_)
             | Expr::Input(_)
+            | Expr::Known(_)
             | Expr::Local(_)
             | Expr::Time => false,
             Expr::Neg(a) | Expr::Powi(a, _) | Expr::Call(_, a) => a.any(pred),
-            Expr::Add(a, b) | Expr::Sub(a, b) | Expr::Mul(a, b) | Expr::Div(a, b) => {
-                a.any(pred) || b.any(pred)
-            }
+            Expr::Add(a, b)
+            | Expr::Sub(a, b)
+            | Expr::Mul(a, b)
+            | Expr::Div(a, b)
+            | Expr::Atan2(a, b) => a.any(pred) || b.any(pred),
             Expr::Select {
                 lhs,
                 rhs,
@@ -445,6 +460,7 @@ impl Expr {
             Expr::Div(a, b) => go(a)? / go(b)?,
             Expr::Powi(a, n) => go(a)?.powi(*n),
             Expr::Call(f, a) => f.eval(go(a)?),
+            Expr::Atan2(y, x) => go(y)?.atan2(go(x)?),
             Expr::Select {
                 cmp,
                 lhs,
@@ -458,9 +474,12 @@ impl Expr {
                     go(otherwise)?
                 }
             }
-            Expr::State(_) | Expr::Param(_) | Expr::Input(_) | Expr::Local(_) | Expr::Time => {
-                return None
-            }
+            Expr::State(_)
+            | Expr::Param(_)
+            | Expr::Input(_)
+            | Expr::Known(_)
+            | Expr::Local(_)
+            | Expr::Time => return None,
         })
     }
 }

@@ -97,7 +97,7 @@ fn estimates() {
         let _: Status = ekf_close.step(&[u_prev], &[y]);
         let _ = dkf_close.step(&[u_prev], &[y]);
         let _ = dkf_wrong.step(&[u_prev], &[y]);
-        let _: Status = controller.solve(&dkf_close.state(), &[u_prev]);
+        let _: Status = controller.solve(&dkf_close.state());
         let u = controller.control(&dkf_close.state())[0];
         if k % 10 == 0 {
             hprint!("estimate {}", k);
@@ -131,14 +131,14 @@ fn generated_dkf_step(filter: &mut Dkf, u_prev: f32, y: f32) -> bool {
 
 #[inline(never)]
 fn generated_lqr_solve(controller: &mut Lqr, estimate: &[f32; 5]) -> Status {
-    controller.solve(estimate, &[0.0])
+    controller.solve(estimate)
 }
 
 #[inline(never)]
 fn generated_loop(filter: &mut Dkf, controller: &mut Lqr, u_prev: f32, y: f32) -> f32 {
     let _ = filter.step(&[u_prev], &[y]);
     let estimate = filter.state();
-    let _: Status = controller.solve(&estimate, &[u_prev]);
+    let _: Status = controller.solve(&estimate);
     controller.control(&estimate)[0]
 }
 

@@ -104,7 +104,7 @@ fn benches(c: &mut Criterion) {
     let estimate = [0.1, 0.2, -393.93, -6.941, 0.4924];
     let mut lqr = Lqr::new(&[[1.0, 0.0], [0.0, 1.0]], &[[0.001]], Some([100.0]));
     group.bench_function("generated f64", |b| {
-        b.iter(|| black_box(lqr.solve(black_box(&estimate), &[0.0])))
+        b.iter(|| black_box(lqr.solve(black_box(&estimate))))
     });
     group.bench_function("nalgebra reference", |b| {
         b.iter(|| {

@@ -23,6 +23,20 @@ pub const DEMO_MODELS: [&str; 8] = [
     "blade_identification",
 ];
 
+/// Names of the test models in `tests/models/` (`model! { .. }` invocations that exercise
+/// parts of the language the demo models do not use).
+pub const TEST_MODELS: [&str; 2] = ["rover", "rover_known"];
+
+/// The generated code of a test model, formatted.
+pub fn test_model_code(name: &str) -> String {
+    let path = workspace_path(&format!("tests/models/{name}.rs"));
+    let source = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+    let tokens = model_dsl::expand_macro_source(&source)
+        .unwrap_or_else(|e| panic!("test model {name} does not expand: {e}"));
+    model_dsl::format(tokens).expect("generated code parses as a Rust file")
+}
+
 /// Path of a file of the workspace, given relative to its root.
 pub fn workspace_path(relative: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -28,7 +28,7 @@ pub fn host_run(samples: usize) -> Vec<Estimate> {
         let _: Status = ekf.step(&[u_prev], &[y]);
         let _ = dkf.step(&[u_prev], &[y]);
         let _ = dkf_wrong.step(&[u_prev], &[y]);
-        let _: Status = lqr.solve(&dkf.state(), &[u_prev]);
+        let _: Status = lqr.solve(&dkf.state());
         out.push(Estimate {
             k,
             ekf: ekf.state(),

@@ -97,7 +97,7 @@ pub fn emit_dkf(
     let u_param_plain = has_u.then(|| quote! { u: &[#ty; #u_len] });
     let u_arg_plain = has_u.then(|| quote! { u });
     let step_doc = format!(
-        " One sample (Alg. 2): runs the LKF linearised about the AKF's previous estimate \
+        " One sample (Algorithm 2 of the double Kalman filter paper): runs the LKF linearised about the AKF's previous estimate \
          with the input `u[k-1]`, builds `F`, `G`, `d` from the window ending at the \
          previous sample and the same input, runs the AKF on them, each filter corrected \
          with `y[k]`; then pushes `y[k]` and `u[k-1]` into the window. Cost: \
@@ -767,7 +767,7 @@ fn step_fn(
         scalar,
         Stage {
             name: "lkf_step",
-            doc: "The LKF (Alg. 2): `f` linearised about the AKF's estimate of the previous \
+            doc: "The LKF (Algorithm 2 of the double Kalman filter paper): `f` linearised about the AKF's estimate of the previous \
                   sample with the input `u[k-1]`, then corrected with `y[k]` (Joseph form).",
             params: quote! { #u_param y: &[#ty; #y_len] },
             reads: lkf_reads,
@@ -784,7 +784,7 @@ fn step_fn(
         scalar,
         Stage {
             name: "akf_step",
-            doc: "The AKF (Alg. 2): a linear Kalman filter on the transformed model at `phi`, \
+            doc: "The AKF (Algorithm 2 of the double Kalman filter paper): a linear Kalman filter on the transformed model at `phi`, \
                   then corrected with `y[k]` (Joseph form).",
             params: quote! { phi: &[#ty; #n_len], #u_param y: &[#ty; #y_len] },
             reads: akf_reads,

@@ -37,8 +37,9 @@ pub fn model_names(model: &Model) -> Vec<String> {
         .map(|c| c.name.clone())
         .chain(model.state_names().map(str::to_owned))
         .chain(model.inputs.iter().map(|s| s.name.clone()))
+        .chain(model.known.iter().map(|s| s.name.clone()))
         .chain(model.outputs.iter().map(|o| o.name.clone()))
-        .chain(["t", "x", "u", "y", "self", "status"].map(String::from))
+        .chain(["t", "x", "u", "y", "self", "status", "known"].map(String::from))
         .collect()
 }
 
@@ -122,6 +123,14 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
     let (predict, predict_ops) = method(model, mg, scalar, EkfMethod::Predict, spec);
     let (update, update_ops) = method(model, mg, scalar, EkfMethod::Update, spec);
     let (step, step_ops) = method(model, mg, scalar, EkfMethod::Step, spec);
+    // Several outputs: an update per output as well, for sensors at different rates.
+    let partial_updates: Vec<TokenStream> = if model.outputs.len() > 1 {
+        (0..model.outputs.len())
+            .map(|j| method(model, mg, scalar, EkfMethod::UpdateOutput(j), spec).0)
+            .collect()
+    } else {
+        Vec::new()
+    };
     let ty = ident(scalar.type_name());
     let (n, m) = (model.state_len(), model.outputs.len());
     let [n_len, m_len, np, mp] =
@@ -140,6 +149,9 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
     let (type_doc, convention_doc) = type_doc(spec);
     let identity = packed_identity(m, scalar);
     let nis_method = nis_method(model, scalar);
+    let known = super::known::known_items(model, &ty);
+    let (known_field, known_param, known_init, known_methods) =
+        (known.field, known.param, known.init, known.methods);
 
     let new_doc = if diagonal {
         " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
@@ -163,12 +175,13 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
             innovation: [#ty; #m_len],
             innovation_covariance: [#ty; #mp],
             #gate_field
+            #known_field
         }
 
         impl #type_name {
             #[doc = #new_doc]
             #[must_use]
-            pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len], #q_param, r: &[[#ty; #m_len]; #m_len]) -> #type_name {
+            pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len], #q_param, r: &[[#ty; #m_len]; #m_len] #known_param) -> #type_name {
                 #type_name {
                     x: x0,
                     p: #pack_p0,
@@ -177,6 +190,7 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
                     innovation: [#zero; #m_len],
                     innovation_covariance: #identity,
                     #gate_init
+                    #known_init
                 }
             }
 
@@ -206,11 +220,15 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
 
             #setters
 
+            #known_methods
+
             #step
 
             #predict
 
             #update
+
+            #(#partial_updates)*
         }
     };
     EkfCode {
@@ -230,7 +248,8 @@ fn type_doc(spec: &EkfSpec) -> (String, String) {
         ""
     };
     let what = format!(
-        " Extended Kalman filter (Alg. 1) of this model: state estimate `x` (physical states, \
+        " Extended Kalman filter of this model (Algorithm 1 of the double Kalman filter paper, \
+         which compares the EKF with the DKF on a vibrating cantilever beam): state estimate `x` (physical states, \
          then parameters) and covariance `P`, stored once as a packed upper triangle; \
          Joseph-form update.{gate}"
     );
@@ -363,6 +382,8 @@ enum EkfMethod {
     Update,
     /// Both in one straight-line function: nothing stored between them, nothing to undo.
     Step,
+    /// The correction with one output alone (a sensor of its own rate).
+    UpdateOutput(usize),
 }
 
 /// One EKF method (Alg. 1): the prediction and/or the correction, built symbolically so
@@ -378,16 +399,22 @@ fn method(
     let mut g = mg.clone();
     let n = model.state_len();
     let m = model.outputs.len();
-    let predicts = kind != EkfMethod::Update;
+    let predicts = matches!(kind, EkfMethod::Predict | EkfMethod::Step);
     let updates = kind != EkfMethod::Predict;
+    // The outputs this method corrects with: one for a partial update, else all.
+    let used_outputs: Vec<usize> = match kind {
+        EkfMethod::UpdateOutput(j) => vec![j],
+        _ => (0..m).collect(),
+    };
+    let partial = used_outputs.len() < m;
     let avoid = model_names(model);
     let p_vars = packed_vars(&mut g.graph, "p", n, &avoid);
     let (q_vars, q) = noise_vars(&mut g.graph, "q", n, diagonal_noise, &avoid);
     let r_vars = packed_vars(&mut g.graph, "r", m, &avoid);
     let taken = |name: &str| avoid.iter().any(|a| a == name);
-    let y_vars: Vec<NodeId> = model
-        .outputs
+    let y_vars: Vec<NodeId> = used_outputs
         .iter()
+        .map(|&j| &model.outputs[j])
         .map(|o| {
             let mut name = format!("{}_measured", o.name);
             while taken(&name) {
@@ -430,7 +457,11 @@ fn method(
     let mut innovation_covariance = Vec::new();
     let mut nis = None;
     if updates {
-        let r = symmetric_from_packed(&r_vars, m);
+        let r_all = symmetric_from_packed(&r_vars, m);
+        let r: Matrix = used_outputs
+            .iter()
+            .map(|&i| used_outputs.iter().map(|&j| r_all[i][j]).collect())
+            .collect();
         // h and its Jacobian at the estimate being corrected.
         let at_x: Vec<(VarId, NodeId)> =
             g.x.iter()
@@ -438,40 +469,46 @@ fn method(
                 .zip(x.iter().copied())
                 .collect();
         let c = g.jacobian_h_wrt_x();
-        let c: Matrix = c
+        let c: Matrix = used_outputs
             .iter()
+            .map(|&i| &c[i])
             .map(|row| {
                 row.iter()
                     .map(|&e| substitute(&mut g.graph, e, &at_x))
                     .collect()
             })
             .collect();
-        let h: Vec<NodeId> =
-            g.h.iter()
-                .map(|&e| substitute(&mut g.graph, e, &at_x))
-                .collect();
+        let h: Vec<NodeId> = used_outputs
+            .iter()
+            .map(|&i| substitute(&mut g.graph, g.h[i], &at_x))
+            .collect();
         let graph = &mut g.graph;
         let residual: Vec<NodeId> = y_vars
             .iter()
             .zip(&h)
             .map(|(&y, &h)| graph.sub(y, h))
             .collect();
+        let mu = used_outputs.len();
         let update = kalman::update(graph, &x, &p, &residual, &c, &r, |g, j| {
-            g.var(&pivot_names(m, j, INNOVATION, "").1)
+            g.var(&pivot_names(mu, j, INNOVATION, "").1)
         });
         x = update.x;
         p = update.p;
         pivots = update.pivots;
         reciprocals = update.reciprocals;
-        innovation = residual;
-        innovation_covariance = packed_upper(&update.s);
-        // Only the gate needs it at once; otherwise `normalised_innovation_squared()`
-        // computes it from the stored innovation and its covariance when asked.
-        nis = spec.gate.is_some().then_some(update.nis);
+        // A partial update neither stores its innovation (the stored one is that of
+        // every output) nor passes the gate (a threshold for `Y_LEN` degrees of freedom).
+        if !partial {
+            innovation = residual;
+            innovation_covariance = packed_upper(&update.s);
+            // Only the gate needs it at once; otherwise `normalised_innovation_squared()`
+            // computes it from the stored innovation and its covariance when asked.
+            nis = spec.gate.is_some().then_some(update.nis);
+        }
     }
     let probe = finiteness_probe(&mut g.graph, &x, &p);
     let p_packed = packed_upper(&p);
-    let gated = updates && spec.gate.is_some();
+    let gated = updates && !partial && spec.gate.is_some();
 
     let results: Vec<NodeId> = x.iter().chain(&p_packed).copied().collect();
     let mut all_roots = results.clone();
@@ -486,6 +523,7 @@ fn method(
     lowerer.read_lazily(&quote! { self.p }, &p_vars);
     lowerer.read_lazily(&quote! { self.q }, &q_vars);
     lowerer.read_lazily(&quote! { self.r }, &r_vars);
+    lowerer.read_lazily(&quote! { self.known }, &g.known);
     let suffix = if updates { "new" } else { "pred" };
     name_results(&mut lowerer, model, &x, &p_vars, &p_packed, suffix);
     guard_pivots(
@@ -510,7 +548,7 @@ fn method(
     // while the update runs; so does the gate's test, just before the commit (an outlier
     // costs a whole update, the usual sample nothing more).
     let mut store_innovation = TokenStream::new();
-    if updates {
+    if updates && !partial {
         let innovation_values = lowerer.segment(&innovation);
         let covariance_values = lowerer.segment(&innovation_covariance);
         store_innovation = store_innovation_tokens(&innovation_values, &covariance_values);
@@ -576,29 +614,49 @@ fn method(
         unpack_inputs.push(quote! { let [#(#u_idents),*] = *#arg; });
         checked.extend(u_idents.iter().cloned());
     }
-    if updates {
+    if updates && partial {
+        let y_ident = &y_idents[0];
+        params.push(quote! { y: #ty });
+        unpack_inputs.push(quote! { let #y_ident = y; });
+        checked.extend(y_idents.iter().cloned());
+    } else if updates {
         let len = proc_macro2::Literal::usize_unsuffixed(m);
         params.push(quote! { y: &[#ty; #len] });
         unpack_inputs.push(quote! { let [#(#y_idents),*] = *y; });
         checked.extend(y_idents.iter().cloned());
     }
     let check = reject_non_finite(&checked);
+    let partial_doc;
     let (name, doc) = match kind {
+        EkfMethod::UpdateOutput(j) => {
+            let output = &model.outputs[j].name;
+            partial_doc = format!(
+                " Corrects the estimate with the measurement `y` of the output `{output}` \
+                 alone, for a sensor sampled at its own rate (Joseph form, its variance \
+                 `R[{j}][{j}]`). With uncorrelated measurement noise (a diagonal `R`), \
+                 updating with each output in turn equals [`{ty_name}::update`] with all of \
+                 them. Neither stores an innovation nor passes an innovation gate. Rejects a \
+                 non-finite measurement and a non-positive innovation variance; leaves the \
+                 filter unchanged unless it returns [`Status::Ok`].",
+                ty_name = spec.type_name
+            );
+            (ident(&format!("update_{output}")), partial_doc.as_str())
+        }
         EkfMethod::Predict => (
             ident("predict"),
-            " Predicts the next sample (Alg. 1): `x = f(x, u)`, `P = A P A' + Q` with \
+            " Predicts the next sample: `x = f(x, u)`, `P = A P A' + Q` with \
              `A = df/dx` at the current estimate. Rejects a non-finite input; leaves the \
              filter unchanged unless it returns [`Status::Ok`].",
         ),
         EkfMethod::Update => (
             ident("update"),
-            " Corrects the estimate with the measurement `y` (Alg. 1, Joseph form). Rejects \
+            " Corrects the estimate with the measurement `y` (Joseph form). Rejects \
              a non-finite measurement and a non-positive innovation variance (never divided \
              by); leaves the filter unchanged unless it returns [`Status::Ok`].",
         ),
         EkfMethod::Step => (
             ident("step"),
-            " One sample (Alg. 1): predicts `x[k]` from `x[k-1]` with the input `u[k-1]` held \
+            " One sample: predicts `x[k]` from `x[k-1]` with the input `u[k-1]` held \
              over the sample, then corrects it with the measurement `y[k]`, in one pass that \
              stores nothing in between. Leaves the filter unchanged unless it returns \
              [`Status::Ok`].",

@@ -354,7 +354,7 @@ impl Lowerer<'_> {
             Node::Neg(_) | Node::Add(..) | Node::Sub(..) => ops.add += 1,
             Node::Mul(..) => ops.mul += 1,
             Node::Div(..) => ops.div += 1,
-            Node::Call(..) => ops.call += 1,
+            Node::Call(..) | Node::Atan2(..) => ops.call += 1,
             Node::Select { .. } => ops.compare += 1,
         }
     }
@@ -414,6 +414,14 @@ impl Lowerer<'_> {
                 let a = operand(a, Prec::Sum);
                 let name = super::names::ident(libm_name(f, self.scalar));
                 (quote! { libm::#name(#a) }, Prec::Atom)
+            }
+            Node::Atan2(y, x) => {
+                let (y, x) = (operand(y, Prec::Sum), operand(x, Prec::Sum));
+                let name = match self.scalar {
+                    Scalar::F32 => super::names::ident("atan2f"),
+                    Scalar::F64 => super::names::ident("atan2"),
+                };
+                (quote! { libm::#name(#y, #x) }, Prec::Atom)
             }
             Node::Select {
                 cmp,
@@ -484,6 +492,7 @@ fn libm_name(f: Func, scalar: Scalar) -> &'static str {
         Func::Ln => "log",
         Func::Sqrt => "sqrt",
         Func::Abs => "fabs",
+        Func::Tanh => "tanh",
     };
     match (scalar, f) {
         (Scalar::F64, _) => double,
@@ -494,5 +503,6 @@ fn libm_name(f: Func, scalar: Scalar) -> &'static str {
         (Scalar::F32, Func::Ln) => "logf",
         (Scalar::F32, Func::Sqrt) => "sqrtf",
         (Scalar::F32, Func::Abs) => "fabsf",
+        (Scalar::F32, Func::Tanh) => "tanhf",
     }
 }

@@ -141,6 +141,7 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     let ty = ident(scalar.type_name());
     let unpack_x = destructure(graph, quote! { *x }, &g.x, &used_vars);
     let unpack_u = destructure(graph, quote! { *u }, &g.u, &used_vars);
+    let unpack_known = destructure(graph, quote! { self.known }, &g.known, &used_vars);
     let x_idents: Vec<_> = used_idents(graph, &g.x, &used_vars);
     let u_idents: Vec<_> = used_idents(graph, &g.u, &used_vars);
     let checked: Vec<_> = x_idents.iter().chain(&u_idents).cloned().collect();
@@ -158,15 +159,25 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     } else {
         ident("x")
     };
-    let u_param = (!g.u.is_empty()).then(|| {
-        let name = if u_idents.is_empty() {
-            ident("_u")
-        } else {
-            ident("u")
-        };
+    // The linearisation's input: an argument only where `A` or `B` depend on it.
+    let u_param = (!u_idents.is_empty()).then(|| {
         let len = Literal::usize_unsuffixed(g.u.len());
-        quote! { #name: &[#ty; #len] }
+        quote! { u: &[#ty; #len] }
     });
+    let solve_doc = if u_param.is_some() {
+        " Recomputes the gain for the estimate `x` and the input `u` the model is \
+         linearised at (the operating input: `A` and `B` depend on it): `HORIZON` Riccati \
+         steps from `P = Q`, then `K` from the final `P`. Leaves the gain \
+         unchanged unless it returns [`Status::Ok`]."
+    } else {
+        " Recomputes the gain for the estimate `x` (`A` and `B` do not depend on the input): \
+         `HORIZON` Riccati steps from `P = Q`, then `K` from the final `P`. Leaves \
+         the gain unchanged unless it returns [`Status::Ok`]."
+    };
+    let known = super::known::known_items(model, &ty);
+    let (known_field, known_param, known_init, known_methods) =
+        (known.field, known.param, known.init, known.methods);
+    let steady_state = steady_state_input(model, spec, mg, scalar);
 
     let n = Literal::usize_unsuffixed(model.state_len());
     let (ns_len, nu_len) = (Literal::usize_unsuffixed(ns), Literal::usize_unsuffixed(nu));
@@ -187,23 +198,26 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
         .map(|&i| model.inputs[i].name.as_str())
         .collect();
     let doc = format!(
-        " Adaptive finite-horizon LQR (Alg. 3) regulating `[{}]` with `[{}]`. At each \
+        " Adaptive finite-horizon LQR (Algorithm 3 of the double Kalman filter paper) regulating `[{}]` with `[{}]`. At each \
          [`Lqr::solve`] the physical sub-model `A = df/d[{0}]`, `B = df/d[{1}]` is taken at \
-         the current estimate, and the backward Riccati recursion (eq. 19, `R` inside the \
+         the current estimate, and the backward Riccati recursion (eq. (19) of that paper, `R` inside the \
          inverse) runs over the horizon; [`Lqr::control`] then gives `u = -K x`, saturated.",
         state_names.join(", "),
         input_names.join(", ")
     );
     let (pack_q, pack_r) = (pack_upper("q", ns), pack_upper("r", nu));
     let regulated: Vec<proc_macro2::Ident> = state_names.iter().map(|n| ident(n)).collect();
-    let regulated_pattern = model.state_names().map(|name| {
-        if state_names.contains(&name) {
-            let name = ident(name);
-            quote! { #name }
-        } else {
-            quote! { _ }
-        }
-    });
+    let regulated_pattern: Vec<TokenStream> = model
+        .state_names()
+        .map(|name| {
+            if state_names.contains(&name) {
+                let name = ident(name);
+                quote! { #name }
+            } else {
+                quote! { _ }
+            }
+        })
+        .collect();
     let gain_rows: Vec<Vec<proc_macro2::Ident>> = (0..nu)
         .map(|i| {
             (0..ns)
@@ -222,6 +236,32 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     let controls = gain_rows.iter().zip(&control_names).map(|(row, u)| {
         quote! { let #u = -(#(#row * #regulated)+*); }
     });
+    let reference_pattern: Vec<TokenStream> = model
+        .state_names()
+        .map(|name| {
+            if state_names.contains(&name) {
+                let name = ident(&format!("{name}_ref"));
+                quote! { #name }
+            } else {
+                quote! { _ }
+            }
+        })
+        .collect();
+    let reference_inputs: Vec<proc_macro2::Ident> = input_names
+        .iter()
+        .map(|n| ident(&format!("{n}_ref")))
+        .collect();
+    let tracking = gain_rows
+        .iter()
+        .zip(&control_names)
+        .zip(&reference_inputs)
+        .map(|((row, u), u_ref)| {
+            let errors = regulated.iter().map(|s| {
+                let s_ref = ident(&format!("{s}_ref"));
+                quote! { (#s - #s_ref) }
+            });
+            quote! { let #u = #u_ref - (#(#row * #errors)+*); }
+        });
     let saturations = control_names.iter().zip(&limit_names).map(|(u, limit)| {
         quote! {
             if #u > #limit {
@@ -241,6 +281,7 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
             r: [#ty; #nup],
             u_max: Option<[#ty; #nu_len]>,
             gain: [[#ty; #ns_len]; #nu_len],
+            #known_field
         }
 
         impl Lqr {
@@ -251,9 +292,13 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
             /// triangles are read) and, if given, the symmetric input limits `u_max`. The
             /// gain is zero until the first [`Lqr::solve`].
             #[must_use]
-            pub fn new(q: &[[#ty; #ns_len]; #ns_len], r: &[[#ty; #nu_len]; #nu_len], u_max: Option<[#ty; #nu_len]>) -> Lqr {
-                Lqr { q: #pack_q, r: #pack_r, u_max, gain: [[#zero; #ns_len]; #nu_len] }
+            pub fn new(q: &[[#ty; #ns_len]; #ns_len], r: &[[#ty; #nu_len]; #nu_len], u_max: Option<[#ty; #nu_len]> #known_param) -> Lqr {
+                Lqr { q: #pack_q, r: #pack_r, u_max, gain: [[#zero; #ns_len]; #nu_len], #known_init }
             }
+
+            #known_methods
+
+            #steady_state
 
             /// The gain `K` of the last successful [`Lqr::solve`].
             #[must_use]
@@ -261,12 +306,11 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
                 self.gain
             }
 
-            /// Recomputes the gain for the estimate `x` (and the operating input `u`):
-            /// `HORIZON` Riccati steps from `P = Q`, then `K` from the final `P` (Alg. 3).
-            /// Leaves the gain unchanged unless it returns [`Status::Ok`].
+            #[doc = #solve_doc]
             pub fn solve(&mut self, #time #x_name: &[#ty; #n], #u_param) -> Status {
                 #unpack_x
                 #unpack_u
+                #unpack_known
                 #check
                 #unpack_q
                 #unpack_r
@@ -288,14 +332,35 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
                 Status::Ok
             }
 
-            /// The control `u = -K x` for the estimate `x`, saturated to the limits.
+            /// The control `u = -K x` for the estimate `x`, saturated to the limits: the
+            /// regulator to zero ([`Lqr::track`] with a zero reference).
             #[must_use]
             pub fn control(&self, x: &[#ty; #n]) -> [#ty; #nu_len] {
                 let [#(#regulated_pattern),*] = *x;
                 let [#(#gain_pattern),*] = self.gain;
                 #(#controls)*
+                self.saturate([#(#control_names),*])
+            }
+
+            /// The control tracking a reference, `u = u_ref - K (x - x_ref)`, saturated to
+            /// the limits: `x` the estimate, `x_ref` the set-point (only the regulated
+            /// states are read), `u_ref` the input that holds the plant there, such as
+            /// [`Lqr::steady_state_input`] gives.
+            #[must_use]
+            pub fn track(&self, x: &[#ty; #n], x_ref: &[#ty; #n], u_ref: &[#ty; #nu_len]) -> [#ty; #nu_len] {
+                let [#(#regulated_pattern),*] = *x;
+                let [#(#reference_pattern),*] = *x_ref;
+                let [#(#reference_inputs),*] = *u_ref;
+                let [#(#gain_pattern),*] = self.gain;
+                #(#tracking)*
+                self.saturate([#(#control_names),*])
+            }
+
+            /// `u` limited to `u_max`, if limits were given.
+            fn saturate(&self, unsaturated: [#ty; #nu_len]) -> [#ty; #nu_len] {
+                let [#(#control_names),*] = unsaturated;
                 match self.u_max {
-                    None => [#(#control_names),*],
+                    None => unsaturated,
                     Some([#(#limit_names),*]) => [#(#saturations),*],
                 }
             }
@@ -357,4 +422,114 @@ fn used_idents(
         .filter(|&&v| matches!(g.node(v), Node::Var(id) if used.contains(&id)))
         .map(|&v| var_idents(g, &[v]).remove(0))
         .collect()
+}
+
+/// `fn steady_state_input(&self, x_ref, u)`: the input holding the regulated states at a
+/// set-point, `u_ref = u + (B'B)^-1 B' (x_ref - f(x_ref, u))` over the regulated states and
+/// inputs, with `B = df/d[inputs]` at `(x_ref, u)`: one Gauss-Newton step on the fixed
+/// point `f(x_ref, u_ref) = x_ref`, exact for a model affine in its inputs (the least-
+/// squares input when the set-point is not an equilibrium any input reaches).
+fn steady_state_input(
+    model: &Model,
+    spec: &LqrSpec,
+    mg: &ModelGraph,
+    scalar: Scalar,
+) -> TokenStream {
+    let mut g = mg.clone();
+    let avoid = model_names(model);
+    let rows: Vec<NodeId> = spec.states.iter().map(|&i| g.f[i]).collect();
+    let inputs: Vec<NodeId> = spec.inputs.iter().map(|&i| g.u[i]).collect();
+    let b = g.jacobian(&rows, &inputs);
+    let graph = &mut g.graph;
+    let residual: Matrix = spec
+        .states
+        .iter()
+        .zip(&rows)
+        .map(|(&i, &f)| vec![graph.sub(mg.x[i], f)])
+        .collect();
+    let bt = transpose(&b);
+    let gram = matmul(graph, &bt, &b);
+    const GRAM: (&str, &str) = ("gram", "inv_gram");
+    let nu = spec.inputs.len();
+    let ldl = ldl_inverse(graph, &gram, |g, j| g.var(&pivot_names(nu, j, GRAM, "").1));
+    let bt_residual = matmul(graph, &bt, &residual);
+    let delta = matmul(graph, &ldl.inverse, &bt_residual);
+    let u_ref: Vec<NodeId> = inputs
+        .iter()
+        .zip(&delta)
+        .map(|(&u, d)| graph.add(u, d[0]))
+        .collect();
+    let mut roots = u_ref.clone();
+    roots.extend(&ldl.pivots);
+    let namer = TempNamer::new(avoid.iter().map(String::as_str));
+    let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &roots);
+    lowerer.read_lazily(&quote! { self.known }, &g.known);
+    guard_pivots(
+        &mut lowerer,
+        &ldl.pivots,
+        &ldl.reciprocals,
+        (GRAM, ""),
+        &quote! { return None; },
+        scalar,
+    );
+    let values = lowerer.segment(&u_ref);
+    let Lowered {
+        statements,
+        used_vars,
+        ..
+    } = lowerer.finish();
+    let graph = &g.graph;
+    let ty = ident(scalar.type_name());
+    let n = Literal::usize_unsuffixed(model.state_len());
+    let nu_len = Literal::usize_unsuffixed(nu);
+    let x_idents = used_idents(graph, &g.x, &used_vars);
+    let u_idents = used_idents(graph, &g.u, &used_vars);
+    let unpack_x = destructure(graph, quote! { *x_ref }, &g.x, &used_vars);
+    let unpack_u = destructure(graph, quote! { *u }, &g.u, &used_vars);
+    let checked: Vec<_> = x_idents.iter().chain(&u_idents).cloned().collect();
+    let finite = super::code::all_finite(&checked);
+    let check = (!checked.is_empty()).then(|| quote! { if !(#finite) { return None; } });
+    let time = model.uses_time().then(|| {
+        let t = time_param(graph, g.t, &used_vars, &ty, "t");
+        quote! { #t, }
+    });
+    let x_name = if x_idents.is_empty() {
+        ident("_x_ref")
+    } else {
+        ident("x_ref")
+    };
+    let u_len = Literal::usize_unsuffixed(g.u.len());
+    let u_name = if u_idents.is_empty() {
+        ident("_u")
+    } else {
+        ident("u")
+    };
+    let result: Vec<proc_macro2::Ident> = spec
+        .inputs
+        .iter()
+        .map(|&i| ident(&format!("{}_ref", model.inputs[i].name)))
+        .collect();
+    let finite_result = super::code::all_finite(&result);
+    quote! {
+        /// The input `u_ref` that holds the regulated states at the set-point `x_ref` (a
+        /// whole state vector: the other states and the parameters at the values to
+        /// linearise at, such as the estimate's), for [`Lqr::track`]: `u_ref = u + (B'B)^-1
+        /// B' (x_ref - f(x_ref, u))` over the regulated states and inputs, `B = df/du` at
+        /// `(x_ref, u)`, starting from the input `u` (the inputs not computed by the LQR
+        /// stay as given). Exact for a model affine in its inputs; otherwise one
+        /// Gauss-Newton step, repeated from its result to converge. `None` if an argument
+        /// is not finite, or the inputs cannot move the regulated states (`B'B` singular).
+        #[must_use]
+        pub fn steady_state_input(&self, #time #x_name: &[#ty; #n], #u_name: &[#ty; #u_len]) -> Option<[#ty; #nu_len]> {
+            #unpack_x
+            #unpack_u
+            #check
+            #(#statements)*
+            let [#(#result),*] = [#(#values),*];
+            if !(#finite_result) {
+                return None;
+            }
+            Some([#(#result),*])
+        }
+    }
 }

@@ -6,6 +6,7 @@ pub mod ct_ekf;
 pub mod dkf;
 pub mod ekf;
 pub mod hybrid_ekf;
+pub mod known;
 pub mod lower;
 pub mod lqr;
 pub mod model_fns;
@@ -99,7 +100,7 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
             if let Ok(dkf) = dkf::emit_dkf(model, spec, &mg, scalar) {
                 ops_items.push(named_ops_item(
                     "DKF_TRANSFORM_OPS",
-                    "Dkf::transform",
+                    "the window transform of Dkf::step",
                     dkf.transform_ops,
                 ));
                 ops_items.push(named_ops_item(
@@ -233,7 +234,7 @@ fn op_count_struct() -> TokenStream {
             pub mul: u32,
             /// Divisions.
             pub div: u32,
-            /// Library calls (`sin cos tan exp ln sqrt abs`, through `libm`).
+            /// Library calls (`sin cos tan tanh exp ln sqrt abs atan2`, through `libm`).
             pub call: u32,
             /// Comparisons of piecewise terms.
             pub compare: u32,
@@ -253,6 +254,17 @@ fn dimensions(model: &Model) -> TokenStream {
     let x_names = model.state_names();
     let u_names = model.inputs.iter().map(|s| &s.name);
     let y_names = model.outputs.iter().map(|o| &o.name);
+    let known = (!model.known.is_empty()).then(|| {
+        let len = Literal::usize_unsuffixed(model.known.len());
+        let names = model.known.iter().map(|s| &s.name);
+        quote! {
+            /// Number of constants known at run time (`known`): the model functions take
+            /// them as `known`, the filters and the controller store them.
+            pub const KNOWN_LEN: usize = #len;
+            /// Names of the entries of `known`, in order.
+            pub const KNOWN_NAMES: [&str; #len] = [#(#names),*];
+        }
+    });
     quote! {
         /// Length of the state vector `x`: the physical states, then the parameters.
         pub const X_LEN: usize = #x_len;
@@ -270,6 +282,7 @@ fn dimensions(model: &Model) -> TokenStream {
         pub const U_NAMES: [&str; #u_len] = [#(#u_names),*];
         /// Names of the entries of `y`, in order.
         pub const Y_NAMES: [&str; #y_len] = [#(#y_names),*];
+        #known
     }
 }
 
@@ -305,12 +318,18 @@ fn index_module(model: &Model) -> TokenStream {
         };
         entry(&symbol, i, "y")
     });
+    let known = model
+        .known
+        .iter()
+        .enumerate()
+        .map(|(i, s)| entry(s, i, "known"));
     quote! {
         /// Positions of the named entries of `x`, `u` and `y`, with their documentation.
         pub mod index {
             #(#states)*
             #(#inputs)*
             #(#outputs)*
+            #(#known)*
         }
     }
 }

@@ -138,7 +138,8 @@ pub fn emit_function(
         .map(|c| c.name.as_str())
         .chain(model.state_names())
         .chain(model.inputs.iter().map(|s| s.name.as_str()))
-        .chain(["t", "x", "u"]);
+        .chain(model.known.iter().map(|s| s.name.as_str()))
+        .chain(["t", "x", "u", "known"]);
     let namer = TempNamer::new(reserved);
     let mut lowerer = Lowerer::new(&mg.graph, scalar, namer, &function.roots);
     let roots = lowerer.segment(&function.roots);
@@ -163,9 +164,14 @@ pub fn emit_function(
             &mg.u,
             model.inputs.iter().map(|s| s.name.as_str()).collect(),
         ),
+        (
+            "known",
+            &mg.known,
+            model.known.iter().map(|s| s.name.as_str()).collect(),
+        ),
     ] {
         let len = Literal::usize_unsuffixed(vars.len());
-        if arg == "u" && !function.takes_u {
+        if (arg == "u" && !function.takes_u) || (arg == "known" && vars.is_empty()) {
             continue;
         }
         let any_used = vars.iter().any(|&v| used(v));

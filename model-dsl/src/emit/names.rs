@@ -122,6 +122,7 @@ impl TempNamer {
             Node::Mul(a, b) => format!("{}_{}", l(a)?, l(b)?),
             Node::Div(a, b) => format!("{}_over_{}", l(a)?, l(b)?),
             Node::Call(f, a) => format!("{}_{}", f.name(), l(a)?),
+            Node::Atan2(y, x) => format!("atan2_{}_{}", l(y)?, l(x)?),
             Node::Select { then, .. } => format!("piecewise_{}", l(then)?),
         };
         (text.len() <= MAX_DERIVED_LEN).then_some(text)

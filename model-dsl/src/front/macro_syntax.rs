@@ -4,14 +4,15 @@
 //! model       := doc* vis 'mod' IDENT '{' item* '}'
 //! item        := doc* ( 'scalar' IDENT,+ ';'
 //!                     | 'const' IDENT '=' expr ';'
-//!                     | ('state' | 'param' | 'input') (doc* IDENT),+ ';'
+//!                     | ('state' | 'param' | 'input' | 'known') (doc* IDENT),+ ';'
 //!                     | 'output' (doc* IDENT '=' expr),+ ';'
 //!                     | 'dynamics' ('discrete' | 'continuous' ['(' method [',' 'dt' '=' expr] [',' 'substeps' '=' INT] ')'])
 //!                       '{' (('let' IDENT | IDENT | 'der' '(' IDENT ')') '=' expr ';')* '}'
 //!                     | 'generate' (IDENT ['(' (IDENT '=' (number | IDENT | '[' IDENT,* ']')),* ')']),+ ';' )
 //! ```
 //! Expressions are Rust expressions restricted to arithmetic, calls of the model
-//! functions (also as methods, `x.sin()`), and `if a > b { .. } else { .. }`.
+//! functions (`sin cos tan tanh exp ln sqrt abs powi atan2 min max clamp`, also as methods,
+//! `x.sin()`, `y.atan2(x)`), and `if a > b { .. } else { .. }`.
 
 use crate::ast::{
     ArgValue, BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg,
@@ -30,6 +31,7 @@ mod kw {
     syn::custom_keyword!(state);
     syn::custom_keyword!(param);
     syn::custom_keyword!(input);
+    syn::custom_keyword!(known);
     syn::custom_keyword!(output);
     syn::custom_keyword!(dynamics);
     syn::custom_keyword!(discrete);
@@ -110,11 +112,17 @@ fn parse_item(input: ParseStream, decl: &mut ModelDecl, diag: &mut Diagnostics) 
             name: name(&ident),
             value,
         });
-    } else if look.peek(kw::state) || look.peek(kw::param) || look.peek(kw::input) {
+    } else if look.peek(kw::state)
+        || look.peek(kw::param)
+        || look.peek(kw::input)
+        || look.peek(kw::known)
+    {
         let kind = if input.parse::<Option<kw::state>>()?.is_some() {
             SymbolKind::State
         } else if input.parse::<Option<kw::param>>()?.is_some() {
             SymbolKind::Param
+        } else if input.parse::<Option<kw::known>>()?.is_some() {
+            SymbolKind::Known
         } else {
             input.parse::<kw::input>()?;
             SymbolKind::Input

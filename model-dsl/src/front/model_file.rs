@@ -24,8 +24,10 @@
 //! x1 = "x1 + TS * x2"
 //! ```
 //! Expressions are parsed by `meval`: `+ - * / ^` (integer powers), functions
-//! `sin cos tan exp ln sqrt abs`, and the piecewise functions `if_gt(a, b, then, else)`,
+//! `sin cos tan tanh exp ln sqrt abs`, `atan2(y, x)`, `min(a, b)`, `max(a, b)`,
+//! `clamp(x, lo, hi)` (a saturation), and the piecewise functions `if_gt(a, b, then, else)`,
 //! `if_ge`, `if_lt`, `if_le` for `if a > b { then } else { else }` and so on.
+//! `[[known]]` entries (`name`, `doc`) declare constants known only at run time.
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
 
 use crate::ast::{
@@ -58,6 +60,8 @@ struct ModelFile {
     params: Vec<Symbol>,
     #[serde(default, rename = "input")]
     inputs: Vec<Symbol>,
+    #[serde(default, rename = "known")]
+    known: Vec<Symbol>,
     #[serde(default, rename = "output")]
     outputs: Vec<Entry>,
     dynamics: Option<Dynamics>,
@@ -237,6 +241,7 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
         (&file.states, SymbolKind::State),
         (&file.params, SymbolKind::Param),
         (&file.inputs, SymbolKind::Input),
+        (&file.known, SymbolKind::Known),
     ]
     .into_iter()
     .flat_map(|(list, kind)| {

@@ -94,6 +94,18 @@ impl Differentiator {
                 let outer = self.derivative_of(g, f, a, root);
                 g.mul(outer, da)
             }
+            Node::Atan2(y, x) => {
+                // d atan2(y, x) = (x dy - y dx) / (x^2 + y^2)
+                let (dy, dx) = (known(&self.memo, y), known(&self.memo, x));
+                let (x_dy, y_dx) = (g.mul(x, dy), g.mul(y, dx));
+                let numerator = g.sub(x_dy, y_dx);
+                if g.is_zero(numerator) {
+                    return numerator;
+                }
+                let (xx, yy) = (g.mul(x, x), g.mul(y, y));
+                let radius_squared = g.add(xx, yy);
+                g.div(numerator, radius_squared)
+            }
             Node::Select {
                 cmp,
                 lhs,
@@ -131,6 +143,12 @@ impl Differentiator {
                 // 1 / (2 sqrt a)
                 let half = g.num(0.5);
                 g.div(half, call)
+            }
+            Func::Tanh => {
+                // 1 - tanh^2
+                let one = g.one();
+                let sq = g.mul(call, call);
+                g.sub(one, sq)
             }
             Func::Abs => {
                 // sign(a), taking +1 at zero

@@ -50,6 +50,8 @@ pub enum Node {
     Div(NodeId, NodeId),
     /// `f(a)`
     Call(Func, NodeId),
+    /// `atan2(y, x)`
+    Atan2(NodeId, NodeId),
     /// `if lhs cmp rhs { then } else { otherwise }`
     Select {
         /// The comparison.
@@ -71,7 +73,11 @@ impl Node {
         match self {
             Node::Num(_) | Node::Named(_) | Node::Var(_) => vec![],
             Node::Neg(a) | Node::Call(_, a) => vec![a],
-            Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => vec![a, b],
+            Node::Add(a, b)
+            | Node::Sub(a, b)
+            | Node::Mul(a, b)
+            | Node::Div(a, b)
+            | Node::Atan2(a, b) => vec![a, b],
             Node::Select {
                 lhs,
                 rhs,
@@ -446,12 +452,20 @@ impl Graph {
         match (f, self.node(a)) {
             (Func::Abs, Node::Neg(x)) => self.call(Func::Abs, x),
             (Func::Cos, Node::Neg(x)) => self.call(Func::Cos, x),
-            (Func::Sin | Func::Tan, Node::Neg(x)) => {
+            (Func::Sin | Func::Tan | Func::Tanh, Node::Neg(x)) => {
                 let v = self.call(f, x);
                 self.neg(v)
             }
             _ => self.intern(Node::Call(f, a)),
         }
+    }
+
+    /// `atan2(y, x)`, folded when both are constants.
+    pub fn atan2(&mut self, y: NodeId, x: NodeId) -> NodeId {
+        if let (Some(y), Some(x)) = (self.constant_value(y), self.constant_value(x)) {
+            return self.num(y.atan2(x));
+        }
+        self.intern(Node::Atan2(y, x))
     }
 
     /// `if lhs cmp rhs { then } else { otherwise }`
@@ -565,6 +579,7 @@ impl Graph {
                 Node::Mul(a, b) => self.mul(new(a), new(b)),
                 Node::Div(a, b) => self.div(new(a), new(b)),
                 Node::Call(f, a) => self.call(f, new(a)),
+                Node::Atan2(y, x) => self.atan2(new(y), new(x)),
                 Node::Select {
                     cmp,
                     lhs,
@@ -593,6 +608,7 @@ impl Graph {
                 Node::Mul(a, b) => value(a) * value(b),
                 Node::Div(a, b) => value(a) / value(b),
                 Node::Call(f, a) => f.eval(value(a)),
+                Node::Atan2(y, x) => value(y).atan2(value(x)),
                 Node::Select {
                     cmp,
                     lhs,

@@ -16,6 +16,8 @@ pub struct ModelGraph {
     pub x: Vec<NodeId>,
     /// The inputs' variables.
     pub u: Vec<NodeId>,
+    /// The variables of the constants known at run time.
+    pub known: Vec<NodeId>,
     /// Named constants, by index into the model's constants.
     pub constants: Vec<NodeId>,
     /// `x[k+1] = f(t, x[k], u[k])`, one node per entry of the state vector.
@@ -40,6 +42,7 @@ impl ModelGraph {
         let t = graph.var("t");
         let x: Vec<NodeId> = model.state_names().map(|n| graph.var(n)).collect();
         let u: Vec<NodeId> = model.inputs.iter().map(|s| graph.var(&s.name)).collect();
+        let known: Vec<NodeId> = model.known.iter().map(|s| graph.var(&s.name)).collect();
         let constants: Vec<NodeId> = model
             .constants
             .iter()
@@ -50,6 +53,7 @@ impl ModelGraph {
             t,
             x,
             u,
+            known,
             constants,
             f: Vec::new(),
             h: Vec::new(),
@@ -218,6 +222,7 @@ impl ModelGraph {
             Expr::State(i) => env.states[*i],
             Expr::Param(i) => self.x[model.states.len() + *i],
             Expr::Input(i) => self.u[*i],
+            Expr::Known(i) => self.known[*i],
             Expr::Time => env.t,
             Expr::Local(i) => {
                 if let Some(done) = env.locals[*i] {
@@ -256,6 +261,10 @@ impl ModelGraph {
             Expr::Call(f, a) => {
                 let a = self.lower(model, a, env);
                 self.graph.call(*f, a)
+            }
+            Expr::Atan2(y, x) => {
+                let (y, x) = (self.lower(model, y, env), self.lower(model, x, env));
+                self.graph.atan2(y, x)
             }
             Expr::Select {
                 cmp,

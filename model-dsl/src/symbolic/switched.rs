@@ -224,6 +224,10 @@ fn resolve(g: &mut Graph, root: NodeId, holds: bool, memo: &mut HashMap<NodeId, 
             let a = go(g, a);
             g.call(f, a)
         }
+        Node::Atan2(y, x) => {
+            let (y, x) = (go(g, y), go(g, x));
+            g.atan2(y, x)
+        }
         Node::Select {
             then, otherwise, ..
         } => go(g, if holds { then } else { otherwise }),
