@@ -88,7 +88,8 @@ impl<'ast> Visit<'ast> for Findings {
         // A whole number stored in a field (the MPC status's `iterations: 0`) is data, not
         // integer arithmetic; every other field value is code.
         for field in &s.fields {
-            let stored = matches!(&field.expr, syn::Expr::Lit(l) if matches!(l.lit, syn::Lit::Int(_)));
+            let stored =
+                matches!(&field.expr, syn::Expr::Lit(l) if matches!(l.lit, syn::Lit::Int(_)));
             if !stored {
                 self.visit_expr(&field.expr);
             }
@@ -130,9 +131,9 @@ impl<'ast> Visit<'ast> for Findings {
 /// `for _ in 0..Self::HORIZON { .. }` (the LQR's horizon), `for _ in 0..Self::SUBSTEPS`
 /// (a continuous filter's sub-steps), `for _ in 0..F_SUBSTEPS` (a looped `f`), the MPC's
 /// `MAX_SQUARINGS` and `RICCATI_ITERATIONS`: a constant number of iterations, with no
-/// counter the body could misuse; or the MPC's `for iteration in 1..=Self::MAX_ITERATIONS`,
-/// whose counter is only ever recorded (the body has no indexing or integer arithmetic,
-/// which the walk checks as everywhere else).
+/// counter the body could misuse; or the MPC's `for pass in 1..=Self::PASSES`, whose
+/// counter is only recorded and compared (the body has no indexing or integer
+/// arithmetic, which the walk checks as everywhere else).
 fn is_horizon_loop(f: &syn::ExprForLoop) -> bool {
     if is_iteration_loop(f) {
         return true;
@@ -160,14 +161,14 @@ fn is_horizon_loop(f: &syn::ExprForLoop) -> bool {
     matches!(&*f.pat, syn::Pat::Wild(_)) && range_ok
 }
 
-/// `for iteration in 1..=Self::MAX_ITERATIONS`.
+/// `for pass in 1..=Self::PASSES`.
 fn is_iteration_loop(f: &syn::ExprForLoop) -> bool {
-    let pattern_ok = matches!(&*f.pat, syn::Pat::Ident(p) if p.ident == "iteration");
+    let pattern_ok = matches!(&*f.pat, syn::Pat::Ident(p) if p.ident == "pass");
     let range_ok = match &*f.expr {
         syn::Expr::Range(r) => {
             matches!(r.limits, syn::RangeLimits::Closed(_))
                 && matches!(r.start.as_deref(), Some(syn::Expr::Lit(l)) if matches!(&l.lit, syn::Lit::Int(i) if i.base10_digits() == "1"))
-                && matches!(r.end.as_deref(), Some(syn::Expr::Path(p)) if p.path.segments.last().is_some_and(|s| s.ident == "MAX_ITERATIONS"))
+                && matches!(r.end.as_deref(), Some(syn::Expr::Path(p)) if p.path.segments.last().is_some_and(|s| s.ident == "PASSES"))
         }
         _ => false,
     };

@@ -747,7 +747,7 @@ fn commit(moves: &MoveNames, terminal: &Terminal) -> TokenStream {
         MpcStatus {
             status: Status::Ok,
             optimal,
-            iterations,
+            iterations: steps,
             terminal_weight_converged,
         }
     }
@@ -792,12 +792,13 @@ fn type_tokens(
     ]
     .map(Literal::usize_unsuffixed);
     let max_iterations = Literal::u32_unsuffixed(spec.max_iterations);
+    let passes = Literal::u32_unsuffixed(spec.max_iterations + 1);
     let riccati_iterations = Literal::u32_unsuffixed(spec.riccati_iterations);
     // Both tolerances sit well above the scalar's rounding of the sums they compare.
     let tolerance = literal(
         match scalar {
             Scalar::F32 => 1e-5,
-            Scalar::F64 => 1e-10,
+            Scalar::F64 => 1e-12,
         },
         scalar,
     );
@@ -856,7 +857,7 @@ fn type_tokens(
             /// multiplier). If not, `MAX_ITERATIONS` ran out: the plan is the last iterate,
             /// within the bounds and no costlier than the shifted last plan.
             pub optimal: bool,
-            /// Active-set iterations used.
+            /// Active-set iterations (Newton steps on the free moves) used.
             pub iterations: u32,
             /// Whether the last Riccati step changed the terminal weight by at most
             /// `RICCATI_TOLERANCE` of its size: the weight then solves the discrete
@@ -882,8 +883,11 @@ fn type_tokens(
         impl Mpc {
             /// Moves optimised over, `n`.
             pub const HORIZON: usize = #horizon;
-            /// Bound on the active-set iterations of one solve.
+            /// Bound on the active-set iterations (Newton steps) of one solve.
             pub const MAX_ITERATIONS: u32 = #max_iterations;
+            /// Passes of the active-set loop: one per iteration, and one more that only
+            /// checks the multipliers after the last step.
+            const PASSES: u32 = #passes;
             /// Riccati steps per solve towards the terminal weight.
             pub const RICCATI_ITERATIONS: u32 = #riccati_iterations;
             /// Relative change of the terminal weight under which it counts as converged.

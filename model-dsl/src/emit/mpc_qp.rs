@@ -264,14 +264,19 @@ pub fn active_set_loop(g: &mut Graph, moves: &MoveNames, names: &Names, scalar: 
         #setup
         let mut full_step = false;
         let mut optimal = false;
-        let mut iterations = Self::MAX_ITERATIONS;
-        for iteration in 1..=Self::MAX_ITERATIONS {
+        // Newton steps taken; the pass after the last step only checks the multipliers.
+        let mut steps = u32::MIN;
+        for pass in 1..=Self::PASSES {
             // The cost's gradient H v + c at the iterate.
             #(#grad_statements)*
             #(let #grad = #grad_values;)*
             if full_step {
                 #release
             }
+            if pass == Self::PASSES {
+                break;
+            }
+            steps = pass;
             #mask
             #(#step_statements)*
             #(let #step = #step_values;)*
@@ -389,7 +394,6 @@ fn release_check(moves: &MoveNames, scalar: Scalar) -> TokenStream {
         )*
         if worst >= #zero {
             optimal = true;
-            iterations = iteration;
             break;
         }
         // Release the first bound with the most negative multiplier.
