@@ -92,11 +92,11 @@ pub fn condensed(
     };
     let mut h = DMatrix::zeros(horizon * m, horizon * m);
     let mut c = DVector::zeros(horizon * m);
-    for i in 1..=horizon {
+    for (i, power) in powers.iter().enumerate().skip(1) {
         let weight = if i == horizon { terminal } else { q };
         let ni = block_row(i);
         h += ni.transpose() * weight * &ni;
-        c += ni.transpose() * weight * &powers[i] * x0;
+        c += ni.transpose() * weight * power * x0;
     }
     for j in 0..horizon {
         let mut block = h.view_mut((j * m, j * m), (m, m));
