@@ -107,7 +107,8 @@ fn the_zero_order_hold_matches_the_matrix_exponential() {
 fn the_terminal_weight_solves_the_dare_and_its_gain_is_the_lqr() {
     for inv_m in [5.0, 1.0 / 0.254, 2.0] {
         let mut mpc = controller(100.0);
-        converge(&mut mpc, &estimate(0.0, 0.0, inv_m));
+        let status = converge(&mut mpc, &estimate(0.0, 0.0, inv_m));
+        assert!(status.optimal);
         let (a, b) = prediction(inv_m);
         let (q, r) = (matrix(&Q), matrix(&R));
         let p_ref = reference::dare(&a, &b, &q, &r);
@@ -207,7 +208,7 @@ fn the_plan_agrees_with_clarabel_on_random_problems() {
 #[test]
 fn non_finite_estimates_and_bounds_are_rejected_with_the_controller_unchanged() {
     let mut mpc = controller(100.0);
-    converge(&mut mpc, &estimate(1e-3, 0.0, 5.0));
+    assert!(converge(&mut mpc, &estimate(1e-3, 0.0, 5.0)).optimal);
     let before = mpc;
     for bad in [
         estimate(f64::NAN, 0.0, 5.0),
