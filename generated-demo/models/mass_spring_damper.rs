@@ -63,6 +63,9 @@ codegen_macros::model! {
         // integrates eq. (20) with the Euler method (sect. 3.1) at dt = T/500 (sect. 4.1):
         // the 500 sub-steps run as a loop whose body is one Euler step.
         generate hybrid_ekf(process_noise = diagonal);
+        // The dual-mode MPC of sect. 3.4 on the beam's states: n = 10 moves, the model
+        // held exactly over the sample at the mass estimate (sect. 3.3).
+        generate mpc(horizon = 10, states = [q, qd], input = u, discretisation = zoh);
         dynamics continuous(euler, dt = TS, substeps = 500) {
             // eq. (20), first line
             der(q) = qd;

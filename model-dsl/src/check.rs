@@ -7,7 +7,7 @@ use crate::ast::{
 use crate::diagnostics::Diagnostics;
 use crate::model::{
     Constant, ContinuousEkfSpec, Discretisation, DkfSpec, Dynamics, EkfSpec, Expr, Func, Generate,
-    HybridEkfSpec, Local, LqrSpec, Method, Model, Output, Scalar, Symbol,
+    HybridEkfSpec, Local, Method, Model, Output, Scalar, Symbol,
 };
 use indexmap::IndexMap;
 use proc_macro2::Span;
@@ -38,6 +38,8 @@ const GENERATED_ITEMS: &[&str] = &[
     "Dkf",
     "DkfStatus",
     "Lqr",
+    "Mpc",
+    "MpcStatus",
     "Status",
     "WindowStatus",
     "HybridEkf",
@@ -51,7 +53,7 @@ const GENERATED_ITEMS: &[&str] = &[
 
 /// What a name in an expression refers to.
 #[derive(Clone, Copy, Debug)]
-enum Binding {
+pub(crate) enum Binding {
     Const(usize),
     State(usize),
     Param(usize),
@@ -61,7 +63,7 @@ enum Binding {
 }
 
 /// The names declared so far, and what expressions need to know of them.
-struct Scope {
+pub(crate) struct Scope {
     names: IndexMap<String, (Binding, Span)>,
     /// The values of the constants declared so far, by index.
     const_values: Vec<f64>,
@@ -100,7 +102,7 @@ impl Scope {
         }
     }
 
-    fn get(&self, name: &str) -> Option<&(Binding, Span)> {
+    pub(crate) fn get(&self, name: &str) -> Option<&(Binding, Span)> {
         self.names.get(name)
     }
 
@@ -991,46 +993,12 @@ fn check_generate(decl: &ModelDecl, scope: &Scope, diag: &mut Diagnostics) -> Ge
                 });
             }
             "lqr" => {
-                let (horizon, horizon_span) = args.number("horizon", 50.0, diag);
-                if horizon.fract() != 0.0 || !(1.0..=10_000.0).contains(&horizon) {
-                    diag.error(
-                        horizon_span,
-                        "`horizon` is a whole number of steps, 1 to 10000",
-                    );
-                }
-                let states = args.names(&["states", "state"], diag);
-                let inputs = args.names(&["inputs", "input"], diag);
-                let mut lookup = |names: Vec<Name>, want: SymbolKind| -> Vec<usize> {
-                    names
-                        .iter()
-                        .filter_map(|name| match (scope.get(&name.text), want) {
-                            (Some((Binding::State(i), _)), SymbolKind::State) => Some(*i),
-                            (Some((Binding::Input(i), _)), SymbolKind::Input) => Some(*i),
-                            _ => {
-                                let what = match want {
-                                    SymbolKind::State => "a physical state (`state`)",
-                                    _ => "an input (`input`)",
-                                };
-                                diag.error(name.span, format!("`{}` is not {what}", name.text));
-                                None
-                            }
-                        })
-                        .collect()
-                };
-                let states = lookup(states, SymbolKind::State);
-                let inputs = lookup(inputs, SymbolKind::Input);
-                if states.is_empty() || inputs.is_empty() {
-                    diag.error(
-                        item.name.span,
-                        "the LQR needs the states it regulates and the inputs it computes: \
-                         `lqr(horizon = 50, states = [x1, x2], input = u)`",
-                    );
-                }
-                generate.lqr = Some(LqrSpec {
-                    horizon: horizon as u32,
-                    states,
-                    inputs,
-                });
+                generate.lqr = Some(crate::check_controllers::lqr(item, &mut args, scope, diag));
+            }
+            "mpc" => {
+                generate.mpc = Some(crate::check_controllers::mpc(
+                    decl, item, &mut args, scope, diag,
+                ));
             }
             "hybrid_ekf" => {
                 require_continuous(decl, item, diag);
@@ -1070,7 +1038,7 @@ fn check_generate(decl: &ModelDecl, scope: &Scope, diag: &mut Diagnostics) -> Ge
                     item.name.span,
                     format!(
                         "unknown generator `{other}`: use `ekf`, `dkf(eta = ..)`, `lqr(..)`, \
-                         `hybrid_ekf`, `continuous_ekf(alpha = ..)`, `polynomial_kf(..)` or \
+                         `mpc(..)`, `hybrid_ekf`, `continuous_ekf(alpha = ..)`, `polynomial_kf(..)` or \
                          `switched_observer(..)`"
                     ),
                 );
@@ -1188,7 +1156,12 @@ impl<'a> Args<'a> {
 
     /// The number given as `name`, or `default`, with where to report a wrong value: the
     /// value, or the generator's name when the default is taken.
-    fn number(&mut self, name: &str, default: f64, diag: &mut Diagnostics) -> (f64, Span) {
+    pub(crate) fn number(
+        &mut self,
+        name: &str,
+        default: f64,
+        diag: &mut Diagnostics,
+    ) -> (f64, Span) {
         match self.take(&[name]).map(|a| &a.value) {
             None => (default, self.item.name.span),
             Some(ArgValue::Number(v, span)) => (*v, *span),
@@ -1248,7 +1221,11 @@ impl<'a> Args<'a> {
         }
     }
 
-    fn optional_number(&mut self, name: &str, diag: &mut Diagnostics) -> Option<(f64, Span)> {
+    pub(crate) fn optional_number(
+        &mut self,
+        name: &str,
+        diag: &mut Diagnostics,
+    ) -> Option<(f64, Span)> {
         match self.take(&[name]).map(|a| &a.value) {
             None => None,
             Some(ArgValue::Number(v, span)) => Some((*v, *span)),
@@ -1259,7 +1236,7 @@ impl<'a> Args<'a> {
         }
     }
 
-    fn names(&mut self, names: &[&str], diag: &mut Diagnostics) -> Vec<Name> {
+    pub(crate) fn names(&mut self, names: &[&str], diag: &mut Diagnostics) -> Vec<Name> {
         match self.take(names).map(|a| &a.value) {
             None => Vec::new(),
             Some(ArgValue::Name(n)) => vec![n.clone()],

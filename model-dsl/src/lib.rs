@@ -9,6 +9,7 @@
 
 pub mod ast;
 pub mod check;
+mod check_controllers;
 mod check_designs;
 pub mod diagnostics;
 pub mod emit;

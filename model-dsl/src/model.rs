@@ -45,6 +45,8 @@ pub struct Generate {
     pub dkf: Option<DkfSpec>,
     /// The adaptive finite-horizon LQR (Alg. 3), if asked for.
     pub lqr: Option<LqrSpec>,
+    /// The adaptive model predictive controller with input bounds, if asked for.
+    pub mpc: Option<MpcSpec>,
     /// The hybrid (continuous-discrete) EKF, if asked for.
     pub hybrid_ekf: Option<HybridEkfSpec>,
     /// The continuous-time EKF, if asked for.
@@ -61,6 +63,7 @@ impl Generate {
         !self.ekf.is_empty()
             || self.dkf.is_some()
             || self.lqr.is_some()
+            || self.mpc.is_some()
             || self.hybrid_ekf.is_some()
             || self.continuous_ekf.is_some()
             || self.polynomial_kf.is_some()
@@ -119,6 +122,37 @@ pub struct LqrSpec {
     /// The inputs it computes, by index into [`Model::inputs`].
     pub inputs: Vec<usize>,
 }
+
+/// How the MPC obtains its discrete prediction model at the estimate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MpcDiscretisation {
+    /// The Jacobians of the model's own sample step `f` (discrete dynamics, or continuous
+    /// dynamics with their integration rule unrolled).
+    SampleStep,
+    /// The exact zero-order hold of the continuous dynamics linearised at the estimate.
+    ZeroOrderHold,
+}
+
+/// Options of the model predictive controller (dual-mode, input bounds).
+#[derive(Clone, Debug)]
+pub struct MpcSpec {
+    /// Moves optimised over, `n`.
+    pub horizon: u32,
+    /// The physical states it regulates, by index into [`Model::states`].
+    pub states: Vec<usize>,
+    /// The inputs it computes, by index into [`Model::inputs`].
+    pub inputs: Vec<usize>,
+    /// Where the prediction model comes from.
+    pub discretisation: MpcDiscretisation,
+    /// Bound on the active-set iterations of one solve.
+    pub max_iterations: u32,
+    /// Riccati steps per solve towards the terminal weight (warm-started).
+    pub riccati_iterations: u32,
+}
+
+/// The largest condensed problem (horizon times inputs unknowns) the MPC unrolls: its
+/// `L D L'` solve grows with the cube of the unknowns.
+pub const MPC_UNKNOWNS_MAX: u32 = 32;
 
 /// Options of the polynomial Kalman filter (Shults, Brubaker and Lee, "A fast algorithm
 /// for control and estimation using a polynomial state-space structure").

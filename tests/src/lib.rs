@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 pub mod cantilever_sim;
 pub mod continuous_reference;
+pub mod predictive_reference;
 pub mod reference;
 pub mod rng;
 pub mod scale;

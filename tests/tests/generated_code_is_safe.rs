@@ -41,8 +41,11 @@ impl<'ast> Visit<'ast> for Findings {
             Expr::Call(call) => match &*call.func {
                 // The only calls are `libm` functions of floats.
                 Expr::Path(p) if p.path.segments.first().is_some_and(|s| s.ident == "libm") => None,
-                // `Some(..)` builds a value (the LQR's `steady_state_input`); it calls nothing.
-                Expr::Path(p) if p.path.is_ident("Some") => None,
+                // `Some(..)`, `Ok(..)` and `Err(..)` build a value (the LQR's
+                // `steady_state_input`, the MPC's results); they call nothing.
+                Expr::Path(p) if ["Some", "Ok", "Err"].iter().any(|c| p.path.is_ident(c)) => None,
+                // The generated type's own associated functions (`Self::prediction_model`).
+                Expr::Path(p) if p.path.segments.first().is_some_and(|s| s.ident == "Self") => None,
                 _ => Some("a call of something other than libm"),
             },
             Expr::Lit(lit) => match &lit.lit {
@@ -82,6 +85,21 @@ impl<'ast> Visit<'ast> for Findings {
         // An associated constant (the LQR horizon): evaluated at compile time.
     }
 
+    fn visit_expr_struct(&mut self, s: &'ast syn::ExprStruct) {
+        // A whole number stored in a field (the MPC status's `iterations: 0`) is data, not
+        // integer arithmetic; every other field value is code.
+        for field in &s.fields {
+            let stored =
+                matches!(&field.expr, syn::Expr::Lit(l) if matches!(l.lit, syn::Lit::Int(_)));
+            if !stored {
+                self.visit_expr(&field.expr);
+            }
+        }
+        if let Some(rest) = &s.rest {
+            self.visit_expr(rest);
+        }
+    }
+
     fn visit_expr_repeat(&mut self, r: &'ast syn::ExprRepeat) {
         // `[v; N]`: the length is a compile-time constant; the value is code.
         self.visit_expr(&r.expr);
@@ -112,12 +130,26 @@ impl<'ast> Visit<'ast> for Findings {
 }
 
 /// `for _ in 0..Self::HORIZON { .. }` (the LQR's horizon), `for _ in 0..Self::SUBSTEPS`
-/// (a continuous filter's sub-steps) or `for _ in 0..F_SUBSTEPS` (a looped `f`): a
-/// constant number of iterations, with no counter the body could misuse.
+/// (a continuous filter's sub-steps), `for _ in 0..F_SUBSTEPS` (a looped `f`), the MPC's
+/// `MAX_SQUARINGS` and `RICCATI_ITERATIONS`: a constant number of iterations, with no
+/// counter the body could misuse; or the MPC's `for pass in 1..=Self::PASSES`, whose
+/// counter is only recorded and compared (the body has no indexing or integer
+/// arithmetic, which the walk checks as everywhere else).
 fn is_horizon_loop(f: &syn::ExprForLoop) -> bool {
+    if is_iteration_loop(f) {
+        return true;
+    }
     let constant_end = |p: &syn::ExprPath| {
         p.path.segments.last().is_some_and(|s| {
-            s.ident == "HORIZON" || s.ident == "SUBSTEPS" || s.ident == "F_SUBSTEPS"
+            [
+                "HORIZON",
+                "SUBSTEPS",
+                "F_SUBSTEPS",
+                "MAX_SQUARINGS",
+                "RICCATI_ITERATIONS",
+            ]
+            .iter()
+            .any(|name| s.ident == name)
         })
     };
     let range_ok = match &*f.expr {
@@ -128,6 +160,20 @@ fn is_horizon_loop(f: &syn::ExprForLoop) -> bool {
         _ => false,
     };
     matches!(&*f.pat, syn::Pat::Wild(_)) && range_ok
+}
+
+/// `for pass in 1..=Self::PASSES`.
+fn is_iteration_loop(f: &syn::ExprForLoop) -> bool {
+    let pattern_ok = matches!(&*f.pat, syn::Pat::Ident(p) if p.ident == "pass");
+    let range_ok = match &*f.expr {
+        syn::Expr::Range(r) => {
+            matches!(r.limits, syn::RangeLimits::Closed(_))
+                && matches!(r.start.as_deref(), Some(syn::Expr::Lit(l)) if matches!(&l.lit, syn::Lit::Int(i) if i.base10_digits() == "1"))
+                && matches!(r.end.as_deref(), Some(syn::Expr::Path(p)) if p.path.segments.last().is_some_and(|s| s.ident == "PASSES"))
+        }
+        _ => false,
+    };
+    pattern_ok && range_ok
 }
 
 fn quote_expr(e: &syn::Expr) -> String {

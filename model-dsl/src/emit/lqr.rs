@@ -11,9 +11,9 @@ use super::lower::{literal, Lowered, Lowerer, OpCount};
 use super::names::{ident, TempNamer};
 use crate::model::{LqrSpec, Model, Scalar};
 use crate::symbolic::linalg::{
-    add, ldl_inverse, matmul, packed_len, packed_upper, sandwich_symmetric, sub,
-    symmetric_from_packed, transpose, Matrix,
+    ldl_inverse, matmul, packed_len, symmetric_from_packed, transpose, Matrix,
 };
+use crate::symbolic::riccati::riccati_step;
 use crate::symbolic::{Graph, ModelGraph, Node, NodeId};
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
@@ -47,22 +47,12 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     let q = symmetric_from_packed(&q_vars, ns);
     let r = symmetric_from_packed(&r_vars, nu);
     // eq. (19): K = (R + B'PB)^-1 B'PA; P = A'PA - A'PB K + Q.
-    let pb = matmul(graph, &p, &b);
-    let btpb = matmul(graph, &transpose(&b), &pb);
-    let weight = add(graph, &r, &btpb);
-    let btpa = matmul(graph, &transpose(&pb), &a);
+    // eq. (19): K = (R + B'PB)^-1 B'PA; P = A'PA - A'PB K + Q.
     const WEIGHT: (&str, &str) = ("weight", "inv_weight");
-    let ldl = ldl_inverse(graph, &weight, |g, j| {
+    let step = riccati_step(graph, (&a, &b), &p, (&q, &r), |g, j| {
         g.var(&pivot_names(nu, j, WEIGHT, "").1)
     });
-    let (pivots, reciprocals, weight_inv) = (ldl.pivots, ldl.reciprocals, ldl.inverse);
-    let k = matmul(graph, &weight_inv, &btpa);
-    let at = transpose(&a);
-    let atpa = sandwich_symmetric(graph, &at, &p, &at);
-    let correction = symmetric_product(graph, &transpose(&btpa), &k);
-    let difference = sub(graph, &atpa, &correction);
-    let p_next = add(graph, &difference, &q);
-    let p_next = packed_upper(&p_next);
+    let (pivots, reciprocals, k, p_next) = (step.pivots, step.reciprocals, step.gain, step.p_next);
     let k_flat: Vec<NodeId> = k.iter().flatten().copied().collect();
 
     // What the loop body computes; the rest of what it needs is hoisted before the loop.
@@ -367,19 +357,6 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
         }
     };
     LqrCode { tokens, solve_ops }
-}
-
-/// The upper triangle (mirrored) of `a b` for a product known to be symmetric.
-fn symmetric_product(g: &mut Graph, a: &Matrix, b: &Matrix) -> Matrix {
-    let n = a.len();
-    let full = matmul(g, a, b);
-    let mut out = full.clone();
-    for i in 0..n {
-        for j in 0..i {
-            out[i][j] = full[j][i];
-        }
-    }
-    out
 }
 
 /// Nodes the loop body reads that do not change from one iteration to the next: operands

@@ -10,6 +10,8 @@ pub mod known;
 pub mod lower;
 pub mod lqr;
 pub mod model_fns;
+pub mod mpc;
+mod mpc_qp;
 pub mod names;
 pub mod polynomial_kf;
 pub mod scopes;
@@ -138,6 +140,34 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
             let lqr = lqr::emit_lqr(model, spec, &mg, scalar);
             ops_items.push(named_ops_item("LQR_SOLVE_OPS", "Lqr::solve", lqr.solve_ops));
             tokens.extend(lqr.tokens);
+        }
+        if let Some(spec) = &model.generate.mpc {
+            let mpc = mpc::emit_mpc(model, spec, &mg, scalar);
+            for (constant, what, ops) in [
+                (
+                    "MPC_PREDICTION_OPS",
+                    "the prediction model of Mpc::solve (squarings at their bound)",
+                    mpc.prediction_ops,
+                ),
+                (
+                    "MPC_RICCATI_OPS",
+                    "the terminal weight's Riccati steps of Mpc::solve",
+                    mpc.riccati_ops,
+                ),
+                (
+                    "MPC_CONDENSE_OPS",
+                    "the condensed problem of Mpc::solve",
+                    mpc.condense_ops,
+                ),
+                (
+                    "MPC_ITERATION_OPS",
+                    "one active-set iteration of Mpc::solve",
+                    mpc.iteration_ops,
+                ),
+            ] {
+                ops_items.push(named_ops_item(constant, what, ops));
+            }
+            tokens.extend(mpc.tokens);
         }
         if let Some(spec) = &model.generate.hybrid_ekf {
             let hybrid = hybrid_ekf::emit_hybrid_ekf(model, spec, &mg, scalar);

@@ -122,13 +122,19 @@ pub struct LdlInverse {
     pub inverse: Matrix,
 }
 
-/// Builds the unrolled `L D L'` inverse of the symmetric `s`; `reciprocal(j)` declares the
-/// variable that will hold `1 / d_j`.
-pub fn ldl_inverse(
+/// The unrolled factorisation `S = L D L'` of a symmetric matrix, `L` unit lower
+/// triangular, written in terms of the reciprocal variables of the pivots.
+struct LdlFactor {
+    l: Matrix,
+    pivots: Vec<NodeId>,
+    reciprocals: Vec<NodeId>,
+}
+
+fn ldl_factor(
     g: &mut Graph,
     s: &Matrix,
     mut reciprocal: impl FnMut(&mut Graph, usize) -> NodeId,
-) -> LdlInverse {
+) -> LdlFactor {
     let m = s.len();
     let zero = g.zero();
     let mut l = vec![vec![zero; m]; m];
@@ -155,6 +161,82 @@ pub fn ldl_inverse(
             l[i][j] = g.mul(v, inv_d[j]);
         }
     }
+    LdlFactor {
+        l,
+        pivots: d,
+        reciprocals: inv_d,
+    }
+}
+
+/// The solution of `S z = b` for a symmetric positive-definite `S`, through `S = L D L'`.
+pub struct LdlSolve {
+    /// The pivots `d_j` in order, to be checked positive as for [`LdlInverse`].
+    pub pivots: Vec<NodeId>,
+    /// Variables standing for `1 / d_j`.
+    pub reciprocals: Vec<NodeId>,
+    /// `z = S^-1 b`, in terms of the reciprocals.
+    pub solution: Vec<NodeId>,
+}
+
+/// Builds the unrolled solve of `S z = b`: the factorisation, then forward substitution
+/// `L w = b`, scaling `v = D^-1 w` and back substitution `L' z = v`. `reciprocal(j)`
+/// declares the variable that will hold `1 / d_j`.
+pub fn ldl_solve(
+    g: &mut Graph,
+    s: &Matrix,
+    b: &[NodeId],
+    reciprocal: impl FnMut(&mut Graph, usize) -> NodeId,
+) -> LdlSolve {
+    let m = s.len();
+    let LdlFactor {
+        l,
+        pivots,
+        reciprocals,
+    } = ldl_factor(g, s, reciprocal);
+    let mut w: Vec<NodeId> = Vec::with_capacity(m);
+    for i in 0..m {
+        let mut v = b[i];
+        for k in 0..i {
+            let term = g.mul(l[i][k], w[k]);
+            v = g.sub(v, term);
+        }
+        w.push(v);
+    }
+    let scaled: Vec<NodeId> = w
+        .iter()
+        .zip(&reciprocals)
+        .map(|(&wi, &inv)| g.mul(wi, inv))
+        .collect();
+    let mut z = vec![g.zero(); m];
+    for i in (0..m).rev() {
+        let mut v = scaled[i];
+        for k in i + 1..m {
+            let term = g.mul(l[k][i], z[k]);
+            v = g.sub(v, term);
+        }
+        z[i] = v;
+    }
+    LdlSolve {
+        pivots,
+        reciprocals,
+        solution: z,
+    }
+}
+
+/// Builds the unrolled `L D L'` inverse of the symmetric `s`; `reciprocal(j)` declares the
+/// variable that will hold `1 / d_j`.
+pub fn ldl_inverse(
+    g: &mut Graph,
+    s: &Matrix,
+    reciprocal: impl FnMut(&mut Graph, usize) -> NodeId,
+) -> LdlInverse {
+    let m = s.len();
+    let zero = g.zero();
+    let LdlFactor {
+        l,
+        pivots: d,
+        reciprocals: inv_d,
+    } = ldl_factor(g, s, reciprocal);
     // X = L^-1 (unit lower triangular), then S^-1 = X' D^-1 X.
     let one = g.one();
     let mut x = vec![vec![zero; m]; m];

@@ -8,6 +8,8 @@ pub mod kalman;
 pub mod linalg;
 pub mod model_graph;
 pub mod polynomial;
+pub mod predictive;
+pub mod riccati;
 pub mod switched;
 pub mod window;
 

@@ -1,0 +1,970 @@
+//! The adaptive model predictive controller with input bounds (Takacs, Polóni,
+//! Rohal'-Ilkiv, "Adaptive predictive control of transient vibrations of cantilevers with
+//! changing weight", sect. 3.3-3.5): at each solve, the prediction model at the estimate,
+//! the terminal weight by warm-started Riccati steps, the condensed problem of eqs.
+//! (42)-(44), and a primal active-set solve of its box-constrained QP. Each stage is a
+//! symbolic stage lowered to straight-line code; stages hand over through named values.
+
+use super::code::{
+    all_finite, guard_pivots, pack_upper, pivot_names, unpack_symmetric, var_idents,
+};
+use super::ekf::{model_names, packed_vars, time_param};
+use super::lower::{literal, Lowerer, OpCount};
+use super::lqr::loop_invariant_operands;
+use super::mpc_qp::{active_set_loop, MoveNames};
+use super::names::{ident, TempNamer};
+use crate::ast::Comparison;
+use crate::model::{Func, Model, MpcDiscretisation, MpcSpec, Scalar};
+use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
+use crate::symbolic::predictive::{condensed_qp, zoh_square, zoh_taylor};
+use crate::symbolic::riccati::riccati_step;
+use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
+use proc_macro2::{Ident, Literal, TokenStream};
+use quote::quote;
+use std::collections::BTreeSet;
+
+/// Generated MPC code and its cost.
+pub struct MpcCode {
+    /// The `Mpc` and `MpcStatus` types and their methods.
+    pub tokens: TokenStream,
+    /// The prediction model at the estimate, with the hold's squarings at their bound.
+    pub prediction_ops: OpCount,
+    /// All `RICCATI_ITERATIONS` steps towards the terminal weight and its gain.
+    pub riccati_ops: OpCount,
+    /// The condensed problem, eqs. (42)-(44).
+    pub condense_ops: OpCount,
+    /// One active-set iteration.
+    pub iteration_ops: OpCount,
+}
+
+/// Names the generated `solve` gives its values, kept clear of the model's names.
+pub(super) struct Names {
+    taken: Vec<String>,
+}
+
+impl Names {
+    fn new(model: &Model) -> Names {
+        Names {
+            taken: model_names(model),
+        }
+    }
+
+    /// A namer for temporaries that avoids the model's names.
+    pub(super) fn namer(&self) -> TempNamer {
+        TempNamer::new(self.taken.iter().map(String::as_str))
+    }
+
+    /// `base`, with `_` appended while a model name takes it.
+    pub(super) fn fresh(&self, base: &str) -> String {
+        let mut name = base.to_owned();
+        while self.taken.contains(&name) {
+            name.push('_');
+        }
+        name
+    }
+
+    /// Names as [`Names::fresh`] for the entries of a `rows x cols` matrix: `a12`, or
+    /// `a_1_12` when an index has two digits.
+    fn matrix(&self, prefix: &str, rows: usize, cols: usize) -> Vec<Vec<String>> {
+        let wide = rows >= 10 || cols >= 10;
+        (1..=rows)
+            .map(|i| {
+                (1..=cols)
+                    .map(|j| match wide {
+                        true => self.fresh(&format!("{prefix}_{i}_{j}")),
+                        false => self.fresh(&format!("{prefix}{i}{j}")),
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+}
+
+/// Code that computes some values under given names, and what it costs.
+struct Stage {
+    code: TokenStream,
+    ops: OpCount,
+}
+
+/// The variables later stages read for `values`, one per entry named by `names`; entries
+/// that are literals (a structural zero, a constant step) stay literals downstream.
+fn declare_matrix(g: &mut Graph, values: &Matrix, names: &[Vec<String>]) -> Matrix {
+    values
+        .iter()
+        .zip(names)
+        .map(|(row, names)| {
+            row.iter()
+                .zip(names)
+                .map(|(&v, name)| match g.literal(v) {
+                    Some(_) => v,
+                    None => g.var(name),
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Lowers each non-literal entry of `values` and binds it to its name (`let a11 = ..;`).
+fn bind_matrix(lowerer: &mut Lowerer, values: &Matrix, names: &[Vec<String>]) {
+    for (values, names) in values.iter().zip(names) {
+        for (&value, name) in values.iter().zip(names) {
+            bind_as(lowerer, value, name);
+        }
+    }
+}
+
+/// Lowers `value` and binds it to `name`, unless it is a literal.
+fn bind_as(lowerer: &mut Lowerer, value: NodeId, name: &str) {
+    if lowerer.graph().literal(value).is_some() {
+        return;
+    }
+    lowerer.prefer_name(value, name);
+    let expr = lowerer.force_let(value);
+    if expr.to_string() != name {
+        let id = ident(name);
+        lowerer.statement(quote! { let #id = #expr; });
+    }
+}
+
+/// Variables named `names`, entry by entry.
+fn matrix_vars(g: &mut Graph, names: &[Vec<String>]) -> Matrix {
+    names
+        .iter()
+        .map(|row| row.iter().map(|n| g.var(n)).collect())
+        .collect()
+}
+
+/// The MPC of `model` in `scalar`.
+pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) -> MpcCode {
+    let mut mg = mg.clone();
+    let names = Names::new(model);
+    let ty = ident(scalar.type_name());
+    let moves = MoveNames::new(model, spec, &names);
+    let prediction = prediction_model(model, spec, &mut mg, &names, scalar);
+    let (a, b) = (&prediction.a, &prediction.b);
+    let terminal = terminal_weight(&mut mg.graph, (a, b), spec, &names, scalar);
+    let condensed = condense(
+        model,
+        spec,
+        &mut mg,
+        (a, b, &terminal.p),
+        &moves,
+        &names,
+        scalar,
+    );
+    let qp = active_set_loop(&mut mg.graph, &moves, &names, scalar);
+
+    let (x_len, u_len) = (model.state_len(), model.inputs.len());
+    let [n, m, ns_len, nu_len] =
+        [x_len, u_len, spec.states.len(), spec.inputs.len()].map(Literal::usize_unsuffixed);
+    let prediction_signature = signature(model, &mg, &prediction.used, &ty);
+    let prediction_read = read_estimate(
+        &mg,
+        &prediction.used,
+        &reject(quote! { Status::RejectedInput }),
+    );
+    let prediction_code = &prediction.stage.code;
+    let (a_values, b_values) = (
+        returned(&mg.graph, a, scalar),
+        returned(&mg.graph, b, scalar),
+    );
+    let (a_pattern, b_pattern) = (received(&mg.graph, a), received(&mg.graph, b));
+    let solve_read = read_estimate(
+        &mg,
+        &condensed.used,
+        &failure(quote! { Status::RejectedInput }),
+    );
+    let time = model.uses_time().then(|| quote! { t: #ty, });
+    let time_arg = model.uses_time().then(|| quote! { t, });
+    let stages = [&terminal.stage.code, &condensed.stage.code, &qp.code];
+    let commit = commit(&moves, &terminal);
+    let failed = failure(quote! { status });
+    let methods = quote! {
+        /// The prediction model `x+ = A x + B u` (eq. 30) of the regulated states at the
+        /// estimate `x` and operating input `u`, as [`Mpc::solve`] takes it: `Err` if they
+        /// are not finite, or the hold would not be.
+        pub fn prediction_model(#prediction_signature) -> Result<([[#ty; #ns_len]; #ns_len], [[#ty; #nu_len]; #ns_len]), Status> {
+            #prediction_read
+            #prediction_code
+            Ok(([#(#a_values),*], [#(#b_values),*]))
+        }
+
+        /// Recomputes the plan for the estimate `x`: the prediction model at `x` (and
+        /// the operating input `u`), `RICCATI_ITERATIONS` Riccati steps from the last
+        /// terminal weight, the condensed problem (eqs. 42-44) and at most
+        /// `MAX_ITERATIONS` active-set iterations from the last plan, shifted by one
+        /// move. Leaves the controller unchanged unless the status is [`Status::Ok`].
+        pub fn solve(&mut self, #time x: &[#ty; #n], u: &[#ty; #m]) -> MpcStatus {
+            let (#a_pattern, #b_pattern) = match Self::prediction_model(#time_arg x, u) {
+                Ok(model) => model,
+                Err(status) => {
+                    #failed
+                }
+            };
+            #solve_read
+            #(#stages)*
+            #commit
+        }
+    };
+    let tokens = type_tokens(model, spec, methods, &moves, scalar, prediction.holds);
+    MpcCode {
+        tokens,
+        prediction_ops: prediction.stage.ops,
+        riccati_ops: terminal.stage.ops,
+        condense_ops: condensed.stage.ops,
+        iteration_ops: qp.iteration_ops,
+    }
+}
+
+/// The prediction model's code, `A` and `B` as the variables (or literals) it binds.
+struct Prediction {
+    stage: Stage,
+    a: Matrix,
+    b: Matrix,
+    /// The model variables the code reads.
+    used: BTreeSet<VarId>,
+    /// Whether `A` and `B` are the zero-order hold (with its `MAX_SQUARINGS`).
+    holds: bool,
+}
+
+/// Most squarings of the hold: the scaling brings `|| [Phi Gamma] T ||_1` to 1/2, so
+/// models up to `2^29` times stiffer than the sample rate are held exactly.
+const MAX_SQUARINGS: u32 = 30;
+
+/// `A` and `B` at the estimate (eq. 30): the Jacobians of the sample step, or the exact
+/// zero-order hold of `Phi = d(dx/dt)/dx`, `Gamma = d(dx/dt)/du` (sect. 3.3) by scaling
+/// and squaring around a Taylor core.
+fn prediction_model(
+    model: &Model,
+    spec: &MpcSpec,
+    mg: &mut ModelGraph,
+    names: &Names,
+    scalar: Scalar,
+) -> Prediction {
+    let (ns, nu) = (spec.states.len(), spec.inputs.len());
+    let states: Vec<NodeId> = spec.states.iter().map(|&i| mg.x[i]).collect();
+    let inputs: Vec<NodeId> = spec.inputs.iter().map(|&i| mg.u[i]).collect();
+    let holds = spec.discretisation == MpcDiscretisation::ZeroOrderHold;
+    let rows: Vec<NodeId> = if holds {
+        let (t, x) = (mg.t, mg.x.clone());
+        let rates = mg.derivative(model, t, &x);
+        spec.states.iter().map(|&i| rates[i]).collect()
+    } else {
+        spec.states.iter().map(|&i| mg.f[i]).collect()
+    };
+    let jac_x = mg.jacobian(&rows, &states);
+    let jac_u = mg.jacobian(&rows, &inputs);
+    let period = holds.then(|| sample_period(model, mg));
+    let (x_prefix, u_prefix) = if holds { ("phi", "gamma") } else { ("a", "b") };
+    let (x_names, u_names) = (
+        names.matrix(x_prefix, ns, ns),
+        names.matrix(u_prefix, ns, nu),
+    );
+    let g = &mut mg.graph;
+    let a = declare_matrix(g, &jac_x, &x_names);
+    let b = declare_matrix(g, &jac_u, &u_names);
+    let mut roots: Vec<NodeId> = jac_x.iter().chain(&jac_u).flatten().copied().collect();
+    roots.extend(period);
+    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
+    bind_matrix(&mut lowerer, &jac_x, &x_names);
+    bind_matrix(&mut lowerer, &jac_u, &u_names);
+    let period = period.map(|node| lowerer.segment(&[node]).remove(0));
+    let ops = lowerer.ops();
+    let jacobians = lowerer.take_statements();
+    let used = lowerer.finish().used_vars;
+    let Some(period) = period else {
+        let stage = Stage {
+            code: quote! { #(#jacobians)* },
+            ops,
+        };
+        return Prediction {
+            stage,
+            a,
+            b,
+            used,
+            holds,
+        };
+    };
+    let hold = zero_order_hold(g, (&a, &b), &period, names, scalar);
+    let hold_code = &hold.stage.code;
+    let stage = Stage {
+        code: quote! { #(#jacobians)* #hold_code },
+        ops: ops.plus(hold.stage.ops),
+    };
+    Prediction {
+        stage,
+        a: hold.a,
+        b: hold.b,
+        used,
+        holds,
+    }
+}
+
+/// The sample period `T` of continuous dynamics: the sub-step times their number.
+fn sample_period(model: &Model, mg: &mut ModelGraph) -> NodeId {
+    match mg.substep(model) {
+        Some((_, h, n)) => {
+            let n = mg.graph.num(f64::from(n));
+            mg.graph.mul(h, n)
+        }
+        None => mg.graph.one(),
+    }
+}
+
+/// `let [q, qd, ..] = *x;` for the entries the solve reads, and the check that they (and
+/// the operating input) are finite.
+fn read_estimate(mg: &ModelGraph, used: &BTreeSet<VarId>, rejected: &TokenStream) -> TokenStream {
+    let g = &mg.graph;
+    let unpack_x = super::code::destructure(g, quote! { *x }, &mg.x, used);
+    let unpack_u = super::code::destructure(g, quote! { *u }, &mg.u, used);
+    let checked: Vec<Ident> =
+        mg.x.iter()
+            .chain(&mg.u)
+            .filter(|&&v| used.contains(&mg.var_id(v)))
+            .map(|&v| ident(&g.var_info(mg.var_id(v)).name))
+            .collect();
+    let check = (!checked.is_empty()).then(|| {
+        let finite = all_finite(&checked);
+        quote! {
+            if !(#finite) {
+                #rejected
+            }
+        }
+    });
+    quote! {
+        #unpack_x
+        #unpack_u
+        #check
+    }
+}
+
+/// `return Err(status);`, how the prediction model gives up.
+fn reject(status: TokenStream) -> TokenStream {
+    quote! { return Err(#status); }
+}
+
+/// The rows of `A` or `B` as returned: variables by name, literals as literals.
+fn returned(g: &Graph, m: &Matrix, scalar: Scalar) -> Vec<TokenStream> {
+    m.iter()
+        .map(|row| {
+            let entries = row.iter().map(|&v| match g.literal(v) {
+                Some(value) => literal(value, scalar),
+                None => match g.node(v) {
+                    crate::symbolic::Node::Var(id) => {
+                        let name = ident(&g.var_info(id).name);
+                        quote! { #name }
+                    }
+                    _ => literal(0.0, scalar),
+                },
+            });
+            quote! { [#(#entries),*] }
+        })
+        .collect()
+}
+
+/// `[[a11, _], ..]`: the pattern that receives `A` or `B`, naming the entries later
+/// stages read as variables (literal entries stay literals there).
+fn received(g: &Graph, m: &Matrix) -> TokenStream {
+    let rows = m.iter().map(|row| {
+        let entries = row.iter().map(|&v| match g.node(v) {
+            crate::symbolic::Node::Var(id) => {
+                let name = ident(&g.var_info(id).name);
+                quote! { #name }
+            }
+            _ => quote! { _ },
+        });
+        quote! { [#(#entries),*] }
+    });
+    quote! { [#(#rows),*] }
+}
+
+/// `return MpcStatus { status, .. };` for a solve that changed nothing.
+pub(super) fn failure(status: TokenStream) -> TokenStream {
+    quote! {
+        return MpcStatus {
+            status: #status,
+            optimal: false,
+            iterations: 0,
+            terminal_weight_converged: false,
+        };
+    }
+}
+
+/// The hold's code, and `A`, `B` as the variables it binds.
+struct Hold {
+    stage: Stage,
+    a: Matrix,
+    b: Matrix,
+}
+
+/// Scaling and squaring: halve `T` until `|| [Phi Gamma] h ||_1 <= 1/2` (at most
+/// `MAX_SQUARINGS` times), take the Taylor core of the hold over `h`, and square it back
+/// up to `T`. Halving and doubling by two are exact in floating point.
+fn zero_order_hold(
+    g: &mut Graph,
+    (phi, gamma): (&Matrix, &Matrix),
+    period: &TokenStream,
+    names: &Names,
+    scalar: Scalar,
+) -> Hold {
+    let (ns, nu) = (phi.len(), gamma.first().map_or(0, Vec::len));
+    let step_name = names.fresh("hold_step");
+    let step = g.var(&step_name);
+    let norm = column_norm(g, phi, gamma);
+    let times_step = |g: &mut Graph, m: &Matrix| -> Matrix {
+        m.iter()
+            .map(|r| r.iter().map(|&v| g.mul(v, step)).collect())
+            .collect()
+    };
+    let (f, gh) = (times_step(g, phi), times_step(g, gamma));
+    let (a_core, b_core) = zoh_taylor(g, &f, &gh);
+    let (a_names, b_names) = (names.matrix("a", ns, ns), names.matrix("b", ns, nu));
+    let (a, b) = (matrix_vars(g, &a_names), matrix_vars(g, &b_names));
+    let (a_squared, b_squared) = zoh_square(g, &a, &b);
+
+    let core: Vec<NodeId> = a_core.iter().chain(&b_core).flatten().copied().collect();
+    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &[&[norm][..], &core].concat());
+    let norm_value = lowerer.segment(&[norm]).remove(0);
+    let norm_ops = lowerer.ops();
+    let norm_statements = lowerer.take_statements();
+    let core_values = lowerer.segment(&core);
+    let core_ops = lowerer.ops().minus(norm_ops);
+    let core_statements = lowerer.take_statements();
+
+    let squared: Vec<NodeId> = a_squared
+        .iter()
+        .chain(&b_squared)
+        .flatten()
+        .copied()
+        .collect();
+    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &squared);
+    let squared_values = lowerer.segment(&squared);
+    let square_ops = lowerer.ops();
+    let square_statements = lowerer.take_statements();
+
+    let [half, two] = [0.5, 2.0].map(|v| literal(v, scalar));
+    let step = ident(&step_name);
+    let (a_pattern, b_pattern) = (matrix_pattern(&a_names), matrix_pattern(&b_names));
+    let (a_core, b_core) = core_values.split_at(ns * ns);
+    let (a_core, b_core) = (rows(a_core, ns), rows(b_core, nu));
+    let (a_squared, b_squared) = squared_values.split_at(ns * ns);
+    let (a_squared, b_squared) = (rows(a_squared, ns), rows(b_squared, nu));
+    let too_stiff = reject(quote! { Status::NonFinite });
+    let code = quote! {
+        // The zero-order hold over the sample (sect. 3.3): halve the step until the 1-norm
+        // of [Phi Gamma] times it is at most 1/2 ...
+        #(#norm_statements)*
+        let mut scaled_norm = #norm_value * #period;
+        let mut #step = #period;
+        for _ in 0..Self::MAX_SQUARINGS {
+            if scaled_norm <= #half {
+                break;
+            }
+            scaled_norm *= #half;
+            #step *= #half;
+        }
+        if !scaled_norm.is_finite() || scaled_norm > #half {
+            #too_stiff
+        }
+        // ... hold over that step by the Taylor series (the paper's j = 10 terms) ...
+        #(#core_statements)*
+        let mut hold_a = [#(#a_core),*];
+        let mut hold_b = [#(#b_core),*];
+        // ... and square back up to the whole sample: A <- A A, B <- A B + B.
+        for _ in 0..Self::MAX_SQUARINGS {
+            if #step >= #period {
+                break;
+            }
+            #step *= #two;
+            let #a_pattern = hold_a;
+            let #b_pattern = hold_b;
+            #(#square_statements)*
+            hold_a = [#(#a_squared),*];
+            hold_b = [#(#b_squared),*];
+        }
+        let #a_pattern = hold_a;
+        let #b_pattern = hold_b;
+    };
+    let ops = norm_ops
+        .plus(core_ops)
+        .plus(square_ops.times(MAX_SQUARINGS));
+    Hold {
+        stage: Stage { code, ops },
+        a,
+        b,
+    }
+}
+
+/// `|| [Phi Gamma] ||_1`: the largest column sum of magnitudes.
+fn column_norm(g: &mut Graph, phi: &Matrix, gamma: &Matrix) -> NodeId {
+    let ns = phi.len();
+    let columns = ns + gamma.first().map_or(0, Vec::len);
+    let mut norm = None;
+    for j in 0..columns {
+        let mut sum = g.zero();
+        for i in 0..ns {
+            let entry = if j < ns { phi[i][j] } else { gamma[i][j - ns] };
+            let magnitude = g.call(Func::Abs, entry);
+            sum = g.add(sum, magnitude);
+        }
+        norm = Some(match norm {
+            None => sum,
+            Some(n) => g.select(Comparison::Gt, sum, n, sum, n),
+        });
+    }
+    norm.unwrap_or_else(|| g.zero())
+}
+
+/// `[[a11, a12], [a21, a22]]` as a pattern.
+fn matrix_pattern(names: &[Vec<String>]) -> TokenStream {
+    let rows = names.iter().map(|row| {
+        let row = row.iter().map(|n| ident(n));
+        quote! { [#(#row),*] }
+    });
+    quote! { [#(#rows),*] }
+}
+
+/// Values grouped into rows of `cols`.
+fn rows(values: &[TokenStream], cols: usize) -> Vec<TokenStream> {
+    values
+        .chunks(cols.max(1))
+        .map(|row| quote! { [#(#row),*] })
+        .collect()
+}
+
+/// The terminal weight's code and the variables holding its converged value.
+struct Terminal {
+    stage: Stage,
+    /// `P_f`, packed, as the variables the condensed stage reads.
+    p: Vec<NodeId>,
+    /// `p11 ..` and the gain's names, for the commit.
+    p_idents: Vec<Ident>,
+    gain_idents: Vec<Vec<Ident>>,
+}
+
+/// `RICCATI_ITERATIONS` steps of `P <- A'PA - A'PB (R + B'PB)^-1 B'PA + Q` (the fixed
+/// point is eq. 35's `P_f`) from the last solve's terminal weight, which so tracks `P_f`
+/// as the model changes; then the gain `K` of eq. (41). Converged when the last step
+/// changed `P` by at most `RICCATI_TOLERANCE` of its size (sums of magnitudes).
+fn terminal_weight(
+    g: &mut Graph,
+    (a, b): (&Matrix, &Matrix),
+    spec: &MpcSpec,
+    names: &Names,
+    scalar: Scalar,
+) -> Terminal {
+    let (ns, nu) = (spec.states.len(), spec.inputs.len());
+    let p_vars = packed_vars(g, "p", ns, &names.taken);
+    let q_vars = packed_vars(g, "q", ns, &names.taken);
+    let r_vars = packed_vars(g, "r", nu, &names.taken);
+    let p = symmetric_from_packed(&p_vars, ns);
+    let (q, r) = (
+        symmetric_from_packed(&q_vars, ns),
+        symmetric_from_packed(&r_vars, nu),
+    );
+    const WEIGHT: (&str, &str) = ("weight", "inv_weight");
+    let step = riccati_step(g, (a, b), &p, (&q, &r), |g, j| {
+        g.var(&pivot_names(nu, j, WEIGHT, "").1)
+    });
+    let gain: Vec<NodeId> = step.gain.iter().flatten().copied().collect();
+    let loop_vars: Vec<NodeId> = p_vars.iter().chain(&step.reciprocals).copied().collect();
+    let body_roots: Vec<NodeId> = step.p_next.iter().chain(&step.pivots).copied().collect();
+    let invariant = loop_invariant_operands(g, &body_roots, &loop_vars);
+    let roots = [&body_roots[..], &gain, &invariant].concat();
+    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
+    for &node in &invariant {
+        lowerer.force_let(node);
+    }
+    let before = lowerer.ops();
+    let hoisted = lowerer.take_statements();
+    // The gain after the loop comes from a fork taken here, so it does not rely on
+    // temporaries scoped inside the loop body.
+    let mut after = lowerer.clone();
+    let on_failure = failure(quote! { Status::NonPositiveControlWeight });
+    let pivots = (&step.pivots[..], &step.reciprocals[..]);
+    guard_pivots(
+        &mut lowerer,
+        pivots.0,
+        pivots.1,
+        (WEIGHT, ""),
+        &on_failure,
+        scalar,
+    );
+    let p_next = lowerer.segment(&step.p_next);
+    let body = lowerer.take_statements();
+    let per_step = lowerer.ops().minus(before);
+    guard_pivots(
+        &mut after,
+        pivots.0,
+        pivots.1,
+        (WEIGHT, ""),
+        &on_failure,
+        scalar,
+    );
+    let gain_values = after.segment(&gain);
+    let gain_statements = after.take_statements();
+    let gain_ops = after.ops().minus(before);
+
+    let p_idents = var_idents(g, &p_vars);
+    let (q_idents, r_idents) = (var_idents(g, &q_vars), var_idents(g, &r_vars));
+    let gain_idents: Vec<Vec<Ident>> = names
+        .matrix("k", nu, ns)
+        .iter()
+        .map(|row| row.iter().map(|n| ident(n)).collect())
+        .collect();
+    let gain_flat = gain_idents.iter().flatten();
+    let previous: Vec<Ident> = p_idents
+        .iter()
+        .map(|p| ident(&format!("previous_{p}")))
+        .collect();
+    let abs = abs_fn(scalar);
+    let changes = p_idents
+        .iter()
+        .zip(&previous)
+        .map(|(p, prev)| quote! { #abs(#p - #prev) });
+    let sizes = p_idents.iter().map(|p| quote! { #abs(#p) });
+    let code = quote! {
+        // The terminal weight P_f (eq. 35) by Riccati steps from the last solve's.
+        let [#(#q_idents),*] = self.q;
+        let [#(#r_idents),*] = self.r;
+        #(#hoisted)*
+        let mut p = self.terminal_weight;
+        let mut previous_p = p;
+        for _ in 0..Self::RICCATI_ITERATIONS {
+            let [#(#p_idents),*] = p;
+            #(#body)*
+            previous_p = p;
+            p = [#(#p_next),*];
+        }
+        let [#(#p_idents),*] = p;
+        let [#(#previous),*] = previous_p;
+        let terminal_weight_converged =
+            #(#changes)+* <= Self::RICCATI_TOLERANCE * (#(#sizes)+*);
+        // The gain of the fixed feedback after the horizon (eq. 41).
+        #(#gain_statements)*
+        #(let #gain_flat = #gain_values;)*
+    };
+    let riccati = per_step.times(spec.riccati_iterations);
+    let ops = before.plus(riccati).plus(gain_ops);
+    Terminal {
+        stage: Stage { code, ops },
+        p: p_vars,
+        p_idents,
+        gain_idents,
+    }
+}
+
+/// `libm::fabs` or `libm::fabsf`.
+fn abs_fn(scalar: Scalar) -> TokenStream {
+    match scalar {
+        Scalar::F32 => quote! { libm::fabsf },
+        Scalar::F64 => quote! { libm::fabs },
+    }
+}
+
+/// The condensed problem's code, which binds `H` (packed) and `c` by name, and the model
+/// variables it reads.
+struct Condensed {
+    stage: Stage,
+    used: BTreeSet<VarId>,
+}
+
+/// Eqs. (42)-(44) on the deviation `x - x_ref` of the regulated states.
+fn condense(
+    model: &Model,
+    spec: &MpcSpec,
+    mg: &mut ModelGraph,
+    (a, b, p): (&Matrix, &Matrix, &[NodeId]),
+    moves: &MoveNames,
+    names: &Names,
+    scalar: Scalar,
+) -> Condensed {
+    let (ns, nu) = (spec.states.len(), spec.inputs.len());
+    let references: Vec<String> = spec
+        .states
+        .iter()
+        .map(|&i| names.fresh(&format!("{}_ref", model.states[i].name)))
+        .collect();
+    let g = &mut mg.graph;
+    let q = symmetric_from_packed(&packed_vars(g, "q", ns, &names.taken), ns);
+    let r = symmetric_from_packed(&packed_vars(g, "r", nu, &names.taken), nu);
+    let terminal = symmetric_from_packed(p, ns);
+    let deviation: Vec<NodeId> = spec
+        .states
+        .iter()
+        .zip(&references)
+        .map(|(&i, name)| {
+            let reference = g.var(name);
+            g.sub(mg.x[i], reference)
+        })
+        .collect();
+    let horizon = spec.horizon as usize;
+    let qp = condensed_qp(g, (a, b), (&q, &r, &terminal), &deviation, horizon);
+    let roots = [&qp.hessian[..], &qp.linear].concat();
+    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
+    let named = qp.hessian.iter().zip(&moves.hessian);
+    for (&node, name) in named.chain(qp.linear.iter().zip(&moves.linear)) {
+        bind_as(&mut lowerer, node, name);
+    }
+    let ops = lowerer.ops();
+    let statements = lowerer.take_statements();
+    let used = lowerer.finish().used_vars;
+    let references = references.iter().map(|n| ident(n));
+    let code = quote! {
+        // The condensed problem (eqs. 42-44) on the deviation from the reference.
+        let [#(#references),*] = self.x_ref;
+        #(#statements)*
+    };
+    Condensed {
+        stage: Stage { code, ops },
+        used,
+    }
+}
+
+/// The plan's commit: moves back to absolute inputs, clipped to the bounds (so rounding
+/// never puts one outside), then the finiteness check of everything stored.
+fn commit(moves: &MoveNames, terminal: &Terminal) -> TokenStream {
+    let plan = moves.absolute_plan();
+    let (p, gain) = (&terminal.p_idents, &terminal.gain_idents);
+    let gain_rows = gain.iter().map(|row| quote! { [#(#row),*] });
+    let stored: Vec<Ident> = moves
+        .absolute_names()
+        .into_iter()
+        .chain(p.iter().cloned())
+        .chain(gain.iter().flatten().cloned())
+        .collect();
+    let finite = all_finite(&stored);
+    let non_finite = failure(quote! { Status::NonFinite });
+    let plan_rows = moves.plan_rows();
+    quote! {
+        #plan
+        if !(#finite) {
+            #non_finite
+        }
+        self.plan = [#(#plan_rows),*];
+        self.terminal_weight = [#(#p),*];
+        self.terminal_gain = [#(#gain_rows),*];
+        MpcStatus {
+            status: Status::Ok,
+            optimal,
+            iterations: steps,
+            terminal_weight_converged,
+        }
+    }
+}
+
+/// `t: f32, x: &[f32; N], u: &[f32; M]`, naming unread arguments `_x`, `_u`.
+fn signature(
+    model: &Model,
+    mg: &ModelGraph,
+    used: &std::collections::BTreeSet<crate::symbolic::VarId>,
+    ty: &Ident,
+) -> TokenStream {
+    let reads = |vars: &[NodeId]| vars.iter().any(|&v| used.contains(&mg.var_id(v)));
+    let x_name = ident(if reads(&mg.x) { "x" } else { "_x" });
+    let u_name = ident(if reads(&mg.u) { "u" } else { "_u" });
+    let n = Literal::usize_unsuffixed(model.state_len());
+    let m = Literal::usize_unsuffixed(model.inputs.len());
+    let time = model.uses_time().then(|| {
+        let t = time_param(&mg.graph, mg.t, used, ty, "t");
+        quote! { #t, }
+    });
+    quote! { #time #x_name: &[#ty; #n], #u_name: &[#ty; #m] }
+}
+
+/// The `Mpc` and `MpcStatus` types around `solve`.
+fn type_tokens(
+    model: &Model,
+    spec: &MpcSpec,
+    solve: TokenStream,
+    moves: &MoveNames,
+    scalar: Scalar,
+    holds: bool,
+) -> TokenStream {
+    let ty = ident(scalar.type_name());
+    let (ns, nu) = (spec.states.len(), spec.inputs.len());
+    let [ns_len, nu_len, nsp, nup, horizon] = [
+        ns,
+        nu,
+        packed_len(ns),
+        packed_len(nu),
+        spec.horizon as usize,
+    ]
+    .map(Literal::usize_unsuffixed);
+    let max_iterations = Literal::u32_unsuffixed(spec.max_iterations);
+    let passes = Literal::u32_unsuffixed(spec.max_iterations + 1);
+    let riccati_iterations = Literal::u32_unsuffixed(spec.riccati_iterations);
+    // Both tolerances sit well above the scalar's rounding of the sums they compare.
+    let tolerance = literal(
+        match scalar {
+            Scalar::F32 => 1e-5,
+            Scalar::F64 => 1e-12,
+        },
+        scalar,
+    );
+    let zero = literal(0.0, scalar);
+    let (pack_q, pack_r) = (pack_upper("q", ns), pack_upper("r", nu));
+    let state_names: Vec<&str> = spec
+        .states
+        .iter()
+        .map(|&i| model.states[i].name.as_str())
+        .collect();
+    let input_names: Vec<&str> = spec
+        .inputs
+        .iter()
+        .map(|&i| model.inputs[i].name.as_str())
+        .collect();
+    let doc = format!(
+        " Adaptive model predictive control of `[{}]` with `[{}]` within input bounds: \
+         the dual-mode, infinite-horizon constrained controller of Takacs, Polóni and \
+         Rohal'-Ilkiv, \"Adaptive predictive control of transient vibrations of \
+         cantilevers with changing weight\" (sect. 3.4). [`Mpc::solve`] takes the model \
+         at the estimate ({}), moves the terminal weight towards the solution of the \
+         discrete algebraic Riccati equation, condenses the cost over `HORIZON` moves and \
+         minimises it within the bounds by a primal active-set method warm-started from \
+         the last plan; [`Mpc::control`] is the plan's first move.",
+        state_names.join(", "),
+        input_names.join(", "),
+        if holds {
+            "the exact zero-order hold of its continuous linearisation"
+        } else {
+            "the Jacobians of its sample step"
+        }
+    );
+    let squarings = holds.then(|| {
+        let max = Literal::u32_unsuffixed(MAX_SQUARINGS);
+        quote! {
+            /// Most squarings of the zero-order hold (scaling and squaring).
+            pub const MAX_SQUARINGS: u32 = #max;
+        }
+    });
+    let state_refs: Vec<Ident> = state_names
+        .iter()
+        .map(|n| ident(&format!("{n}_ref")))
+        .collect();
+    let reference_check = moves.reference_check(&state_refs);
+    let bounds_check = moves.bounds_check();
+    let start_move = moves.start_move(&zero);
+    let terminal_weight = unpack_symmetric("terminal_weight", ns);
+    quote! {
+        /// What an [`Mpc::solve`] did.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        #[must_use = "a solve that did not return `Status::Ok` left the controller unchanged"]
+        pub struct MpcStatus {
+            /// [`Status::Ok`] when the new plan was stored; otherwise nothing changed.
+            pub status: Status,
+            /// Whether the plan is the problem's minimiser (no bound held has a negative
+            /// multiplier). If not, `MAX_ITERATIONS` ran out: the plan is the last iterate,
+            /// within the bounds and no costlier than the shifted last plan.
+            pub optimal: bool,
+            /// Active-set iterations (Newton steps on the free moves) used.
+            pub iterations: u32,
+            /// Whether the last Riccati step changed the terminal weight by at most
+            /// `RICCATI_TOLERANCE` of its size: the weight then solves the discrete
+            /// algebraic Riccati equation (eq. 35) of the current model, and without
+            /// active bounds the first move is the infinite-horizon LQR's.
+            pub terminal_weight_converged: bool,
+        }
+
+        #[doc = #doc]
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Mpc {
+            q: [#ty; #nsp],
+            r: [#ty; #nup],
+            u_min: [#ty; #nu_len],
+            u_max: [#ty; #nu_len],
+            x_ref: [#ty; #ns_len],
+            u_ref: [#ty; #nu_len],
+            terminal_weight: [#ty; #nsp],
+            terminal_gain: [[#ty; #ns_len]; #nu_len],
+            plan: [[#ty; #nu_len]; #horizon],
+        }
+
+        impl Mpc {
+            /// Moves optimised over, `n`.
+            pub const HORIZON: usize = #horizon;
+            /// Bound on the active-set iterations (Newton steps) of one solve.
+            pub const MAX_ITERATIONS: u32 = #max_iterations;
+            /// Passes of the active-set loop: one per iteration, and one more that only
+            /// checks the multipliers after the last step.
+            const PASSES: u32 = #passes;
+            /// Riccati steps per solve towards the terminal weight.
+            pub const RICCATI_ITERATIONS: u32 = #riccati_iterations;
+            /// Relative change of the terminal weight under which it counts as converged.
+            pub const RICCATI_TOLERANCE: #ty = #tolerance;
+            /// A bound stays held unless releasing it would move its input by more than
+            /// this fraction of the input's range (its multiplier is below
+            /// `-RELEASE_TOLERANCE (u_max - u_min) H_ii`), so rounding cannot cycle the
+            /// active set.
+            pub const RELEASE_TOLERANCE: #ty = #tolerance;
+            #squarings
+
+            /// A controller with state weight `q` and input weight `r` (symmetric: upper
+            /// triangles are read; `r` positive definite) and the input bounds
+            /// `u_min < u_max`, regulating to zero until [`Mpc::set_reference`]. The
+            /// terminal weight starts at `q` and converges over the first solves; the plan
+            /// starts at zero, clipped to the bounds. Rejects bounds that are not finite
+            /// or leave no room.
+            pub fn new(
+                q: &[[#ty; #ns_len]; #ns_len],
+                r: &[[#ty; #nu_len]; #nu_len],
+                u_min: [#ty; #nu_len],
+                u_max: [#ty; #nu_len],
+            ) -> Result<Mpc, Status> {
+                #bounds_check
+                let q = #pack_q;
+                Ok(Mpc {
+                    q,
+                    r: #pack_r,
+                    u_min,
+                    u_max,
+                    x_ref: [#zero; #ns_len],
+                    u_ref: [#zero; #nu_len],
+                    terminal_weight: q,
+                    terminal_gain: [[#zero; #ns_len]; #nu_len],
+                    plan: [#start_move; #horizon],
+                })
+            }
+
+            /// Regulates the states to `x_ref` with the inputs around `u_ref`: the plan
+            /// `u = u_ref + du` minimises the cost of `x - x_ref` and `du`. For a set-point
+            /// of the linear model, `u_ref` is the input that holds it
+            /// (`x_ref = A x_ref + B u_ref`). Rejects non-finite values, leaving the
+            /// reference as it was.
+            pub fn set_reference(&mut self, x_ref: [#ty; #ns_len], u_ref: [#ty; #nu_len]) -> Status {
+                #reference_check
+                self.x_ref = x_ref;
+                self.u_ref = u_ref;
+                Status::Ok
+            }
+
+            #solve
+
+            /// The first move of the last plan: the input to apply now.
+            #[must_use]
+            pub fn control(&self) -> [#ty; #nu_len] {
+                let [first, ..] = self.plan;
+                first
+            }
+
+            /// The last plan: `HORIZON` moves, all within the bounds.
+            #[must_use]
+            pub fn plan(&self) -> [[#ty; #nu_len]; #horizon] {
+                self.plan
+            }
+
+            /// The terminal weight `P_f` of the last solve.
+            #[must_use]
+            pub fn terminal_weight(&self) -> [[#ty; #ns_len]; #ns_len] {
+                #terminal_weight
+            }
+
+            /// The gain `K` of the last solve's terminal weight (eq. 41), `u = -K x`: the
+            /// infinite-horizon LQR of the current model once the weight has converged.
+            #[must_use]
+            pub fn terminal_gain(&self) -> [[#ty; #ns_len]; #nu_len] {
+                self.terminal_gain
+            }
+        }
+    }
+}

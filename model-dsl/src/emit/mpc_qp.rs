@@ -1,0 +1,489 @@
+//! The MPC's box-constrained QP, `min 1/2 v' H v + c' v` with `low <= v <= high`,
+//! by a primal active-set method unrolled over its `HORIZON x inputs` moves: each
+//! iteration either checks the multipliers of the bounds held (after a full step: the
+//! iterate then minimises the cost with those bounds fixed) and releases the most
+//! negative, or takes the Newton step on the free moves and stops at the first bound in
+//! the way, which is then held. The iterate stays feasible and the cost never rises, so
+//! when `MAX_ITERATIONS` runs out the last iterate is the best feasible plan found.
+//!
+//! Chosen over projected gradient and ADMM because the condensed problem of a lightly
+//! damped structure is small and dense, its Hessian is formed anyway, and the warm start
+//! from the shifted plan usually holds the right bounds: one or two `L D L'` solves
+//! finish it, with an exact answer rather than a tolerance-bound one.
+
+use super::code::{all_finite, guard_pivots, packed_names, pivot_names};
+use super::lower::{literal, Lowerer, OpCount};
+use super::mpc::{failure, Names};
+use super::names::ident;
+use crate::model::{Model, MpcSpec, Scalar};
+use crate::symbolic::linalg::{ldl_solve, matmul, symmetric_from_packed, Matrix};
+use crate::symbolic::Graph;
+use proc_macro2::{Ident, TokenStream};
+use quote::quote;
+
+/// The names of the moves and of the values per move and per input.
+pub struct MoveNames {
+    /// Per input: its name.
+    inputs: Vec<String>,
+    /// Per move, step by step (`u_1`, then `u_2`, ..; each step all inputs): its name.
+    moves: Vec<String>,
+    /// Per move: the index of its input.
+    input_of: Vec<usize>,
+    /// `H`'s packed entries: `h11 ..` or `h_1_1 ..`.
+    pub hessian: Vec<String>,
+    /// `c`'s entries: `c_u_1 ..`.
+    pub linear: Vec<String>,
+}
+
+impl MoveNames {
+    /// The moves of `spec`'s inputs over its horizon.
+    pub fn new(model: &Model, spec: &MpcSpec, names: &Names) -> MoveNames {
+        let inputs: Vec<String> = spec
+            .inputs
+            .iter()
+            .map(|&i| model.inputs[i].name.clone())
+            .collect();
+        let mut moves = Vec::new();
+        let mut input_of = Vec::new();
+        for step in 1..=spec.horizon {
+            for (i, input) in inputs.iter().enumerate() {
+                moves.push(names.fresh(&format!("{input}_{step}")));
+                input_of.push(i);
+            }
+        }
+        let taken = |name: &str| names.fresh(name) != name;
+        let hessian = packed_names("h", moves.len(), &taken);
+        let linear = moves
+            .iter()
+            .map(|m| names.fresh(&format!("c_{m}")))
+            .collect();
+        MoveNames {
+            inputs,
+            moves,
+            input_of,
+            hessian,
+            linear,
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.moves.len()
+    }
+
+    /// `<prefix>_<move>` for every move.
+    fn per_move(&self, prefix: &str) -> Vec<Ident> {
+        self.moves
+            .iter()
+            .map(|m| ident(&format!("{prefix}_{m}")))
+            .collect()
+    }
+
+    /// `<input>_<suffix>` for the input of every move.
+    fn per_move_input(&self, suffix: &str) -> Vec<Ident> {
+        self.input_of
+            .iter()
+            .map(|&i| ident(&format!("{}_{suffix}", self.inputs[i])))
+            .collect()
+    }
+
+    /// `<input>_<suffix>` for every input.
+    fn per_input(&self, suffix: &str) -> Vec<Ident> {
+        self.inputs
+            .iter()
+            .map(|i| ident(&format!("{i}_{suffix}")))
+            .collect()
+    }
+
+    fn move_idents(&self) -> Vec<Ident> {
+        self.moves.iter().map(|m| ident(m)).collect()
+    }
+
+    /// The rejection of bounds that are not finite or not `u_min < u_max`, for `new`.
+    pub fn bounds_check(&self) -> TokenStream {
+        let (min, max) = (self.per_input("minimum"), self.per_input("maximum"));
+        let finite: Vec<Ident> = min.iter().chain(&max).cloned().collect();
+        let finite = all_finite(&finite);
+        quote! {
+            let [#(#min),*] = u_min;
+            let [#(#max),*] = u_max;
+            if !(#finite) #(|| #min >= #max)* {
+                return Err(Status::RejectedInput);
+            }
+        }
+    }
+
+    /// The first plan's move, zero clipped to the bounds (`new`, after
+    /// [`MoveNames::bounds_check`]).
+    pub fn start_move(&self, zero: &TokenStream) -> TokenStream {
+        let (min, max) = (self.per_input("minimum"), self.per_input("maximum"));
+        let clipped = min.iter().zip(&max).map(|(lo, hi)| {
+            quote! {
+                if #zero < #lo {
+                    #lo
+                } else if #zero > #hi {
+                    #hi
+                } else {
+                    #zero
+                }
+            }
+        });
+        quote! { [#(#clipped),*] }
+    }
+
+    /// `set_reference`'s check that the reference is finite.
+    pub fn reference_check(&self, state_refs: &[Ident]) -> TokenStream {
+        let inputs = self.per_input("ref");
+        let all: Vec<Ident> = state_refs.iter().chain(&inputs).cloned().collect();
+        let finite = all_finite(&all);
+        quote! {
+            let finite = {
+                let [#(#state_refs),*] = x_ref;
+                let [#(#inputs),*] = u_ref;
+                #finite
+            };
+            if !finite {
+                return Status::RejectedInput;
+            }
+        }
+    }
+
+    /// The plan in absolute inputs, each clipped to its bounds, named `plan_<move>`.
+    pub fn absolute_plan(&self) -> TokenStream {
+        let plan = self.per_move("plan");
+        let (reference, min, max) = (
+            self.per_move_input("ref"),
+            self.per_move_input("minimum"),
+            self.per_move_input("maximum"),
+        );
+        let moves = self.move_idents();
+        let absolute = self.per_move("absolute");
+        let clipped = absolute
+            .iter()
+            .zip(min.iter().zip(&max))
+            .map(|(v, (lo, hi))| clip(v, lo, hi));
+        quote! {
+            // Back to absolute inputs, clipped so that rounding never leaves the bounds.
+            #(let #absolute = #moves + #reference;)*
+            #(let #plan = #clipped;)*
+        }
+    }
+
+    /// The names [`MoveNames::absolute_plan`] binds.
+    pub fn absolute_names(&self) -> Vec<Ident> {
+        self.per_move("plan")
+    }
+
+    /// The plan's rows, `[plan_u_1], [plan_u_2], ..`.
+    pub fn plan_rows(&self) -> Vec<TokenStream> {
+        let plan = self.per_move("plan");
+        plan.chunks(self.inputs.len().max(1))
+            .map(|row| quote! { [#(#row),*] })
+            .collect()
+    }
+}
+
+/// `if v < lo { lo } else if v > hi { hi } else { v }`
+fn clip(v: &Ident, lo: &Ident, hi: &Ident) -> TokenStream {
+    quote! {
+        if #v < #lo {
+            #lo
+        } else if #v > #hi {
+            #hi
+        } else {
+            #v
+        }
+    }
+}
+
+/// The active-set solve's code (bounds, warm start, the loop) and one iteration's cost.
+pub struct QpCode {
+    /// Statements from the bounds to the end of the loop; they leave the moves, `optimal`
+    /// and `iterations` bound.
+    pub code: TokenStream,
+    /// Arithmetic of one iteration.
+    pub iteration_ops: OpCount,
+}
+
+/// The loop, on the names of `moves`: `H` and `c` must be bound before it.
+pub fn active_set_loop(g: &mut Graph, moves: &MoveNames, names: &Names, scalar: Scalar) -> QpCode {
+    let m = moves.len();
+    let hessian_vars: Vec<_> = moves.hessian.iter().map(|n| g.var(n)).collect();
+    let linear_vars: Vec<_> = moves.linear.iter().map(|n| g.var(n)).collect();
+    let move_vars: Vec<_> = moves.moves.iter().map(|n| g.var(n)).collect();
+    let hessian = symmetric_from_packed(&hessian_vars, m);
+    // grad = H v + c
+    let column: Matrix = move_vars.iter().map(|&v| vec![v]).collect();
+    let product = matmul(g, &hessian, &column);
+    let gradient: Vec<_> = product
+        .iter()
+        .zip(&linear_vars)
+        .map(|(row, &c)| g.add(row[0], c))
+        .collect();
+    // The Newton step on the free moves: H~ p = rhs, with H~ = H on the free moves and the
+    // identity on the held ones, rhs = -grad on the free moves and 0 on the held ones.
+    let taken = |name: &str| names.fresh(name) != name;
+    let masked_names = packed_names("masked", m, &taken);
+    let masked_vars: Vec<_> = masked_names.iter().map(|n| g.var(n)).collect();
+    let rhs_idents = moves.per_move("rhs");
+    let rhs_vars: Vec<_> = rhs_idents.iter().map(|n| g.var(&n.to_string())).collect();
+    let masked = symmetric_from_packed(&masked_vars, m);
+    const PIVOT: (&str, &str) = ("pivot", "inv_pivot");
+    let solve = ldl_solve(g, &masked, &rhs_vars, |g, j| {
+        g.var(&pivot_names(m, j, PIVOT, "").1)
+    });
+
+    let namer = names.namer();
+    let mut roots = gradient.clone();
+    roots.extend(&solve.solution);
+    roots.extend(&solve.pivots);
+    let mut grad_lowerer = Lowerer::new(g, scalar, namer.clone(), &gradient);
+    let grad_values = grad_lowerer.segment(&gradient);
+    let grad_ops = grad_lowerer.ops();
+    let grad_statements = grad_lowerer.take_statements();
+    let mut step_lowerer = Lowerer::new(g, scalar, namer, &roots[m..]);
+    let on_failure = failure(quote! { Status::NonPositiveControlWeight });
+    guard_pivots(
+        &mut step_lowerer,
+        &solve.pivots,
+        &solve.reciprocals,
+        (PIVOT, ""),
+        &on_failure,
+        scalar,
+    );
+    let step_values = step_lowerer.segment(&solve.solution);
+    let step_ops = step_lowerer.ops();
+    let step_statements = step_lowerer.take_statements();
+
+    let setup = bounds_and_warm_start(moves);
+    let release = release_check(moves, scalar);
+    let mask = mask(moves, &masked_names, scalar);
+    let ratio = ratio_test(moves, scalar);
+    let grad = moves.per_move("grad");
+    let step = moves.per_move("step");
+    let code = quote! {
+        #setup
+        let mut full_step = false;
+        let mut optimal = false;
+        // Newton steps taken; the pass after the last step only checks the multipliers.
+        let mut steps = u32::MIN;
+        for pass in 1..=Self::PASSES {
+            // The cost's gradient H v + c at the iterate.
+            #(#grad_statements)*
+            #(let #grad = #grad_values;)*
+            if full_step {
+                #release
+            }
+            if pass == Self::PASSES {
+                break;
+            }
+            steps = pass;
+            #mask
+            #(#step_statements)*
+            #(let #step = #step_values;)*
+            #ratio
+        }
+    };
+    // Per iteration: the masks' selects, the ratio test's divisions, the update.
+    let extra = OpCount {
+        add: 2 * m as u32,
+        mul: m as u32,
+        div: m as u32,
+        compare: (m * (m + 1) / 2 + 4 * m) as u32,
+        ..Default::default()
+    };
+    QpCode {
+        code,
+        iteration_ops: grad_ops.plus(step_ops).plus(extra),
+    }
+}
+
+/// Bounds of the deviations from `u_ref`, and the warm start: the last plan shifted by
+/// one move (the last move repeated), clipped to the bounds, with the bounds it touches
+/// held.
+fn bounds_and_warm_start(moves: &MoveNames) -> TokenStream {
+    let (reference, min, max) = (
+        moves.per_input("ref"),
+        moves.per_input("minimum"),
+        moves.per_input("maximum"),
+    );
+    let (low, high) = (moves.per_input("low"), moves.per_input("high"));
+    let previous = moves.per_move("previous");
+    let previous_rows = previous
+        .chunks(moves.inputs.len().max(1))
+        .map(|row| quote! { [#(#row),*] });
+    // Move k is input k % nu at step k / nu; it starts from the same input one step later.
+    let nu = moves.inputs.len().max(1);
+    let last_step = moves.len() / nu - 1;
+    let shifted: Vec<&Ident> = (0..moves.len())
+        .map(|k| &previous[(k / nu + 1).min(last_step) * nu + k % nu])
+        .collect();
+    let move_ids = moves.move_idents();
+    let (move_low, move_high) = (moves.per_move_input("low"), moves.per_move_input("high"));
+    let move_ref = moves.per_move_input("ref");
+    let (lower, upper) = (moves.per_move("lower"), moves.per_move("upper"));
+    let threshold = moves.per_move("threshold");
+    let diagonal: Vec<Ident> = (0..moves.len())
+        .map(|k| ident(&moves.hessian[crate::symbolic::linalg::packed_index(moves.len(), k, k)]))
+        .collect();
+    let warm = moves.per_move("warm");
+    let clipped: Vec<TokenStream> = warm
+        .iter()
+        .zip(move_low.iter().zip(&move_high))
+        .map(|(w, (lo, hi))| clip(w, lo, hi))
+        .collect();
+    quote! {
+        // The moves' bounds as deviations from u_ref.
+        let [#(#reference),*] = self.u_ref;
+        let [#(#min),*] = self.u_min;
+        let [#(#max),*] = self.u_max;
+        #(let #low = #min - #reference;)*
+        #(let #high = #max - #reference;)*
+        // Warm start: the last plan shifted by one move, clipped, holding the bounds it
+        // touches.
+        let [#(#previous_rows),*] = self.plan;
+        #(let #warm = #shifted - #move_ref;)*
+        #(let mut #move_ids = #clipped;)*
+        #(let mut #lower = #move_ids <= #move_low;)*
+        #(let mut #upper = !#lower && #move_ids >= #move_high;)*
+        #(let #threshold = Self::RELEASE_TOLERANCE * (#move_high - #move_low) * #diagonal;)*
+    }
+}
+
+/// After a full step: the multipliers of the bounds held (`grad` at a lower bound,
+/// `-grad` at an upper one, each plus its threshold); all non-negative means optimal,
+/// else the bound with the most negative one is released.
+fn release_check(moves: &MoveNames, scalar: Scalar) -> TokenStream {
+    let zero = literal(0.0, scalar);
+    let (lower, upper) = (moves.per_move("lower"), moves.per_move("upper"));
+    let (grad, threshold) = (moves.per_move("grad"), moves.per_move("threshold"));
+    let multiplier = moves.per_move("multiplier");
+    let releases = multiplier
+        .iter()
+        .zip(lower.iter().zip(&upper))
+        .map(|(mu, (lo, hi))| {
+            quote! {
+                if #mu <= worst {
+                    #lo = false;
+                    #hi = false;
+                }
+            }
+        });
+    let releases: Vec<TokenStream> = releases.collect();
+    let chain = releases
+        .iter()
+        .cloned()
+        .reduce(|first, next| quote! { #first else #next })
+        .unwrap_or_default();
+    quote! {
+        // The iterate minimises the cost with the held bounds fixed: check their
+        // multipliers.
+        #(
+            let #multiplier = if #lower {
+                #grad + #threshold
+            } else if #upper {
+                #threshold - #grad
+            } else {
+                #zero
+            };
+        )*
+        let mut worst = #zero;
+        #(
+            if #multiplier < worst {
+                worst = #multiplier;
+            }
+        )*
+        if worst >= #zero {
+            optimal = true;
+            break;
+        }
+        // Release the first bound with the most negative multiplier.
+        #chain
+    }
+}
+
+/// `H~` and `rhs` of the Newton step on the free moves.
+fn mask(moves: &MoveNames, masked_names: &[String], scalar: Scalar) -> TokenStream {
+    let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
+    let (lower, upper) = (moves.per_move("lower"), moves.per_move("upper"));
+    let free = moves.per_move("free");
+    let (grad, rhs) = (moves.per_move("grad"), moves.per_move("rhs"));
+    let m = moves.len();
+    let mut entries = Vec::new();
+    let mut k = 0;
+    for i in 0..m {
+        for j in i..m {
+            let (name, h) = (ident(&masked_names[k]), ident(&moves.hessian[k]));
+            let (fi, fj) = (&free[i], &free[j]);
+            entries.push(if i == j {
+                quote! { let #name = if #fi { #h } else { #one }; }
+            } else {
+                quote! { let #name = if #fi && #fj { #h } else { #zero }; }
+            });
+            k += 1;
+        }
+    }
+    quote! {
+        // The Newton step on the free moves: H on them, the identity on the held ones.
+        #(let #free = !(#lower || #upper);)*
+        #(#entries)*
+        #(let #rhs = if #free { -#grad } else { #zero };)*
+    }
+}
+
+/// The longest step along `step` (at most 1) that keeps every move within its bounds;
+/// a move that stops it holds that bound.
+fn ratio_test(moves: &MoveNames, scalar: Scalar) -> TokenStream {
+    let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
+    let (step, ratio) = (moves.per_move("step"), moves.per_move("ratio"));
+    let (lower, upper) = (moves.per_move("lower"), moves.per_move("upper"));
+    let (low, high) = (moves.per_move_input("low"), moves.per_move_input("high"));
+    let v = moves.move_idents();
+    let holds: Vec<TokenStream> = (0..moves.len())
+        .map(|k| {
+            let (r, s, x, lo, hi) = (&ratio[k], &step[k], &v[k], &low[k], &high[k]);
+            let (l, u) = (&lower[k], &upper[k]);
+            quote! {
+                if #r <= alpha {
+                    if #s < #zero {
+                        #x = #lo;
+                        #l = true;
+                    } else {
+                        #x = #hi;
+                        #u = true;
+                    }
+                }
+            }
+        })
+        .collect();
+    let chain = holds
+        .into_iter()
+        .reduce(|first, next| quote! { #first else #next })
+        .unwrap_or_default();
+    quote! {
+        // Ratio test: the longest step that keeps every move within its bounds.
+        #(
+            let #ratio = if #step < #zero {
+                (#low - #v) / #step
+            } else if #step > #zero {
+                (#high - #v) / #step
+            } else {
+                #one
+            };
+        )*
+        let mut alpha = #one;
+        #(
+            if #ratio < alpha {
+                alpha = #ratio;
+            }
+        )*
+        if alpha < #zero {
+            alpha = #zero;
+        }
+        full_step = alpha >= #one;
+        #(#v += alpha * #step;)*
+        if !full_step {
+            // Hold the first bound in the way, exactly.
+            #chain
+        }
+    }
+}
