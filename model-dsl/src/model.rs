@@ -424,6 +424,22 @@ impl Model {
         self.states.len() + self.params.len()
     }
 
+    /// Names of the physical states at `indices` (a controller's regulated states).
+    pub fn states_named(&self, indices: &[usize]) -> Vec<&str> {
+        indices
+            .iter()
+            .map(|&i| self.states[i].name.as_str())
+            .collect()
+    }
+
+    /// Names of the inputs at `indices` (a controller's inputs).
+    pub fn inputs_named(&self, indices: &[usize]) -> Vec<&str> {
+        indices
+            .iter()
+            .map(|&i| self.inputs[i].name.as_str())
+            .collect()
+    }
+
     /// Names of the state vector's entries, physical states first.
     pub fn state_names(&self) -> impl Iterator<Item = &str> {
         self.states

@@ -177,16 +177,8 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     );
     let horizon = Literal::u32_unsuffixed(spec.horizon);
     let zero = literal(0.0, scalar);
-    let state_names: Vec<&str> = spec
-        .states
-        .iter()
-        .map(|&i| model.states[i].name.as_str())
-        .collect();
-    let input_names: Vec<&str> = spec
-        .inputs
-        .iter()
-        .map(|&i| model.inputs[i].name.as_str())
-        .collect();
+    let state_names = model.states_named(&spec.states);
+    let input_names = model.inputs_named(&spec.inputs);
     let doc = format!(
         " Adaptive finite-horizon LQR (Algorithm 3 of the double Kalman filter paper) regulating `[{}]` with `[{}]`. At each \
          [`Lqr::solve`] the physical sub-model `A = df/d[{0}]`, `B = df/d[{1}]` is taken at \

@@ -804,16 +804,8 @@ fn type_tokens(
     );
     let zero = literal(0.0, scalar);
     let (pack_q, pack_r) = (pack_upper("q", ns), pack_upper("r", nu));
-    let state_names: Vec<&str> = spec
-        .states
-        .iter()
-        .map(|&i| model.states[i].name.as_str())
-        .collect();
-    let input_names: Vec<&str> = spec
-        .inputs
-        .iter()
-        .map(|&i| model.inputs[i].name.as_str())
-        .collect();
+    let state_names = model.states_named(&spec.states);
+    let input_names = model.inputs_named(&spec.inputs);
     let doc = format!(
         " Adaptive model predictive control of `[{}]` with `[{}]` within input bounds: \
          the dual-mode, infinite-horizon constrained controller of Takacs, Polóni and \
