@@ -90,7 +90,7 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
     for k in 1..=samples {
         let t_prev = (k - 1) as f64 * ts;
         let t = k as f64 * ts;
-        x = plant_step(t_prev, x, u_prev, ts);
+        x = plant_step(t_prev, x, u_prev, ts, HIT_FORCE);
         let y = x[0] + noise.sample(k);
         trace.begin(t);
         trace.set("q true", x[0]);

@@ -8,7 +8,7 @@
 //! identification filter finds for them).
 
 use super::blade::control_ekf;
-use super::blade_plant::{plant_step, END, IDENTIFICATION_END, NOISE_SIGMA};
+use super::blade_plant::{plant_step, END, HIT_FORCE, IDENTIFICATION_END, NOISE_SIGMA};
 use super::controllers::{nominal_lq_gain, Controller, Kind, MpcStats, U_MAX};
 use super::metrics::rms;
 use super::noise::GaussianNoise;
@@ -75,8 +75,13 @@ impl Designs {
     }
 }
 
-/// Simulates 0-`end` s with `kind` in control from 20 s.
-pub fn simulate(kind: Kind, designs: &Designs, end: f64) -> Result<Run, Box<dyn Error>> {
+/// Simulates 0-`end` s with `kind` in control from 20 s, hits of `hit_peak` [N].
+pub fn simulate(
+    kind: Kind,
+    designs: &Designs,
+    end: f64,
+    hit_peak: f64,
+) -> Result<Run, Box<dyn Error>> {
     let mut controller = Controller::new(kind, designs.lq_gain, designs.ppf)
         .map_err(|s| format!("{kind:?}: {s:?}"))?;
     let input = GaussianNoise::new(1.0, 11);
@@ -94,7 +99,7 @@ pub fn simulate(kind: Kind, designs: &Designs, end: f64) -> Result<Run, Box<dyn 
     let (mut x, mut u_prev) = ([0.0; 2], 0.0);
     for k in 1..=(end / TS).round() as u64 {
         let t = k as f64 * TS;
-        x = plant_step(t - TS, x, u_prev, TS);
+        x = plant_step(t - TS, x, u_prev, TS, hit_peak);
         let y = x[0] + noise.sample(k);
         let u = if t <= IDENTIFICATION_END + 1e-9 {
             (INPUT_SIGMA * input.sample(k)).clamp(-U_MAX, U_MAX)
@@ -119,35 +124,49 @@ pub fn simulate(kind: Kind, designs: &Designs, end: f64) -> Result<Run, Box<dyn 
     Ok(run)
 }
 
-/// The four runs over 80 s; prints the table and the MPC's statistics, writes
-/// `out/blade_control.csv`, `out/blade_control_table.txt` and the SVG plots.
+/// The four runs over 80 s; with the paper's 4 N hits (`F_e`, sect. 4.1) and with hits
+/// ten times smaller, after which the loops leave saturation sooner. Prints the tables and
+/// the MPC's statistics; writes `out/blade_control.csv`, `out/blade_control_table.txt`
+/// and the SVG plots (of the 4 N runs).
 pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
     let designs = Designs::new()?;
-    let runs = Kind::ALL
-        .into_iter()
-        .map(|kind| simulate(kind, &designs, END))
-        .collect::<Result<Vec<_>, _>>()?;
     let mut text = describe(&designs);
-    text.push_str(&table(&runs));
-    text.push_str(&relative_table(&runs));
+    let mut paper_runs = Vec::new();
+    for (hit_peak, name) in [(HIT_FORCE, "the paper's"), (0.1 * HIT_FORCE, "smaller")] {
+        let runs = Kind::ALL
+            .into_iter()
+            .map(|kind| simulate(kind, &designs, END, hit_peak))
+            .collect::<Result<Vec<_>, _>>()?;
+        text.push_str(&format!(
+            "\nHits of {hit_peak} N peak ({name}); RMS per phase:\n"
+        ));
+        text.push_str(&summary(&runs));
+        if paper_runs.is_empty() {
+            paper_runs = runs;
+        }
+    }
+    print!("{text}");
+    std::fs::write(out.join("blade_control_table.txt"), &text)?;
+    let csv = std::fs::File::create(out.join("blade_control.csv"))?;
+    report::write_csv(&trace(&paper_runs), csv)?;
+    plot(&paper_runs, out)
+}
+
+/// The tables and the MPC's statistics of one set of runs.
+fn summary(runs: &[Run]) -> String {
+    let mut text = table(runs);
+    text.push_str(&relative_table(runs));
     if let Some(stats) = runs.iter().find_map(|r| r.mpc) {
         text.push_str(&mpc_statistics(&stats));
     }
     for run in runs.iter().filter(|r| r.rejected_steps > 0) {
-        let line = format!(
-            "{}: {} filter steps rejected\n",
-            run.kind.label(),
+        let label = run.kind.label();
+        text.push_str(&format!(
+            "{label}: {} filter steps rejected\n",
             run.rejected_steps
-        );
-        text.push_str(&line);
+        ));
     }
-    print!("{text}");
-    std::fs::write(out.join("blade_control_table.txt"), &text)?;
-    report::write_csv(
-        &trace(&runs),
-        std::fs::File::create(out.join("blade_control.csv"))?,
-    )?;
-    plot(&runs, out)
+    text
 }
 
 fn describe(designs: &Designs) -> String {
@@ -158,7 +177,7 @@ fn describe(designs: &Designs) -> String {
          +54 g over 40-60 s; MPC n = {}, Q = C'C, R = 1e-10, |u| <= {U_MAX} V at the 50-sample\n\
          median mass; nominal LQ K = [{k1:.4e}, {k2:.4e}] (m = 0.20 kg), clipped;\n\
          PPF g = {:.4e} V/m, w_p = {:.2} rad/s, xi_p = {:.4} (optimal for alpha = 1.7e8,\n\
-         delta = 1e-10, a unit velocity impact), clipped.\n\n",
+         delta = 1e-10, a unit velocity impact), clipped.\n",
         Mpc::HORIZON,
         p.gain,
         p.omega,
@@ -315,7 +334,7 @@ mod tests {
         let end = 28.0;
         let runs: Vec<Run> = Kind::ALL
             .into_iter()
-            .map(|kind| simulate(kind, &designs, end).unwrap())
+            .map(|kind| simulate(kind, &designs, end, HIT_FORCE).unwrap())
             .collect();
         let window = (22.0, end);
         let open = runs[3].rms(window).0;

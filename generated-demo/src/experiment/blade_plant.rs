@@ -35,22 +35,29 @@ pub fn mass(t: f64) -> f64 {
     }
 }
 
-/// The stinger's force at time `t`: a hit every `HIT_EVERY` seconds from `FIRST_HIT`.
-pub fn hit_force(t: f64) -> f64 {
+/// The stinger's force at time `t`: a half sine of `peak` [N] every `HIT_EVERY` seconds
+/// from `FIRST_HIT`.
+pub fn hit_force(t: f64, peak: f64) -> f64 {
     if t < FIRST_HIT {
         return 0.0;
     }
     let since = (t - FIRST_HIT) % HIT_EVERY;
     if since < HIT_DURATION {
-        HIT_FORCE * (std::f64::consts::PI * since / HIT_DURATION).sin()
+        peak * (std::f64::consts::PI * since / HIT_DURATION).sin()
     } else {
         0.0
     }
 }
 
-/// eq. (1), `m q'' + b q' + k q = c u + F_e`, over one sample with `u` held.
-pub fn plant_step(t: f64, x: [f64; 2], u: f64, dt: f64) -> [f64; 2] {
-    let rate = |t: f64, x: [f64; 2]| [x[1], (C * u + hit_force(t) - K * x[0] - B * x[1]) / mass(t)];
+/// eq. (1), `m q'' + b q' + k q = c u + F_e`, over one sample with `u` held; hits of
+/// `hit_peak` [N].
+pub fn plant_step(t: f64, x: [f64; 2], u: f64, dt: f64, hit_peak: f64) -> [f64; 2] {
+    let rate = |t: f64, x: [f64; 2]| {
+        [
+            x[1],
+            (C * u + hit_force(t, hit_peak) - K * x[0] - B * x[1]) / mass(t),
+        ]
+    };
     let h = dt / f64::from(PLANT_STEPS);
     let mut x = x;
     let mut t = t;
