@@ -58,19 +58,27 @@ pub fn plant_step(t: f64, x: [f64; 2], u: f64, dt: f64, hit_peak: f64) -> [f64; 
             (C * u + hit_force(t, hit_peak) - K * x[0] - B * x[1]) / mass(t),
         ]
     };
-    let h = dt / f64::from(PLANT_STEPS);
-    let mut x = x;
-    let mut t = t;
-    let axpy = |x: [f64; 2], a: f64, k: [f64; 2]| [x[0] + a * k[0], x[1] + a * k[1]];
-    for _ in 0..PLANT_STEPS {
+    rk4(rate, t, x, dt, PLANT_STEPS)
+}
+
+/// Integrates `x' = rate(t, x)` from `t` over `dt` by `steps` classical Runge-Kutta steps.
+pub fn rk4<const N: usize>(
+    rate: impl Fn(f64, [f64; N]) -> [f64; N],
+    t: f64,
+    x: [f64; N],
+    dt: f64,
+    steps: u32,
+) -> [f64; N] {
+    let h = dt / f64::from(steps);
+    let axpy =
+        |x: [f64; N], a: f64, k: [f64; N]| -> [f64; N] { std::array::from_fn(|i| x[i] + a * k[i]) };
+    let (mut t, mut x) = (t, x);
+    for _ in 0..steps {
         let k1 = rate(t, x);
         let k2 = rate(t + h / 2.0, axpy(x, h / 2.0, k1));
         let k3 = rate(t + h / 2.0, axpy(x, h / 2.0, k2));
         let k4 = rate(t + h, axpy(x, h, k3));
-        x = [
-            x[0] + h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
-            x[1] + h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
-        ];
+        x = std::array::from_fn(|i| x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
         t += h;
     }
     x

@@ -14,7 +14,7 @@
 //! jumps), and minimise `J` over the logarithms of the three parameters by Nelder-Mead;
 //! parameters that make the loop unstable cost infinity.
 
-use super::blade_plant::{B, C, K, M};
+use super::blade_plant::{rk4, B, C, K, M};
 
 /// The cost's weights of sect. 4.1: `alpha` on the position, `delta` on the input.
 pub const ALPHA: f64 = 1.7e8;
@@ -94,21 +94,8 @@ impl Ppf {
     pub fn input(&mut self, y: f64, ts: f64) -> f64 {
         let u = self.tuning.gain * self.eta[0];
         let (w, xi) = (self.tuning.omega, self.tuning.xi);
-        let rate = |e: [f64; 2]| [e[1], w * w * (y - e[0]) - 2.0 * xi * w * e[1]];
-        const STEPS: u32 = 10;
-        let h = ts / f64::from(STEPS);
-        for _ in 0..STEPS {
-            let at = |e: [f64; 2], s: f64, k: [f64; 2]| [e[0] + s * k[0], e[1] + s * k[1]];
-            let k1 = rate(self.eta);
-            let k2 = rate(at(self.eta, h / 2.0, k1));
-            let k3 = rate(at(self.eta, h / 2.0, k2));
-            let k4 = rate(at(self.eta, h, k3));
-            self.eta = at(
-                self.eta,
-                h / 6.0,
-                std::array::from_fn(|i| k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]),
-            );
-        }
+        let rate = |_: f64, e: [f64; 2]| [e[1], w * w * (y - e[0]) - 2.0 * xi * w * e[1]];
+        self.eta = rk4(rate, 0.0, self.eta, ts, 10);
         u
     }
 }
