@@ -8,9 +8,9 @@
 //! identification filter finds for them).
 
 use super::blade::control_ekf;
-use super::blade_plant::{plant_step, END, HIT_FORCE, IDENTIFICATION_END, NOISE_SIGMA};
+use super::blade_plant::{mass, plant_step, END, HIT_FORCE, IDENTIFICATION_END, NOISE_SIGMA};
 use super::controllers::{nominal_lq_gain, Controller, Kind, MpcStats, U_MAX};
-use super::metrics::rms;
+use super::metrics::{mean, rms};
 use super::noise::GaussianNoise;
 use super::ppf::PpfTuning;
 use super::report::{self, Line, Trace};
@@ -158,6 +158,7 @@ fn summary(runs: &[Run]) -> String {
     text.push_str(&relative_table(runs));
     if let Some(stats) = runs.iter().find_map(|r| r.mpc) {
         text.push_str(&mpc_statistics(&stats));
+        text.push_str(&mpc_masses(&runs[0]));
     }
     for run in runs.iter().filter(|r| r.rejected_steps > 0) {
         let label = run.kind.label();
@@ -253,6 +254,17 @@ fn mpc_statistics(stats: &MpcStats) -> String {
         100.0 * stats.fraction(stats.optimal),
         100.0 * stats.fraction(stats.converged),
     )
+}
+
+/// The median mass the MPC used, averaged over each phase after its first 5 s.
+fn mpc_masses(run: &Run) -> String {
+    let mut text = String::from("MPC's median mass [kg] (truth):");
+    for (from, to) in PHASES {
+        let used = mean(&run.t, &run.mass, from + 5.0, to);
+        text.push_str(&format!(" {used:.4} ({:.4})", mass(to - 1.0)));
+    }
+    text.push('\n');
+    text
 }
 
 /// All runs' position [mm] and input [V] in one trace.
