@@ -7,7 +7,9 @@
 //! 2. Adaptive LQR (Alg. 3) closed loop with two stinger hits: RMS tip displacement for
 //!    open loop, EKF-LQR and DKF-LQR.
 //! 3. Traces as CSV and plots as SVG in `out/`, and what the generated code costs.
-//! 4. Seed 001's blade with the generated hybrid EKFs (`experiment::blade`) and seed
+//! 4. Seed 001's blade with the generated hybrid EKFs (`experiment::blade`), its
+//!    controller comparison (adaptive EKF-MPC, nominal LQ, PPF, open loop:
+//!    `experiment::blade_control`), and seed
 //!    004's helicopter with the continuous-time EKF, standard and with a prescribed degree
 //!    of stability (`experiment::trms`).
 //! 5. Seed 003: the generated switched observers on a piecewise-linear beam, and the
@@ -102,6 +104,7 @@ fn main() -> Result<(), Box<dyn Error>> {
 
     experiment::outliers::run(out)?;
     experiment::blade::run(out)?;
+    experiment::blade_control::run(out)?;
     experiment::trms::run(out)?;
 
     print_generated_costs();
@@ -109,7 +112,9 @@ fn main() -> Result<(), Box<dyn Error>> {
     hub_polynomial::experiment(out)?;
     println!(
         "\nWrote out/estimation.csv, out/closed_loop.csv, out/wn.svg, out/displacement.svg, \
-         out/outliers.csv, out/outliers.svg, out/blade.csv, out/blade_mass.svg, out/blade_identification.svg, out/helicopter.csv, \
+         out/outliers.csv, out/outliers.svg, out/blade.csv, out/blade_mass.svg, out/blade_identification.svg, \
+         out/blade_control.csv, out/blade_control_table.txt, out/blade_control_position.svg, \
+         out/blade_control_voltage.svg, out/blade_control_run.svg, out/helicopter.csv, \
          out/helicopter_surge.csv, out/helicopter_pitch.svg, out/helicopter_surge.svg, \
          out/beam_20hz.csv, out/beam_35hz.csv, out/beam_velocity.svg, \
          out/switching_example.csv, out/switching_example.svg, out/hub_estimates.csv, \

@@ -9,9 +9,13 @@
 //!   `b`, `c` fixed, a second-order shaping filter for the disturbance) on a blade hit
 //!   every 4 s whose mass rises by 54 g between 40 and 60 s.
 //!
-//! The controller (the paper's MPC) is not part of this issue: the blade runs open loop
-//! with a small white-noise dither in control mode.
+//! Here the blade runs open loop with a small white-noise dither in control mode; the
+//! controllers of sect. 4 are compared in `blade_control`, with the same control filter.
 
+use super::blade_plant::{
+    mass, median_of_last, plant_step, ADDED_MASS, B, C, END, HIT_EVERY, HIT_FORCE,
+    IDENTIFICATION_END, K, LOADED, M, NOISE_SIGMA,
+};
 use super::diag;
 use super::metrics::mean;
 use super::noise::GaussianNoise;
@@ -20,82 +24,9 @@ use generated_demo::{blade_identification as ident, mass_spring_damper as contro
 use std::error::Error;
 use std::path::Path;
 
-/// The simulated blade's parameters: the paper's identified values (sect. 4.1).
-const K: f64 = 533.0;
-const B: f64 = 0.11;
-const C: f64 = 8.0e-4;
-const M: f64 = 0.20;
-/// The weight added at 40 s and removed at 60 s [kg] (sect. 4).
-const ADDED_MASS: f64 = 0.054;
-const LOADED: (f64, f64) = (40.0, 60.0);
-/// Identification until 20 s, then control mode until 80 s (sect. 4).
-const IDENTIFICATION_END: f64 = 20.0;
-const END: f64 = 80.0;
-/// Stinger hits every 4 s in control mode: a half-sine force of `HIT_FORCE` over
-/// `HIT_DURATION` (the paper's `F_e = 4 N`, `T_e = 0.1 s`).
-const HIT_EVERY: f64 = 4.0;
-const HIT_FORCE: f64 = 4.0;
-const HIT_DURATION: f64 = 0.1;
-/// The first hit, 2 s into control mode.
-const FIRST_HIT: f64 = 22.0;
 /// White input: sigma 50 V clipped to +-100 V in identification; a 5 V dither after.
 const INPUT_SIGMA: f64 = 50.0;
 const DITHER_SIGMA: f64 = 5.0;
-/// Laser noise: "1 % of 10^-3 m" (sect. 4.1).
-const NOISE_SIGMA: f64 = 1e-5;
-/// The plant is integrated with classical RK4 at this many steps per sample.
-const PLANT_STEPS: u32 = 20;
-
-/// The blade's mass at time `t`.
-fn mass(t: f64) -> f64 {
-    if (LOADED.0..LOADED.1).contains(&t) {
-        M + ADDED_MASS
-    } else {
-        M
-    }
-}
-
-/// The stinger's force at time `t`: a hit every `HIT_EVERY` seconds from `FIRST_HIT`.
-fn hit_force(t: f64) -> f64 {
-    if t < FIRST_HIT {
-        return 0.0;
-    }
-    let since = (t - FIRST_HIT) % HIT_EVERY;
-    if since < HIT_DURATION {
-        HIT_FORCE * (std::f64::consts::PI * since / HIT_DURATION).sin()
-    } else {
-        0.0
-    }
-}
-
-/// eq. (1), `m q'' + b q' + k q = c u + F_e`, over one sample with `u` held.
-fn plant_step(t: f64, x: [f64; 2], u: f64, dt: f64) -> [f64; 2] {
-    let rate = |t: f64, x: [f64; 2]| [x[1], (C * u + hit_force(t) - K * x[0] - B * x[1]) / mass(t)];
-    let h = dt / f64::from(PLANT_STEPS);
-    let mut x = x;
-    let mut t = t;
-    let axpy = |x: [f64; 2], a: f64, k: [f64; 2]| [x[0] + a * k[0], x[1] + a * k[1]];
-    for _ in 0..PLANT_STEPS {
-        let k1 = rate(t, x);
-        let k2 = rate(t + h / 2.0, axpy(x, h / 2.0, k1));
-        let k3 = rate(t + h / 2.0, axpy(x, h / 2.0, k2));
-        let k4 = rate(t + h, axpy(x, h, k3));
-        x = [
-            x[0] + h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
-            x[1] + h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
-        ];
-        t += h;
-    }
-    x
-}
-
-/// The median of the last `width` values (the paper's 50-sample running median of the
-/// weight estimate).
-fn median_of_last(values: &[f64], width: usize) -> f64 {
-    let mut window: Vec<f64> = values[values.len().saturating_sub(width)..].to_vec();
-    window.sort_by(f64::total_cmp);
-    window[window.len() / 2]
-}
 
 /// Seconds after `from` until `series` enters and stays (for 2 s) within 5 % of `target`.
 fn tracking_delay(t: &[f64], series: &[f64], from: f64, to: f64, target: f64) -> Option<f64> {
@@ -112,6 +43,28 @@ fn tracking_delay(t: &[f64], series: &[f64], from: f64, to: f64, target: f64) ->
         .map(|i| t[i] - from)
 }
 
+/// The control-mode filter of eq. (20) with the paper's tuning (sect. 4.1): x0 = [0 0 2 0
+/// 0], P0 = diag[1e-5 1 1e-4 0 0], R_C = 1e-6, Q~_C = diag[2 alpha_n (0.63 F_e)^2, 1e2] on
+/// the shaping filter's drive and on 1/m (ours in the order [q, q', eta1, eta2, 1/m]),
+/// Q = Q~ / T.
+pub fn control_ekf() -> control::in_f64::HybridEkf {
+    let ts = control::in_f64::TS;
+    let alpha_n = control::in_f64::ALPHA_N;
+    let q_control = [
+        0.0,
+        0.0,
+        0.0,
+        2.0 * alpha_n * (0.63 * HIT_FORCE).powi(2) / ts,
+        1e2 / ts,
+    ];
+    control::in_f64::HybridEkf::new(
+        [0.0, 0.0, 0.0, 0.0, 2.0],
+        &diag([1e-5, 1.0, 0.0, 0.0, 1e-4]),
+        &q_control,
+        &[[1e-6]],
+    )
+}
+
 /// Runs both modes, prints the tables, writes `out/blade.csv`, `out/blade_mass.svg` and
 /// `out/blade_identification.svg`.
 pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
@@ -125,17 +78,6 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
         &q_ident,
         &[[1e-10]],
     );
-    // sect. 4.1, control mode: x0 = [0 0 2 0 0], P0 = diag[1e-5 1 1e-4 0 0], R_C = 1e-6,
-    // Q~_C = diag[2 alpha_n (0.63 F_e)^2, 1e2] on the shaping filter's drive and on 1/m
-    // (ours in the order [q, q', eta1, eta2, 1/m]).
-    let alpha_n = control::in_f64::ALPHA_N;
-    let q_control = [
-        0.0,
-        0.0,
-        0.0,
-        2.0 * alpha_n * (0.63 * HIT_FORCE).powi(2) / ts,
-        1e2 / ts,
-    ];
     let mut controlled: Option<control::in_f64::HybridEkf> = None;
     let input = GaussianNoise::new(1.0, 11);
     let noise = GaussianNoise::new(NOISE_SIGMA, 12);
@@ -148,7 +90,7 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
     for k in 1..=samples {
         let t_prev = (k - 1) as f64 * ts;
         let t = k as f64 * ts;
-        x = plant_step(t_prev, x, u_prev, ts);
+        x = plant_step(t_prev, x, u_prev, ts, HIT_FORCE);
         let y = x[0] + noise.sample(k);
         trace.begin(t);
         trace.set("q true", x[0]);
@@ -169,14 +111,7 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
             }
             trace.set("m id", 1.0 / inv_m);
         } else {
-            let filter = controlled.get_or_insert_with(|| {
-                control::in_f64::HybridEkf::new(
-                    [0.0, 0.0, 0.0, 0.0, 2.0],
-                    &diag([1e-5, 1.0, 0.0, 0.0, 1e-4]),
-                    &q_control,
-                    &[[1e-6]],
-                )
-            });
+            let filter = controlled.get_or_insert_with(control_ekf);
             if filter.step(&[u_prev], &[y]) != control::in_f64::Status::Ok {
                 rejected += 1;
             }

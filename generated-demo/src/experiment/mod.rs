@@ -6,11 +6,15 @@
 //! Units throughout: mm, mm/s, V, s (shared/reference/simulating-the-paper.md).
 
 pub mod blade;
+pub mod blade_control;
+pub mod blade_plant;
+pub mod controllers;
 pub mod excitation;
 pub mod metrics;
 pub mod noise;
 pub mod outliers;
 pub mod plant;
+pub mod ppf;
 pub mod readout;
 pub mod report;
 pub mod trms;
