@@ -10,12 +10,14 @@
 #![forbid(unsafe_code)]
 
 mod accuracy;
+mod cold_build;
 mod compare;
 mod compare_continuous;
 mod compare_observers;
 mod cost;
 mod firmware;
 mod program;
+mod scratch;
 mod setup;
 mod timing;
 mod trace;
@@ -57,6 +59,17 @@ enum Task {
         #[arg(default_value_t = 40)]
         sequences: u64,
     },
+    /// Benchmark: build a one-model user crate (outside the workspace, its own target
+    /// directory) from nothing and report the time, the crates compiled and any warning.
+    ColdBuild {
+        /// The `codegen-macros` directory to depend on (default: this workspace's), to
+        /// compare with another checkout.
+        #[arg(long)]
+        macros: Option<std::path::PathBuf>,
+        /// Parallel jobs for cargo (default: cargo's).
+        #[arg(long)]
+        jobs: Option<u32>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -65,6 +78,16 @@ fn main() -> ExitCode {
             print!("{}", accuracy::report(sequences));
             ExitCode::SUCCESS
         }
+        Task::ColdBuild { macros, jobs } => match cold_build::measure(macros.as_deref(), jobs) {
+            Ok(measurement) => {
+                print!("{measurement}");
+                ExitCode::SUCCESS
+            }
+            Err(message) => {
+                eprintln!("xtask: {message}");
+                ExitCode::FAILURE
+            }
+        },
         Task::Cost => match cost() {
             Ok(table) => {
                 print!("{table}");
