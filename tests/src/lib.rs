@@ -40,5 +40,5 @@ pub fn demo_model_source(name: &str) -> String {
 pub fn demo_model_code(name: &str) -> String {
     let tokens = model_dsl::expand_macro_source(&demo_model_source(name))
         .unwrap_or_else(|e| panic!("demo model {name} does not expand: {e}"));
-    model_dsl::format(tokens).expect("generated code parses as a Rust file")
+    model_codegen::format(tokens).expect("generated code parses as a Rust file")
 }
