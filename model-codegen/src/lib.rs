@@ -14,10 +14,47 @@ pub mod model_file;
 use model_dsl::model::Model;
 use proc_macro2::TokenStream;
 
-/// Formats generated tokens as a Rust source file (for snapshots and the CLI).
+/// Formats generated tokens as a Rust source file with `prettyplease` (for snapshots; the
+/// tool then passes the file through [`rustfmt`]).
 pub fn format(tokens: TokenStream) -> syn::Result<String> {
     let file: syn::File = syn::parse2(tokens)?;
     Ok(prettyplease::unparse(&file))
+}
+
+/// Formats a Rust source file with `rustfmt` (the `RUSTFMT` variable, else `rustfmt` on
+/// the path; edition 2021, and the `rustfmt.toml` of the current directory if there is
+/// one), as `cargo fmt` will format it once vendored. `prettyplease` alone does not: its
+/// layout differs from rustfmt's, and a vendored file would fail `cargo fmt --check`.
+/// An error if rustfmt cannot be run or refuses the file.
+pub fn rustfmt(code: &str) -> Result<String, String> {
+    use std::io::Write;
+    use std::process::{Command, Stdio};
+    let program = std::env::var_os("RUSTFMT").unwrap_or_else(|| "rustfmt".into());
+    let mut child = Command::new(&program)
+        .args(["--edition", "2021", "--emit", "stdout"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("cannot run {}: {e}", program.to_string_lossy()))?;
+    // Written from another thread: rustfmt may fill its output pipe before reading all.
+    let mut stdin = child.stdin.take().ok_or("rustfmt has no standard input")?;
+    let input = code.to_owned();
+    let writer = std::thread::spawn(move || stdin.write_all(input.as_bytes()));
+    let output = child
+        .wait_with_output()
+        .map_err(|e| format!("rustfmt: {e}"))?;
+    let written = writer
+        .join()
+        .map_err(|_| "rustfmt: input thread panicked")?;
+    match (output.status.success(), written) {
+        (true, Ok(())) => String::from_utf8(output.stdout).map_err(|e| format!("rustfmt: {e}")),
+        (_, Err(e)) => Err(format!("rustfmt: {e}")),
+        (false, _) => Err(format!(
+            "rustfmt failed: {}",
+            String::from_utf8_lossy(&output.stderr).trim()
+        )),
+    }
 }
 
 /// Reads and checks a TOML model file into the model IR.

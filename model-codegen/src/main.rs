@@ -23,6 +23,19 @@ struct Args {
     /// output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
+    /// How to lay out the code: `rustfmt` (the default: what `cargo fmt` gives, so a
+    /// vendored file passes `cargo fmt --check`) or `prettyplease` (no rustfmt needed).
+    #[arg(long, value_enum, default_value_t = Formatter::Rustfmt)]
+    formatter: Formatter,
+}
+
+/// The layout of the printed code.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Formatter {
+    /// `prettyplease`, then `rustfmt` (`RUSTFMT`, else `rustfmt` on the path).
+    Rustfmt,
+    /// `prettyplease` only.
+    Prettyplease,
 }
 
 fn main() -> ExitCode {
@@ -43,6 +56,16 @@ fn main() -> ExitCode {
     match generated.and_then(model_codegen::format) {
         Ok(code) => {
             let code = format!("{}{code}", header(&args.model));
+            let code = match args.formatter {
+                Formatter::Prettyplease => code,
+                Formatter::Rustfmt => match model_codegen::rustfmt(&code) {
+                    Ok(code) => code,
+                    Err(e) => {
+                        eprintln!("error: {e} (`--formatter prettyplease` does without)");
+                        return ExitCode::FAILURE;
+                    }
+                },
+            };
             match &args.output {
                 None => print!("{code}"),
                 Some(path) => {

@@ -21,6 +21,7 @@ mod scratch;
 mod setup;
 mod timing;
 mod trace;
+mod vendored;
 
 use clap::{Parser, Subcommand};
 use std::path::Path;
@@ -53,6 +54,9 @@ enum Task {
     /// Run the firmware under QEMU and print what the generated filters cost on the
     /// Cortex-M4F, beside the nalgebra baseline.
     Cost,
+    /// Vendor every demo model with `model-codegen` into a user crate and check it with
+    /// rustfmt, `-D warnings` and clippy (part of `test`).
+    Vendored,
     /// On the host, how far the f32 filters drift from f64 over many noise sequences.
     Accuracy {
         /// How many sequences (the first is the CI's).
@@ -81,6 +85,16 @@ fn main() -> ExitCode {
         Task::ColdBuild { macros, jobs } => match cold_build::measure(macros.as_deref(), jobs) {
             Ok(measurement) => {
                 print!("{measurement}");
+                ExitCode::SUCCESS
+            }
+            Err(message) => {
+                eprintln!("xtask: {message}");
+                ExitCode::FAILURE
+            }
+        },
+        Task::Vendored => match vendored::check() {
+            Ok(summary) => {
+                println!("xtask: {summary}");
                 ExitCode::SUCCESS
             }
             Err(message) => {
@@ -130,6 +144,7 @@ fn test() -> Result<(), String> {
         ]),
     )?;
     run("tests", cargo().args(["test", "--workspace"]))?;
+    println!("xtask: {}", vendored::check()?);
     run(
         "the Cortex-M4F build of the generated models",
         cargo().args([

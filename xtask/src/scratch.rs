@@ -63,6 +63,15 @@ impl Scratch {
     }
 }
 
+impl Scratch {
+    /// Leaves the crate on disk (to look at after a failed check) and says where.
+    pub fn keep(self) -> String {
+        let dir = self.dir.clone();
+        std::mem::forget(self);
+        format!("the crate is kept in {}", dir.display())
+    }
+}
+
 impl Drop for Scratch {
     fn drop(&mut self) {
         // A leftover directory is only disk space; nothing to report.
