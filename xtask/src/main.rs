@@ -33,6 +33,8 @@ const MCU_TARGET: &str = "thumbv7em-none-eabihf";
 const TARGETS: &str = "targets";
 /// Samples in the firmware's embedded sequence (`targets/build.rs`).
 const SEQUENCE_SAMPLES: usize = 1000;
+/// The crates published to crates.io, in dependency order.
+const PUBLISHED: [&str; 3] = ["model-dsl", "codegen-macros", "model-codegen"];
 /// Commands the firmware checks run, with the Debian packages that provide them.
 const FIRMWARE_TOOLS: &[(&str, &str)] = &[
     ("qemu-system-arm", "qemu-system-arm"),
@@ -144,6 +146,12 @@ fn test() -> Result<(), String> {
         ]),
     )?;
     run("tests", cargo().args(["test", "--workspace"]))?;
+    run(
+        "packaging the published crates (manifests, versions of path dependencies)",
+        cargo()
+            .args(["package", "--no-verify", "--allow-dirty", "--quiet"])
+            .args(PUBLISHED.iter().flat_map(|name| ["--package", name])),
+    )?;
     println!("xtask: {}", vendored::check()?);
     run(
         "the Cortex-M4F build of the generated models",
