@@ -61,6 +61,7 @@ pub fn measure(macros: Option<&Path>, jobs: Option<u32>) -> Result<Measurement, 
     );
     let user = Scratch::new(
         "cold-build-user",
+        None,
         &dependencies,
         &[("src/lib.rs", MODEL.to_string())],
         lockfile.as_deref(),

@@ -16,6 +16,7 @@ mod compare_continuous;
 mod compare_observers;
 mod cost;
 mod firmware;
+mod msrv;
 mod program;
 mod scratch;
 mod setup;
@@ -53,6 +54,8 @@ struct Cli {
 enum Task {
     /// Install what the checks need, then run formatting, clippy, all tests and the MCU build.
     Test,
+    /// Check the published crates' declared minimum Rust version (part of `test`).
+    Msrv,
     /// Run the firmware under QEMU and print what the generated filters cost on the
     /// Cortex-M4F, beside the nalgebra baseline.
     Cost,
@@ -79,57 +82,32 @@ enum Task {
 }
 
 fn main() -> ExitCode {
-    match Cli::parse().task {
-        Task::Accuracy { sequences } => {
-            print!("{}", accuracy::report(sequences));
+    let outcome = match Cli::parse().task {
+        Task::Accuracy { sequences } => Ok(accuracy::report(sequences)),
+        Task::ColdBuild { macros, jobs } => {
+            cold_build::measure(macros.as_deref(), jobs).map(|m| m.to_string())
+        }
+        Task::Msrv => msrv::check(&PUBLISHED).map(|summary| format!("xtask: {summary}\n")),
+        Task::Vendored => vendored::check().map(|summary| format!("xtask: {summary}\n")),
+        Task::Cost => cost(),
+        Task::Test => test().map(|()| "xtask: every check passed\n".to_string()),
+    };
+    match outcome {
+        Ok(report) => {
+            print!("{report}");
             ExitCode::SUCCESS
         }
-        Task::ColdBuild { macros, jobs } => match cold_build::measure(macros.as_deref(), jobs) {
-            Ok(measurement) => {
-                print!("{measurement}");
-                ExitCode::SUCCESS
-            }
-            Err(message) => {
-                eprintln!("xtask: {message}");
-                ExitCode::FAILURE
-            }
-        },
-        Task::Vendored => match vendored::check() {
-            Ok(summary) => {
-                println!("xtask: {summary}");
-                ExitCode::SUCCESS
-            }
-            Err(message) => {
-                eprintln!("xtask: {message}");
-                ExitCode::FAILURE
-            }
-        },
-        Task::Cost => match cost() {
-            Ok(table) => {
-                print!("{table}");
-                ExitCode::SUCCESS
-            }
-            Err(message) => {
-                eprintln!("xtask: {message}");
-                ExitCode::FAILURE
-            }
-        },
-        Task::Test => match test() {
-            Ok(()) => {
-                println!("xtask: every check passed");
-                ExitCode::SUCCESS
-            }
-            Err(message) => {
-                eprintln!("xtask: {message}");
-                ExitCode::FAILURE
-            }
-        },
+        Err(message) => {
+            eprintln!("xtask: {message}");
+            ExitCode::FAILURE
+        }
     }
 }
 
 fn test() -> Result<(), String> {
     setup::rust_target(MCU_TARGET)?;
     setup::debian_commands(FIRMWARE_TOOLS)?;
+    println!("xtask: {}", msrv::check(&PUBLISHED)?);
     run(
         "formatting",
         cargo().args(["fmt", "--all", "--", "--check"]),

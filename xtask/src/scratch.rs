@@ -15,9 +15,11 @@ impl Scratch {
     /// Writes a crate named `name` with the given `[dependencies]` lines and files (paths
     /// relative to the crate root) into a fresh directory under the system's temporary
     /// directory. `lockfile`, if given, is copied in so the build resolves to the versions
-    /// the workspace was tested with, without asking the registry.
+    /// the workspace was tested with, without asking the registry. `rust_version`, if
+    /// given, is declared, so clippy's `incompatible_msrv` holds the code to it.
     pub fn new(
         name: &str,
+        rust_version: Option<&str>,
         dependencies: &str,
         files: &[(&str, String)],
         lockfile: Option<&Path>,
@@ -27,9 +29,12 @@ impl Scratch {
             std::fs::remove_dir_all(&dir)
                 .map_err(|e| format!("cannot empty {}: {e}", dir.display()))?;
         }
+        let rust_version = rust_version
+            .map(|v| format!("rust-version = \"{v}\"\n"))
+            .unwrap_or_default();
         let manifest = format!(
             "[package]\nname = \"{name}\"\nversion = \"0.1.0\"\nedition = \"2021\"\n\
-             publish = false\n\n[dependencies]\n{dependencies}\n\n\
+             {rust_version}publish = false\n\n[dependencies]\n{dependencies}\n\n\
              # Its own workspace: not a member of the one it was written from.\n[workspace]\n"
         );
         let mut all = vec![("Cargo.toml", manifest)];

@@ -41,6 +41,8 @@ pub fn check() -> Result<String, String> {
     );
     let vendored = Scratch::new(
         "vendored-models",
+        // The workspace's minimum Rust version (xtask inherits it).
+        Some(env!("CARGO_PKG_RUST_VERSION")),
         "libm = \"0.2\"",
         &[("src/lib.rs", lib)],
         Some(&root.join("Cargo.lock")),
