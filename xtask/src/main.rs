@@ -34,6 +34,8 @@ const MCU_TARGET: &str = "thumbv7em-none-eabihf";
 const TARGETS: &str = "targets";
 /// Samples in the firmware's embedded sequence (`targets/build.rs`).
 const SEQUENCE_SAMPLES: usize = 1000;
+/// Users' crates, outside the workspace, built and tested like a user's project.
+const EXAMPLES: &str = "examples";
 /// The crates published to crates.io, in dependency order.
 const PUBLISHED: [&str; 3] = ["model-dsl", "codegen-macros", "model-codegen"];
 /// Commands the firmware checks run, with the Debian packages that provide them.
@@ -131,6 +133,7 @@ fn test() -> Result<(), String> {
             .args(PUBLISHED.iter().flat_map(|name| ["--package", name])),
     )?;
     println!("xtask: {}", vendored::check()?);
+    user_examples()?;
     run(
         "the Cortex-M4F build of the generated models",
         cargo().args([
@@ -171,6 +174,50 @@ fn test() -> Result<(), String> {
         tables.push(cost_table(&report, build)?);
     }
     print!("{}", tables.join("\n"));
+    Ok(())
+}
+
+/// The users' crates in `examples/`, each its own workspace with a committed lockfile:
+/// formatted, clippy-clean, tested, and their libraries built for the MCU (`no_std`).
+fn user_examples() -> Result<(), String> {
+    let examples = scratch::workspace_root().join(EXAMPLES);
+    let entries =
+        std::fs::read_dir(&examples).map_err(|e| format!("cannot list {EXAMPLES}: {e}"))?;
+    let mut crates: Vec<_> = entries
+        .filter_map(|entry| Some(entry.ok()?.path()))
+        .filter(|dir| dir.join("Cargo.toml").exists())
+        .collect();
+    crates.sort();
+    for dir in crates {
+        let name = dir.display();
+        run(
+            &format!("formatting of {name}"),
+            cargo().args(["fmt", "--", "--check"]).current_dir(&dir),
+        )?;
+        run(
+            &format!("clippy on {name}"),
+            cargo()
+                .args([
+                    "clippy",
+                    "--locked",
+                    "--all-targets",
+                    "--",
+                    "-D",
+                    "warnings",
+                ])
+                .current_dir(&dir),
+        )?;
+        run(
+            &format!("tests of {name}"),
+            cargo().args(["test", "--locked"]).current_dir(&dir),
+        )?;
+        run(
+            &format!("the library of {name} for the Cortex-M4F"),
+            cargo()
+                .args(["build", "--locked", "--lib", "--target", MCU_TARGET])
+                .current_dir(&dir),
+        )?;
+    }
     Ok(())
 }
 
