@@ -23,8 +23,7 @@ struct Args {
     /// output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
-    /// How to lay out the code: `rustfmt` (the default: what `cargo fmt` gives, so a
-    /// vendored file passes `cargo fmt --check`) or `prettyplease` (no rustfmt needed).
+    /// How to lay out the code.
     #[arg(long, value_enum, default_value_t = Formatter::Rustfmt)]
     formatter: Formatter,
 }
@@ -32,9 +31,10 @@ struct Args {
 /// The layout of the printed code.
 #[derive(Clone, Copy, clap::ValueEnum)]
 enum Formatter {
-    /// `prettyplease`, then `rustfmt` (`RUSTFMT`, else `rustfmt` on the path).
+    /// What `cargo fmt` gives, so a vendored file passes `cargo fmt --check` (runs
+    /// `RUSTFMT`, else `rustfmt` on the path).
     Rustfmt,
-    /// `prettyplease` only.
+    /// `prettyplease`'s layout, without rustfmt.
     Prettyplease,
 }
 
