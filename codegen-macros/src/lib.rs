@@ -5,34 +5,7 @@
 
 use proc_macro::TokenStream;
 
-/// Declares a model and generates, in a module of its name, the discrete step `f`, the
-/// measurement `h`, their Jacobians (unrolled, structural zeros never computed), the
-/// Jacobians' zero patterns, the model's dimensions and names, and an operation count per
-/// function. Generated code is `no_std`, allocation-free and panic-free; it calls `libm`
-/// for transcendental functions, so the calling crate depends on `libm`.
-///
-/// ```
-/// codegen_macros::model! {
-///     /// Cantilever beam, first mode.
-///     pub mod cantilever {
-///         scalar f32;
-///         const TS = 0.015;
-///         state x1, x2;
-///         param x3, x4, x5;
-///         input u;
-///         output y = x1;
-///         dynamics discrete {
-///             x1 = x1 + TS * x2;
-///             x2 = TS * x1 * x3 + (1.0 + TS * x4) * x2 + TS * x5 * u;
-///         }
-///     }
-/// }
-///
-/// let x = [1.0, 0.0, -400.0, -1.0, 0.5];
-/// assert_eq!(cantilever::f(&x, &[2.0]), [1.0, -6.0 + 0.015, -400.0, -1.0, 0.5]);
-/// assert_eq!(cantilever::JACOBIAN_F_WRT_X_NONZERO[0], [true, true, false, false, false]);
-/// assert_eq!(cantilever::F_OPS.mul, 7);
-/// ```
+#[doc = include_str!("../doc/model.md")]
 #[proc_macro]
 pub fn model(input: TokenStream) -> TokenStream {
     let input = proc_macro2::TokenStream::from(input);

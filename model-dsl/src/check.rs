@@ -40,6 +40,7 @@ const GENERATED_ITEMS: &[&str] = &[
     "Lqr",
     "Mpc",
     "MpcStatus",
+    "PredictionModel",
     "Status",
     "WindowStatus",
     "HybridEkf",

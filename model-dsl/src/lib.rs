@@ -1,9 +1,14 @@
 //! The model compiler: a symbolic model of a dynamic system in, straight-line,
 //! allocation-free Rust out.
 //!
-//! The flow runs one way: tokens (or a model file) -> [`ast::ModelDecl`] ->
+//! The flow runs one way: tokens -> [`ast::ModelDecl`] ->
 //! [`check`] -> [`model::Model`] -> [`symbolic`] graph -> [`emit`] -> tokens.
 //! [`expand`] is the whole pipeline for the `model!` macro; tests call it directly.
+//!
+//! This crate is what the `model!` macro (`codegen-macros`) builds, so it depends on
+//! `syn`, `quote`, `proc-macro2` and `indexmap` only. Model files (TOML), formatting and
+//! the command-line tool are in `model-codegen`, which produces a [`ast::ModelDecl`]
+//! through the same [`check`].
 
 #![forbid(unsafe_code)]
 
@@ -14,7 +19,6 @@ mod check_designs;
 pub mod diagnostics;
 pub mod emit;
 pub mod front;
-pub mod meval_text;
 pub mod model;
 pub mod numerics;
 pub mod symbolic;
@@ -33,12 +37,6 @@ pub fn expand(tokens: TokenStream) -> syn::Result<TokenStream> {
     emit::emit_model(&model)
 }
 
-/// Formats generated tokens as a Rust source file (for snapshots and the CLI).
-pub fn format(tokens: TokenStream) -> syn::Result<String> {
-    let file: syn::File = syn::parse2(tokens)?;
-    Ok(prettyplease::unparse(&file))
-}
-
 /// Parses and checks Rust source holding one `model! { .. }` invocation (a demo model
 /// file) into the model IR.
 pub fn parse_macro_source(source: &str) -> syn::Result<model::Model> {
@@ -50,15 +48,4 @@ pub fn parse_macro_source(source: &str) -> syn::Result<model::Model> {
 /// Expands Rust source holding one `model! { .. }` invocation (a demo model file).
 pub fn expand_macro_source(source: &str) -> syn::Result<TokenStream> {
     emit::emit_model(&parse_macro_source(source)?)
-}
-
-/// Reads and checks a TOML model file into the model IR.
-pub fn parse_model_file(source: &str) -> syn::Result<model::Model> {
-    let (decl, diag) = front::model_file::parse_model_file(source)?;
-    check::check(&decl, diag)
-}
-
-/// Expands a TOML model file: the same module the macro would generate.
-pub fn expand_model_file(source: &str) -> syn::Result<TokenStream> {
-    emit::emit_model(&parse_model_file(source)?)
 }

@@ -185,7 +185,7 @@ fn runner(default_cases: u32) -> TestRunner {
 /// Accepted input must give a Rust file; rejected input just returns its errors.
 fn check(generated: syn::Result<proc_macro2::TokenStream>) -> Result<(), TestCaseError> {
     if let Ok(tokens) = generated {
-        if let Err(e) = model_dsl::format(tokens) {
+        if let Err(e) = model_codegen::format(tokens) {
             return Err(TestCaseError::fail(format!(
                 "accepted, but the code does not parse: {e}"
             )));
@@ -216,13 +216,13 @@ fn mutated_macro_models_never_panic_and_accepted_ones_parse() {
 
 #[test]
 fn mutated_model_files_never_panic_and_accepted_ones_parse() {
-    let toml = std::fs::read_to_string(workspace_path("model-dsl/models/cantilever.toml"))
+    let toml = std::fs::read_to_string(workspace_path("model-codegen/models/cantilever.toml"))
         .expect("the cantilever model file");
     let case = prop::collection::vec(edit(), 1..4);
     runner(160)
         .run(&case, |edits| {
             let text = edits.iter().fold(toml.clone(), |t, e| apply(&t, e));
-            check(model_dsl::expand_model_file(&text))
+            check(model_codegen::expand_model_file(&text))
         })
         .unwrap();
 }

@@ -79,8 +79,8 @@ fn relative(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
 }
 
 fn prediction(inv_m: f64) -> (DMatrix<f64>, DMatrix<f64>) {
-    let (a, b) = blade::Mpc::prediction_model(&estimate(0.0, 0.0, inv_m), &[0.0]).expect("finite");
-    (matrix(&a), matrix(&b))
+    let model = blade::Mpc::prediction_model(&estimate(0.0, 0.0, inv_m), &[0.0]).expect("finite");
+    (matrix(&model.a), matrix(&model.b))
 }
 
 #[test]

@@ -10,15 +10,19 @@
 #![forbid(unsafe_code)]
 
 mod accuracy;
+mod cold_build;
 mod compare;
 mod compare_continuous;
 mod compare_observers;
 mod cost;
 mod firmware;
+mod msrv;
 mod program;
+mod scratch;
 mod setup;
 mod timing;
 mod trace;
+mod vendored;
 
 use clap::{Parser, Subcommand};
 use std::path::Path;
@@ -30,6 +34,10 @@ const MCU_TARGET: &str = "thumbv7em-none-eabihf";
 const TARGETS: &str = "targets";
 /// Samples in the firmware's embedded sequence (`targets/build.rs`).
 const SEQUENCE_SAMPLES: usize = 1000;
+/// Users' crates, outside the workspace, built and tested like a user's project.
+const EXAMPLES: &str = "examples";
+/// The crates published to crates.io, in dependency order.
+const PUBLISHED: [&str; 3] = ["model-dsl", "codegen-macros", "model-codegen"];
 /// Commands the firmware checks run, with the Debian packages that provide them.
 const FIRMWARE_TOOLS: &[(&str, &str)] = &[
     ("qemu-system-arm", "qemu-system-arm"),
@@ -48,49 +56,60 @@ struct Cli {
 enum Task {
     /// Install what the checks need, then run formatting, clippy, all tests and the MCU build.
     Test,
+    /// Check the published crates' declared minimum Rust version (part of `test`).
+    Msrv,
     /// Run the firmware under QEMU and print what the generated filters cost on the
     /// Cortex-M4F, beside the nalgebra baseline.
     Cost,
+    /// Vendor every demo model with `model-codegen` into a user crate and check it with
+    /// rustfmt, `-D warnings` and clippy (part of `test`).
+    Vendored,
     /// On the host, how far the f32 filters drift from f64 over many noise sequences.
     Accuracy {
         /// How many sequences (the first is the CI's).
         #[arg(default_value_t = 40)]
         sequences: u64,
     },
+    /// Benchmark: build a one-model user crate (outside the workspace, its own target
+    /// directory) from nothing and report the time, the crates compiled and any warning.
+    ColdBuild {
+        /// The `codegen-macros` directory to depend on (default: this workspace's), to
+        /// compare with another checkout.
+        #[arg(long)]
+        macros: Option<std::path::PathBuf>,
+        /// Parallel jobs for cargo (default: cargo's).
+        #[arg(long)]
+        jobs: Option<u32>,
+    },
 }
 
 fn main() -> ExitCode {
-    match Cli::parse().task {
-        Task::Accuracy { sequences } => {
-            print!("{}", accuracy::report(sequences));
+    let outcome = match Cli::parse().task {
+        Task::Accuracy { sequences } => Ok(accuracy::report(sequences)),
+        Task::ColdBuild { macros, jobs } => {
+            cold_build::measure(macros.as_deref(), jobs).map(|m| m.to_string())
+        }
+        Task::Msrv => msrv::check(&PUBLISHED).map(|summary| format!("xtask: {summary}\n")),
+        Task::Vendored => vendored::check().map(|summary| format!("xtask: {summary}\n")),
+        Task::Cost => cost(),
+        Task::Test => test().map(|()| "xtask: every check passed\n".to_string()),
+    };
+    match outcome {
+        Ok(report) => {
+            print!("{report}");
             ExitCode::SUCCESS
         }
-        Task::Cost => match cost() {
-            Ok(table) => {
-                print!("{table}");
-                ExitCode::SUCCESS
-            }
-            Err(message) => {
-                eprintln!("xtask: {message}");
-                ExitCode::FAILURE
-            }
-        },
-        Task::Test => match test() {
-            Ok(()) => {
-                println!("xtask: every check passed");
-                ExitCode::SUCCESS
-            }
-            Err(message) => {
-                eprintln!("xtask: {message}");
-                ExitCode::FAILURE
-            }
-        },
+        Err(message) => {
+            eprintln!("xtask: {message}");
+            ExitCode::FAILURE
+        }
     }
 }
 
 fn test() -> Result<(), String> {
     setup::rust_target(MCU_TARGET)?;
     setup::debian_commands(FIRMWARE_TOOLS)?;
+    println!("xtask: {}", msrv::check(&PUBLISHED)?);
     run(
         "formatting",
         cargo().args(["fmt", "--all", "--", "--check"]),
@@ -107,6 +126,14 @@ fn test() -> Result<(), String> {
         ]),
     )?;
     run("tests", cargo().args(["test", "--workspace"]))?;
+    run(
+        "packaging the published crates (manifests, versions of path dependencies)",
+        cargo()
+            .args(["package", "--no-verify", "--allow-dirty", "--quiet"])
+            .args(PUBLISHED.iter().flat_map(|name| ["--package", name])),
+    )?;
+    println!("xtask: {}", vendored::check()?);
+    user_examples()?;
     run(
         "the Cortex-M4F build of the generated models",
         cargo().args([
@@ -147,6 +174,50 @@ fn test() -> Result<(), String> {
         tables.push(cost_table(&report, build)?);
     }
     print!("{}", tables.join("\n"));
+    Ok(())
+}
+
+/// The users' crates in `examples/`, each its own workspace with a committed lockfile:
+/// formatted, clippy-clean, tested, and their libraries built for the MCU (`no_std`).
+fn user_examples() -> Result<(), String> {
+    let examples = scratch::workspace_root().join(EXAMPLES);
+    let entries =
+        std::fs::read_dir(&examples).map_err(|e| format!("cannot list {EXAMPLES}: {e}"))?;
+    let mut crates: Vec<_> = entries
+        .filter_map(|entry| Some(entry.ok()?.path()))
+        .filter(|dir| dir.join("Cargo.toml").exists())
+        .collect();
+    crates.sort();
+    for dir in crates {
+        let name = dir.display();
+        run(
+            &format!("formatting of {name}"),
+            cargo().args(["fmt", "--", "--check"]).current_dir(&dir),
+        )?;
+        run(
+            &format!("clippy on {name}"),
+            cargo()
+                .args([
+                    "clippy",
+                    "--locked",
+                    "--all-targets",
+                    "--",
+                    "-D",
+                    "warnings",
+                ])
+                .current_dir(&dir),
+        )?;
+        run(
+            &format!("tests of {name}"),
+            cargo().args(["test", "--locked"]).current_dir(&dir),
+        )?;
+        run(
+            &format!("the library of {name} for the Cortex-M4F"),
+            cargo()
+                .args(["build", "--locked", "--lib", "--target", MCU_TARGET])
+                .current_dir(&dir),
+        )?;
+    }
     Ok(())
 }
 

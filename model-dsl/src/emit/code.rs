@@ -67,8 +67,9 @@ pub fn all_finite(names: &[proc_macro2::Ident]) -> TokenStream {
     quote! { (#left) && (#right) }
 }
 
-/// `if !(d > 0.0) { <on_failure> } let inv = 1.0 / d;`: a guarded reciprocal. The negated
-/// comparison also catches NaN. `on_failure` must return.
+/// `let inv = if d > 0.0 { 1.0 / d } else { <on_failure> };`: a guarded reciprocal. Only a
+/// positive `d` is divided by; NaN fails the comparison and takes `on_failure`, which must
+/// return.
 pub fn guarded_reciprocal(
     value: &TokenStream,
     reciprocal: &proc_macro2::Ident,
@@ -77,10 +78,11 @@ pub fn guarded_reciprocal(
 ) -> TokenStream {
     let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
     quote! {
-        if !(#value > #zero) {
+        let #reciprocal = if #value > #zero {
+            #one / #value
+        } else {
             #on_failure
-        }
-        let #reciprocal = #one / #value;
+        };
     }
 }
 

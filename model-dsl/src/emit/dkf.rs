@@ -71,10 +71,9 @@ pub fn emit_dkf(
     let (q_param, q_field, pack_q) = noise_argument("q", n, spec.diagonal_noise, &ty);
     let (qbar_param, qbar_field, pack_qbar) = noise_argument("qbar", n, spec.diagonal_noise, &ty);
     let params_of_x0 = {
-        let names: Vec<Ident> = model.state_names().map(ident).collect();
-        let params = &names[model.states.len()..];
+        let params: Vec<Ident> = model.params.iter().map(|p| ident(&p.name)).collect();
         quote! {{
-            let [#(#names),*] = x0;
+            let [.., #(#params),*] = x0;
             [#(#params),*]
         }}
     };

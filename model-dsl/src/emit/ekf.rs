@@ -363,11 +363,12 @@ fn gate_items(
             /// infinity opens it). Rejects a threshold that is not positive, leaving the
             /// gate as it was.
             pub fn set_innovation_gate(&mut self, threshold: #ty) -> Status {
-                if !(threshold > #zero) {
-                    return Status::RejectedInput;
+                if threshold > #zero {
+                    self.gate = threshold;
+                    Status::Ok
+                } else {
+                    Status::RejectedInput
                 }
-                self.gate = threshold;
-                Status::Ok
             }
         },
     )
@@ -563,8 +564,11 @@ fn method(
                 }
             });
             let rejection = outlier_rejection(keep_prediction, &store_innovation);
+            // NaN is not within the gate: a measurement that gives it is rejected.
+            let within_gate = lowerer.fresh_name("within_gate");
             lowerer.statement(quote! {
-                if !(#nis <= self.gate) {
+                let #within_gate = #nis <= self.gate;
+                if !#within_gate {
                     #rejection
                 }
             });

@@ -294,6 +294,11 @@ impl<'g> Lowerer<'g> {
         self.segment(&[root]).remove(0)
     }
 
+    /// A name for a value the emitter binds itself, shadowing nothing.
+    pub fn fresh_name(&mut self, base: &str) -> proc_macro2::Ident {
+        self.namer.fresh(base)
+    }
+
     /// What the code emitted so far computes.
     pub fn ops(&self) -> OpCount {
         self.ops

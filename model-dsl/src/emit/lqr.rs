@@ -137,6 +137,8 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     let checked: Vec<_> = x_idents.iter().chain(&u_idents).cloned().collect();
     let check = reject_non_finite(&checked);
     let unpack_p = destructure(graph, quote! { p }, &p_vars, &used_vars);
+    // The gain reads fewer entries of the final `P` than a Riccati step does.
+    let unpack_p_for_gain = destructure(graph, quote! { p }, &p_vars, &used_after);
     let unpack_q = destructure(graph, quote! { self.q }, &q_vars, &used_vars);
     let unpack_r = destructure(graph, quote! { self.r }, &r_vars, &used_vars);
     let k_rows = k_values.chunks(ns).map(|row| quote! { [#(#row),*] });
@@ -303,7 +305,7 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
                     #(#body)*
                     p = [#(#p_values),*];
                 }
-                #unpack_p
+                #unpack_p_for_gain
                 #(#gain_statements)*
                 let gain = [#(#k_rows),*];
                 let [#(#gain_pattern),*] = gain;

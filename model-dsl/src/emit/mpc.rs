@@ -154,9 +154,7 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
     );
     let qp = active_set_loop(&mut mg.graph, &moves, &names, scalar);
 
-    let (x_len, u_len) = (model.state_len(), model.inputs.len());
-    let [n, m, ns_len, nu_len] =
-        [x_len, u_len, spec.states.len(), spec.inputs.len()].map(Literal::usize_unsuffixed);
+    let [n, m] = [model.state_len(), model.inputs.len()].map(Literal::usize_unsuffixed);
     let prediction_signature = signature(model, &mg, &prediction.used, &ty);
     let prediction_read = read_estimate(
         &mg,
@@ -178,15 +176,18 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
     let time_arg = model.uses_time().then(|| quote! { t, });
     let stages = [&terminal.stage.code, &condensed.stage.code, &qp.code];
     let commit = commit(&moves, &terminal);
-    let failed = failure(quote! { status });
+    let failed = failure(quote! { rejected });
     let methods = quote! {
         /// The prediction model `x+ = A x + B u` (eq. 30) of the regulated states at the
         /// estimate `x` and operating input `u`, as [`Mpc::solve`] takes it: `Err` if they
         /// are not finite, or the hold would not be.
-        pub fn prediction_model(#prediction_signature) -> Result<([[#ty; #ns_len]; #ns_len], [[#ty; #nu_len]; #ns_len]), Status> {
+        pub fn prediction_model(#prediction_signature) -> Result<PredictionModel, Status> {
             #prediction_read
             #prediction_code
-            Ok(([#(#a_values),*], [#(#b_values),*]))
+            Ok(PredictionModel {
+                a: [#(#a_values),*],
+                b: [#(#b_values),*],
+            })
         }
 
         /// Recomputes the plan for the estimate `x`: the prediction model at `x` (and
@@ -195,9 +196,9 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         /// `MAX_ITERATIONS` active-set iterations from the last plan, shifted by one
         /// move. Leaves the controller unchanged unless the status is [`Status::Ok`].
         pub fn solve(&mut self, #time x: &[#ty; #n], u: &[#ty; #m]) -> MpcStatus {
-            let (#a_pattern, #b_pattern) = match Self::prediction_model(#time_arg x, u) {
+            let PredictionModel { a: #a_pattern, b: #b_pattern } = match Self::prediction_model(#time_arg x, u) {
                 Ok(model) => model,
-                Err(status) => {
+                Err(rejected) => {
                     #failed
                 }
             };
@@ -839,6 +840,15 @@ fn type_tokens(
     let start_move = moves.start_move(&zero);
     let terminal_weight = unpack_symmetric("terminal_weight", ns);
     quote! {
+        /// The MPC's prediction model `x+ = A x + B u` (eq. 30) of the regulated states.
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct PredictionModel {
+            /// `A`, regulated states by regulated states.
+            pub a: [[#ty; #ns_len]; #ns_len],
+            /// `B`, regulated states by the MPC's inputs.
+            pub b: [[#ty; #nu_len]; #ns_len],
+        }
+
         /// What an [`Mpc::solve`] did.
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
         #[must_use = "a solve that did not return `Status::Ok` left the controller unchanged"]

@@ -308,9 +308,18 @@ fn bounds_and_warm_start(moves: &MoveNames) -> TokenStream {
     );
     let (low, high) = (moves.per_input("low"), moves.per_input("high"));
     let previous = moves.per_move("previous");
-    let previous_rows = previous
-        .chunks(moves.inputs.len().max(1))
-        .map(|row| quote! { [#(#row),*] });
+    // The last plan's first move was applied; the warm start begins with its second.
+    let previous_rows =
+        previous
+            .chunks(moves.inputs.len().max(1))
+            .enumerate()
+            .map(|(step, row)| match step {
+                0 => {
+                    let unread = row.iter().map(|_| quote! { _ });
+                    quote! { [#(#unread),*] }
+                }
+                _ => quote! { [#(#row),*] },
+            });
     // Move k is input k % nu at step k / nu; it starts from the same input one step later.
     let nu = moves.inputs.len().max(1);
     let last_step = moves.len() / nu - 1;

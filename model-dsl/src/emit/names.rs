@@ -95,6 +95,13 @@ impl TempNamer {
         ident(&name)
     }
 
+    /// Names a value the emitter binds itself (not a graph node): `base`, made unique.
+    pub fn fresh(&mut self, base: &str) -> Ident {
+        let name = self.unique(base);
+        self.taken.insert(name.clone());
+        ident(&name)
+    }
+
     fn unique(&self, base: &str) -> String {
         let valid = |s: &str| !self.taken.contains(s) && syn::parse_str::<syn::Ident>(s).is_ok();
         if valid(base) {

@@ -260,12 +260,14 @@ fn observer_type(
                 #unpack_u
                 let [#(#y_idents),*] = *y;
                 #check
-                let x_next = if #switch_y #cmp #threshold { #regime2 } else { #regime1 };
-                let [#(#next_idents),*] = x_next;
+                // `next`, not `x_next`: the entries are `<state>_next`, and a state named
+                // `x` would shadow the array.
+                let next = if #switch_y #cmp #threshold { #regime2 } else { #regime1 };
+                let [#(#next_idents),*] = next;
                 if !(#(#next_idents)+*).is_finite() {
                     return Status::NonFinite;
                 }
-                self.x = x_next;
+                self.x = next;
                 Status::Ok
             }
         }

@@ -1,5 +1,6 @@
-//! Front ends: each reads one way of writing a model into a [`crate::ast::ModelDecl`].
+//! The `model!` front end: reads the macro's tokens into a [`crate::ast::ModelDecl`]
+//! within the [`limits`] every front end keeps (the model-file front end, in
+//! `model-codegen`, checks its expression text with them too).
 
 pub mod limits;
 pub mod macro_syntax;
-pub mod model_file;

@@ -30,16 +30,17 @@
 //! `[[known]]` entries (`name`, `doc`) declare constants known only at run time.
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
 
-use crate::ast::{
+use meval::tokenizer::{Operation, Token};
+use model_dsl::ast::{
     ArgValue, BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg,
     GenerateDecl, ModelDecl, Name, OutputDecl, Statement, SurfaceExpr, SurfaceKind, SymbolDecl,
     SymbolKind,
 };
-use crate::diagnostics::Diagnostics;
-use indexmap::IndexMap;
-use meval::tokenizer::{Operation, Token};
+use model_dsl::diagnostics::Diagnostics;
 use proc_macro2::{Span, TokenStream};
+use serde::de::{Deserializer, MapAccess, Visitor};
 use serde::Deserialize;
+use std::marker::PhantomData;
 use std::str::FromStr;
 use toml::Spanned;
 
@@ -66,7 +67,7 @@ struct ModelFile {
     outputs: Vec<Entry>,
     dynamics: Option<Dynamics>,
     /// `ekf = true`, `dkf = { eta = 0.5 }`, `lqr = { horizon = 50, states = ["x1"], input = "u" }`.
-    generate: Option<IndexMap<String, Spanned<toml::Value>>>,
+    generate: Option<InFileOrder<Spanned<toml::Value>>>,
 }
 
 /// Who may use the generated module: a closed set, so nothing of the file becomes tokens
@@ -136,7 +137,38 @@ struct Dynamics {
     substeps: Option<Spanned<u64>>,
     #[serde(default, rename = "let")]
     lets: Vec<Entry>,
-    equations: IndexMap<String, Spanned<Value>>,
+    equations: InFileOrder<Spanned<Value>>,
+}
+
+/// A TOML table's entries in the order of the file, so generated code follows the file.
+/// (`indexmap`'s serde support would do it, but would build `indexmap` differently from the
+/// `model!` macro's, and the compiler with it, twice in a workspace holding both.)
+struct InFileOrder<V>(Vec<(String, V)>);
+
+impl<V> InFileOrder<V> {
+    fn iter(&self) -> impl Iterator<Item = (&String, &V)> {
+        self.0.iter().map(|(key, value)| (key, value))
+    }
+}
+
+impl<'de, V: Deserialize<'de>> Deserialize<'de> for InFileOrder<V> {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Entries<V>(PhantomData<V>);
+        impl<'de, V: Deserialize<'de>> Visitor<'de> for Entries<V> {
+            type Value = InFileOrder<V>;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a table")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+                let mut entries = Vec::new();
+                while let Some(entry) = map.next_entry()? {
+                    entries.push(entry);
+                }
+                Ok(InFileOrder(entries))
+            }
+        }
+        deserializer.deserialize_map(Entries(PhantomData))
+    }
 }
 
 /// Spans for places in a model file, so its errors point at line and column as the
@@ -337,7 +369,7 @@ fn parse_expression(text: &str, field: &str, here: Span, diag: &mut Diagnostics)
         kind: SurfaceKind::Number(0.0),
         span: here,
     };
-    if let Err(message) = super::limits::check_expression_text(text) {
+    if let Err(message) = model_dsl::front::limits::check_expression_text(text) {
         diag.error(here, format!("{field}: {message}"));
         return zero;
     }
@@ -463,12 +495,12 @@ pub fn comparison_of(function: &str) -> Option<Comparison> {
 /// A generator's value is `true`, a table of arguments, or a list of tables for several
 /// of its kind (`ekf = [{ .. }, { name = "GatedEkf", .. }]`).
 fn generate_items(
-    table: Option<&IndexMap<String, Spanned<toml::Value>>>,
+    table: Option<&InFileOrder<Spanned<toml::Value>>>,
     places: &Places,
     diag: &mut Diagnostics,
 ) -> Vec<GenerateDecl> {
     let mut items = Vec::new();
-    for (generator, value) in table.into_iter().flatten() {
+    for (generator, value) in table.into_iter().flat_map(InFileOrder::iter) {
         let here = places.of_field(value);
         let item = |args| GenerateDecl {
             name: Name {

@@ -1,0 +1,69 @@
+//! Vendoring the code of the `model!` macro: the TOML model-file front end, formatting of
+//! generated code, and the `model-codegen` command-line tool built on them.
+//!
+//! A model file reads into the same [`model_dsl::ast::ModelDecl`] as the macro's tokens and
+//! goes through the same checks and emitters, so both give the same module. This crate
+//! carries what the macro does not need (`serde`, `toml`, `meval`, `prettyplease`, `clap`),
+//! which keeps `codegen-macros` light to build.
+
+#![forbid(unsafe_code)]
+
+pub mod meval_text;
+pub mod model_file;
+
+use model_dsl::model::Model;
+use proc_macro2::TokenStream;
+
+/// Formats generated tokens as a Rust source file with `prettyplease` (for snapshots; the
+/// tool then passes the file through [`rustfmt`]).
+pub fn format(tokens: TokenStream) -> syn::Result<String> {
+    let file: syn::File = syn::parse2(tokens)?;
+    Ok(prettyplease::unparse(&file))
+}
+
+/// Formats a Rust source file with `rustfmt` (the `RUSTFMT` variable, else `rustfmt` on
+/// the path; edition 2021, and the `rustfmt.toml` of the current directory if there is
+/// one), as `cargo fmt` will format it once vendored. `prettyplease` alone does not: its
+/// layout differs from rustfmt's, and a vendored file would fail `cargo fmt --check`.
+/// An error if rustfmt cannot be run or refuses the file.
+pub fn rustfmt(code: &str) -> Result<String, String> {
+    use std::io::Write;
+    use std::process::{Command, Stdio};
+    let program = std::env::var_os("RUSTFMT").unwrap_or_else(|| "rustfmt".into());
+    let mut child = Command::new(&program)
+        .args(["--edition", "2021", "--emit", "stdout"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("cannot run {}: {e}", program.to_string_lossy()))?;
+    // Written from another thread: rustfmt may fill its output pipe before reading all.
+    let mut stdin = child.stdin.take().ok_or("rustfmt has no standard input")?;
+    let input = code.to_owned();
+    let writer = std::thread::spawn(move || stdin.write_all(input.as_bytes()));
+    let output = child
+        .wait_with_output()
+        .map_err(|e| format!("rustfmt: {e}"))?;
+    let written = writer
+        .join()
+        .map_err(|_| "rustfmt: input thread panicked")?;
+    match (output.status.success(), written) {
+        (true, Ok(())) => String::from_utf8(output.stdout).map_err(|e| format!("rustfmt: {e}")),
+        (_, Err(e)) => Err(format!("rustfmt: {e}")),
+        (false, _) => Err(format!(
+            "rustfmt failed: {}",
+            String::from_utf8_lossy(&output.stderr).trim()
+        )),
+    }
+}
+
+/// Reads and checks a TOML model file into the model IR.
+pub fn parse_model_file(source: &str) -> syn::Result<Model> {
+    let (decl, diag) = model_file::parse_model_file(source)?;
+    model_dsl::check::check(&decl, diag)
+}
+
+/// Expands a TOML model file: the same module the macro would generate.
+pub fn expand_model_file(source: &str) -> syn::Result<TokenStream> {
+    model_dsl::emit::emit_model(&parse_model_file(source)?)
+}

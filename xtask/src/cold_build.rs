@@ -1,0 +1,128 @@
+//! `cargo xtask cold-build`: how long a user's crate with one model takes to build from
+//! nothing, and what that build prints. A benchmark, not a check: it reports, never fails
+//! on a time.
+
+use crate::scratch::{workspace_root, Scratch};
+use std::path::{Path, PathBuf};
+use std::process::Stdio;
+use std::time::Instant;
+
+/// The user's crate: one small model with an EKF, as the README shows it.
+const MODEL: &str = r#"//! One model, built the way a user's crate builds it.
+#![no_std]
+#![forbid(unsafe_code)]
+
+codegen_macros::model! {
+    /// Cantilever beam, first mode, with unknown stiffness, damping and input gain.
+    pub mod cantilever {
+        scalar f32;
+        /// Sample time [s].
+        const TS = 0.015;
+        state x1, x2;
+        param x3, x4, x5;
+        input u;
+        output y = x1;
+        generate ekf(process_noise = diagonal);
+        dynamics discrete {
+            x1 = x1 + TS * x2;
+            x2 = TS * x1 * x3 + (1.0 + TS * x4) * x2 + TS * x5 * u;
+        }
+    }
+}
+"#;
+
+/// What one cold build measured.
+pub struct Measurement {
+    /// Wall-clock seconds of `cargo build`.
+    pub seconds: f64,
+    /// The crates compiled, in cargo's order.
+    pub compiled: Vec<String>,
+    /// Every `warning` line cargo and rustc printed.
+    pub warnings: Vec<String>,
+}
+
+/// Builds the one-model crate against the `codegen-macros` at `macros` (this workspace's
+/// by default) in a fresh directory with an empty target directory, `jobs` parallel jobs.
+pub fn measure(macros: Option<&Path>, jobs: Option<u32>) -> Result<Measurement, String> {
+    let macros = macros.map_or_else(
+        || workspace_root().join("codegen-macros"),
+        Path::to_path_buf,
+    );
+    let macros = macros
+        .canonicalize()
+        .map_err(|e| format!("{}: {e}", macros.display()))?;
+    let lockfile: Option<PathBuf> = macros
+        .parent()
+        .map(|root| root.join("Cargo.lock"))
+        .filter(|lock| lock.exists());
+    let dependencies = format!(
+        "codegen-macros = {{ path = {:?} }}\nlibm = \"0.2\"",
+        macros.display().to_string()
+    );
+    let user = Scratch::new(
+        "cold-build-user",
+        None,
+        &dependencies,
+        &[("src/lib.rs", MODEL.to_string())],
+        lockfile.as_deref(),
+    )?;
+    // Sources are fetched first, so the time is compiling, not downloading.
+    crate::run(
+        "fetching the user crate's dependencies",
+        user.cargo().args(["fetch"]),
+    )?;
+    let mut build = user.cargo();
+    build.args(["build", "--offline"]);
+    if let Some(jobs) = jobs {
+        build.arg(format!("--jobs={jobs}"));
+    }
+    println!(
+        "xtask: cold build of a one-model crate using {}",
+        macros.display()
+    );
+    let start = Instant::now();
+    let output = build
+        .stdout(Stdio::null())
+        .output()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    let seconds = start.elapsed().as_secs_f64();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    if !output.status.success() {
+        return Err(format!("the one-model crate does not build:\n{stderr}"));
+    }
+    let compiled = stderr
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("Compiling "))
+        .map(str::to_string)
+        .collect();
+    let warnings = stderr
+        .lines()
+        .filter(|l| l.trim_start().starts_with("warning"))
+        .map(str::to_string)
+        .collect();
+    Ok(Measurement {
+        seconds,
+        compiled,
+        warnings,
+    })
+}
+
+impl std::fmt::Display for Measurement {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "cold build: {:.1} s, {} crates compiled",
+            self.seconds,
+            self.compiled.len()
+        )?;
+        for crate_ in &self.compiled {
+            writeln!(f, "  {crate_}")?;
+        }
+        if self.warnings.is_empty() {
+            writeln!(f, "warnings: none")
+        } else {
+            writeln!(f, "warnings:")?;
+            self.warnings.iter().try_for_each(|w| writeln!(f, "  {w}"))
+        }
+    }
+}

@@ -1,0 +1,94 @@
+//! The check that vendored generated code is as clean as hand-written code: every demo
+//! model and model file through `model-codegen`, into one user crate outside the
+//! workspace, which must pass `cargo fmt --check`, build with `-D warnings` and pass
+//! clippy with `-D warnings`, with no lint allowed by the crate.
+
+use crate::scratch::{workspace_root, Scratch};
+use std::path::{Path, PathBuf};
+
+/// The model sources vendored: the demo models (`model!` invocations) and the model files.
+fn models(root: &Path) -> Result<Vec<(String, PathBuf)>, String> {
+    let mut models = Vec::new();
+    for (dir, prefix) in [
+        ("generated-demo/models", "demo"),
+        ("model-codegen/models", "file"),
+    ] {
+        let entries =
+            std::fs::read_dir(root.join(dir)).map_err(|e| format!("cannot list {dir}: {e}"))?;
+        for entry in entries {
+            let path = entry.map_err(|e| format!("cannot list {dir}: {e}"))?.path();
+            let is_model = path.extension().is_some_and(|e| e == "rs" || e == "toml");
+            if let (true, Some(stem)) = (is_model, path.file_stem()) {
+                models.push((format!("{prefix}_{}", stem.to_string_lossy()), path));
+            }
+        }
+    }
+    models.sort();
+    Ok(models)
+}
+
+/// Vendors every model with `model-codegen -o` and checks the crate they make.
+pub fn check() -> Result<String, String> {
+    let root = workspace_root();
+    let models = models(&root)?;
+    let lib = format!(
+        "//! Every demo model and model file, vendored with `model-codegen`.\n\
+         #![no_std]\n#![forbid(unsafe_code)]\n\n{}",
+        models
+            .iter()
+            .map(|(module, _)| format!("pub mod {module};\n"))
+            .collect::<String>()
+    );
+    let vendored = Scratch::new(
+        "vendored-models",
+        // The workspace's minimum Rust version (xtask inherits it).
+        Some(env!("CARGO_PKG_RUST_VERSION")),
+        "libm = \"0.2\"",
+        &[("src/lib.rs", lib)],
+        Some(&root.join("Cargo.lock")),
+    )?;
+    if let Err(message) = vendor_and_check(&root, &models, &vendored) {
+        return Err(format!("{message}; {}", vendored.keep()));
+    }
+    Ok(format!(
+        "{} vendored models pass rustfmt --check, -D warnings and clippy",
+        models.len()
+    ))
+}
+
+/// Vendors `models` into the `vendored` crate, then formats, builds and lints it.
+fn vendor_and_check(
+    root: &Path,
+    models: &[(String, PathBuf)],
+    vendored: &Scratch,
+) -> Result<(), String> {
+    for (module, source) in models {
+        crate::run(
+            &format!("vendoring {}", source.display()),
+            crate::cargo()
+                .current_dir(root)
+                .args(["run", "--quiet", "--package", "model-codegen", "--"])
+                .arg(source)
+                .arg("-o")
+                .arg(vendored.dir.join("src").join(format!("{module}.rs"))),
+        )?;
+    }
+    crate::run(
+        "rustfmt --check on the vendored models",
+        vendored.cargo().args(["fmt", "--", "--check"]),
+    )?;
+    crate::run(
+        "the vendored models build with -D warnings",
+        vendored
+            .cargo()
+            .args(["build", "--offline"])
+            .env("RUSTFLAGS", "-D warnings"),
+    )?;
+    crate::run(
+        "clippy -D warnings on the vendored models",
+        vendored
+            .cargo()
+            .args(["clippy", "--offline", "--", "-D", "warnings"]),
+    )?;
+    Ok(())
+}
