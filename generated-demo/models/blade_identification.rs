@@ -10,27 +10,27 @@ codegen_macros::model! {
     /// Units: SI (m, m/s, N/m, N s/m, N/V, 1/kg, V, s).
     pub mod blade_identification {
         scalar f32, f64;
-        /// Sample time T [s] (sect. 4.1).
+        /// Sample time T \[s\] (sect. 4.1).
         const TS = 0.01;
         state
-            /// x_I1 = q: beam tip position [m]
+            /// x_I1 = q: beam tip position \[m\]
             q,
-            /// x_I2 = q': beam tip velocity [m/s]
+            /// x_I2 = q': beam tip velocity \[m/s\]
             qd;
         param
-            /// x_I3 = k: spring constant [N/m]
+            /// x_I3 = k: spring constant \[N/m\]
             k,
-            /// x_I4 = b: equivalent viscous damping [N s/m]
+            /// x_I4 = b: equivalent viscous damping \[N s/m\]
             b,
-            /// x_I5 = c: force conversion constant of the actuators [N/V]
+            /// x_I5 = c: force conversion constant of the actuators \[N/V\]
             c,
-            /// x_I6 = 1/m: inverse equivalent mass [1/kg]
+            /// x_I6 = 1/m: inverse equivalent mass \[1/kg\]
             inv_m;
         input
-            /// voltage supplied to the piezoceramic actuators u [V]
+            /// voltage supplied to the piezoceramic actuators u \[V\]
             u;
         output
-            /// measured tip position y = q [m]
+            /// measured tip position y = q \[m\]
             y = q;
         // The hybrid EKF of sect. 3.2 with the paper's Euler integration at dt = T/500
         // (sect. 4.1), the 500 sub-steps as a loop.

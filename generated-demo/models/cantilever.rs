@@ -17,25 +17,25 @@ codegen_macros::model! {
     /// values; map the discrete poles back (s = ln z / Ts) to report wn, zeta.
     pub mod cantilever {
         scalar f32, f64;
-        /// Sample time [s]; "the sampling period has been set to 15 ms" (sect. 4.1).
+        /// Sample time \[s\]; "the sampling period has been set to 15 ms" (sect. 4.1).
         const TS = 0.015;
         state
-            /// tip displacement x1 [mm]
+            /// tip displacement x1 \[mm\]
             x1,
-            /// tip velocity x2 [mm/s]
+            /// tip velocity x2 \[mm/s\]
             x2;
         param
-            /// x3 = -wn^2 [1/s^2] (wn: first natural frequency, about 20-50 rad/s)
+            /// x3 = -wn^2 \[1/s^2\] (wn: first natural frequency, about 20-50 rad/s)
             x3,
-            /// x4 = -2 zeta wn [1/s] (zeta: proportional damping ratio)
+            /// x4 = -2 zeta wn \[1/s\] (zeta: proportional damping ratio)
             x4,
             /// x5 = alpha, input gain [mm/(s^2 V)]
             x5;
         input
-            /// actuator (piezo amplifier) voltage u [V]
+            /// actuator (piezo amplifier) voltage u \[V\]
             u;
         output
-            /// measured tip displacement y = x1 [mm], eq. (3f)
+            /// measured tip displacement y = x1 \[mm\], eq. (3f)
             y = x1;
         // Forward Euler of eq. (2), i.e. eqs. (3a)-(3b); x3, x4, x5 are held
         // (eqs. 3c-3e): params get no equation, they are random-walk states.

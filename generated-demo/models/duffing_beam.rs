@@ -5,27 +5,27 @@ codegen_macros::model! {
     /// in the state, so the transformed model has a known affine term `d` (eq. 12 extended).
     pub mod duffing_beam {
         scalar f32, f64;
-        /// Sample time [s].
+        /// Sample time \[s\].
         const TS = 0.015;
         state
-            /// tip displacement [mm]
+            /// tip displacement \[mm\]
             x1,
-            /// tip velocity [mm/s]
+            /// tip velocity \[mm/s\]
             x2;
         param
-            /// -wn^2 [1/s^2]
+            /// -wn^2 \[1/s^2\]
             k,
-            /// -2 zeta wn [1/s]
+            /// -2 zeta wn \[1/s\]
             c,
             /// cubic stiffness [1/(mm^2 s^2)]
             kc,
             /// input gain [mm/(s^2 V)]
             b;
         input
-            /// actuator voltage [V]
+            /// actuator voltage \[V\]
             u;
         output
-            /// measured tip displacement [mm]
+            /// measured tip displacement \[mm\]
             y = x1;
         generate ekf, dkf(eta = 0.5);
         // Forward Euler of x1' = x2, x2' = k x1 + c x2 + kc x1^3 + b u.

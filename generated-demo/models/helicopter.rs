@@ -6,7 +6,7 @@ codegen_macros::model! {
     ///
     /// State x = [psi, psi', phi, phi', tau1, tau2], input u = [u1, u2],
     /// measurement z = [psi, phi] (eq. 1); dynamics eq. (2), constants as listed
-    /// after eq. (2) (from the TRMS manual [1]).  The yaw equation contains the
+    /// after eq. (2) (from the TRMS manual \[1\]).  The yaw equation contains the
     /// explicit time function exp(-0.5 t): t is the time in seconds since the
     /// start of the experiment (t = 0 at start-up).
     /// Units: angles rad, rates rad/s, tau1/tau2 rotor momentum states in TRMS
@@ -28,9 +28,9 @@ codegen_macros::model! {
         const B1_PSI = 0.006;
         /// Yaw friction coefficient B1phi.
         const B1_PHI = 0.1;
-        /// Pitch (vertical plane) moment of inertia I1 [kg m^2].
+        /// Pitch (vertical plane) moment of inertia I1 \[kg m^2\].
         const I1 = 0.068;
-        /// Yaw (horizontal plane) moment of inertia I2 [kg m^2].
+        /// Yaw (horizontal plane) moment of inertia I2 \[kg m^2\].
         const I2 = 0.02;
         /// Cross-reaction momentum gain kc.
         const KC = -0.2;
@@ -40,23 +40,23 @@ codegen_macros::model! {
         const K1 = 1.1;
         /// Tail motor gain k2.
         const K2 = 0.8;
-        /// Gravity moment Mg [N m].
+        /// Gravity moment Mg \[N m\].
         const MG = 0.32;
-        /// Main motor time constant T11 [s].  Reconstructed: missing from the
+        /// Main motor time constant T11 \[s\].  Reconstructed: missing from the
         /// paper's constant list; the printed pole -0.833 = -T10/T11 with
         /// T10 = 1 gives T11 = 1.2 (the TRMS manual is often quoted with 1.1).
         const T11 = 1.2;
-        /// Tail motor time constant T21 [s].  Reconstructed: missing from the
+        /// Tail motor time constant T21 \[s\].  Reconstructed: missing from the
         /// constant list; the printed pole -1 = -T20/T21 with T20 = 1 gives 1.0.
         const T21 = 1.0;
         state
-            /// x1 = psi: pitch angle [rad] (measured)
+            /// x1 = psi: pitch angle \[rad\] (measured)
             psi,
-            /// x2 = psi': pitch rate [rad/s]
+            /// x2 = psi': pitch rate \[rad/s\]
             dpsi,
-            /// x3 = phi: yaw angle [rad] (measured)
+            /// x3 = phi: yaw angle \[rad\] (measured)
             phi,
-            /// x4 = phi': yaw rate [rad/s]
+            /// x4 = phi': yaw rate \[rad/s\]
             dphi,
             /// x5 = tau1: main rotor momentum state
             tau1,
@@ -68,9 +68,9 @@ codegen_macros::model! {
             /// u2 = u_b0: tail rotor (yaw motor) control signal
             u2;
         output
-            /// pitch angle encoder, z1 = x1 [rad]
+            /// pitch angle encoder, z1 = x1 \[rad\]
             y_psi = psi,
-            /// yaw angle encoder, z2 = x3 [rad]
+            /// yaw angle encoder, z2 = x3 \[rad\]
             y_phi = phi;
         generate ekf, continuous_ekf(alpha = 0.5, process_noise = diagonal);
         // The paper runs a continuous-time EKF (eq. 5) whose state and Riccati

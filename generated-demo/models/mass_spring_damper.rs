@@ -9,7 +9,7 @@ codegen_macros::model! {
     /// parameter); k, b, c are fixed at the values identified in the initial
     /// identification phase (sect. 4.1), and the non-white disturbance is a
     /// second-order Markov shaping filter driven by white noise (two extra states).
-    /// Measurement: tip position q (laser triangulation), C = [1 0 ...].
+    /// Measurement: tip position q (laser triangulation), C = \[1 0 ...\].
     ///
     /// Units: SI (m, m/s, kg, N, V, s).  The paper propagates the continuous
     /// model with the Euler method at a simulation step dt = T/500 (sect. 4.1),
@@ -18,45 +18,45 @@ codegen_macros::model! {
         scalar f32, f64;
         /// Sample time T [s]: "All experiments were sampled by T = 0.01 s" (sect. 4.1).
         const TS = 0.01;
-        /// Spring constant k [N/m], fixed after identification (sect. 4.1: k = 533).
+        /// Spring constant k \[N/m\], fixed after identification (sect. 4.1: k = 533).
         const K_SPRING = 533.0;
-        /// Equivalent viscous damping b [N s/m] (sect. 4.1: b = 0.11).
+        /// Equivalent viscous damping b \[N s/m\] (sect. 4.1: b = 0.11).
         const B_DAMP = 0.11;
-        /// Force conversion constant c [N/V] (sect. 4.1: c = 8.00e-4).
+        /// Force conversion constant c \[N/V\] (sect. 4.1: c = 8.00e-4).
         const C_ACT = 8.0e-4;
-        /// Nominal equivalent mass m [kg] (sect. 4.1: m = 0.20); not used in the
+        /// Nominal equivalent mass m \[kg\] (sect. 4.1: m = 0.20); not used in the
         /// dynamics, 1/M_NOM = 5 1/kg is the nominal value of the param inv_m.
         /// (The paper starts its control EKF from inv_m = 2, i.e. m = 0.5 kg.)
         const M_NOM = 0.20;
-        /// Estimated duration of the disturbance force T_e [s] (sect. 4.1).
+        /// Estimated duration of the disturbance force T_e \[s\] (sect. 4.1).
         const T_E = 0.1;
-        /// Shaping-filter natural frequency omega_n = 2 pi / T_e [rad/s].
+        /// Shaping-filter natural frequency omega_n = 2 pi / T_e \[rad/s\].
         /// Reconstructed: the OCR reads "omega_n = 2 pi T_e" (0.63 rad/s), which
         /// with alpha_n = 25 would give a damping ratio of about 40 (a near
         /// random walk); 2 pi / T_e = 62.8 rad/s matches a 0.1 s impact pulse.
         const OMEGA_N = 6.283185307179586 / T_E;
-        /// Shaping-filter damping coefficient alpha_n [1/s] (sect. 4.1: alpha_n = 25).
+        /// Shaping-filter damping coefficient alpha_n \[1/s\] (sect. 4.1: alpha_n = 25).
         const ALPHA_N = 25.0;
         state
-            /// x_C1 = q: beam tip position [m]
+            /// x_C1 = q: beam tip position \[m\]
             q,
-            /// x_C2 = q': beam tip velocity [m/s]
+            /// x_C2 = q': beam tip velocity \[m/s\]
             qd,
             /// x_C4: first shaping-filter state (second-order Markov disturbance)
-            /// [m/s]
+            /// \[m/s\]
             eta1,
             /// x_C5: second shaping-filter state; enters the acceleration
-            /// equation directly, as printed in eq. (20) [m/s^2]
+            /// equation directly, as printed in eq. (20) \[m/s^2\]
             eta2;
         param
-            /// x_C3 = 1/m: inverse equivalent mass [1/kg] (nominal 5, from m = 0.20 kg).
+            /// x_C3 = 1/m: inverse equivalent mass \[1/kg\] (nominal 5, from m = 0.20 kg).
             /// Note: the paper orders the augmented state [q, q', 1/m, x_f1, x_f2].
             inv_m;
         input
-            /// voltage supplied to the piezoceramic actuators u [V] (limits +-100 V)
+            /// voltage supplied to the piezoceramic actuators u \[V\] (limits +-100 V)
             u;
         output
-            /// measured tip position y = q [m] (C = [1 0], eq. 3)
+            /// measured tip position y = q \[m\] (C = \[1 0\], eq. 3)
             y = q;
         // The continuous-discrete (hybrid) EKF of sect. 3.2: state and covariance
         // (eq. 21) integrated between samples, Joseph update at each sample. The paper

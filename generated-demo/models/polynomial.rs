@@ -33,7 +33,7 @@ codegen_macros::model! {
             /// x_3 = (T^3 / 6) d3z/dt3: scaled jerk
             z3;
         output
-            /// measured position, M = [1 0 0 0] ("Data Measurement Vector of one")
+            /// measured position, M = \[1 0 0 0\] ("Data Measurement Vector of one")
             y = z0;
         /// Samples of the least-squares window that re-initialises the filter (the paper
         /// does not give its length; 25 samples = 0.25 s, a quarter of the period).

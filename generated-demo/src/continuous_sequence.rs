@@ -22,11 +22,11 @@ impl Lcg {
 /// and the measurement at its end.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample<const U: usize, const Y: usize> {
-    /// `t[k-1]` [s].
+    /// `t\[k-1\]` \[s\].
     pub t_prev: f32,
-    /// `u[k-1]`.
+    /// `u\[k-1\]`.
     pub u_prev: [f32; U],
-    /// `y[k]`.
+    /// `y\[k\]`.
     pub y: [f32; Y],
 }
 

@@ -50,7 +50,7 @@ mod variants {
     hub_filter_model!(fade_1e9_every_400, fading = 1e-9, reinit_every = 400);
 }
 
-/// Sample period [s] and run length [s].
+/// Sample period \[s\] and run length \[s\].
 const TS: f64 = 0.01;
 const RUN: f64 = 20.0;
 /// Measurement noise variance (the paper's 1e-4).
@@ -61,7 +61,7 @@ const WINDOW: usize = 25;
 /// re-initialisation at most a fifth of the sensor's standard deviation.
 const DETERMINISTIC_BOUND: f64 = 0.2 * 0.01;
 
-/// The hub angle [rad] and its first three derivatives at `t`: amplitude, frequency [Hz]
+/// The hub angle \[rad\] and its first three derivatives at `t`: amplitude, frequency \[Hz\]
 /// and phase of each component (a 0.25 Hz slew, flexible motion at 1.1 and 3.3 Hz).
 fn hub(t: f64) -> [f64; 4] {
     const PARTS: [(f64, f64, f64); 3] = [(0.4, 0.25, 0.0), (0.05, 1.1, 0.4), (0.01, 3.3, 1.3)];

@@ -45,7 +45,7 @@ const Q_DIAG_CONTROL: [f64; 5] = [0.0, 100.0, 100.0, 300.0, 1e-3];
 const LQR_R: f64 = 0.001;
 const U_MAX: f64 = 100.0;
 
-/// Length of the estimation runs and when the tip mass comes off [s].
+/// Length of the estimation runs and when the tip mass comes off \[s\].
 const ESTIMATION_END: f64 = 30.0;
 const MASS_REMOVED_AT: f64 = 20.0;
 /// The closed loop: PRBS identification until `CONTROL_FROM`, then the LQR; stinger hits.

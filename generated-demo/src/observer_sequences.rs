@@ -17,7 +17,7 @@ fn unit_noise(state: &mut u64) -> f64 {
 /// `sqrt(3)`: uniform noise in `[-a, a)` has standard deviation `a / sqrt(3)`.
 const SQRT_3: f64 = 1.732_050_807_568_877_2;
 
-/// One beam sample: the force `u[k]` [N] and the LVDTs `y[k]` [m].
+/// One beam sample: the force `u\[k\]` \[N\] and the LVDTs `y\[k\]` \[m\].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BeamSample {
     /// Measured force.
@@ -42,7 +42,7 @@ impl Default for BeamMeasured {
 }
 
 impl BeamMeasured {
-    /// Excitation frequency [Hz].
+    /// Excitation frequency \[Hz\].
     pub const FREQUENCY: f64 = 35.0;
 
     /// The beam at rest at sample 0.
@@ -76,7 +76,7 @@ impl Iterator for BeamMeasured {
     }
 }
 
-/// A flexible-arm hub angle [rad] sampled at 100 Hz (a 0.25 Hz slew and flexible motion at
+/// A flexible-arm hub angle \[rad\] sampled at 100 Hz (a 0.25 Hz slew and flexible motion at
 /// 1.1 and 3.3 Hz) with uniform noise of variance 1e-4, as `f32` samples.
 #[derive(Clone, Debug)]
 pub struct HubMeasured {

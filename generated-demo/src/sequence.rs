@@ -16,16 +16,16 @@ pub const TRUE_PARAMETERS: [f64; 3] = [
     -6.940_855_531_862_915,
     0.492_410_459_455_194_8,
 ];
-/// Standard deviation of the measurement noise [mm].
+/// Standard deviation of the measurement noise \[mm\].
 pub const NOISE_SIGMA: f64 = 1e-4;
 
-/// One sample: the input applied from `k` to `k + 1` and the measurement `y[k]`, as the
+/// One sample: the input applied from `k` to `k + 1` and the measurement `y\[k\]`, as the
 /// `f32` values a sensor and a DAC would give.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {
-    /// Input `u[k]` [V].
+    /// Input `u\[k\]` \[V\].
     pub u: f32,
-    /// Measurement `y[k]` [mm].
+    /// Measurement `y\[k\]` \[mm\].
     pub y: f32,
 }
 

@@ -18,9 +18,9 @@ use std::path::Path;
 
 /// RK4 steps per sample for the true beam.
 const SUBSTEPS: usize = 20;
-/// Run-in before the observers start [s].
+/// Run-in before the observers start \[s\].
 const RUN_IN: f64 = 2.0;
-/// Observer run [s].
+/// Observer run \[s\].
 const RUN: f64 = 1.0;
 /// The three generated observers, in table order.
 const OBSERVERS: [&str; 3] = ["common gain", "linear error", "switched Kalman"];

@@ -127,6 +127,13 @@ fn test() -> Result<(), String> {
     )?;
     run("tests", cargo().args(["test", "--workspace"]))?;
     run(
+        "the docs, without a broken intra-doc link (generated docs included)",
+        cargo()
+            .env("RUSTDOCFLAGS", "-D warnings")
+            .args(["doc", "--no-deps", "--quiet", "--package", "generated-demo"])
+            .args(PUBLISHED.iter().flat_map(|name| ["--package", name])),
+    )?;
+    run(
         "packaging the published crates (manifests, versions of path dependencies)",
         cargo()
             .args(["package", "--no-verify", "--allow-dirty", "--quiet"])

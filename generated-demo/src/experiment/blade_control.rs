@@ -26,27 +26,27 @@ pub const PHASES: [(f64, f64); 3] = [(20.0, 40.0), (40.0, 60.0), (60.0, 80.0)];
 /// Fig. 4's detail: a 1.5 s transient after the hit at 42 s, with the weight added.
 const DETAIL: (f64, f64) = (41.9, 43.4);
 
-/// One run's record: time, true tip position [m], input [V] applied from each sample,
+/// One run's record: time, true tip position \[m\], input \[V\] applied from each sample,
 /// and the MPC's statistics for the MPC run.
 pub struct Run {
     /// The controller.
     pub kind: Kind,
-    /// Sample times [s].
+    /// Sample times \[s\].
     pub t: Vec<f64>,
-    /// True tip position [m].
+    /// True tip position \[m\].
     pub q: Vec<f64>,
-    /// Input applied from each sample on [V].
+    /// Input applied from each sample on \[V\].
     pub u: Vec<f64>,
     /// The MPC's solves, for the MPC run.
     pub mpc: Option<MpcStats>,
-    /// The median-filtered mass the MPC used [kg] (NaN in other runs and before 20 s).
+    /// The median-filtered mass the MPC used \[kg\] (NaN in other runs and before 20 s).
     pub mass: Vec<f64>,
     /// Control-filter steps that were rejected.
     pub rejected_steps: u64,
 }
 
 impl Run {
-    /// RMS tip displacement [mm] and RMS input [V] over `(from, to]` (a phase's first
+    /// RMS tip displacement \[mm\] and RMS input \[V\] over `(from, to]` (a phase's first
     /// sample belongs to the one before).
     pub fn rms(&self, (from, to): (f64, f64)) -> (f64, f64) {
         let from = from + 0.5 * TS;
@@ -75,7 +75,7 @@ impl Designs {
     }
 }
 
-/// Simulates 0-`end` s with `kind` in control from 20 s, hits of `hit_peak` [N].
+/// Simulates 0-`end` s with `kind` in control from 20 s, hits of `hit_peak` \[N\].
 pub fn simulate(
     kind: Kind,
     designs: &Designs,
@@ -186,7 +186,7 @@ fn describe(designs: &Designs) -> String {
     )
 }
 
-/// RMS tip displacement [mm] and input [V] per phase and controller.
+/// RMS tip displacement \[mm\] and input \[V\] per phase and controller.
 fn table(runs: &[Run]) -> String {
     let mut text = format!("{:<12}", "RMS");
     for (from, to) in PHASES {
@@ -267,7 +267,7 @@ fn mpc_masses(run: &Run) -> String {
     text
 }
 
-/// All runs' position [mm] and input [V] in one trace.
+/// All runs' position \[mm\] and input \[V\] in one trace.
 fn trace(runs: &[Run]) -> Trace {
     let mut trace = Trace::new();
     for (i, &t) in runs[0].t.iter().enumerate() {

@@ -8,7 +8,7 @@ pub const K: f64 = 533.0;
 pub const B: f64 = 0.11;
 pub const C: f64 = 8.0e-4;
 pub const M: f64 = 0.20;
-/// The weight added at 40 s and removed at 60 s [kg] (sect. 4).
+/// The weight added at 40 s and removed at 60 s \[kg\] (sect. 4).
 pub const ADDED_MASS: f64 = 0.054;
 pub const LOADED: (f64, f64) = (40.0, 60.0);
 /// Identification until 20 s, then control mode until 80 s (sect. 4).
@@ -35,7 +35,7 @@ pub fn mass(t: f64) -> f64 {
     }
 }
 
-/// The stinger's force at time `t`: a half sine of `peak` [N] every `HIT_EVERY` seconds
+/// The stinger's force at time `t`: a half sine of `peak` \[N\] every `HIT_EVERY` seconds
 /// from `FIRST_HIT`.
 pub fn hit_force(t: f64, peak: f64) -> f64 {
     if t < FIRST_HIT {
@@ -50,7 +50,7 @@ pub fn hit_force(t: f64, peak: f64) -> f64 {
 }
 
 /// eq. (1), `m q'' + b q' + k q = c u + F_e`, over one sample with `u` held; hits of
-/// `hit_peak` [N].
+/// `hit_peak` \[N\].
 pub fn plant_step(t: f64, x: [f64; 2], u: f64, dt: f64, hit_peak: f64) -> [f64; 2] {
     let rate = |t: f64, x: [f64; 2]| {
         [

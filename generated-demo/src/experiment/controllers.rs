@@ -8,7 +8,7 @@ use super::ppf::{Ppf, PpfTuning};
 use generated_demo::mass_spring_damper::in_f64::{Mpc, MpcStatus, TS};
 use generated_demo::mass_spring_damper::Status;
 
-/// The actuator's limits [V] (sect. 4.1: +-100 V).
+/// The actuator's limits \[V\] (sect. 4.1: +-100 V).
 pub const U_MAX: f64 = 100.0;
 /// The weights shared by MPC, LQ and (as `delta`) PPF: `Q = C'C`, `R = 1e-10` (sect. 4.1).
 pub const Q: [[f64; 2]; 2] = [[1.0, 0.0], [0.0, 0.0]];
@@ -115,7 +115,7 @@ impl AdaptiveMpc {
         self.mpc.control()[0]
     }
 
-    /// The median-filtered mass the last solve used [kg].
+    /// The median-filtered mass the last solve used \[kg\].
     pub fn mass(&self) -> f64 {
         median_of_last(&self.masses, MEDIAN_WIDTH)
     }

@@ -14,7 +14,7 @@ pub struct Prbs {
 }
 
 impl Prbs {
-    /// Amplitude of the paper's PRBS [V].
+    /// Amplitude of the paper's PRBS \[V\].
     pub const PAPER_AMPLITUDE: f64 = 100.0;
     /// Samples each bit is held.
     pub const PAPER_HOLD: u32 = 4;

@@ -25,6 +25,6 @@ pub fn diag<T: Copy + Default, const N: usize>(d: [T; N]) -> [[T; N]; N] {
     std::array::from_fn(|i| std::array::from_fn(|j| if i == j { d[i] } else { T::default() }))
 }
 
-/// Sample time [s], taken from the generated cantilever model so the harness and the
+/// Sample time \[s\], taken from the generated cantilever model so the harness and the
 /// filters can never disagree on it ("the sampling period has been set to 15 ms", sect. 4.1).
 pub const TS: f64 = generated_demo::cantilever::in_f64::TS;

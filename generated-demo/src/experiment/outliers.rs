@@ -15,10 +15,10 @@ use generated_demo::cantilever::{Ekf, GatedEkf, Status};
 use std::error::Error;
 use std::path::Path;
 
-/// When the fault starts and how long the run lasts [s].
+/// When the fault starts and how long the run lasts \[s\].
 const FAULT_AT: f64 = 10.0;
 const RUN_END: f64 = 20.0;
-/// The beam's natural frequency in these runs [rad/s].
+/// The beam's natural frequency in these runs \[rad/s\].
 const TRUE_WN: f64 = 20.0;
 /// Failed steps in a row after which the ungated filter with recovery is reset.
 const RESET_AFTER: u32 = 5;

@@ -29,11 +29,11 @@ use generated_demo::cantilever::in_f64;
 /// Physical parameters of the beam's first mode (units mm, V, s).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Physical {
-    /// Natural frequency [rad/s].
+    /// Natural frequency \[rad/s\].
     pub wn: f64,
-    /// Damping ratio [-].
+    /// Damping ratio \[-\].
     pub zeta: f64,
-    /// Input gain [mm s^-2 V^-1].
+    /// Input gain \[mm s^-2 V^-1\].
     pub alpha: f64,
 }
 
@@ -69,7 +69,7 @@ pub const DEFAULT_NOISE_SIGMA: f64 = 1e-4;
 /// response (0.43 mm RMS) and within what +-100 V can attenuate in about 2 s (sect. 5.2).
 pub const STINGER_VELOCITY: f64 = 50.0;
 
-/// Actuator limit [V]; the adaptive LQR must be saturated to it (reference note).
+/// Actuator limit \[V\]; the adaptive LQR must be saturated to it (reference note).
 pub const ACTUATOR_LIMIT: f64 = 100.0;
 
 /// Clamps a commanded voltage to +-[`ACTUATOR_LIMIT`]. The plant does not clamp by itself,
@@ -162,10 +162,10 @@ pub enum PlantKind {
     ExactZoh,
 }
 
-/// A change of the tip mass at `time` [s], after which the mode is `after`.
+/// A change of the tip mass at `time` \[s\], after which the mode is `after`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MassChange {
-    /// Time of the change [s]; takes effect at the first sample at or after it.
+    /// Time of the change \[s\]; takes effect at the first sample at or after it.
     pub time: f64,
     /// Physical parameters from then on.
     pub after: Physical,
@@ -181,12 +181,12 @@ impl MassChange {
     }
 }
 
-/// One stinger hit: an impulse that changes the tip velocity by `velocity` [mm/s].
+/// One stinger hit: an impulse that changes the tip velocity by `velocity` \[mm/s\].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Kick {
-    /// Time of the hit [s]; applied at the first sample at or after it.
+    /// Time of the hit \[s\]; applied at the first sample at or after it.
     pub time: f64,
-    /// Tip-velocity change [mm/s] (impulse / effective mass).
+    /// Tip-velocity change \[mm/s\] (impulse / effective mass).
     pub velocity: f64,
 }
 
@@ -203,7 +203,7 @@ pub struct PlantConfig {
     pub stinger: Vec<Kick>,
     /// Measurement noise added to y = x1.
     pub noise: GaussianNoise,
-    /// Initial tip displacement [mm] and velocity [mm/s].
+    /// Initial tip displacement \[mm\] and velocity \[mm/s\].
     pub x0: [f64; 2],
 }
 
@@ -226,8 +226,8 @@ fn event_sample(time: f64) -> u64 {
     (time / TS - 1e-9).ceil().max(0.0) as u64
 }
 
-/// The simulated beam. Per sample k: read [`Plant::output`] (y[k]), compute u[k], then
-/// [`Plant::step`]`(u[k])` to advance to k + 1.
+/// The simulated beam. Per sample k: read [`Plant::output`] (y\[k\]), compute u\[k\], then
+/// [`Plant::step`]`(u\[k\])` to advance to k + 1.
 #[derive(Clone, Debug)]
 pub struct Plant {
     config: PlantConfig,
@@ -281,12 +281,12 @@ impl Plant {
         }
     }
 
-    /// Current time k TS [s].
+    /// Current time k TS \[s\].
     pub fn time(&self) -> f64 {
         self.k as f64 * TS
     }
 
-    /// True tip displacement [mm] and velocity [mm/s] at sample k.
+    /// True tip displacement \[mm\] and velocity \[mm/s\] at sample k.
     pub fn state(&self) -> [f64; 2] {
         self.x
     }
@@ -296,12 +296,12 @@ impl Plant {
         self.params
     }
 
-    /// Measured output y[k] = x1[k] + noise[k]; the noise depends only on (seed, k).
+    /// Measured output y\[k\] = x1\[k\] + noise\[k\]; the noise depends only on (seed, k).
     pub fn output(&self) -> f64 {
         self.x[0] + self.config.noise.sample(self.k)
     }
 
-    /// Applies u[k] [V] (not clamped: see [`saturate`]) over one sample and advances to k + 1;
+    /// Applies u\[k\] \[V\] (not clamped: see [`saturate`]) over one sample and advances to k + 1;
     /// mass changes and stinger kicks due at the new sample are then applied.
     pub fn step(&mut self, u: f64) {
         self.x = match self.config.kind {

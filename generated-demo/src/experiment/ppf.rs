@@ -20,12 +20,12 @@ use super::blade_plant::{rk4, B, C, K, M};
 pub const ALPHA: f64 = 1.7e8;
 pub const DELTA: f64 = 1e-10;
 
-/// A tuned PPF: gain `g` [V/m], filter frequency `w_p` [rad/s] and damping `xi_p`.
+/// A tuned PPF: gain `g` \[V/m\], filter frequency `w_p` \[rad/s\] and damping `xi_p`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PpfTuning {
-    /// The gain `g` [V/m] of `u = g eta`.
+    /// The gain `g` \[V/m\] of `u = g eta`.
     pub gain: f64,
-    /// The compensator's natural frequency `w_p` [rad/s].
+    /// The compensator's natural frequency `w_p` \[rad/s\].
     pub omega: f64,
     /// The compensator's damping ratio `xi_p`.
     pub xi: f64,

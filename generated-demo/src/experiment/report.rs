@@ -45,7 +45,7 @@ impl Trace {
         Self::default()
     }
 
-    /// Starts the row of time `t` [s]; its values are NaN until set.
+    /// Starts the row of time `t` \[s\]; its values are NaN until set.
     pub fn begin(&mut self, t: f64) {
         self.time.push(t);
         for column in &mut self.columns {
@@ -123,7 +123,7 @@ impl Trace {
         self.time.len()
     }
 
-    /// The time column [s].
+    /// The time column \[s\].
     pub fn time(&self) -> &[f64] {
         &self.time
     }
@@ -152,7 +152,7 @@ impl Trace {
     }
 }
 
-/// Time [s] of the first row where the estimate labelled `label` diverged: a state
+/// Time \[s\] of the first row where the estimate labelled `label` diverged: a state
 /// ("{label} x1".. "x5", those present) not finite or beyond [`DIVERGENCE_LIMIT`].
 /// None if it never did (or has no columns).
 pub fn divergence_time(trace: &Trace, label: &str) -> Option<f64> {
@@ -213,7 +213,7 @@ fn row(out: &mut String, label: &str, poles: [f64; 3], naive: [f64; 3]) {
     );
 }
 
-/// Table 1 of the paper, per run: mean wn [rad/s], zeta and alpha [mm s^-2 V^-1] over
+/// Table 1 of the paper, per run: mean wn \[rad/s\], zeta and alpha \[mm s^-2 V^-1\] over
 /// [from, to] s, read out both from the poles and naively ([`readout`]). `labels` name
 /// the estimates in the trace (one row each, e.g. "EKF close", "DKF wrong"). A run that
 /// diverged ([`divergence_time`]) by `to` shows "diverged at t = ..s" instead. A truth row
@@ -336,12 +336,12 @@ pub fn write_csv<W: Write>(trace: &Trace, out: W) -> io::Result<()> {
     out.flush()
 }
 
-/// One curve of a plot: values `v` at times `t` [s], with a legend `name`.
+/// One curve of a plot: values `v` at times `t` \[s\], with a legend `name`.
 #[derive(Clone, Copy, Debug)]
 pub struct Line<'a> {
     /// Legend text.
     pub name: &'a str,
-    /// Times [s].
+    /// Times \[s\].
     pub t: &'a [f64],
     /// Values, one per time.
     pub v: &'a [f64],

@@ -13,7 +13,7 @@ use generated_demo::helicopter::in_f64::{f, h, ContinuousEkf, Status, TS};
 use std::error::Error;
 use std::path::Path;
 
-/// The paper's run time [s] (sect. 6.1).
+/// The paper's run time \[s\] (sect. 6.1).
 const END: f64 = 30.0;
 /// The paper's tuning (sect. 4): `Q`, `R` (diagonals) and `P0 = gamma diag(..)`, gamma = 1.
 const Q: [f64; 6] = [0.0099, 0.0022, 0.0894, 0.0017, 1.2678, 1.2700];
@@ -21,7 +21,7 @@ const R: [f64; 2] = [0.0007, 0.00193];
 const P0: [f64; 6] = [1.05, 0.05, 1.0, 1.0, 1.0, 1.0];
 /// The paper's initial states of plant and estimator (sect. 6.1).
 const X0_ESTIMATE: [f64; 6] = [0.05, 0.0, -0.05, 0.0, 0.0, 0.0];
-/// Encoder noise standard deviations [rad], the paper's "measurement noise1" values.
+/// Encoder noise standard deviations \[rad\], the paper's "measurement noise1" values.
 const NOISE: [f64; 2] = [0.000235, 0.0008];
 /// The surge: an unmodelled extra voltage on both motors from 25 s for 1 s.
 const SURGE: (f64, f64, f64) = (25.0, 26.0, 0.2);
