@@ -15,7 +15,11 @@ pub fn model(input: TokenStream) -> TokenStream {
         .into_iter()
         .next()
         .map_or_else(proc_macro2::Span::call_site, |t| t.span());
-    match model_dsl::expand(input) {
+    let options = model_dsl::emit::Options {
+        // The `nalgebra` feature adds each model's `interop` module.
+        nalgebra: cfg!(feature = "nalgebra"),
+    };
+    match model_dsl::expand_with(input, &options) {
         Ok(generated) => respan(generated, anchor).into(),
         Err(errors) => errors.to_compile_error().into(),
     }

@@ -33,8 +33,13 @@ pub fn parse_model(tokens: TokenStream) -> syn::Result<model::Model> {
 
 /// The `model!` macro: the body of an invocation in, the generated module out.
 pub fn expand(tokens: TokenStream) -> syn::Result<TokenStream> {
+    expand_with(tokens, &emit::Options::default())
+}
+
+/// [`expand`], with the generated module's extras (`codegen-macros`' features).
+pub fn expand_with(tokens: TokenStream, options: &emit::Options) -> syn::Result<TokenStream> {
     let model = parse_model(tokens)?;
-    emit::emit_model(&model)
+    emit::emit_model_with(&model, options)
 }
 
 /// Parses and checks Rust source holding one `model! { .. }` invocation (a demo model

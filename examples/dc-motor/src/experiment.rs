@@ -85,7 +85,7 @@ pub fn run(seed: u64, mut observe: impl FnMut(&Sample)) -> Result<(), Status> {
             }
         } else {
             if k.is_multiple_of(10) {
-                check(lqr.solve(&estimate, &[voltage]))?;
+                check(lqr.solve(&estimate))?;
             }
             let [v] = lqr.control(&estimate);
             v

@@ -6,6 +6,7 @@ pub mod ct_ekf;
 pub mod dkf;
 pub mod ekf;
 pub mod hybrid_ekf;
+pub mod interop;
 pub mod known;
 pub mod lower;
 pub mod lqr;
@@ -33,6 +34,19 @@ use quote::quote;
 /// The whole generated module of `model`, or an error pointing at the generator the model
 /// does not support (the window transform's class, say).
 pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
+    emit_model_with(model, &Options::default())
+}
+
+/// What the generated module holds beyond what the model asks for.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Options {
+    /// An `interop` module converting the generated arrays to and from `nalgebra`
+    /// matrices (the user's crate then depends on `nalgebra`).
+    pub nalgebra: bool,
+}
+
+/// [`emit_model`], with `options`.
+pub fn emit_model_with(model: &Model, options: &Options) -> syn::Result<TokenStream> {
     let mut mg = ModelGraph::build(model);
     let functions = model_functions(model, &mut mg);
     let Some((&primary, others)) = model.scalars.split_first() else {
@@ -235,6 +249,7 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
     let dims = dimensions(model);
     let op_count = op_count_struct();
     let index = index_module(model);
+    let interop = options.nalgebra.then(interop::nalgebra_module);
     Ok(quote! {
         #(#[doc = #docs])*
         #vis mod #name {
@@ -248,6 +263,7 @@ pub fn emit_model(model: &Model) -> syn::Result<TokenStream> {
             #status
             #primary_filters
             #(#secondary)*
+            #interop
         }
     })
 }
