@@ -1,5 +1,5 @@
 codegen_macros::model! {
-    /// The cantilever of seed 000 driven by two actuators, each with its own unknown gain:
+    /// The cantilever of the double Kalman filter paper driven by two actuators, each with its own unknown gain:
     /// four parameters, two inputs. It shows the window transform on a model whose
     /// parameter system is 4 x 4 and which has two input-only parameters (Case 2 freezes
     /// the gain of whichever actuator was idle over the window).

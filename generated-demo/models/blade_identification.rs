@@ -1,6 +1,6 @@
 codegen_macros::model! {
-    /// The blade of seed 001 (adaptive EKF-MPC of transient vibrations of cantilevers
-    /// with changing weight) in its initial identification mode, eq. (19): the
+    /// The blade of Takacs, Polóni, Rohal'-Ilkiv, "Adaptive predictive control of
+    /// transient vibrations of cantilevers with changing weight" in its initial identification mode, eq. (19): the
     /// single-DOF mass-spring-damper m q'' + b q' + k q = c u (eq. 1) with all four
     /// physical parameters unknown, augmented as random walks in the order of eq. (19),
     /// x_I = [q, q', k, b, c, 1/m]. Driven by white noise, without disturbances

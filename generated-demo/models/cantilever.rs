@@ -1,6 +1,6 @@
 codegen_macros::model! {
     /// Vibrating cantilever beam, first bending mode, with augmented unknown
-    /// parameters for joint state and parameter estimation (seed 000: double
+    /// parameters for joint state and parameter estimation (from the paper on the double
     /// Kalman filter (DKF) vs EKF for adaptive vibration attenuation of a
     /// cantilever beam on an STM32F407 MCU).
     ///

@@ -1,5 +1,5 @@
 codegen_macros::model! {
-    /// The cantilever of seed 000 with an unknown cubic stiffness (a hardening spring, as
+    /// The cantilever of the double Kalman filter paper with an unknown cubic stiffness (a hardening spring, as
     /// in large-amplitude vibration): the parameter `kc` multiplies the nonlinear term
     /// `x1^3`. It shows the window transform where a parameter's coefficient is nonlinear
     /// in the state, so the transformed model has a known affine term `d` (eq. 12 extended).

@@ -1,7 +1,7 @@
 codegen_macros::model! {
     /// Twin Rotor MIMO System (TRMS, Feedback Instruments 33-949), a laboratory
     /// helicopter model with pitch (main rotor) and yaw (tail rotor) motion,
-    /// for a continuous-time EKF (seed 004: Kulkarni and Purwar, "Nonlinear
+    /// for a continuous-time EKF (Kulkarni and Purwar, "Nonlinear
     /// experimental estimation and verification of a MIMO system through EKF").
     ///
     /// State x = [psi, psi', phi, phi', tau1, tau2], input u = [u1, u2],

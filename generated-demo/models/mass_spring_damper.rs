@@ -1,8 +1,9 @@
 codegen_macros::model! {
     /// Single-DOF mass-spring-damper model of the first mode of a piezo-actuated
     /// aluminium cantilever blade (550 x 40 x 3 mm) whose weight changes, for the
-    /// continuous-discrete (hybrid) EKF of the control mode (seed 001: adaptive
-    /// EKF-MPC of transient vibrations of cantilevers with changing weight).
+    /// continuous-discrete (hybrid) EKF of the control mode (Takacs, Polóni,
+    /// Rohal'-Ilkiv, "Adaptive predictive control of transient vibrations of cantilevers
+    /// with changing weight").
     ///
     /// Plant, eq. (1): m q'' + b q' + k q = c u + F_e.  In control mode, eq. (20),
     /// only the inverse equivalent mass 1/m is unknown (augmented random-walk

@@ -2,7 +2,7 @@ codegen_macros::model! {
     /// Piecewise-linear beam: a steel beam supported at both ends by leaf
     /// springs, excited at its middle by a rotating mass unbalance, with a
     /// one-sided spring (a second clamped beam) that acts only when the middle
-    /// of the beam moves upward (seed 003: observer design for a piecewise
+    /// of the beam moves upward (from a study of observer design for a piecewise
     /// linear beam system; linear-error-dynamics observer and switched Kalman
     /// filter, dSPACE implementation).
     ///

@@ -1,7 +1,7 @@
 codegen_macros::model! {
     /// Polynomial (kinematic) signal model for a Kalman filter estimating the
     /// position of a flexible arm and its first three time derivatives
-    /// (seed 002: Shults, Brubaker, Lee, "A fast algorithm for control and
+    /// (Shults, Brubaker, Lee, "A fast algorithm for control and
     /// estimation using a polynomial state-space structure", NASA N91-22312).
     ///
     /// The measured signal z(t) is modelled locally as a polynomial of order
