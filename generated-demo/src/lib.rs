@@ -7,6 +7,7 @@
 #![forbid(unsafe_code)]
 
 pub mod continuous_sequence;
+pub mod mpc_sequence;
 pub mod observer_sequences;
 pub mod sequence;
 

@@ -3,7 +3,7 @@
 //! code size and stack, generated code beside the nalgebra baseline, against the goals,
 //! the C peer and the paper.
 
-use crate::firmware::Cost;
+use crate::firmware::{Cost, Spread};
 use crate::program::Program;
 use crate::timing;
 use crate::trace::Traced;
@@ -86,6 +86,13 @@ const KERNELS: &[Kernel] = &[
         c_peer: None,
         paper_ms: None,
     },
+    Kernel {
+        name: "mpc_solve",
+        label: "MPC solve (n = 10, avg)",
+        goal: None,
+        c_peer: None,
+        paper_ms: None,
+    },
 ];
 
 /// The wrapper functions of every kernel the firmware measured, generated then
@@ -108,7 +115,7 @@ const TRACE_SLACK: f64 = 8.0;
 pub fn table(
     build: &str,
     full: bool,
-    costs: &[Cost],
+    (costs, spreads): (&[Cost], &[Spread]),
     program: &Program,
     traced: &BTreeMap<String, Traced>,
 ) -> Result<String, String> {
@@ -153,11 +160,68 @@ pub fn table(
             stack: cost.stack,
         });
     }
+    // Cycles per instruction of each kernel over its traced calls, to estimate the cycles
+    // of its median and worst calls.
+    let cpi: BTreeMap<&str, f64> = rows
+        .iter()
+        .map(|r| {
+            let g = &r.generated;
+            (r.kernel.name, g.cycles / f64::from(g.instructions.max(1)))
+        })
+        .collect();
+    let spread = spread_lines(spreads, &cpi);
     if full {
-        Ok(render(build, &rows, program))
+        Ok(format!("{}{spread}", render(build, &rows, program)))
     } else {
-        Ok(format!("The firmware {build}:\n{}", main_table(&rows)))
+        Ok(format!(
+            "The firmware {build}:\n{}{spread}",
+            main_table(&rows)
+        ))
     }
+}
+
+/// Floating-point operations (adds, muls, divs, library calls, comparisons) of `ops`.
+fn operations(ops: generated_demo::mass_spring_damper::OpCount) -> u32 {
+    ops.add + ops.mul + ops.div + ops.call + ops.compare
+}
+
+/// The typical and worst calls of the kernels whose calls differ in cost, and for the MPC
+/// the operation count its generated constants bound a solve by.
+fn spread_lines(spreads: &[Spread], cpi: &BTreeMap<&str, f64>) -> String {
+    use generated_demo::mass_spring_damper as blade;
+    let mut out = String::new();
+    for spread in spreads {
+        // The traced calls' cycles per instruction, applied to the median and worst call.
+        let ratio = cpi.get(spread.kernel.as_str()).copied().unwrap_or(f64::NAN);
+        let cycles = |instructions: u32| f64::from(instructions) * ratio;
+        out.push_str(&format!(
+            "{}: median {} and worst {} instructions per call over the run (about {:.0} and \
+             {:.0} cycles, {:.1} and {:.1} us at 168 MHz, at the run's {ratio:.2} cycles per \
+             instruction), at most {} solver iterations\n",
+            spread.kernel,
+            spread.median,
+            spread.worst,
+            cycles(spread.median),
+            cycles(spread.worst),
+            cycles(spread.median) / CLOCK_MHZ,
+            cycles(spread.worst) / CLOCK_MHZ,
+            spread.iterations
+        ));
+        if spread.kernel == "mpc_solve" {
+            let once = operations(blade::MPC_PREDICTION_OPS)
+                + operations(blade::MPC_RICCATI_OPS)
+                + operations(blade::MPC_CONDENSE_OPS);
+            let iteration = operations(blade::MPC_ITERATION_OPS);
+            let iterations = blade::Mpc::MAX_ITERATIONS;
+            out.push_str(&format!(
+                "  bound from the generated constants: {once} + {iterations} x {iteration} = {} \
+                 floating-point operations (prediction + Riccati + condensing + \
+                 MAX_ITERATIONS x iteration; loads, stores and branches not counted)\n",
+                once + iterations * iteration
+            ));
+        }
+    }
+    out
 }
 
 /// One side of a row: generated code or the baseline.

@@ -80,6 +80,19 @@ pub struct Cost {
     pub stack: (u32, u32),
 }
 
+/// How the instructions of a kernel's calls spread over its run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spread {
+    /// Kernel name as the firmware prints it.
+    pub kernel: String,
+    /// Median instructions per call (the typical call).
+    pub median: u32,
+    /// Most instructions of one call.
+    pub worst: u32,
+    /// Most solver iterations of one call.
+    pub iterations: u32,
+}
+
 /// What the firmware reported.
 #[derive(Debug, Default)]
 pub struct Report {
@@ -95,6 +108,11 @@ pub struct Report {
     pub observer: Vec<(usize, Vec<f64>)>,
     /// `polykf k x..`: the polynomial Kalman filter.
     pub polykf: Vec<(usize, Vec<f64>)>,
+    /// `mpc k iterations u1..`: the blade's MPC, its iterations and plan after sample `k`.
+    pub mpc: Vec<(usize, Vec<f64>)>,
+    /// `spread <kernel> <median> <worst> <most iterations>`: per-call instructions over a
+    /// run whose calls differ in cost.
+    pub spreads: Vec<Spread>,
     /// Of the multiply-adds compared with `libm::fmaf`: how many differed, of how many.
     pub fused: Option<(u32, u32)>,
 }
@@ -188,12 +206,25 @@ fn parse(text: &str) -> Result<Report, String> {
                     None => return Err(format!("stack before cost for `{kernel}`")),
                 }
             }
-            [tag @ ("continuous" | "hybrid" | "observer" | "polykf"), k, values @ ..] => {
+            ["spread", kernel, median, worst, iterations] => {
+                let parse = |w: &str| {
+                    w.parse::<u32>()
+                        .map_err(|_| format!("bad count in `{line}`"))
+                };
+                report.spreads.push(Spread {
+                    kernel: (*kernel).to_owned(),
+                    median: parse(median)?,
+                    worst: parse(worst)?,
+                    iterations: parse(iterations)?,
+                });
+            }
+            [tag @ ("continuous" | "hybrid" | "observer" | "polykf" | "mpc"), k, values @ ..] => {
                 let sample = sample_line(line, k, values)?;
                 match *tag {
                     "continuous" => report.continuous.push(sample),
                     "hybrid" => report.hybrid.push(sample),
                     "observer" => report.observer.push(sample),
+                    "mpc" => report.mpc.push(sample),
                     _ => report.polykf.push(sample),
                 }
             }

@@ -13,6 +13,7 @@ mod accuracy;
 mod cold_build;
 mod compare;
 mod compare_continuous;
+mod compare_mpc;
 mod compare_observers;
 mod cost;
 mod firmware;
@@ -177,6 +178,7 @@ fn test() -> Result<(), String> {
             compare_continuous::check(&report.continuous, &report.hybrid)?
         );
         println!("xtask: {}", compare_observers::check(&report)?);
+        println!("xtask: {}", compare_mpc::check(&report.mpc)?);
         println!("xtask: {}", check_fused(&report, build)?);
         tables.push(cost_table(&report, build)?);
     }
@@ -271,7 +273,13 @@ fn cost_table(report: &firmware::Report, build: firmware::Build) -> Result<Strin
     let wrappers = cost::wrappers(&report.costs, &program);
     let traced = trace::run(&elf, &program, &wrappers)?;
     // The default build in full; the others, their main table.
-    cost::table(build.name, !build.fused, &report.costs, &program, &traced)
+    cost::table(
+        build.name,
+        !build.fused,
+        (&report.costs, &report.spreads),
+        &program,
+        &traced,
+    )
 }
 
 fn cargo() -> Command {
