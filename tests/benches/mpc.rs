@@ -43,8 +43,8 @@ fn benches(c: &mut Criterion) {
         }
     }
     assert!(converged, "the terminal weight did not converge");
-    let (a, b) = Mpc::prediction_model(&X, &[0.0]).expect("finite");
-    let (a, b) = (matrix(&a), matrix(&b));
+    let model = Mpc::prediction_model(&X, &[0.0]).expect("finite");
+    let (a, b) = (matrix(&model.a), matrix(&model.b));
     let (q, r, p) = (matrix(&Q), matrix(&R), matrix(&mpc.terminal_weight()));
     let x0 = DVector::from_vec(vec![X[0], X[1]]);
     let (h, lin) = condensed((&a, &b), (&q, &r, &p), &x0, Mpc::HORIZON);
