@@ -14,6 +14,11 @@ pub const MAX_NESTING: usize = 64;
 /// The most operators (and `.` of method calls) one statement may hold.
 pub const MAX_OPERATORS: usize = 512;
 
+/// The most plain `=` one statement may hold: a valid statement has one (or one per
+/// option of a `generate` item, between commas), but `syn` parses `a = b = c` by
+/// recursion, and a chain of hundreds overflows a thread's stack.
+pub const MAX_ASSIGNMENTS: usize = 64;
+
 /// The longest expression text a model file may hold, in bytes.
 pub const MAX_EXPRESSION_TEXT: usize = 16_384;
 
@@ -22,14 +27,21 @@ pub const MAX_EXPRESSION_TEXT: usize = 16_384;
 pub fn check_tokens(tokens: &TokenStream) -> syn::Result<()> {
     let mut stack = vec![tokens.clone().into_iter()];
     let mut operators = 0usize;
+    let mut assignments = 0usize;
     let mut prefix_run = 0usize;
     let mut after_operand = false;
+    // Whether the previous token was a punctuation joined to the next (`<` of `<=`).
+    let mut joined = false;
     while let Some(level) = stack.last_mut() {
         let Some(token) = level.next() else {
             stack.pop();
             after_operand = true;
             continue;
         };
+        let follows_joined = std::mem::replace(
+            &mut joined,
+            matches!(&token, TokenTree::Punct(p) if p.spacing() == proc_macro2::Spacing::Joint),
+        );
         match token {
             TokenTree::Group(group) => {
                 if stack.len() > MAX_NESTING {
@@ -44,7 +56,19 @@ pub fn check_tokens(tokens: &TokenStream) -> syn::Result<()> {
             TokenTree::Punct(punct) => match punct.as_char() {
                 ';' => {
                     operators = 0;
+                    assignments = 0;
                     prefix_run = 0;
+                    after_operand = false;
+                }
+                '=' if !follows_joined && punct.spacing() == proc_macro2::Spacing::Alone => {
+                    assignments += 1;
+                    if assignments > MAX_ASSIGNMENTS {
+                        return Err(syn::Error::new(
+                            punct.span(),
+                            "a statement holds one `=`: end the one before with `;`",
+                        ));
+                    }
+                    operators += 1;
                     after_operand = false;
                 }
                 ',' => {
@@ -175,6 +199,13 @@ mod tests {
         // Operators are counted per statement.
         let many = format!("x = x{};", " + x".repeat(400)).repeat(3);
         check(&many).unwrap();
+        // `a = "s"b = "s"b ..`: a literal's suffix makes the chain one assignment after
+        // another, which syn parses by recursion (found by the front ends' fuzzing).
+        let chain = format!("x = x + {} x;", "v = \"s\"".repeat(300));
+        assert!(check(&chain).unwrap_err().contains("one `=`"));
+        // Comparisons are not assignments.
+        let compares = format!("x = {} 0.0;", "if x <= 1.0 { x } else ".repeat(100));
+        check(&compares).unwrap();
     }
 
     #[test]
