@@ -15,7 +15,7 @@ pub const IMPACT_PERIOD: u32 = 100;
 pub const MASS_CHANGE: u32 = 150;
 /// Velocity an impact adds [m/s]: about 6 mm of tip amplitude at 8 Hz.
 const IMPACT_VELOCITY: f32 = 0.3;
-/// Gain of the clipped velocity feedback damping the truth [V s/m], and its limit [V].
+/// Gain of the clipped velocity feedback damping the truth \[V s/m\], and its limit \[V\].
 const DAMPING_GAIN: f32 = 2000.0;
 const U_LIMIT: f32 = 100.0;
 /// Fraction of the remaining error in 1/m the estimate closes each sample.
@@ -77,6 +77,6 @@ pub mod mpc_tuning {
     pub const Q: [[f32; 2]; 2] = [[1.0, 0.0], [0.0, 0.0]];
     /// Input weight.
     pub const R: [[f32; 1]; 1] = [[1e-10]];
-    /// Input bound [V].
+    /// Input bound \[V\].
     pub const U_MAX: f32 = 100.0;
 }
