@@ -19,6 +19,7 @@ mod check_designs;
 pub mod diagnostics;
 pub mod emit;
 pub mod front;
+pub mod generators;
 pub mod model;
 pub mod numerics;
 pub mod symbolic;

@@ -238,13 +238,15 @@ fn a_given_k1_is_used_and_k2_follows_through_the_pseudo_inverse() {
     "#;
     let model = model_dsl::parse_macro_source(source).expect("a valid model");
     let mg = model_dsl::symbolic::ModelGraph::build(&model);
-    let regimes = model_dsl::symbolic::switched::regimes(&model, &mg).expect("piecewise linear");
+    let regimes = model_dsl::generators::switched_observer::design::regimes(&model, &mg)
+        .expect("piecewise linear");
     let spec = model
         .generate
         .switched_observer
         .as_ref()
         .expect("asked for");
-    let designs = model_dsl::symbolic::switched::design(&regimes, spec).expect("designable");
+    let designs = model_dsl::generators::switched_observer::design::design(&regimes, spec)
+        .expect("designable");
     let to_na =
         |m: &model_dsl::numerics::Mat| DMatrix::from_fn(m.rows(), m.cols(), |i, j| m[(i, j)]);
     let k1 = DMatrix::from_row_slice(2, 2, &[0.3, 0.0, 0.1, 0.2]);

@@ -2,23 +2,16 @@
 //! [`emit_model`] assembles them into the model's module.
 
 pub mod code;
-pub mod ct_ekf;
-pub mod dkf;
-pub mod ekf;
-pub mod hybrid_ekf;
+pub mod continuous_filter;
+pub mod filter;
 pub mod interop;
 pub mod known;
 pub mod lower;
-pub mod lqr;
 pub mod model_fns;
-pub mod mpc;
-mod mpc_qp;
 pub mod names;
-pub mod polynomial_kf;
 pub mod scopes;
 pub mod status;
 pub mod substeps;
-pub mod switched_observer;
 pub mod tuning;
 
 use crate::emit::lower::literal;
@@ -26,6 +19,14 @@ use crate::emit::model_fns::{
     emit_function, model_functions, named_ops_item, nonzero_item, ops_item,
 };
 use crate::emit::names::{ident, index_const};
+use crate::generators::continuous_ekf::lower as ct_ekf;
+use crate::generators::dkf::lower as dkf;
+use crate::generators::ekf::lower as ekf;
+use crate::generators::hybrid_ekf::lower as hybrid_ekf;
+use crate::generators::lqr::lower as lqr;
+use crate::generators::mpc::lower as mpc;
+use crate::generators::polynomial_kf::lower as polynomial_kf;
+use crate::generators::switched_observer::lower as switched_observer;
 use crate::model::{Model, Scalar, Symbol};
 use crate::symbolic::ModelGraph;
 use proc_macro2::{Literal, TokenStream};
@@ -55,14 +56,16 @@ pub fn emit_model_with(model: &Model, options: &Options) -> syn::Result<TokenStr
     if let Some(spec) = &model.generate.dkf {
         // Derive once up front so a model outside the class is one clear error.
         let mut probe = mg.clone();
-        if let Err(reason) = crate::symbolic::window::derive(model, &mut probe, spec.eta) {
+        if let Err(reason) = crate::generators::dkf::window::derive(model, &mut probe, spec.eta) {
             return Err(syn::Error::new(spec.span, format!("`dkf`: {reason}")));
         }
     }
 
     if let Some(spec) = &model.generate.polynomial_kf {
         let mut probe = mg.clone();
-        if let Err(reason) = crate::symbolic::polynomial::check_family(model, spec, &mut probe) {
+        if let Err(reason) =
+            crate::generators::polynomial_kf::design::check_family(model, spec, &mut probe)
+        {
             return Err(syn::Error::new(
                 spec.span,
                 format!("`polynomial_kf`: {reason}"),

@@ -4,10 +4,10 @@
 //! between samples, and `f` for models with more sub-steps than are worth unrolling.
 
 use super::lower::{Lowerer, OpCount};
-use super::lqr::loop_invariant_operands;
 use super::names::ident;
 use crate::model::{Model, Scalar};
 use crate::symbolic::continuous::{integrate_substep, AtPoint};
+use crate::symbolic::loop_invariant_operands;
 use crate::symbolic::{ModelGraph, NodeId, VarId};
 use proc_macro2::TokenStream;
 use quote::quote;

@@ -7,12 +7,8 @@ pub mod graph;
 pub mod kalman;
 pub mod linalg;
 pub mod model_graph;
-pub mod polynomial;
-pub mod predictive;
 pub mod riccati;
-pub mod switched;
-pub mod window;
 
 pub use diff::Differentiator;
-pub use graph::{Graph, Node, NodeId, VarId};
+pub use graph::{loop_invariant_operands, substitute, Graph, Node, NodeId, VarId};
 pub use model_graph::ModelGraph;

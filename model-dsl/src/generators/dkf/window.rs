@@ -18,11 +18,12 @@
 //!
 //! A model outside this class gets a compile error naming the term that breaks it.
 
-use super::diff::Differentiator;
-use super::graph::{Graph, Node, NodeId, VarId};
-use super::linalg::Matrix;
-use super::model_graph::ModelGraph;
 use crate::model::Model;
+use crate::symbolic::diff::Differentiator;
+use crate::symbolic::graph::{Graph, Node, NodeId, VarId};
+use crate::symbolic::linalg::Matrix;
+use crate::symbolic::model_graph::ModelGraph;
+use crate::symbolic::substitute;
 use std::collections::{BTreeSet, HashMap};
 
 /// Most parameters the unrolled window solve supports (Cramer's rule grows as `P!`).
@@ -713,12 +714,6 @@ fn window_name(name: &str, delay: usize) -> String {
     } else {
         format!("{name}_km{delay}")
     }
-}
-
-/// Rebuilds `root` with the given variables replaced.
-pub fn substitute(graph: &mut Graph, root: NodeId, map: &[(VarId, NodeId)]) -> NodeId {
-    let map: HashMap<VarId, NodeId> = map.iter().copied().collect();
-    graph.substitute(root, &map, &mut HashMap::new())
 }
 
 /// Adds the variables `root` reads to `out`.

@@ -1,15 +1,15 @@
 //! The switched observers of a piecewise-linear model (seed 003): one type per design of
-//! [`crate::symbolic::switched::design`], each a one-step predictor
+//! [`crate::generators::switched_observer::design::design`], each a one-step predictor
 //! `x[k+1] = F_i x[k] + B_i u[k] + c_i + K_i y[k]` with `F_i = A_i - K_i C` computed at
 //! generation time and the regime `i` read from the measurement.
 
-use super::code::var_idents;
-use super::ekf::model_names;
-use super::lower::{literal, Lowered, Lowerer, OpCount};
-use super::names::{ident, TempNamer};
+use super::design::{Designs, Gains, Regimes};
+use crate::emit::code::var_idents;
+use crate::emit::filter::model_names;
+use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
+use crate::emit::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
 use crate::numerics::Mat;
-use crate::symbolic::switched::{Designs, Gains, Regimes};
 use crate::symbolic::{Graph, NodeId};
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
@@ -189,7 +189,9 @@ fn observer_type(
         .iter()
         .map(|o| g.var(&format!("{}_measured", o.name)))
         .collect();
-    let next = crate::symbolic::switched::observer_step(&mut g, regimes, gains, &x, &u, &y);
+    let next = crate::generators::switched_observer::design::observer_step(
+        &mut g, regimes, gains, &x, &u, &y,
+    );
     let mut ops = OpCount::default();
     let branches: Vec<TokenStream> = next
         .iter()
@@ -205,7 +207,7 @@ fn observer_type(
     let u_idents = var_idents(&g, &u);
     let y_idents = var_idents(&g, &y);
     let checked: Vec<_> = u_idents.iter().chain(&y_idents).cloned().collect();
-    let check = super::code::reject_non_finite(&checked);
+    let check = crate::emit::code::reject_non_finite(&checked);
     let unpack_u = (!u.is_empty()).then(|| quote! { let [#(#u_idents),*] = *u; });
     let u_param = (!u.is_empty()).then(|| quote! { u: &[#ty; #p_len], });
     let gains_literal = {
@@ -282,7 +284,7 @@ pub fn designs(
     spec: &crate::model::SwitchedObserverSpec,
     mg: &crate::symbolic::ModelGraph,
 ) -> syn::Result<(Regimes, Designs)> {
-    use crate::symbolic::switched::{design, regimes, Culprit};
+    use super::design::{design, regimes, Culprit};
     let at = |span, reason: String| syn::Error::new(span, format!("`switched_observer`: {reason}"));
     let regimes = regimes(model, mg).map_err(|reason| at(spec.span, reason))?;
     let designs = design(&regimes, spec).map_err(|(culprit, reason)| {

@@ -3,16 +3,19 @@
 //! measurement handled with one guarded reciprocal, several with an unrolled `L D L'` solve,
 //! and the Joseph-form covariance update.
 
-use super::code::{
-    commit_or_non_finite_with, guard_pivots, pack_upper, packed_names, pivot_names,
-    reject_non_finite, var_idents, INNOVATION,
+use crate::emit::code::{
+    commit_or_non_finite_with, guard_pivots, pack_upper, pivot_names, reject_non_finite,
+    var_idents, INNOVATION,
 };
-use super::lower::{Lowered, Lowerer, OpCount};
-use super::names::{ident, TempNamer};
+use crate::emit::filter::{
+    finiteness_probe, model_names, noise_argument, noise_vars, packed_vars, time_param,
+};
+use crate::emit::lower::{Lowered, Lowerer, OpCount};
+use crate::emit::names::{ident, TempNamer};
 use crate::model::{EkfSpec, Model, Scalar};
 use crate::symbolic::kalman;
 use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed, Matrix};
-use crate::symbolic::window::substitute;
+use crate::symbolic::substitute;
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::TokenStream;
 use quote::quote;
@@ -27,94 +30,6 @@ pub struct EkfCode {
     pub update_ops: OpCount,
     /// Arithmetic of `step`.
     pub step_ops: OpCount,
-}
-
-/// Names already used by the model, which generated variables must avoid.
-pub fn model_names(model: &Model) -> Vec<String> {
-    model
-        .constants
-        .iter()
-        .map(|c| c.name.clone())
-        .chain(model.state_names().map(str::to_owned))
-        .chain(model.inputs.iter().map(|s| s.name.clone()))
-        .chain(model.known.iter().map(|s| s.name.clone()))
-        .chain(model.outputs.iter().map(|o| o.name.clone()))
-        .chain(["t", "x", "u", "y", "self", "status", "known"].map(String::from))
-        .collect()
-}
-
-/// Declares the packed variables of an `n x n` symmetric matrix and returns them.
-pub fn packed_vars(graph: &mut Graph, prefix: &str, n: usize, avoid: &[String]) -> Vec<NodeId> {
-    let taken = |name: &str| avoid.iter().any(|a| a == name);
-    packed_names(prefix, n, &taken)
-        .iter()
-        .map(|name| graph.var(name))
-        .collect()
-}
-
-/// A process noise covariance: its variables (the packed upper triangle, or only the
-/// diagonal) and the matrix they make (structural zeros off the diagonal if diagonal).
-pub fn noise_vars(
-    graph: &mut Graph,
-    prefix: &str,
-    n: usize,
-    diagonal: bool,
-    avoid: &[String],
-) -> (Vec<NodeId>, Matrix) {
-    let packed = packed_vars(graph, prefix, n, avoid);
-    if !diagonal {
-        let matrix = symmetric_from_packed(&packed, n);
-        return (packed, matrix);
-    }
-    let variances: Vec<NodeId> = (0..n)
-        .map(|i| packed[crate::symbolic::linalg::packed_index(n, i, i)])
-        .collect();
-    let zero = graph.zero();
-    let matrix = (0..n)
-        .map(|i| {
-            (0..n)
-                .map(|j| if i == j { variances[i] } else { zero })
-                .collect()
-        })
-        .collect();
-    (variances, matrix)
-}
-
-/// The constructor argument, field type and stored value of a process noise covariance:
-/// `q: &[[S; n]; n]` packed to its upper triangle, or `q: &[S; n]`, its variances.
-pub fn noise_argument(
-    name: &str,
-    n: usize,
-    diagonal: bool,
-    ty: &proc_macro2::Ident,
-) -> (TokenStream, TokenStream, TokenStream) {
-    let arg = ident(name);
-    let n_len = proc_macro2::Literal::usize_unsuffixed(n);
-    if diagonal {
-        (
-            quote! { #arg: &[#ty; #n_len] },
-            quote! { [#ty; #n_len] },
-            quote! { *#arg },
-        )
-    } else {
-        let packed = proc_macro2::Literal::usize_unsuffixed(packed_len(n));
-        (
-            quote! { #arg: &[[#ty; #n_len]; #n_len] },
-            quote! { [#ty; #packed] },
-            pack_upper(name, n),
-        )
-    }
-}
-
-/// The sum of a vector and of a matrix's diagonal: finite exactly when all of them are
-/// (a NaN or infinity anywhere makes it non-finite), so one check guards a whole result.
-pub fn finiteness_probe(graph: &mut Graph, vector: &[NodeId], matrix: &Matrix) -> NodeId {
-    let mut sum = graph.zero();
-    let diagonal = (0..matrix.len()).map(|i| matrix[i][i]);
-    for v in vector.iter().copied().chain(diagonal) {
-        sum = graph.add(sum, v);
-    }
-    sum
 }
 
 /// The EKF of `model` in `scalar`.
@@ -138,18 +53,18 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
 
     let (pack_p0, pack_r) = (pack_upper("p0", n), pack_upper("r", m));
     let (q_param, q_field, pack_q) = noise_argument("q", n, diagonal, &ty);
-    let accessors = super::code::estimate_accessors(n, &ty);
-    let zero = super::lower::literal(0.0, scalar);
+    let accessors = crate::emit::code::estimate_accessors(n, &ty);
+    let zero = crate::emit::lower::literal(0.0, scalar);
     let (gate_field, gate_init, mut gate_methods) = gate_items(spec.gate, &ty, scalar);
     if spec.gate.is_some() {
         gate_methods.extend(keep_prediction_method(model, &ty));
     }
-    let setters = super::tuning::noise_setters(n, m, diagonal, &ty);
+    let setters = crate::emit::tuning::noise_setters(n, m, diagonal, &ty);
     let type_name = ident(&spec.type_name);
     let (type_doc, convention_doc) = type_doc(spec);
     let identity = packed_identity(m, scalar);
     let nis_method = nis_method(model, scalar);
-    let known = super::known::known_items(model, &ty);
+    let known = crate::emit::known::known_items(model, &ty);
     let (known_field, known_param, known_init, known_methods) =
         (known.field, known.param, known.init, known.methods);
 
@@ -265,7 +180,7 @@ fn type_doc(spec: &EkfSpec) -> (String, String) {
 /// measurement (with a zero innovation, a normalised square of 0).
 fn packed_identity(m: usize, scalar: Scalar) -> TokenStream {
     let entries = (0..m).flat_map(|i| {
-        (i..m).map(move |j| super::lower::literal(if i == j { 1.0 } else { 0.0 }, scalar))
+        (i..m).map(move |j| crate::emit::lower::literal(if i == j { 1.0 } else { 0.0 }, scalar))
     });
     quote! { [#(#entries),*] }
 }
@@ -337,8 +252,8 @@ fn gate_items(
     let Some(gate) = gate else {
         return Default::default();
     };
-    let default = super::lower::literal(gate, scalar);
-    let zero = super::lower::literal(0.0, scalar);
+    let default = crate::emit::lower::literal(gate, scalar);
+    let zero = crate::emit::lower::literal(0.0, scalar);
     let generated = if gate.is_finite() {
         format!("{gate}")
     } else {
@@ -585,7 +500,7 @@ fn method(
     } = lowerer.finish();
     let (x_values, p_values) = values.split_at(n);
     let commit = commit_or_non_finite_with(&probe, x_values, p_values, &store_innovation);
-    let statements = super::scopes::scoped(statements, &commit);
+    let statements = crate::emit::scopes::scoped(statements, &commit);
 
     let graph = &g.graph;
     let ty = ident(scalar.type_name());
@@ -749,23 +664,6 @@ fn keep_prediction_method(model: &Model, ty: &proc_macro2::Ident) -> TokenStream
             Status::OutlierRejected
         }
     }
-}
-
-/// `t: f32` (named `name`), or `_t: f32` when the code does not read it.
-pub fn time_param(
-    graph: &Graph,
-    t: NodeId,
-    used: &std::collections::BTreeSet<VarId>,
-    ty: &proc_macro2::Ident,
-    name: &str,
-) -> TokenStream {
-    let reads = matches!(graph.node(t), crate::symbolic::Node::Var(v) if used.contains(&v));
-    let name = if reads {
-        ident(name)
-    } else {
-        ident(&format!("_{name}"))
-    };
-    quote! { #name: #ty }
 }
 
 /// Names the new state and covariance entries after what they are: `x1_pred`, `p11_pred`.

@@ -5,11 +5,11 @@
 //! observer `x[k+1] = A_i x + B_i u + c_i + K_i (y - C x)` three ways, each certified by
 //! its poles.
 
-use super::graph::{Graph, Node, NodeId};
-use super::ModelGraph;
 use crate::ast::Comparison;
 use crate::model::{Model, SwitchedObserverSpec};
 use crate::numerics::{self, largest_pole, Mat};
+use crate::symbolic::graph::{Graph, Node, NodeId};
+use crate::symbolic::ModelGraph;
 use std::collections::HashMap;
 
 /// The switching condition `y[output] cmp threshold`, on a measured state.
@@ -417,7 +417,7 @@ pub fn observer_step(
                         operands.push(var);
                     }
                 }
-                let sum = super::linalg::dot(g, &coefficients, &operands);
+                let sum = crate::symbolic::linalg::dot(g, &coefficients, &operands);
                 let offset = g.num(regimes.offset[i][row]);
                 g.add(sum, offset)
             })

@@ -1,16 +1,16 @@
 //! The polynomial Kalman filter (Shults, Brubaker and Lee): the recursive step of
-//! [`crate::symbolic::polynomial::step`] lowered to straight-line code, and the periodic
+//! [`crate::generators::polynomial_kf::design::step`] lowered to straight-line code, and the periodic
 //! re-initialisation from the window fit whose constant matrix is computed at generation
 //! time. The window is a shift register (destructured, never indexed); the counters are
 //! floats (exact below 2^24), so the code has no integer arithmetic.
 
-use super::code::{guard_pivots, pivot_names, unpack_symmetric, INNOVATION};
-use super::ekf::{finiteness_probe, model_names, packed_vars};
-use super::lower::{literal, Lowered, Lowerer, OpCount};
-use super::names::{ident, TempNamer};
+use super::design::{self, WindowFit};
+use crate::emit::code::{guard_pivots, pivot_names, unpack_symmetric, INNOVATION};
+use crate::emit::filter::{finiteness_probe, model_names, packed_vars};
+use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
+use crate::emit::names::{ident, TempNamer};
 use crate::model::{Model, PolynomialKfSpec, Scalar};
 use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed};
-use crate::symbolic::polynomial::{self, WindowFit};
 use crate::symbolic::{Graph, NodeId};
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
@@ -34,7 +34,7 @@ pub fn emit_polynomial_kf(
     let avoid = model_names(model);
     let taken = |name: &str| avoid.iter().any(|a| a == name);
     let window = WindowNames::new(spec.window, &taken);
-    let fit = polynomial::window_fit(spec);
+    let fit = design::window_fit(spec);
     let fit_code = fit_branch(&avoid, &fit, &window.new, scalar);
     let fit_ops = fit_code.ops;
     let kf = recursive_step(model, spec, &window.measured, scalar);
@@ -150,7 +150,7 @@ fn accessors(spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStream {
         }
     });
     let unpack_p = unpack_symmetric("p", n);
-    let pack_p0 = super::code::pack_upper("p0", n);
+    let pack_p0 = crate::emit::code::pack_upper("p0", n);
     quote! {
         /// A filter from the estimate `x0` (scaled as the state) and covariance `p0`
         /// (only its upper triangle is read), with an empty window: it runs the
@@ -332,7 +332,7 @@ fn recursive_step(
     let p_vars = packed_vars(&mut g, "p", n, &avoid);
     let measured = g.var(measured);
     let p = symmetric_from_packed(&p_vars, n);
-    let update = polynomial::step(&mut g, spec, &x_vars, &p, measured, |g, j| {
+    let update = design::step(&mut g, spec, &x_vars, &p, measured, |g, j| {
         g.var(&pivot_names(1, j, INNOVATION, "").1)
     });
     let probe = finiteness_probe(&mut g, &update.x, &update.p);

@@ -5,11 +5,11 @@
 //! and sub-steps; optionally with a prescribed degree of stability `alpha` (Reif et al.,
 //! the paper's eq. 26): `F + alpha I` in place of `F` in the Riccati equation.
 
-use super::code::pack_upper;
-use super::ekf::noise_argument;
-use super::hybrid_ekf::{method, Kind};
-use super::lower::{literal, OpCount};
-use super::names::ident;
+use crate::emit::code::pack_upper;
+use crate::emit::continuous_filter::{method, Kind};
+use crate::emit::filter::noise_argument;
+use crate::emit::lower::{literal, OpCount};
+use crate::emit::names::ident;
 use crate::model::{ContinuousEkfSpec, Model, Scalar};
 use crate::symbolic::linalg::packed_len;
 use crate::symbolic::ModelGraph;
@@ -44,8 +44,8 @@ pub fn emit_continuous_ekf(
         [n, m, packed_len(n), packed_len(m)].map(Literal::usize_unsuffixed);
     let (pack_p0, pack_r) = (pack_upper("p0", n), pack_upper("r", m));
     let (q_param, q_field, pack_q) = noise_argument("q", n, diagonal, &ty);
-    let accessors = super::code::estimate_accessors(n, &ty);
-    let setters = super::tuning::noise_setters(n, m, diagonal, &ty);
+    let accessors = crate::emit::code::estimate_accessors(n, &ty);
+    let setters = crate::emit::tuning::noise_setters(n, m, diagonal, &ty);
     let substeps = mg.clone().substep(model).map_or(1, |(_, _, n)| n);
     let substeps_lit = Literal::u32_unsuffixed(substeps);
     let alpha = spec.alpha.map(|a| literal(a, scalar));

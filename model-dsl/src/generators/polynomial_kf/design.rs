@@ -4,12 +4,12 @@
 //! computed once), and the recursive step (prediction with `Phi(1)`, eq. 5-6, and the
 //! Joseph-form update, eq. 7-9) as graph nodes.
 
-use super::graph::{Graph, NodeId};
-use super::kalman::{self, Update};
-use super::linalg::Matrix;
-use super::ModelGraph;
 use crate::model::{Model, PolynomialKfSpec};
 use crate::numerics::{pinv, Mat};
+use crate::symbolic::graph::{Graph, NodeId};
+use crate::symbolic::kalman::{self, Update};
+use crate::symbolic::linalg::Matrix;
+use crate::symbolic::ModelGraph;
 
 /// `Phi(1)` of eq. (4) for order `m`: entry `(i, j)` is `C(j, i)` for `j >= i` (the
 /// Taylor series of `x_i = T^i / i! z^(i)` over one sample), an upper Pascal matrix.
@@ -149,7 +149,7 @@ pub fn step(
     let p_pred = kalman::predict_covariance(g, &phi, p, &q);
     let x_pred: Vec<NodeId> = phi
         .iter()
-        .map(|row| super::linalg::dot(g, row, x))
+        .map(|row| crate::symbolic::linalg::dot(g, row, x))
         .collect();
     let one = g.one();
     let m: Matrix = vec![(0..n).map(|j| if j == 0 { one } else { zero }).collect()];

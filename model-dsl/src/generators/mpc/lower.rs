@@ -5,18 +5,19 @@
 //! (42)-(44), and a primal active-set solve of its box-constrained QP. Each stage is a
 //! symbolic stage lowered to straight-line code; stages hand over through named values.
 
-use super::code::{
+use super::names::{failure, Names};
+use super::predictive::{condensed_qp, zoh_square, zoh_taylor};
+use super::qp::{active_set_loop, MoveNames};
+use crate::ast::Comparison;
+use crate::emit::code::{
     all_finite, guard_pivots, pack_upper, pivot_names, unpack_symmetric, var_idents,
 };
-use super::ekf::{model_names, packed_vars, time_param};
-use super::lower::{literal, Lowerer, OpCount};
-use super::lqr::loop_invariant_operands;
-use super::mpc_qp::{active_set_loop, MoveNames};
-use super::names::{ident, TempNamer};
-use crate::ast::Comparison;
+use crate::emit::filter::{packed_vars, time_param};
+use crate::emit::lower::{literal, Lowerer, OpCount};
+use crate::emit::names::ident;
 use crate::model::{Func, Model, MpcDiscretisation, MpcSpec, Scalar};
 use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
-use crate::symbolic::predictive::{condensed_qp, zoh_square, zoh_taylor};
+use crate::symbolic::loop_invariant_operands;
 use crate::symbolic::riccati::riccati_step;
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::{Ident, Literal, TokenStream};
@@ -35,49 +36,6 @@ pub struct MpcCode {
     pub condense_ops: OpCount,
     /// One active-set iteration.
     pub iteration_ops: OpCount,
-}
-
-/// Names the generated `solve` gives its values, kept clear of the model's names.
-pub(super) struct Names {
-    taken: Vec<String>,
-}
-
-impl Names {
-    fn new(model: &Model) -> Names {
-        Names {
-            taken: model_names(model),
-        }
-    }
-
-    /// A namer for temporaries that avoids the model's names.
-    pub(super) fn namer(&self) -> TempNamer {
-        TempNamer::new(self.taken.iter().map(String::as_str))
-    }
-
-    /// `base`, with `_` appended while a model name takes it.
-    pub(super) fn fresh(&self, base: &str) -> String {
-        let mut name = base.to_owned();
-        while self.taken.contains(&name) {
-            name.push('_');
-        }
-        name
-    }
-
-    /// Names as [`Names::fresh`] for the entries of a `rows x cols` matrix: `a12`, or
-    /// `a_1_12` when an index has two digits.
-    fn matrix(&self, prefix: &str, rows: usize, cols: usize) -> Vec<Vec<String>> {
-        let wide = rows >= 10 || cols >= 10;
-        (1..=rows)
-            .map(|i| {
-                (1..=cols)
-                    .map(|j| match wide {
-                        true => self.fresh(&format!("{prefix}_{i}_{j}")),
-                        false => self.fresh(&format!("{prefix}{i}{j}")),
-                    })
-                    .collect()
-            })
-            .collect()
-    }
 }
 
 /// Code that computes some values under given names, and what it costs.
@@ -316,8 +274,8 @@ fn sample_period(model: &Model, mg: &mut ModelGraph) -> NodeId {
 /// the operating input) are finite.
 fn read_estimate(mg: &ModelGraph, used: &BTreeSet<VarId>, rejected: &TokenStream) -> TokenStream {
     let g = &mg.graph;
-    let unpack_x = super::code::destructure(g, quote! { *x }, &mg.x, used);
-    let unpack_u = super::code::destructure(g, quote! { *u }, &mg.u, used);
+    let unpack_x = crate::emit::code::destructure(g, quote! { *x }, &mg.x, used);
+    let unpack_u = crate::emit::code::destructure(g, quote! { *u }, &mg.u, used);
     let checked: Vec<Ident> =
         mg.x.iter()
             .chain(&mg.u)
@@ -377,18 +335,6 @@ fn received(g: &Graph, m: &Matrix) -> TokenStream {
         quote! { [#(#entries),*] }
     });
     quote! { [#(#rows),*] }
-}
-
-/// `return MpcStatus { status, .. };` for a solve that changed nothing.
-pub(super) fn failure(status: TokenStream) -> TokenStream {
-    quote! {
-        return MpcStatus {
-            status: #status,
-            optimal: false,
-            iterations: 0,
-            terminal_weight_converged: false,
-        };
-    }
 }
 
 /// The hold's code, and `A`, `B` as the variables it binds.

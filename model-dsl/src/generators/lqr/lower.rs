@@ -3,18 +3,18 @@
 //! at the current estimate; the backward Riccati recursion runs as a loop over the horizon
 //! whose body is generated straight-line code.
 
-use super::code::{
+use crate::emit::code::{
     destructure, guard_pivots, pack_upper, pivot_names, reject_non_finite, var_idents,
 };
-use super::ekf::{model_names, packed_vars, time_param};
-use super::lower::{literal, Lowered, Lowerer, OpCount};
-use super::names::{ident, TempNamer};
+use crate::emit::filter::{model_names, packed_vars, time_param};
+use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
+use crate::emit::names::{ident, TempNamer};
 use crate::model::{LqrSpec, Model, Scalar};
 use crate::symbolic::linalg::{
     ldl_inverse, matmul, packed_len, symmetric_from_packed, transpose, Matrix,
 };
 use crate::symbolic::riccati::riccati_step;
-use crate::symbolic::{Graph, ModelGraph, Node, NodeId};
+use crate::symbolic::{loop_invariant_operands, Graph, ModelGraph, Node, NodeId};
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
@@ -166,7 +166,7 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
          `HORIZON` Riccati steps from `P = Q`, then `K` from the final `P`. Leaves \
          the gain unchanged unless it returns [`Status::Ok`]."
     };
-    let known = super::known::known_items(model, &ty);
+    let known = crate::emit::known::known_items(model, &ty);
     let (known_field, known_param, known_init, known_methods) =
         (known.field, known.param, known.init, known.methods);
     let steady_state = steady_state_input(model, spec, mg, scalar);
@@ -353,37 +353,6 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     LqrCode { tokens, solve_ops }
 }
 
-/// Nodes the loop body reads that do not change from one iteration to the next: operands
-/// of loop-dependent nodes that depend on no loop variable, and are not leaves.
-pub(crate) fn loop_invariant_operands(
-    g: &Graph,
-    roots: &[NodeId],
-    loop_vars: &[NodeId],
-) -> Vec<NodeId> {
-    let mut varies = vec![false; g.len()];
-    for id in g.ids() {
-        varies[id.index()] =
-            loop_vars.contains(&id) || g.node(id).children().iter().any(|c| varies[c.index()]);
-    }
-    let mut reached = vec![false; g.len()];
-    let mut stack = roots.to_vec();
-    let mut invariant = Vec::new();
-    while let Some(id) = stack.pop() {
-        if std::mem::replace(&mut reached[id.index()], true) {
-            continue;
-        }
-        if !varies[id.index()] {
-            if !matches!(g.node(id), Node::Num(_) | Node::Named(_) | Node::Var(_)) {
-                invariant.push(id);
-            }
-            continue;
-        }
-        stack.extend(g.node(id).children());
-    }
-    invariant.sort();
-    invariant
-}
-
 fn used_idents(
     g: &Graph,
     vars: &[NodeId],
@@ -458,7 +427,7 @@ fn steady_state_input(
     let unpack_x = destructure(graph, quote! { *x_ref }, &g.x, &used_vars);
     let unpack_u = destructure(graph, quote! { *u }, &g.u, &used_vars);
     let checked: Vec<_> = x_idents.iter().chain(&u_idents).cloned().collect();
-    let finite = super::code::all_finite(&checked);
+    let finite = crate::emit::code::all_finite(&checked);
     let check = (!checked.is_empty()).then(|| quote! { if !(#finite) { return None; } });
     let time = model.uses_time().then(|| {
         let t = time_param(graph, g.t, &used_vars, &ty, "t");
@@ -480,7 +449,7 @@ fn steady_state_input(
         .iter()
         .map(|&i| ident(&format!("{}_ref", model.inputs[i].name)))
         .collect();
-    let finite_result = super::code::all_finite(&result);
+    let finite_result = crate::emit::code::all_finite(&result);
     quote! {
         /// The input `u_ref` that holds the regulated states at the set-point `x_ref` (a
         /// whole state vector: the other states and the parameters at the values to

@@ -1,17 +1,18 @@
 //! The double Kalman filter (Alg. 2): the window transform derived from the model
-//! ([`crate::symbolic::window`]), a linear Kalman filter on the transformed model (AKF),
+//! ([`crate::generators::dkf::window`]), a linear Kalman filter on the transformed model (AKF),
 //! and a Kalman filter linearised about the AKF's estimate (LKF).
 
-use super::code::{
+use super::window::{self, column_norms_product, cramer, WindowTransform};
+use crate::emit::code::{
     destructure, guard_pivots, pack_upper, pivot_names, unpack_symmetric, var_idents, INNOVATION,
 };
-use super::ekf::{finiteness_probe, model_names, noise_argument, noise_vars, packed_vars};
-use super::lower::{literal, Lowered, Lowerer, OpCount};
-use super::names::{ident, TempNamer};
+use crate::emit::filter::{finiteness_probe, model_names, noise_argument, noise_vars, packed_vars};
+use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
+use crate::emit::names::{ident, TempNamer};
 use crate::model::{DkfSpec, Model, Scalar};
 use crate::symbolic::kalman;
 use crate::symbolic::linalg::{matmul, packed_len, packed_upper, symmetric_from_packed, Matrix};
-use crate::symbolic::window::{self, column_norms_product, cramer, substitute, WindowTransform};
+use crate::symbolic::substitute;
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
@@ -81,13 +82,14 @@ pub fn emit_dkf(
     // Run-time tuning: the LKF's `q`, the AKF's `qbar`, the shared `r`.
     let setters = {
         let diagonal = spec.diagonal_noise;
-        let tuning =
-            |method, field| super::tuning::process_noise_setter(method, field, n, diagonal, &ty);
+        let tuning = |method, field| {
+            crate::emit::tuning::process_noise_setter(method, field, n, diagonal, &ty)
+        };
         let (set_q, set_qbar) = (
             tuning("set_process_noise", "q"),
             tuning("set_akf_process_noise", "qbar"),
         );
-        let set_r = super::tuning::measurement_noise_setter(m, &ty);
+        let set_r = crate::emit::tuning::measurement_noise_setter(m, &ty);
         quote! { #set_q #set_qbar #set_r }
     };
     let derivation: Vec<String> = wt.description.iter().map(|l| format!(" - {l}")).collect();

@@ -11,10 +11,10 @@
 //! from the shifted plan usually holds the right bounds: one or two `L D L'` solves
 //! finish it, with an exact answer rather than a tolerance-bound one.
 
-use super::code::{all_finite, guard_pivots, packed_names, pivot_names};
-use super::lower::{literal, Lowerer, OpCount};
-use super::mpc::{failure, Names};
-use super::names::ident;
+use super::names::{failure, Names};
+use crate::emit::code::{all_finite, guard_pivots, packed_names, pivot_names};
+use crate::emit::lower::{literal, Lowerer, OpCount};
+use crate::emit::names::ident;
 use crate::model::{Model, MpcSpec, Scalar};
 use crate::symbolic::linalg::{ldl_solve, matmul, symmetric_from_packed, Matrix};
 use crate::symbolic::Graph;

@@ -3,8 +3,10 @@
 //! the dual-mode cost (Takacs, Polóni, Rohal'-Ilkiv, "Adaptive predictive control of
 //! transient vibrations of cantilevers with changing weight", eqs. 32-44).
 
-use super::graph::{Graph, NodeId};
-use super::linalg::{add, identity, matmul, packed_upper, sandwich_symmetric, transpose, Matrix};
+use crate::symbolic::graph::{Graph, NodeId};
+use crate::symbolic::linalg::{
+    add, identity, matmul, packed_upper, sandwich_symmetric, transpose, Matrix,
+};
 
 /// Terms of the Taylor series of the matrix exponential: the paper discretises with
 /// `j = 10` terms (sect. 4.1). On a matrix of 1-norm at most 1/2, which the scaling

@@ -1,0 +1,3 @@
+//! The continuous-time EKF with an optional prescribed degree of stability.
+
+pub mod lower;

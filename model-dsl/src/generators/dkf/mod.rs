@@ -1,0 +1,4 @@
+//! The double Kalman filter: the window transform and its two Kalman filters.
+
+pub mod lower;
+pub mod window;

@@ -1,0 +1,3 @@
+//! The hybrid (continuous-discrete) EKF.
+
+pub mod lower;

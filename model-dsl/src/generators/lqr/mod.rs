@@ -1,0 +1,3 @@
+//! The adaptive finite-horizon LQR.
+
+pub mod lower;
