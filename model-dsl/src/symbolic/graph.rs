@@ -629,6 +629,39 @@ impl Graph {
     }
 }
 
+/// Rebuilds `root` with the given variables replaced.
+pub fn substitute(graph: &mut Graph, root: NodeId, map: &[(VarId, NodeId)]) -> NodeId {
+    let map: std::collections::HashMap<VarId, NodeId> = map.iter().copied().collect();
+    graph.substitute(root, &map, &mut std::collections::HashMap::new())
+}
+
+/// Nodes the loop body reads that do not change from one iteration to the next: operands
+/// of loop-dependent nodes that depend on no loop variable, and are not leaves.
+pub fn loop_invariant_operands(g: &Graph, roots: &[NodeId], loop_vars: &[NodeId]) -> Vec<NodeId> {
+    let mut varies = vec![false; g.len()];
+    for id in g.ids() {
+        varies[id.index()] =
+            loop_vars.contains(&id) || g.node(id).children().iter().any(|c| varies[c.index()]);
+    }
+    let mut reached = vec![false; g.len()];
+    let mut stack = roots.to_vec();
+    let mut invariant = Vec::new();
+    while let Some(id) = stack.pop() {
+        if std::mem::replace(&mut reached[id.index()], true) {
+            continue;
+        }
+        if !varies[id.index()] {
+            if !matches!(g.node(id), Node::Num(_) | Node::Named(_) | Node::Var(_)) {
+                invariant.push(id);
+            }
+            continue;
+        }
+        stack.extend(g.node(id).children());
+    }
+    invariant.sort();
+    invariant
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -731,37 +764,4 @@ mod tests {
         let expected = ((0.5 * -0.7 - -1.3) / 0.5f64).powi(3).sin();
         assert!((value - expected).abs() < 1e-15, "{value} vs {expected}");
     }
-}
-
-/// Rebuilds `root` with the given variables replaced.
-pub fn substitute(graph: &mut Graph, root: NodeId, map: &[(VarId, NodeId)]) -> NodeId {
-    let map: std::collections::HashMap<VarId, NodeId> = map.iter().copied().collect();
-    graph.substitute(root, &map, &mut std::collections::HashMap::new())
-}
-
-/// Nodes the loop body reads that do not change from one iteration to the next: operands
-/// of loop-dependent nodes that depend on no loop variable, and are not leaves.
-pub fn loop_invariant_operands(g: &Graph, roots: &[NodeId], loop_vars: &[NodeId]) -> Vec<NodeId> {
-    let mut varies = vec![false; g.len()];
-    for id in g.ids() {
-        varies[id.index()] =
-            loop_vars.contains(&id) || g.node(id).children().iter().any(|c| varies[c.index()]);
-    }
-    let mut reached = vec![false; g.len()];
-    let mut stack = roots.to_vec();
-    let mut invariant = Vec::new();
-    while let Some(id) = stack.pop() {
-        if std::mem::replace(&mut reached[id.index()], true) {
-            continue;
-        }
-        if !varies[id.index()] {
-            if !matches!(g.node(id), Node::Num(_) | Node::Named(_) | Node::Var(_)) {
-                invariant.push(id);
-            }
-            continue;
-        }
-        stack.extend(g.node(id).children());
-    }
-    invariant.sort();
-    invariant
 }
