@@ -15,7 +15,7 @@ pub fn model(input: TokenStream) -> TokenStream {
         .into_iter()
         .next()
         .map_or_else(proc_macro2::Span::call_site, |t| t.span());
-    let options = model_dsl::emit::Options {
+    let options = model_dsl::pipeline::Options {
         // The `nalgebra` feature adds each model's `interop` module.
         nalgebra: cfg!(feature = "nalgebra"),
     };

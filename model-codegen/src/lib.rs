@@ -11,7 +11,7 @@
 pub mod meval_text;
 pub mod model_file;
 
-use model_dsl::model::Model;
+use model_dsl::check::Checked;
 use proc_macro2::TokenStream;
 
 /// Formats generated tokens as a Rust source file with `prettyplease` (for snapshots; the
@@ -57,13 +57,13 @@ pub fn rustfmt(code: &str) -> Result<String, String> {
     }
 }
 
-/// Reads and checks a TOML model file into the model IR.
-pub fn parse_model_file(source: &str) -> syn::Result<Model> {
+/// Reads and checks a TOML model file into the model IR and the generators it asks for.
+pub fn parse_model_file(source: &str) -> syn::Result<Checked> {
     let (decl, diag) = model_file::parse_model_file(source)?;
     model_dsl::check::check(&decl, diag)
 }
 
 /// Expands a TOML model file: the same module the macro would generate.
 pub fn expand_model_file(source: &str) -> syn::Result<TokenStream> {
-    model_dsl::emit::emit_model(&parse_model_file(source)?)
+    model_dsl::pipeline::emit_model(&parse_model_file(source)?)
 }

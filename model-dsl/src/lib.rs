@@ -2,7 +2,8 @@
 //! allocation-free Rust out.
 //!
 //! The flow runs one way: tokens -> [`ast::ModelDecl`] ->
-//! [`check`] -> [`model::Model`] -> [`symbolic`] graph -> [`emit`] -> tokens.
+//! [`check`] -> [`model::Model`] and the [`generators`] it asks for -> [`symbolic`] graph
+//! -> lowering ([`emit`] stages, each generator's own) -> tokens, assembled by [`pipeline`].
 //! [`expand`] is the whole pipeline for the `model!` macro; tests call it directly.
 //!
 //! This crate is what the `model!` macro (`codegen-macros`) builds, so it depends on
@@ -14,38 +15,37 @@
 
 pub mod ast;
 pub mod check;
-mod check_controllers;
-mod check_designs;
 pub mod diagnostics;
 pub mod emit;
 pub mod front;
 pub mod generators;
 pub mod model;
 pub mod numerics;
+pub mod pipeline;
 pub mod symbolic;
 
 use proc_macro2::TokenStream;
 
 /// Parses and checks the body of a `model!` invocation into the model IR.
-pub fn parse_model(tokens: TokenStream) -> syn::Result<model::Model> {
+pub fn parse_model(tokens: TokenStream) -> syn::Result<check::Checked> {
     let (decl, diag) = front::macro_syntax::parse_model(tokens)?;
     check::check(&decl, diag)
 }
 
 /// The `model!` macro: the body of an invocation in, the generated module out.
 pub fn expand(tokens: TokenStream) -> syn::Result<TokenStream> {
-    expand_with(tokens, &emit::Options::default())
+    expand_with(tokens, &pipeline::Options::default())
 }
 
 /// [`expand`], with the generated module's extras (`codegen-macros`' features).
-pub fn expand_with(tokens: TokenStream, options: &emit::Options) -> syn::Result<TokenStream> {
+pub fn expand_with(tokens: TokenStream, options: &pipeline::Options) -> syn::Result<TokenStream> {
     let model = parse_model(tokens)?;
-    emit::emit_model_with(&model, options)
+    pipeline::emit_model_with(&model, options)
 }
 
 /// Parses and checks Rust source holding one `model! { .. }` invocation (a demo model
 /// file) into the model IR.
-pub fn parse_macro_source(source: &str) -> syn::Result<model::Model> {
+pub fn parse_macro_source(source: &str) -> syn::Result<check::Checked> {
     // Not trimmed: spans then give the file's own lines and columns.
     let invocation: syn::Macro = syn::parse_str(source)?;
     parse_model(invocation.tokens)
@@ -53,5 +53,5 @@ pub fn parse_macro_source(source: &str) -> syn::Result<model::Model> {
 
 /// Expands Rust source holding one `model! { .. }` invocation (a demo model file).
 pub fn expand_macro_source(source: &str) -> syn::Result<TokenStream> {
-    emit::emit_model(&parse_macro_source(source)?)
+    pipeline::emit_model(&parse_macro_source(source)?)
 }

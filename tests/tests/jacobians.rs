@@ -53,7 +53,8 @@ struct Reference {
 impl Reference {
     fn new(name: &str) -> Reference {
         let model = model_dsl::parse_macro_source(&demo_model_source(name))
-            .unwrap_or_else(|e| panic!("{name}: {e}"));
+            .unwrap_or_else(|e| panic!("{name}: {e}"))
+            .model;
         let parse = |e: &model_dsl::model::Expr| -> meval::Expr {
             let text = model_codegen::meval_text::to_meval(&model, e);
             text.parse()

@@ -79,7 +79,8 @@ fn model_file_piecewise_and_powers_are_understood() {
         x = "if_gt(x, 0, -K * x^3, 0)"
         "#,
     )
-    .expect("valid model file");
+    .expect("valid model file")
+    .model;
     assert_eq!(model.constants[0].value, 6.0);
     let text = model_codegen::meval_text::to_meval(&model, &model.dynamics.rhs[0]);
     // meval binds unary minus tighter than `*`: `(-K) * x^3`, the same value.

@@ -236,14 +236,13 @@ fn a_given_k1_is_used_and_k2_follows_through_the_pseudo_inverse() {
             }
         }
     "#;
-    let model = model_dsl::parse_macro_source(source).expect("a valid model");
-    let mg = model_dsl::symbolic::ModelGraph::build(&model);
-    let regimes = model_dsl::generators::switched_observer::design::regimes(&model, &mg)
+    let checked = model_dsl::parse_macro_source(source).expect("a valid model");
+    let model = &checked.model;
+    let mg = model_dsl::symbolic::ModelGraph::build(model);
+    let regimes = model_dsl::generators::switched_observer::design::regimes(model, &mg)
         .expect("piecewise linear");
-    let spec = model
-        .generate
-        .switched_observer
-        .as_ref()
+    let spec = checked
+        .options::<model_dsl::generators::switched_observer::SwitchedObserverSpec>()
         .expect("asked for");
     let designs = model_dsl::generators::switched_observer::design::design(&regimes, spec)
         .expect("designable");

@@ -1,3 +1,90 @@
-//! The continuous-time EKF with an optional prescribed degree of stability.
+//! The continuous-time EKF of "Nonlinear experimental estimation and verification of a
+//! MIMO system through EKF" (Kulkarni and Purwar), with an optional prescribed degree of
+//! stability (Reif et al.): `continuous_ekf(alpha = 0.5, process_noise = diagonal)`.
 
 pub mod lower;
+pub mod spec;
+
+pub use spec::ContinuousEkfSpec;
+use super::options::{Args, Context};
+use super::unit::{Cost, Generator, Kind, Code, Lowering, Requirement};
+use crate::ast::GenerateDecl;
+use crate::diagnostics::Diagnostics;
+use crate::model::{Model, Scalar};
+use crate::symbolic::ModelGraph;
+use std::any::Any;
+
+/// The `continuous_ekf` generator.
+pub struct ContinuousEkf;
+
+impl Kind for ContinuousEkf {
+    fn name(&self) -> &'static str {
+        "continuous_ekf"
+    }
+
+    fn usage(&self) -> &'static str {
+        "`continuous_ekf(alpha = ..)`"
+    }
+
+    fn requirements(&self) -> &'static [Requirement] {
+        &[
+            Requirement::Outputs,
+            Requirement::ContinuousDynamics,
+            Requirement::CoefficientsAtGeneration,
+        ]
+    }
+
+    fn items(&self) -> &'static [&'static str] {
+        &["ContinuousEkf"]
+    }
+
+    fn options(
+        &self,
+        _item: &GenerateDecl,
+        args: &mut Args,
+        _cx: &Context,
+        diag: &mut Diagnostics,
+    ) -> Option<Box<dyn Generator>> {
+        let alpha = args.optional_number("alpha", diag);
+        if let Some((a, span)) = alpha.filter(|(a, _)| !(*a >= 0.0 && a.is_finite())) {
+            diag.error(
+                span,
+                format!(
+                    "`alpha`, the prescribed degree of stability, is finite and at least 0 \
+                     (per second), not {a}"
+                ),
+            );
+        }
+        Some(Box::new(ContinuousEkfSpec {
+            diagonal_noise: args.process_noise(diag),
+            alpha: alpha.map(|(a, _)| a),
+        }))
+    }
+}
+
+impl Generator for ContinuousEkfSpec {
+    fn design(&self, _model: &Model, _mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
+        Ok(Box::new(self.clone()))
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}
+
+impl Lowering for ContinuousEkfSpec {
+    fn lower(&self, model: &Model, mg: &ModelGraph, scalar: Scalar) -> Code {
+        let ct = lower::emit_continuous_ekf(model, self, mg, scalar);
+        Code {
+            tokens: ct.tokens,
+            costs: vec![
+                Cost::new(
+                    "CONTINUOUS_EKF_SUBSTEP_OPS",
+                    "one sub-step of ContinuousEkf::step",
+                    ct.substep_ops,
+                ),
+                Cost::new("CONTINUOUS_EKF_STEP_OPS", "ContinuousEkf::step", ct.step_ops),
+            ],
+        }
+    }
+}

@@ -9,7 +9,8 @@ use crate::emit::code::{
 use crate::emit::filter::{finiteness_probe, model_names, noise_argument, noise_vars, packed_vars};
 use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
-use crate::model::{DkfSpec, Model, Scalar};
+use super::spec::DkfSpec;
+use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
 use crate::symbolic::linalg::{matmul, packed_len, packed_upper, symmetric_from_packed, Matrix};
 use crate::symbolic::substitute;

@@ -1,4 +1,98 @@
-//! The double Kalman filter: the window transform and its two Kalman filters.
+//! The double Kalman filter: the window transform derived from the model (an LTV model
+//! whose coefficients a window of samples determines) and its two Kalman filters (AKF and
+//! LKF): `dkf(eta = 0.5, process_noise = diagonal)`.
 
 pub mod lower;
+pub mod spec;
 pub mod window;
+
+pub use spec::DkfSpec;
+use super::options::{Args, Context};
+use super::unit::{Cost, Generator, Kind, Code, Lowering, Requirement};
+use crate::ast::GenerateDecl;
+use crate::diagnostics::Diagnostics;
+use crate::model::{Model, Scalar};
+use crate::symbolic::ModelGraph;
+use std::any::Any;
+
+/// The `dkf` generator.
+pub struct Dkf;
+
+impl Kind for Dkf {
+    fn name(&self) -> &'static str {
+        "dkf"
+    }
+
+    fn usage(&self) -> &'static str {
+        "`dkf(eta = ..)`"
+    }
+
+    fn requirements(&self) -> &'static [Requirement] {
+        &[
+            Requirement::Outputs,
+            Requirement::UnrolledStep,
+            Requirement::CoefficientsAtGeneration,
+        ]
+    }
+
+    fn items(&self) -> &'static [&'static str] {
+        &["Dkf", "DkfStatus", "WindowStatus", "ltv_model"]
+    }
+
+    fn options(
+        &self,
+        item: &GenerateDecl,
+        args: &mut Args,
+        _cx: &Context,
+        diag: &mut Diagnostics,
+    ) -> Option<Box<dyn Generator>> {
+        let (eta, eta_span) = args.number("eta", 0.5, diag);
+        let diagonal_noise = args.process_noise(diag);
+        if !(0.0..=1.0).contains(&eta) {
+            diag.error(eta_span, "`eta` weights a split: it lies in 0..=1");
+        }
+        Some(Box::new(DkfSpec {
+            eta,
+            diagonal_noise,
+            span: item.name.span,
+        }))
+    }
+}
+
+impl Generator for DkfSpec {
+    fn design(&self, model: &Model, mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
+        // Derived once up front so a model outside the class is one clear error.
+        let mut probe = mg.clone();
+        if let Err(reason) = window::derive(model, &mut probe, self.eta) {
+            return Err(syn::Error::new(self.span, format!("`dkf`: {reason}")));
+        }
+        Ok(Box::new(self.clone()))
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}
+
+impl Lowering for DkfSpec {
+    fn lower(&self, model: &Model, mg: &ModelGraph, scalar: Scalar) -> Code {
+        let Ok(dkf) = lower::emit_dkf(model, self, mg, scalar) else {
+            // `design` derived the same window without an error.
+            return Code {
+                tokens: proc_macro2::TokenStream::new(),
+                costs: Vec::new(),
+            };
+        };
+        Code {
+            tokens: dkf.tokens,
+            costs: vec![
+                Cost::new(
+                    "DKF_TRANSFORM_OPS",
+                    "the window transform of Dkf::step",
+                    dkf.transform_ops,
+                ),
+                Cost::new("DKF_FILTERS_OPS", "Dkf::step", dkf.filters_ops),
+            ],
+        }
+    }
+}

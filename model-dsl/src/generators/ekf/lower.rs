@@ -12,7 +12,8 @@ use crate::emit::filter::{
 };
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
-use crate::model::{EkfSpec, Model, Scalar};
+use super::spec::EkfSpec;
+use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
 use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed, Matrix};
 use crate::symbolic::substitute;

@@ -1,3 +1,112 @@
-//! The extended Kalman filter (Alg. 1 of the double Kalman filter paper).
+//! The extended Kalman filter (Alg. 1 of the double Kalman filter paper), with an
+//! optional innovation gate: `ekf(gate = 10.83, name = GatedEkf, process_noise = diagonal)`.
 
 pub mod lower;
+pub mod spec;
+
+pub use spec::EkfSpec;
+use super::options::{Args, Context};
+use super::unit::{Cost, Generator, Kind, Code, Lowering, Requirement};
+use crate::ast::{ArgValue, GenerateDecl};
+use crate::diagnostics::Diagnostics;
+use crate::emit::names::screaming_snake;
+use crate::model::{Model, Scalar};
+use crate::symbolic::ModelGraph;
+use std::any::Any;
+
+/// The `ekf` generator.
+pub struct Ekf;
+
+impl Kind for Ekf {
+    fn name(&self) -> &'static str {
+        "ekf"
+    }
+
+    fn usage(&self) -> &'static str {
+        "`ekf`"
+    }
+
+    fn requirements(&self) -> &'static [Requirement] {
+        &[Requirement::Outputs, Requirement::UnrolledStep]
+    }
+
+    fn items(&self) -> &'static [&'static str] {
+        &["Ekf"]
+    }
+
+    fn type_name_option(&self) -> Option<&'static str> {
+        Some("Ekf")
+    }
+
+    fn options(
+        &self,
+        _item: &GenerateDecl,
+        args: &mut Args,
+        _cx: &Context,
+        diag: &mut Diagnostics,
+    ) -> Option<Box<dyn Generator>> {
+        let type_name = args.type_name("Ekf", diag);
+        let gate = gate(args, diag);
+        Some(Box::new(EkfSpec {
+            type_name,
+            gate,
+            diagonal_noise: args.process_noise(diag),
+        }))
+    }
+}
+
+/// `gate = 10.83` (the threshold on the normalised innovation squared) or `gate = off` (a
+/// gate that is open until set at run time); `None` without `gate`.
+fn gate(args: &mut Args, diag: &mut Diagnostics) -> Option<f64> {
+    match args.take(&["gate"]).map(|a| &a.value) {
+        None => None,
+        Some(ArgValue::Number(v, _)) if *v > 0.0 && v.is_finite() => Some(*v),
+        Some(ArgValue::Name(n)) if n.text == "off" => Some(f64::INFINITY),
+        Some(other) => {
+            diag.error(
+                other.span(),
+                "`gate` is a threshold on the normalised innovation squared, a positive \
+                 number (a chi-square quantile: 10.83 rejects one in a thousand \
+                 consistent scalar measurements), or `off` to set it at run time",
+            );
+            None
+        }
+    }
+}
+
+impl Generator for EkfSpec {
+    fn design(&self, _model: &Model, _mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
+        Ok(Box::new(self.clone()))
+    }
+
+    fn type_names(&self) -> Vec<String> {
+        vec![self.type_name.clone()]
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}
+
+impl Lowering for EkfSpec {
+    fn lower(&self, model: &Model, mg: &ModelGraph, scalar: Scalar) -> Code {
+        let ekf = lower::emit_ekf(model, self, mg, scalar);
+        // `Ekf` gives `EKF_STEP_OPS`, `GatedEkf` `GATED_EKF_STEP_OPS`.
+        let prefix = screaming_snake(&self.type_name);
+        let costs = [
+            ("predict", ekf.predict_ops),
+            ("update", ekf.update_ops),
+            ("step", ekf.step_ops),
+        ]
+        .into_iter()
+        .map(|(method, ops)| {
+            let constant = format!("{prefix}_{}_OPS", method.to_uppercase());
+            Cost::new(&constant, &format!("{}::{method}", self.type_name), ops)
+        })
+        .collect();
+        Code {
+            tokens: ekf.tokens,
+            costs,
+        }
+    }
+}

@@ -9,7 +9,8 @@ use crate::emit::code::{
 use crate::emit::filter::{model_names, packed_vars, time_param};
 use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
-use crate::model::{LqrSpec, Model, Scalar};
+use super::spec::LqrSpec;
+use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::{
     ldl_inverse, matmul, packed_len, symmetric_from_packed, transpose, Matrix,
 };

@@ -1,3 +1,71 @@
-//! The adaptive finite-horizon LQR.
+//! The adaptive finite-horizon LQR (Alg. 3 of the double Kalman filter paper): a Riccati
+//! recursion at the estimate each sample: `lqr(horizon = 50, states = [x1, x2], input = u)`.
 
 pub mod lower;
+pub mod spec;
+
+pub use spec::LqrSpec;
+use super::options::{regulated, Args, Context};
+use super::unit::{Cost, Generator, Kind, Code, Lowering, Requirement};
+use crate::ast::GenerateDecl;
+use crate::diagnostics::Diagnostics;
+use crate::model::{Model, Scalar};
+use crate::symbolic::ModelGraph;
+use std::any::Any;
+
+/// The `lqr` generator.
+pub struct Lqr;
+
+impl Kind for Lqr {
+    fn name(&self) -> &'static str {
+        "lqr"
+    }
+
+    fn usage(&self) -> &'static str {
+        "`lqr(..)`"
+    }
+
+    fn requirements(&self) -> &'static [Requirement] {
+        &[Requirement::Inputs, Requirement::UnrolledStep]
+    }
+
+    fn items(&self) -> &'static [&'static str] {
+        &["Lqr"]
+    }
+
+    fn options(
+        &self,
+        item: &GenerateDecl,
+        args: &mut Args,
+        cx: &Context,
+        diag: &mut Diagnostics,
+    ) -> Option<Box<dyn Generator>> {
+        let horizon = args.whole(("horizon", "steps"), 50, 10_000, diag);
+        let (states, inputs) = regulated(item, args, cx, diag, "lqr(horizon = 50, ");
+        Some(Box::new(LqrSpec {
+            horizon,
+            states,
+            inputs,
+        }))
+    }
+}
+
+impl Generator for LqrSpec {
+    fn design(&self, _model: &Model, _mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
+        Ok(Box::new(self.clone()))
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}
+
+impl Lowering for LqrSpec {
+    fn lower(&self, model: &Model, mg: &ModelGraph, scalar: Scalar) -> Code {
+        let lqr = lower::emit_lqr(model, self, mg, scalar);
+        Code {
+            tokens: lqr.tokens,
+            costs: vec![Cost::new("LQR_SOLVE_OPS", "Lqr::solve", lqr.solve_ops)],
+        }
+    }
+}

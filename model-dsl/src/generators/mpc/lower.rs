@@ -15,7 +15,9 @@ use crate::emit::code::{
 use crate::emit::filter::{packed_vars, time_param};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
-use crate::model::{Func, Model, MpcDiscretisation, MpcSpec, Scalar};
+use super::spec::MpcSpec;
+use super::spec::MpcDiscretisation;
+use crate::model::{Func, Model, Scalar};
 use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
 use crate::symbolic::loop_invariant_operands;
 use crate::symbolic::riccati::riccati_step;

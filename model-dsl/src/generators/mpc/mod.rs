@@ -1,6 +1,170 @@
-//! The adaptive model predictive controller with input bounds.
+//! The adaptive model predictive controller with input bounds ("Adaptive predictive
+//! control of transient vibrations of cantilevers with changing weight", Takacs, Poloni
+//! and Rohal-Ilkiv, sect. 4): the prediction model at the estimate, a terminal weight by
+//! Riccati steps, the condensed QP solved by an unrolled active-set method:
+//! `mpc(horizon = 10, states = [q, qd], input = u, discretisation = zoh,
+//! max_iterations = 20, riccati_iterations = 20)`.
 
 pub mod lower;
+pub mod spec;
 pub mod names;
 pub mod predictive;
 pub mod qp;
+
+pub use spec::{MpcDiscretisation, MpcSpec, MPC_UNKNOWNS_MAX};
+use super::options::{regulated, Args, Context};
+use super::unit::{Cost, Generator, Kind, Code, Lowering, Requirement};
+use crate::ast::{ArgValue, DynamicsKind, GenerateDecl, ModelDecl};
+use crate::diagnostics::Diagnostics;
+use crate::model::{Model, Scalar, UNROLLED_SUBSTEPS_MAX};
+use crate::symbolic::ModelGraph;
+use std::any::Any;
+
+/// The `mpc` generator.
+pub struct Mpc;
+
+impl Kind for Mpc {
+    fn name(&self) -> &'static str {
+        "mpc"
+    }
+
+    fn usage(&self) -> &'static str {
+        "`mpc(..)`"
+    }
+
+    fn requirements(&self) -> &'static [Requirement] {
+        &[Requirement::Inputs, Requirement::CoefficientsAtGeneration]
+    }
+
+    fn items(&self) -> &'static [&'static str] {
+        &["Mpc", "MpcStatus", "PredictionModel"]
+    }
+
+    fn options(
+        &self,
+        item: &GenerateDecl,
+        args: &mut Args,
+        cx: &Context,
+        diag: &mut Diagnostics,
+    ) -> Option<Box<dyn Generator>> {
+        let horizon = args.whole(("horizon", "steps"), 10, 1000, diag);
+        let (states, inputs) = regulated(item, args, cx, diag, "mpc(horizon = 10, ");
+        let unknowns = u64::from(horizon) * inputs.len() as u64;
+        if unknowns > u64::from(MPC_UNKNOWNS_MAX) {
+            diag.error(
+                item.name.span,
+                format!(
+                    "the MPC optimises horizon x inputs = {unknowns} moves; its unrolled solve \
+                     allows at most {MPC_UNKNOWNS_MAX}: shorten the horizon"
+                ),
+            );
+        }
+        let discretisation = discretisation(cx.decl, args, diag);
+        let default_iterations = 2 * unknowns.max(1) as u32;
+        let iterations = ("max_iterations", "iterations");
+        let max_iterations = args.whole(iterations, default_iterations, 1000, diag);
+        let riccati_iterations = args.whole(("riccati_iterations", "steps"), 20, 10_000, diag);
+        Some(Box::new(MpcSpec {
+            horizon,
+            states,
+            inputs,
+            discretisation,
+            max_iterations,
+            riccati_iterations,
+        }))
+    }
+}
+
+/// `discretisation = zoh` (exact hold of the continuous linearisation; the default for
+/// continuous dynamics and the only choice when their sub-steps run as a loop) or
+/// `sample_step` (the Jacobians of the model's step `f`; the only choice for discrete
+/// dynamics).
+fn discretisation(decl: &ModelDecl, args: &mut Args, diag: &mut Diagnostics) -> MpcDiscretisation {
+    // `Some(looped)` for continuous dynamics, `None` for discrete ones.
+    let continuous = decl.dynamics.iter().find_map(|d| match &d.kind {
+        DynamicsKind::Continuous { substeps, .. } => Some(
+            substeps
+                .as_ref()
+                .is_some_and(|(n, _)| *n > u64::from(UNROLLED_SUBSTEPS_MAX)),
+        ),
+        DynamicsKind::Discrete => None,
+    });
+    let default = match continuous {
+        Some(_) => MpcDiscretisation::ZeroOrderHold,
+        None => MpcDiscretisation::SampleStep,
+    };
+    let Some(arg) = args.take(&["discretisation"]) else {
+        return default;
+    };
+    let chosen = match &arg.value {
+        ArgValue::Name(n) if n.text == "zoh" => MpcDiscretisation::ZeroOrderHold,
+        ArgValue::Name(n) if n.text == "sample_step" => MpcDiscretisation::SampleStep,
+        other => {
+            diag.error(
+                other.span(),
+                "`discretisation` is `zoh` (the exact zero-order hold of the continuous \
+                 dynamics linearised at the estimate) or `sample_step` (the Jacobians of the \
+                 model's own sample step)",
+            );
+            return default;
+        }
+    };
+    match (chosen, continuous) {
+        (MpcDiscretisation::ZeroOrderHold, None) => diag.error(
+            arg.value.span(),
+            "`zoh` holds continuous dynamics over a sample; these are discrete: use \
+             `discretisation = sample_step`, or leave it out",
+        ),
+        (MpcDiscretisation::SampleStep, Some(true)) => diag.error(
+            arg.value.span(),
+            format!(
+                "the sample step runs more than {UNROLLED_SUBSTEPS_MAX} sub-steps as a loop \
+                 and has no Jacobian: use `discretisation = zoh`"
+            ),
+        ),
+        _ => {}
+    }
+    chosen
+}
+
+impl Generator for MpcSpec {
+    fn design(&self, _model: &Model, _mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
+        Ok(Box::new(self.clone()))
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}
+
+impl Lowering for MpcSpec {
+    fn lower(&self, model: &Model, mg: &ModelGraph, scalar: Scalar) -> Code {
+        let mpc = lower::emit_mpc(model, self, mg, scalar);
+        let costs = vec![
+            Cost::new(
+                "MPC_PREDICTION_OPS",
+                "the prediction model of Mpc::solve (squarings at their bound)",
+                mpc.prediction_ops,
+            ),
+            Cost::new(
+                "MPC_RICCATI_OPS",
+                "the terminal weight's Riccati steps of Mpc::solve",
+                mpc.riccati_ops,
+            ),
+            Cost::new(
+                "MPC_CONDENSE_OPS",
+                "the condensed problem of Mpc::solve",
+                mpc.condense_ops,
+            ),
+            Cost::new(
+                "MPC_ITERATION_OPS",
+                "one active-set iteration of Mpc::solve",
+                mpc.iteration_ops,
+            ),
+        ];
+        Code {
+            tokens: mpc.tokens,
+            costs,
+        }
+    }
+}

@@ -4,7 +4,8 @@
 //! computed once), and the recursive step (prediction with `Phi(1)`, eq. 5-6, and the
 //! Joseph-form update, eq. 7-9) as graph nodes.
 
-use crate::model::{Model, PolynomialKfSpec};
+use super::spec::PolynomialKfSpec;
+use crate::model::{Model};
 use crate::numerics::{pinv, Mat};
 use crate::symbolic::graph::{Graph, NodeId};
 use crate::symbolic::kalman::{self, Update};

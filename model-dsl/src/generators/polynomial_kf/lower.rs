@@ -9,7 +9,8 @@ use crate::emit::code::{guard_pivots, pivot_names, unpack_symmetric, INNOVATION}
 use crate::emit::filter::{finiteness_probe, model_names, packed_vars};
 use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
-use crate::model::{Model, PolynomialKfSpec, Scalar};
+use super::spec::PolynomialKfSpec;
+use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed};
 use crate::symbolic::{Graph, NodeId};
 use proc_macro2::{Literal, TokenStream};

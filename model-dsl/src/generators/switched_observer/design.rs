@@ -6,7 +6,8 @@
 //! its poles.
 
 use crate::ast::Comparison;
-use crate::model::{Model, SwitchedObserverSpec};
+use super::spec::SwitchedObserverSpec;
+use crate::model::{Model};
 use crate::numerics::{self, largest_pole, Mat};
 use crate::symbolic::graph::{Graph, Node, NodeId};
 use crate::symbolic::ModelGraph;

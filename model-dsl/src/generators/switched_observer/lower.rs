@@ -276,24 +276,3 @@ fn observer_type(
     };
     (tokens, ops)
 }
-
-/// The regimes and observer designs of `spec`, or a compile error at the option that
-/// failed: the noise covariances, `k1`, or the generator (the model's form).
-pub fn designs(
-    model: &Model,
-    spec: &crate::model::SwitchedObserverSpec,
-    mg: &crate::symbolic::ModelGraph,
-) -> syn::Result<(Regimes, Designs)> {
-    use super::design::{design, regimes, Culprit};
-    let at = |span, reason: String| syn::Error::new(span, format!("`switched_observer`: {reason}"));
-    let regimes = regimes(model, mg).map_err(|reason| at(spec.span, reason))?;
-    let designs = design(&regimes, spec).map_err(|(culprit, reason)| {
-        let span = match culprit {
-            Culprit::Noise => spec.noise_span,
-            Culprit::K1 => spec.k1_span.unwrap_or(spec.span),
-            Culprit::Generator => spec.span,
-        };
-        at(span, reason)
-    })?;
-    Ok((regimes, designs))
-}

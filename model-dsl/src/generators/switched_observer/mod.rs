@@ -1,4 +1,130 @@
-//! The switched observers of a piecewise-linear model.
+//! The switched observers of a piecewise-linear model (a report on observers for a
+//! piecewise-linear beam): per-regime gains designed at generation time, in three
+//! designs (linear error dynamics, switched Kalman gains, one common gain):
+//! `switched_observer(process_noise = [Q1, Q2], measurement_noise = [R1], k1 = [..])`.
 
 pub mod design;
 pub mod lower;
+pub mod spec;
+
+pub use spec::SwitchedObserverSpec;
+use super::options::{Args, Context};
+use super::unit::{Code, Cost, Generator, Kind, Lowering, Requirement};
+use crate::ast::GenerateDecl;
+use crate::diagnostics::Diagnostics;
+use crate::model::{Model, Scalar};
+use crate::symbolic::ModelGraph;
+use design::{Culprit, Designs, Regimes};
+use std::any::Any;
+
+/// The `switched_observer` generator.
+pub struct SwitchedObserver;
+
+impl Kind for SwitchedObserver {
+    fn name(&self) -> &'static str {
+        "switched_observer"
+    }
+
+    fn usage(&self) -> &'static str {
+        "`switched_observer(..)`"
+    }
+
+    fn requirements(&self) -> &'static [Requirement] {
+        &[
+            Requirement::Outputs,
+            Requirement::UnrolledStep,
+            Requirement::CoefficientsAtGeneration,
+            Requirement::NoParameters,
+        ]
+    }
+
+    fn items(&self) -> &'static [&'static str] {
+        &[
+            "LinearErrorObserver",
+            "SwitchedKalmanObserver",
+            "CommonGainObserver",
+        ]
+    }
+
+    fn options(
+        &self,
+        item: &GenerateDecl,
+        args: &mut Args,
+        cx: &Context,
+        diag: &mut Diagnostics,
+    ) -> Option<Box<dyn Generator>> {
+        let span = item.name.span;
+        let q = args.constants("process_noise", cx, diag);
+        let r = args.constants("measurement_noise", cx, diag);
+        let k1 = args.constants("k1", cx, diag);
+        if q.is_none() || r.is_none() {
+            diag.error(
+                span,
+                "`switched_observer` needs the diagonals of the noise covariances: \
+                 `switched_observer(process_noise = [Q1, Q2, ..], measurement_noise = [R1, ..])`",
+            );
+        }
+        let ((q, q_span), (r, _)) = (q?, r?);
+        for (what, values) in [("process_noise", &q), ("measurement_noise", &r)] {
+            if let Some(bad) = values.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
+                diag.error(
+                    q_span,
+                    format!("`{what}` holds {bad}: variances are finite and >= 0"),
+                );
+                return None;
+            }
+        }
+        Some(Box::new(SwitchedObserverSpec {
+            process_noise: q,
+            measurement_noise: r,
+            k1_span: k1.as_ref().map(|(_, s)| *s),
+            k1: k1.map(|(v, _)| v),
+            span,
+            noise_span: q_span,
+        }))
+    }
+}
+
+/// The regimes read from the model and the gains designed for them.
+struct Designed {
+    regimes: Regimes,
+    designs: Designs,
+}
+
+impl Generator for SwitchedObserverSpec {
+    /// The regimes and observer designs, or a compile error at the option that failed: the
+    /// noise covariances, `k1`, or the generator (the model's form).
+    fn design(&self, model: &Model, mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
+        let at = |span, reason: String| {
+            syn::Error::new(span, format!("`switched_observer`: {reason}"))
+        };
+        let regimes = design::regimes(model, mg).map_err(|reason| at(self.span, reason))?;
+        let designs = design::design(&regimes, self).map_err(|(culprit, reason)| {
+            let span = match culprit {
+                Culprit::Noise => self.noise_span,
+                Culprit::K1 => self.k1_span.unwrap_or(self.span),
+                Culprit::Generator => self.span,
+            };
+            at(span, reason)
+        })?;
+        Ok(Box::new(Designed { regimes, designs }))
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}
+
+impl Lowering for Designed {
+    fn lower(&self, model: &Model, _mg: &ModelGraph, scalar: Scalar) -> Code {
+        let code = lower::emit_switched_observers(model, &self.regimes, &self.designs, scalar);
+        Code {
+            tokens: code.tokens,
+            costs: vec![Cost::new(
+                "SWITCHED_OBSERVER_STEP_OPS",
+                "the switched observers' step",
+                code.step_ops,
+            )],
+        }
+    }
+}

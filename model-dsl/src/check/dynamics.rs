@@ -1,0 +1,259 @@
+//! The dynamics block: one equation per state, of the block's kind (`x = ..` for discrete
+//! dynamics, `der(x) = ..` for continuous ones), named intermediates, and for continuous
+//! dynamics the discretisation (integration rule, step and sub-steps).
+
+use super::expr::resolve;
+use super::names::declare;
+use super::scope::{Binding, Scope};
+use crate::ast::{DynamicsDecl, DynamicsKind, Name, Statement, SurfaceExpr};
+use crate::diagnostics::Diagnostics;
+use crate::model::{Discretisation, Dynamics, Expr, Local, Method, Symbol};
+use proc_macro2::Span;
+
+/// Resolves the dynamics of the states `(states, where each was declared)`; `None` after
+/// recording an error.
+pub(super) fn check_dynamics(
+    block: &DynamicsDecl,
+    scope: &mut Scope,
+    (states, state_spans): (&[Symbol], &[Span]),
+    locals: &mut Vec<Local>,
+    diag: &mut Diagnostics,
+) -> Option<Dynamics> {
+    let continuous = matches!(block.kind, DynamicsKind::Continuous { .. });
+    let discretisation = match &block.kind {
+        DynamicsKind::Discrete => Some(Discretisation::Discrete),
+        DynamicsKind::Continuous {
+            method,
+            dt,
+            substeps,
+        } => check_discretisation(block.span, method, dt, substeps, scope, diag),
+    };
+    // Per state: `None` until an equation is written, then its right-hand side (`None`
+    // inside when that had errors, already reported: no follow-on "no dynamics" error).
+    let mut rhs: Vec<Option<Option<Expr>>> = vec![None; states.len()];
+    for statement in &block.statements {
+        match statement {
+            Statement::Let { name, value } => {
+                let context = format!("the intermediate `{}`", name.text);
+                if let Some(expr) = resolve(value, scope, locals, &context, diag) {
+                    locals.push(Local {
+                        name: name.text.clone(),
+                        expr,
+                    });
+                    declare(scope, name, Binding::Local(locals.len() - 1), diag);
+                }
+            }
+            Statement::Equation {
+                target,
+                derivative,
+                value,
+            } => {
+                let context = format!("the dynamics of `{}`", target.text);
+                let expr = resolve(value, scope, locals, &context, diag);
+                let Some(index) = equation_target(target, scope, diag) else {
+                    continue;
+                };
+                check_equation_kind(target, *derivative, continuous, diag);
+                if rhs[index].is_some() {
+                    diag.error(
+                        target.span,
+                        format!(
+                            "state `{}` has a second equation: each state takes exactly one",
+                            target.text
+                        ),
+                    );
+                } else {
+                    rhs[index] = Some(expr);
+                }
+            }
+        }
+    }
+    let complete = complete_equations(rhs, (states, state_spans), continuous, diag);
+    let discretisation = discretisation?;
+    (complete.len() == states.len()).then_some(Dynamics {
+        discretisation,
+        rhs: complete,
+    })
+}
+
+/// The state an equation's left-hand side names, or an error saying what it is instead.
+fn equation_target(target: &Name, scope: &Scope, diag: &mut Diagnostics) -> Option<usize> {
+    let name = &target.text;
+    let message = match scope.get(name) {
+        Some((Binding::State(i), _)) => return Some(*i),
+        Some((Binding::Param(_), _)) => format!(
+            "`{name}` is a parameter: an unknown constant estimated as a random walk, so it \
+             takes no dynamics; declare it with `state` if it evolves"
+        ),
+        Some((Binding::Input(_), _)) => {
+            format!("`{name}` is an input: it is given each sample, not computed")
+        }
+        Some((Binding::Known(_), _)) => format!(
+            "`{name}` is known at run time: it is given when the filter is made, not \
+             computed; declare it with `state` if it evolves"
+        ),
+        Some((Binding::Const(_) | Binding::Local(_), _)) => {
+            format!("`{name}` is not a state: only states take dynamics")
+        }
+        None => format!("unknown state `{name}`: declare it with `state {name};`"),
+    };
+    diag.error(target.span, message);
+    None
+}
+
+/// Continuous dynamics give derivatives, `der(x) = ..`; discrete ones the next sample.
+fn check_equation_kind(target: &Name, derivative: bool, continuous: bool, diag: &mut Diagnostics) {
+    if continuous && !derivative {
+        diag.error(
+            target.span,
+            format!(
+                "continuous dynamics give derivatives: write `der({}) = ...;`",
+                target.text
+            ),
+        );
+    } else if !continuous && derivative {
+        diag.error(
+            target.span,
+            format!(
+                "`der(..)` needs continuous dynamics: write `{} = ...;` for the next \
+                 sample, or `dynamics continuous(euler, dt = TS)`",
+                target.text
+            ),
+        );
+    }
+}
+
+/// The right-hand sides in state order; a state without an equation is an error.
+fn complete_equations(
+    rhs: Vec<Option<Option<Expr>>>,
+    (states, state_spans): (&[Symbol], &[Span]),
+    continuous: bool,
+    diag: &mut Diagnostics,
+) -> Vec<Expr> {
+    let mut complete = Vec::with_capacity(states.len());
+    for ((slot, state), span) in rhs.into_iter().zip(states).zip(state_spans) {
+        match slot {
+            Some(Some(expr)) => complete.push(expr),
+            Some(None) => {}
+            None => {
+                let form = if continuous {
+                    format!("der({}) = ...;", state.name)
+                } else {
+                    format!("{} = ...;", state.name)
+                };
+                diag.error(
+                    *span,
+                    format!("state `{}` has no dynamics: add `{form}`", state.name),
+                );
+            }
+        }
+    }
+    complete
+}
+
+/// How to write a discretisation, for the errors about a missing part.
+const DISCRETISATION_HINT: &str = "write `dynamics continuous(euler, dt = TS)` or \
+                                   `dynamics continuous(rk4, dt = TS, substeps = 2)`";
+
+/// The discretisation of continuous dynamics: integration rule, step and sub-steps.
+fn check_discretisation(
+    span: Span,
+    method: &Option<Name>,
+    dt: &Option<SurfaceExpr>,
+    substeps: &Option<(u64, Span)>,
+    scope: &Scope,
+    diag: &mut Diagnostics,
+) -> Option<Discretisation> {
+    let method = check_method(span, method, diag);
+    let dt = match dt {
+        None => {
+            if method.is_some() {
+                diag.error(
+                    span,
+                    format!("the discretisation needs a step `dt`: {DISCRETISATION_HINT}"),
+                );
+            }
+            None
+        }
+        Some(expr) => check_step(expr, scope, diag),
+    };
+    let substeps = check_substeps(substeps, diag);
+    Some(Discretisation::Continuous {
+        method: method?,
+        dt: dt?,
+        substeps: substeps?,
+    })
+}
+
+/// `euler` or `rk4`.
+fn check_method(span: Span, method: &Option<Name>, diag: &mut Diagnostics) -> Option<Method> {
+    let Some(name) = method else {
+        diag.error(
+            span,
+            format!("continuous dynamics need a discretisation: {DISCRETISATION_HINT}"),
+        );
+        return None;
+    };
+    match name.text.as_str() {
+        "euler" => Some(Method::Euler),
+        "rk4" => Some(Method::Rk4),
+        other => {
+            diag.error(
+                name.span,
+                format!("unknown integration method `{other}`: use `euler` or `rk4`"),
+            );
+            None
+        }
+    }
+}
+
+/// The step `dt`: a constant expression.
+fn check_step(expr: &SurfaceExpr, scope: &Scope, diag: &mut Diagnostics) -> Option<Expr> {
+    let e = resolve(expr, scope, &[], "the step `dt`", diag)?;
+    let consts_only = !e.any(&|e| {
+        !matches!(
+            e,
+            Expr::Number(_)
+                | Expr::Const(_)
+                | Expr::Neg(_)
+                | Expr::Add(..)
+                | Expr::Sub(..)
+                | Expr::Mul(..)
+                | Expr::Div(..)
+        )
+    });
+    if !consts_only {
+        diag.error(
+            expr.span,
+            "the step `dt` must be a constant expression, such as `TS`",
+        );
+        return None;
+    }
+    Some(e)
+}
+
+/// Sub-steps per sample: 1 unless given, at most [`crate::model::SUBSTEPS_MAX`].
+fn check_substeps(substeps: &Option<(u64, Span)>, diag: &mut Diagnostics) -> Option<u32> {
+    match substeps {
+        None => Some(1),
+        Some((0, span)) => {
+            diag.error(*span, "`substeps` must be at least 1");
+            None
+        }
+        Some((n, span)) => match u32::try_from(*n) {
+            Ok(n) if n <= crate::model::SUBSTEPS_MAX => Some(n),
+            _ => {
+                diag.error(
+                    *span,
+                    format!(
+                        "`substeps` is at most {}: sub-steps above {} run in a loop, but \
+                         each still costs time on the target",
+                        crate::model::SUBSTEPS_MAX,
+                        crate::model::UNROLLED_SUBSTEPS_MAX
+                    ),
+                );
+                None
+            }
+        },
+    }
+}

@@ -1,0 +1,273 @@
+//! Expressions: names resolved to what they refer to, function calls checked for their
+//! arity and domain, piecewise terms, and every constant part folded and checked finite in
+//! the model's scalar types.
+
+use super::scope::{Binding, Scope};
+use crate::ast::{BinaryOp, Comparison, Name, SurfaceExpr, SurfaceKind};
+use crate::diagnostics::Diagnostics;
+use crate::model::{Expr, Func, Local, Scalar};
+
+/// Why `value` cannot be a literal of the model's scalar types, if it cannot: it must be
+/// finite, and a non-zero value must not round to zero or overflow in `f32`.
+fn unrepresentable(value: f64, scalars: &[Scalar]) -> Option<String> {
+    if !value.is_finite() {
+        return Some(format!(
+            "evaluates to {value}: every constant must be a finite number"
+        ));
+    }
+    let narrow = value as f32;
+    if scalars.contains(&Scalar::F32) && (narrow.is_infinite() || (narrow == 0.0 && value != 0.0)) {
+        let what = if narrow == 0.0 {
+            "rounds to zero"
+        } else {
+            "overflows"
+        };
+        return Some(format!(
+            "evaluates to {value:e}, which {what} in f32 (its normal numbers run from \
+             {:e} to {:e}): rescale the model's units",
+            f32::MIN_POSITIVE,
+            f32::MAX
+        ));
+    }
+    None
+}
+
+/// Resolves names and function calls; returns `None` after recording an error.
+pub(super) fn resolve(
+    expr: &SurfaceExpr,
+    scope: &Scope,
+    locals: &[Local],
+    context: &str,
+    diag: &mut Diagnostics,
+) -> Option<Expr> {
+    let mut go = |e: &SurfaceExpr, diag: &mut Diagnostics| resolve(e, scope, locals, context, diag);
+    let resolved = match &expr.kind {
+        SurfaceKind::Number(v) => Expr::Number(*v),
+        SurfaceKind::Name(name) => resolve_name(expr, name, scope, locals, context, diag)?,
+        SurfaceKind::Neg(a) => Expr::Neg(Box::new(go(a, diag)?)),
+        SurfaceKind::Binary(op, a, b) => {
+            let (a, b) = (go(a, diag), go(b, diag));
+            let (a, b) = (Box::new(a?), Box::new(b?));
+            match op {
+                BinaryOp::Add => Expr::Add(a, b),
+                BinaryOp::Sub => Expr::Sub(a, b),
+                BinaryOp::Mul => Expr::Mul(a, b),
+                BinaryOp::Div => Expr::Div(a, b),
+            }
+        }
+        SurfaceKind::Call(func, args) => {
+            resolve_call(expr, func, args, &scope.const_values, &mut go, diag)?
+        }
+        SurfaceKind::If {
+            cmp,
+            lhs,
+            rhs,
+            then,
+            otherwise,
+        } => {
+            let parts = [lhs, rhs, then, otherwise].map(|e| go(e, diag));
+            let [lhs, rhs, then, otherwise] = parts;
+            Expr::Select {
+                cmp: *cmp,
+                lhs: Box::new(lhs?),
+                rhs: Box::new(rhs?),
+                then: Box::new(then?),
+                otherwise: Box::new(otherwise?),
+            }
+        }
+    };
+    check_constant_parts(resolved, expr, scope, context, diag)
+}
+
+/// What a name refers to in an expression of `context`.
+fn resolve_name(
+    expr: &SurfaceExpr,
+    name: &str,
+    scope: &Scope,
+    locals: &[Local],
+    context: &str,
+    diag: &mut Diagnostics,
+) -> Option<Expr> {
+    let message = match scope.get(name) {
+        Some((Binding::Const(i), _)) => return Some(Expr::Const(*i)),
+        Some((Binding::State(i), _)) => return Some(Expr::State(*i)),
+        Some((Binding::Param(i), _)) => return Some(Expr::Param(*i)),
+        Some((Binding::Input(i), _)) => return Some(Expr::Input(*i)),
+        Some((Binding::Known(i), _)) => return Some(Expr::Known(*i)),
+        Some((Binding::Local(i), _)) if *i < locals.len() => return Some(Expr::Local(*i)),
+        Some((Binding::Local(_), _)) => {
+            format!("`{name}` is an intermediate of the dynamics block: {context} cannot use it")
+        }
+        None if name == "t" => return Some(Expr::Time),
+        None if scope.declared.contains_key(name) => {
+            let what = scope.declared[name];
+            format!(
+                "{context} cannot use `{name}`, {what}: a constant is a number fixed when the \
+                 code is generated; compute a value that depends on the model's variables \
+                 with `let` inside `dynamics`"
+            )
+        }
+        None => format!(
+            "unknown symbol `{name}` in {context}: declare it with `state`, `param`, `input` \
+             or `const`"
+        ),
+    };
+    diag.error(expr.span, message);
+    None
+}
+
+/// Every constant part is folded into a literal of the generated code: it must be finite
+/// in the model's scalar types, and no divisor may fold to zero.
+fn check_constant_parts(
+    e: Expr,
+    expr: &SurfaceExpr,
+    scope: &Scope,
+    context: &str,
+    diag: &mut Diagnostics,
+) -> Option<Expr> {
+    let constant = |i: usize| scope.const_values.get(i).copied();
+    if let (Expr::Div(_, divisor), SurfaceKind::Binary(_, _, surface_divisor)) = (&e, &expr.kind) {
+        if divisor.fold(&constant) == Some(0.0) {
+            diag.error(surface_divisor.span, "division by zero");
+            return None;
+        }
+    }
+    if let Some(value) = e.fold(&constant) {
+        if let Some(why) = unrepresentable(value, &scope.scalars) {
+            diag.error(expr.span, format!("in {context}, this {why}"));
+            return None;
+        }
+    }
+    Some(e)
+}
+
+fn resolve_call(
+    expr: &SurfaceExpr,
+    func: &Name,
+    args: &[SurfaceExpr],
+    const_values: &[f64],
+    go: &mut dyn FnMut(&SurfaceExpr, &mut Diagnostics) -> Option<Expr>,
+    diag: &mut Diagnostics,
+) -> Option<Expr> {
+    if func.text == "powi" {
+        if args.len() != 2 {
+            diag.error(
+                expr.span,
+                format!(
+                    "`powi` takes 2 arguments (base, integer exponent), found {}",
+                    args.len()
+                ),
+            );
+            return None;
+        }
+        let base = go(&args[0], diag);
+        let exponent = match &args[1].kind {
+            SurfaceKind::Number(n) if n.fract() == 0.0 && n.abs() <= 64.0 => Some(*n as i32),
+            SurfaceKind::Neg(inner) => match inner.kind {
+                SurfaceKind::Number(n) if n.fract() == 0.0 && n.abs() <= 64.0 => Some(-(n as i32)),
+                _ => None,
+            },
+            _ => None,
+        };
+        let Some(exponent) = exponent else {
+            diag.error(
+                args[1].span,
+                "the exponent of `powi` must be an integer literal between -64 and 64",
+            );
+            return None;
+        };
+        return Some(Expr::Powi(Box::new(base?), exponent));
+    }
+    if let Some(resolved) = resolve_piecewise_call(expr, func, args, const_values, go, diag) {
+        return resolved;
+    }
+    let Some(f) = Func::from_name(&func.text) else {
+        let known: Vec<_> = Func::ALL.iter().map(|f| f.name()).collect();
+        diag.error(
+            func.span,
+            format!(
+                "unsupported function `{}`: use one of {}, powi, atan2, min, max, clamp",
+                func.text,
+                known.join(", ")
+            ),
+        );
+        for arg in args {
+            go(arg, diag);
+        }
+        return None;
+    };
+    if args.len() != 1 {
+        diag.error(
+            func.span,
+            format!("`{}` takes 1 argument, found {}", func.text, args.len()),
+        );
+        return None;
+    }
+    Some(Expr::Call(f, Box::new(go(&args[0], diag)?)))
+}
+
+/// `atan2(y, x)`, `min(a, b)`, `max(a, b)` and `clamp(x, lo, hi)` (a saturation); `None`
+/// for any other function. The last three are piecewise terms, so they are differentiated
+/// branch by branch like `if`: `min(a, b)` is `if a < b { a } else { b }`, `max(a, b)` is
+/// `if a > b { a } else { b }`, and `clamp(x, lo, hi)` is
+/// `if x < lo { lo } else { if x > hi { hi } else { x } }`. As methods they read as in Rust
+/// (`y.atan2(x)`, `a.min(b)`, `x.clamp(lo, hi)`).
+fn resolve_piecewise_call(
+    expr: &SurfaceExpr,
+    func: &Name,
+    args: &[SurfaceExpr],
+    const_values: &[f64],
+    go: &mut dyn FnMut(&SurfaceExpr, &mut Diagnostics) -> Option<Expr>,
+    diag: &mut Diagnostics,
+) -> Option<Option<Expr>> {
+    let usage = match func.text.as_str() {
+        "atan2" => "`atan2(y, x)` takes 2 arguments",
+        "min" => "`min(a, b)` takes 2 arguments",
+        "max" => "`max(a, b)` takes 2 arguments",
+        "clamp" => "`clamp(x, lo, hi)` (a saturation) takes 3 arguments",
+        _ => return None,
+    };
+    let arity = if func.text == "clamp" { 3 } else { 2 };
+    if args.len() != arity {
+        diag.error(func.span, format!("{usage}, found {}", args.len()));
+        for arg in args {
+            go(arg, diag);
+        }
+        return Some(None);
+    }
+    let resolved: Vec<Option<Expr>> = args.iter().map(|a| go(a, diag)).collect();
+    let Some(resolved) = resolved.into_iter().collect::<Option<Vec<Expr>>>() else {
+        return Some(None);
+    };
+    let select = |cmp, lhs: &Expr, rhs: &Expr, then: &Expr, otherwise: Expr| Expr::Select {
+        cmp,
+        lhs: Box::new(lhs.clone()),
+        rhs: Box::new(rhs.clone()),
+        then: Box::new(then.clone()),
+        otherwise: Box::new(otherwise),
+    };
+    Some(Some(match (func.text.as_str(), resolved.as_slice()) {
+        ("atan2", [y, x]) => Expr::Atan2(Box::new(y.clone()), Box::new(x.clone())),
+        ("min", [a, b]) => select(Comparison::Lt, a, b, a, b.clone()),
+        ("max", [a, b]) => select(Comparison::Gt, a, b, a, b.clone()),
+        ("clamp", [x, lo, hi]) => {
+            let constant = |i: usize| const_values.get(i).copied();
+            let bounds = (lo.fold(&constant), hi.fold(&constant));
+            if let (Some(lo_value), Some(hi_value)) = bounds {
+                if lo_value > hi_value {
+                    diag.error(
+                        expr.span,
+                        format!(
+                            "`clamp(x, lo, hi)` needs `lo <= hi`, found {lo_value} > {hi_value}: \
+                             write the lower bound first"
+                        ),
+                    );
+                    return Some(None);
+                }
+            }
+            let upper = select(Comparison::Gt, x, hi, hi, x.clone());
+            select(Comparison::Lt, x, lo, lo, upper)
+        }
+        _ => return Some(None),
+    }))
+}

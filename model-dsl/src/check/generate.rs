@@ -1,0 +1,197 @@
+//! The `generate` items: each names a generator of the registry, whose requirements the
+//! model must meet before its options are read. The checks know no generator by name.
+
+use super::names::generated_item;
+use super::scope::Scope;
+use crate::ast::{DynamicsDecl, DynamicsKind, GenerateDecl, ModelDecl, SymbolKind};
+use crate::diagnostics::Diagnostics;
+use crate::generators::{Args, Context, Generator, Kind, Requirement, REGISTRY};
+use crate::model::UNROLLED_SUBSTEPS_MAX;
+
+/// The generators the model asks for, with their options checked, in the order of
+/// [`REGISTRY`] (the order their code takes in the generated module) and, within one kind,
+/// as written.
+pub(super) fn check_generate(
+    decl: &ModelDecl,
+    scope: &Scope,
+    diag: &mut Diagnostics,
+) -> Vec<Box<dyn Generator>> {
+    let cx = Context::new(decl, scope);
+    let mut seen = std::collections::HashSet::new();
+    let mut generators: Vec<(usize, Box<dyn Generator>)> = Vec::new();
+    for item in &decl.generate {
+        let Some((rank, kind)) = lookup(item, diag) else {
+            continue;
+        };
+        if !seen.insert(instance_key(kind, item)) {
+            diag.error(item.name.span, asked_twice(kind, item));
+            continue;
+        }
+        if !requirements_met(kind, decl, item, diag) {
+            continue;
+        }
+        let mut args = Args::new(item, diag);
+        let generator = kind.options(item, &mut args, &cx, diag);
+        args.report_unused(diag);
+        if let Some(generator) = generator {
+            check_type_names(kind, item, generator.as_ref(), diag);
+            generators.push((rank, generator));
+        }
+    }
+    check_known_substeps(decl, diag);
+    // A stable sort: within one kind, the order written.
+    generators.sort_by_key(|(rank, _)| *rank);
+    generators.into_iter().map(|(_, g)| g).collect()
+}
+
+/// The registry's generator named by `item`, with its rank, or an error listing them all.
+fn lookup(item: &GenerateDecl, diag: &mut Diagnostics) -> Option<(usize, &'static dyn Kind)> {
+    let found = REGISTRY
+        .iter()
+        .enumerate()
+        .find(|(_, kind)| kind.name() == item.name.text);
+    if found.is_none() {
+        let usages: Vec<String> = REGISTRY.iter().map(|k| k.usage().to_owned()).collect();
+        diag.error(
+            item.name.span,
+            format!(
+                "unknown generator `{}`: use {}",
+                item.name.text,
+                phrase(&usages, "or")
+            ),
+        );
+    }
+    found.map(|(rank, kind)| (rank, *kind))
+}
+
+/// What tells two items of one kind apart: its name, and the type name where a model may
+/// ask for several under different names.
+fn instance_key(kind: &dyn Kind, item: &GenerateDecl) -> String {
+    match kind.type_name_option() {
+        Some(default) => format!("{} {}", kind.name(), written_type_name(item, default)),
+        None => kind.name().to_owned(),
+    }
+}
+
+/// The type name an item asks for with `name = ..`, or `default`.
+fn written_type_name<'a>(item: &'a GenerateDecl, default: &'a str) -> &'a str {
+    item.args
+        .iter()
+        .find(|a| a.name.text == "name")
+        .and_then(|a| match &a.value {
+            crate::ast::ArgValue::Name(n) => Some(n.text.as_str()),
+            _ => None,
+        })
+        .unwrap_or(default)
+}
+
+fn asked_twice(kind: &dyn Kind, item: &GenerateDecl) -> String {
+    match kind.type_name_option() {
+        Some(default) => format!(
+            "{} `{}` of type `{}` is asked for twice: give the second another type name, \
+             `{}(name = Gated{default})`",
+            if kind.name().starts_with(['a', 'e', 'i', 'o', 'u']) {
+                "an"
+            } else {
+                "a"
+            },
+            kind.name(),
+            written_type_name(item, default),
+            kind.name()
+        ),
+        None => format!("`{}` is asked for twice", kind.name()),
+    }
+}
+
+/// Reports every requirement of `kind` the model does not meet; whether all are met.
+fn requirements_met(
+    kind: &dyn Kind,
+    decl: &ModelDecl,
+    item: &GenerateDecl,
+    diag: &mut Diagnostics,
+) -> bool {
+    let mut met = true;
+    for requirement in kind.requirements() {
+        let alternatives = without(Requirement::CoefficientsAtGeneration);
+        if let Some(message) = requirement.unmet(kind.name(), decl, &alternatives) {
+            diag.error(item.name.span, message);
+            met = false;
+        }
+    }
+    met
+}
+
+/// The generators that do not have `requirement`, as a phrase: "`ekf` and `lqr`".
+fn without(requirement: Requirement) -> String {
+    let names: Vec<String> = REGISTRY
+        .iter()
+        .filter(|kind| !kind.requirements().contains(&requirement))
+        .map(|kind| format!("`{}`", kind.name()))
+        .collect();
+    phrase(&names, "and")
+}
+
+/// `a, b and c` (with `conjunction` between the last two).
+fn phrase(items: &[String], conjunction: &str) -> String {
+    match items.split_last() {
+        None => String::new(),
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} {conjunction} {last}", rest.join(", ")),
+    }
+}
+
+/// A type name chosen with `name = ..` must not be another item of the generated module.
+fn check_type_names(
+    kind: &dyn Kind,
+    item: &GenerateDecl,
+    generator: &dyn Generator,
+    diag: &mut Diagnostics,
+) {
+    let Some(default) = kind.type_name_option() else {
+        return;
+    };
+    for name in generator.type_names() {
+        if name != default && (generated_item(&name) || name == "Self") {
+            let span = item
+                .args
+                .iter()
+                .find(|a| a.name.text == "name")
+                .map_or(item.name.span, |a| a.value.span());
+            diag.error(
+                span,
+                format!(
+                    "`{name}` is already an item of the generated module: choose another \
+                     type name"
+                ),
+            );
+        }
+    }
+}
+
+/// Sub-steps past the unrolled limit run as a loop, which reads no run-time constant.
+fn check_known_substeps(decl: &ModelDecl, diag: &mut Diagnostics) {
+    let Some(first) = decl.symbols.iter().find(|s| s.kind == SymbolKind::Known) else {
+        return;
+    };
+    if let Some(DynamicsDecl {
+        kind:
+            DynamicsKind::Continuous {
+                substeps: Some((n, span)),
+                ..
+            },
+        ..
+    }) = decl.dynamics.first()
+    {
+        if *n > u64::from(UNROLLED_SUBSTEPS_MAX) {
+            diag.error(
+                *span,
+                format!(
+                    "sub-steps past {UNROLLED_SUBSTEPS_MAX} run as a loop, which does not \
+                     read `{}`, known at run time: use at most {UNROLLED_SUBSTEPS_MAX} \
+                     sub-steps, or declare it with `const`",
+                    first.name.text
+                ),
+            );
+        }
+    }
+}

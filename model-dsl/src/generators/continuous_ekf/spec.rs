@@ -1,0 +1,11 @@
+//! The continuous-time EKF's options, as checked.
+
+/// Options of the continuous-time EKF.
+#[derive(Clone, Debug, Default)]
+pub struct ContinuousEkfSpec {
+    /// Whether the process noise spectral density is diagonal.
+    pub diagonal_noise: bool,
+    /// The default prescribed degree of stability `alpha >= 0` (Reif et al.), if the
+    /// filter has one: `F` is replaced by `F + alpha I` in its Riccati equation.
+    pub alpha: Option<f64>,
+}

@@ -1,0 +1,12 @@
+//! The double Kalman filter's options, as checked.
+
+/// Options of the double Kalman filter.
+#[derive(Clone, Debug)]
+pub struct DkfSpec {
+    /// Weight of the split of each state-parameter product, eq. (12).
+    pub eta: f64,
+    /// Whether both process noise covariances (AKF's and LKF's) are diagonal.
+    pub diagonal_noise: bool,
+    /// Where `dkf` was written, for errors of the window transform.
+    pub span: proc_macro2::Span,
+}

@@ -1,0 +1,8 @@
+//! The hybrid EKF's options, as checked.
+
+/// Options of the hybrid (continuous-discrete) EKF.
+#[derive(Clone, Debug, Default)]
+pub struct HybridEkfSpec {
+    /// Whether the process noise spectral density is diagonal.
+    pub diagonal_noise: bool,
+}

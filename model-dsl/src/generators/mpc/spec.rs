@@ -1,0 +1,32 @@
+//! The MPC's options, as checked.
+
+/// How the MPC obtains its discrete prediction model at the estimate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MpcDiscretisation {
+    /// The Jacobians of the model's own sample step `f` (discrete dynamics, or continuous
+    /// dynamics with their integration rule unrolled).
+    SampleStep,
+    /// The exact zero-order hold of the continuous dynamics linearised at the estimate.
+    ZeroOrderHold,
+}
+
+/// Options of the model predictive controller (dual-mode, input bounds).
+#[derive(Clone, Debug)]
+pub struct MpcSpec {
+    /// Moves optimised over, `n`.
+    pub horizon: u32,
+    /// The physical states it regulates, by index into [`crate::model::Model::states`].
+    pub states: Vec<usize>,
+    /// The inputs it computes, by index into [`crate::model::Model::inputs`].
+    pub inputs: Vec<usize>,
+    /// Where the prediction model comes from.
+    pub discretisation: MpcDiscretisation,
+    /// Bound on the active-set iterations of one solve.
+    pub max_iterations: u32,
+    /// Riccati steps per solve towards the terminal weight (warm-started).
+    pub riccati_iterations: u32,
+}
+
+/// The largest condensed problem (horizon times inputs unknowns) the MPC unrolls: its
+/// `L D L'` solve grows with the cube of the unknowns.
+pub const MPC_UNKNOWNS_MAX: u32 = 32;

@@ -1,0 +1,316 @@
+//! Reading a `generate` item's options: every generator takes its options from [`Args`]
+//! one by one (what is left is reported as unknown) with the readers here, so a number, a
+//! whole number, a name list or a noise shape is checked and explained the same way in
+//! every generator.
+
+use crate::ast::{ArgValue, GenerateArg, GenerateDecl, ModelDecl, Name};
+use crate::check::scope::{Binding, Scope};
+use crate::diagnostics::Diagnostics;
+use proc_macro2::Span;
+
+/// What a generator's options may refer to: the declaration (its dynamics, say) and the
+/// names declared in it.
+pub struct Context<'a> {
+    /// The model as written.
+    pub decl: &'a ModelDecl,
+    scope: &'a Scope,
+}
+
+impl<'a> Context<'a> {
+    /// The context of the model `decl` whose names are `scope`.
+    pub(crate) fn new(decl: &'a ModelDecl, scope: &'a Scope) -> Context<'a> {
+        Context { decl, scope }
+    }
+
+    /// The value of the model constant `name`, if it names one.
+    pub fn constant_value(&self, name: &Name) -> Option<f64> {
+        match self.scope.get(&name.text) {
+            Some((Binding::Const(i), _)) => self.scope.const_value(*i),
+            _ => None,
+        }
+    }
+
+    /// The index of the physical state `name` in the model's states, if it is one.
+    pub fn state_index(&self, name: &str) -> Option<usize> {
+        match self.scope.get(name) {
+            Some((Binding::State(i), _)) => Some(*i),
+            _ => None,
+        }
+    }
+
+    /// The index of the input `name` in the model's inputs, if it is one.
+    pub fn input_index(&self, name: &str) -> Option<usize> {
+        match self.scope.get(name) {
+            Some((Binding::Input(i), _)) => Some(*i),
+            _ => None,
+        }
+    }
+}
+
+/// The arguments of one `generate` item, taken one by one; what is left is an error.
+pub struct Args<'a> {
+    item: &'a GenerateDecl,
+    used: Vec<bool>,
+}
+
+impl<'a> Args<'a> {
+    /// The arguments of `item`; one given twice is an error.
+    pub fn new(item: &'a GenerateDecl, diag: &mut Diagnostics) -> Args<'a> {
+        let mut names = std::collections::HashSet::new();
+        for arg in &item.args {
+            if !names.insert(arg.name.text.as_str()) {
+                diag.error(arg.name.span, format!("`{}` is given twice", arg.name.text));
+            }
+        }
+        Args {
+            item,
+            used: vec![false; item.args.len()],
+        }
+    }
+
+    /// The argument written under one of `names`, marked as used.
+    pub fn take(&mut self, names: &[&str]) -> Option<&'a GenerateArg> {
+        let i = self
+            .item
+            .args
+            .iter()
+            .position(|a| names.contains(&a.name.text.as_str()))?;
+        self.used[i] = true;
+        Some(&self.item.args[i])
+    }
+
+    /// The number given as `name`, or `default`, with where to report a wrong value: the
+    /// value, or the generator's name when the default is taken.
+    pub fn number(&mut self, name: &str, default: f64, diag: &mut Diagnostics) -> (f64, Span) {
+        match self.take(&[name]).map(|a| &a.value) {
+            None => (default, self.item.name.span),
+            Some(ArgValue::Number(v, span)) => (*v, *span),
+            Some(other) => {
+                diag.error(other.span(), format!("`{name}` takes a number"));
+                (default, other.span())
+            }
+        }
+    }
+
+    /// The number given as `name`, if any.
+    pub fn optional_number(&mut self, name: &str, diag: &mut Diagnostics) -> Option<(f64, Span)> {
+        match self.take(&[name]).map(|a| &a.value) {
+            None => None,
+            Some(ArgValue::Number(v, span)) => Some((*v, *span)),
+            Some(other) => {
+                diag.error(other.span(), format!("`{name}` takes a number"));
+                None
+            }
+        }
+    }
+
+    /// The whole number given as `name` (1 to `max`, counting `unit`), or `default`.
+    pub fn whole(
+        &mut self,
+        (name, unit): (&str, &str),
+        default: u32,
+        max: u32,
+        diag: &mut Diagnostics,
+    ) -> u32 {
+        let (value, span) = self.number(name, f64::from(default), diag);
+        if value.fract() != 0.0 || !(1.0..=f64::from(max)).contains(&value) {
+            diag.error(
+                span,
+                format!("`{name}` is a whole number of {unit}, 1 to {max}"),
+            );
+            return default;
+        }
+        value as u32
+    }
+
+    /// The name or list of names given under one of `names` (empty if none).
+    pub fn names(&mut self, names: &[&str], diag: &mut Diagnostics) -> Vec<Name> {
+        match self.take(names).map(|a| &a.value) {
+            None => Vec::new(),
+            Some(ArgValue::Name(n)) => vec![n.clone()],
+            Some(ArgValue::Names(list, _)) => list.clone(),
+            Some(ArgValue::Number(_, span)) => {
+                diag.error(
+                    *span,
+                    format!("`{}` takes a name or a list of names", names[0]),
+                );
+                Vec::new()
+            }
+        }
+    }
+
+    /// A number, or the value of a model constant, with where it was written.
+    pub fn scalar(
+        &mut self,
+        name: &str,
+        cx: &Context,
+        diag: &mut Diagnostics,
+    ) -> Option<(f64, Span)> {
+        match &self.take(&[name])?.value {
+            ArgValue::Number(v, span) => Some((*v, *span)),
+            ArgValue::Name(n) => match cx.constant_value(n) {
+                Some(v) => Some((v, n.span)),
+                None => {
+                    not_a_constant(n, diag);
+                    None
+                }
+            },
+            ArgValue::Names(_, span) => {
+                diag.error(*span, format!("`{name}` takes a number or a constant"));
+                None
+            }
+        }
+    }
+
+    /// A list of model constants, with where it was written.
+    pub fn constants(
+        &mut self,
+        name: &str,
+        cx: &Context,
+        diag: &mut Diagnostics,
+    ) -> Option<(Vec<f64>, Span)> {
+        match &self.take(&[name])?.value {
+            ArgValue::Names(list, span) => {
+                let values: Vec<Option<f64>> = list
+                    .iter()
+                    .map(|n| {
+                        let v = cx.constant_value(n);
+                        if v.is_none() {
+                            not_a_constant(n, diag);
+                        }
+                        v
+                    })
+                    .collect();
+                let values: Option<Vec<f64>> = values.into_iter().collect();
+                values.map(|v| (v, *span))
+            }
+            other => {
+                diag.error(
+                    other.span(),
+                    format!("`{name}` takes a list of model constants: `{name} = [A, B]`"),
+                );
+                None
+            }
+        }
+    }
+
+    /// `name = GatedEkf`: the generated type's name, or `default`. An UpperCamelCase
+    /// identifier (that it names no other item is checked with all generators together).
+    pub fn type_name(&mut self, default: &str, diag: &mut Diagnostics) -> String {
+        match self.take(&["name"]).map(|a| &a.value) {
+            None => default.to_owned(),
+            Some(ArgValue::Name(n)) if is_type_name(&n.text) => n.text.clone(),
+            Some(other) => {
+                diag.error(
+                    other.span(),
+                    format!(
+                        "`name` is the generated type's name, in UpperCamelCase: `name = \
+                         Gated{default}`"
+                    ),
+                );
+                default.to_owned()
+            }
+        }
+    }
+
+    /// `process_noise = diagonal` or `full` (the default).
+    pub fn process_noise(&mut self, diag: &mut Diagnostics) -> bool {
+        match self.take(&["process_noise"]).map(|a| &a.value) {
+            None => false,
+            Some(ArgValue::Name(n)) if n.text == "diagonal" => true,
+            Some(ArgValue::Name(n)) if n.text == "full" => false,
+            Some(other) => {
+                let values = match other {
+                    ArgValue::Names(..) | ArgValue::Number(..) => {
+                        "; the noise values themselves are given at run time, to `new` and \
+                         `set_process_noise`"
+                    }
+                    ArgValue::Name(_) => "",
+                };
+                diag.error(
+                    other.span(),
+                    format!(
+                        "`process_noise` is the covariance's shape: `diagonal` (only the \
+                         variances) or `full` (a symmetric matrix){values}"
+                    ),
+                );
+                false
+            }
+        }
+    }
+
+    /// Reports every argument no reader took.
+    pub fn report_unused(&self, diag: &mut Diagnostics) {
+        for (arg, used) in self.item.args.iter().zip(&self.used) {
+            if !used {
+                diag.error(
+                    arg.name.span,
+                    format!(
+                        "`{}` takes no argument `{}`",
+                        self.item.name.text, arg.name.text
+                    ),
+                );
+            }
+        }
+    }
+}
+
+fn not_a_constant(name: &Name, diag: &mut Diagnostics) {
+    diag.error(
+        name.span,
+        format!("`{}` is not a constant of the model", name.text),
+    );
+}
+
+/// An UpperCamelCase identifier (`GatedEkf`): a capital first, then letters and digits.
+fn is_type_name(text: &str) -> bool {
+    text.chars().next().is_some_and(|c| c.is_ascii_uppercase())
+        && text.chars().all(|c| c.is_ascii_alphanumeric())
+        && text.chars().any(|c| c.is_ascii_lowercase())
+}
+
+/// The physical states a controller regulates and the inputs it computes, by index
+/// (`states = [x1, x2], input = u`); `example` opens the usage shown when either is missing.
+pub fn regulated(
+    item: &GenerateDecl,
+    args: &mut Args,
+    cx: &Context,
+    diag: &mut Diagnostics,
+    example: &str,
+) -> (Vec<usize>, Vec<usize>) {
+    let states = args.names(&["states", "state"], diag);
+    let inputs = args.names(&["inputs", "input"], diag);
+    let lookup = |names: Vec<Name>,
+                  index: &dyn Fn(&str) -> Option<usize>,
+                  what: &str,
+                  diag: &mut Diagnostics| {
+        names
+            .iter()
+            .filter_map(|name| {
+                let found = index(&name.text);
+                if found.is_none() {
+                    diag.error(name.span, format!("`{}` is not {what}", name.text));
+                }
+                found
+            })
+            .collect::<Vec<usize>>()
+    };
+    let states = lookup(
+        states,
+        &|n| cx.state_index(n),
+        "a physical state (`state`)",
+        diag,
+    );
+    let inputs = lookup(inputs, &|n| cx.input_index(n), "an input (`input`)", diag);
+    if states.is_empty() || inputs.is_empty() {
+        diag.error(
+            item.name.span,
+            format!(
+                "`{}` needs the states it regulates and the inputs it computes: \
+                 `{example}states = [x1, x2], input = u)`",
+                item.name.text
+            ),
+        );
+    }
+    (states, inputs)
+}

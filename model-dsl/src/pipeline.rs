@@ -1,0 +1,163 @@
+//! The pipeline from a checked model to its generated module: the model functions and
+//! their Jacobians, then every generator the model asks for, designed once and lowered
+//! for each scalar type. It iterates over the generators and knows none by name.
+
+use crate::check::Checked;
+use crate::emit::model_fns::{
+    emit_function, model_functions, named_ops_item, nonzero_item, ops_item, ModelFunction,
+};
+use crate::emit::module_items::{constants, dimensions, index_module, op_count_struct};
+use crate::emit::names::ident;
+use crate::emit::{interop, status, substeps};
+use crate::generators::Lowering;
+use crate::model::{Model, Scalar};
+use crate::symbolic::ModelGraph;
+use proc_macro2::TokenStream;
+use quote::quote;
+
+/// What the generated module holds beyond what the model asks for.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Options {
+    /// An `interop` module converting the generated arrays to and from `nalgebra`
+    /// matrices (the user's crate then depends on `nalgebra`).
+    pub nalgebra: bool,
+}
+
+/// The whole generated module of `checked`, or an error pointing at the generator the
+/// model does not support (the window transform's class, say).
+pub fn emit_model(checked: &Checked) -> syn::Result<TokenStream> {
+    emit_model_with(checked, &Options::default())
+}
+
+/// [`emit_model`], with `options`.
+pub fn emit_model_with(checked: &Checked, options: &Options) -> syn::Result<TokenStream> {
+    let model = &checked.model;
+    let mut mg = ModelGraph::build(model);
+    let functions = model_functions(model, &mut mg);
+    let Some((&primary, others)) = model.scalars.split_first() else {
+        return Ok(TokenStream::new());
+    };
+    let designs = checked
+        .generators
+        .iter()
+        .map(|generator| generator.design(model, &mg))
+        .collect::<syn::Result<Vec<_>>>()?;
+    let module = Module {
+        model,
+        mg: &mg,
+        functions: &functions,
+        designs: &designs,
+    };
+    let (primary_items, ops_items) = module.primary(primary);
+    let secondary = others.iter().map(|&scalar| module.secondary(scalar));
+    let docs = &model.docs;
+    let vis = &model.vis;
+    let name = ident(&model.name);
+    let op_count = op_count_struct();
+    let dims = dimensions(model);
+    let index = index_module(model);
+    let nonzero_items = functions.iter().filter_map(|f| nonzero_item(f, &mg));
+    let interop = options.nalgebra.then(interop::nalgebra_module);
+    Ok(quote! {
+        #(#[doc = #docs])*
+        #vis mod #name {
+            #op_count
+            #dims
+            #index
+            #(#ops_items)*
+            #(#nonzero_items)*
+            #primary_items
+            #(#secondary)*
+            #interop
+        }
+    })
+}
+
+/// What every scalar type's items are made of.
+struct Module<'a> {
+    model: &'a Model,
+    mg: &'a ModelGraph,
+    functions: &'a [ModelFunction],
+    designs: &'a [Box<dyn Lowering>],
+}
+
+impl Module<'_> {
+    /// The items in the primary scalar type, at the module's top, and the `*_OPS`
+    /// constants that count their arithmetic.
+    fn primary(&self, scalar: Scalar) -> (TokenStream, Vec<TokenStream>) {
+        let (model, mg) = (self.model, self.mg);
+        let mut ops_items = Vec::new();
+        let mut fns = Vec::new();
+        for function in self.functions {
+            let (code, ops) = emit_function(model, mg, function, scalar);
+            fns.push(code);
+            ops_items.push(ops_item(function, ops));
+        }
+        if let Some((f, constant, ops)) = self.looped_f(scalar) {
+            fns.insert(0, quote! { #constant #f });
+            ops_items.insert(0, named_ops_item("F_OPS", "f", ops));
+        }
+        let consts = constants(model, scalar);
+        let status = (!self.designs.is_empty()).then(status::status_enum);
+        let generated = self.generated(scalar, &mut ops_items);
+        let tokens = quote! {
+            #consts
+            #(#fns)*
+            #status
+            #generated
+        };
+        (tokens, ops_items)
+    }
+
+    /// The same items in another scalar type, in a module `in_f64` (say).
+    fn secondary(&self, scalar: Scalar) -> TokenStream {
+        let (model, mg) = (self.model, self.mg);
+        let module = ident(&format!("in_{}", scalar.type_name()));
+        let doc = format!(
+            " The same model functions in `{}` (host-side checks and simulation).",
+            scalar.type_name()
+        );
+        let consts = constants(model, scalar);
+        let looped = self
+            .looped_f(scalar)
+            .map(|(f, _, _)| quote! { use super::F_SUBSTEPS; #f });
+        let fns = self
+            .functions
+            .iter()
+            .map(|f| emit_function(model, mg, f, scalar).0);
+        let generated = self.generated(scalar, &mut Vec::new());
+        let status = (!self.designs.is_empty()).then(|| quote! { pub use super::Status; });
+        quote! {
+            #[doc = #doc]
+            pub mod #module {
+                #status
+                #consts
+                #looped
+                #(#fns)*
+                #generated
+            }
+        }
+    }
+
+    /// The sample step as a loop over its sub-steps, when they are too many to unroll.
+    fn looped_f(
+        &self,
+        scalar: Scalar,
+    ) -> Option<(TokenStream, TokenStream, crate::emit::lower::OpCount)> {
+        let looped = self.model.dynamics.discretisation.is_looped();
+        looped.then(|| substeps::looped_f(self.model, self.mg, scalar))
+    }
+
+    /// Every generator's items in `scalar`; their costs go to `ops_items`.
+    fn generated(&self, scalar: Scalar, ops_items: &mut Vec<TokenStream>) -> TokenStream {
+        let mut tokens = TokenStream::new();
+        for design in self.designs {
+            let code = design.lower(self.model, self.mg, scalar);
+            for cost in &code.costs {
+                ops_items.push(named_ops_item(&cost.constant, &cost.what, cost.ops));
+            }
+            tokens.extend(code.tokens);
+        }
+        tokens
+    }
+}
