@@ -6,7 +6,7 @@
 
 use crate::emit::code::{commit_or_non_finite, guard_pivots, pivot_names, var_idents, INNOVATION};
 use crate::emit::filter::{
-    finiteness_probe, model_names, time_param, unclaimed_name, Arguments, FilterVars,
+    finiteness_probe, model_names, name_estimate, time_param, unclaimed_name, Arguments, FilterVars,
 };
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
@@ -385,9 +385,7 @@ fn lower(nodes: &mut MethodNodes, model: &Model, scalar: Scalar, kind: Kind) -> 
         None
     };
     let suffix = if kind.updates() { "new" } else { "pred" };
-    for (&node, name) in nodes.x.iter().zip(model.state_names()) {
-        lowerer.prefer_name(node, &format!("{name}_{suffix}"));
-    }
+    name_estimate(&mut lowerer, model, &nodes.x, suffix);
     guard_pivots(
         &mut lowerer,
         &nodes.pivots,

@@ -6,7 +6,10 @@
 //! arguments it takes ([`Arguments`]).
 
 use crate::emit::code::{estimate_accessors, pack_upper, packed_names, reject_non_finite};
+use crate::emit::lower::Lowerer;
 use crate::emit::names::ident;
+/// The process noise argument, shared by the constructors and the setters.
+pub use crate::emit::tuning::noise_argument;
 use crate::emit::tuning::noise_setters;
 use crate::model::Model;
 use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
@@ -181,6 +184,14 @@ impl FilterVars {
     }
 }
 
+/// Names the new state entries after what they are and the method that computes them
+/// (`suffix`): `x1_pred`, `x1_new`.
+pub fn name_estimate(lowerer: &mut Lowerer, model: &Model, x: &[NodeId], suffix: &str) {
+    for (&node, name) in x.iter().zip(model.state_names()) {
+        lowerer.prefer_name(node, &format!("{name}_{suffix}"));
+    }
+}
+
 /// `name`, with `_` appended while a name in `avoid` claims it: a generated local must not
 /// shadow a model symbol.
 pub fn unclaimed_name(mut name: String, avoid: &[String]) -> String {
@@ -294,32 +305,6 @@ pub fn noise_vars(
         })
         .collect();
     (variances, matrix)
-}
-
-/// The constructor argument, field type and stored value of a process noise covariance:
-/// `q: &[[S; n]; n]` packed to its upper triangle, or `q: &[S; n]`, its variances.
-pub fn noise_argument(
-    name: &str,
-    n: usize,
-    diagonal: bool,
-    ty: &proc_macro2::Ident,
-) -> (TokenStream, TokenStream, TokenStream) {
-    let arg = ident(name);
-    let n_len = proc_macro2::Literal::usize_unsuffixed(n);
-    if diagonal {
-        (
-            quote! { #arg: &[#ty; #n_len] },
-            quote! { [#ty; #n_len] },
-            quote! { *#arg },
-        )
-    } else {
-        let packed = proc_macro2::Literal::usize_unsuffixed(packed_len(n));
-        (
-            quote! { #arg: &[[#ty; #n_len]; #n_len] },
-            quote! { [#ty; #packed] },
-            pack_upper(name, n),
-        )
-    }
 }
 
 /// The sum of a vector and of a matrix's diagonal: finite exactly when all of them are

@@ -7,8 +7,8 @@ use crate::emit::code::{
     commit_or_non_finite_with, guard_pivots, pivot_names, var_idents, INNOVATION,
 };
 use crate::emit::filter::{
-    finiteness_probe, model_names, packed_vars, time_param, unclaimed_name, Arguments,
-    FilterLayout, FilterVars,
+    finiteness_probe, model_names, name_estimate, packed_vars, time_param, unclaimed_name,
+    Arguments, FilterLayout, FilterVars,
 };
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
@@ -743,9 +743,7 @@ fn name_results(
     p: &[NodeId],
     suffix: &str,
 ) {
-    for (&node, name) in x.iter().zip(model.state_names()) {
-        lowerer.prefer_name(node, &format!("{name}_{suffix}"));
-    }
+    name_estimate(lowerer, model, x, suffix);
     let names: Vec<String> = var_idents_of(lowerer, p_vars);
     for (&node, name) in p.iter().zip(names) {
         lowerer.prefer_name(node, &format!("{name}_{suffix}"));
