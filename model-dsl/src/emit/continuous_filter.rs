@@ -1,8 +1,10 @@
-//! The hybrid (continuous-discrete) EKF of seed 001 ("Adaptive predictive control of
-//! transient vibrations of cantilevers with changing weight", sect. 3.2): between samples
-//! the estimate follows `x' = f(x, u)` and its covariance `P' = F P + P F' + Q` (eq. 21),
-//! integrated together with the model's rule and sub-steps (a loop when there are several);
-//! at each sample the discrete Joseph-form update (eqs. 24-26), shared with the EKF.
+//! The continuous filters' methods. The hybrid (continuous-discrete) EKF of seed 001
+//! ("Adaptive predictive control of transient vibrations of cantilevers with changing
+//! weight", sect. 3.2): between samples the estimate follows `x' = f(x, u)` and its
+//! covariance `P' = F P + P F' + Q` (eq. 21), integrated together with the model's rule and
+//! sub-steps (a loop when there are several); at each sample the discrete Joseph-form
+//! update (eqs. 24-26), shared with the EKF. The continuous-time EKF of seed 004 (eq. 5):
+//! the same integration with the measurement terms `K (y - h)` and `- P H' R^-1 H P`.
 
 use crate::emit::code::{commit_or_non_finite, guard_pivots, pivot_names, var_idents, INNOVATION};
 use crate::emit::filter::{
@@ -558,7 +560,7 @@ impl ContinuousTerms {
     /// `dx + K (y - h(x))` and `dp - P H' R^-1 H P` at `point = [t, x..]`.
     fn apply(
         &self,
-        g: &mut crate::symbolic::Graph,
+        g: &mut Graph,
         point: &[NodeId],
         y: &[NodeId],
         dx: &[NodeId],
