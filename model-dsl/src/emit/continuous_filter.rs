@@ -1,25 +1,28 @@
-//! The hybrid (continuous-discrete) EKF of seed 001 ("Adaptive predictive control of
-//! transient vibrations of cantilevers with changing weight", sect. 3.2): between samples
-//! the estimate follows `x' = f(x, u)` and its covariance `P' = F P + P F' + Q` (eq. 21),
-//! integrated together with the model's rule and sub-steps (a loop when there are several);
-//! at each sample the discrete Joseph-form update (eqs. 24-26), shared with the EKF.
+//! The continuous filters' methods. The hybrid (continuous-discrete) EKF of seed 001
+//! ("Adaptive predictive control of transient vibrations of cantilevers with changing
+//! weight", sect. 3.2): between samples the estimate follows `x' = f(x, u)` and its
+//! covariance `P' = F P + P F' + Q` (eq. 21), integrated together with the model's rule and
+//! sub-steps (a loop when there are several); at each sample the discrete Joseph-form
+//! update (eqs. 24-26), shared with the EKF. The continuous-time EKF of seed 004 (eq. 5):
+//! the same integration with the measurement terms `K (y - h)` and `- P H' R^-1 H P`.
 
-use crate::emit::code::{
-    commit_or_non_finite, guard_pivots, pivot_names, reject_non_finite, var_idents, INNOVATION,
+use crate::emit::code::{commit_or_non_finite, guard_pivots, pivot_names, var_idents, INNOVATION};
+use crate::emit::filter::{
+    finiteness_probe, model_names, name_estimate, time_param, unclaimed_name, Arguments, FilterVars,
 };
-use crate::emit::filter::{finiteness_probe, model_names, noise_vars, packed_vars, time_param};
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
-use crate::emit::substeps::{lower_loop, Carried, P_SUB, T_SUB, X_SUB};
+use crate::emit::substeps::{lower_loop, Carried, SubstepLoop, P_SUB, T_SUB, X_SUB};
 use crate::model::{Method, Model, Scalar};
 use crate::symbolic::continuous::{
     covariance_rate, euler_covariance_step, integrate_substep, join, riccati_measurement_terms,
     split, AtPoint,
 };
 use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed, Matrix};
-use crate::symbolic::{kalman, ModelGraph, NodeId};
-use proc_macro2::{Literal, TokenStream};
+use crate::symbolic::{kalman, Graph, ModelGraph, NodeId, VarId};
+use proc_macro2::TokenStream;
 use quote::quote;
+use std::collections::BTreeSet;
 
 /// Which method to generate.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -38,8 +41,65 @@ pub enum Kind {
     },
 }
 
+impl Kind {
+    /// Whether the method integrates over the sample.
+    fn predicts(self) -> bool {
+        self != Kind::Update
+    }
+
+    /// Whether the method makes the discrete update at the sample.
+    fn updates(self) -> bool {
+        matches!(self, Kind::Update | Kind::Step)
+    }
+
+    /// Whether it is the continuous-time EKF's step.
+    fn is_continuous(self) -> bool {
+        matches!(self, Kind::Continuous { .. })
+    }
+
+    /// Whether the integration starts at the previous sample's time, an argument `t_prev`
+    /// (at `t` in `predict`).
+    fn starts_at_t_prev(self) -> bool {
+        self == Kind::Step || self.is_continuous()
+    }
+
+    /// The method's name and documentation.
+    fn name_and_doc(self) -> (&'static str, &'static str) {
+        match self {
+            Kind::Predict => (
+                "predict",
+                " Integrates the estimate and its covariance over one sample (eqs. 21-23) with \
+                 the input `u` held, from time `t`. Rejects a non-finite input; leaves the \
+                 filter unchanged unless it returns [`Status::Ok`].",
+            ),
+            Kind::Update => (
+                "update",
+                " Corrects the estimate with the measurement `y` (eqs. 24-26, Joseph form). \
+                 Rejects a non-finite measurement and a non-positive innovation variance (never \
+                 divided by); leaves the filter unchanged unless it returns [`Status::Ok`].",
+            ),
+            Kind::Step => (
+                "step",
+                " One sample: integrates `x[k-1]` and its covariance to the sample `k` with the \
+                 input `u[k-1]` held (eqs. 21-23), then corrects them with the measurement \
+                 `y[k]` (eqs. 24-26). Leaves the filter unchanged unless it returns \
+                 [`Status::Ok`].",
+            ),
+            Kind::Continuous { .. } => (
+                "step",
+                " One sample: integrates the estimate and the Riccati equation (eq. 5) from \
+                 `x[k-1]` to the sample `k` with the input `u[k-1]` and the measurement `y` \
+                 (normally `y[k]`) held over the sample. Rejects a non-finite input or \
+                 measurement and an `R` that is not positive definite (never divided by); \
+                 leaves the filter unchanged unless it returns [`Status::Ok`].",
+            ),
+        }
+    }
+}
+
 /// One method: the propagation between samples and/or the update at the sample, built
-/// symbolically, then lowered (the sub-steps as a loop when there are several).
+/// symbolically, then lowered (the sub-steps as a loop when there are several). Returns
+/// the method, the arithmetic of all of it and that of one sub-step.
 pub fn method(
     model: &Model,
     mg: &ModelGraph,
@@ -47,193 +107,291 @@ pub fn method(
     kind: Kind,
     diagonal_noise: bool,
 ) -> (TokenStream, OpCount, OpCount) {
-    let mut g = mg.clone();
-    let (n, m) = (model.state_len(), model.outputs.len());
-    let continuous = matches!(kind, Kind::Continuous { .. });
-    let (predicts, updates) = (
-        kind != Kind::Update,
-        matches!(kind, Kind::Update | Kind::Step),
-    );
-    let mut avoid = model_names(model);
-    avoid.extend([X_SUB, P_SUB, T_SUB, "t_prev"].map(String::from));
-    let p_vars = packed_vars(&mut g.graph, "p", n, &avoid);
-    let (q_vars, q) = noise_vars(&mut g.graph, "q", n, diagonal_noise, &avoid);
-    let r_vars = packed_vars(&mut g.graph, "r", m, &avoid);
-    let y_vars = measured_vars(&mut g, model, &avoid);
-    let (rule, h, substeps) = g
-        .substep(model)
-        .expect("the checker admits the hybrid EKF on continuous dynamics only");
-    let looped = predicts && substeps > 1;
-    let uses_time = model.uses_time();
-    // The integration starts at the previous sample's time in a step, at `t` in `predict`.
-    let t_start = if (kind == Kind::Step || continuous) && uses_time {
-        g.graph.var("t_prev")
-    } else {
-        g.t
-    };
-    let t_sub = g.graph.var(T_SUB);
-    let x_vars = g.x.clone();
+    let mut nodes = MethodNodes::build(model, mg, kind, diagonal_noise);
+    let lowered = lower(&mut nodes, model, scalar, kind);
+    let ty = ident(scalar.type_name());
+    let arguments = arguments(&nodes, model, kind, &lowered.used_vars, &ty);
+    let (name, doc) = kind.name_and_doc();
+    let tokens = arguments.method(&ident(name), doc, lowered.body);
+    (tokens, lowered.total, lowered.per_substep)
+}
 
-    // dx/dt and F = df/dx over the variables, evaluated at each stage by substitution.
-    let rate_x = g.derivative(model, t_sub, &x_vars);
-    let jacobian = g.jacobian(&rate_x, &x_vars);
-    let at = AtPoint::new(
-        std::iter::once(t_sub)
-            .chain(x_vars.iter().copied())
-            .map(|v| g.var_id(v))
-            .collect(),
-    );
-    let mut x = x_vars.clone();
-    let mut p = symmetric_from_packed(&p_vars, n);
-    let mut loop_next = Vec::new();
-    // The continuous-time EKF's measurement terms: R^-1 (guarded pivots, computed once
-    // per sample), and h, H over the measurement's time and the state.
-    let measurement = continuous.then(|| ContinuousTerms::new(&mut g, &r_vars, m));
-    let alpha_var = matches!(kind, Kind::Continuous { alpha: true }).then(|| {
+/// The continuous dynamics a propagation integrates, built once over the variables
+/// `t_sub` and `x` and evaluated at each stage by substitution: `dx/dt = f(t, x, u)`,
+/// `F = df/dx`, the process noise density `Q`, the prescribed degree of stability, and
+/// the continuous-time EKF's measurement terms.
+struct Dynamics {
+    /// The state's length.
+    n: usize,
+    /// `dx/dt` over the variables.
+    rate_x: Vec<NodeId>,
+    /// `F = df/dx` over the variables.
+    jacobian: Matrix,
+    /// Evaluation at a point `[t, x..]`.
+    at: AtPoint,
+    /// The process noise density.
+    q: Matrix,
+    /// The variable `alpha`, when the filter has the field.
+    alpha: Option<NodeId>,
+    /// `2 alpha`.
+    two_alpha: Option<NodeId>,
+    /// The continuous-time EKF's measurement terms.
+    measurement: Option<ContinuousTerms>,
+    /// The measurement's variables.
+    y: Vec<NodeId>,
+}
+
+impl Dynamics {
+    /// The dynamics of `model` over the variables `t_sub` and the state, for `kind`.
+    fn new(
+        g: &mut ModelGraph,
+        model: &Model,
+        kind: Kind,
+        vars: &FilterVars,
+        t_sub: NodeId,
+        avoid: &[String],
+    ) -> Dynamics {
+        let x_vars = g.x.clone();
+        let rate_x = g.derivative(model, t_sub, &x_vars);
+        let jacobian = g.jacobian(&rate_x, &x_vars);
+        let at = AtPoint::new(
+            std::iter::once(t_sub)
+                .chain(x_vars.iter().copied())
+                .map(|v| g.var_id(v))
+                .collect(),
+        );
+        // The continuous-time EKF's measurement terms: R^-1 (guarded pivots, computed
+        // once per sample), and h, H over the measurement's time and the state.
+        let m = model.outputs.len();
+        let measurement = kind
+            .is_continuous()
+            .then(|| ContinuousTerms::new(g, &vars.r, m));
         // A model symbol may be called `alpha`: the local must not shadow it.
-        let mut name = String::from("alpha");
-        while avoid.contains(&name) {
-            name.push('_');
+        let alpha = matches!(kind, Kind::Continuous { alpha: true })
+            .then(|| g.graph.var(&unclaimed_name(String::from("alpha"), avoid)));
+        let two_alpha = alpha.map(|alpha| {
+            let two = g.graph.num(2.0);
+            g.graph.mul(two, alpha)
+        });
+        Dynamics {
+            n: model.state_len(),
+            rate_x,
+            jacobian,
+            at,
+            q: vars.q_matrix.clone(),
+            alpha,
+            two_alpha,
+            measurement,
+            y: vars.y.clone(),
         }
-        g.graph.var(&name)
-    });
-    let two_alpha = alpha_var.map(|alpha| {
-        let two = g.graph.num(2.0);
-        g.graph.mul(two, alpha)
-    });
-    if predicts {
-        let graph = &mut g.graph;
-        let mut rate = |gr: &mut crate::symbolic::Graph, t: NodeId, z: &[NodeId]| {
-            let (xs, ps) = split(z, n);
-            let point: Vec<NodeId> = std::iter::once(t).chain(xs.iter().copied()).collect();
-            let mut dx = at.eval(gr, &point, &rate_x);
-            let f = at.eval_matrix(gr, &point, &jacobian);
-            let mut dp = covariance_rate(gr, &f, &ps, &q, two_alpha);
-            if let Some(terms) = &measurement {
-                (dx, dp) = terms.apply(gr, &point, &y_vars, &dx, &dp, &ps);
-            }
-            join(&dx, &dp)
+    }
+
+    /// `dz/dt` of the joined estimate and covariance `z` at time `t`: `f` and
+    /// `F P + P F' + Q` (eq. 21, with `alpha` eq. 26), with the measurement terms of the
+    /// continuous-time EKF.
+    fn rate(&self, g: &mut Graph, t: NodeId, z: &[NodeId]) -> Vec<NodeId> {
+        let (xs, ps) = split(z, self.n);
+        let point: Vec<NodeId> = std::iter::once(t).chain(xs.iter().copied()).collect();
+        let mut dx = self.at.eval(g, &point, &self.rate_x);
+        let f = self.at.eval_matrix(g, &point, &self.jacobian);
+        let mut dp = covariance_rate(g, &f, &ps, &self.q, self.two_alpha);
+        if let Some(terms) = &self.measurement {
+            (dx, dp) = terms.apply(g, &point, &self.y, &dx, &dp, &ps);
+        }
+        join(&dx, &dp)
+    }
+
+    /// One sub-step of length `h` from time `t0` of the estimate `x` and covariance `p`,
+    /// joined: the model's rule on [`Dynamics::rate`], except that an Euler sub-step takes
+    /// the covariance of the Euler step itself (see `euler_covariance_step`).
+    fn substep(
+        &self,
+        g: &mut Graph,
+        (rule, h): (Method, NodeId),
+        t0: NodeId,
+        x: &[NodeId],
+        p: &Matrix,
+    ) -> Vec<NodeId> {
+        if rule == Method::Rk4 {
+            let mut rate = |g: &mut Graph, t: NodeId, z: &[NodeId]| self.rate(g, t, z);
+            return integrate_substep(g, rule, h, t0, &join(x, p), &mut rate);
+        }
+        let point: Vec<NodeId> = std::iter::once(t0).chain(x.iter().copied()).collect();
+        let mut dx = self.at.eval(g, &point, &self.rate_x);
+        let f = self.at.eval_matrix(g, &point, &self.jacobian);
+        let mut s = self.q.clone();
+        if let Some(terms) = &self.measurement {
+            (dx, s) = terms.apply(g, &point, &self.y, &dx, &self.q, p);
+        }
+        let p_next = euler_covariance_step(g, h, &f, self.alpha, p, &s);
+        let x_next: Vec<NodeId> = x
+            .iter()
+            .zip(&dx)
+            .map(|(&xi, &di)| {
+                let step = g.mul(h, di);
+                g.add(xi, step)
+            })
+            .collect();
+        join(&x_next, &p_next)
+    }
+}
+
+/// One method before lowering: the model's graph with the method's variables, and what
+/// it computes: the propagation (one sub-step, carried by a loop, or the sub-steps
+/// unrolled) and/or the update at the sample.
+struct MethodNodes {
+    /// The model's graph, with the method's variables and nodes.
+    g: ModelGraph,
+    /// Names generated variables avoid.
+    avoid: Vec<String>,
+    /// The covariance, noise and measurement variables.
+    vars: FilterVars,
+    /// The dynamics integrated.
+    dynamics: Dynamics,
+    /// Sub-steps per sample.
+    substeps: u32,
+    /// Whether the sub-steps run as a loop (a propagation of several).
+    looped: bool,
+    /// The time the integration starts at: `t_prev`, or `t` in `predict`.
+    t_start: NodeId,
+    /// The loop's running time.
+    t_sub: NodeId,
+    /// The new estimate (after the loop, over the carried variables).
+    x: Vec<NodeId>,
+    /// The new covariance.
+    p: Matrix,
+    /// The loop's carried values after one sub-step: state, packed covariance, time.
+    loop_next: Vec<NodeId>,
+    /// The innovation covariance's pivots, checked positive before their reciprocals.
+    pivots: Vec<NodeId>,
+    /// The pivots' reciprocals.
+    reciprocals: Vec<NodeId>,
+}
+
+impl MethodNodes {
+    /// Declares the method's variables, then integrates and/or updates as `kind` asks.
+    fn build(model: &Model, mg: &ModelGraph, kind: Kind, diagonal_noise: bool) -> MethodNodes {
+        let mut g = mg.clone();
+        let (n, m) = (model.state_len(), model.outputs.len());
+        let mut avoid = model_names(model);
+        avoid.extend([X_SUB, P_SUB, T_SUB, "t_prev"].map(String::from));
+        let all: Vec<usize> = (0..m).collect();
+        let vars = FilterVars::declare(&mut g.graph, model, &all, diagonal_noise, &avoid);
+        let (rule, h, substeps) = g
+            .substep(model)
+            .expect("the checker admits the hybrid EKF on continuous dynamics only");
+        let t_start = if kind.starts_at_t_prev() && model.uses_time() {
+            g.graph.var("t_prev")
+        } else {
+            g.t
         };
-        let t0 = if looped { t_sub } else { t_start };
-        let z = match rule {
-            // The covariance of the Euler step itself (see `euler_covariance_step`).
-            Method::Euler => {
-                let point: Vec<NodeId> = std::iter::once(t0).chain(x.iter().copied()).collect();
-                let mut dx = at.eval(graph, &point, &rate_x);
-                let f = at.eval_matrix(graph, &point, &jacobian);
-                let mut s = q.clone();
-                if let Some(terms) = &measurement {
-                    (dx, s) = terms.apply(graph, &point, &y_vars, &dx, &q, &p);
-                }
-                let p_next = euler_covariance_step(graph, h, &f, alpha_var, &p, &s);
-                let x_next: Vec<NodeId> = x
-                    .iter()
-                    .zip(&dx)
-                    .map(|(&xi, &di)| {
-                        let step = graph.mul(h, di);
-                        graph.add(xi, step)
-                    })
-                    .collect();
-                join(&x_next, &p_next)
-            }
-            Method::Rk4 => integrate_substep(graph, rule, h, t0, &join(&x, &p), &mut rate),
+        let t_sub = g.graph.var(T_SUB);
+        let dynamics = Dynamics::new(&mut g, model, kind, &vars, t_sub, &avoid);
+        let mut nodes = MethodNodes {
+            x: g.x.clone(),
+            p: symmetric_from_packed(&vars.p, n),
+            g,
+            avoid,
+            vars,
+            dynamics,
+            substeps,
+            looped: kind.predicts() && substeps > 1,
+            t_start,
+            t_sub,
+            loop_next: Vec::new(),
+            pivots: Vec::new(),
+            reciprocals: Vec::new(),
         };
-        if looped {
-            loop_next = z;
+        if kind.predicts() {
+            nodes.propagate((rule, h), model.uses_time());
+        }
+        if kind.updates() {
+            nodes.correct(m);
+        }
+        nodes
+    }
+
+    /// The propagation over the sample: one sub-step from the loop's variables, which the
+    /// loop carries (with the running time when the model reads it), or the only one.
+    fn propagate(&mut self, (rule, h): (Method, NodeId), uses_time: bool) {
+        let t0 = if self.looped {
+            self.t_sub
+        } else {
+            self.t_start
+        };
+        let graph = &mut self.g.graph;
+        let z = self
+            .dynamics
+            .substep(graph, (rule, h), t0, &self.x, &self.p);
+        if self.looped {
+            self.loop_next = z;
             if uses_time {
-                loop_next.push(graph.add(t_sub, h));
+                self.loop_next.push(graph.add(self.t_sub, h));
             }
         } else {
-            (x, p) = split(&z, n);
+            (self.x, self.p) = split(&z, self.dynamics.n);
         }
-    }
-    let mut pivots = Vec::new();
-    let mut reciprocals = Vec::new();
-    if updates {
-        let outcome = correct(&mut g, &x, &p, &y_vars, &r_vars, m);
-        (x, p, pivots, reciprocals) = outcome;
-    }
-    let probe = finiteness_probe(&mut g.graph, &x, &p);
-    let p_packed = packed_upper(&p);
-    let results: Vec<NodeId> = x.iter().chain(&p_packed).copied().collect();
-    let mut all_roots = results.clone();
-    all_roots.push(probe);
-    all_roots.extend(&pivots);
-    all_roots.extend(&loop_next);
-    if let Some(terms) = &measurement {
-        all_roots.extend(&terms.r_pivots);
     }
 
-    let namer = TempNamer::new(avoid.iter().map(String::as_str));
-    let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
-    lowerer.read_lazily(&quote! { self.q }, &q_vars);
-    lowerer.read_lazily(&quote! { self.r }, &r_vars);
-    if let Some(alpha) = alpha_var {
-        let name = var_idents(&g.graph, &[alpha]).remove(0);
-        lowerer.statement(quote! { let #name = self.alpha; });
+    /// The Joseph-form update at the sample (seed 001 eqs. 24-26) with every one of the
+    /// `m` outputs: the shared Kalman stage, with `h` and its Jacobian at the estimate.
+    fn correct(&mut self, m: usize) {
+        let r = symmetric_from_packed(&self.vars.r, m);
+        let all: Vec<usize> = (0..m).collect();
+        let update = kalman::ekf_correct(
+            &mut self.g,
+            &self.x,
+            &self.p,
+            &self.vars.y,
+            &r,
+            &all,
+            |g, j| g.var(&pivot_names(m, j, INNOVATION, "").1),
+        )
+        .update;
+        (self.x, self.p) = (update.x, update.p);
+        (self.pivots, self.reciprocals) = (update.pivots, update.reciprocals);
     }
-    if let Some(terms) = &measurement {
-        guard_pivots(
-            &mut lowerer,
-            &terms.r_pivots,
-            &terms.r_reciprocals,
-            (MEASUREMENT, ""),
-            &quote! { return Status::NonPositiveInnovation; },
-            scalar,
-        );
+}
+
+/// A method lowered: its body (the sub-step loop, the statements, the commit), the
+/// variables it reads, and the arithmetic of all of it and of one sub-step.
+struct LoweredMethod {
+    body: TokenStream,
+    used_vars: BTreeSet<VarId>,
+    total: OpCount,
+    per_substep: OpCount,
+}
+
+/// Lowers a method: the noise and `alpha` read, `R`'s pivots guarded, the sub-step loop
+/// (or the sub-step, unrolled), the update's guards, and the commit.
+fn lower(nodes: &mut MethodNodes, model: &Model, scalar: Scalar, kind: Kind) -> LoweredMethod {
+    let n = model.state_len();
+    let probe = finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p);
+    let p_packed = packed_upper(&nodes.p);
+    let results: Vec<NodeId> = nodes.x.iter().chain(&p_packed).copied().collect();
+    let mut all_roots = results.clone();
+    all_roots.push(probe);
+    all_roots.extend(&nodes.pivots);
+    all_roots.extend(&nodes.loop_next);
+    if let Some(terms) = &nodes.dynamics.measurement {
+        all_roots.extend(&terms.r_pivots);
     }
-    let t_start_ident = var_idents(&g.graph, &[t_start]).remove(0);
-    let mut per_substep = OpCount::default();
-    let mut loop_code = TokenStream::new();
-    let mut loop_used = std::collections::BTreeSet::new();
-    if looped {
-        let (x_next, rest) = loop_next.split_at(n);
-        let (p_next, t_next) = rest.split_at(packed_len(n));
-        let mut carried = vec![
-            Carried {
-                name: X_SUB,
-                initial: quote! { self.x },
-                vars: &x_vars,
-                next: x_next,
-                scalar: false,
-            },
-            Carried {
-                name: P_SUB,
-                initial: quote! { self.p },
-                vars: &p_vars,
-                next: p_next,
-                scalar: false,
-            },
-        ];
-        let t_sub_vars = [t_sub];
-        if uses_time {
-            carried.push(Carried {
-                name: T_SUB,
-                initial: quote! { #t_start_ident },
-                vars: &t_sub_vars,
-                next: t_next,
-                scalar: true,
-            });
-        }
-        let lowered = lower_loop(&mut lowerer, &carried, &quote! { Self::SUBSTEPS });
-        per_substep = lowered.per_substep;
-        loop_code = lowered.code;
-        loop_used = lowered.used_vars;
-        let (x_sub, p_sub) = (ident(X_SUB), ident(P_SUB));
-        lowerer.read_lazily(&quote! { #x_sub }, &x_vars);
-        lowerer.read_lazily(&quote! { #p_sub }, &p_vars);
+    let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
+    let mut lowerer = Lowerer::new(&nodes.g.graph, scalar, namer, &all_roots);
+    read_noise_and_alpha(&mut lowerer, nodes, scalar);
+    let substep_loop = if nodes.looped {
+        Some(substep_loop(&mut lowerer, nodes, model.uses_time()))
     } else {
-        lowerer.read_lazily(&quote! { self.x }, &x_vars);
-        lowerer.read_lazily(&quote! { self.p }, &p_vars);
-    }
-    let suffix = if updates { "new" } else { "pred" };
-    for (&node, name) in x.iter().zip(model.state_names()) {
-        lowerer.prefer_name(node, &format!("{name}_{suffix}"));
-    }
+        lowerer.read_lazily(&quote! { self.x }, &nodes.g.x);
+        lowerer.read_lazily(&quote! { self.p }, &nodes.vars.p);
+        None
+    };
+    let suffix = if kind.updates() { "new" } else { "pred" };
+    name_estimate(&mut lowerer, model, &nodes.x, suffix);
     guard_pivots(
         &mut lowerer,
-        &pivots,
-        &reciprocals,
+        &nodes.pivots,
+        &nodes.reciprocals,
         (INNOVATION, ""),
         &quote! { return Status::NonPositiveInnovation; },
         scalar,
@@ -242,120 +400,124 @@ pub fn method(
     let values = lowerer.segment(&results);
     let Lowered {
         statements,
-        used_vars,
+        mut used_vars,
         ops,
     } = lowerer.finish();
-    let total = ops.plus(per_substep.times(if looped { substeps } else { 0 }));
-    // With one sub-step, unrolled, the step is that sub-step (and the update).
-    let per_substep = if looped { per_substep } else { total };
     let (x_values, p_values) = values.split_at(n);
     let commit = commit_or_non_finite(&probe, x_values, p_values);
-
-    let graph = &g.graph;
-    let ty = ident(scalar.type_name());
-    let mut used_vars: std::collections::BTreeSet<_> =
-        used_vars.union(&loop_used).copied().collect();
-    if predicts && uses_time {
+    let (loop_code, per_substep, total) = match substep_loop {
+        Some(l) => {
+            used_vars.extend(l.used_vars);
+            let total = ops.plus(l.per_substep.times(nodes.substeps));
+            (l.code, l.per_substep, total)
+        }
+        // With one sub-step, unrolled, the step is that sub-step (and the update).
+        None => (TokenStream::new(), ops, ops),
+    };
+    if kind.predicts() && model.uses_time() {
         // The running time starts from it.
-        used_vars.insert(g.var_id(t_start));
+        used_vars.insert(nodes.g.var_id(nodes.t_start));
     }
-    let mut params = Vec::new();
-    let mut unpack = Vec::new();
-    let mut checked = Vec::new();
-    if uses_time {
-        if kind == Kind::Step || continuous {
-            params.push(time_param(graph, t_start, &used_vars, &ty, "t_prev"));
-        }
-        if !continuous {
-            params.push(time_param(graph, g.t, &used_vars, &ty, "t"));
-        }
+    LoweredMethod {
+        body: quote! { #loop_code #(#statements)* #commit },
+        used_vars,
+        total,
+        per_substep,
     }
-    if predicts && !g.u.is_empty() {
-        let u_idents = var_idents(graph, &g.u);
-        let len = Literal::usize_unsuffixed(g.u.len());
-        let arg = ident(if kind == Kind::Predict { "u" } else { "u_prev" });
-        params.push(quote! { #arg: &[#ty; #len] });
-        unpack.push(quote! { let [#(#u_idents),*] = *#arg; });
-        checked.extend(u_idents);
-    }
-    if updates || continuous {
-        let y_idents = var_idents(graph, &y_vars);
-        let len = Literal::usize_unsuffixed(m);
-        params.push(quote! { y: &[#ty; #len] });
-        unpack.push(quote! { let [#(#y_idents),*] = *y; });
-        checked.extend(y_idents);
-    }
-    let check = reject_non_finite(&checked);
-    let (name, doc) = match kind {
-        Kind::Predict => (
-            "predict",
-            " Integrates the estimate and its covariance over one sample (eqs. 21-23) with \
-             the input `u` held, from time `t`. Rejects a non-finite input; leaves the \
-             filter unchanged unless it returns [`Status::Ok`].",
-        ),
-        Kind::Update => (
-            "update",
-            " Corrects the estimate with the measurement `y` (eqs. 24-26, Joseph form). \
-             Rejects a non-finite measurement and a non-positive innovation variance (never \
-             divided by); leaves the filter unchanged unless it returns [`Status::Ok`].",
-        ),
-        Kind::Step => (
-            "step",
-            " One sample: integrates `x[k-1]` and its covariance to the sample `k` with the \
-             input `u[k-1]` held (eqs. 21-23), then corrects them with the measurement \
-             `y[k]` (eqs. 24-26). Leaves the filter unchanged unless it returns \
-             [`Status::Ok`].",
-        ),
-        Kind::Continuous { .. } => (
-            "step",
-            " One sample: integrates the estimate and the Riccati equation (eq. 5) from \
-             `x[k-1]` to the sample `k` with the input `u[k-1]` and the measurement `y` \
-             (normally `y[k]`) held over the sample. Rejects a non-finite input or \
-             measurement and an `R` that is not positive definite (never divided by); \
-             leaves the filter unchanged unless it returns [`Status::Ok`].",
-        ),
-    };
-    let name = ident(name);
-    let tokens = quote! {
-        #[doc = #doc]
-        pub fn #name(&mut self, #(#params),*) -> Status {
-            #(#unpack)*
-            #check
-            #loop_code
-            #(#statements)*
-            #commit
-        }
-    };
-    (tokens, total, per_substep)
 }
 
-/// The Joseph-form update (seed 001 eqs. 24-26) of `x`, `p` with the measurement
-/// variables `y_vars` at time `t`: the shared Kalman stage, with `h` and its Jacobian at
-/// `x`. Returns the corrected estimate and covariance, the pivots and their reciprocals.
-pub fn correct(
-    g: &mut ModelGraph,
-    x: &[NodeId],
-    p: &Matrix,
-    y_vars: &[NodeId],
-    r_vars: &[NodeId],
-    m: usize,
-) -> (Vec<NodeId>, Matrix, Vec<NodeId>, Vec<NodeId>) {
-    let r = symmetric_from_packed(r_vars, m);
-    let at_x = AtPoint::new(g.x.iter().map(|&v| g.var_id(v)).collect());
-    let c = g.jacobian_h_wrt_x();
-    let c = at_x.eval_matrix(&mut g.graph, x, &c);
-    let h_exprs = g.h.clone();
-    let h = at_x.eval(&mut g.graph, x, &h_exprs);
-    let graph = &mut g.graph;
-    let residual: Vec<NodeId> = y_vars
-        .iter()
-        .zip(&h)
-        .map(|(&y, &h)| graph.sub(y, h))
-        .collect();
-    let update = kalman::update(graph, x, p, &residual, &c, &r, |g, j| {
-        g.var(&pivot_names(m, j, INNOVATION, "").1)
-    });
-    (update.x, update.p, update.pivots, update.reciprocals)
+/// Reads the noise from the fields, `alpha` from its field, and guards the pivots of
+/// `R`'s inverse (the continuous-time EKF), all before the sub-steps.
+fn read_noise_and_alpha(lowerer: &mut Lowerer, nodes: &MethodNodes, scalar: Scalar) {
+    lowerer.read_lazily(&quote! { self.q }, &nodes.vars.q);
+    lowerer.read_lazily(&quote! { self.r }, &nodes.vars.r);
+    if let Some(alpha) = nodes.dynamics.alpha {
+        let name = var_idents(&nodes.g.graph, &[alpha]).remove(0);
+        lowerer.statement(quote! { let #name = self.alpha; });
+    }
+    if let Some(terms) = &nodes.dynamics.measurement {
+        guard_pivots(
+            lowerer,
+            &terms.r_pivots,
+            &terms.r_reciprocals,
+            (MEASUREMENT, ""),
+            &quote! { return Status::NonPositiveInnovation; },
+            scalar,
+        );
+    }
+}
+
+/// The loop of sub-steps, carrying the estimate from `self.x`, the covariance from
+/// `self.p` and (when the model reads it) the time from the start; after it, the code
+/// reads the carried arrays.
+fn substep_loop(lowerer: &mut Lowerer, nodes: &MethodNodes, uses_time: bool) -> SubstepLoop {
+    let n = nodes.dynamics.n;
+    let (x_vars, p_vars) = (&nodes.g.x, &nodes.vars.p);
+    let (x_next, rest) = nodes.loop_next.split_at(n);
+    let (p_next, t_next) = rest.split_at(packed_len(n));
+    let mut carried = vec![
+        Carried {
+            name: X_SUB,
+            initial: quote! { self.x },
+            vars: x_vars,
+            next: x_next,
+            scalar: false,
+        },
+        Carried {
+            name: P_SUB,
+            initial: quote! { self.p },
+            vars: p_vars,
+            next: p_next,
+            scalar: false,
+        },
+    ];
+    let t_sub_vars = [nodes.t_sub];
+    if uses_time {
+        let t_start = var_idents(&nodes.g.graph, &[nodes.t_start]).remove(0);
+        carried.push(Carried {
+            name: T_SUB,
+            initial: quote! { #t_start },
+            vars: &t_sub_vars,
+            next: t_next,
+            scalar: true,
+        });
+    }
+    let lowered = lower_loop(lowerer, &carried, &quote! { Self::SUBSTEPS });
+    let (x_sub, p_sub) = (ident(X_SUB), ident(P_SUB));
+    lowerer.read_lazily(&quote! { #x_sub }, x_vars);
+    lowerer.read_lazily(&quote! { #p_sub }, p_vars);
+    lowered
+}
+
+/// The method's arguments: the times (the start `t_prev` of a step, the sample's `t`
+/// of the hybrid EKF), the input of a propagation, the measurement of an update or of the
+/// continuous-time EKF.
+fn arguments(
+    nodes: &MethodNodes,
+    model: &Model,
+    kind: Kind,
+    used_vars: &BTreeSet<VarId>,
+    ty: &proc_macro2::Ident,
+) -> Arguments {
+    let g = &nodes.g;
+    let graph = &g.graph;
+    let mut arguments = Arguments::default();
+    if model.uses_time() {
+        if kind.starts_at_t_prev() {
+            arguments.plain(time_param(graph, nodes.t_start, used_vars, ty, "t_prev"));
+        }
+        if !kind.is_continuous() {
+            arguments.plain(time_param(graph, g.t, used_vars, ty, "t"));
+        }
+    }
+    if kind.predicts() && !g.u.is_empty() {
+        let name = if kind == Kind::Predict { "u" } else { "u_prev" };
+        arguments.array(name, var_idents(graph, &g.u), ty);
+    }
+    if kind.updates() || kind.is_continuous() {
+        arguments.array("y", var_idents(graph, &nodes.vars.y), ty);
+    }
+    arguments
 }
 
 /// The pivot names of the measurement noise covariance's `L D L'` inverse.
@@ -398,7 +560,7 @@ impl ContinuousTerms {
     /// `dx + K (y - h(x))` and `dp - P H' R^-1 H P` at `point = [t, x..]`.
     fn apply(
         &self,
-        g: &mut crate::symbolic::Graph,
+        g: &mut Graph,
         point: &[NodeId],
         y: &[NodeId],
         dx: &[NodeId],
@@ -408,34 +570,6 @@ impl ContinuousTerms {
         let h = self.at.eval(g, point, &self.h);
         let jacobian_h = self.at.eval_matrix(g, point, &self.jacobian_h);
         let (gain, dp) = riccati_measurement_terms(g, dp, p, &jacobian_h, &self.r_inv);
-        let dx = dx
-            .iter()
-            .zip(&gain)
-            .map(|(&rate, gain_row)| {
-                let mut v = rate;
-                for ((&k, &yj), &hj) in gain_row.iter().zip(y).zip(&h) {
-                    let innovation = g.sub(yj, hj);
-                    let term = g.mul(k, innovation);
-                    v = g.add(v, term);
-                }
-                v
-            })
-            .collect();
-        (dx, dp)
+        (kalman::innovation_feedback(g, dx, &gain, y, &h), dp)
     }
-}
-
-/// The variables of the measurement, `<output>_measured`, avoiding the model's names.
-pub fn measured_vars(g: &mut ModelGraph, model: &Model, avoid: &[String]) -> Vec<NodeId> {
-    model
-        .outputs
-        .iter()
-        .map(|o| {
-            let mut name = format!("{}_measured", o.name);
-            while avoid.contains(&name) {
-                name.push('_');
-            }
-            g.graph.var(&name)
-        })
-        .collect()
 }

@@ -1,14 +1,260 @@
 //! The filter layout every Kalman filter shares: the names generated variables avoid,
 //! packed symmetric matrices and their variables, process noise arguments (full or
-//! diagonal), the finiteness probe that guards a whole result, and time arguments.
+//! diagonal), the finiteness probe that guards a whole result, and time arguments; the
+//! stored estimate, covariance and noise with their constructor, accessors and setters
+//! ([`FilterLayout`]), the variables a filter's method reads ([`FilterVars`]) and the
+//! arguments it takes ([`Arguments`]).
 
-use crate::emit::code::{pack_upper, packed_names};
+use crate::emit::code::{estimate_accessors, pack_upper, packed_names, reject_non_finite};
+use crate::emit::lower::Lowerer;
 use crate::emit::names::ident;
+/// The process noise argument, shared by the constructors and the setters.
+pub use crate::emit::tuning::noise_argument;
+use crate::emit::tuning::noise_setters;
 use crate::model::Model;
 use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
-use crate::symbolic::{Graph, NodeId, VarId};
-use proc_macro2::TokenStream;
+use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
+use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
+
+/// What the EKF, the hybrid EKF and the continuous-time EKF store and assemble alike: the
+/// estimate `x` (`n` entries), its covariance `p` (packed upper triangle), the process
+/// noise `q` (packed, or its variances when diagonal) and the measurement noise `r`
+/// (packed, `m x m`); their dimension literals, the constructor's packing of `p0`, `q`
+/// and `r`, the estimate's accessors and the noise setters.
+pub struct FilterLayout {
+    /// The scalar type, `f32` or `f64`.
+    pub ty: Ident,
+    /// `n`, the state's length.
+    pub n_len: Literal,
+    /// `m`, the measurement's length.
+    pub m_len: Literal,
+    /// `n (n + 1) / 2`, the packed covariance's length.
+    pub np: Literal,
+    /// `m (m + 1) / 2`, the packed measurement noise's length.
+    pub mp: Literal,
+    /// The upper triangle of the argument `p0`, packed.
+    pub pack_p0: TokenStream,
+    /// The upper triangle of the argument `r`, packed.
+    pub pack_r: TokenStream,
+    /// The constructor's process noise argument `q`.
+    pub q_param: TokenStream,
+    /// The type of the field `q`.
+    pub q_field: TokenStream,
+    /// The value stored in `q` from the argument.
+    pub pack_q: TokenStream,
+    /// `state()` and `covariance()`.
+    pub accessors: TokenStream,
+    /// `set_process_noise` and `set_measurement_noise`.
+    pub setters: TokenStream,
+}
+
+impl FilterLayout {
+    /// The layout of a filter of `model` in the scalar type `ty`, its process noise
+    /// diagonal if `diagonal`.
+    pub fn new(model: &Model, diagonal: bool, ty: &Ident) -> FilterLayout {
+        let (n, m) = (model.state_len(), model.outputs.len());
+        let [n_len, m_len, np, mp] =
+            [n, m, packed_len(n), packed_len(m)].map(Literal::usize_unsuffixed);
+        let (pack_p0, pack_r) = (pack_upper("p0", n), pack_upper("r", m));
+        let (q_param, q_field, pack_q) = noise_argument("q", n, diagonal, ty);
+        FilterLayout {
+            ty: ty.clone(),
+            n_len,
+            m_len,
+            np,
+            mp,
+            pack_p0,
+            pack_r,
+            q_param,
+            q_field,
+            pack_q,
+            accessors: estimate_accessors(n, ty),
+            setters: noise_setters(n, m, diagonal, ty),
+        }
+    }
+
+    /// The fields `x`, `p`, `q` and `r` of the filter's struct, each followed by a comma.
+    pub fn fields(&self) -> TokenStream {
+        let FilterLayout {
+            ty,
+            n_len,
+            np,
+            q_field,
+            mp,
+            ..
+        } = self;
+        quote! {
+            x: [#ty; #n_len],
+            p: [#ty; #np],
+            q: #q_field,
+            r: [#ty; #mp],
+        }
+    }
+
+    /// `fn new(x0, p0, q, r ..) -> type_name`: the constructor, documented by the
+    /// attributes `doc`, storing `x0` and the packed upper triangles of `p0`, `q` and `r`.
+    /// `extra_params` continues the argument list (from a comma), `extra_init` the struct
+    /// literal (from a comma) for the fields a filter adds.
+    pub fn constructor(
+        &self,
+        type_name: &Ident,
+        doc: &TokenStream,
+        extra_params: &TokenStream,
+        extra_init: &TokenStream,
+    ) -> TokenStream {
+        let FilterLayout {
+            ty,
+            n_len,
+            m_len,
+            pack_p0,
+            pack_r,
+            q_param,
+            pack_q,
+            ..
+        } = self;
+        quote! {
+            #doc
+            #[must_use]
+            pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len], #q_param, r: &[[#ty; #m_len]; #m_len] #extra_params) -> #type_name {
+                #type_name { x: x0, p: #pack_p0, q: #pack_q, r: #pack_r #extra_init }
+            }
+        }
+    }
+}
+
+/// `pub const SUBSTEPS: u32`, documented by the attributes `doc`: the integration
+/// sub-steps per sample of the continuous filters (1 for discrete dynamics).
+pub fn substeps_constant(model: &Model, mg: &ModelGraph, doc: &TokenStream) -> TokenStream {
+    let substeps = mg.clone().substep(model).map_or(1, |(_, _, n)| n);
+    let substeps_lit = Literal::u32_unsuffixed(substeps);
+    quote! {
+        #doc
+        pub const SUBSTEPS: u32 = #substeps_lit;
+    }
+}
+
+/// The variables a filter's method reads: the packed covariance `p`, the process noise
+/// `q` (and the matrix it makes), the packed measurement noise `r` (all outputs), and the
+/// measurement of the outputs the method corrects with, `<output>_measured`. Declared in
+/// this order, so every filter's graph numbers them alike.
+pub struct FilterVars {
+    /// The packed covariance's variables.
+    pub p: Vec<NodeId>,
+    /// The process noise's variables (packed, or the variances).
+    pub q: Vec<NodeId>,
+    /// The process noise covariance they make.
+    pub q_matrix: Matrix,
+    /// The packed measurement noise's variables.
+    pub r: Vec<NodeId>,
+    /// The measurement's variables, one per output corrected with.
+    pub y: Vec<NodeId>,
+}
+
+impl FilterVars {
+    /// Declares the variables of a filter of `model` correcting with `outputs`, avoiding
+    /// the names `avoid`.
+    pub fn declare(
+        graph: &mut Graph,
+        model: &Model,
+        outputs: &[usize],
+        diagonal_noise: bool,
+        avoid: &[String],
+    ) -> FilterVars {
+        let (n, m) = (model.state_len(), model.outputs.len());
+        let p = packed_vars(graph, "p", n, avoid);
+        let (q, q_matrix) = noise_vars(graph, "q", n, diagonal_noise, avoid);
+        let r = packed_vars(graph, "r", m, avoid);
+        let y = outputs
+            .iter()
+            .map(|&j| {
+                graph.var(&unclaimed_name(
+                    format!("{}_measured", model.outputs[j].name),
+                    avoid,
+                ))
+            })
+            .collect();
+        FilterVars {
+            p,
+            q,
+            q_matrix,
+            r,
+            y,
+        }
+    }
+}
+
+/// Names the new state entries after what they are and the method that computes them
+/// (`suffix`): `x1_pred`, `x1_new`.
+pub fn name_estimate(lowerer: &mut Lowerer, model: &Model, x: &[NodeId], suffix: &str) {
+    for (&node, name) in x.iter().zip(model.state_names()) {
+        lowerer.prefer_name(node, &format!("{name}_{suffix}"));
+    }
+}
+
+/// `name`, with `_` appended while a name in `avoid` claims it: a generated local must not
+/// shadow a model symbol.
+pub fn unclaimed_name(mut name: String, avoid: &[String]) -> String {
+    while avoid.contains(&name) {
+        name.push('_');
+    }
+    name
+}
+
+/// The arguments of a generated filter method, the statements unpacking them into the
+/// variables the code reads, and those variables, which the method rejects unless finite.
+#[derive(Default)]
+pub struct Arguments {
+    /// `name: type`, in order.
+    pub params: Vec<TokenStream>,
+    /// `let [..] = *name;`, in order.
+    pub unpack: Vec<TokenStream>,
+    /// The variables checked finite before anything is computed.
+    pub checked: Vec<Ident>,
+}
+
+impl Arguments {
+    /// An argument read as it is (a time; a gated step's `t_prev`).
+    pub fn plain(&mut self, param: TokenStream) {
+        self.params.push(param);
+    }
+
+    /// `name: &[S; len]`, unpacked into `vars` and checked finite.
+    pub fn array(&mut self, name: &str, vars: Vec<Ident>, ty: &Ident) {
+        let arg = ident(name);
+        let len = Literal::usize_unsuffixed(vars.len());
+        self.params.push(quote! { #arg: &[#ty; #len] });
+        self.unpack.push(quote! { let [#(#vars),*] = *#arg; });
+        self.checked.extend(vars);
+    }
+
+    /// `name: S`, bound to `var` and checked finite.
+    pub fn scalar(&mut self, name: &str, var: Ident, ty: &Ident) {
+        let arg = ident(name);
+        self.params.push(quote! { #arg: #ty });
+        self.unpack.push(quote! { let #var = #arg; });
+        self.checked.push(var);
+    }
+
+    /// `pub fn name(&mut self, ..) -> Status`, documented by `doc`: unpacks and checks the
+    /// arguments, then runs `body` (which ends by returning the status).
+    pub fn method(self, name: &Ident, doc: &str, body: TokenStream) -> TokenStream {
+        let Arguments {
+            params,
+            unpack,
+            checked,
+        } = self;
+        let check = reject_non_finite(&checked);
+        quote! {
+            #[doc = #doc]
+            pub fn #name(&mut self, #(#params),*) -> Status {
+                #(#unpack)*
+                #check
+                #body
+            }
+        }
+    }
+}
 
 /// Names already used by the model, which generated variables must avoid.
 pub fn model_names(model: &Model) -> Vec<String> {
@@ -59,32 +305,6 @@ pub fn noise_vars(
         })
         .collect();
     (variances, matrix)
-}
-
-/// The constructor argument, field type and stored value of a process noise covariance:
-/// `q: &[[S; n]; n]` packed to its upper triangle, or `q: &[S; n]`, its variances.
-pub fn noise_argument(
-    name: &str,
-    n: usize,
-    diagonal: bool,
-    ty: &proc_macro2::Ident,
-) -> (TokenStream, TokenStream, TokenStream) {
-    let arg = ident(name);
-    let n_len = proc_macro2::Literal::usize_unsuffixed(n);
-    if diagonal {
-        (
-            quote! { #arg: &[#ty; #n_len] },
-            quote! { [#ty; #n_len] },
-            quote! { *#arg },
-        )
-    } else {
-        let packed = proc_macro2::Literal::usize_unsuffixed(packed_len(n));
-        (
-            quote! { #arg: &[[#ty; #n_len]; #n_len] },
-            quote! { [#ty; #packed] },
-            pack_upper(name, n),
-        )
-    }
 }
 
 /// The sum of a vector and of a matrix's diagonal: finite exactly when all of them are

@@ -1,5 +1,6 @@
 //! Run-time tuning of the generated filters: setters for the process and measurement noise,
-//! which reject a non-finite entry and leave the filter unchanged.
+//! which reject a non-finite entry and leave the filter unchanged, and the process noise
+//! argument they share with the constructors.
 
 use super::code::{all_finite, pack_upper};
 use super::names::ident;
@@ -24,16 +25,8 @@ pub fn process_noise_setter(
     diagonal: bool,
     ty: &proc_macro2::Ident,
 ) -> TokenStream {
-    let n_len = Literal::usize_unsuffixed(n);
-    let (param, packed, len) = if diagonal {
-        (quote! { q: &[#ty; #n_len] }, quote! { *q }, n)
-    } else {
-        (
-            quote! { q: &[[#ty; #n_len]; #n_len] },
-            pack_upper("q", n),
-            packed_len(n),
-        )
-    };
+    let (param, _, packed) = noise_argument("q", n, diagonal, ty);
+    let len = if diagonal { n } else { packed_len(n) };
     let body = setter(field, &packed, len);
     let doc = if diagonal {
         format!(
@@ -83,5 +76,31 @@ fn setter(field: &str, packed: &TokenStream, len: usize) -> TokenStream {
         }
         self.#field = packed;
         Status::Ok
+    }
+}
+
+/// The constructor argument, field type and stored value of a process noise covariance:
+/// `q: &[[S; n]; n]` packed to its upper triangle, or `q: &[S; n]`, its variances.
+pub fn noise_argument(
+    name: &str,
+    n: usize,
+    diagonal: bool,
+    ty: &proc_macro2::Ident,
+) -> (TokenStream, TokenStream, TokenStream) {
+    let arg = ident(name);
+    let n_len = proc_macro2::Literal::usize_unsuffixed(n);
+    if diagonal {
+        (
+            quote! { #arg: &[#ty; #n_len] },
+            quote! { [#ty; #n_len] },
+            quote! { *#arg },
+        )
+    } else {
+        let packed = proc_macro2::Literal::usize_unsuffixed(packed_len(n));
+        (
+            quote! { #arg: &[[#ty; #n_len]; #n_len] },
+            quote! { [#ty; #packed] },
+            pack_upper(name, n),
+        )
     }
 }

@@ -1,8 +1,12 @@
 //! The Kalman filter's algebra on graph nodes, shared by every generated filter: the
-//! covariance prediction and the Joseph-form measurement update (Alg. 1 and 2).
+//! covariance prediction and the Joseph-form measurement update (Alg. 1 and 2), the EKF's
+//! prediction and correction with the model's `f`, `h` and their Jacobians, and the
+//! continuous-time filter's innovation feedback.
 
+use super::continuous::AtPoint;
 use super::graph::{Graph, NodeId};
 use super::linalg::{add, ldl_inverse, matmul, sandwich_symmetric, sub, transpose, Matrix};
+use super::model_graph::ModelGraph;
 
 /// `A P A' + Q`, upper triangle computed once.
 pub fn predict_covariance(g: &mut Graph, a: &Matrix, p: &Matrix, q: &Matrix) -> Matrix {
@@ -100,4 +104,80 @@ pub fn update(
         s,
         nis,
     }
+}
+
+/// The EKF's prediction (Alg. 1): `x = f(x, u)` and `P = A P A' + Q` with `A = df/dx` at
+/// the estimate; with `t_prev`, both evaluated at that time (a step predicts from the
+/// previous sample's time, and corrects at the measurement's).
+pub fn ekf_predict(
+    mg: &mut ModelGraph,
+    p: &Matrix,
+    q: &Matrix,
+    t_prev: Option<NodeId>,
+) -> (Vec<NodeId>, Matrix) {
+    let mut a = mg.jacobian_f_wrt_x();
+    let mut f = mg.f.clone();
+    if let Some(t_prev) = t_prev {
+        let at_prev = AtPoint::new(vec![mg.var_id(mg.t)]);
+        f = at_prev.eval(&mut mg.graph, &[t_prev], &f);
+        a = at_prev.eval_matrix(&mut mg.graph, &[t_prev], &a);
+    }
+    let p = predict_covariance(&mut mg.graph, &a, p, q);
+    (f, p)
+}
+
+/// A measurement update with the model's `h`, and the innovation it used.
+pub struct Correction {
+    /// The innovation `y - h(x)`, one entry per output corrected with.
+    pub residual: Vec<NodeId>,
+    /// The update.
+    pub update: Update,
+}
+
+/// The EKF's correction (Alg. 1; seed 001 eqs. 24-26) of the estimate `x`, covariance `p`
+/// with the measurement `y` of the model's outputs `outputs` and their noise covariance
+/// `r`: `h` and its Jacobian `C = dh/dx` evaluated at `x`, the innovation `y - h(x)`, and
+/// the Joseph-form [`update`] (`reciprocal` declares the pivots' reciprocals).
+pub fn ekf_correct(
+    mg: &mut ModelGraph,
+    x: &[NodeId],
+    p: &Matrix,
+    y: &[NodeId],
+    r: &Matrix,
+    outputs: &[usize],
+    reciprocal: impl FnMut(&mut Graph, usize) -> NodeId,
+) -> Correction {
+    let at_x = AtPoint::new(mg.x.iter().map(|&v| mg.var_id(v)).collect());
+    let c = mg.jacobian_h_wrt_x();
+    let c: Matrix = outputs.iter().map(|&i| c[i].clone()).collect();
+    let c = at_x.eval_matrix(&mut mg.graph, x, &c);
+    let h: Vec<NodeId> = outputs.iter().map(|&i| mg.h[i]).collect();
+    let h = at_x.eval(&mut mg.graph, x, &h);
+    let graph = &mut mg.graph;
+    let residual: Vec<NodeId> = y.iter().zip(&h).map(|(&y, &h)| graph.sub(y, h)).collect();
+    let update = update(graph, x, p, &residual, &c, r, reciprocal);
+    Correction { residual, update }
+}
+
+/// The continuous-time filter's state rate `rate + K (y - h)` (seed 004 eq. 5, the
+/// Kalman-Bucy filter's innovation feedback), each row summed term by term.
+pub fn innovation_feedback(
+    g: &mut Graph,
+    rate: &[NodeId],
+    gain: &Matrix,
+    y: &[NodeId],
+    h: &[NodeId],
+) -> Vec<NodeId> {
+    rate.iter()
+        .zip(gain)
+        .map(|(&rate, gain_row)| {
+            let mut v = rate;
+            for ((&k, &yj), &hj) in gain_row.iter().zip(y).zip(h) {
+                let innovation = g.sub(yj, hj);
+                let term = g.mul(k, innovation);
+                v = g.add(v, term);
+            }
+            v
+        })
+        .collect()
 }

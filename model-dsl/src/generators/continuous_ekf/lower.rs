@@ -5,16 +5,14 @@
 //! and sub-steps; optionally with a prescribed degree of stability `alpha` (Reif et al.,
 //! the paper's eq. 26): `F + alpha I` in place of `F` in the Riccati equation.
 
-use crate::emit::code::pack_upper;
 use crate::emit::continuous_filter::{method, Kind};
-use crate::emit::filter::noise_argument;
+use crate::emit::filter::{substeps_constant, FilterLayout};
 use crate::emit::lower::{literal, OpCount};
 use crate::emit::names::ident;
 use super::spec::ContinuousEkfSpec;
 use crate::model::{Model, Scalar};
-use crate::symbolic::linalg::packed_len;
 use crate::symbolic::ModelGraph;
-use proc_macro2::{Literal, TokenStream};
+use proc_macro2::TokenStream;
 use quote::quote;
 
 /// Generated continuous-time EKF code and its cost.
@@ -40,79 +38,43 @@ pub fn emit_continuous_ekf(
     };
     let (step, step_ops, substep_ops) = method(model, mg, scalar, kind, diagonal);
     let ty = ident(scalar.type_name());
-    let (n, m) = (model.state_len(), model.outputs.len());
-    let [n_len, m_len, np, mp] =
-        [n, m, packed_len(n), packed_len(m)].map(Literal::usize_unsuffixed);
-    let (pack_p0, pack_r) = (pack_upper("p0", n), pack_upper("r", m));
-    let (q_param, q_field, pack_q) = noise_argument("q", n, diagonal, &ty);
-    let accessors = crate::emit::code::estimate_accessors(n, &ty);
-    let setters = crate::emit::tuning::noise_setters(n, m, diagonal, &ty);
-    let substeps = mg.clone().substep(model).map_or(1, |(_, _, n)| n);
-    let substeps_lit = Literal::u32_unsuffixed(substeps);
-    let alpha = spec.alpha.map(|a| literal(a, scalar));
-    let alpha_field = alpha.as_ref().map(|_| quote! { alpha: #ty, });
-    let alpha_init = alpha.as_ref().map(|_| quote! { alpha: Self::ALPHA, });
-    let zero = literal(0.0, scalar);
-    let alpha_items = alpha.as_ref().map(|value| {
-        quote! {
-            /// The default prescribed degree of stability `alpha` (per second): the
-            /// estimation error of a filter that converges decays at least as
-            /// `exp(-alpha t)` (Reif et al.).
-            pub const ALPHA: #ty = #value;
-
-            /// The prescribed degree of stability in use.
-            #[must_use]
-            pub fn alpha(&self) -> #ty {
-                self.alpha
-            }
-
-            /// Sets the prescribed degree of stability `alpha >= 0` (per second; `0` gives
-            /// the standard continuous-time EKF). Rejects a negative or non-finite value
-            /// with [`Status::RejectedInput`], leaving the filter unchanged.
-            pub fn set_alpha(&mut self, alpha: #ty) -> Status {
-                if !(alpha >= #zero && alpha.is_finite()) {
-                    return Status::RejectedInput;
-                }
-                self.alpha = alpha;
-                Status::Ok
-            }
-        }
-    });
-    let riccati = if spec.alpha.is_some() {
-        "`P' = (F + alpha I) P + P (F + alpha I)' + Q - P H' R^-1 H P` (eq. 26, with a \
-         prescribed degree of stability `alpha`, Reif et al.)"
-    } else {
-        "`P' = F P + P F' + Q - P H' R^-1 H P`"
-    };
-    let doc = format!(
-        " Continuous-time extended Kalman filter of this model (Kulkarni and Purwar, \
-         \"Nonlinear experimental estimation and verification of a MIMO system through \
-         EKF\", eq. 5): `x' = f(x, u) + K (y - h(x))`, `K = P H' R^-1`, and {riccati}, \
-         `F = df/dx`, `H = dh/dx`, integrated over each sample with the model's rule and \
-         [`ContinuousEkf::SUBSTEPS`] sub-steps, input and measurement held. `Q` and `R` \
-         are spectral densities. The covariance is stored once, as a packed upper triangle."
+    let layout = FilterLayout::new(model, diagonal, &ty);
+    let fields = layout.fields();
+    let FilterLayout {
+        accessors, setters, ..
+    } = &layout;
+    let substeps = substeps_constant(
+        model,
+        mg,
+        &quote! {
+            /// Integration sub-steps per sample, for state and Riccati equation alike.
+        },
     );
+    let alpha_field = spec.alpha.map(|_| quote! { alpha: #ty, });
+    let alpha_init = spec.alpha.map(|_| quote! { alpha: Self::ALPHA, });
+    let constructor = layout.constructor(
+        &ident("ContinuousEkf"),
+        &quote! {
+            /// A filter from the initial estimate `x0` and covariance `p0` and the noise
+            /// spectral densities `q` and `r` (symmetric: upper triangles are read).
+        },
+        &TokenStream::new(),
+        &quote! { , #alpha_init },
+    );
+    let alpha_items = spec.alpha.map(|alpha| alpha_items(alpha, scalar));
+    let doc = type_doc(spec);
     let tokens = quote! {
         #[doc = #doc]
         #[derive(Clone, Copy, Debug, PartialEq)]
         pub struct ContinuousEkf {
-            x: [#ty; #n_len],
-            p: [#ty; #np],
-            q: #q_field,
-            r: [#ty; #mp],
+            #fields
             #alpha_field
         }
 
         impl ContinuousEkf {
-            /// Integration sub-steps per sample, for state and Riccati equation alike.
-            pub const SUBSTEPS: u32 = #substeps_lit;
+            #substeps
 
-            /// A filter from the initial estimate `x0` and covariance `p0` and the noise
-            /// spectral densities `q` and `r` (symmetric: upper triangles are read).
-            #[must_use]
-            pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len], #q_param, r: &[[#ty; #m_len]; #m_len]) -> ContinuousEkf {
-                ContinuousEkf { x: x0, p: #pack_p0, q: #pack_q, r: #pack_r, #alpha_init }
-            }
+            #constructor
 
             #accessors
 
@@ -128,4 +90,53 @@ pub fn emit_continuous_ekf(
         substep_ops,
         step_ops,
     }
+}
+
+/// The prescribed degree of stability `alpha` (Reif et al.): its default, generated as
+/// `alpha`, its getter and its setter.
+fn alpha_items(alpha: f64, scalar: Scalar) -> TokenStream {
+    let ty = ident(scalar.type_name());
+    let value = literal(alpha, scalar);
+    let zero = literal(0.0, scalar);
+    quote! {
+        /// The default prescribed degree of stability `alpha` (per second): the
+        /// estimation error of a filter that converges decays at least as
+        /// `exp(-alpha t)` (Reif et al.).
+        pub const ALPHA: #ty = #value;
+
+        /// The prescribed degree of stability in use.
+        #[must_use]
+        pub fn alpha(&self) -> #ty {
+            self.alpha
+        }
+
+        /// Sets the prescribed degree of stability `alpha >= 0` (per second; `0` gives
+        /// the standard continuous-time EKF). Rejects a negative or non-finite value
+        /// with [`Status::RejectedInput`], leaving the filter unchanged.
+        pub fn set_alpha(&mut self, alpha: #ty) -> Status {
+            if !(alpha >= #zero && alpha.is_finite()) {
+                return Status::RejectedInput;
+            }
+            self.alpha = alpha;
+            Status::Ok
+        }
+    }
+}
+
+/// The filter type's documentation: eq. 5, with `alpha` eq. 26.
+fn type_doc(spec: &ContinuousEkfSpec) -> String {
+    let riccati = if spec.alpha.is_some() {
+        "`P' = (F + alpha I) P + P (F + alpha I)' + Q - P H' R^-1 H P` (eq. 26, with a \
+         prescribed degree of stability `alpha`, Reif et al.)"
+    } else {
+        "`P' = F P + P F' + Q - P H' R^-1 H P`"
+    };
+    format!(
+        " Continuous-time extended Kalman filter of this model (Kulkarni and Purwar, \
+         \"Nonlinear experimental estimation and verification of a MIMO system through \
+         EKF\", eq. 5): `x' = f(x, u) + K (y - h(x))`, `K = P H' R^-1`, and {riccati}, \
+         `F = df/dx`, `H = dh/dx`, integrated over each sample with the model's rule and \
+         [`ContinuousEkf::SUBSTEPS`] sub-steps, input and measurement held. `Q` and `R` \
+         are spectral densities. The covariance is stored once, as a packed upper triangle."
+    )
 }

@@ -4,11 +4,11 @@
 //! and the Joseph-form covariance update.
 
 use crate::emit::code::{
-    commit_or_non_finite_with, guard_pivots, pack_upper, pivot_names, reject_non_finite,
-    var_idents, INNOVATION,
+    commit_or_non_finite_with, guard_pivots, pivot_names, var_idents, INNOVATION,
 };
 use crate::emit::filter::{
-    finiteness_probe, model_names, noise_argument, noise_vars, packed_vars, time_param,
+    finiteness_probe, model_names, name_estimate, packed_vars, time_param, unclaimed_name,
+    Arguments, FilterLayout, FilterVars,
 };
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
@@ -16,10 +16,10 @@ use super::spec::EkfSpec;
 use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
 use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed, Matrix};
-use crate::symbolic::substitute;
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::TokenStream;
 use quote::quote;
+use std::collections::BTreeSet;
 
 /// Generated EKF code and the cost of its two halves.
 pub struct EkfCode {
@@ -35,7 +35,6 @@ pub struct EkfCode {
 
 /// The EKF of `model` in `scalar`.
 pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) -> EkfCode {
-    let diagonal = spec.diagonal_noise;
     let (predict, predict_ops) = method(model, mg, scalar, EkfMethod::Predict, spec);
     let (update, update_ops) = method(model, mg, scalar, EkfMethod::Update, spec);
     let (step, step_ops) = method(model, mg, scalar, EkfMethod::Step, spec);
@@ -48,46 +47,63 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
         Vec::new()
     };
     let ty = ident(scalar.type_name());
-    let (n, m) = (model.state_len(), model.outputs.len());
-    let [n_len, m_len, np, mp] =
-        [n, m, packed_len(n), packed_len(m)].map(proc_macro2::Literal::usize_unsuffixed);
+    let layout = FilterLayout::new(model, spec.diagonal_noise, &ty);
+    let methods = quote! {
+        #step
 
-    let (pack_p0, pack_r) = (pack_upper("p0", n), pack_upper("r", m));
-    let (q_param, q_field, pack_q) = noise_argument("q", n, diagonal, &ty);
-    let accessors = crate::emit::code::estimate_accessors(n, &ty);
-    let zero = crate::emit::lower::literal(0.0, scalar);
-    let (gate_field, gate_init, mut gate_methods) = gate_items(spec.gate, &ty, scalar);
-    if spec.gate.is_some() {
-        gate_methods.extend(keep_prediction_method(model, &ty));
+        #predict
+
+        #update
+
+        #(#partial_updates)*
+    };
+    EkfCode {
+        tokens: ekf_type(model, spec, scalar, &layout, &methods),
+        predict_ops,
+        update_ops,
+        step_ops,
     }
-    let setters = crate::emit::tuning::noise_setters(n, m, diagonal, &ty);
+}
+
+/// The filter's type: the struct (estimate, covariance, noise, the last innovation and
+/// its covariance, the gate, the known constants) and its methods, `methods` (the steps)
+/// last.
+fn ekf_type(
+    model: &Model,
+    spec: &EkfSpec,
+    scalar: Scalar,
+    layout: &FilterLayout,
+    methods: &TokenStream,
+) -> TokenStream {
+    let FilterLayout {
+        ty,
+        m_len,
+        mp,
+        accessors,
+        setters,
+        ..
+    } = layout;
+    let (gate_field, gate_init, mut gate_methods) = gate_items(spec.gate, ty, scalar);
+    if spec.gate.is_some() {
+        gate_methods.extend(keep_prediction_method(model, ty));
+    }
+    let known = crate::emit::known::known_items(model, ty);
+    let (known_field, known_methods) = (&known.field, &known.methods);
     let type_name = ident(&spec.type_name);
     let (type_doc, convention_doc) = type_doc(spec);
-    let identity = packed_identity(m, scalar);
-    let nis_method = nis_method(model, scalar);
-    let known = crate::emit::known::known_items(model, &ty);
-    let (known_field, known_param, known_init, known_methods) =
-        (known.field, known.param, known.init, known.methods);
-
-    let new_doc = if diagonal {
-        " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
-         variances `q` (a diagonal covariance) and the measurement noise covariance `r`. The \
-         matrices are symmetric: only their upper triangles are read."
-    } else {
-        " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
-         covariance `q` and the measurement noise covariance `r`. The matrices are \
-         symmetric: only their upper triangles are read."
-    };
-    let tokens = quote! {
+    let fields = layout.fields();
+    // Before any measurement: a zero innovation, of unit covariance.
+    let zero = crate::emit::lower::literal(0.0, scalar);
+    let identity = packed_identity(model.outputs.len(), scalar);
+    let constructor = constructor_tokens(spec, layout, (&zero, &identity), &gate_init, &known);
+    let innovation_methods = innovation_methods(model, layout, scalar, (&zero, &identity));
+    quote! {
         #[doc = #type_doc]
         ///
         #[doc = #convention_doc]
         #[derive(Clone, Copy, Debug, PartialEq)]
         pub struct #type_name {
-            x: [#ty; #n_len],
-            p: [#ty; #np],
-            q: #q_field,
-            r: [#ty; #mp],
+            #fields
             innovation: [#ty; #m_len],
             innovation_covariance: [#ty; #mp],
             #gate_field
@@ -95,40 +111,9 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
         }
 
         impl #type_name {
-            #[doc = #new_doc]
-            #[must_use]
-            pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len], #q_param, r: &[[#ty; #m_len]; #m_len] #known_param) -> #type_name {
-                #type_name {
-                    x: x0,
-                    p: #pack_p0,
-                    q: #pack_q,
-                    r: #pack_r,
-                    innovation: [#zero; #m_len],
-                    innovation_covariance: #identity,
-                    #gate_init
-                    #known_init
-                }
-            }
+            #constructor
 
-            /// Starts the filter again from the estimate `x0` and covariance `p0` (only its
-            /// upper triangle is read), keeping the noise covariances: the way back after
-            /// a fault (a run of [`Status::NonFinite`] or of rejected outliers) or a
-            /// restart of the plant. The innovation is cleared.
-            pub fn reset(&mut self, x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len]) {
-                self.x = x0;
-                self.p = #pack_p0;
-                self.innovation = [#zero; #m_len];
-                self.innovation_covariance = #identity;
-            }
-
-            /// The innovation `y - h(x)` of the last measurement used or rejected: what
-            /// the measurement said that the prediction did not.
-            #[must_use]
-            pub fn innovation(&self) -> [#ty; #m_len] {
-                self.innovation
-            }
-
-            #nis_method
+            #innovation_methods
 
             #gate_methods
 
@@ -138,20 +123,81 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
 
             #known_methods
 
-            #step
-
-            #predict
-
-            #update
-
-            #(#partial_updates)*
+            #methods
         }
+    }
+}
+
+/// `fn new`: the shared layout's constructor, with the innovation and its covariance
+/// before any measurement (`zero`, `identity`), the gate's default and the known constants.
+fn constructor_tokens(
+    spec: &EkfSpec,
+    layout: &FilterLayout,
+    (zero, identity): (&TokenStream, &TokenStream),
+    gate_init: &TokenStream,
+    known: &crate::emit::known::KnownItems,
+) -> TokenStream {
+    let new_doc = if spec.diagonal_noise {
+        " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
+         variances `q` (a diagonal covariance) and the measurement noise covariance `r`. The \
+         matrices are symmetric: only their upper triangles are read."
+    } else {
+        " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
+         covariance `q` and the measurement noise covariance `r`. The matrices are \
+         symmetric: only their upper triangles are read."
     };
-    EkfCode {
-        tokens,
-        predict_ops,
-        update_ops,
-        step_ops,
+    let m_len = &layout.m_len;
+    let known_init = &known.init;
+    layout.constructor(
+        &ident(&spec.type_name),
+        &quote! { #[doc = #new_doc] },
+        &known.param,
+        &quote! {
+            ,
+            innovation: [#zero; #m_len],
+            innovation_covariance: #identity,
+            #gate_init
+            #known_init
+        },
+    )
+}
+
+/// `reset`, `innovation` and `normalised_innovation_squared`: starting again, and what
+/// the last measurement said.
+fn innovation_methods(
+    model: &Model,
+    layout: &FilterLayout,
+    scalar: Scalar,
+    (zero, identity): (&TokenStream, &TokenStream),
+) -> TokenStream {
+    let FilterLayout {
+        ty,
+        n_len,
+        m_len,
+        pack_p0,
+        ..
+    } = layout;
+    let nis_method = nis_method(model, scalar);
+    quote! {
+        /// Starts the filter again from the estimate `x0` and covariance `p0` (only its
+        /// upper triangle is read), keeping the noise covariances: the way back after
+        /// a fault (a run of [`Status::NonFinite`] or of rejected outliers) or a
+        /// restart of the plant. The innovation is cleared.
+        pub fn reset(&mut self, x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len]) {
+            self.x = x0;
+            self.p = #pack_p0;
+            self.innovation = [#zero; #m_len];
+            self.innovation_covariance = #identity;
+        }
+
+        /// The innovation `y - h(x)` of the last measurement used or rejected: what
+        /// the measurement said that the prediction did not.
+        #[must_use]
+        pub fn innovation(&self) -> [#ty; #m_len] {
+            self.innovation
+        }
+
+        #nis_method
     }
 }
 
@@ -196,13 +242,7 @@ fn nis_method(model: &Model, scalar: Scalar) -> TokenStream {
     let innovation: Vec<NodeId> = model
         .outputs
         .iter()
-        .map(|o| {
-            let mut name = format!("{}_innovation", o.name);
-            while avoid.contains(&name) {
-                name.push('_');
-            }
-            graph.var(&name)
-        })
+        .map(|o| graph.var(&unclaimed_name(format!("{}_innovation", o.name), &avoid)))
         .collect();
     let s_vars = packed_vars(&mut graph, "s", m, &avoid);
     let s = symmetric_from_packed(&s_vars, m);
@@ -303,6 +343,73 @@ enum EkfMethod {
     UpdateOutput(usize),
 }
 
+impl EkfMethod {
+    /// Whether the method predicts the next sample.
+    fn predicts(self) -> bool {
+        matches!(self, EkfMethod::Predict | EkfMethod::Step)
+    }
+
+    /// Whether the method corrects with a measurement.
+    fn updates(self) -> bool {
+        self != EkfMethod::Predict
+    }
+
+    /// Whether the method corrects with every output at once: only such a correction
+    /// stores its innovation and passes the gate (a threshold for `Y_LEN` degrees of
+    /// freedom).
+    fn corrects_all(self) -> bool {
+        matches!(self, EkfMethod::Update | EkfMethod::Step)
+    }
+
+    /// The outputs this method corrects with: one for a partial update, else all.
+    fn outputs(self, m: usize) -> Vec<usize> {
+        match self {
+            EkfMethod::UpdateOutput(j) => vec![j],
+            _ => (0..m).collect(),
+        }
+    }
+
+    /// The method's name and documentation.
+    fn name_and_doc(self, model: &Model, spec: &EkfSpec) -> (proc_macro2::Ident, String) {
+        let (name, doc) = match self {
+            EkfMethod::UpdateOutput(j) => {
+                let output = &model.outputs[j].name;
+                let doc = format!(
+                    " Corrects the estimate with the measurement `y` of the output `{output}` \
+                     alone, for a sensor sampled at its own rate (Joseph form, its variance \
+                     `R[{j}][{j}]`). With uncorrelated measurement noise (a diagonal `R`), \
+                     updating with each output in turn equals [`{ty_name}::update`] with all of \
+                     them. Neither stores an innovation nor passes an innovation gate. Rejects a \
+                     non-finite measurement and a non-positive innovation variance; leaves the \
+                     filter unchanged unless it returns [`Status::Ok`].",
+                    ty_name = spec.type_name
+                );
+                return (ident(&format!("update_{output}")), doc);
+            }
+            EkfMethod::Predict => (
+                "predict",
+                " Predicts the next sample: `x = f(x, u)`, `P = A P A' + Q` with \
+                 `A = df/dx` at the current estimate. Rejects a non-finite input; leaves the \
+                 filter unchanged unless it returns [`Status::Ok`].",
+            ),
+            EkfMethod::Update => (
+                "update",
+                " Corrects the estimate with the measurement `y` (Joseph form). Rejects \
+                 a non-finite measurement and a non-positive innovation variance (never divided \
+                 by); leaves the filter unchanged unless it returns [`Status::Ok`].",
+            ),
+            EkfMethod::Step => (
+                "step",
+                " One sample: predicts `x[k]` from `x[k-1]` with the input `u[k-1]` held \
+                 over the sample, then corrects it with the measurement `y[k]`, in one pass that \
+                 stores nothing in between. Leaves the filter unchanged unless it returns \
+                 [`Status::Ok`].",
+            ),
+        };
+        (ident(name), doc.to_owned())
+    }
+}
+
 /// One EKF method (Alg. 1): the prediction and/or the correction, built symbolically so
 /// products skip the Jacobians' structural zeros, then lowered with its guards.
 fn method(
@@ -312,286 +419,247 @@ fn method(
     kind: EkfMethod,
     spec: &EkfSpec,
 ) -> (TokenStream, OpCount) {
-    let diagonal_noise = spec.diagonal_noise;
-    let mut g = mg.clone();
-    let n = model.state_len();
-    let m = model.outputs.len();
-    let predicts = matches!(kind, EkfMethod::Predict | EkfMethod::Step);
-    let updates = kind != EkfMethod::Predict;
-    // The outputs this method corrects with: one for a partial update, else all.
-    let used_outputs: Vec<usize> = match kind {
-        EkfMethod::UpdateOutput(j) => vec![j],
-        _ => (0..m).collect(),
-    };
-    let partial = used_outputs.len() < m;
-    let avoid = model_names(model);
-    let p_vars = packed_vars(&mut g.graph, "p", n, &avoid);
-    let (q_vars, q) = noise_vars(&mut g.graph, "q", n, diagonal_noise, &avoid);
-    let r_vars = packed_vars(&mut g.graph, "r", m, &avoid);
-    let taken = |name: &str| avoid.iter().any(|a| a == name);
-    let y_vars: Vec<NodeId> = used_outputs
-        .iter()
-        .map(|&j| &model.outputs[j])
-        .map(|o| {
-            let mut name = format!("{}_measured", o.name);
-            while taken(&name) {
-                name.push('_');
-            }
-            g.graph.var(&name)
-        })
-        .collect();
-    // In a step the prediction runs from the previous sample's time, the correction at
-    // the measurement's.
-    let t_prev = (kind == EkfMethod::Step && model.uses_time()).then(|| g.graph.var("t_prev"));
+    let mut nodes = EkfNodes::build(model, mg, kind, spec);
+    let (body, used_vars, ops) = lower(&mut nodes, model, scalar, kind);
+    let ty = ident(scalar.type_name());
+    let arguments = arguments(&nodes, model, kind, &used_vars, &ty);
+    let (name, doc) = kind.name_and_doc(model, spec);
+    (arguments.method(&name, &doc, body), ops)
+}
 
-    let mut x = g.x.clone();
-    let mut p = symmetric_from_packed(&p_vars, n);
-    if predicts {
-        let a = g.jacobian_f_wrt_x();
-        let mut f = g.f.clone();
-        let mut a = a;
-        if let Some(t_prev) = t_prev {
-            let at_prev = [(g.var_id(g.t), t_prev)];
-            f = f
-                .iter()
-                .map(|&e| substitute(&mut g.graph, e, &at_prev))
-                .collect();
-            a = a
-                .iter()
-                .map(|row| {
-                    row.iter()
-                        .map(|&e| substitute(&mut g.graph, e, &at_prev))
-                        .collect()
-                })
-                .collect();
+/// One EKF method before lowering: the model's graph with the method's variables, and
+/// what the method computes (Alg. 1) through the shared Kalman stage.
+struct EkfNodes {
+    /// The model's graph, with the method's variables and nodes.
+    g: ModelGraph,
+    /// Names generated variables avoid.
+    avoid: Vec<String>,
+    /// The covariance, noise and measurement variables.
+    vars: FilterVars,
+    /// In a step, the previous sample's time: the prediction runs from it, the
+    /// correction at the measurement's time.
+    t_prev: Option<NodeId>,
+    /// The new estimate.
+    x: Vec<NodeId>,
+    /// The new covariance.
+    p: Matrix,
+    /// The innovation covariance's pivots, checked positive before their reciprocals.
+    pivots: Vec<NodeId>,
+    /// The pivots' reciprocals.
+    reciprocals: Vec<NodeId>,
+    /// The innovation stored (a correction with every output), else empty.
+    innovation: Vec<NodeId>,
+    /// Its covariance, packed.
+    innovation_covariance: Vec<NodeId>,
+    /// The normalised innovation squared, which only the gate needs at once.
+    nis: Option<NodeId>,
+}
+
+impl EkfNodes {
+    /// Declares the method's variables, then predicts (`x = f(x, u)`, `P = A P A' + Q`)
+    /// and/or corrects (Joseph form) as `kind` asks.
+    fn build(model: &Model, mg: &ModelGraph, kind: EkfMethod, spec: &EkfSpec) -> EkfNodes {
+        let mut g = mg.clone();
+        let outputs = kind.outputs(model.outputs.len());
+        let avoid = model_names(model);
+        let vars = FilterVars::declare(&mut g.graph, model, &outputs, spec.diagonal_noise, &avoid);
+        let t_prev = (kind == EkfMethod::Step && model.uses_time()).then(|| g.graph.var("t_prev"));
+        let mut nodes = EkfNodes {
+            x: g.x.clone(),
+            p: symmetric_from_packed(&vars.p, model.state_len()),
+            g,
+            avoid,
+            vars,
+            t_prev,
+            pivots: Vec::new(),
+            reciprocals: Vec::new(),
+            innovation: Vec::new(),
+            innovation_covariance: Vec::new(),
+            nis: None,
+        };
+        if kind.predicts() {
+            let q = &nodes.vars.q_matrix;
+            (nodes.x, nodes.p) = kalman::ekf_predict(&mut nodes.g, &nodes.p, q, t_prev);
         }
-        p = kalman::predict_covariance(&mut g.graph, &a, &p, &q);
-        x = f;
+        if kind.updates() {
+            nodes.correct(
+                model.outputs.len(),
+                &outputs,
+                kind.corrects_all() && spec.gate.is_some(),
+            );
+        }
+        nodes
     }
-    let mut pivots = Vec::new();
-    let mut reciprocals = Vec::new();
-    let mut innovation = Vec::new();
-    let mut innovation_covariance = Vec::new();
-    let mut nis = None;
-    if updates {
-        let r_all = symmetric_from_packed(&r_vars, m);
-        let r: Matrix = used_outputs
+
+    /// The Joseph-form correction with `outputs` (of `m`), through the shared Kalman
+    /// stage; with every output, the innovation and its covariance to store, and with the
+    /// gate (`gated`) the normalised innovation squared.
+    fn correct(&mut self, m: usize, outputs: &[usize], gated: bool) {
+        let r_all = symmetric_from_packed(&self.vars.r, m);
+        let r: Matrix = outputs
             .iter()
-            .map(|&i| used_outputs.iter().map(|&j| r_all[i][j]).collect())
+            .map(|&i| outputs.iter().map(|&j| r_all[i][j]).collect())
             .collect();
-        // h and its Jacobian at the estimate being corrected.
-        let at_x: Vec<(VarId, NodeId)> =
-            g.x.iter()
-                .map(|&v| g.var_id(v))
-                .zip(x.iter().copied())
-                .collect();
-        let c = g.jacobian_h_wrt_x();
-        let c: Matrix = used_outputs
-            .iter()
-            .map(|&i| &c[i])
-            .map(|row| {
-                row.iter()
-                    .map(|&e| substitute(&mut g.graph, e, &at_x))
-                    .collect()
-            })
-            .collect();
-        let h: Vec<NodeId> = used_outputs
-            .iter()
-            .map(|&i| substitute(&mut g.graph, g.h[i], &at_x))
-            .collect();
-        let graph = &mut g.graph;
-        let residual: Vec<NodeId> = y_vars
-            .iter()
-            .zip(&h)
-            .map(|(&y, &h)| graph.sub(y, h))
-            .collect();
-        let mu = used_outputs.len();
-        let update = kalman::update(graph, &x, &p, &residual, &c, &r, |g, j| {
-            g.var(&pivot_names(mu, j, INNOVATION, "").1)
-        });
-        x = update.x;
-        p = update.p;
-        pivots = update.pivots;
-        reciprocals = update.reciprocals;
+        let mu = outputs.len();
+        let correction = kalman::ekf_correct(
+            &mut self.g,
+            &self.x,
+            &self.p,
+            &self.vars.y,
+            &r,
+            outputs,
+            |g, j| g.var(&pivot_names(mu, j, INNOVATION, "").1),
+        );
+        let update = correction.update;
+        (self.x, self.p) = (update.x, update.p);
+        (self.pivots, self.reciprocals) = (update.pivots, update.reciprocals);
         // A partial update neither stores its innovation (the stored one is that of
-        // every output) nor passes the gate (a threshold for `Y_LEN` degrees of freedom).
-        if !partial {
-            innovation = residual;
-            innovation_covariance = packed_upper(&update.s);
+        // every output) nor passes the gate.
+        if mu == m {
+            self.innovation = correction.residual;
+            self.innovation_covariance = packed_upper(&update.s);
             // Only the gate needs it at once; otherwise `normalised_innovation_squared()`
             // computes it from the stored innovation and its covariance when asked.
-            nis = spec.gate.is_some().then_some(update.nis);
+            self.nis = gated.then_some(update.nis);
         }
     }
-    let probe = finiteness_probe(&mut g.graph, &x, &p);
-    let p_packed = packed_upper(&p);
-    let gated = updates && !partial && spec.gate.is_some();
+}
 
-    let results: Vec<NodeId> = x.iter().chain(&p_packed).copied().collect();
+/// Lowers an EKF method: its statements, ending in the commit of the new estimate (with
+/// the innovation when it stores one), the variables they read, and their arithmetic.
+fn lower(
+    nodes: &mut EkfNodes,
+    model: &Model,
+    scalar: Scalar,
+    kind: EkfMethod,
+) -> (TokenStream, BTreeSet<VarId>, OpCount) {
+    let probe = finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p);
+    let p_packed = packed_upper(&nodes.p);
+    let results: Vec<NodeId> = nodes.x.iter().chain(&p_packed).copied().collect();
     let mut all_roots = results.clone();
     all_roots.push(probe);
-    all_roots.extend(&pivots);
-    all_roots.extend(&innovation);
-    all_roots.extend(&innovation_covariance);
-    all_roots.extend(nis);
-    let namer = TempNamer::new(avoid.iter().map(String::as_str));
+    all_roots.extend(&nodes.pivots);
+    all_roots.extend(&nodes.innovation);
+    all_roots.extend(&nodes.innovation_covariance);
+    all_roots.extend(nodes.nis);
+    let (g, vars) = (&nodes.g, &nodes.vars);
+    let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
     lowerer.read_lazily(&quote! { self.x }, &g.x);
-    lowerer.read_lazily(&quote! { self.p }, &p_vars);
-    lowerer.read_lazily(&quote! { self.q }, &q_vars);
-    lowerer.read_lazily(&quote! { self.r }, &r_vars);
+    lowerer.read_lazily(&quote! { self.p }, &vars.p);
+    lowerer.read_lazily(&quote! { self.q }, &vars.q);
+    lowerer.read_lazily(&quote! { self.r }, &vars.r);
     lowerer.read_lazily(&quote! { self.known }, &g.known);
-    let suffix = if updates { "new" } else { "pred" };
-    name_results(&mut lowerer, model, &x, &p_vars, &p_packed, suffix);
+    let suffix = if kind.updates() { "new" } else { "pred" };
+    name_results(&mut lowerer, model, &nodes.x, &vars.p, &p_packed, suffix);
     guard_pivots(
         &mut lowerer,
-        &pivots,
-        &reciprocals,
+        &nodes.pivots,
+        &nodes.reciprocals,
         (INNOVATION, ""),
         &quote! { return Status::NonPositiveInnovation; },
         scalar,
     );
-    let innovation_names: Vec<String> = model
-        .outputs
-        .iter()
-        .map(|o| format!("{}_innovation", o.name))
-        .collect();
-    for (&r, name) in innovation.iter().zip(&innovation_names) {
-        lowerer.prefer_name(r, name);
+    for (&r, o) in nodes.innovation.iter().zip(&model.outputs) {
+        lowerer.prefer_name(r, &format!("{}_innovation", o.name));
     }
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
-    // The innovation and its normalised square come last, where they hold no register
-    // while the update runs; so does the gate's test, just before the commit (an outlier
-    // costs a whole update, the usual sample nothing more).
-    let mut store_innovation = TokenStream::new();
-    if updates && !partial {
-        let innovation_values = lowerer.segment(&innovation);
-        let covariance_values = lowerer.segment(&innovation_covariance);
-        store_innovation = store_innovation_tokens(&innovation_values, &covariance_values);
-        if let Some(nis) = nis {
-            let nis = lowerer.bind(nis, "nis");
-            let keep_prediction = (kind == EkfMethod::Step).then(|| {
-                let args = prediction_arguments(model);
-                quote! {
-                    self.keep_prediction(
-                        #(#args,)* [#(#innovation_values),*], [#(#covariance_values),*],
-                    )
-                }
-            });
-            let rejection = outlier_rejection(keep_prediction, &store_innovation);
-            // NaN is not within the gate: a measurement that gives it is rejected.
-            let within_gate = lowerer.fresh_name("within_gate");
-            lowerer.statement(quote! {
-                let #within_gate = #nis <= self.gate;
-                if !#within_gate {
-                    #rejection
-                }
-            });
-            lowerer.count_extra(OpCount {
-                compare: 1,
-                ..Default::default()
-            });
-        }
-    }
+    let store_innovation = if kind.corrects_all() {
+        innovation_and_gate(&mut lowerer, nodes, model, kind)
+    } else {
+        TokenStream::new()
+    };
     let Lowered {
         statements,
         used_vars,
         ops,
     } = lowerer.finish();
-    let (x_values, p_values) = values.split_at(n);
+    let (x_values, p_values) = values.split_at(model.state_len());
     let commit = commit_or_non_finite_with(&probe, x_values, p_values, &store_innovation);
     let statements = crate::emit::scopes::scoped(statements, &commit);
+    (quote! { #(#statements)* #commit }, used_vars, ops)
+}
 
+/// The innovation and its covariance, computed last, where they hold no register while
+/// the update runs, and stored with the estimate (the statements returned); with a gate,
+/// its test, just before the commit (an outlier costs a whole update, the usual sample
+/// nothing more).
+fn innovation_and_gate(
+    lowerer: &mut Lowerer,
+    nodes: &EkfNodes,
+    model: &Model,
+    kind: EkfMethod,
+) -> TokenStream {
+    let innovation_values = lowerer.segment(&nodes.innovation);
+    let covariance_values = lowerer.segment(&nodes.innovation_covariance);
+    let store_innovation = store_innovation_tokens(&innovation_values, &covariance_values);
+    let Some(nis) = nodes.nis else {
+        return store_innovation;
+    };
+    let nis = lowerer.bind(nis, "nis");
+    let keep_prediction = (kind == EkfMethod::Step).then(|| {
+        let args = prediction_arguments(model);
+        quote! {
+            self.keep_prediction(
+                #(#args,)* [#(#innovation_values),*], [#(#covariance_values),*],
+            )
+        }
+    });
+    let rejection = outlier_rejection(keep_prediction, &store_innovation);
+    // NaN is not within the gate: a measurement that gives it is rejected.
+    let within_gate = lowerer.fresh_name("within_gate");
+    lowerer.statement(quote! {
+        let #within_gate = #nis <= self.gate;
+        if !#within_gate {
+            #rejection
+        }
+    });
+    lowerer.count_extra(OpCount {
+        compare: 1,
+        ..Default::default()
+    });
+    store_innovation
+}
+
+/// The method's arguments: the times (a gated step passes `t_prev` on to `predict` when
+/// it rejects an outlier, so always reads it), the input of a prediction, the
+/// measurement of a correction (a scalar for one output alone).
+fn arguments(
+    nodes: &EkfNodes,
+    model: &Model,
+    kind: EkfMethod,
+    used_vars: &BTreeSet<VarId>,
+    ty: &proc_macro2::Ident,
+) -> Arguments {
+    let g = &nodes.g;
     let graph = &g.graph;
-    let ty = ident(scalar.type_name());
-    let u_idents = var_idents(graph, &g.u);
-    let y_idents = var_idents(graph, &y_vars);
-    let mut checked = Vec::new();
-    let mut params = Vec::new();
-    let mut unpack_inputs = Vec::new();
+    let mut arguments = Arguments::default();
     if model.uses_time() {
-        if let Some(t_prev) = t_prev {
-            // A gated step passes it on to `predict` when it rejects an outlier.
-            let t_prev = if gated {
+        if let Some(t_prev) = nodes.t_prev {
+            arguments.plain(if nodes.nis.is_some() {
                 quote! { t_prev: #ty }
             } else {
-                time_param(graph, t_prev, &used_vars, &ty, "t_prev")
-            };
-            params.push(quote! { #t_prev });
+                time_param(graph, t_prev, used_vars, ty, "t_prev")
+            });
         }
-        let t = time_param(graph, g.t, &used_vars, &ty, "t");
-        params.push(quote! { #t });
+        arguments.plain(time_param(graph, g.t, used_vars, ty, "t"));
     }
-    if predicts && !g.u.is_empty() {
-        let len = proc_macro2::Literal::usize_unsuffixed(g.u.len());
-        let arg = if kind == EkfMethod::Step {
-            ident("u_prev")
+    if kind.predicts() && !g.u.is_empty() {
+        let name = if kind == EkfMethod::Step {
+            "u_prev"
         } else {
-            ident("u")
+            "u"
         };
-        params.push(quote! { #arg: &[#ty; #len] });
-        unpack_inputs.push(quote! { let [#(#u_idents),*] = *#arg; });
-        checked.extend(u_idents.iter().cloned());
+        arguments.array(name, var_idents(graph, &g.u), ty);
     }
-    if updates && partial {
-        let y_ident = &y_idents[0];
-        params.push(quote! { y: #ty });
-        unpack_inputs.push(quote! { let #y_ident = y; });
-        checked.extend(y_idents.iter().cloned());
-    } else if updates {
-        let len = proc_macro2::Literal::usize_unsuffixed(m);
-        params.push(quote! { y: &[#ty; #len] });
-        unpack_inputs.push(quote! { let [#(#y_idents),*] = *y; });
-        checked.extend(y_idents.iter().cloned());
+    let y = var_idents(graph, &nodes.vars.y);
+    match kind {
+        EkfMethod::Predict => {}
+        EkfMethod::UpdateOutput(_) => arguments.scalar("y", y[0].clone(), ty),
+        EkfMethod::Update | EkfMethod::Step => arguments.array("y", y, ty),
     }
-    let check = reject_non_finite(&checked);
-    let partial_doc;
-    let (name, doc) = match kind {
-        EkfMethod::UpdateOutput(j) => {
-            let output = &model.outputs[j].name;
-            partial_doc = format!(
-                " Corrects the estimate with the measurement `y` of the output `{output}` \
-                 alone, for a sensor sampled at its own rate (Joseph form, its variance \
-                 `R[{j}][{j}]`). With uncorrelated measurement noise (a diagonal `R`), \
-                 updating with each output in turn equals [`{ty_name}::update`] with all of \
-                 them. Neither stores an innovation nor passes an innovation gate. Rejects a \
-                 non-finite measurement and a non-positive innovation variance; leaves the \
-                 filter unchanged unless it returns [`Status::Ok`].",
-                ty_name = spec.type_name
-            );
-            (ident(&format!("update_{output}")), partial_doc.as_str())
-        }
-        EkfMethod::Predict => (
-            ident("predict"),
-            " Predicts the next sample: `x = f(x, u)`, `P = A P A' + Q` with \
-             `A = df/dx` at the current estimate. Rejects a non-finite input; leaves the \
-             filter unchanged unless it returns [`Status::Ok`].",
-        ),
-        EkfMethod::Update => (
-            ident("update"),
-            " Corrects the estimate with the measurement `y` (Joseph form). Rejects \
-             a non-finite measurement and a non-positive innovation variance (never divided \
-             by); leaves the filter unchanged unless it returns [`Status::Ok`].",
-        ),
-        EkfMethod::Step => (
-            ident("step"),
-            " One sample: predicts `x[k]` from `x[k-1]` with the input `u[k-1]` held \
-             over the sample, then corrects it with the measurement `y[k]`, in one pass that \
-             stores nothing in between. Leaves the filter unchanged unless it returns \
-             [`Status::Ok`].",
-        ),
-    };
-    let tokens = quote! {
-        #[doc = #doc]
-        pub fn #name(&mut self, #(#params),*) -> Status {
-            #(#unpack_inputs)*
-            #check
-            #(#statements)*
-            #commit
-        }
-    };
-    (tokens, ops)
+    arguments
 }
 
 /// `self.innovation = [..]; self.innovation_covariance = [..];`
@@ -676,9 +744,7 @@ fn name_results(
     p: &[NodeId],
     suffix: &str,
 ) {
-    for (&node, name) in x.iter().zip(model.state_names()) {
-        lowerer.prefer_name(node, &format!("{name}_{suffix}"));
-    }
+    name_estimate(lowerer, model, x, suffix);
     let names: Vec<String> = var_idents_of(lowerer, p_vars);
     for (&node, name) in p.iter().zip(names) {
         lowerer.prefer_name(node, &format!("{name}_{suffix}"));

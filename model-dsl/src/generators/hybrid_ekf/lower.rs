@@ -3,17 +3,14 @@
 //! sect. 3.2): the shared continuous stage between samples and the EKF's Joseph-form
 //! update at each sample, assembled into the `HybridEkf` type.
 
-use crate::emit::code::{estimate_accessors, pack_upper};
 use crate::emit::continuous_filter::{method, Kind};
-use crate::emit::filter::noise_argument;
+use crate::emit::filter::{substeps_constant, FilterLayout};
 use crate::emit::lower::OpCount;
 use crate::emit::names::ident;
-use crate::emit::tuning::noise_setters;
 use super::spec::HybridEkfSpec;
 use crate::model::{Model, Scalar};
-use crate::symbolic::linalg::packed_len;
 use crate::symbolic::ModelGraph;
-use proc_macro2::{Literal, TokenStream};
+use proc_macro2::TokenStream;
 use quote::quote;
 
 /// Generated hybrid EKF code and its cost.
@@ -37,27 +34,19 @@ pub fn emit_hybrid_ekf(
     let (step, step_ops, substep_ops) = method(model, mg, scalar, Kind::Step, diagonal);
     let (predict, ..) = method(model, mg, scalar, Kind::Predict, diagonal);
     let (update, ..) = method(model, mg, scalar, Kind::Update, diagonal);
-    let ty = ident(scalar.type_name());
-    let (n, m) = (model.state_len(), model.outputs.len());
-    let [n_len, m_len, np, mp] =
-        [n, m, packed_len(n), packed_len(m)].map(Literal::usize_unsuffixed);
-    let (pack_p0, pack_r) = (pack_upper("p0", n), pack_upper("r", m));
-    let (q_param, q_field, pack_q) = noise_argument("q", n, diagonal, &ty);
-    let accessors = estimate_accessors(n, &ty);
-    let setters = noise_setters(n, m, diagonal, &ty);
-    let substeps = mg.clone().substep(model).map_or(1, |(_, _, n)| n);
-    let substeps_lit = Literal::u32_unsuffixed(substeps);
-    let q_words = if diagonal {
-        "the process noise spectral densities `q` (a diagonal `Q`)"
-    } else {
-        "the process noise spectral density `q`"
-    };
-    let new_doc = format!(
-        " A filter from the initial estimate `x0` and covariance `p0`, {q_words} and the \
-         measurement noise covariance `r`. `Q` is a density (per second: a discrete \
-         covariance divided by the sample time, the paper's `Q = Q~ / T`). The matrices \
-         are symmetric: only their upper triangles are read."
+    let layout = FilterLayout::new(model, diagonal, &ident(scalar.type_name()));
+    let fields = layout.fields();
+    let FilterLayout {
+        accessors, setters, ..
+    } = &layout;
+    let substeps = substeps_constant(
+        model,
+        mg,
+        &quote! {
+            /// Integration sub-steps per sample, for state and covariance alike.
+        },
     );
+    let constructor = constructor_tokens(&layout, diagonal);
     let tokens = quote! {
         /// Hybrid (continuous-discrete) extended Kalman filter of this model (Takacs,
         /// Poloni, Rohal-Ilkiv, "Adaptive predictive control of transient vibrations of
@@ -72,21 +61,13 @@ pub fn emit_hybrid_ekf(
         /// `y[k]`.
         #[derive(Clone, Copy, Debug, PartialEq)]
         pub struct HybridEkf {
-            x: [#ty; #n_len],
-            p: [#ty; #np],
-            q: #q_field,
-            r: [#ty; #mp],
+            #fields
         }
 
         impl HybridEkf {
-            /// Integration sub-steps per sample, for state and covariance alike.
-            pub const SUBSTEPS: u32 = #substeps_lit;
+            #substeps
 
-            #[doc = #new_doc]
-            #[must_use]
-            pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len], #q_param, r: &[[#ty; #m_len]; #m_len]) -> HybridEkf {
-                HybridEkf { x: x0, p: #pack_p0, q: #pack_q, r: #pack_r }
-            }
+            #constructor
 
             #accessors
 
@@ -104,4 +85,26 @@ pub fn emit_hybrid_ekf(
         substep_ops,
         step_ops,
     }
+}
+
+/// `fn new`: the shared layout's constructor, `Q` a spectral density.
+fn constructor_tokens(layout: &FilterLayout, diagonal: bool) -> TokenStream {
+    let q_words = if diagonal {
+        "the process noise spectral densities `q` (a diagonal `Q`)"
+    } else {
+        "the process noise spectral density `q`"
+    };
+    let new_doc = format!(
+        " A filter from the initial estimate `x0` and covariance `p0`, {q_words} and the \
+         measurement noise covariance `r`. `Q` is a density (per second: a discrete \
+         covariance divided by the sample time, the paper's `Q = Q~ / T`). The matrices \
+         are symmetric: only their upper triangles are read."
+    );
+    let empty = TokenStream::new();
+    layout.constructor(
+        &ident("HybridEkf"),
+        &quote! { #[doc = #new_doc] },
+        &empty,
+        &empty,
+    )
 }
