@@ -1,4 +1,5 @@
 //! The double Kalman filter: the window transform and its two Kalman filters.
 
 pub mod lower;
+pub mod ltv;
 pub mod window;
