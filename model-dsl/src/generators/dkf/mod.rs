@@ -2,8 +2,11 @@
 //! whose coefficients a window of samples determines) and its two Kalman filters (AKF and
 //! LKF): `dkf(eta = 0.5, process_noise = diagonal)`.
 
+pub mod filters;
 pub mod lower;
+pub mod ltv;
 pub mod spec;
+pub mod transform;
 pub mod window;
 
 pub use spec::DkfSpec;

@@ -18,6 +18,7 @@
 //!
 //! A model outside this class gets a compile error naming the term that breaks it.
 
+use super::ltv;
 use crate::model::Model;
 use crate::symbolic::diff::Differentiator;
 use crate::symbolic::graph::{Graph, Node, NodeId, VarId};
@@ -45,7 +46,9 @@ enum Known {
 /// One row of the parameter system: `sum_p coefficients[p] theta_p = rhs`.
 #[derive(Clone, Debug)]
 struct Equation {
-    state: usize,
+    /// The [`ParamRow`] it takes, by index.
+    row: usize,
+    /// The sample it is taken at: the step from `k - delay` to `k - delay + 1`.
     delay: usize,
 }
 
@@ -87,204 +90,22 @@ pub struct WindowTransform {
 
 /// Derives the window transform of `model`, or says why the model is outside the class.
 pub fn derive(model: &Model, mg: &mut ModelGraph, eta: f64) -> Result<WindowTransform, String> {
-    if model.uses_time() {
-        return Err(
-            "the window transform needs a time-invariant model: the dynamics use `t`".into(),
-        );
-    }
+    check_class(model)?;
     let n = model.states.len();
     let np = model.params.len();
-    if np == 0 {
-        return Err(
-            "the double Kalman filter estimates parameters: declare at least one `param`".into(),
-        );
-    }
-    if np > MAX_PARAMS {
-        return Err(format!(
-            "the unrolled window solve supports at most {MAX_PARAMS} parameters, the model has {np}"
-        ));
-    }
-    let state_vars: Vec<VarId> = (0..n).map(|i| mg.var_id(mg.x[i])).collect();
-    let param_vars: Vec<VarId> = (n..n + np).map(|i| mg.var_id(mg.x[i])).collect();
-    let mut description = Vec::new();
-
-    // 1. Measured states.
-    let mut known: Vec<Option<(Known, usize)>> = vec![None; n];
-    for (i, (&h, output)) in mg.h.iter().zip(&model.outputs).enumerate() {
-        match mg.graph.node(h) {
-            Node::Var(v) if state_vars.contains(&v) => {
-                let s = state_vars.iter().position(|&x| x == v).unwrap_or(0);
-                if known[s].is_none() {
-                    known[s] = Some((Known::Measured { output: i }, 0));
-                    description.push(format!(
-                        "`{}` is measured by `{}`.",
-                        model.states[s].name, output.name
-                    ));
-                }
-            }
-            _ => {
-                return Err(format!(
-                    "the output `{}` is not a state: the window transform reads states from \
-                     outputs that measure them directly (`output y = x1`)",
-                    output.name
-                ))
-            }
-        }
-    }
-
-    // 2. States determined by finite differences of known ones.
-    let param_free = |mg: &mut ModelGraph, row: NodeId| {
-        param_vars.iter().all(|&p| {
-            let mut d = Differentiator::new(p);
-            let dp = d.diff(&mut mg.graph, row);
-            mg.graph.is_zero(dp)
-        })
+    let mut steps = Derivation {
+        model,
+        state_vars: (0..n).map(|i| mg.var_id(mg.x[i])).collect(),
+        param_vars: (n..n + np).map(|i| mg.var_id(mg.x[i])).collect(),
+        description: Vec::new(),
     };
-    let mut progress = true;
-    while progress {
-        progress = false;
-        for a in 0..n {
-            let Some((_, lag_a)) = known[a].clone() else {
-                continue;
-            };
-            let row = mg.f[a];
-            if !param_free(mg, row) {
-                continue;
-            }
-            let unknown: Vec<usize> = (0..n)
-                .filter(|&b| known[b].is_none())
-                .filter(|&b| {
-                    let mut d = Differentiator::new(state_vars[b]);
-                    let db = d.diff(&mut mg.graph, row);
-                    !mg.graph.is_zero(db)
-                })
-                .collect();
-            let [b] = unknown[..] else {
-                continue;
-            };
-            let mut d = Differentiator::new(state_vars[b]);
-            let coef = d.diff(&mut mg.graph, row);
-            if mg.graph.constant_value(coef).is_none_or(|c| c == 0.0) {
-                continue;
-            }
-            let zero = mg.graph.zero();
-            let rest = substitute(&mut mg.graph, row, &[(state_vars[b], zero)]);
-            known[b] = Some((
-                Known::Difference {
-                    from: a,
-                    coef,
-                    rest,
-                },
-                lag_a + 1,
-            ));
-            description.push(format!(
-                "`{}` follows from a finite difference of `{}` (one sample later).",
-                model.states[b].name, model.states[a].name
-            ));
-            progress = true;
-        }
-    }
-    if let Some(s) = known.iter().position(Option::is_none) {
-        return Err(format!(
-            "the state `{}` is not determined by the outputs: measure it, or let it appear with a \
-             constant coefficient in the step of a measured (or determined) state that has no \
-             parameter, as `x1 = x1 + TS * x2` determines `x2`",
-            model.states[s].name
-        ));
-    }
-    let lag: Vec<usize> = known
-        .iter()
-        .map(|k| k.as_ref().map_or(0, |(_, l)| *l))
-        .collect();
-
-    // 3. Parameter equations: rows linear in the parameters.
-    struct ParamRow {
-        state: usize,
-        coefficients: Vec<NodeId>,
-        rest: NodeId,
-        min_delay: usize,
-    }
-    let mut rows = Vec::new();
-    for c in 0..n {
-        let row = mg.f[c];
-        let mut coefficients = Vec::with_capacity(np);
-        for (p, &pv) in param_vars.iter().enumerate() {
-            let mut d = Differentiator::new(pv);
-            let coef = d.diff(&mut mg.graph, row);
-            for (q, &qv) in param_vars.iter().enumerate() {
-                let mut dq = Differentiator::new(qv);
-                let second = dq.diff(&mut mg.graph, coef);
-                if !mg.graph.is_zero(second) {
-                    return Err(format!(
-                        "the step of `{}` is not linear in the parameters: it has a term in `{}` \
-                         times `{}`. Reparameterise: make the product (or the nonlinear function \
-                         of a parameter) one parameter",
-                        model.states[c].name, model.params[p].name, model.params[q].name
-                    ));
-                }
-            }
-            coefficients.push(coef);
-        }
-        if coefficients.iter().all(|&c| mg.graph.is_zero(c)) {
-            continue;
-        }
-        let zeros: Vec<(VarId, NodeId)> =
-            param_vars.iter().map(|&p| (p, mg.graph.zero())).collect();
-        let rest = substitute(&mut mg.graph, row, &zeros);
-        let mut reads = BTreeSet::new();
-        for &node in coefficients.iter().chain([&rest]) {
-            free_vars(&mg.graph, node, &mut reads);
-        }
-        let max_lag = (0..n)
-            .filter(|&s| reads.contains(&state_vars[s]))
-            .map(|s| lag[s])
-            .max()
-            .unwrap_or(0);
-        rows.push(ParamRow {
-            state: c,
-            coefficients,
-            rest,
-            min_delay: max_lag.max(lag[c] + 1).max(1),
-        });
-    }
-
-    // Choose equations from the most recent samples until every parameter is matched.
-    let mut equations: Vec<Equation> = Vec::new();
-    let supports: Vec<Vec<usize>> = rows
-        .iter()
-        .map(|r| {
-            (0..np)
-                .filter(|&p| !mg.graph.is_zero(r.coefficients[p]))
-                .collect()
-        })
-        .collect();
-    let mut chosen_supports: Vec<Vec<usize>> = Vec::new();
-    let deepest = rows.iter().map(|r| r.min_delay).max().unwrap_or(1) + np;
-    'delays: for delay in 1..=deepest {
-        for (r, row) in rows.iter().enumerate() {
-            if delay < row.min_delay {
-                continue;
-            }
-            let mut trial = chosen_supports.clone();
-            trial.push(supports[r].clone());
-            if matching_size(&trial, np) > chosen_supports.len() {
-                chosen_supports = trial;
-                equations.push(Equation { state: r, delay });
-                if equations.len() == np {
-                    break 'delays;
-                }
-            }
-        }
-    }
-    if equations.len() < np {
-        let covered: BTreeSet<usize> = supports.iter().flatten().copied().collect();
-        let missing = (0..np).find(|p| !covered.contains(p)).unwrap_or(0);
-        return Err(format!(
-            "the parameter `{}` does not enter the step of any state the outputs determine, so \
-             no window determines it",
-            model.params[missing].name
-        ));
-    }
+    // 1. Measured states; 2. states determined by finite differences of known ones.
+    let mut known = steps.measured_states(mg)?;
+    steps.difference_states(mg, &mut known);
+    let lag = steps.lags(&known)?;
+    // 3. Parameter equations: rows linear in the parameters, from the most recent samples.
+    let rows = steps.parameter_rows(mg, &lag)?;
+    let equations = steps.choose_equations(mg, &rows)?;
 
     // Window variables, then the values of states at past samples.
     // Values at delay `d` read outputs at delays up to `d`; propagation reads up to the lag.
@@ -295,71 +116,15 @@ pub fn derive(model: &Model, mg: &mut ModelGraph, eta: f64) -> Result<WindowTran
         .unwrap_or(0)
         .max(lag.iter().copied().max().unwrap_or(0));
     let mut window = Window::new(model, mg, output_delays, &known, &lag);
-    let mut matrix = Vec::with_capacity(np);
-    let mut rhs = Vec::with_capacity(np);
-    for e in &equations {
-        let row = &rows[e.state];
-        let coefficients: Vec<NodeId> = row
-            .coefficients
-            .iter()
-            .map(|&c| window.at(mg, c, e.delay))
-            .collect();
-        let rest = window.at(mg, row.rest, e.delay);
-        let next = window.state(mg, row.state, e.delay - 1);
-        rhs.push(mg.graph.sub(next, rest));
-        matrix.push(coefficients);
-        description.push(format!(
-            "Equation {}: the step of `{}` from sample k-{} to k-{} (eq. 8).",
-            matrix.len(),
-            model.states[row.state].name,
-            e.delay,
-            e.delay - 1
-        ));
-    }
+    let (matrix, rhs) = steps.parameter_system(mg, &mut window, &rows, &equations);
     let input_delays = window.input_delays_used(mg, &matrix, &rhs);
-
-    // Case 2: parameters whose column holds inputs only.
-    let input_vars: BTreeSet<VarId> = window
-        .inputs
-        .iter()
-        .flatten()
-        .map(|&node| mg.var_id(node))
-        .collect();
-    let input_only: Vec<Option<Vec<NodeId>>> = (0..np)
-        .map(|p| {
-            let mut reads = BTreeSet::new();
-            for row in &matrix {
-                free_vars(&mg.graph, row[p], &mut reads);
-            }
-            let only_inputs = !reads.is_empty() && reads.iter().all(|v| input_vars.contains(v));
-            only_inputs.then(|| {
-                window
-                    .inputs
-                    .iter()
-                    .flatten()
-                    .copied()
-                    .filter(|&node| reads.contains(&mg.var_id(node)))
-                    .collect()
-            })
-        })
-        .collect();
-
+    let input_only = input_only_columns(mg, &window, &matrix, np);
     // 4. Reconstructed states at the window's end.
-    let phi_params: Vec<NodeId> = model
-        .params
-        .iter()
-        .map(|p| mg.graph.var(&format!("phi_{}", p.name)))
-        .collect();
-    window.phi_params = phi_params.clone();
-    let phi_states: Vec<NodeId> = (0..n).map(|s| window.estimate(mg, s, 0)).collect();
+    let (phi_params, phi_states, phi) = reconstruction(model, mg, &mut window);
 
     // 5. F, G, d around phi, eq. (12).
-    let phi: Vec<NodeId> = model
-        .state_names()
-        .map(|name| mg.graph.var(&format!("phi_{name}")))
-        .collect();
-    let (f, g, d) = split(model, mg, &phi, &param_vars, &state_vars, eta);
-    description.push(format!(
+    let (f, g, d) = ltv::split(model, mg, &phi, &steps.param_vars, &steps.state_vars, eta);
+    steps.description.push(format!(
         "The window holds y[k-{output_delays}..k] and u[k-{input_delays}..k-1]; products of a \
          parameter and a state or input are split with eta = {eta} (eq. 12)."
     ));
@@ -380,178 +145,371 @@ pub fn derive(model: &Model, mg: &mut ModelGraph, eta: f64) -> Result<WindowTran
         d,
         output_delays,
         input_delays,
-        description,
+        description: steps.description,
     })
 }
 
-/// `F`, `G`, `d` of eq. (12) over `phi` and the model's input variables.
-fn split(
-    model: &Model,
-    mg: &mut ModelGraph,
-    phi: &[NodeId],
-    param_vars: &[VarId],
-    state_vars: &[VarId],
-    eta: f64,
-) -> (Matrix, Matrix, Vec<NodeId>) {
-    let n = model.states.len();
-    let total = model.state_len();
-    let input_vars: Vec<VarId> = mg.u.iter().map(|&u| mg.var_id(u)).collect();
-    let at_phi: Vec<(VarId, NodeId)> = state_vars
-        .iter()
-        .chain(param_vars)
-        .copied()
-        .zip(phi.iter().copied())
-        .collect();
-    let graph = &mut mg.graph;
-    let zero = graph.zero();
-    let one = graph.one();
-    let eta_node = graph.num(eta);
-    let rest_weight = graph.num(1.0 - eta);
-    let mut f = vec![vec![zero; total]; total];
-    let mut g = vec![vec![zero; model.inputs.len()]; total];
-    let mut d = vec![zero; total];
-    for c in 0..n {
-        let row = mg.f[c];
-        // r = f|theta=0 + (1 - eta) sum_p phi_p df/dtheta_p: what stays on the states.
-        let zeros: Vec<(VarId, NodeId)> = param_vars.iter().map(|&p| (p, zero)).collect();
-        let mut r = substitute(graph, row, &zeros);
-        for (p, &pv) in param_vars.iter().enumerate() {
-            let mut dp = Differentiator::new(pv);
-            let coef = dp.diff(graph, row);
-            if graph.is_zero(coef) {
+/// Whether `model` is in the transform's class as a whole: time-invariant, with between one
+/// and [`MAX_PARAMS`] parameters.
+fn check_class(model: &Model) -> Result<(), String> {
+    if model.uses_time() {
+        return Err(
+            "the window transform needs a time-invariant model: the dynamics use `t`".into(),
+        );
+    }
+    let np = model.params.len();
+    if np == 0 {
+        return Err(
+            "the double Kalman filter estimates parameters: declare at least one `param`".into(),
+        );
+    }
+    if np > MAX_PARAMS {
+        return Err(format!(
+            "the unrolled window solve supports at most {MAX_PARAMS} parameters, the model has {np}"
+        ));
+    }
+    Ok(())
+}
+
+/// How each physical state is known, and after how many samples (its lag).
+type KnownStates = Vec<Option<(Known, usize)>>;
+
+/// A row of the model linear in the parameters (eq. 8): `f_state = sum_p coefficients[p]
+/// theta_p + rest`, usable at delays from `min_delay` on.
+struct ParamRow {
+    state: usize,
+    coefficients: Vec<NodeId>,
+    rest: NodeId,
+    min_delay: usize,
+}
+
+/// The derivation's steps 1-3 on one model: its state and parameter variables, and the
+/// plain-words account of what each step found.
+struct Derivation<'m> {
+    model: &'m Model,
+    state_vars: Vec<VarId>,
+    param_vars: Vec<VarId>,
+    description: Vec<String>,
+}
+
+impl Derivation<'_> {
+    /// Step 1: the states the outputs measure directly (`y = x_j`), known at lag 0.
+    fn measured_states(&mut self, mg: &ModelGraph) -> Result<KnownStates, String> {
+        let model = self.model;
+        let mut known: KnownStates = vec![None; model.states.len()];
+        for (i, (&h, output)) in mg.h.iter().zip(&model.outputs).enumerate() {
+            match mg.graph.node(h) {
+                Node::Var(v) if self.state_vars.contains(&v) => {
+                    let s = self.state_vars.iter().position(|&x| x == v).unwrap_or(0);
+                    if known[s].is_none() {
+                        known[s] = Some((Known::Measured { output: i }, 0));
+                        self.description.push(format!(
+                            "`{}` is measured by `{}`.",
+                            model.states[s].name, output.name
+                        ));
+                    }
+                }
+                _ => {
+                    return Err(format!(
+                        "the output `{}` is not a state: the window transform reads states \
+                         from outputs that measure them directly (`output y = x1`)",
+                        output.name
+                    ))
+                }
+            }
+        }
+        Ok(known)
+    }
+
+    /// Step 2: states determined by finite differences of known ones, repeated until no
+    /// known state's step determines another (the paper's `x2 = dy`).
+    fn difference_states(&mut self, mg: &mut ModelGraph, known: &mut KnownStates) {
+        let mut progress = true;
+        while progress {
+            progress = false;
+            for a in 0..known.len() {
+                let Some((_, lag_a)) = known[a].clone() else {
+                    continue;
+                };
+                let Some((b, difference)) = self.finite_difference(mg, a, known) else {
+                    continue;
+                };
+                known[b] = Some((difference, lag_a + 1));
+                self.description.push(format!(
+                    "`{}` follows from a finite difference of `{}` (one sample later).",
+                    self.model.states[b].name, self.model.states[a].name
+                ));
+                progress = true;
+            }
+        }
+    }
+
+    /// The one unknown state `b` the step of known state `a` determines, when that step
+    /// has no parameter and is `a[k+1] = rest + c b[k]` with `c` a nonzero constant:
+    /// `b[k] = (a[k+1] - rest) / c`.
+    fn finite_difference(
+        &self,
+        mg: &mut ModelGraph,
+        a: usize,
+        known: &KnownStates,
+    ) -> Option<(usize, Known)> {
+        let row = mg.f[a];
+        if !self.param_free(mg, row) {
+            return None;
+        }
+        let unknown: Vec<usize> = (0..known.len())
+            .filter(|&b| known[b].is_none())
+            .filter(|&b| {
+                let mut d = Differentiator::new(self.state_vars[b]);
+                let db = d.diff(&mut mg.graph, row);
+                !mg.graph.is_zero(db)
+            })
+            .collect();
+        let [b] = unknown[..] else {
+            return None;
+        };
+        let mut d = Differentiator::new(self.state_vars[b]);
+        let coef = d.diff(&mut mg.graph, row);
+        if mg.graph.constant_value(coef).is_none_or(|c| c == 0.0) {
+            return None;
+        }
+        let zero = mg.graph.zero();
+        let rest = substitute(&mut mg.graph, row, &[(self.state_vars[b], zero)]);
+        Some((
+            b,
+            Known::Difference {
+                from: a,
+                coef,
+                rest,
+            },
+        ))
+    }
+
+    /// Whether `row` reads no parameter.
+    fn param_free(&self, mg: &mut ModelGraph, row: NodeId) -> bool {
+        self.param_vars.iter().all(|&p| {
+            let mut d = Differentiator::new(p);
+            let dp = d.diff(&mut mg.graph, row);
+            mg.graph.is_zero(dp)
+        })
+    }
+
+    /// Each state's lag after steps 1 and 2, or which state the outputs do not determine.
+    fn lags(&self, known: &KnownStates) -> Result<Vec<usize>, String> {
+        if let Some(s) = known.iter().position(Option::is_none) {
+            return Err(format!(
+                "the state `{}` is not determined by the outputs: measure it, or let it appear \
+                 with a constant coefficient in the step of a measured (or determined) state \
+                 that has no parameter, as `x1 = x1 + TS * x2` determines `x2`",
+                self.model.states[s].name
+            ));
+        }
+        Ok(known
+            .iter()
+            .map(|k| k.as_ref().map_or(0, |(_, l)| *l))
+            .collect())
+    }
+
+    /// Step 3: the rows of the model that involve parameters, each linear in them (eq. 8),
+    /// with the earliest delay at which the window gives every state it reads.
+    fn parameter_rows(&self, mg: &mut ModelGraph, lag: &[usize]) -> Result<Vec<ParamRow>, String> {
+        let n = self.state_vars.len();
+        let mut rows = Vec::new();
+        for c in 0..n {
+            let row = mg.f[c];
+            let coefficients = self.parameter_coefficients(mg, c)?;
+            if coefficients.iter().all(|&c| mg.graph.is_zero(c)) {
                 continue;
             }
-            // F[c][p] = eta * a_p(phi, u)
-            let at = substitute(graph, coef, &at_phi);
-            f[c][n + p] = graph.mul(eta_node, at);
-            let weighted = graph.mul(rest_weight, phi[n + p]);
-            let term = graph.mul(weighted, coef);
-            r = graph.add(r, term);
-        }
-        // F[c][s] = dr/ds (phi, u), G[c][j] = dr/du_j (phi, u), d = r(phi) - F phi - G u.
-        // For a row affine in states and inputs, d is r's constant part, exactly.
-        let mut affine_row = true;
-        let mut first: Vec<NodeId> = Vec::new();
-        for &v in state_vars.iter().chain(&input_vars) {
-            let mut dv = Differentiator::new(v);
-            let deriv = dv.diff(graph, r);
-            for &w in state_vars.iter().chain(&input_vars) {
-                let mut dw = Differentiator::new(w);
-                let second = dw.diff(graph, deriv);
-                affine_row &= graph.is_zero(second);
-            }
-            first.push(deriv);
-        }
-        let (state_derivs, input_derivs) = first.split_at(state_vars.len());
-        let mut affine = substitute(graph, r, &at_phi);
-        for (s, &deriv) in state_derivs.iter().enumerate() {
-            let entry = substitute(graph, deriv, &at_phi);
-            f[c][s] = entry;
-            let term = graph.mul(entry, phi[s]);
-            affine = graph.sub(affine, term);
-        }
-        for (j, &deriv) in input_derivs.iter().enumerate() {
-            let entry = substitute(graph, deriv, &at_phi);
-            g[c][j] = entry;
-            let term = graph.mul(entry, mg.u[j]);
-            affine = graph.sub(affine, term);
-        }
-        if affine_row {
-            let origin: Vec<(VarId, NodeId)> = state_vars
+            let zeros: Vec<(VarId, NodeId)> = self
+                .param_vars
                 .iter()
-                .chain(&input_vars)
-                .map(|&v| (v, zero))
+                .map(|&p| (p, mg.graph.zero()))
                 .collect();
-            let constant = substitute(graph, r, &origin);
-            affine = substitute(graph, constant, &at_phi);
-        } else {
-            // Term by term: an affine term contributes its constant part exactly, a
-            // nonlinear one its value at phi less its tangent there.
-            affine = zero;
-            for (negative, term) in additive_terms(graph, r) {
-                let part =
-                    affine_correction(graph, term, state_vars, &input_vars, phi, &mg.u, &at_phi);
-                affine = if negative {
-                    graph.sub(affine, part)
-                } else {
-                    graph.add(affine, part)
-                };
+            let rest = substitute(&mut mg.graph, row, &zeros);
+            let mut reads = BTreeSet::new();
+            for &node in coefficients.iter().chain([&rest]) {
+                free_vars(&mg.graph, node, &mut reads);
+            }
+            let max_lag = (0..n)
+                .filter(|&s| reads.contains(&self.state_vars[s]))
+                .map(|s| lag[s])
+                .max()
+                .unwrap_or(0);
+            rows.push(ParamRow {
+                state: c,
+                coefficients,
+                rest,
+                min_delay: max_lag.max(lag[c] + 1).max(1),
+            });
+        }
+        Ok(rows)
+    }
+
+    /// The coefficient of each parameter in the step of state `c`, or the product of
+    /// parameters that makes the step nonlinear in them.
+    fn parameter_coefficients(&self, mg: &mut ModelGraph, c: usize) -> Result<Vec<NodeId>, String> {
+        let row = mg.f[c];
+        let mut coefficients = Vec::with_capacity(self.param_vars.len());
+        for (p, &pv) in self.param_vars.iter().enumerate() {
+            let mut d = Differentiator::new(pv);
+            let coef = d.diff(&mut mg.graph, row);
+            for (q, &qv) in self.param_vars.iter().enumerate() {
+                let mut dq = Differentiator::new(qv);
+                let second = dq.diff(&mut mg.graph, coef);
+                if !mg.graph.is_zero(second) {
+                    let model = self.model;
+                    return Err(format!(
+                        "the step of `{}` is not linear in the parameters: it has a term in \
+                         `{}` times `{}`. Reparameterise: make the product (or the nonlinear \
+                         function of a parameter) one parameter",
+                        model.states[c].name, model.params[p].name, model.params[q].name
+                    ));
+                }
+            }
+            coefficients.push(coef);
+        }
+        Ok(coefficients)
+    }
+
+    /// Equations from the most recent samples on, each kept while it raises the system's
+    /// structural rank, until they determine every parameter (eq. 9 then has a nonzero
+    /// determinant for a generic window); or the parameter no row involves.
+    fn choose_equations(
+        &self,
+        mg: &ModelGraph,
+        rows: &[ParamRow],
+    ) -> Result<Vec<Equation>, String> {
+        let np = self.param_vars.len();
+        let mut equations: Vec<Equation> = Vec::new();
+        let supports: Vec<Vec<usize>> = rows
+            .iter()
+            .map(|r| {
+                (0..np)
+                    .filter(|&p| !mg.graph.is_zero(r.coefficients[p]))
+                    .collect()
+            })
+            .collect();
+        let mut chosen_supports: Vec<Vec<usize>> = Vec::new();
+        let deepest = rows.iter().map(|r| r.min_delay).max().unwrap_or(1) + np;
+        'delays: for delay in 1..=deepest {
+            for (r, row) in rows.iter().enumerate() {
+                if delay < row.min_delay {
+                    continue;
+                }
+                let mut trial = chosen_supports.clone();
+                trial.push(supports[r].clone());
+                if matching_size(&trial, np) > chosen_supports.len() {
+                    chosen_supports = trial;
+                    equations.push(Equation { row: r, delay });
+                    if equations.len() == np {
+                        break 'delays;
+                    }
+                }
             }
         }
-        d[c] = affine;
+        if equations.len() < np {
+            let covered: BTreeSet<usize> = supports.iter().flatten().copied().collect();
+            let missing = (0..np).find(|p| !covered.contains(p)).unwrap_or(0);
+            return Err(format!(
+                "the parameter `{}` does not enter the step of any state the outputs determine, \
+                 so no window determines it",
+                self.model.params[missing].name
+            ));
+        }
+        Ok(equations)
     }
-    for p in 0..model.params.len() {
-        f[n + p][n + p] = one;
+
+    /// The parameter system over the window variables (eq. 8): per chosen equation, its
+    /// coefficients at its sample, and the state's next value less the row's rest.
+    fn parameter_system(
+        &mut self,
+        mg: &mut ModelGraph,
+        window: &mut Window,
+        rows: &[ParamRow],
+        equations: &[Equation],
+    ) -> (Matrix, Vec<NodeId>) {
+        let mut matrix = Vec::with_capacity(equations.len());
+        let mut rhs = Vec::with_capacity(equations.len());
+        for e in equations {
+            let row = &rows[e.row];
+            let coefficients: Vec<NodeId> = row
+                .coefficients
+                .iter()
+                .map(|&c| window.at(mg, c, e.delay))
+                .collect();
+            let rest = window.at(mg, row.rest, e.delay);
+            let next = window.state(mg, row.state, e.delay - 1);
+            rhs.push(mg.graph.sub(next, rest));
+            matrix.push(coefficients);
+            self.description.push(format!(
+                "Equation {}: the step of `{}` from sample k-{} to k-{} (eq. 8).",
+                matrix.len(),
+                self.model.states[row.state].name,
+                e.delay,
+                e.delay - 1
+            ));
+        }
+        (matrix, rhs)
     }
-    (f, g, d)
 }
 
-/// The additive terms of `node`, each with whether it is subtracted.
-fn additive_terms(graph: &Graph, node: NodeId) -> Vec<(bool, NodeId)> {
-    match graph.node(node) {
-        Node::Add(a, b) => {
-            let mut terms = additive_terms(graph, a);
-            terms.extend(additive_terms(graph, b));
-            terms
-        }
-        Node::Sub(a, b) => {
-            let mut terms = additive_terms(graph, a);
-            terms.extend(
-                additive_terms(graph, b)
-                    .into_iter()
-                    .map(|(neg, t)| (!neg, t)),
-            );
-            terms
-        }
-        Node::Neg(a) => additive_terms(graph, a)
-            .into_iter()
-            .map(|(neg, t)| (!neg, t))
-            .collect(),
-        _ => vec![(false, node)],
-    }
+/// Case 2: per parameter, the inputs its column of the system consists of, when it holds
+/// inputs only (all of them zero leave the parameter undetermined).
+fn input_only_columns(
+    mg: &ModelGraph,
+    window: &Window,
+    matrix: &Matrix,
+    np: usize,
+) -> Vec<Option<Vec<NodeId>>> {
+    let input_vars: BTreeSet<VarId> = window
+        .inputs
+        .iter()
+        .flatten()
+        .map(|&node| mg.var_id(node))
+        .collect();
+    (0..np)
+        .map(|p| {
+            let mut reads = BTreeSet::new();
+            for row in matrix {
+                free_vars(&mg.graph, row[p], &mut reads);
+            }
+            let only_inputs = !reads.is_empty() && reads.iter().all(|v| input_vars.contains(v));
+            only_inputs.then(|| {
+                window
+                    .inputs
+                    .iter()
+                    .flatten()
+                    .copied()
+                    .filter(|&node| reads.contains(&mg.var_id(node)))
+                    .collect()
+            })
+        })
+        .collect()
 }
 
-/// What `term` adds to `d`: its constant part if it is affine in the states and inputs,
-/// else `term(phi) - sum_s dterm/ds(phi) phi_s - sum_j dterm/du_j(phi) u_j`.
-fn affine_correction(
-    graph: &mut Graph,
-    term: NodeId,
-    state_vars: &[VarId],
-    input_vars: &[VarId],
-    phi: &[NodeId],
-    inputs: &[NodeId],
-    at_phi: &[(VarId, NodeId)],
-) -> NodeId {
-    let zero = graph.zero();
-    let mut derivatives = Vec::new();
-    let mut affine = true;
-    for &v in state_vars.iter().chain(input_vars) {
-        let mut dv = Differentiator::new(v);
-        let deriv = dv.diff(graph, term);
-        for &w in state_vars.iter().chain(input_vars) {
-            let mut dw = Differentiator::new(w);
-            let second = dw.diff(graph, deriv);
-            affine &= graph.is_zero(second);
-        }
-        derivatives.push(deriv);
-    }
-    if affine {
-        let origin: Vec<(VarId, NodeId)> = state_vars
-            .iter()
-            .chain(input_vars)
-            .map(|&v| (v, zero))
-            .collect();
-        let constant = substitute(graph, term, &origin);
-        return substitute(graph, constant, at_phi);
-    }
-    let mut value = substitute(graph, term, at_phi);
-    let points = phi.iter().take(state_vars.len()).chain(inputs);
-    for (&deriv, &point) in derivatives.iter().zip(points) {
-        let slope = substitute(graph, deriv, at_phi);
-        let tangent = graph.mul(slope, point);
-        value = graph.sub(value, tangent);
-    }
-    value
+/// Step 4: the reconstruction at the window's end: the variables standing for the solved
+/// parameters, the states over the window and them (those known with a lag propagated
+/// with the model, the paper's `phi2`), and the variables standing for the whole `phi`.
+fn reconstruction(
+    model: &Model,
+    mg: &mut ModelGraph,
+    window: &mut Window,
+) -> (Vec<NodeId>, Vec<NodeId>, Vec<NodeId>) {
+    let phi_params: Vec<NodeId> = model
+        .params
+        .iter()
+        .map(|p| mg.graph.var(&format!("phi_{}", p.name)))
+        .collect();
+    window.phi_params = phi_params.clone();
+    let phi_states: Vec<NodeId> = (0..model.states.len())
+        .map(|s| window.estimate(mg, s, 0))
+        .collect();
+    let phi: Vec<NodeId> = model
+        .state_names()
+        .map(|name| mg.graph.var(&format!("phi_{name}")))
+        .collect();
+    (phi_params, phi_states, phi)
 }
 
 /// Window variables and the values of states at past samples, built on demand.

@@ -1,0 +1,506 @@
+//! The DKF's two Kalman filters (Alg. 2) after the window transform: the AKF, a linear
+//! Kalman filter on the transformed model `x[k+1] = F x[k] + G u[k] + d` (eq. 12), and
+//! the LKF, a Kalman filter on `f` linearised about the AKF's previous estimate. Both
+//! predict their covariance and take the Joseph-form update through the shared stage
+//! ([`crate::symbolic::kalman`]); each is lowered into its own method.
+
+use super::window::{self, WindowTransform};
+use crate::emit::code::{guard_pivots, pivot_names, var_idents, INNOVATION};
+use crate::emit::filter::{finiteness_probe, model_names, noise_vars, packed_vars};
+use crate::emit::lower::{Lowered, Lowerer, OpCount};
+use crate::emit::names::{ident, TempNamer};
+use crate::model::{Model, Scalar};
+use crate::symbolic::kalman;
+use crate::symbolic::linalg::{matmul, packed_upper, symmetric_from_packed, Matrix};
+use crate::symbolic::substitute;
+use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
+use proc_macro2::{Ident, Literal, TokenStream};
+use quote::quote;
+
+/// The DKF's step (Alg. 2) after the transform: its body, the two stage methods, and
+/// what the stages compute.
+pub fn step_fn(
+    model: &Model,
+    mg: &mut ModelGraph,
+    wt: &WindowTransform,
+    scalar: Scalar,
+    diagonal_noise: bool,
+) -> (TokenStream, TokenStream, OpCount) {
+    let g = mg;
+    let mut avoid = model_names(model);
+    avoid.extend(["phi", "window", "excitation"].map(String::from));
+    let vars = FilterVars::new(model, &mut g.graph, &avoid, diagonal_noise);
+    let x_vars: Vec<VarId> = g.x.iter().map(|&x| g.var_id(x)).collect();
+    let c = g.jacobian_h_wrt_x();
+    let a = g.jacobian_f_wrt_x();
+    let linearised = Linearised {
+        x_vars,
+        x: &g.x,
+        f: &g.f,
+        a,
+        h: &g.h,
+        c,
+        y: &vars.y,
+        r: &vars.r,
+    };
+    let graph = &mut g.graph;
+    let (xbar_pred, pbar_pred, akf_definitions) = akf_prediction(graph, wt, &vars, &g.u, &avoid);
+    let akf = linearised.correct(graph, &xbar_pred, &pbar_pred, "_bar");
+    let (x_pred, p_pred) = linearised.lkf_prediction(graph, &vars);
+    let lkf = linearised.correct(graph, &x_pred, &p_pred, "");
+
+    let g: &ModelGraph = g;
+    let step = StepLowering {
+        model,
+        g,
+        vars: &vars,
+        avoid: &avoid,
+        scalar,
+    };
+    let (lkf_method, lkf_ops) = step.stage_method(step.lkf_stage(lkf));
+    let (akf_method, akf_ops) = step.stage_method(step.akf_stage(wt, akf, akf_definitions));
+    let methods = quote! {
+        /// A missing sample breaks the window's sequence: empties the window (it refills)
+        /// and rejects the sample, leaving both filters as they were.
+        fn reject_sample(&mut self) -> DkfStatus {
+            self.filled = [false; WINDOW_OUTPUTS];
+            DkfStatus {
+                window: WindowStatus::Skipped,
+                akf: Status::RejectedInput,
+                lkf: Status::RejectedInput,
+            }
+        }
+
+        #lkf_method
+
+        #akf_method
+    };
+    (step.body(), methods, akf_ops.plus(lkf_ops))
+}
+
+/// The variables of the two filters' state and tuning: the AKF's estimate, covariance
+/// and process noise, the LKF's covariance and process noise, the shared measurement
+/// noise, and the measurement.
+struct FilterVars {
+    xbar: Vec<NodeId>,
+    y: Vec<NodeId>,
+    pbar_vars: Vec<NodeId>,
+    qbar_vars: Vec<NodeId>,
+    p_vars: Vec<NodeId>,
+    q_vars: Vec<NodeId>,
+    r_vars: Vec<NodeId>,
+    pbar: Matrix,
+    qbar: Matrix,
+    p: Matrix,
+    q: Matrix,
+    r: Matrix,
+}
+
+impl FilterVars {
+    /// Declares the variables, named apart from `avoid`.
+    fn new(model: &Model, graph: &mut Graph, avoid: &[String], diagonal_noise: bool) -> Self {
+        let n = model.state_len();
+        let m = model.outputs.len();
+        let xbar: Vec<NodeId> = model
+            .state_names()
+            .map(|s| graph.var(&format!("{s}_bar")))
+            .collect();
+        let y: Vec<NodeId> = model
+            .outputs
+            .iter()
+            .map(|o| graph.var(&format!("{}_measured", o.name)))
+            .collect();
+        let pbar_vars = packed_vars(graph, "pbar", n, avoid);
+        let (qbar_vars, qbar) = noise_vars(graph, "qbar", n, diagonal_noise, avoid);
+        let p_vars = packed_vars(graph, "p", n, avoid);
+        let (q_vars, q) = noise_vars(graph, "q", n, diagonal_noise, avoid);
+        let r_vars = packed_vars(graph, "r", m, avoid);
+        FilterVars {
+            pbar: symmetric_from_packed(&pbar_vars, n),
+            p: symmetric_from_packed(&p_vars, n),
+            r: symmetric_from_packed(&r_vars, m),
+            xbar,
+            y,
+            pbar_vars,
+            qbar_vars,
+            p_vars,
+            q_vars,
+            r_vars,
+            qbar,
+            q,
+        }
+    }
+}
+
+/// The AKF's prediction on the transformed model (eq. 12): `xbar = F xbar + G u + d`, and
+/// `Pbar = F Pbar F' + Qbar`. `F`'s and `G`'s computed entries are variables the stage
+/// defines once (see `Lowerer::define`), returned with their values.
+fn akf_prediction(
+    graph: &mut Graph,
+    wt: &WindowTransform,
+    vars: &FilterVars,
+    u: &[NodeId],
+    avoid: &[String],
+) -> (Vec<NodeId>, Matrix, Vec<(NodeId, NodeId)>) {
+    let mut definitions = Vec::new();
+    let f = entry_vars(graph, &wt.f, "f", avoid, &mut definitions);
+    let g_matrix = entry_vars(graph, &wt.g, "g", avoid, &mut definitions);
+    let xbar_col: Matrix = vars.xbar.iter().map(|&v| vec![v]).collect();
+    let u_col: Matrix = u.iter().map(|&v| vec![v]).collect();
+    let fx = matmul(graph, &f, &xbar_col);
+    let gu = matmul(graph, &g_matrix, &u_col);
+    let xbar_pred: Vec<NodeId> = (0..vars.xbar.len())
+        .map(|i| {
+            let mut sum = graph.add(fx[i][0], wt.d[i]);
+            if let Some(row) = gu.get(i).filter(|row| !row.is_empty()) {
+                sum = graph.add(sum, row[0]);
+            }
+            sum
+        })
+        .collect();
+    let pbar_pred = kalman::predict_covariance(graph, &f, &vars.pbar, &vars.qbar);
+    (xbar_pred, pbar_pred, definitions)
+}
+
+/// The model's step and measurement as the filters linearise them: `f` and its Jacobian
+/// `A`, `h` and its Jacobian `C`, over the state variables, each evaluated at a point by
+/// substitution.
+struct Linearised<'a> {
+    x_vars: Vec<VarId>,
+    x: &'a [NodeId],
+    f: &'a [NodeId],
+    a: Matrix,
+    h: &'a [NodeId],
+    c: Matrix,
+    /// The measurement, `y[k]`.
+    y: &'a [NodeId],
+    /// Its noise covariance.
+    r: &'a Matrix,
+}
+
+impl Linearised<'_> {
+    /// `node` with the state at `point`.
+    fn at(&self, graph: &mut Graph, node: NodeId, point: &[NodeId]) -> NodeId {
+        let map: Vec<(VarId, NodeId)> = self
+            .x_vars
+            .iter()
+            .copied()
+            .zip(point.iter().copied())
+            .collect();
+        substitute(graph, node, &map)
+    }
+
+    /// The measurement update of the prediction `x`, `p` with `y`, `h` and `C` taken at
+    /// `x` (the shared Joseph-form update); `suffix` names its pivots apart.
+    fn correct(&self, graph: &mut Graph, x: &[NodeId], p: &Matrix, suffix: &str) -> kalman::Update {
+        let residual: Vec<NodeId> = self
+            .y
+            .iter()
+            .zip(self.h)
+            .map(|(&y, &h)| {
+                let h = self.at(graph, h, x);
+                graph.sub(y, h)
+            })
+            .collect();
+        let c_at: Matrix = self
+            .c
+            .iter()
+            .map(|row| row.iter().map(|&e| self.at(graph, e, x)).collect())
+            .collect();
+        let m = self.y.len();
+        kalman::update(graph, x, p, &residual, &c_at, self.r, |g, j| {
+            g.var(&pivot_names(m, j, INNOVATION, suffix).1)
+        })
+    }
+
+    /// The LKF's prediction: `f` linearised about the AKF's previous estimate `xbar` with
+    /// the actual input, `x = f(xbar) + A(xbar) (x - xbar)`, and `P = A P A' + Q`.
+    fn lkf_prediction(&self, graph: &mut Graph, vars: &FilterVars) -> (Vec<NodeId>, Matrix) {
+        let xbar = &vars.xbar;
+        let f_at_bar: Vec<NodeId> = self.f.iter().map(|&f| self.at(graph, f, xbar)).collect();
+        let a_bar: Matrix = self
+            .a
+            .iter()
+            .map(|row| row.iter().map(|&e| self.at(graph, e, xbar)).collect())
+            .collect();
+        let deviation: Matrix = self
+            .x
+            .iter()
+            .zip(xbar)
+            .map(|(&x, &xb)| vec![graph.sub(x, xb)])
+            .collect();
+        let a_dev = matmul(graph, &a_bar, &deviation);
+        // A row of `f` affine in the state has a Jacobian row free of the state, and then
+        // f(xbar) + A (x - xbar) is exactly f(x): that is computed instead, with fewer roundings.
+        let x_pred: Vec<NodeId> = (0..self.f.len())
+            .map(|i| {
+                let mut read = std::collections::BTreeSet::new();
+                for &entry in &self.a[i] {
+                    window::free_vars(graph, entry, &mut read);
+                }
+                if self.x_vars.iter().any(|x| read.contains(x)) {
+                    graph.add(f_at_bar[i], a_dev[i][0])
+                } else {
+                    self.f[i]
+                }
+            })
+            .collect();
+        let p_pred = kalman::predict_covariance(graph, &a_bar, &vars.p, &vars.q);
+        (x_pred, p_pred)
+    }
+}
+
+/// One stage of the DKF's filtering, lowered into its own method: it reads what it needs
+/// where it first needs it and commits its own estimate and covariance, so the two stages
+/// never hold their results at once.
+struct Stage<'a> {
+    /// Method name (`akf_step`, `lkf_step`).
+    name: &'static str,
+    /// Its documentation.
+    doc: &'static str,
+    /// Extra parameters before `u_prev` and `y` (the AKF's `phi`).
+    params: TokenStream,
+    /// Arrays read lazily, with the variables they hold.
+    reads: Vec<(TokenStream, &'a [NodeId])>,
+    /// The stage's measurement update.
+    update: kalman::Update,
+    /// Suffix of its pivot names (`_bar` for the AKF).
+    suffix: &'static str,
+    /// Fields it stores into: estimate, packed covariance.
+    fields: (TokenStream, TokenStream),
+    /// Names of its new estimate's entries.
+    result_names: Vec<String>,
+    /// Variables the stage computes before use, with their values.
+    definitions: Vec<(NodeId, NodeId)>,
+}
+
+/// What the step's lowering shares: the model, its graph with both filters' updates, the
+/// filters' variables and the names to avoid.
+struct StepLowering<'a> {
+    model: &'a Model,
+    g: &'a ModelGraph,
+    vars: &'a FilterVars,
+    avoid: &'a [String],
+    scalar: Scalar,
+}
+
+impl<'a> StepLowering<'a> {
+    /// `u_prev: &[S; U_LEN],`, or nothing for a model without inputs.
+    fn u_param(&self) -> Option<TokenStream> {
+        let ty = ident(self.scalar.type_name());
+        let u_len = Literal::usize_unsuffixed(self.model.inputs.len());
+        (!self.g.u.is_empty()).then(|| quote! { u_prev: &[#ty; #u_len], })
+    }
+
+    /// `y: &[S; Y_LEN]`.
+    fn y_param(&self) -> TokenStream {
+        let ty = ident(self.scalar.type_name());
+        let y_len = Literal::usize_unsuffixed(self.model.outputs.len());
+        quote! { y: &[#ty; #y_len] }
+    }
+
+    /// The names of a stage's new estimate's entries (`x1_new`, `x1_bar_new`).
+    fn result_names(&self, suffix: &str) -> Vec<String> {
+        self.model
+            .state_names()
+            .map(|s| format!("{s}{suffix}_new"))
+            .collect()
+    }
+
+    /// The LKF's method, `lkf_step`.
+    fn lkf_stage(&self, update: kalman::Update) -> Stage<'a> {
+        let (g, vars) = (self.g, self.vars);
+        let (u_param, y_param) = (self.u_param(), self.y_param());
+        Stage {
+            name: "lkf_step",
+            doc: "The LKF (Algorithm 2 of the double Kalman filter paper): `f` linearised about the AKF's estimate of the previous \
+                  sample with the input `u[k-1]`, then corrected with `y[k]` (Joseph form).",
+            params: quote! { #u_param #y_param },
+            reads: vec![
+                (quote! { self.xbar }, &vars.xbar[..]),
+                (quote! { self.x }, &g.x[..]),
+                (quote! { self.p }, &vars.p_vars[..]),
+                (quote! { self.q }, &vars.q_vars[..]),
+                (quote! { self.r }, &vars.r_vars[..]),
+                (quote! { *u_prev }, &g.u[..]),
+                (quote! { *y }, &vars.y[..]),
+            ],
+            update,
+            suffix: "",
+            fields: (quote! { x }, quote! { p }),
+            result_names: self.result_names(""),
+            definitions: Vec::new(),
+        }
+    }
+
+    /// The AKF's method, `akf_step`, which reads the transform's `phi`.
+    fn akf_stage(
+        &self,
+        wt: &'a WindowTransform,
+        update: kalman::Update,
+        definitions: Vec<(NodeId, NodeId)>,
+    ) -> Stage<'a> {
+        let (g, vars) = (self.g, self.vars);
+        let ty = ident(self.scalar.type_name());
+        let n_len = Literal::usize_unsuffixed(self.model.state_len());
+        let (u_param, y_param) = (self.u_param(), self.y_param());
+        Stage {
+            name: "akf_step",
+            doc: "The AKF (Algorithm 2 of the double Kalman filter paper): a linear Kalman filter on the transformed model at `phi`, \
+                  then corrected with `y[k]` (Joseph form).",
+            params: quote! { phi: &[#ty; #n_len], #u_param #y_param },
+            reads: vec![
+                (quote! { *phi }, &wt.phi[..]),
+                (quote! { self.xbar }, &vars.xbar[..]),
+                (quote! { self.pbar }, &vars.pbar_vars[..]),
+                (quote! { self.qbar }, &vars.qbar_vars[..]),
+                (quote! { self.r }, &vars.r_vars[..]),
+                (quote! { *u_prev }, &g.u[..]),
+                (quote! { *y }, &vars.y[..]),
+            ],
+            update,
+            suffix: "_bar",
+            fields: (quote! { xbar }, quote! { pbar }),
+            result_names: self.result_names("_bar"),
+            definitions,
+        }
+    }
+
+    /// A filter stage lowered into its own method: the update's pivots guarded, then the
+    /// new estimate and covariance stored if their finiteness probe passes.
+    fn stage_method(&self, stage: Stage) -> (TokenStream, OpCount) {
+        let Stage {
+            name,
+            doc,
+            params,
+            reads,
+            update,
+            suffix,
+            fields: (x_field, p_field),
+            result_names,
+            definitions,
+        } = stage;
+        let n = update.x.len();
+        let mut graph = self.g.graph.clone();
+        let probe = finiteness_probe(&mut graph, &update.x, &update.p);
+        let p_new = packed_upper(&update.p);
+        let results: Vec<NodeId> = update.x.iter().chain(&p_new).copied().collect();
+        let mut all_roots = results.clone();
+        all_roots.push(probe);
+        all_roots.extend(&update.pivots);
+        let namer = TempNamer::new(self.avoid.iter().map(String::as_str));
+        let mut lowerer = Lowerer::new(&graph, self.scalar, namer, &all_roots);
+        for (source, vars) in &reads {
+            lowerer.read_lazily(source, vars);
+        }
+        for (var, value) in definitions {
+            lowerer.define(var, value);
+        }
+        for (&node, result) in update.x.iter().zip(&result_names) {
+            lowerer.prefer_name(node, result);
+        }
+        guard_pivots(
+            &mut lowerer,
+            &update.pivots,
+            &update.reciprocals,
+            (INNOVATION, suffix),
+            &quote! { return Status::NonPositiveInnovation; },
+            self.scalar,
+        );
+        let probe = lowerer.segment(&[probe]).remove(0);
+        let values = lowerer.segment(&results);
+        let Lowered {
+            statements, ops, ..
+        } = lowerer.finish();
+        let (x_values, p_values) = values.split_at(n);
+        let name = ident(name);
+        let doc = format!(" {doc}");
+        let tokens = quote! {
+            #[doc = #doc]
+            fn #name(&mut self, #params) -> Status {
+                #(#statements)*
+                if !(#probe).is_finite() {
+                    return Status::NonFinite;
+                }
+                self.#x_field = [#(#x_values),*];
+                self.#p_field = [#(#p_values),*];
+                Status::Ok
+            }
+        };
+        (tokens, ops)
+    }
+
+    /// The body of `step`: rejects a non-finite input or measurement, runs the LKF, the
+    /// transform, the AKF, and pushes the sample into the window.
+    fn body(&self) -> TokenStream {
+        let g = self.g;
+        let u_idents = var_idents(&g.graph, &g.u);
+        let y_idents = var_idents(&g.graph, &self.vars.y);
+        let checked: Vec<Ident> = u_idents.iter().chain(&y_idents).cloned().collect();
+        // One test and branch per value: joined by `&&`, the tests are combined into flags
+        // before one branch, which costs more on the target.
+        let reject_non_finite = checked.iter().map(|v| {
+            quote! {
+                if !#v.is_finite() {
+                    return self.reject_sample();
+                }
+            }
+        });
+        let unpack_u = (!g.u.is_empty()).then(|| quote! { let [#(#u_idents),*] = *u_prev; });
+        let u_arg = (!g.u.is_empty()).then(|| quote! { u_prev, });
+        quote! {
+            #unpack_u
+            let [#(#y_idents),*] = *y;
+            #(#reject_non_finite)*
+            // The LKF linearises about the AKF's estimate of the previous sample: it runs
+            // first, and before the transform, so that `phi` is not held across it.
+            let lkf = self.lkf_step(#u_arg y);
+            let (phi, window, [det_sq, column_norms], parameters) = self.transform(#u_arg);
+            // The window's findings stand whatever the filters do with this sample.
+            self.window_det_sq = det_sq;
+            self.window_column_norms = column_norms;
+            self.phi_params = parameters;
+            let akf = self.akf_step(&phi, #u_arg y);
+            self.push(#u_arg y);
+            DkfStatus { window, akf, lkf }
+        }
+    }
+}
+
+/// `matrix` with each computed entry (not a literal, constant or variable) replaced by a
+/// variable `{prefix}{row}{column}` (1-based), recorded in `definitions` with its value.
+fn entry_vars(
+    graph: &mut Graph,
+    matrix: &Matrix,
+    prefix: &str,
+    avoid: &[String],
+    definitions: &mut Vec<(NodeId, NodeId)>,
+) -> Matrix {
+    let wide = matrix.len() >= 10 || matrix.first().is_some_and(|row| row.len() >= 10);
+    let mut entry = |graph: &mut Graph, i: usize, j: usize, value: NodeId| {
+        if graph.is_leaf(value) {
+            return value;
+        }
+        let mut name = if wide {
+            format!("{prefix}_{}_{}", i + 1, j + 1)
+        } else {
+            format!("{prefix}{}{}", i + 1, j + 1)
+        };
+        while avoid.contains(&name) {
+            name.push('_');
+        }
+        let var = graph.var(&name);
+        definitions.push((var, value));
+        var
+    };
+    matrix
+        .iter()
+        .enumerate()
+        .map(|(i, row)| {
+            row.iter()
+                .enumerate()
+                .map(|(j, &value)| entry(graph, i, j, value))
+                .collect()
+        })
+        .collect()
+}

@@ -1,0 +1,373 @@
+//! The window transform's generated method (eqs. 8-12): the window's parameter system
+//! solved by Cramer's rule (eq. 9) when its excitation passes the threshold (else Case 1
+//! keeps the last solved parameters), the reduced systems of Case 2 when inputs were zero
+//! over the window, and the states reconstructed at the window's end.
+
+use super::window::{column_norms_product, cramer, WindowTransform};
+use crate::emit::code::{destructure, var_idents};
+use crate::emit::filter::model_names;
+use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
+use crate::emit::names::{ident, TempNamer};
+use crate::model::{Model, Scalar};
+use crate::symbolic::linalg::Matrix;
+use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
+use proc_macro2::{Ident, Literal, TokenStream};
+use quote::quote;
+
+/// `fn transform(&self, u) -> (phi, WindowStatus, [det_sq, column_norms], parameters)`:
+/// eqs. (8)-(12), and the arithmetic of its costliest path (the full solve).
+pub fn transform_fn(
+    model: &Model,
+    mg: &ModelGraph,
+    wt: &WindowTransform,
+    scalar: Scalar,
+) -> (TokenStream, OpCount) {
+    let mut g = mg.clone();
+    let solve = WindowSolve::new(&mut g.graph, wt, model.params.len());
+    let avoid = model_names(model);
+    let namer = TempNamer::new(avoid.iter().map(String::as_str));
+    let mut base = Lowerer::new(&g.graph, scalar, namer, &solve.roots(wt));
+    let det = base.bind(solve.full.det, "det");
+    let det_sq = base.bind(solve.full.det_sq, "det_sq");
+    let column_norms = base.bind(solve.full.norms, "column_norms");
+    // The excitation test (`det_sq > threshold * column_norms`) and `1 / det`.
+    base.count_extra(OpCount {
+        div: 1,
+        compare: 1,
+        mul: 1,
+        ..OpCount::default()
+    });
+    let head = base.take_statements();
+    let at_fork = base.ops();
+    let last: Vec<Ident> = model
+        .params
+        .iter()
+        .map(|p| ident(&format!("last_{}", p.name)))
+        .collect();
+
+    // Full solve, in a fork of the lowering so its temporaries stay in its branch.
+    let mut full = base.clone();
+    let full_values = full.segment(&solve.full.solution);
+    let full_body = full.take_statements();
+    let full_ops = full.ops();
+
+    let case2_branches = solve
+        .reduced
+        .iter()
+        .map(|reduced| case2_branch(base.clone(), wt, reduced, &last, scalar))
+        .collect();
+    let phi_states = base.segment(&wt.phi_states);
+    let tail = base.take_statements();
+    let Lowered { used_vars, ops, .. } = base.finish();
+    let code = TransformCode {
+        head,
+        excitation: [det, det_sq, column_norms],
+        phi_params: var_idents(&g.graph, &wt.phi_params),
+        last,
+        full_values,
+        full_body,
+        case2_branches,
+        tail,
+        phi_states,
+    };
+    let tokens = code.method(model, &g, wt, used_vars, scalar);
+    // The costliest path: the common code plus the full solve's branch.
+    (tokens, ops.plus(full_ops.minus(at_fork)))
+}
+
+/// The parameter system of one case solved symbolically by Cramer's rule (eq. 9): each
+/// solved parameter is its numerator times `inv_det`.
+struct Solve {
+    /// Parameters kept at their last values (none for the full system).
+    frozen: Vec<usize>,
+    /// Parameters solved, in the order of the system's columns.
+    free: Vec<usize>,
+    det: NodeId,
+    det_sq: NodeId,
+    /// The product of the squared column norms (the excitation measure's denominator).
+    norms: NodeId,
+    /// The free parameters, `numerator * inv_det`.
+    solution: Vec<NodeId>,
+}
+
+/// The window's full parameter system and its Case 2 reductions, largest first.
+struct WindowSolve {
+    full: Solve,
+    reduced: Vec<Solve>,
+}
+
+impl WindowSolve {
+    /// Solves the full system, then each reduction (the variable `inv_det` standing for
+    /// the reciprocal of whichever determinant the taken branch divides by).
+    fn new(graph: &mut Graph, wt: &WindowTransform, np: usize) -> WindowSolve {
+        let (mut full, numerators) = Solve::cramer(graph, &wt.matrix, &wt.rhs, Vec::new());
+        full.free = (0..np).collect();
+        let mut reduced: Vec<(Solve, Vec<NodeId>)> = frozen_subsets(wt, np)
+            .into_iter()
+            .map(|frozen| {
+                let free: Vec<usize> = (0..np).filter(|p| !frozen.contains(p)).collect();
+                let matrix: Matrix = wt.matrix[..free.len()]
+                    .iter()
+                    .map(|row| free.iter().map(|&p| row[p]).collect())
+                    .collect();
+                let (mut solve, numerators) =
+                    Solve::cramer(graph, &matrix, &wt.rhs[..free.len()], frozen);
+                solve.free = free;
+                (solve, numerators)
+            })
+            .collect();
+        let inv_det = graph.var("inv_det");
+        full.solution = times(graph, &numerators, inv_det);
+        for (solve, numerators) in &mut reduced {
+            solve.solution = times(graph, numerators, inv_det);
+        }
+        WindowSolve {
+            full,
+            reduced: reduced.into_iter().map(|(solve, _)| solve).collect(),
+        }
+    }
+
+    /// Every value the transform computes, for the lowering's use counts.
+    fn roots(&self, wt: &WindowTransform) -> Vec<NodeId> {
+        let mut roots = Vec::new();
+        for solve in std::iter::once(&self.full).chain(&self.reduced) {
+            roots.extend([solve.det, solve.det_sq, solve.norms]);
+            roots.extend(&solve.solution);
+        }
+        roots.extend(&wt.phi_states);
+        roots
+    }
+}
+
+impl Solve {
+    /// The determinant, its square and the column norms' product of `matrix`, with the
+    /// numerators of Cramer's rule (the solution is filled in once `inv_det` exists).
+    fn cramer(
+        graph: &mut Graph,
+        matrix: &Matrix,
+        rhs: &[NodeId],
+        frozen: Vec<usize>,
+    ) -> (Solve, Vec<NodeId>) {
+        let (det, numerators) = cramer(graph, matrix, rhs);
+        let norms = column_norms_product(graph, matrix);
+        let det_sq = graph.mul(det, det);
+        let solve = Solve {
+            frozen,
+            free: Vec::new(),
+            det,
+            det_sq,
+            norms,
+            solution: Vec::new(),
+        };
+        (solve, numerators)
+    }
+}
+
+/// Each of `values` times `factor`.
+fn times(graph: &mut Graph, values: &[NodeId], factor: NodeId) -> Vec<NodeId> {
+    values.iter().map(|&v| graph.mul(v, factor)).collect()
+}
+
+/// Case 2 variants: the nonempty subsets of the input-only parameters, each frozen when
+/// its inputs were zero over the window, largest first.
+fn frozen_subsets(wt: &WindowTransform, np: usize) -> Vec<Vec<usize>> {
+    let input_only: Vec<usize> = (0..np).filter(|&p| wt.input_only[p].is_some()).collect();
+    let mut subsets: Vec<Vec<usize>> = (1..(1u32 << input_only.len()))
+        .map(|mask| {
+            input_only
+                .iter()
+                .enumerate()
+                .filter(|(bit, _)| mask & (1 << bit) != 0)
+                .map(|(_, &p)| p)
+                .collect()
+        })
+        .collect();
+    subsets.sort_by_key(|s: &Vec<usize>| std::cmp::Reverse(s.len()));
+    subsets
+}
+
+/// The branch of Case 2 that freezes `reduced.frozen`: taken when their inputs were all
+/// zero over the window; solves the reduced system if its excitation passes the threshold
+/// (Case 1 otherwise). Lowered in `fork`, so its temporaries stay in the branch.
+fn case2_branch(
+    mut fork: Lowerer<'_>,
+    wt: &WindowTransform,
+    reduced: &Solve,
+    last: &[Ident],
+    scalar: Scalar,
+) -> TokenStream {
+    let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
+    let conditions: Vec<Ident> = reduced
+        .frozen
+        .iter()
+        .flat_map(|&p| wt.input_only[p].clone().unwrap_or_default())
+        .map(|node| var_idents(fork.graph(), &[node]).remove(0))
+        .collect();
+    let det_r = fork.bind(reduced.det, "reduced_det");
+    let det_sq_r = fork.bind(reduced.det_sq, "reduced_det_sq");
+    let norms_r = fork.bind(reduced.norms, "reduced_column_norms");
+    let guard = fork.take_statements();
+    let values = fork.segment(&reduced.solution);
+    let body = fork.take_statements();
+    let mut entries: Vec<TokenStream> = last.iter().map(|l| quote! { #l }).collect();
+    for (&p, v) in reduced.free.iter().zip(values) {
+        entries[p] = v;
+    }
+    quote! {
+        else if #(#conditions == #zero)&&* {
+            #(#guard)*
+            if #det_sq_r > threshold * #norms_r {
+                let inv_det = #one / #det_r;
+                #(#body)*
+                ([#(#entries),*], WindowStatus::InputFree)
+            } else {
+                (self.phi_params, WindowStatus::Degenerate)
+            }
+        }
+    }
+}
+
+/// The lowered pieces of the transform, assembled into its method.
+struct TransformCode {
+    /// The full system's determinant, its square and the column norms' product.
+    head: Vec<TokenStream>,
+    /// The names bound to `det`, `det_sq` and `column_norms`.
+    excitation: [TokenStream; 3],
+    /// The variables of the solved parameters.
+    phi_params: Vec<Ident>,
+    /// The variables of the last solved parameters.
+    last: Vec<Ident>,
+    full_values: Vec<TokenStream>,
+    full_body: Vec<TokenStream>,
+    case2_branches: Vec<TokenStream>,
+    /// The propagation of the states to the window's end.
+    tail: Vec<TokenStream>,
+    phi_states: Vec<TokenStream>,
+}
+
+impl TransformCode {
+    /// `fn transform`: reads the window and the input, and returns the reconstructed
+    /// `phi` with the window's status and excitation terms.
+    fn method(
+        &self,
+        model: &Model,
+        g: &ModelGraph,
+        wt: &WindowTransform,
+        used_vars: std::collections::BTreeSet<VarId>,
+        scalar: Scalar,
+    ) -> TokenStream {
+        let (u_param, unpack) = window_reads(g, wt, used_vars, scalar);
+        let ty = ident(scalar.type_name());
+        let zero = literal(0.0, scalar);
+        let n = Literal::usize_unsuffixed(model.state_len());
+        let np_len = Literal::usize_unsuffixed(model.params.len());
+        let solve = self.solve(scalar);
+        let Self {
+            tail,
+            phi_states,
+            phi_params,
+            excitation: [_, det_sq_e, norms_e],
+            ..
+        } = self;
+        quote! {
+            /// The window transform: the reconstructed `phi` (states, then parameters), the
+            /// window's status, the squared determinant and product of squared column norms
+            /// of its parameter system (whose ratio is the squared excitation measure), and
+            /// the parameters to keep: those solved, else the last solved (eqs. 8-12).
+            #[allow(clippy::type_complexity)]
+            fn transform(&self, #u_param) -> ([#ty; #n], WindowStatus, [#ty; 2], [#ty; #np_len]) {
+                let [.., full] = self.filled;
+                if !full {
+                    return (self.xbar, WindowStatus::Filling, [#zero, #zero], self.phi_params);
+                }
+                #unpack
+                #solve
+                #(#tail)*
+                (
+                    [#(#phi_states,)* #(#phi_params),*],
+                    window,
+                    [#det_sq_e, #norms_e],
+                    [#(#phi_params),*],
+                )
+            }
+        }
+    }
+
+    /// The parameters and the window's status: the full solve if the window is excited
+    /// enough, else a Case 2 reduction if its inputs were zero, else the last parameters
+    /// (Case 1).
+    fn solve(&self, scalar: Scalar) -> TokenStream {
+        let Self {
+            head,
+            excitation: [det_e, det_sq_e, norms_e],
+            phi_params,
+            last,
+            full_values,
+            full_body,
+            case2_branches,
+            ..
+        } = self;
+        let one = literal(1.0, scalar);
+        quote! {
+            #(#head)*
+            let threshold = self.min_excitation_sq;
+            let [#(#last),*] = self.phi_params;
+            let ([#(#phi_params),*], window) = if #det_sq_e > threshold * #norms_e {
+                let inv_det = #one / #det_e;
+                #(#full_body)*
+                ([#(#full_values),*], WindowStatus::Solved)
+            }
+            #(#case2_branches)*
+            else {
+                ([#(#last),*], WindowStatus::Degenerate)
+            };
+        }
+    }
+}
+
+/// The transform's input parameter and the `let` patterns unpacking the window variables
+/// and the input it reads; the Case 2 branches read window variables too, so every window
+/// variable is unpacked.
+fn window_reads(
+    g: &ModelGraph,
+    wt: &WindowTransform,
+    mut used: std::collections::BTreeSet<VarId>,
+    scalar: Scalar,
+) -> (Option<TokenStream>, TokenStream) {
+    for node in wt
+        .outputs
+        .iter()
+        .flatten()
+        .chain(wt.inputs.iter().flatten())
+    {
+        if let crate::symbolic::Node::Var(v) = g.graph.node(*node) {
+            used.insert(v);
+        }
+    }
+    let unpack_window = window_unpack(&g.graph, wt, &used);
+    let unpack_u = destructure(&g.graph, quote! { *u }, &g.u, &used);
+    let ty = ident(scalar.type_name());
+    let u_param = (!g.u.is_empty()).then(|| {
+        let len = Literal::usize_unsuffixed(g.u.len());
+        let name = if unpack_u.is_some() {
+            ident("u")
+        } else {
+            ident("_u")
+        };
+        quote! { #name: &[#ty; #len] }
+    });
+    (u_param, quote! { #unpack_u #unpack_window })
+}
+
+/// The window variables as `let` patterns over the stored history.
+fn window_unpack(
+    graph: &Graph,
+    wt: &WindowTransform,
+    used: &std::collections::BTreeSet<VarId>,
+) -> TokenStream {
+    let outputs: Vec<NodeId> = wt.outputs.iter().flatten().copied().collect();
+    let inputs: Vec<NodeId> = wt.inputs.iter().flatten().copied().collect();
+    let y = destructure(graph, quote! { self.outputs }, &outputs, used);
+    let u = destructure(graph, quote! { self.inputs }, &inputs, used);
+    quote! { #y #u }
+}
