@@ -51,8 +51,7 @@ impl MoveNames {
                 input_of.push(i);
             }
         }
-        let taken = |name: &str| names.fresh(name) != name;
-        let hessian = packed_names("h", moves.len(), &taken);
+        let hessian = packed_names("h", moves.len(), &|name| names.takes(name));
         let linear = moves
             .iter()
             .map(|m| names.fresh(&format!("c_{m}")))
@@ -221,8 +220,7 @@ pub fn active_set_loop(g: &mut Graph, moves: &MoveNames, names: &Names, scalar: 
         .collect();
     // The Newton step on the free moves: H~ p = rhs, with H~ = H on the free moves and the
     // identity on the held ones, rhs = -grad on the free moves and 0 on the held ones.
-    let taken = |name: &str| names.fresh(name) != name;
-    let masked_names = packed_names("masked", m, &taken);
+    let masked_names = packed_names("masked", m, &|name| names.takes(name));
     let masked_vars: Vec<_> = masked_names.iter().map(|n| g.var(n)).collect();
     let rhs_idents = moves.per_move("rhs");
     let rhs_vars: Vec<_> = rhs_idents.iter().map(|n| g.var(&n.to_string())).collect();
