@@ -1,3 +1,4 @@
 //! The adaptive finite-horizon LQR.
 
 pub mod lower;
+pub mod steady_state;
