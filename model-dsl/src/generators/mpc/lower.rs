@@ -6,16 +6,15 @@
 //! symbolic stage lowered to straight-line code; stages hand over through named values.
 
 use super::names::{failure, Names};
-use super::predictive::{condensed_qp, zoh_square, zoh_taylor};
+use super::predictive::{column_norm, condensed_qp, scale, zoh_square, zoh_taylor};
 use super::qp::{active_set_loop, MoveNames};
-use crate::ast::Comparison;
 use crate::emit::code::{
     all_finite, guard_pivots, pack_upper, pivot_names, unpack_symmetric, var_idents,
 };
 use crate::emit::filter::{packed_vars, time_param};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
-use crate::model::{Func, Model, MpcDiscretisation, MpcSpec, Scalar};
+use crate::model::{Model, MpcDiscretisation, MpcSpec, Scalar};
 use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
 use crate::symbolic::loop_invariant_operands;
 use crate::symbolic::riccati::riccati_step;
@@ -96,7 +95,6 @@ fn matrix_vars(g: &mut Graph, names: &[Vec<String>]) -> Matrix {
 pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) -> MpcCode {
     let mut mg = mg.clone();
     let names = Names::new(model);
-    let ty = ident(scalar.type_name());
     let moves = MoveNames::new(model, spec, &names);
     let prediction = prediction_model(model, spec, &mut mg, &names, scalar);
     let (a, b) = (&prediction.a, &prediction.b);
@@ -112,42 +110,83 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
     );
     let qp = active_set_loop(&mut mg.graph, &moves, &names, scalar);
 
-    let [n, m] = [model.state_len(), model.inputs.len()].map(Literal::usize_unsuffixed);
-    let prediction_signature = signature(model, &mg, &prediction.used, &ty);
-    let prediction_read = read_estimate(
-        &mg,
+    let stages = [&terminal.stage.code, &condensed.stage.code, &qp.code];
+    let commit = commit(&moves, &terminal);
+    let plan = quote! {
+        #(#stages)*
+        #commit
+    };
+    let prediction_method = prediction_method(model, &mg, &prediction, scalar);
+    let solve = solve_method(model, &mg, (&prediction, &condensed.used), plan, scalar);
+    let methods = quote! {
+        #prediction_method
+
+        #solve
+    };
+    let tokens = type_tokens(model, spec, methods, &moves, scalar, prediction.holds);
+    MpcCode {
+        tokens,
+        prediction_ops: prediction.stage.ops,
+        riccati_ops: terminal.stage.ops,
+        condense_ops: condensed.stage.ops,
+        iteration_ops: qp.iteration_ops,
+    }
+}
+
+/// `fn prediction_model`: the prediction stage on its own, returning `A` and `B`.
+fn prediction_method(
+    model: &Model,
+    mg: &ModelGraph,
+    prediction: &Prediction,
+    scalar: Scalar,
+) -> TokenStream {
+    let ty = ident(scalar.type_name());
+    let (a, b) = (&prediction.a, &prediction.b);
+    let signature = signature(model, mg, &prediction.used, &ty);
+    let read = read_estimate(
+        mg,
         &prediction.used,
         &reject(quote! { Status::RejectedInput }),
     );
-    let prediction_code = &prediction.stage.code;
+    let code = &prediction.stage.code;
     let (a_values, b_values) = (
         returned(&mg.graph, a, scalar),
         returned(&mg.graph, b, scalar),
     );
-    let (a_pattern, b_pattern) = (received(&mg.graph, a), received(&mg.graph, b));
-    let solve_read = read_estimate(
-        &mg,
-        &condensed.used,
-        &failure(quote! { Status::RejectedInput }),
-    );
-    let time = model.uses_time().then(|| quote! { t: #ty, });
-    let time_arg = model.uses_time().then(|| quote! { t, });
-    let stages = [&terminal.stage.code, &condensed.stage.code, &qp.code];
-    let commit = commit(&moves, &terminal);
-    let failed = failure(quote! { rejected });
-    let methods = quote! {
+    quote! {
         /// The prediction model `x+ = A x + B u` (eq. 30) of the regulated states at the
         /// estimate `x` and operating input `u`, as [`Mpc::solve`] takes it: `Err` if they
         /// are not finite, or the hold would not be.
-        pub fn prediction_model(#prediction_signature) -> Result<PredictionModel, Status> {
-            #prediction_read
-            #prediction_code
+        pub fn prediction_model(#signature) -> Result<PredictionModel, Status> {
+            #read
+            #code
             Ok(PredictionModel {
                 a: [#(#a_values),*],
                 b: [#(#b_values),*],
             })
         }
+    }
+}
 
+/// `fn solve`: the prediction model, then the estimate's reading for the condensed
+/// problem, then `plan` (the terminal weight, the condensed problem, the active-set loop
+/// and the commit).
+fn solve_method(
+    model: &Model,
+    mg: &ModelGraph,
+    (prediction, used): (&Prediction, &BTreeSet<VarId>),
+    plan: TokenStream,
+    scalar: Scalar,
+) -> TokenStream {
+    let ty = ident(scalar.type_name());
+    let [n, m] = [model.state_len(), model.inputs.len()].map(Literal::usize_unsuffixed);
+    let (a, b) = (&prediction.a, &prediction.b);
+    let (a_pattern, b_pattern) = (received(&mg.graph, a), received(&mg.graph, b));
+    let solve_read = read_estimate(mg, used, &failure(quote! { Status::RejectedInput }));
+    let time = model.uses_time().then(|| quote! { t: #ty, });
+    let time_arg = model.uses_time().then(|| quote! { t, });
+    let failed = failure(quote! { rejected });
+    quote! {
         /// Recomputes the plan for the estimate `x`: the prediction model at `x` (and
         /// the operating input `u`), `RICCATI_ITERATIONS` Riccati steps from the last
         /// terminal weight, the condensed problem (eqs. 42-44) and at most
@@ -161,17 +200,8 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
                 }
             };
             #solve_read
-            #(#stages)*
-            #commit
+            #plan
         }
-    };
-    let tokens = type_tokens(model, spec, methods, &moves, scalar, prediction.holds);
-    MpcCode {
-        tokens,
-        prediction_ops: prediction.stage.ops,
-        riccati_ops: terminal.stage.ops,
-        condense_ops: condensed.stage.ops,
-        iteration_ops: qp.iteration_ops,
     }
 }
 
@@ -354,50 +384,124 @@ fn zero_order_hold(
     names: &Names,
     scalar: Scalar,
 ) -> Hold {
-    let (ns, nu) = (phi.len(), gamma.first().map_or(0, Vec::len));
     let step_name = names.fresh("hold_step");
-    let step = g.var(&step_name);
-    let norm = column_norm(g, phi, gamma);
-    let times_step = |g: &mut Graph, m: &Matrix| -> Matrix {
-        m.iter()
-            .map(|r| r.iter().map(|&v| g.mul(v, step)).collect())
-            .collect()
-    };
-    let (f, gh) = (times_step(g, phi), times_step(g, gamma));
-    let (a_core, b_core) = zoh_taylor(g, &f, &gh);
-    let (a_names, b_names) = (names.matrix("a", ns, ns), names.matrix("b", ns, nu));
-    let (a, b) = (matrix_vars(g, &a_names), matrix_vars(g, &b_names));
-    let (a_squared, b_squared) = zoh_square(g, &a, &b);
+    let hold = HoldGraph::new(g, (phi, gamma), &step_name, names);
+    let lowered = HoldCode::new(g, &hold, names, scalar);
+    let code = hold_code(&hold, &lowered, (&step_name, period), scalar);
+    Hold {
+        stage: Stage {
+            code,
+            ops: lowered.ops,
+        },
+        a: hold.a,
+        b: hold.b,
+    }
+}
 
-    let core: Vec<NodeId> = a_core.iter().chain(&b_core).flatten().copied().collect();
-    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &[&[norm][..], &core].concat());
-    let norm_value = lowerer.segment(&[norm]).remove(0);
-    let norm_ops = lowerer.ops();
-    let norm_statements = lowerer.take_statements();
-    let core_values = lowerer.segment(&core);
-    let core_ops = lowerer.ops().minus(norm_ops);
-    let core_statements = lowerer.take_statements();
+/// The hold as nodes: the 1-norm of `[Phi Gamma]`, the Taylor core over the scaled step
+/// `h`, and one squaring of the hold held in the variables `a11 ..`, `b11 ..`.
+struct HoldGraph {
+    norm: NodeId,
+    /// The core's `A`, then its `B`, row by row.
+    core: Vec<NodeId>,
+    /// The squared `A`, then `B`, row by row.
+    squared: Vec<NodeId>,
+    a_names: Vec<Vec<String>>,
+    b_names: Vec<Vec<String>>,
+    a: Matrix,
+    b: Matrix,
+}
 
-    let squared: Vec<NodeId> = a_squared
-        .iter()
-        .chain(&b_squared)
-        .flatten()
-        .copied()
-        .collect();
-    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &squared);
-    let squared_values = lowerer.segment(&squared);
-    let square_ops = lowerer.ops();
-    let square_statements = lowerer.take_statements();
+impl HoldGraph {
+    fn new(
+        g: &mut Graph,
+        (phi, gamma): (&Matrix, &Matrix),
+        step_name: &str,
+        names: &Names,
+    ) -> HoldGraph {
+        let (ns, nu) = (phi.len(), gamma.first().map_or(0, Vec::len));
+        let step = g.var(step_name);
+        let norm = column_norm(g, phi, gamma);
+        let (f, gh) = (scale(g, phi, step), scale(g, gamma, step));
+        let (a_core, b_core) = zoh_taylor(g, &f, &gh);
+        let (a_names, b_names) = (names.matrix("a", ns, ns), names.matrix("b", ns, nu));
+        let (a, b) = (matrix_vars(g, &a_names), matrix_vars(g, &b_names));
+        let (a_squared, b_squared) = zoh_square(g, &a, &b);
+        let flat = |a: &Matrix, b: &Matrix| a.iter().chain(b).flatten().copied().collect();
+        HoldGraph {
+            norm,
+            core: flat(&a_core, &b_core),
+            squared: flat(&a_squared, &b_squared),
+            a_names,
+            b_names,
+            a,
+            b,
+        }
+    }
+}
 
+/// The hold's pieces lowered: the norm, the Taylor core, and one squaring (run up to
+/// `MAX_SQUARINGS` times, as its cost counts).
+struct HoldCode {
+    norm_statements: Vec<TokenStream>,
+    norm_value: TokenStream,
+    core_statements: Vec<TokenStream>,
+    core_values: Vec<TokenStream>,
+    square_statements: Vec<TokenStream>,
+    squared_values: Vec<TokenStream>,
+    ops: OpCount,
+}
+
+impl HoldCode {
+    fn new(g: &Graph, hold: &HoldGraph, names: &Names, scalar: Scalar) -> HoldCode {
+        let roots = [&[hold.norm][..], &hold.core].concat();
+        let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
+        let norm_value = lowerer.segment(&[hold.norm]).remove(0);
+        let norm_ops = lowerer.ops();
+        let norm_statements = lowerer.take_statements();
+        let core_values = lowerer.segment(&hold.core);
+        let core_ops = lowerer.ops().minus(norm_ops);
+        let core_statements = lowerer.take_statements();
+
+        let mut lowerer = Lowerer::new(g, scalar, names.namer(), &hold.squared);
+        let squared_values = lowerer.segment(&hold.squared);
+        let square_ops = lowerer.ops();
+        let square_statements = lowerer.take_statements();
+        HoldCode {
+            norm_statements,
+            norm_value,
+            core_statements,
+            core_values,
+            square_statements,
+            squared_values,
+            ops: norm_ops
+                .plus(core_ops)
+                .plus(square_ops.times(MAX_SQUARINGS)),
+        }
+    }
+}
+
+/// The hold over the sample `period` (sect. 3.3), the step named `step_name`: scaling,
+/// the Taylor core, and the squarings back up, leaving `a11 ..`, `b11 ..` bound.
+fn hold_code(
+    hold: &HoldGraph,
+    code: &HoldCode,
+    (step_name, period): (&str, &TokenStream),
+    scalar: Scalar,
+) -> TokenStream {
+    let ns = hold.a.len();
+    let nu = hold.b.first().map_or(0, Vec::len);
     let [half, two] = [0.5, 2.0].map(|v| literal(v, scalar));
-    let step = ident(&step_name);
-    let (a_pattern, b_pattern) = (matrix_pattern(&a_names), matrix_pattern(&b_names));
-    let (a_core, b_core) = core_values.split_at(ns * ns);
+    let step = ident(step_name);
+    let (a_pattern, b_pattern) = (matrix_pattern(&hold.a_names), matrix_pattern(&hold.b_names));
+    let (a_core, b_core) = code.core_values.split_at(ns * ns);
     let (a_core, b_core) = (rows(a_core, ns), rows(b_core, nu));
-    let (a_squared, b_squared) = squared_values.split_at(ns * ns);
+    let (a_squared, b_squared) = code.squared_values.split_at(ns * ns);
     let (a_squared, b_squared) = (rows(a_squared, ns), rows(b_squared, nu));
     let too_stiff = reject(quote! { Status::NonFinite });
-    let code = quote! {
+    let (norm_statements, norm_value) = (&code.norm_statements, &code.norm_value);
+    let (core_statements, square_statements) = (&code.core_statements, &code.square_statements);
+    quote! {
         // The zero-order hold over the sample (sect. 3.3): halve the step until the 1-norm
         // of [Phi Gamma] times it is at most 1/2 ...
         #(#norm_statements)*
@@ -431,35 +535,7 @@ fn zero_order_hold(
         }
         let #a_pattern = hold_a;
         let #b_pattern = hold_b;
-    };
-    let ops = norm_ops
-        .plus(core_ops)
-        .plus(square_ops.times(MAX_SQUARINGS));
-    Hold {
-        stage: Stage { code, ops },
-        a,
-        b,
     }
-}
-
-/// `|| [Phi Gamma] ||_1`: the largest column sum of magnitudes.
-fn column_norm(g: &mut Graph, phi: &Matrix, gamma: &Matrix) -> NodeId {
-    let ns = phi.len();
-    let columns = ns + gamma.first().map_or(0, Vec::len);
-    let mut norm = None;
-    for j in 0..columns {
-        let mut sum = g.zero();
-        for i in 0..ns {
-            let entry = if j < ns { phi[i][j] } else { gamma[i][j - ns] };
-            let magnitude = g.call(Func::Abs, entry);
-            sum = g.add(sum, magnitude);
-        }
-        norm = Some(match norm {
-            None => sum,
-            Some(n) => g.select(Comparison::Gt, sum, n, sum, n),
-        });
-    }
-    norm.unwrap_or_else(|| g.zero())
 }
 
 /// `[[a11, a12], [a21, a22]]` as a pattern.
