@@ -17,7 +17,7 @@ use crate::emit::names::ident;
 use crate::model::{Model, MpcDiscretisation, MpcSpec, Scalar};
 use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
 use crate::symbolic::loop_invariant_operands;
-use crate::symbolic::riccati::riccati_step;
+use crate::symbolic::riccati::{riccati_step, RiccatiStep};
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
@@ -565,6 +565,9 @@ struct Terminal {
     gain_idents: Vec<Vec<Ident>>,
 }
 
+/// The pivot names of the control weight `R + B'PB`.
+const WEIGHT: (&str, &str) = ("weight", "inv_weight");
+
 /// `RICCATI_ITERATIONS` steps of `P <- A'PA - A'PB (R + B'PB)^-1 B'PA + Q` (the fixed
 /// point is eq. 35's `P_f`) from the last solve's terminal weight, which so tracks `P_f`
 /// as the model changes; then the gain `K` of eq. (41). Converged when the last step
@@ -576,65 +579,149 @@ fn terminal_weight(
     names: &Names,
     scalar: Scalar,
 ) -> Terminal {
+    let recursion = Recursion::new(g, (a, b), spec, names);
+    let lowered = RecursionCode::new(g, &recursion, names, scalar);
+    let p_idents = var_idents(g, &recursion.p_vars);
     let (ns, nu) = (spec.states.len(), spec.inputs.len());
-    let p_vars = packed_vars(g, "p", ns, &names.taken);
-    let q_vars = packed_vars(g, "q", ns, &names.taken);
-    let r_vars = packed_vars(g, "r", nu, &names.taken);
-    let p = symmetric_from_packed(&p_vars, ns);
-    let (q, r) = (
-        symmetric_from_packed(&q_vars, ns),
-        symmetric_from_packed(&r_vars, nu),
-    );
-    const WEIGHT: (&str, &str) = ("weight", "inv_weight");
-    let step = riccati_step(g, (a, b), &p, (&q, &r), |g, j| {
-        g.var(&pivot_names(nu, j, WEIGHT, "").1)
-    });
-    let gain: Vec<NodeId> = step.gain.iter().flatten().copied().collect();
-    let loop_vars: Vec<NodeId> = p_vars.iter().chain(&step.reciprocals).copied().collect();
-    let body_roots: Vec<NodeId> = step.p_next.iter().chain(&step.pivots).copied().collect();
-    let invariant = loop_invariant_operands(g, &body_roots, &loop_vars);
-    let roots = [&body_roots[..], &gain, &invariant].concat();
-    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
-    for &node in &invariant {
-        lowerer.force_let(node);
-    }
-    let before = lowerer.ops();
-    let hoisted = lowerer.take_statements();
-    // The gain after the loop comes from a fork taken here, so it does not rely on
-    // temporaries scoped inside the loop body.
-    let mut after = lowerer.clone();
-    let on_failure = failure(quote! { Status::NonPositiveControlWeight });
-    let pivots = (&step.pivots[..], &step.reciprocals[..]);
-    guard_pivots(
-        &mut lowerer,
-        pivots.0,
-        pivots.1,
-        (WEIGHT, ""),
-        &on_failure,
-        scalar,
-    );
-    let p_next = lowerer.segment(&step.p_next);
-    let body = lowerer.take_statements();
-    let per_step = lowerer.ops().minus(before);
-    guard_pivots(
-        &mut after,
-        pivots.0,
-        pivots.1,
-        (WEIGHT, ""),
-        &on_failure,
-        scalar,
-    );
-    let gain_values = after.segment(&gain);
-    let gain_statements = after.take_statements();
-    let gain_ops = after.ops().minus(before);
-
-    let p_idents = var_idents(g, &p_vars);
-    let (q_idents, r_idents) = (var_idents(g, &q_vars), var_idents(g, &r_vars));
     let gain_idents: Vec<Vec<Ident>> = names
         .matrix("k", nu, ns)
         .iter()
         .map(|row| row.iter().map(|n| ident(n)).collect())
         .collect();
+    let code = terminal_code(g, &recursion, &lowered, (&p_idents, &gain_idents), scalar);
+    let riccati = lowered.per_step.times(spec.riccati_iterations);
+    let ops = lowered.before.plus(riccati).plus(lowered.gain_ops);
+    Terminal {
+        stage: Stage { code, ops },
+        p: recursion.p_vars,
+        p_idents,
+        gain_idents,
+    }
+}
+
+/// The Riccati recursion towards `P_f` as nodes: the packed variables of `P`, `Q` and
+/// `R`, one shared Riccati step (eq. 35's map), the gain, and the step's operands that do
+/// not depend on `P`.
+struct Recursion {
+    p_vars: Vec<NodeId>,
+    q_vars: Vec<NodeId>,
+    r_vars: Vec<NodeId>,
+    step: RiccatiStep,
+    /// The gain `K` of eq. (41), row by row.
+    gain: Vec<NodeId>,
+    /// What the loop body computes: the next `P` and the pivots of `R + B'PB`.
+    body_roots: Vec<NodeId>,
+    /// Operands of the loop body that do not change between steps, hoisted before it.
+    invariant: Vec<NodeId>,
+}
+
+impl Recursion {
+    fn new(g: &mut Graph, (a, b): (&Matrix, &Matrix), spec: &MpcSpec, names: &Names) -> Self {
+        let (ns, nu) = (spec.states.len(), spec.inputs.len());
+        let p_vars = packed_vars(g, "p", ns, &names.taken);
+        let q_vars = packed_vars(g, "q", ns, &names.taken);
+        let r_vars = packed_vars(g, "r", nu, &names.taken);
+        let p = symmetric_from_packed(&p_vars, ns);
+        let (q, r) = (
+            symmetric_from_packed(&q_vars, ns),
+            symmetric_from_packed(&r_vars, nu),
+        );
+        let step = riccati_step(g, (a, b), &p, (&q, &r), |g, j| {
+            g.var(&pivot_names(nu, j, WEIGHT, "").1)
+        });
+        let gain: Vec<NodeId> = step.gain.iter().flatten().copied().collect();
+        let loop_vars: Vec<NodeId> = p_vars.iter().chain(&step.reciprocals).copied().collect();
+        let body_roots: Vec<NodeId> = step.p_next.iter().chain(&step.pivots).copied().collect();
+        let invariant = loop_invariant_operands(g, &body_roots, &loop_vars);
+        Recursion {
+            p_vars,
+            q_vars,
+            r_vars,
+            step,
+            gain,
+            body_roots,
+            invariant,
+        }
+    }
+}
+
+/// The lowered recursion: the statements hoisted before the loop, the loop body and the
+/// next `P`, the gain's statements after the loop and its values, and their costs.
+struct RecursionCode {
+    hoisted: Vec<TokenStream>,
+    body: Vec<TokenStream>,
+    p_next: Vec<TokenStream>,
+    gain_statements: Vec<TokenStream>,
+    gain_values: Vec<TokenStream>,
+    /// The hoisted statements', one step's, and the gain's arithmetic.
+    before: OpCount,
+    per_step: OpCount,
+    gain_ops: OpCount,
+}
+
+impl RecursionCode {
+    /// The loop body and, after the loop, the gain from the final `P`, both behind the
+    /// checked pivots of `R + B'PB`.
+    fn new(g: &Graph, recursion: &Recursion, names: &Names, scalar: Scalar) -> Self {
+        let roots = [
+            &recursion.body_roots[..],
+            &recursion.gain,
+            &recursion.invariant,
+        ]
+        .concat();
+        let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
+        for &node in &recursion.invariant {
+            lowerer.force_let(node);
+        }
+        let before = lowerer.ops();
+        let hoisted = lowerer.take_statements();
+        // The gain after the loop comes from a fork taken here, so it does not rely on
+        // temporaries scoped inside the loop body.
+        let mut after = lowerer.clone();
+        let on_failure = failure(quote! { Status::NonPositiveControlWeight });
+        let (pivots, reciprocals) = (&recursion.step.pivots, &recursion.step.reciprocals);
+        let guard = (WEIGHT, "");
+        guard_pivots(
+            &mut lowerer,
+            pivots,
+            reciprocals,
+            guard,
+            &on_failure,
+            scalar,
+        );
+        let p_next = lowerer.segment(&recursion.step.p_next);
+        let body = lowerer.take_statements();
+        let per_step = lowerer.ops().minus(before);
+        guard_pivots(&mut after, pivots, reciprocals, guard, &on_failure, scalar);
+        let gain_values = after.segment(&recursion.gain);
+        let gain_statements = after.take_statements();
+        let gain_ops = after.ops().minus(before);
+        RecursionCode {
+            hoisted,
+            body,
+            p_next,
+            gain_statements,
+            gain_values,
+            before,
+            per_step,
+            gain_ops,
+        }
+    }
+}
+
+/// The terminal weight's code: the steps from `self.terminal_weight`, the convergence
+/// test on the last one, and the gain bound as `gain_idents`.
+fn terminal_code(
+    g: &Graph,
+    recursion: &Recursion,
+    code: &RecursionCode,
+    (p_idents, gain_idents): (&[Ident], &[Vec<Ident>]),
+    scalar: Scalar,
+) -> TokenStream {
+    let (q_idents, r_idents) = (
+        var_idents(g, &recursion.q_vars),
+        var_idents(g, &recursion.r_vars),
+    );
     let gain_flat = gain_idents.iter().flatten();
     let previous: Vec<Ident> = p_idents
         .iter()
@@ -646,7 +733,9 @@ fn terminal_weight(
         .zip(&previous)
         .map(|(p, prev)| quote! { #abs(#p - #prev) });
     let sizes = p_idents.iter().map(|p| quote! { #abs(#p) });
-    let code = quote! {
+    let (hoisted, body, p_next) = (&code.hoisted, &code.body, &code.p_next);
+    let (gain_statements, gain_values) = (&code.gain_statements, &code.gain_values);
+    quote! {
         // The terminal weight P_f (eq. 35) by Riccati steps from the last solve's.
         let [#(#q_idents),*] = self.q;
         let [#(#r_idents),*] = self.r;
@@ -666,14 +755,6 @@ fn terminal_weight(
         // The gain of the fixed feedback after the horizon (eq. 41).
         #(#gain_statements)*
         #(let #gain_flat = #gain_values;)*
-    };
-    let riccati = per_step.times(spec.riccati_iterations);
-    let ops = before.plus(riccati).plus(gain_ops);
-    Terminal {
-        stage: Stage { code, ops },
-        p: p_vars,
-        p_idents,
-        gain_idents,
     }
 }
 
