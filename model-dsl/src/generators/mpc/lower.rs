@@ -876,6 +876,40 @@ fn signature(
     quote! { #time #x_name: &[#ty; #n], #u_name: &[#ty; #m] }
 }
 
+/// The lengths in the generated types' signatures, and their scalar type.
+struct Dims {
+    ty: Ident,
+    /// Regulated states, the MPC's inputs, and the packed weights' lengths.
+    ns_len: Literal,
+    nu_len: Literal,
+    nsp: Literal,
+    nup: Literal,
+    /// Moves in the plan.
+    horizon: Literal,
+}
+
+impl Dims {
+    fn new(spec: &MpcSpec, scalar: Scalar) -> Dims {
+        let (ns, nu) = (spec.states.len(), spec.inputs.len());
+        let [ns_len, nu_len, nsp, nup, horizon] = [
+            ns,
+            nu,
+            packed_len(ns),
+            packed_len(nu),
+            spec.horizon as usize,
+        ]
+        .map(Literal::usize_unsuffixed);
+        Dims {
+            ty: ident(scalar.type_name()),
+            ns_len,
+            nu_len,
+            nsp,
+            nup,
+            horizon,
+        }
+    }
+}
+
 /// The `Mpc` and `MpcStatus` types around `solve`.
 fn type_tokens(
     model: &Model,
@@ -885,63 +919,58 @@ fn type_tokens(
     scalar: Scalar,
     holds: bool,
 ) -> TokenStream {
-    let ty = ident(scalar.type_name());
-    let (ns, nu) = (spec.states.len(), spec.inputs.len());
-    let [ns_len, nu_len, nsp, nup, horizon] = [
-        ns,
-        nu,
-        packed_len(ns),
-        packed_len(nu),
-        spec.horizon as usize,
-    ]
-    .map(Literal::usize_unsuffixed);
-    let max_iterations = Literal::u32_unsuffixed(spec.max_iterations);
-    let passes = Literal::u32_unsuffixed(spec.max_iterations + 1);
-    let riccati_iterations = Literal::u32_unsuffixed(spec.riccati_iterations);
-    // Both tolerances sit well above the scalar's rounding of the sums they compare.
-    let tolerance = literal(
-        match scalar {
-            Scalar::F32 => 1e-5,
-            Scalar::F64 => 1e-12,
-        },
-        scalar,
-    );
-    let zero = literal(0.0, scalar);
-    let (pack_q, pack_r) = (pack_upper("q", ns), pack_upper("r", nu));
-    let state_names = model.states_named(&spec.states);
-    let input_names = model.inputs_named(&spec.inputs);
-    let doc = format!(
-        " Adaptive model predictive control of `[{}]` with `[{}]` within input bounds: \
-         the dual-mode, infinite-horizon constrained controller of Takacs, Polóni and \
-         Rohal'-Ilkiv, \"Adaptive predictive control of transient vibrations of \
-         cantilevers with changing weight\" (sect. 3.4). [`Mpc::solve`] takes the model \
-         at the estimate ({}), moves the terminal weight towards the solution of the \
-         discrete algebraic Riccati equation, condenses the cost over `HORIZON` moves and \
-         minimises it within the bounds by a primal active-set method warm-started from \
-         the last plan; [`Mpc::control`] is the plan's first move.",
-        state_names.join(", "),
-        input_names.join(", "),
-        if holds {
-            "the exact zero-order hold of its continuous linearisation"
-        } else {
-            "the Jacobians of its sample step"
+    let dims = Dims::new(spec, scalar);
+    let results = result_types(&dims);
+    let doc = mpc_doc(model, spec, holds);
+    let constants = constants(spec, &dims, scalar, holds);
+    let constructor = constructor(spec, moves, &dims, scalar);
+    let set_reference = set_reference(model, spec, moves, &dims);
+    let accessors = accessors(spec, &dims);
+    let Dims {
+        ty,
+        ns_len,
+        nu_len,
+        nsp,
+        nup,
+        horizon,
+    } = &dims;
+    quote! {
+        #results
+
+        #[doc = #doc]
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Mpc {
+            q: [#ty; #nsp],
+            r: [#ty; #nup],
+            u_min: [#ty; #nu_len],
+            u_max: [#ty; #nu_len],
+            x_ref: [#ty; #ns_len],
+            u_ref: [#ty; #nu_len],
+            terminal_weight: [#ty; #nsp],
+            terminal_gain: [[#ty; #ns_len]; #nu_len],
+            plan: [[#ty; #nu_len]; #horizon],
         }
-    );
-    let squarings = holds.then(|| {
-        let max = Literal::u32_unsuffixed(MAX_SQUARINGS);
-        quote! {
-            /// Most squarings of the zero-order hold (scaling and squaring).
-            pub const MAX_SQUARINGS: u32 = #max;
+
+        impl Mpc {
+            #constants
+
+            #constructor
+
+            #set_reference
+
+            #solve
+
+            #accessors
         }
-    });
-    let state_refs: Vec<Ident> = state_names
-        .iter()
-        .map(|n| ident(&format!("{n}_ref")))
-        .collect();
-    let reference_check = moves.reference_check(&state_refs);
-    let bounds_check = moves.bounds_check();
-    let start_move = moves.start_move(&zero);
-    let terminal_weight = unpack_symmetric("terminal_weight", ns);
+    }
+}
+
+/// `PredictionModel`, which `prediction_model` returns, and `MpcStatus`, which `solve`
+/// returns.
+fn result_types(dims: &Dims) -> TokenStream {
+    let Dims {
+        ty, ns_len, nu_len, ..
+    } = dims;
     quote! {
         /// The MPC's prediction model `x+ = A x + B u` (eq. 30) of the regulated states.
         #[derive(Clone, Copy, Debug, PartialEq)]
@@ -970,106 +999,182 @@ fn type_tokens(
             /// active bounds the first move is the infinite-horizon LQR's.
             pub terminal_weight_converged: bool,
         }
+    }
+}
 
-        #[doc = #doc]
-        #[derive(Clone, Copy, Debug, PartialEq)]
-        pub struct Mpc {
-            q: [#ty; #nsp],
-            r: [#ty; #nup],
+/// The type's doc: the dual-mode controller of Takacs, Polóni and Rohal'-Ilkiv on the
+/// regulated states and inputs, and which prediction model it takes.
+fn mpc_doc(model: &Model, spec: &MpcSpec, holds: bool) -> String {
+    let state_names = model.states_named(&spec.states);
+    let input_names = model.inputs_named(&spec.inputs);
+    format!(
+        " Adaptive model predictive control of `[{}]` with `[{}]` within input bounds: \
+         the dual-mode, infinite-horizon constrained controller of Takacs, Polóni and \
+         Rohal'-Ilkiv, \"Adaptive predictive control of transient vibrations of \
+         cantilevers with changing weight\" (sect. 3.4). [`Mpc::solve`] takes the model \
+         at the estimate ({}), moves the terminal weight towards the solution of the \
+         discrete algebraic Riccati equation, condenses the cost over `HORIZON` moves and \
+         minimises it within the bounds by a primal active-set method warm-started from \
+         the last plan; [`Mpc::control`] is the plan's first move.",
+        state_names.join(", "),
+        input_names.join(", "),
+        if holds {
+            "the exact zero-order hold of its continuous linearisation"
+        } else {
+            "the Jacobians of its sample step"
+        }
+    )
+}
+
+/// The horizon, the iteration bounds and the tolerances (and `MAX_SQUARINGS` for the
+/// hold).
+fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenStream {
+    let Dims { ty, horizon, .. } = dims;
+    let max_iterations = Literal::u32_unsuffixed(spec.max_iterations);
+    let passes = Literal::u32_unsuffixed(spec.max_iterations + 1);
+    let riccati_iterations = Literal::u32_unsuffixed(spec.riccati_iterations);
+    // Both tolerances sit well above the scalar's rounding of the sums they compare.
+    let tolerance = literal(
+        match scalar {
+            Scalar::F32 => 1e-5,
+            Scalar::F64 => 1e-12,
+        },
+        scalar,
+    );
+    let squarings = holds.then(|| {
+        let max = Literal::u32_unsuffixed(MAX_SQUARINGS);
+        quote! {
+            /// Most squarings of the zero-order hold (scaling and squaring).
+            pub const MAX_SQUARINGS: u32 = #max;
+        }
+    });
+    quote! {
+        /// Moves optimised over, `n`.
+        pub const HORIZON: usize = #horizon;
+        /// Bound on the active-set iterations (Newton steps) of one solve.
+        pub const MAX_ITERATIONS: u32 = #max_iterations;
+        /// Passes of the active-set loop: one per iteration, and one more that only
+        /// checks the multipliers after the last step.
+        const PASSES: u32 = #passes;
+        /// Riccati steps per solve towards the terminal weight.
+        pub const RICCATI_ITERATIONS: u32 = #riccati_iterations;
+        /// Relative change of the terminal weight under which it counts as converged.
+        pub const RICCATI_TOLERANCE: #ty = #tolerance;
+        /// A bound stays held unless releasing it would move its input by more than
+        /// this fraction of the input's range (its multiplier is below
+        /// `-RELEASE_TOLERANCE (u_max - u_min) H_ii`), so rounding cannot cycle the
+        /// active set.
+        pub const RELEASE_TOLERANCE: #ty = #tolerance;
+        #squarings
+    }
+}
+
+/// `fn new`: the bounds checked, the weights packed, the terminal weight at `q`, and the
+/// plan at zero clipped to the bounds.
+fn constructor(spec: &MpcSpec, moves: &MoveNames, dims: &Dims, scalar: Scalar) -> TokenStream {
+    let Dims {
+        ty,
+        ns_len,
+        nu_len,
+        horizon,
+        ..
+    } = dims;
+    let (ns, nu) = (spec.states.len(), spec.inputs.len());
+    let zero = literal(0.0, scalar);
+    let (pack_q, pack_r) = (pack_upper("q", ns), pack_upper("r", nu));
+    let bounds_check = moves.bounds_check();
+    let start_move = moves.start_move(&zero);
+    quote! {
+        /// A controller with state weight `q` and input weight `r` (symmetric: upper
+        /// triangles are read; `r` positive definite) and the input bounds
+        /// `u_min < u_max`, regulating to zero until [`Mpc::set_reference`]. The
+        /// terminal weight starts at `q` and converges over the first solves; the plan
+        /// starts at zero, clipped to the bounds. Rejects bounds that are not finite
+        /// or leave no room.
+        pub fn new(
+            q: &[[#ty; #ns_len]; #ns_len],
+            r: &[[#ty; #nu_len]; #nu_len],
             u_min: [#ty; #nu_len],
             u_max: [#ty; #nu_len],
-            x_ref: [#ty; #ns_len],
-            u_ref: [#ty; #nu_len],
-            terminal_weight: [#ty; #nsp],
-            terminal_gain: [[#ty; #ns_len]; #nu_len],
-            plan: [[#ty; #nu_len]; #horizon],
+        ) -> Result<Mpc, Status> {
+            #bounds_check
+            let q = #pack_q;
+            Ok(Mpc {
+                q,
+                r: #pack_r,
+                u_min,
+                u_max,
+                x_ref: [#zero; #ns_len],
+                u_ref: [#zero; #nu_len],
+                terminal_weight: q,
+                terminal_gain: [[#zero; #ns_len]; #nu_len],
+                plan: [#start_move; #horizon],
+            })
+        }
+    }
+}
+
+/// `fn set_reference`: a finite set-point `x_ref` and input `u_ref` stored.
+fn set_reference(model: &Model, spec: &MpcSpec, moves: &MoveNames, dims: &Dims) -> TokenStream {
+    let Dims {
+        ty, ns_len, nu_len, ..
+    } = dims;
+    let state_refs: Vec<Ident> = model
+        .states_named(&spec.states)
+        .iter()
+        .map(|n| ident(&format!("{n}_ref")))
+        .collect();
+    let reference_check = moves.reference_check(&state_refs);
+    quote! {
+        /// Regulates the states to `x_ref` with the inputs around `u_ref`: the plan
+        /// `u = u_ref + du` minimises the cost of `x - x_ref` and `du`. For a set-point
+        /// of the linear model, `u_ref` is the input that holds it
+        /// (`x_ref = A x_ref + B u_ref`). Rejects non-finite values, leaving the
+        /// reference as it was.
+        pub fn set_reference(&mut self, x_ref: [#ty; #ns_len], u_ref: [#ty; #nu_len]) -> Status {
+            #reference_check
+            self.x_ref = x_ref;
+            self.u_ref = u_ref;
+            Status::Ok
+        }
+    }
+}
+
+/// `control`, `plan`, `terminal_weight` and `terminal_gain`.
+fn accessors(spec: &MpcSpec, dims: &Dims) -> TokenStream {
+    let Dims {
+        ty,
+        ns_len,
+        nu_len,
+        horizon,
+        ..
+    } = dims;
+    let terminal_weight = unpack_symmetric("terminal_weight", spec.states.len());
+    quote! {
+        /// The first move of the last plan: the input to apply now.
+        #[must_use]
+        pub fn control(&self) -> [#ty; #nu_len] {
+            let [first, ..] = self.plan;
+            first
         }
 
-        impl Mpc {
-            /// Moves optimised over, `n`.
-            pub const HORIZON: usize = #horizon;
-            /// Bound on the active-set iterations (Newton steps) of one solve.
-            pub const MAX_ITERATIONS: u32 = #max_iterations;
-            /// Passes of the active-set loop: one per iteration, and one more that only
-            /// checks the multipliers after the last step.
-            const PASSES: u32 = #passes;
-            /// Riccati steps per solve towards the terminal weight.
-            pub const RICCATI_ITERATIONS: u32 = #riccati_iterations;
-            /// Relative change of the terminal weight under which it counts as converged.
-            pub const RICCATI_TOLERANCE: #ty = #tolerance;
-            /// A bound stays held unless releasing it would move its input by more than
-            /// this fraction of the input's range (its multiplier is below
-            /// `-RELEASE_TOLERANCE (u_max - u_min) H_ii`), so rounding cannot cycle the
-            /// active set.
-            pub const RELEASE_TOLERANCE: #ty = #tolerance;
-            #squarings
+        /// The last plan: `HORIZON` moves, all within the bounds.
+        #[must_use]
+        pub fn plan(&self) -> [[#ty; #nu_len]; #horizon] {
+            self.plan
+        }
 
-            /// A controller with state weight `q` and input weight `r` (symmetric: upper
-            /// triangles are read; `r` positive definite) and the input bounds
-            /// `u_min < u_max`, regulating to zero until [`Mpc::set_reference`]. The
-            /// terminal weight starts at `q` and converges over the first solves; the plan
-            /// starts at zero, clipped to the bounds. Rejects bounds that are not finite
-            /// or leave no room.
-            pub fn new(
-                q: &[[#ty; #ns_len]; #ns_len],
-                r: &[[#ty; #nu_len]; #nu_len],
-                u_min: [#ty; #nu_len],
-                u_max: [#ty; #nu_len],
-            ) -> Result<Mpc, Status> {
-                #bounds_check
-                let q = #pack_q;
-                Ok(Mpc {
-                    q,
-                    r: #pack_r,
-                    u_min,
-                    u_max,
-                    x_ref: [#zero; #ns_len],
-                    u_ref: [#zero; #nu_len],
-                    terminal_weight: q,
-                    terminal_gain: [[#zero; #ns_len]; #nu_len],
-                    plan: [#start_move; #horizon],
-                })
-            }
+        /// The terminal weight `P_f` of the last solve.
+        #[must_use]
+        pub fn terminal_weight(&self) -> [[#ty; #ns_len]; #ns_len] {
+            #terminal_weight
+        }
 
-            /// Regulates the states to `x_ref` with the inputs around `u_ref`: the plan
-            /// `u = u_ref + du` minimises the cost of `x - x_ref` and `du`. For a set-point
-            /// of the linear model, `u_ref` is the input that holds it
-            /// (`x_ref = A x_ref + B u_ref`). Rejects non-finite values, leaving the
-            /// reference as it was.
-            pub fn set_reference(&mut self, x_ref: [#ty; #ns_len], u_ref: [#ty; #nu_len]) -> Status {
-                #reference_check
-                self.x_ref = x_ref;
-                self.u_ref = u_ref;
-                Status::Ok
-            }
-
-            #solve
-
-            /// The first move of the last plan: the input to apply now.
-            #[must_use]
-            pub fn control(&self) -> [#ty; #nu_len] {
-                let [first, ..] = self.plan;
-                first
-            }
-
-            /// The last plan: `HORIZON` moves, all within the bounds.
-            #[must_use]
-            pub fn plan(&self) -> [[#ty; #nu_len]; #horizon] {
-                self.plan
-            }
-
-            /// The terminal weight `P_f` of the last solve.
-            #[must_use]
-            pub fn terminal_weight(&self) -> [[#ty; #ns_len]; #ns_len] {
-                #terminal_weight
-            }
-
-            /// The gain `K` of the last solve's terminal weight (eq. 41), `u = -K x`: the
-            /// infinite-horizon LQR of the current model once the weight has converged.
-            #[must_use]
-            pub fn terminal_gain(&self) -> [[#ty; #ns_len]; #nu_len] {
-                self.terminal_gain
-            }
+        /// The gain `K` of the last solve's terminal weight (eq. 41), `u = -K x`: the
+        /// infinite-horizon LQR of the current model once the weight has converged.
+        #[must_use]
+        pub fn terminal_gain(&self) -> [[#ty; #ns_len]; #nu_len] {
+            self.terminal_gain
         }
     }
 }
