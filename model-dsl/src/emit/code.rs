@@ -1,7 +1,7 @@
 //! Small pieces of generated code that several emitters share.
 
 use super::lower::literal;
-use super::names::ident;
+use super::names::{clear_of, ident, matrix_entry};
 use crate::model::Scalar;
 use crate::symbolic::{Graph, Node, NodeId, VarId};
 use proc_macro2::TokenStream;
@@ -112,24 +112,12 @@ pub fn guard_pivots(
 }
 
 /// Fresh variable names for a packed symmetric matrix: `p11 p12 .. pnn`, or `p_1_10` when
-/// an index has two digits, skipping names in `taken`.
+/// an index has two digits ([`matrix_entry`]), skipping names in `taken`.
 pub fn packed_names(prefix: &str, n: usize, taken: &dyn Fn(&str) -> bool) -> Vec<String> {
-    let wide = n >= 10;
-    let mut names = Vec::new();
-    for i in 1..=n {
-        for j in i..=n {
-            let mut name = if wide {
-                format!("{prefix}_{i}_{j}")
-            } else {
-                format!("{prefix}{i}{j}")
-            };
-            while taken(&name) {
-                name.push('_');
-            }
-            names.push(name);
-        }
-    }
-    names
+    (1..=n)
+        .flat_map(|i| (i..=n).map(move |j| (i, j)))
+        .map(|entry| clear_of(&matrix_entry(prefix, (n, n), entry), taken))
+        .collect()
 }
 
 /// `{ let [[a, b], [_, c]] = *name; [a, b, c] }`: the packed upper triangle of the

@@ -39,6 +39,25 @@ pub fn index_const(symbol: &str) -> Ident {
     ident(&symbol.to_uppercase())
 }
 
+/// The name of entry `(i, j)` (from 1) of the `rows x cols` matrix `prefix`: `a12`, or
+/// `a_1_12` when an index has two digits (where `a112` could be `(1, 12)` or `(11, 2)`).
+pub fn matrix_entry(prefix: &str, (rows, cols): (usize, usize), (i, j): (usize, usize)) -> String {
+    if rows >= 10 || cols >= 10 {
+        format!("{prefix}_{i}_{j}")
+    } else {
+        format!("{prefix}{i}{j}")
+    }
+}
+
+/// `base`, with `_` appended while `taken` says a name is in use (the model's own names).
+pub fn clear_of(base: &str, taken: impl Fn(&str) -> bool) -> String {
+    let mut name = base.to_owned();
+    while taken(&name) {
+        name.push('_');
+    }
+    name
+}
+
 /// Chooses names for the `let` temporaries of one generated function: the model's own
 /// name for a `let` intermediate, else a name built from the operands (`ts_x2` for
 /// `TS * x2`), else `tmp1`, `tmp2`, ... Names never repeat or shadow a model symbol.

@@ -3,6 +3,7 @@
 
 pub mod lower;
 pub mod spec;
+pub mod steady_state;
 
 pub use spec::LqrSpec;
 use super::options::{regulated, Args, Context};

@@ -6,21 +6,20 @@
 //! symbolic stage lowered to straight-line code; stages hand over through named values.
 
 use super::names::{failure, Names};
-use super::predictive::{condensed_qp, zoh_square, zoh_taylor};
+use super::predictive::{column_norm, condensed_qp, scale, zoh_square, zoh_taylor};
 use super::qp::{active_set_loop, MoveNames};
-use crate::ast::Comparison;
 use crate::emit::code::{
     all_finite, guard_pivots, pack_upper, pivot_names, unpack_symmetric, var_idents,
 };
 use crate::emit::filter::{packed_vars, time_param};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
-use super::spec::MpcSpec;
 use super::spec::MpcDiscretisation;
-use crate::model::{Func, Model, Scalar};
+use super::spec::MpcSpec;
+use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
 use crate::symbolic::loop_invariant_operands;
-use crate::symbolic::riccati::riccati_step;
+use crate::symbolic::riccati::{riccati_step, RiccatiStep};
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
@@ -98,7 +97,6 @@ fn matrix_vars(g: &mut Graph, names: &[Vec<String>]) -> Matrix {
 pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) -> MpcCode {
     let mut mg = mg.clone();
     let names = Names::new(model);
-    let ty = ident(scalar.type_name());
     let moves = MoveNames::new(model, spec, &names);
     let prediction = prediction_model(model, spec, &mut mg, &names, scalar);
     let (a, b) = (&prediction.a, &prediction.b);
@@ -114,42 +112,83 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
     );
     let qp = active_set_loop(&mut mg.graph, &moves, &names, scalar);
 
-    let [n, m] = [model.state_len(), model.inputs.len()].map(Literal::usize_unsuffixed);
-    let prediction_signature = signature(model, &mg, &prediction.used, &ty);
-    let prediction_read = read_estimate(
-        &mg,
+    let stages = [&terminal.stage.code, &condensed.stage.code, &qp.code];
+    let commit = commit(&moves, &terminal);
+    let plan = quote! {
+        #(#stages)*
+        #commit
+    };
+    let prediction_method = prediction_method(model, &mg, &prediction, scalar);
+    let solve = solve_method(model, &mg, (&prediction, &condensed.used), plan, scalar);
+    let methods = quote! {
+        #prediction_method
+
+        #solve
+    };
+    let tokens = type_tokens(model, spec, methods, &moves, scalar, prediction.holds);
+    MpcCode {
+        tokens,
+        prediction_ops: prediction.stage.ops,
+        riccati_ops: terminal.stage.ops,
+        condense_ops: condensed.stage.ops,
+        iteration_ops: qp.iteration_ops,
+    }
+}
+
+/// `fn prediction_model`: the prediction stage on its own, returning `A` and `B`.
+fn prediction_method(
+    model: &Model,
+    mg: &ModelGraph,
+    prediction: &Prediction,
+    scalar: Scalar,
+) -> TokenStream {
+    let ty = ident(scalar.type_name());
+    let (a, b) = (&prediction.a, &prediction.b);
+    let signature = signature(model, mg, &prediction.used, &ty);
+    let read = read_estimate(
+        mg,
         &prediction.used,
         &reject(quote! { Status::RejectedInput }),
     );
-    let prediction_code = &prediction.stage.code;
+    let code = &prediction.stage.code;
     let (a_values, b_values) = (
         returned(&mg.graph, a, scalar),
         returned(&mg.graph, b, scalar),
     );
-    let (a_pattern, b_pattern) = (received(&mg.graph, a), received(&mg.graph, b));
-    let solve_read = read_estimate(
-        &mg,
-        &condensed.used,
-        &failure(quote! { Status::RejectedInput }),
-    );
-    let time = model.uses_time().then(|| quote! { t: #ty, });
-    let time_arg = model.uses_time().then(|| quote! { t, });
-    let stages = [&terminal.stage.code, &condensed.stage.code, &qp.code];
-    let commit = commit(&moves, &terminal);
-    let failed = failure(quote! { rejected });
-    let methods = quote! {
+    quote! {
         /// The prediction model `x+ = A x + B u` (eq. 30) of the regulated states at the
         /// estimate `x` and operating input `u`, as [`Mpc::solve`] takes it: `Err` if they
         /// are not finite, or the hold would not be.
-        pub fn prediction_model(#prediction_signature) -> Result<PredictionModel, Status> {
-            #prediction_read
-            #prediction_code
+        pub fn prediction_model(#signature) -> Result<PredictionModel, Status> {
+            #read
+            #code
             Ok(PredictionModel {
                 a: [#(#a_values),*],
                 b: [#(#b_values),*],
             })
         }
+    }
+}
 
+/// `fn solve`: the prediction model, then the estimate's reading for the condensed
+/// problem, then `plan` (the terminal weight, the condensed problem, the active-set loop
+/// and the commit).
+fn solve_method(
+    model: &Model,
+    mg: &ModelGraph,
+    (prediction, used): (&Prediction, &BTreeSet<VarId>),
+    plan: TokenStream,
+    scalar: Scalar,
+) -> TokenStream {
+    let ty = ident(scalar.type_name());
+    let [n, m] = [model.state_len(), model.inputs.len()].map(Literal::usize_unsuffixed);
+    let (a, b) = (&prediction.a, &prediction.b);
+    let (a_pattern, b_pattern) = (received(&mg.graph, a), received(&mg.graph, b));
+    let solve_read = read_estimate(mg, used, &failure(quote! { Status::RejectedInput }));
+    let time = model.uses_time().then(|| quote! { t: #ty, });
+    let time_arg = model.uses_time().then(|| quote! { t, });
+    let failed = failure(quote! { rejected });
+    quote! {
         /// Recomputes the plan for the estimate `x`: the prediction model at `x` (and
         /// the operating input `u`), `RICCATI_ITERATIONS` Riccati steps from the last
         /// terminal weight, the condensed problem (eqs. 42-44) and at most
@@ -163,17 +202,8 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
                 }
             };
             #solve_read
-            #(#stages)*
-            #commit
+            #plan
         }
-    };
-    let tokens = type_tokens(model, spec, methods, &moves, scalar, prediction.holds);
-    MpcCode {
-        tokens,
-        prediction_ops: prediction.stage.ops,
-        riccati_ops: terminal.stage.ops,
-        condense_ops: condensed.stage.ops,
-        iteration_ops: qp.iteration_ops,
     }
 }
 
@@ -356,50 +386,124 @@ fn zero_order_hold(
     names: &Names,
     scalar: Scalar,
 ) -> Hold {
-    let (ns, nu) = (phi.len(), gamma.first().map_or(0, Vec::len));
     let step_name = names.fresh("hold_step");
-    let step = g.var(&step_name);
-    let norm = column_norm(g, phi, gamma);
-    let times_step = |g: &mut Graph, m: &Matrix| -> Matrix {
-        m.iter()
-            .map(|r| r.iter().map(|&v| g.mul(v, step)).collect())
-            .collect()
-    };
-    let (f, gh) = (times_step(g, phi), times_step(g, gamma));
-    let (a_core, b_core) = zoh_taylor(g, &f, &gh);
-    let (a_names, b_names) = (names.matrix("a", ns, ns), names.matrix("b", ns, nu));
-    let (a, b) = (matrix_vars(g, &a_names), matrix_vars(g, &b_names));
-    let (a_squared, b_squared) = zoh_square(g, &a, &b);
+    let hold = HoldGraph::new(g, (phi, gamma), &step_name, names);
+    let lowered = HoldCode::new(g, &hold, names, scalar);
+    let code = hold_code(&hold, &lowered, (&step_name, period), scalar);
+    Hold {
+        stage: Stage {
+            code,
+            ops: lowered.ops,
+        },
+        a: hold.a,
+        b: hold.b,
+    }
+}
 
-    let core: Vec<NodeId> = a_core.iter().chain(&b_core).flatten().copied().collect();
-    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &[&[norm][..], &core].concat());
-    let norm_value = lowerer.segment(&[norm]).remove(0);
-    let norm_ops = lowerer.ops();
-    let norm_statements = lowerer.take_statements();
-    let core_values = lowerer.segment(&core);
-    let core_ops = lowerer.ops().minus(norm_ops);
-    let core_statements = lowerer.take_statements();
+/// The hold as nodes: the 1-norm of `[Phi Gamma]`, the Taylor core over the scaled step
+/// `h`, and one squaring of the hold held in the variables `a11 ..`, `b11 ..`.
+struct HoldGraph {
+    norm: NodeId,
+    /// The core's `A`, then its `B`, row by row.
+    core: Vec<NodeId>,
+    /// The squared `A`, then `B`, row by row.
+    squared: Vec<NodeId>,
+    a_names: Vec<Vec<String>>,
+    b_names: Vec<Vec<String>>,
+    a: Matrix,
+    b: Matrix,
+}
 
-    let squared: Vec<NodeId> = a_squared
-        .iter()
-        .chain(&b_squared)
-        .flatten()
-        .copied()
-        .collect();
-    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &squared);
-    let squared_values = lowerer.segment(&squared);
-    let square_ops = lowerer.ops();
-    let square_statements = lowerer.take_statements();
+impl HoldGraph {
+    fn new(
+        g: &mut Graph,
+        (phi, gamma): (&Matrix, &Matrix),
+        step_name: &str,
+        names: &Names,
+    ) -> HoldGraph {
+        let (ns, nu) = (phi.len(), gamma.first().map_or(0, Vec::len));
+        let step = g.var(step_name);
+        let norm = column_norm(g, phi, gamma);
+        let (f, gh) = (scale(g, phi, step), scale(g, gamma, step));
+        let (a_core, b_core) = zoh_taylor(g, &f, &gh);
+        let (a_names, b_names) = (names.matrix("a", ns, ns), names.matrix("b", ns, nu));
+        let (a, b) = (matrix_vars(g, &a_names), matrix_vars(g, &b_names));
+        let (a_squared, b_squared) = zoh_square(g, &a, &b);
+        let flat = |a: &Matrix, b: &Matrix| a.iter().chain(b).flatten().copied().collect();
+        HoldGraph {
+            norm,
+            core: flat(&a_core, &b_core),
+            squared: flat(&a_squared, &b_squared),
+            a_names,
+            b_names,
+            a,
+            b,
+        }
+    }
+}
 
+/// The hold's pieces lowered: the norm, the Taylor core, and one squaring (run up to
+/// `MAX_SQUARINGS` times, as its cost counts).
+struct HoldCode {
+    norm_statements: Vec<TokenStream>,
+    norm_value: TokenStream,
+    core_statements: Vec<TokenStream>,
+    core_values: Vec<TokenStream>,
+    square_statements: Vec<TokenStream>,
+    squared_values: Vec<TokenStream>,
+    ops: OpCount,
+}
+
+impl HoldCode {
+    fn new(g: &Graph, hold: &HoldGraph, names: &Names, scalar: Scalar) -> HoldCode {
+        let roots = [&[hold.norm][..], &hold.core].concat();
+        let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
+        let norm_value = lowerer.segment(&[hold.norm]).remove(0);
+        let norm_ops = lowerer.ops();
+        let norm_statements = lowerer.take_statements();
+        let core_values = lowerer.segment(&hold.core);
+        let core_ops = lowerer.ops().minus(norm_ops);
+        let core_statements = lowerer.take_statements();
+
+        let mut lowerer = Lowerer::new(g, scalar, names.namer(), &hold.squared);
+        let squared_values = lowerer.segment(&hold.squared);
+        let square_ops = lowerer.ops();
+        let square_statements = lowerer.take_statements();
+        HoldCode {
+            norm_statements,
+            norm_value,
+            core_statements,
+            core_values,
+            square_statements,
+            squared_values,
+            ops: norm_ops
+                .plus(core_ops)
+                .plus(square_ops.times(MAX_SQUARINGS)),
+        }
+    }
+}
+
+/// The hold over the sample `period` (sect. 3.3), the step named `step_name`: scaling,
+/// the Taylor core, and the squarings back up, leaving `a11 ..`, `b11 ..` bound.
+fn hold_code(
+    hold: &HoldGraph,
+    code: &HoldCode,
+    (step_name, period): (&str, &TokenStream),
+    scalar: Scalar,
+) -> TokenStream {
+    let ns = hold.a.len();
+    let nu = hold.b.first().map_or(0, Vec::len);
     let [half, two] = [0.5, 2.0].map(|v| literal(v, scalar));
-    let step = ident(&step_name);
-    let (a_pattern, b_pattern) = (matrix_pattern(&a_names), matrix_pattern(&b_names));
-    let (a_core, b_core) = core_values.split_at(ns * ns);
+    let step = ident(step_name);
+    let (a_pattern, b_pattern) = (matrix_pattern(&hold.a_names), matrix_pattern(&hold.b_names));
+    let (a_core, b_core) = code.core_values.split_at(ns * ns);
     let (a_core, b_core) = (rows(a_core, ns), rows(b_core, nu));
-    let (a_squared, b_squared) = squared_values.split_at(ns * ns);
+    let (a_squared, b_squared) = code.squared_values.split_at(ns * ns);
     let (a_squared, b_squared) = (rows(a_squared, ns), rows(b_squared, nu));
     let too_stiff = reject(quote! { Status::NonFinite });
-    let code = quote! {
+    let (norm_statements, norm_value) = (&code.norm_statements, &code.norm_value);
+    let (core_statements, square_statements) = (&code.core_statements, &code.square_statements);
+    quote! {
         // The zero-order hold over the sample (sect. 3.3): halve the step until the 1-norm
         // of [Phi Gamma] times it is at most 1/2 ...
         #(#norm_statements)*
@@ -433,35 +537,7 @@ fn zero_order_hold(
         }
         let #a_pattern = hold_a;
         let #b_pattern = hold_b;
-    };
-    let ops = norm_ops
-        .plus(core_ops)
-        .plus(square_ops.times(MAX_SQUARINGS));
-    Hold {
-        stage: Stage { code, ops },
-        a,
-        b,
     }
-}
-
-/// `|| [Phi Gamma] ||_1`: the largest column sum of magnitudes.
-fn column_norm(g: &mut Graph, phi: &Matrix, gamma: &Matrix) -> NodeId {
-    let ns = phi.len();
-    let columns = ns + gamma.first().map_or(0, Vec::len);
-    let mut norm = None;
-    for j in 0..columns {
-        let mut sum = g.zero();
-        for i in 0..ns {
-            let entry = if j < ns { phi[i][j] } else { gamma[i][j - ns] };
-            let magnitude = g.call(Func::Abs, entry);
-            sum = g.add(sum, magnitude);
-        }
-        norm = Some(match norm {
-            None => sum,
-            Some(n) => g.select(Comparison::Gt, sum, n, sum, n),
-        });
-    }
-    norm.unwrap_or_else(|| g.zero())
 }
 
 /// `[[a11, a12], [a21, a22]]` as a pattern.
@@ -491,6 +567,9 @@ struct Terminal {
     gain_idents: Vec<Vec<Ident>>,
 }
 
+/// The pivot names of the control weight `R + B'PB`.
+const WEIGHT: (&str, &str) = ("weight", "inv_weight");
+
 /// `RICCATI_ITERATIONS` steps of `P <- A'PA - A'PB (R + B'PB)^-1 B'PA + Q` (the fixed
 /// point is eq. 35's `P_f`) from the last solve's terminal weight, which so tracks `P_f`
 /// as the model changes; then the gain `K` of eq. (41). Converged when the last step
@@ -502,65 +581,149 @@ fn terminal_weight(
     names: &Names,
     scalar: Scalar,
 ) -> Terminal {
+    let recursion = Recursion::new(g, (a, b), spec, names);
+    let lowered = RecursionCode::new(g, &recursion, names, scalar);
+    let p_idents = var_idents(g, &recursion.p_vars);
     let (ns, nu) = (spec.states.len(), spec.inputs.len());
-    let p_vars = packed_vars(g, "p", ns, &names.taken);
-    let q_vars = packed_vars(g, "q", ns, &names.taken);
-    let r_vars = packed_vars(g, "r", nu, &names.taken);
-    let p = symmetric_from_packed(&p_vars, ns);
-    let (q, r) = (
-        symmetric_from_packed(&q_vars, ns),
-        symmetric_from_packed(&r_vars, nu),
-    );
-    const WEIGHT: (&str, &str) = ("weight", "inv_weight");
-    let step = riccati_step(g, (a, b), &p, (&q, &r), |g, j| {
-        g.var(&pivot_names(nu, j, WEIGHT, "").1)
-    });
-    let gain: Vec<NodeId> = step.gain.iter().flatten().copied().collect();
-    let loop_vars: Vec<NodeId> = p_vars.iter().chain(&step.reciprocals).copied().collect();
-    let body_roots: Vec<NodeId> = step.p_next.iter().chain(&step.pivots).copied().collect();
-    let invariant = loop_invariant_operands(g, &body_roots, &loop_vars);
-    let roots = [&body_roots[..], &gain, &invariant].concat();
-    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
-    for &node in &invariant {
-        lowerer.force_let(node);
-    }
-    let before = lowerer.ops();
-    let hoisted = lowerer.take_statements();
-    // The gain after the loop comes from a fork taken here, so it does not rely on
-    // temporaries scoped inside the loop body.
-    let mut after = lowerer.clone();
-    let on_failure = failure(quote! { Status::NonPositiveControlWeight });
-    let pivots = (&step.pivots[..], &step.reciprocals[..]);
-    guard_pivots(
-        &mut lowerer,
-        pivots.0,
-        pivots.1,
-        (WEIGHT, ""),
-        &on_failure,
-        scalar,
-    );
-    let p_next = lowerer.segment(&step.p_next);
-    let body = lowerer.take_statements();
-    let per_step = lowerer.ops().minus(before);
-    guard_pivots(
-        &mut after,
-        pivots.0,
-        pivots.1,
-        (WEIGHT, ""),
-        &on_failure,
-        scalar,
-    );
-    let gain_values = after.segment(&gain);
-    let gain_statements = after.take_statements();
-    let gain_ops = after.ops().minus(before);
-
-    let p_idents = var_idents(g, &p_vars);
-    let (q_idents, r_idents) = (var_idents(g, &q_vars), var_idents(g, &r_vars));
     let gain_idents: Vec<Vec<Ident>> = names
         .matrix("k", nu, ns)
         .iter()
         .map(|row| row.iter().map(|n| ident(n)).collect())
         .collect();
+    let code = terminal_code(g, &recursion, &lowered, (&p_idents, &gain_idents), scalar);
+    let riccati = lowered.per_step.times(spec.riccati_iterations);
+    let ops = lowered.before.plus(riccati).plus(lowered.gain_ops);
+    Terminal {
+        stage: Stage { code, ops },
+        p: recursion.p_vars,
+        p_idents,
+        gain_idents,
+    }
+}
+
+/// The Riccati recursion towards `P_f` as nodes: the packed variables of `P`, `Q` and
+/// `R`, one shared Riccati step (eq. 35's map), the gain, and the step's operands that do
+/// not depend on `P`.
+struct Recursion {
+    p_vars: Vec<NodeId>,
+    q_vars: Vec<NodeId>,
+    r_vars: Vec<NodeId>,
+    step: RiccatiStep,
+    /// The gain `K` of eq. (41), row by row.
+    gain: Vec<NodeId>,
+    /// What the loop body computes: the next `P` and the pivots of `R + B'PB`.
+    body_roots: Vec<NodeId>,
+    /// Operands of the loop body that do not change between steps, hoisted before it.
+    invariant: Vec<NodeId>,
+}
+
+impl Recursion {
+    fn new(g: &mut Graph, (a, b): (&Matrix, &Matrix), spec: &MpcSpec, names: &Names) -> Self {
+        let (ns, nu) = (spec.states.len(), spec.inputs.len());
+        let p_vars = packed_vars(g, "p", ns, &names.taken);
+        let q_vars = packed_vars(g, "q", ns, &names.taken);
+        let r_vars = packed_vars(g, "r", nu, &names.taken);
+        let p = symmetric_from_packed(&p_vars, ns);
+        let (q, r) = (
+            symmetric_from_packed(&q_vars, ns),
+            symmetric_from_packed(&r_vars, nu),
+        );
+        let step = riccati_step(g, (a, b), &p, (&q, &r), |g, j| {
+            g.var(&pivot_names(nu, j, WEIGHT, "").1)
+        });
+        let gain: Vec<NodeId> = step.gain.iter().flatten().copied().collect();
+        let loop_vars: Vec<NodeId> = p_vars.iter().chain(&step.reciprocals).copied().collect();
+        let body_roots: Vec<NodeId> = step.p_next.iter().chain(&step.pivots).copied().collect();
+        let invariant = loop_invariant_operands(g, &body_roots, &loop_vars);
+        Recursion {
+            p_vars,
+            q_vars,
+            r_vars,
+            step,
+            gain,
+            body_roots,
+            invariant,
+        }
+    }
+}
+
+/// The lowered recursion: the statements hoisted before the loop, the loop body and the
+/// next `P`, the gain's statements after the loop and its values, and their costs.
+struct RecursionCode {
+    hoisted: Vec<TokenStream>,
+    body: Vec<TokenStream>,
+    p_next: Vec<TokenStream>,
+    gain_statements: Vec<TokenStream>,
+    gain_values: Vec<TokenStream>,
+    /// The hoisted statements', one step's, and the gain's arithmetic.
+    before: OpCount,
+    per_step: OpCount,
+    gain_ops: OpCount,
+}
+
+impl RecursionCode {
+    /// The loop body and, after the loop, the gain from the final `P`, both behind the
+    /// checked pivots of `R + B'PB`.
+    fn new(g: &Graph, recursion: &Recursion, names: &Names, scalar: Scalar) -> Self {
+        let roots = [
+            &recursion.body_roots[..],
+            &recursion.gain,
+            &recursion.invariant,
+        ]
+        .concat();
+        let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
+        for &node in &recursion.invariant {
+            lowerer.force_let(node);
+        }
+        let before = lowerer.ops();
+        let hoisted = lowerer.take_statements();
+        // The gain after the loop comes from a fork taken here, so it does not rely on
+        // temporaries scoped inside the loop body.
+        let mut after = lowerer.clone();
+        let on_failure = failure(quote! { Status::NonPositiveControlWeight });
+        let (pivots, reciprocals) = (&recursion.step.pivots, &recursion.step.reciprocals);
+        let guard = (WEIGHT, "");
+        guard_pivots(
+            &mut lowerer,
+            pivots,
+            reciprocals,
+            guard,
+            &on_failure,
+            scalar,
+        );
+        let p_next = lowerer.segment(&recursion.step.p_next);
+        let body = lowerer.take_statements();
+        let per_step = lowerer.ops().minus(before);
+        guard_pivots(&mut after, pivots, reciprocals, guard, &on_failure, scalar);
+        let gain_values = after.segment(&recursion.gain);
+        let gain_statements = after.take_statements();
+        let gain_ops = after.ops().minus(before);
+        RecursionCode {
+            hoisted,
+            body,
+            p_next,
+            gain_statements,
+            gain_values,
+            before,
+            per_step,
+            gain_ops,
+        }
+    }
+}
+
+/// The terminal weight's code: the steps from `self.terminal_weight`, the convergence
+/// test on the last one, and the gain bound as `gain_idents`.
+fn terminal_code(
+    g: &Graph,
+    recursion: &Recursion,
+    code: &RecursionCode,
+    (p_idents, gain_idents): (&[Ident], &[Vec<Ident>]),
+    scalar: Scalar,
+) -> TokenStream {
+    let (q_idents, r_idents) = (
+        var_idents(g, &recursion.q_vars),
+        var_idents(g, &recursion.r_vars),
+    );
     let gain_flat = gain_idents.iter().flatten();
     let previous: Vec<Ident> = p_idents
         .iter()
@@ -572,7 +735,9 @@ fn terminal_weight(
         .zip(&previous)
         .map(|(p, prev)| quote! { #abs(#p - #prev) });
     let sizes = p_idents.iter().map(|p| quote! { #abs(#p) });
-    let code = quote! {
+    let (hoisted, body, p_next) = (&code.hoisted, &code.body, &code.p_next);
+    let (gain_statements, gain_values) = (&code.gain_statements, &code.gain_values);
+    quote! {
         // The terminal weight P_f (eq. 35) by Riccati steps from the last solve's.
         let [#(#q_idents),*] = self.q;
         let [#(#r_idents),*] = self.r;
@@ -592,14 +757,6 @@ fn terminal_weight(
         // The gain of the fixed feedback after the horizon (eq. 41).
         #(#gain_statements)*
         #(let #gain_flat = #gain_values;)*
-    };
-    let riccati = per_step.times(spec.riccati_iterations);
-    let ops = before.plus(riccati).plus(gain_ops);
-    Terminal {
-        stage: Stage { code, ops },
-        p: p_vars,
-        p_idents,
-        gain_idents,
     }
 }
 
@@ -721,6 +878,40 @@ fn signature(
     quote! { #time #x_name: &[#ty; #n], #u_name: &[#ty; #m] }
 }
 
+/// The lengths in the generated types' signatures, and their scalar type.
+struct Dims {
+    ty: Ident,
+    /// Regulated states, the MPC's inputs, and the packed weights' lengths.
+    ns_len: Literal,
+    nu_len: Literal,
+    nsp: Literal,
+    nup: Literal,
+    /// Moves in the plan.
+    horizon: Literal,
+}
+
+impl Dims {
+    fn new(spec: &MpcSpec, scalar: Scalar) -> Dims {
+        let (ns, nu) = (spec.states.len(), spec.inputs.len());
+        let [ns_len, nu_len, nsp, nup, horizon] = [
+            ns,
+            nu,
+            packed_len(ns),
+            packed_len(nu),
+            spec.horizon as usize,
+        ]
+        .map(Literal::usize_unsuffixed);
+        Dims {
+            ty: ident(scalar.type_name()),
+            ns_len,
+            nu_len,
+            nsp,
+            nup,
+            horizon,
+        }
+    }
+}
+
 /// The `Mpc` and `MpcStatus` types around `solve`.
 fn type_tokens(
     model: &Model,
@@ -730,63 +921,58 @@ fn type_tokens(
     scalar: Scalar,
     holds: bool,
 ) -> TokenStream {
-    let ty = ident(scalar.type_name());
-    let (ns, nu) = (spec.states.len(), spec.inputs.len());
-    let [ns_len, nu_len, nsp, nup, horizon] = [
-        ns,
-        nu,
-        packed_len(ns),
-        packed_len(nu),
-        spec.horizon as usize,
-    ]
-    .map(Literal::usize_unsuffixed);
-    let max_iterations = Literal::u32_unsuffixed(spec.max_iterations);
-    let passes = Literal::u32_unsuffixed(spec.max_iterations + 1);
-    let riccati_iterations = Literal::u32_unsuffixed(spec.riccati_iterations);
-    // Both tolerances sit well above the scalar's rounding of the sums they compare.
-    let tolerance = literal(
-        match scalar {
-            Scalar::F32 => 1e-5,
-            Scalar::F64 => 1e-12,
-        },
-        scalar,
-    );
-    let zero = literal(0.0, scalar);
-    let (pack_q, pack_r) = (pack_upper("q", ns), pack_upper("r", nu));
-    let state_names = model.states_named(&spec.states);
-    let input_names = model.inputs_named(&spec.inputs);
-    let doc = format!(
-        " Adaptive model predictive control of `[{}]` with `[{}]` within input bounds: \
-         the dual-mode, infinite-horizon constrained controller of Takacs, Polóni and \
-         Rohal'-Ilkiv, \"Adaptive predictive control of transient vibrations of \
-         cantilevers with changing weight\" (sect. 3.4). [`Mpc::solve`] takes the model \
-         at the estimate ({}), moves the terminal weight towards the solution of the \
-         discrete algebraic Riccati equation, condenses the cost over `HORIZON` moves and \
-         minimises it within the bounds by a primal active-set method warm-started from \
-         the last plan; [`Mpc::control`] is the plan's first move.",
-        state_names.join(", "),
-        input_names.join(", "),
-        if holds {
-            "the exact zero-order hold of its continuous linearisation"
-        } else {
-            "the Jacobians of its sample step"
+    let dims = Dims::new(spec, scalar);
+    let results = result_types(&dims);
+    let doc = mpc_doc(model, spec, holds);
+    let constants = constants(spec, &dims, scalar, holds);
+    let constructor = constructor(spec, moves, &dims, scalar);
+    let set_reference = set_reference(model, spec, moves, &dims);
+    let accessors = accessors(spec, &dims);
+    let Dims {
+        ty,
+        ns_len,
+        nu_len,
+        nsp,
+        nup,
+        horizon,
+    } = &dims;
+    quote! {
+        #results
+
+        #[doc = #doc]
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Mpc {
+            q: [#ty; #nsp],
+            r: [#ty; #nup],
+            u_min: [#ty; #nu_len],
+            u_max: [#ty; #nu_len],
+            x_ref: [#ty; #ns_len],
+            u_ref: [#ty; #nu_len],
+            terminal_weight: [#ty; #nsp],
+            terminal_gain: [[#ty; #ns_len]; #nu_len],
+            plan: [[#ty; #nu_len]; #horizon],
         }
-    );
-    let squarings = holds.then(|| {
-        let max = Literal::u32_unsuffixed(MAX_SQUARINGS);
-        quote! {
-            /// Most squarings of the zero-order hold (scaling and squaring).
-            pub const MAX_SQUARINGS: u32 = #max;
+
+        impl Mpc {
+            #constants
+
+            #constructor
+
+            #set_reference
+
+            #solve
+
+            #accessors
         }
-    });
-    let state_refs: Vec<Ident> = state_names
-        .iter()
-        .map(|n| ident(&format!("{n}_ref")))
-        .collect();
-    let reference_check = moves.reference_check(&state_refs);
-    let bounds_check = moves.bounds_check();
-    let start_move = moves.start_move(&zero);
-    let terminal_weight = unpack_symmetric("terminal_weight", ns);
+    }
+}
+
+/// `PredictionModel`, which `prediction_model` returns, and `MpcStatus`, which `solve`
+/// returns.
+fn result_types(dims: &Dims) -> TokenStream {
+    let Dims {
+        ty, ns_len, nu_len, ..
+    } = dims;
     quote! {
         /// The MPC's prediction model `x+ = A x + B u` (eq. 30) of the regulated states.
         #[derive(Clone, Copy, Debug, PartialEq)]
@@ -815,106 +1001,182 @@ fn type_tokens(
             /// active bounds the first move is the infinite-horizon LQR's.
             pub terminal_weight_converged: bool,
         }
+    }
+}
 
-        #[doc = #doc]
-        #[derive(Clone, Copy, Debug, PartialEq)]
-        pub struct Mpc {
-            q: [#ty; #nsp],
-            r: [#ty; #nup],
+/// The type's doc: the dual-mode controller of Takacs, Polóni and Rohal'-Ilkiv on the
+/// regulated states and inputs, and which prediction model it takes.
+fn mpc_doc(model: &Model, spec: &MpcSpec, holds: bool) -> String {
+    let state_names = model.states_named(&spec.states);
+    let input_names = model.inputs_named(&spec.inputs);
+    format!(
+        " Adaptive model predictive control of `[{}]` with `[{}]` within input bounds: \
+         the dual-mode, infinite-horizon constrained controller of Takacs, Polóni and \
+         Rohal'-Ilkiv, \"Adaptive predictive control of transient vibrations of \
+         cantilevers with changing weight\" (sect. 3.4). [`Mpc::solve`] takes the model \
+         at the estimate ({}), moves the terminal weight towards the solution of the \
+         discrete algebraic Riccati equation, condenses the cost over `HORIZON` moves and \
+         minimises it within the bounds by a primal active-set method warm-started from \
+         the last plan; [`Mpc::control`] is the plan's first move.",
+        state_names.join(", "),
+        input_names.join(", "),
+        if holds {
+            "the exact zero-order hold of its continuous linearisation"
+        } else {
+            "the Jacobians of its sample step"
+        }
+    )
+}
+
+/// The horizon, the iteration bounds and the tolerances (and `MAX_SQUARINGS` for the
+/// hold).
+fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenStream {
+    let Dims { ty, horizon, .. } = dims;
+    let max_iterations = Literal::u32_unsuffixed(spec.max_iterations);
+    let passes = Literal::u32_unsuffixed(spec.max_iterations + 1);
+    let riccati_iterations = Literal::u32_unsuffixed(spec.riccati_iterations);
+    // Both tolerances sit well above the scalar's rounding of the sums they compare.
+    let tolerance = literal(
+        match scalar {
+            Scalar::F32 => 1e-5,
+            Scalar::F64 => 1e-12,
+        },
+        scalar,
+    );
+    let squarings = holds.then(|| {
+        let max = Literal::u32_unsuffixed(MAX_SQUARINGS);
+        quote! {
+            /// Most squarings of the zero-order hold (scaling and squaring).
+            pub const MAX_SQUARINGS: u32 = #max;
+        }
+    });
+    quote! {
+        /// Moves optimised over, `n`.
+        pub const HORIZON: usize = #horizon;
+        /// Bound on the active-set iterations (Newton steps) of one solve.
+        pub const MAX_ITERATIONS: u32 = #max_iterations;
+        /// Passes of the active-set loop: one per iteration, and one more that only
+        /// checks the multipliers after the last step.
+        const PASSES: u32 = #passes;
+        /// Riccati steps per solve towards the terminal weight.
+        pub const RICCATI_ITERATIONS: u32 = #riccati_iterations;
+        /// Relative change of the terminal weight under which it counts as converged.
+        pub const RICCATI_TOLERANCE: #ty = #tolerance;
+        /// A bound stays held unless releasing it would move its input by more than
+        /// this fraction of the input's range (its multiplier is below
+        /// `-RELEASE_TOLERANCE (u_max - u_min) H_ii`), so rounding cannot cycle the
+        /// active set.
+        pub const RELEASE_TOLERANCE: #ty = #tolerance;
+        #squarings
+    }
+}
+
+/// `fn new`: the bounds checked, the weights packed, the terminal weight at `q`, and the
+/// plan at zero clipped to the bounds.
+fn constructor(spec: &MpcSpec, moves: &MoveNames, dims: &Dims, scalar: Scalar) -> TokenStream {
+    let Dims {
+        ty,
+        ns_len,
+        nu_len,
+        horizon,
+        ..
+    } = dims;
+    let (ns, nu) = (spec.states.len(), spec.inputs.len());
+    let zero = literal(0.0, scalar);
+    let (pack_q, pack_r) = (pack_upper("q", ns), pack_upper("r", nu));
+    let bounds_check = moves.bounds_check();
+    let start_move = moves.start_move(&zero);
+    quote! {
+        /// A controller with state weight `q` and input weight `r` (symmetric: upper
+        /// triangles are read; `r` positive definite) and the input bounds
+        /// `u_min < u_max`, regulating to zero until [`Mpc::set_reference`]. The
+        /// terminal weight starts at `q` and converges over the first solves; the plan
+        /// starts at zero, clipped to the bounds. Rejects bounds that are not finite
+        /// or leave no room.
+        pub fn new(
+            q: &[[#ty; #ns_len]; #ns_len],
+            r: &[[#ty; #nu_len]; #nu_len],
             u_min: [#ty; #nu_len],
             u_max: [#ty; #nu_len],
-            x_ref: [#ty; #ns_len],
-            u_ref: [#ty; #nu_len],
-            terminal_weight: [#ty; #nsp],
-            terminal_gain: [[#ty; #ns_len]; #nu_len],
-            plan: [[#ty; #nu_len]; #horizon],
+        ) -> Result<Mpc, Status> {
+            #bounds_check
+            let q = #pack_q;
+            Ok(Mpc {
+                q,
+                r: #pack_r,
+                u_min,
+                u_max,
+                x_ref: [#zero; #ns_len],
+                u_ref: [#zero; #nu_len],
+                terminal_weight: q,
+                terminal_gain: [[#zero; #ns_len]; #nu_len],
+                plan: [#start_move; #horizon],
+            })
+        }
+    }
+}
+
+/// `fn set_reference`: a finite set-point `x_ref` and input `u_ref` stored.
+fn set_reference(model: &Model, spec: &MpcSpec, moves: &MoveNames, dims: &Dims) -> TokenStream {
+    let Dims {
+        ty, ns_len, nu_len, ..
+    } = dims;
+    let state_refs: Vec<Ident> = model
+        .states_named(&spec.states)
+        .iter()
+        .map(|n| ident(&format!("{n}_ref")))
+        .collect();
+    let reference_check = moves.reference_check(&state_refs);
+    quote! {
+        /// Regulates the states to `x_ref` with the inputs around `u_ref`: the plan
+        /// `u = u_ref + du` minimises the cost of `x - x_ref` and `du`. For a set-point
+        /// of the linear model, `u_ref` is the input that holds it
+        /// (`x_ref = A x_ref + B u_ref`). Rejects non-finite values, leaving the
+        /// reference as it was.
+        pub fn set_reference(&mut self, x_ref: [#ty; #ns_len], u_ref: [#ty; #nu_len]) -> Status {
+            #reference_check
+            self.x_ref = x_ref;
+            self.u_ref = u_ref;
+            Status::Ok
+        }
+    }
+}
+
+/// `control`, `plan`, `terminal_weight` and `terminal_gain`.
+fn accessors(spec: &MpcSpec, dims: &Dims) -> TokenStream {
+    let Dims {
+        ty,
+        ns_len,
+        nu_len,
+        horizon,
+        ..
+    } = dims;
+    let terminal_weight = unpack_symmetric("terminal_weight", spec.states.len());
+    quote! {
+        /// The first move of the last plan: the input to apply now.
+        #[must_use]
+        pub fn control(&self) -> [#ty; #nu_len] {
+            let [first, ..] = self.plan;
+            first
         }
 
-        impl Mpc {
-            /// Moves optimised over, `n`.
-            pub const HORIZON: usize = #horizon;
-            /// Bound on the active-set iterations (Newton steps) of one solve.
-            pub const MAX_ITERATIONS: u32 = #max_iterations;
-            /// Passes of the active-set loop: one per iteration, and one more that only
-            /// checks the multipliers after the last step.
-            const PASSES: u32 = #passes;
-            /// Riccati steps per solve towards the terminal weight.
-            pub const RICCATI_ITERATIONS: u32 = #riccati_iterations;
-            /// Relative change of the terminal weight under which it counts as converged.
-            pub const RICCATI_TOLERANCE: #ty = #tolerance;
-            /// A bound stays held unless releasing it would move its input by more than
-            /// this fraction of the input's range (its multiplier is below
-            /// `-RELEASE_TOLERANCE (u_max - u_min) H_ii`), so rounding cannot cycle the
-            /// active set.
-            pub const RELEASE_TOLERANCE: #ty = #tolerance;
-            #squarings
+        /// The last plan: `HORIZON` moves, all within the bounds.
+        #[must_use]
+        pub fn plan(&self) -> [[#ty; #nu_len]; #horizon] {
+            self.plan
+        }
 
-            /// A controller with state weight `q` and input weight `r` (symmetric: upper
-            /// triangles are read; `r` positive definite) and the input bounds
-            /// `u_min < u_max`, regulating to zero until [`Mpc::set_reference`]. The
-            /// terminal weight starts at `q` and converges over the first solves; the plan
-            /// starts at zero, clipped to the bounds. Rejects bounds that are not finite
-            /// or leave no room.
-            pub fn new(
-                q: &[[#ty; #ns_len]; #ns_len],
-                r: &[[#ty; #nu_len]; #nu_len],
-                u_min: [#ty; #nu_len],
-                u_max: [#ty; #nu_len],
-            ) -> Result<Mpc, Status> {
-                #bounds_check
-                let q = #pack_q;
-                Ok(Mpc {
-                    q,
-                    r: #pack_r,
-                    u_min,
-                    u_max,
-                    x_ref: [#zero; #ns_len],
-                    u_ref: [#zero; #nu_len],
-                    terminal_weight: q,
-                    terminal_gain: [[#zero; #ns_len]; #nu_len],
-                    plan: [#start_move; #horizon],
-                })
-            }
+        /// The terminal weight `P_f` of the last solve.
+        #[must_use]
+        pub fn terminal_weight(&self) -> [[#ty; #ns_len]; #ns_len] {
+            #terminal_weight
+        }
 
-            /// Regulates the states to `x_ref` with the inputs around `u_ref`: the plan
-            /// `u = u_ref + du` minimises the cost of `x - x_ref` and `du`. For a set-point
-            /// of the linear model, `u_ref` is the input that holds it
-            /// (`x_ref = A x_ref + B u_ref`). Rejects non-finite values, leaving the
-            /// reference as it was.
-            pub fn set_reference(&mut self, x_ref: [#ty; #ns_len], u_ref: [#ty; #nu_len]) -> Status {
-                #reference_check
-                self.x_ref = x_ref;
-                self.u_ref = u_ref;
-                Status::Ok
-            }
-
-            #solve
-
-            /// The first move of the last plan: the input to apply now.
-            #[must_use]
-            pub fn control(&self) -> [#ty; #nu_len] {
-                let [first, ..] = self.plan;
-                first
-            }
-
-            /// The last plan: `HORIZON` moves, all within the bounds.
-            #[must_use]
-            pub fn plan(&self) -> [[#ty; #nu_len]; #horizon] {
-                self.plan
-            }
-
-            /// The terminal weight `P_f` of the last solve.
-            #[must_use]
-            pub fn terminal_weight(&self) -> [[#ty; #ns_len]; #ns_len] {
-                #terminal_weight
-            }
-
-            /// The gain `K` of the last solve's terminal weight (eq. 41), `u = -K x`: the
-            /// infinite-horizon LQR of the current model once the weight has converged.
-            #[must_use]
-            pub fn terminal_gain(&self) -> [[#ty; #ns_len]; #nu_len] {
-                self.terminal_gain
-            }
+        /// The gain `K` of the last solve's terminal weight (eq. 41), `u = -K x`: the
+        /// infinite-horizon LQR of the current model once the weight has converged.
+        #[must_use]
+        pub fn terminal_gain(&self) -> [[#ty; #ns_len]; #nu_len] {
+            self.terminal_gain
         }
     }
 }

@@ -2,7 +2,7 @@
 //! by the prediction, condensing and active-set stages.
 
 use crate::emit::filter::model_names;
-use crate::emit::names::TempNamer;
+use crate::emit::names::{clear_of, matrix_entry, TempNamer};
 use crate::model::Model;
 use proc_macro2::TokenStream;
 use quote::quote;
@@ -25,26 +25,23 @@ impl Names {
         TempNamer::new(self.taken.iter().map(String::as_str))
     }
 
-    /// `base`, with `_` appended while a model name takes it.
-    pub fn fresh(&self, base: &str) -> String {
-        let mut name = base.to_owned();
-        while self.taken.contains(&name) {
-            name.push('_');
-        }
-        name
+    /// Whether a model name takes `name`.
+    pub fn takes(&self, name: &str) -> bool {
+        self.taken.iter().any(|t| t == name)
     }
 
-    /// Names as [`Names::fresh`] for the entries of a `rows x cols` matrix: `a12`, or
-    /// `a_1_12` when an index has two digits.
+    /// `base`, with `_` appended while a model name takes it.
+    pub fn fresh(&self, base: &str) -> String {
+        clear_of(base, |name| self.takes(name))
+    }
+
+    /// Names as [`Names::fresh`] for the entries of a `rows x cols` matrix
+    /// ([`matrix_entry`]: `a12`, or `a_1_12` when an index has two digits).
     pub fn matrix(&self, prefix: &str, rows: usize, cols: usize) -> Vec<Vec<String>> {
-        let wide = rows >= 10 || cols >= 10;
         (1..=rows)
             .map(|i| {
                 (1..=cols)
-                    .map(|j| match wide {
-                        true => self.fresh(&format!("{prefix}_{i}_{j}")),
-                        false => self.fresh(&format!("{prefix}{i}{j}")),
-                    })
+                    .map(|j| self.fresh(&matrix_entry(prefix, (rows, cols), (i, j))))
                     .collect()
             })
             .collect()

@@ -3,6 +3,8 @@
 //! the dual-mode cost (Takacs, Polóni, Rohal'-Ilkiv, "Adaptive predictive control of
 //! transient vibrations of cantilevers with changing weight", eqs. 32-44).
 
+use crate::ast::Comparison;
+use crate::model::Func;
 use crate::symbolic::graph::{Graph, NodeId};
 use crate::symbolic::linalg::{
     add, identity, matmul, packed_upper, sandwich_symmetric, transpose, Matrix,
@@ -46,10 +48,31 @@ pub fn zoh_square(g: &mut Graph, a: &Matrix, b: &Matrix) -> (Matrix, Matrix) {
 }
 
 /// `k m`
-fn scale(g: &mut Graph, m: &Matrix, k: NodeId) -> Matrix {
+pub fn scale(g: &mut Graph, m: &Matrix, k: NodeId) -> Matrix {
     m.iter()
         .map(|row| row.iter().map(|&v| g.mul(v, k)).collect())
         .collect()
+}
+
+/// `|| [Phi Gamma] ||_1`: the largest column sum of magnitudes, which decides how often
+/// the hold's step is halved.
+pub fn column_norm(g: &mut Graph, phi: &Matrix, gamma: &Matrix) -> NodeId {
+    let ns = phi.len();
+    let columns = ns + gamma.first().map_or(0, Vec::len);
+    let mut norm = None;
+    for j in 0..columns {
+        let mut sum = g.zero();
+        for i in 0..ns {
+            let entry = if j < ns { phi[i][j] } else { gamma[i][j - ns] };
+            let magnitude = g.call(Func::Abs, entry);
+            sum = g.add(sum, magnitude);
+        }
+        norm = Some(match norm {
+            None => sum,
+            Some(n) => g.select(Comparison::Gt, sum, n, sum, n),
+        });
+    }
+    norm.unwrap_or_else(|| g.zero())
 }
 
 /// The condensed problem `min 1/2 U' H U + c' U` over the moves `U = [u_0; ..; u_(n-1)]`

@@ -17,8 +17,8 @@ use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
 use super::spec::MpcSpec;
 use crate::model::{Model, Scalar};
-use crate::symbolic::linalg::{ldl_solve, matmul, symmetric_from_packed, Matrix};
-use crate::symbolic::Graph;
+use crate::symbolic::linalg::{ldl_solve, matmul, symmetric_from_packed, LdlSolve, Matrix};
+use crate::symbolic::{Graph, NodeId};
 use proc_macro2::{Ident, TokenStream};
 use quote::quote;
 
@@ -52,8 +52,7 @@ impl MoveNames {
                 input_of.push(i);
             }
         }
-        let taken = |name: &str| names.fresh(name) != name;
-        let hessian = packed_names("h", moves.len(), &taken);
+        let hessian = packed_names("h", moves.len(), &|name| names.takes(name));
         let linear = moves
             .iter()
             .map(|m| names.fresh(&format!("c_{m}")))
@@ -208,59 +207,16 @@ pub struct QpCode {
 /// The loop, on the names of `moves`: `H` and `c` must be bound before it.
 pub fn active_set_loop(g: &mut Graph, moves: &MoveNames, names: &Names, scalar: Scalar) -> QpCode {
     let m = moves.len();
-    let hessian_vars: Vec<_> = moves.hessian.iter().map(|n| g.var(n)).collect();
-    let linear_vars: Vec<_> = moves.linear.iter().map(|n| g.var(n)).collect();
-    let move_vars: Vec<_> = moves.moves.iter().map(|n| g.var(n)).collect();
-    let hessian = symmetric_from_packed(&hessian_vars, m);
-    // grad = H v + c
-    let column: Matrix = move_vars.iter().map(|&v| vec![v]).collect();
-    let product = matmul(g, &hessian, &column);
-    let gradient: Vec<_> = product
-        .iter()
-        .zip(&linear_vars)
-        .map(|(row, &c)| g.add(row[0], c))
-        .collect();
-    // The Newton step on the free moves: H~ p = rhs, with H~ = H on the free moves and the
-    // identity on the held ones, rhs = -grad on the free moves and 0 on the held ones.
-    let taken = |name: &str| names.fresh(name) != name;
-    let masked_names = packed_names("masked", m, &taken);
-    let masked_vars: Vec<_> = masked_names.iter().map(|n| g.var(n)).collect();
-    let rhs_idents = moves.per_move("rhs");
-    let rhs_vars: Vec<_> = rhs_idents.iter().map(|n| g.var(&n.to_string())).collect();
-    let masked = symmetric_from_packed(&masked_vars, m);
-    const PIVOT: (&str, &str) = ("pivot", "inv_pivot");
-    let solve = ldl_solve(g, &masked, &rhs_vars, |g, j| {
-        g.var(&pivot_names(m, j, PIVOT, "").1)
-    });
-
-    let namer = names.namer();
-    let mut roots = gradient.clone();
-    roots.extend(&solve.solution);
-    roots.extend(&solve.pivots);
-    let mut grad_lowerer = Lowerer::new(g, scalar, namer.clone(), &gradient);
-    let grad_values = grad_lowerer.segment(&gradient);
-    let grad_ops = grad_lowerer.ops();
-    let grad_statements = grad_lowerer.take_statements();
-    let mut step_lowerer = Lowerer::new(g, scalar, namer, &roots[m..]);
-    let on_failure = failure(quote! { Status::NonPositiveControlWeight });
-    guard_pivots(
-        &mut step_lowerer,
-        &solve.pivots,
-        &solve.reciprocals,
-        (PIVOT, ""),
-        &on_failure,
-        scalar,
-    );
-    let step_values = step_lowerer.segment(&solve.solution);
-    let step_ops = step_lowerer.ops();
-    let step_statements = step_lowerer.take_statements();
-
+    let iteration = Iteration::new(g, moves, names);
+    let lowered = IterationCode::new(g, &iteration, names, scalar);
     let setup = bounds_and_warm_start(moves);
     let release = release_check(moves, scalar);
-    let mask = mask(moves, &masked_names, scalar);
+    let mask = mask(moves, &iteration.masked_names, scalar);
     let ratio = ratio_test(moves, scalar);
     let grad = moves.per_move("grad");
     let step = moves.per_move("step");
+    let (grad_statements, grad_values) = (&lowered.grad_statements, &lowered.grad_values);
+    let (step_statements, step_values) = (&lowered.step_statements, &lowered.step_values);
     let code = quote! {
         #setup
         let mut full_step = false;
@@ -294,7 +250,95 @@ pub fn active_set_loop(g: &mut Graph, moves: &MoveNames, names: &Names, scalar: 
     };
     QpCode {
         code,
-        iteration_ops: grad_ops.plus(step_ops).plus(extra),
+        iteration_ops: lowered.ops.plus(extra),
+    }
+}
+
+/// The pivot names of the masked Hessian `H~`.
+const PIVOT: (&str, &str) = ("pivot", "inv_pivot");
+
+/// One iteration's arithmetic as nodes on the variables named by the moves: the gradient
+/// `H v + c`, and the Newton step on the free moves, `H~ p = rhs` with `H~ = H` on the
+/// free moves and the identity on the held ones, `rhs = -grad` on the free moves and 0 on
+/// the held ones, by an `L D L'` solve.
+struct Iteration {
+    gradient: Vec<NodeId>,
+    /// `H~`'s packed entries, `masked11 ..`.
+    masked_names: Vec<String>,
+    solve: LdlSolve,
+}
+
+impl Iteration {
+    fn new(g: &mut Graph, moves: &MoveNames, names: &Names) -> Iteration {
+        let m = moves.len();
+        let hessian_vars: Vec<_> = moves.hessian.iter().map(|n| g.var(n)).collect();
+        let linear_vars: Vec<_> = moves.linear.iter().map(|n| g.var(n)).collect();
+        let move_vars: Vec<_> = moves.moves.iter().map(|n| g.var(n)).collect();
+        let hessian = symmetric_from_packed(&hessian_vars, m);
+        // grad = H v + c
+        let column: Matrix = move_vars.iter().map(|&v| vec![v]).collect();
+        let product = matmul(g, &hessian, &column);
+        let gradient: Vec<_> = product
+            .iter()
+            .zip(&linear_vars)
+            .map(|(row, &c)| g.add(row[0], c))
+            .collect();
+        let masked_names = packed_names("masked", m, &|name| names.takes(name));
+        let masked_vars: Vec<_> = masked_names.iter().map(|n| g.var(n)).collect();
+        let rhs_idents = moves.per_move("rhs");
+        let rhs_vars: Vec<_> = rhs_idents.iter().map(|n| g.var(&n.to_string())).collect();
+        let masked = symmetric_from_packed(&masked_vars, m);
+        let solve = ldl_solve(g, &masked, &rhs_vars, |g, j| {
+            g.var(&pivot_names(m, j, PIVOT, "").1)
+        });
+        Iteration {
+            gradient,
+            masked_names,
+            solve,
+        }
+    }
+}
+
+/// The iteration lowered: the gradient's statements and values, and the Newton step's
+/// behind the checked pivots of `H~`, with their arithmetic.
+struct IterationCode {
+    grad_statements: Vec<TokenStream>,
+    grad_values: Vec<TokenStream>,
+    step_statements: Vec<TokenStream>,
+    step_values: Vec<TokenStream>,
+    ops: OpCount,
+}
+
+impl IterationCode {
+    fn new(g: &Graph, iteration: &Iteration, names: &Names, scalar: Scalar) -> IterationCode {
+        let (gradient, solve) = (&iteration.gradient, &iteration.solve);
+        let namer = names.namer();
+        let mut step_roots = solve.solution.clone();
+        step_roots.extend(&solve.pivots);
+        let mut grad_lowerer = Lowerer::new(g, scalar, namer.clone(), gradient);
+        let grad_values = grad_lowerer.segment(gradient);
+        let grad_ops = grad_lowerer.ops();
+        let grad_statements = grad_lowerer.take_statements();
+        let mut step_lowerer = Lowerer::new(g, scalar, namer, &step_roots);
+        let on_failure = failure(quote! { Status::NonPositiveControlWeight });
+        guard_pivots(
+            &mut step_lowerer,
+            &solve.pivots,
+            &solve.reciprocals,
+            (PIVOT, ""),
+            &on_failure,
+            scalar,
+        );
+        let step_values = step_lowerer.segment(&solve.solution);
+        let step_ops = step_lowerer.ops();
+        let step_statements = step_lowerer.take_statements();
+        IterationCode {
+            grad_statements,
+            grad_values,
+            step_statements,
+            step_values,
+            ops: grad_ops.plus(step_ops),
+        }
     }
 }
 
