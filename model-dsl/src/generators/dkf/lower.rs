@@ -7,7 +7,7 @@
 
 use super::filters::step_fn;
 use super::transform::transform_fn;
-use super::window::{self, WindowTransform};
+use super::window::WindowTransform;
 use crate::emit::code::{destructure, pack_upper, unpack_symmetric, var_idents};
 use crate::emit::filter::{model_names, noise_argument};
 use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
@@ -29,21 +29,21 @@ pub struct DkfCode {
     pub filters_ops: OpCount,
 }
 
-/// The DKF of `model` in `scalar`, or why the model is outside the transform's class.
+/// The DKF of `model` in `scalar` from its window transform `wt`, derived (once, by the
+/// generator's design) in the graph `g`, of which this takes a copy to lower into.
 pub fn emit_dkf(
     model: &Model,
     spec: &DkfSpec,
-    mg: &ModelGraph,
+    (g, wt): (&ModelGraph, &WindowTransform),
     scalar: Scalar,
-) -> Result<DkfCode, String> {
-    let mut g = mg.clone();
-    let wt = window::derive(model, &mut g, spec.eta)?;
-    let (transform, transform_ops) = transform_fn(model, &g, &wt, scalar);
-    let (step, stages, filters_ops) = step_fn(model, &mut g, &wt, scalar, spec.diagonal_noise);
-    let push = push_fn(model, &g, &wt, scalar);
-    let ltv = ltv_fn(model, &g, &wt, scalar);
-    let dkf = DkfType::new(model, spec, &wt, scalar);
-    let declaration = dkf.declaration(&wt);
+) -> DkfCode {
+    let mut g = g.clone();
+    let (transform, transform_ops) = transform_fn(model, &g, wt, scalar);
+    let (step, stages, filters_ops) = step_fn(model, &mut g, wt, scalar, spec.diagonal_noise);
+    let push = push_fn(model, &g, wt, scalar);
+    let ltv = ltv_fn(model, &g, wt, scalar);
+    let dkf = DkfType::new(model, spec, wt, scalar);
+    let declaration = dkf.declaration(wt);
     let constructor = dkf.constructor_tokens(model);
     let estimates = dkf.estimate_accessors();
     let window_accessors = dkf.window_accessors(model);
@@ -71,11 +71,11 @@ pub fn emit_dkf(
 
         #window_constants
     };
-    Ok(DkfCode {
+    DkfCode {
         tokens,
         transform_ops,
         filters_ops,
-    })
+    }
 }
 
 /// The generated `Dkf` type's element type and sizes, which its items share.

@@ -63,13 +63,17 @@ impl Kind for Dkf {
 }
 
 impl Generator for DkfSpec {
+    /// The window transform, derived once for every scalar type; a model outside its
+    /// class is one error under `dkf`.
     fn design(&self, model: &Model, mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
-        // Derived once up front so a model outside the class is one clear error.
-        let mut probe = mg.clone();
-        if let Err(reason) = window::derive(model, &mut probe, self.eta) {
-            return Err(syn::Error::new(self.span, format!("`dkf`: {reason}")));
-        }
-        Ok(Box::new(self.clone()))
+        let mut graph = mg.clone();
+        let transform = window::derive(model, &mut graph, self.eta)
+            .map_err(|reason| syn::Error::new(self.span, format!("`dkf`: {reason}")))?;
+        Ok(Box::new(Designed {
+            spec: self.clone(),
+            graph,
+            transform,
+        }))
     }
 
     fn as_any(&self) -> &dyn Any {
@@ -77,15 +81,18 @@ impl Generator for DkfSpec {
     }
 }
 
-impl Lowering for DkfSpec {
-    fn lower(&self, model: &Model, mg: &ModelGraph, scalar: Scalar) -> Code {
-        let Ok(dkf) = lower::emit_dkf(model, self, mg, scalar) else {
-            // `design` derived the same window without an error.
-            return Code {
-                tokens: proc_macro2::TokenStream::new(),
-                costs: Vec::new(),
-            };
-        };
+/// The DKF's options and its window transform, derived in `graph` (the model's graph with
+/// the window's variables).
+struct Designed {
+    spec: DkfSpec,
+    graph: ModelGraph,
+    transform: window::WindowTransform,
+}
+
+impl Lowering for Designed {
+    fn lower(&self, model: &Model, _mg: &ModelGraph, scalar: Scalar) -> Code {
+        let design = (&self.graph, &self.transform);
+        let dkf = lower::emit_dkf(model, &self.spec, design, scalar);
         Code {
             tokens: dkf.tokens,
             costs: vec![
