@@ -67,7 +67,7 @@ pub fn measure(macros: Option<&Path>, jobs: Option<u32>) -> Result<Measurement, 
         lockfile.as_deref(),
     )?;
     // Sources are fetched first, so the time is compiling, not downloading.
-    crate::run(
+    crate::command::run(
         "fetching the user crate's dependencies",
         user.cargo().args(["fetch"]),
     )?;

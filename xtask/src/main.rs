@@ -11,12 +11,14 @@
 
 mod accuracy;
 mod cold_build;
+mod command;
 mod compare;
 mod compare_continuous;
 mod compare_mpc;
 mod compare_observers;
 mod cost;
 mod firmware;
+mod imports;
 mod msrv;
 mod program;
 mod scratch;
@@ -26,8 +28,9 @@ mod trace;
 mod vendored;
 
 use clap::{Parser, Subcommand};
+use command::{cargo, run};
 use std::path::Path;
-use std::process::{Command, ExitCode};
+use std::process::ExitCode;
 
 /// The embedded target the generated code must build for.
 const MCU_TARGET: &str = "thumbv7em-none-eabihf";
@@ -59,6 +62,8 @@ enum Task {
     Test,
     /// Check the published crates' declared minimum Rust version (part of `test`).
     Msrv,
+    /// Check that no source file imports a file that imports it back (part of `test`).
+    Imports,
     /// Run the firmware under QEMU and print what the generated filters cost on the
     /// Cortex-M4F, beside the nalgebra baseline.
     Cost,
@@ -90,6 +95,9 @@ fn main() -> ExitCode {
         Task::ColdBuild { macros, jobs } => {
             cold_build::measure(macros.as_deref(), jobs).map(|m| m.to_string())
         }
+        Task::Imports => {
+            imports::check(&scratch::workspace_root()).map(|summary| format!("xtask: {summary}\n"))
+        }
         Task::Msrv => msrv::check(&PUBLISHED).map(|summary| format!("xtask: {summary}\n")),
         Task::Vendored => vendored::check().map(|summary| format!("xtask: {summary}\n")),
         Task::Cost => cost(),
@@ -111,6 +119,7 @@ fn test() -> Result<(), String> {
     setup::rust_target(MCU_TARGET)?;
     setup::debian_commands(FIRMWARE_TOOLS)?;
     println!("xtask: {}", msrv::check(&PUBLISHED)?);
+    println!("xtask: {}", imports::check(&scratch::workspace_root())?);
     run(
         "formatting",
         cargo().args(["fmt", "--all", "--", "--check"]),
@@ -280,21 +289,4 @@ fn cost_table(report: &firmware::Report, build: firmware::Build) -> Result<Strin
         &program,
         &traced,
     )
-}
-
-fn cargo() -> Command {
-    Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
-}
-
-/// Runs a command, naming it in progress and error messages.
-pub fn run(what: &str, command: &mut Command) -> Result<(), String> {
-    println!("xtask: {what}");
-    let status = command
-        .status()
-        .map_err(|e| format!("{what}: cannot start: {e}"))?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!("{what} failed ({status})"))
-    }
 }

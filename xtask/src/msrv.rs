@@ -28,7 +28,7 @@ fn show((major, minor): Version) -> String {
 
 /// Checks the `published` crates' `rust-version`; a summary of what was checked.
 pub fn check(published: &[&str]) -> Result<String, String> {
-    let output = crate::cargo()
+    let output = crate::command::cargo()
         .args(["metadata", "--format-version", "1", "--locked"])
         .output()
         .map_err(|e| format!("cannot run cargo metadata: {e}"))?;
@@ -92,7 +92,7 @@ pub fn check(published: &[&str]) -> Result<String, String> {
             for name in published {
                 check.args(["--package", name]);
             }
-            crate::run(&format!("cargo +{toolchain} check"), &mut check)?;
+            crate::command::run(&format!("cargo +{toolchain} check"), &mut check)?;
             summary.push(format!("{version}: checked with {toolchain}"));
         } else {
             let toolchain = version;

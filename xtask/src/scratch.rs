@@ -58,7 +58,7 @@ impl Scratch {
     /// `cargo` in the crate's directory, with the crate's own target directory and no
     /// flags inherited from the caller's environment.
     pub fn cargo(&self) -> Command {
-        let mut cargo = crate::cargo();
+        let mut cargo = crate::command::cargo();
         cargo
             .current_dir(&self.dir)
             .env("CARGO_TARGET_DIR", self.dir.join("target"))

@@ -17,7 +17,7 @@ pub fn rust_target(target: &str) -> Result<(), String> {
         return Ok(());
     }
     println!("xtask: installing the Rust target {target}");
-    crate::run(
+    crate::command::run(
         &format!("`rustup target add {target}`"),
         Command::new("rustup").args(["target", "add", target]),
     )
@@ -43,9 +43,9 @@ pub fn debian_commands(needed: &[(&str, &str)]) -> Result<(), String> {
         return Err(hint);
     }
     println!("xtask: installing {}", packages.join(" "));
-    let update = crate::run("`apt-get update`", Command::new("apt-get").arg("update"));
+    let update = crate::command::run("`apt-get update`", Command::new("apt-get").arg("update"));
     let install = update.and_then(|()| {
-        crate::run(
+        crate::command::run(
             "`apt-get install`",
             Command::new("apt-get")
                 .args(["install", "-y"])

@@ -63,9 +63,9 @@ fn vendor_and_check(
     vendored: &Scratch,
 ) -> Result<(), String> {
     for (module, source) in models {
-        crate::run(
+        crate::command::run(
             &format!("vendoring {}", source.display()),
-            crate::cargo()
+            crate::command::cargo()
                 .current_dir(root)
                 .args(["run", "--quiet", "--package", "model-codegen", "--"])
                 .arg(source)
@@ -73,18 +73,18 @@ fn vendor_and_check(
                 .arg(vendored.dir.join("src").join(format!("{module}.rs"))),
         )?;
     }
-    crate::run(
+    crate::command::run(
         "rustfmt --check on the vendored models",
         vendored.cargo().args(["fmt", "--", "--check"]),
     )?;
-    crate::run(
+    crate::command::run(
         "the vendored models build with -D warnings",
         vendored
             .cargo()
             .args(["build", "--offline"])
             .env("RUSTFLAGS", "-D warnings"),
     )?;
-    crate::run(
+    crate::command::run(
         "clippy -D warnings on the vendored models",
         vendored
             .cargo()
