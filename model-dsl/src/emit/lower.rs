@@ -487,6 +487,17 @@ pub fn literal(v: f64, scalar: Scalar) -> TokenStream {
     }
 }
 
+/// A matrix known at generation time as a nested array literal, row by row:
+/// `[[1.0_f32, 0.0_f32], [..]]`.
+pub fn matrix_literal(mat: &crate::numerics::Mat, scalar: Scalar) -> TokenStream {
+    let rows = mat.to_rows();
+    let rows = rows.iter().map(|row| {
+        let row = row.iter().map(|&v| literal(v, scalar));
+        quote! { [#(#row),*] }
+    });
+    quote! { [#(#rows),*] }
+}
+
 /// The `libm` function for `f` in `scalar`.
 fn libm_name(f: Func, scalar: Scalar) -> &'static str {
     let double = match f {
