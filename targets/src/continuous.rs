@@ -7,6 +7,7 @@
 //! then `cost`/`stack` lines for `continuous_ekf_step` and `hybrid_ekf_step` (no nalgebra
 //! baseline: printed as 0).
 
+use crate::matrix::diag;
 use crate::measure::{per_call, report, stack_depth, Clock};
 use core::hint::black_box;
 use cortex_m_semihosting::{hprint, hprintln};
@@ -19,14 +20,6 @@ pub const HELICOPTER_SAMPLES: usize = 1000;
 pub const BLADE_SAMPLES: usize = 300;
 const MEASURED_HELICOPTER: usize = 400;
 const MEASURED_BLADE: usize = 40;
-
-fn diag<const N: usize>(d: [f32; N]) -> [[f32; N]; N] {
-    let mut m = [[0.0; N]; N];
-    for (i, row) in m.iter_mut().enumerate() {
-        row[i] = d[i];
-    }
-    m
-}
 
 fn continuous_ekf() -> ContinuousEkf {
     let r = [

@@ -18,6 +18,7 @@
 
 mod baseline;
 mod continuous;
+mod matrix;
 mod measure;
 mod mpc;
 mod observers;
@@ -27,6 +28,7 @@ use core::hint::black_box;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprint, hprintln};
 use generated_demo::cantilever::{Dkf, Ekf, Lqr, Status};
+use matrix::diag;
 use measure::{report, stack_depth, Clock};
 use nalgebra::Matrix2;
 use panic_semihosting as _;
@@ -44,14 +46,6 @@ const U_MAX: f32 = 100.0;
 /// Calls measured per kernel, after as many warm-up samples.
 const WARM_UP: usize = 100;
 const MEASURED: usize = 800;
-
-fn diag(d: [f32; 5]) -> [[f32; 5]; 5] {
-    let mut m = [[0.0; 5]; 5];
-    for (i, row) in m.iter_mut().enumerate() {
-        row[i] = d[i];
-    }
-    m
-}
 
 fn ekf(x0: [f32; 5], p0: [f32; 5]) -> Ekf {
     Ekf::new(x0, &diag(p0), &Q, &[[R]])
