@@ -18,6 +18,7 @@
 
 mod baseline;
 mod continuous;
+mod lines;
 mod matrix;
 mod measure;
 mod mpc;
@@ -26,8 +27,9 @@ mod observers_baseline;
 
 use core::hint::black_box;
 use cortex_m_rt::entry;
-use cortex_m_semihosting::{debug, hprint, hprintln};
+use cortex_m_semihosting::{debug, hprintln};
 use generated_demo::cantilever::{Dkf, Ekf, Lqr, Status};
+use lines::estimate_line;
 use matrix::diag;
 use measure::{report, stack_depth, Clock};
 use nalgebra::Matrix2;
@@ -98,18 +100,15 @@ fn estimates() {
         let _: Status = controller.solve(&dkf_close.state());
         let u = controller.control(&dkf_close.state())[0];
         if k % 10 == 0 {
-            hprint!("estimate {}", k);
-            for value in ekf_close
-                .state()
+            let (ekf, dkf, wrong) = (ekf_close.state(), dkf_close.state(), dkf_wrong.state());
+            let gain = controller.gain()[0];
+            let values = ekf
                 .iter()
-                .chain(&dkf_close.state())
-                .chain(&dkf_wrong.state())
-                .chain(&controller.gain()[0])
-                .chain(&[u])
-            {
-                hprint!(" {:?}", value);
-            }
-            hprintln!();
+                .chain(&dkf)
+                .chain(&wrong)
+                .chain(&gain)
+                .chain([&u]);
+            estimate_line("estimate", k, values);
         }
     }
 }
