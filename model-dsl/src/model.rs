@@ -339,10 +339,13 @@ impl FuncNames {
     }
 }
 
+/// A row of [`Func::TABLE`]: a function, its names, and its value in `f64`.
+type FuncRow = (Func, FuncNames, fn(f64) -> f64);
+
 impl Func {
     /// The function table, in declaration order (`Func as usize` indexes it): each
     /// function's names and its value in `f64`.
-    const TABLE: [(Func, FuncNames, fn(f64) -> f64); 8] = [
+    const TABLE: [FuncRow; 8] = [
         (Func::Sin, FuncNames::new("sin", "sin", "sinf"), f64::sin),
         (Func::Cos, FuncNames::new("cos", "cos", "cosf"), f64::cos),
         (Func::Tan, FuncNames::new("tan", "tan", "tanf"), f64::tan),
