@@ -155,31 +155,79 @@ pub enum Func {
     Tanh,
 }
 
+/// What the language and `libm` call a library function.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FuncNames {
+    /// The name a model writes, in both front ends (`ln`).
+    pub name: &'static str,
+    /// `libm`'s function in `f64` (`log`).
+    pub f64: &'static str,
+    /// `libm`'s function in `f32` (`logf`).
+    pub f32: &'static str,
+}
+
+impl FuncNames {
+    const fn new(name: &'static str, f64: &'static str, f32: &'static str) -> FuncNames {
+        FuncNames { name, f64, f32 }
+    }
+
+    /// `libm`'s function in `scalar`.
+    pub fn libm(self, scalar: Scalar) -> &'static str {
+        match scalar {
+            Scalar::F32 => self.f32,
+            Scalar::F64 => self.f64,
+        }
+    }
+}
+
+/// A row of [`Func::TABLE`]: a function, its names, and its value in `f64`.
+type FuncRow = (Func, FuncNames, fn(f64) -> f64);
+
 impl Func {
-    /// Every function, for lookups and messages.
-    pub const ALL: [Func; 8] = [
-        Func::Sin,
-        Func::Cos,
-        Func::Tan,
-        Func::Exp,
-        Func::Ln,
-        Func::Sqrt,
-        Func::Abs,
-        Func::Tanh,
+    /// The function table, in declaration order (`Func as usize` indexes it): each
+    /// function's names and its value in `f64`.
+    const TABLE: [FuncRow; 8] = [
+        (Func::Sin, FuncNames::new("sin", "sin", "sinf"), f64::sin),
+        (Func::Cos, FuncNames::new("cos", "cos", "cosf"), f64::cos),
+        (Func::Tan, FuncNames::new("tan", "tan", "tanf"), f64::tan),
+        (Func::Exp, FuncNames::new("exp", "exp", "expf"), f64::exp),
+        (Func::Ln, FuncNames::new("ln", "log", "logf"), f64::ln),
+        (
+            Func::Sqrt,
+            FuncNames::new("sqrt", "sqrt", "sqrtf"),
+            f64::sqrt,
+        ),
+        (Func::Abs, FuncNames::new("abs", "fabs", "fabsf"), f64::abs),
+        (
+            Func::Tanh,
+            FuncNames::new("tanh", "tanh", "tanhf"),
+            f64::tanh,
+        ),
     ];
+
+    /// `atan2(y, x)`, the library function of two arguments: an [`Expr::Atan2`], not a
+    /// `Func`, but named like one.
+    pub const ATAN2: FuncNames = FuncNames::new("atan2", "atan2", "atan2f");
+
+    /// Every function, for lookups and messages.
+    pub const ALL: [Func; 8] = {
+        let mut all = [Func::Sin; 8];
+        let mut i = 0;
+        while i < all.len() {
+            all[i] = Func::TABLE[i].0;
+            i += 1;
+        }
+        all
+    };
+
+    /// The function's names, in the model and in `libm`.
+    pub fn names(self) -> FuncNames {
+        Func::TABLE[self as usize].1
+    }
 
     /// The name a model writes.
     pub fn name(self) -> &'static str {
-        match self {
-            Func::Sin => "sin",
-            Func::Cos => "cos",
-            Func::Tan => "tan",
-            Func::Exp => "exp",
-            Func::Ln => "ln",
-            Func::Sqrt => "sqrt",
-            Func::Abs => "abs",
-            Func::Tanh => "tanh",
-        }
+        self.names().name
     }
 
     /// Looks a function up by the name a model writes.
@@ -189,18 +237,21 @@ impl Func {
 
     /// Evaluates the function in `f64` (constant folding and tests).
     pub fn eval(self, x: f64) -> f64 {
-        match self {
-            Func::Sin => x.sin(),
-            Func::Cos => x.cos(),
-            Func::Tan => x.tan(),
-            Func::Exp => x.exp(),
-            Func::Ln => x.ln(),
-            Func::Sqrt => x.sqrt(),
-            Func::Abs => x.abs(),
-            Func::Tanh => x.tanh(),
-        }
+        (Func::TABLE[self as usize].2)(x)
     }
 }
+
+/// [`Func::TABLE`] is indexed by `Func as usize`: its rows follow the declaration.
+const _: () = {
+    let mut i = 0;
+    while i < Func::TABLE.len() {
+        assert!(
+            Func::TABLE[i].0 as usize == i,
+            "Func::TABLE follows the declaration"
+        );
+        i += 1;
+    }
+};
 
 /// A resolved expression tree.
 #[derive(Clone, Debug, PartialEq)]

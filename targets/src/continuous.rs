@@ -7,9 +7,10 @@
 //! then `cost`/`stack` lines for `continuous_ekf_step` and `hybrid_ekf_step` (no nalgebra
 //! baseline: printed as 0).
 
+use crate::lines::estimate_line;
+use crate::matrix::diag;
 use crate::measure::{per_call, report, stack_depth, Clock};
 use core::hint::black_box;
-use cortex_m_semihosting::{hprint, hprintln};
 use generated_demo::continuous_sequence::{blade_tuning, helicopter_tuning, Blade, Helicopter};
 use generated_demo::helicopter::{ContinuousEkf, Status};
 use generated_demo::mass_spring_damper::{HybridEkf, Status as BladeStatus};
@@ -19,14 +20,6 @@ pub const HELICOPTER_SAMPLES: usize = 1000;
 pub const BLADE_SAMPLES: usize = 300;
 const MEASURED_HELICOPTER: usize = 400;
 const MEASURED_BLADE: usize = 40;
-
-fn diag<const N: usize>(d: [f32; N]) -> [[f32; N]; N] {
-    let mut m = [[0.0; N]; N];
-    for (i, row) in m.iter_mut().enumerate() {
-        row[i] = d[i];
-    }
-    m
-}
 
 fn continuous_ekf() -> ContinuousEkf {
     let r = [
@@ -65,14 +58,6 @@ fn generated_hybrid_ekf_step(filter: &mut HybridEkf, u: &[f32; 1], y: &[f32; 1])
     filter.step(u, y)
 }
 
-fn print(tag: &str, k: usize, values: &[f32]) {
-    hprint!("{} {}", tag, k);
-    for value in values {
-        hprint!(" {:?}", value);
-    }
-    hprintln!();
-}
-
 /// Runs both filters over their sequences, printing their estimates; panics if a step
 /// is rejected (a panic exits non-zero).
 pub fn estimates() {
@@ -87,7 +72,7 @@ pub fn estimates() {
             status
         );
         if (k + 1) % 50 == 0 {
-            print("continuous", k + 1, &filter.state());
+            estimate_line("continuous", k + 1, &filter.state());
         }
     }
     let mut filter = hybrid_ekf();
@@ -100,7 +85,7 @@ pub fn estimates() {
             status
         );
         if (k + 1) % 10 == 0 {
-            print("hybrid", k + 1, &filter.state());
+            estimate_line("hybrid", k + 1, &filter.state());
         }
     }
 }

@@ -18,6 +18,8 @@
 
 mod baseline;
 mod continuous;
+mod lines;
+mod matrix;
 mod measure;
 mod mpc;
 mod observers;
@@ -25,8 +27,10 @@ mod observers_baseline;
 
 use core::hint::black_box;
 use cortex_m_rt::entry;
-use cortex_m_semihosting::{debug, hprint, hprintln};
+use cortex_m_semihosting::{debug, hprintln};
 use generated_demo::cantilever::{Dkf, Ekf, Lqr, Status};
+use lines::estimate_line;
+use matrix::diag;
 use measure::{report, stack_depth, Clock};
 use nalgebra::Matrix2;
 use panic_semihosting as _;
@@ -44,14 +48,6 @@ const U_MAX: f32 = 100.0;
 /// Calls measured per kernel, after as many warm-up samples.
 const WARM_UP: usize = 100;
 const MEASURED: usize = 800;
-
-fn diag(d: [f32; 5]) -> [[f32; 5]; 5] {
-    let mut m = [[0.0; 5]; 5];
-    for (i, row) in m.iter_mut().enumerate() {
-        row[i] = d[i];
-    }
-    m
-}
 
 fn ekf(x0: [f32; 5], p0: [f32; 5]) -> Ekf {
     Ekf::new(x0, &diag(p0), &Q, &[[R]])
@@ -104,18 +100,15 @@ fn estimates() {
         let _: Status = controller.solve(&dkf_close.state());
         let u = controller.control(&dkf_close.state())[0];
         if k % 10 == 0 {
-            hprint!("estimate {}", k);
-            for value in ekf_close
-                .state()
+            let (ekf, dkf, wrong) = (ekf_close.state(), dkf_close.state(), dkf_wrong.state());
+            let gain = controller.gain()[0];
+            let values = ekf
                 .iter()
-                .chain(&dkf_close.state())
-                .chain(&dkf_wrong.state())
-                .chain(&controller.gain()[0])
-                .chain(&[u])
-            {
-                hprint!(" {:?}", value);
-            }
-            hprintln!();
+                .chain(&dkf)
+                .chain(&wrong)
+                .chain(&gain)
+                .chain([&u]);
+            estimate_line("estimate", k, values);
         }
     }
 }

@@ -6,10 +6,10 @@
 //! Output: `observer k <x1..x6>` and `polykf k <x0..x3>` every tenth sample, then `cost`
 //! and `stack` lines for `switched_observer_step` and `polynomial_kf_step`.
 
+use crate::lines::estimate_line;
 use crate::measure::{per_call, report, stack_depth, Clock};
 use crate::observers_baseline as baseline;
 use core::hint::black_box;
-use cortex_m_semihosting::{hprint, hprintln};
 use generated_demo::piecewise_beam::LinearErrorObserver;
 use generated_demo::polynomial::PolynomialKf;
 
@@ -26,28 +26,20 @@ pub const POLY_P0: [[f32; 4]; 4] = [
     [0.0, 0.0, 0.0, 2.78e-10],
 ];
 
-fn print_line(tag: &str, k: usize, values: &[f32]) {
-    hprint!("{} {}", tag, k);
-    for v in values {
-        hprint!(" {:?}", v);
-    }
-    hprintln!();
-}
-
 /// Both observers over their sequences, every tenth estimate printed.
 pub fn estimates() {
     let mut observer = LinearErrorObserver::new([0.0; 6]);
     for (k, (u, y)) in BEAM_SEQUENCE.iter().enumerate() {
         let _ = observer.step(&[*u], y);
         if k % 10 == 9 {
-            print_line("observer", k, &observer.state());
+            estimate_line("observer", k, &observer.state());
         }
     }
     let mut kf = PolynomialKf::new([0.0; 4], &POLY_P0);
     for (k, y) in HUB_SEQUENCE.iter().enumerate() {
         let _ = kf.step(*y);
         if k % 10 == 9 {
-            print_line("polykf", k, &kf.state());
+            estimate_line("polykf", k, &kf.state());
         }
     }
 }

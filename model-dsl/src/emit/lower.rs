@@ -417,15 +417,12 @@ impl Lowerer<'_> {
             }
             Node::Call(f, a) => {
                 let a = operand(a, Prec::Sum);
-                let name = super::names::ident(libm_name(f, self.scalar));
+                let name = super::names::ident(f.names().libm(self.scalar));
                 (quote! { libm::#name(#a) }, Prec::Atom)
             }
             Node::Atan2(y, x) => {
                 let (y, x) = (operand(y, Prec::Sum), operand(x, Prec::Sum));
-                let name = match self.scalar {
-                    Scalar::F32 => super::names::ident("atan2f"),
-                    Scalar::F64 => super::names::ident("atan2"),
-                };
+                let name = super::names::ident(Func::ATAN2.libm(self.scalar));
                 (quote! { libm::#name(#y, #x) }, Prec::Atom)
             }
             Node::Select {
@@ -487,27 +484,13 @@ pub fn literal(v: f64, scalar: Scalar) -> TokenStream {
     }
 }
 
-/// The `libm` function for `f` in `scalar`.
-fn libm_name(f: Func, scalar: Scalar) -> &'static str {
-    let double = match f {
-        Func::Sin => "sin",
-        Func::Cos => "cos",
-        Func::Tan => "tan",
-        Func::Exp => "exp",
-        Func::Ln => "log",
-        Func::Sqrt => "sqrt",
-        Func::Abs => "fabs",
-        Func::Tanh => "tanh",
-    };
-    match (scalar, f) {
-        (Scalar::F64, _) => double,
-        (Scalar::F32, Func::Sin) => "sinf",
-        (Scalar::F32, Func::Cos) => "cosf",
-        (Scalar::F32, Func::Tan) => "tanf",
-        (Scalar::F32, Func::Exp) => "expf",
-        (Scalar::F32, Func::Ln) => "logf",
-        (Scalar::F32, Func::Sqrt) => "sqrtf",
-        (Scalar::F32, Func::Abs) => "fabsf",
-        (Scalar::F32, Func::Tanh) => "tanhf",
-    }
+/// A matrix known at generation time as a nested array literal, row by row:
+/// `[[1.0_f32, 0.0_f32], [..]]`.
+pub fn matrix_literal(mat: &crate::numerics::Mat, scalar: Scalar) -> TokenStream {
+    let rows = mat.to_rows();
+    let rows = rows.iter().map(|row| {
+        let row = row.iter().map(|&v| literal(v, scalar));
+        quote! { [#(#row),*] }
+    });
+    quote! { [#(#rows),*] }
 }

@@ -111,10 +111,7 @@ fn discretisation_doc(model: &Model) -> String {
         Discretisation::Continuous {
             method, substeps, ..
         } => {
-            let method = match method {
-                Method::Euler => "forward Euler",
-                Method::Rk4 => "classical fourth-order Runge-Kutta",
-            };
+            let method = integration_rule_name(*method);
             let steps = if *substeps == 1 {
                 "one step".to_owned()
             } else {
@@ -125,6 +122,26 @@ fn discretisation_doc(model: &Model) -> String {
     }
 }
 
+/// The integration rule as the model functions' docs name it.
+pub fn integration_rule_name(method: Method) -> &'static str {
+    match method {
+        Method::Euler => "forward Euler",
+        Method::Rk4 => "classical fourth-order Runge-Kutta",
+    }
+}
+
+/// The names a model function's signature binds (`t`, `x`, `u`) and unpacks (constants,
+/// states and inputs by their own names): its temporaries must not take them.
+pub fn argument_names(model: &Model) -> impl Iterator<Item = &str> {
+    model
+        .constants
+        .iter()
+        .map(|c| c.name.as_str())
+        .chain(model.state_names())
+        .chain(model.inputs.iter().map(|s| s.name.as_str()))
+        .chain(["t", "x", "u"])
+}
+
 /// The function's code over `scalar`, and what it computes.
 pub fn emit_function(
     model: &Model,
@@ -132,14 +149,8 @@ pub fn emit_function(
     function: &ModelFunction,
     scalar: Scalar,
 ) -> (TokenStream, OpCount) {
-    let reserved = model
-        .constants
-        .iter()
-        .map(|c| c.name.as_str())
-        .chain(model.state_names())
-        .chain(model.inputs.iter().map(|s| s.name.as_str()))
-        .chain(model.known.iter().map(|s| s.name.as_str()))
-        .chain(["t", "x", "u", "known"]);
+    let known = model.known.iter().map(|s| s.name.as_str());
+    let reserved = argument_names(model).chain(known).chain(["known"]);
     let namer = TempNamer::new(reserved);
     let mut lowerer = Lowerer::new(&mg.graph, scalar, namer, &function.roots);
     let roots = lowerer.segment(&function.roots);
@@ -150,7 +161,42 @@ pub fn emit_function(
     } = lowerer.finish();
     let ty = ident(scalar.type_name());
     let used = |node: NodeId| used_vars.contains(&mg.var_id(node));
+    let (params, unpack) = parameters(model, mg, function, &used, &ty);
+    let (ret, value) = returned(function, &roots, &ty);
+    let name = ident(function.name);
+    let doc = format!(" {}", function.doc);
+    let ops_name = ops_const(function.name);
+    let ops_doc = if model.scalars.first() == Some(&scalar) {
+        format!(" Cost: see [`{ops_name}`].")
+    } else {
+        format!(" Cost: see [`{ops_name}`](super::{ops_name}).")
+    };
+    let lets = super::scopes::scoped(lets, &value);
+    let tokens = quote! {
+        #[doc = #doc]
+        #[doc = ""]
+        #[doc = #ops_doc]
+        #[inline]
+        #[must_use]
+        pub fn #name(#(#params),*) -> #ret {
+            #(#unpack)*
+            #(#lets)*
+            #value
+        }
+    };
+    (tokens, ops)
+}
 
+/// The function's parameters (`t`, `x`, `u` if it takes it, `known` if the model has
+/// some), each prefixed `_` when the code reads none of it, and the `let [..] = *x;`
+/// naming the entries it reads (`used`).
+fn parameters(
+    model: &Model,
+    mg: &ModelGraph,
+    function: &ModelFunction,
+    used: &dyn Fn(NodeId) -> bool,
+    ty: &proc_macro2::Ident,
+) -> (Vec<TokenStream>, Vec<TokenStream>) {
     let mut params = Vec::new();
     let mut unpack = Vec::new();
     if model.uses_time() {
@@ -193,9 +239,18 @@ pub fn emit_function(
             unpack.push(quote! { let [#(#pattern),*] = *#arg_name; });
         }
     }
+    (params, unpack)
+}
 
+/// The return type and the returned value: a vector `[S; n]`, or a matrix
+/// `[[S; cols]; rows]` whose rows are `roots` in chunks of `cols`.
+fn returned(
+    function: &ModelFunction,
+    roots: &[TokenStream],
+    ty: &proc_macro2::Ident,
+) -> (TokenStream, TokenStream) {
     let rows = Literal::usize_unsuffixed(function.rows);
-    let (ret, value) = match function.shape {
+    match function.shape {
         Shape::Vector => (quote! { [#ty; #rows] }, quote! { [#(#roots),*] }),
         Shape::Matrix { cols } => {
             let row_values = roots.chunks(cols.max(1)).map(|row| quote! { [#(#row),*] });
@@ -205,29 +260,7 @@ pub fn emit_function(
                 quote! { [#(#row_values),*] },
             )
         }
-    };
-    let name = ident(function.name);
-    let doc = format!(" {}", function.doc);
-    let ops_name = ops_const(function.name);
-    let ops_doc = if model.scalars.first() == Some(&scalar) {
-        format!(" Cost: see [`{ops_name}`].")
-    } else {
-        format!(" Cost: see [`{ops_name}`](super::{ops_name}).")
-    };
-    let lets = super::scopes::scoped(lets, &value);
-    let tokens = quote! {
-        #[doc = #doc]
-        #[doc = ""]
-        #[doc = #ops_doc]
-        #[inline]
-        #[must_use]
-        pub fn #name(#(#params),*) -> #ret {
-            #(#unpack)*
-            #(#lets)*
-            #value
-        }
-    };
-    (tokens, ops)
+    }
 }
 
 /// `pub const F_OPS: OpCount = ..;` for a function.

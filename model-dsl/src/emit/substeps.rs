@@ -4,8 +4,9 @@
 //! between samples, and `f` for models with more sub-steps than are worth unrolling.
 
 use super::lower::{Lowerer, OpCount};
+use super::model_fns::{argument_names, integration_rule_name};
 use super::names::ident;
-use crate::model::{Model, Scalar};
+use crate::model::{Method, Model, Scalar};
 use crate::symbolic::continuous::{integrate_substep, AtPoint};
 use crate::symbolic::loop_invariant_operands;
 use crate::symbolic::{ModelGraph, NodeId, VarId};
@@ -127,103 +128,146 @@ pub fn looped_f(
     mg: &ModelGraph,
     scalar: Scalar,
 ) -> (TokenStream, TokenStream, OpCount) {
-    let mut g = mg.clone();
-    let (rule, h, substeps) = g
-        .substep(model)
-        .expect("only continuous dynamics have sub-steps");
-    let ns = model.states.len();
-    let t_sub = g.graph.var(T_SUB);
-    let states = g.x[..ns].to_vec();
-    let rates = g.derivative(model, t_sub, &g.x.clone());
-    let rates = rates[..ns].to_vec();
-    let at = AtPoint::new(
-        std::iter::once(t_sub)
-            .chain(states.iter().copied())
-            .map(|v| g.var_id(v))
-            .collect(),
-    );
-    let mut rate = |gr: &mut crate::symbolic::Graph, t: NodeId, z: &[NodeId]| {
-        let point: Vec<NodeId> = std::iter::once(t).chain(z.iter().copied()).collect();
-        at.eval(gr, &point, &rates)
-    };
-    let mut next = integrate_substep(&mut g.graph, rule, h, t_sub, &states, &mut rate);
-    let uses_time = model.uses_time();
-    if uses_time {
-        next.push(g.graph.add(t_sub, h));
-    }
-    let reserved = model
-        .constants
-        .iter()
-        .map(|c| c.name.as_str())
-        .chain(model.state_names())
-        .chain(model.inputs.iter().map(|s| s.name.as_str()))
-        .chain(["t", "x", "u", X_SUB, T_SUB, F_SUBSTEPS]);
-    let namer = super::names::TempNamer::new(reserved);
-    let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &next);
-    let (state_next, t_next) = next.split_at(ns);
-    let state_idents = super::code::var_idents(&g.graph, &states);
-    let mut carried = vec![Carried {
-        name: X_SUB,
-        initial: quote! { [#(#state_idents),*] },
-        vars: &states,
-        next: state_next,
-        scalar: false,
-    }];
-    let t_vars = [t_sub];
-    if uses_time {
-        carried.push(Carried {
-            name: T_SUB,
-            initial: quote! { t },
-            vars: &t_vars,
-            next: t_next,
-            scalar: true,
-        });
-    }
-    let count = ident(F_SUBSTEPS);
-    let lowered = lower_loop(&mut lowerer, &carried, &quote! { #count });
-    let ops = lowered.before.plus(lowered.per_substep.times(substeps));
-    let ty = ident(scalar.type_name());
-    let x_idents = super::code::var_idents(&g.graph, &g.x);
-    let n = proc_macro2::Literal::usize_unsuffixed(g.x.len());
-    let time = uses_time.then(|| quote! { t: #ty, });
-    let u_param = (!g.u.is_empty()).then(|| {
-        let u_idents = super::code::var_idents(&g.graph, &g.u);
-        let len = proc_macro2::Literal::usize_unsuffixed(g.u.len());
-        (
-            quote! { u: &[#ty; #len] },
-            quote! { let [#(#u_idents),*] = *u; },
-        )
-    });
-    let (u_arg, u_unpack) = u_param.unzip();
-    let x_sub = ident(X_SUB);
-    let code = lowered.code;
-    let method = match rule {
-        crate::model::Method::Euler => "forward Euler",
-        crate::model::Method::Rk4 => "classical fourth-order Runge-Kutta",
-    };
-    let doc = format!(
-        " One sample of the dynamics, `x[k+1] = f(x[k], u[k])`, integrating the continuous \
-         dynamics with {method} ({substeps} steps per sample, in a loop: too many to \
-         unroll, so there are no Jacobians of `f`; the continuous filters differentiate \
-         `dx/dt` instead)."
-    );
-    let substeps = proc_macro2::Literal::u32_unsuffixed(substeps);
-    let f = quote! {
-        #[doc = #doc]
-        #[doc = ""]
-        #[doc = " Cost: see [`F_OPS`]."]
-        #[must_use]
-        pub fn f(#time x: &[#ty; #n], #u_arg) -> [#ty; #n] {
-            let [#(#x_idents),*] = *x;
-            #u_unpack
-            #code
-            let [#(#state_idents),*] = #x_sub;
-            [#(#x_idents),*]
-        }
-    };
+    let substep = Substep::new(model, mg);
+    let lowered = substep.lower(model, scalar);
+    let ops = lowered
+        .before
+        .plus(lowered.per_substep.times(substep.count));
+    let f = substep.f_tokens(lowered.code, scalar);
+    let count = proc_macro2::Literal::u32_unsuffixed(substep.count);
     let constant = quote! {
         /// Integration sub-steps of one sample of [`f`].
-        pub const F_SUBSTEPS: u32 = #substeps;
+        pub const F_SUBSTEPS: u32 = #count;
     };
     (f, constant, ops)
+}
+
+/// One sub-step of the model's integration rule as nodes, from the running states
+/// (and time) to their values a sub-step later: the body of the looped `f`.
+struct Substep {
+    /// The model's graph with the sub-step's nodes.
+    g: ModelGraph,
+    /// The integration rule.
+    rule: Method,
+    /// Sub-steps per sample.
+    count: u32,
+    /// The running time, [`T_SUB`].
+    t_sub: NodeId,
+    /// The running physical states (the start of the state vector).
+    states: Vec<NodeId>,
+    /// The states after one sub-step, then (if the model uses `t`) the time.
+    next: Vec<NodeId>,
+    /// Whether the model reads `t`, so the loop carries it.
+    uses_time: bool,
+}
+
+impl Substep {
+    /// The sub-step of `model`'s rule: `dx/dt` at the running point, integrated over one
+    /// step `h` ([`integrate_substep`]), and `t + h` when the model reads the time.
+    fn new(model: &Model, mg: &ModelGraph) -> Substep {
+        let mut g = mg.clone();
+        let (rule, h, count) = g
+            .substep(model)
+            .expect("only continuous dynamics have sub-steps");
+        let ns = model.states.len();
+        let t_sub = g.graph.var(T_SUB);
+        let states = g.x[..ns].to_vec();
+        let rates = g.derivative(model, t_sub, &g.x.clone());
+        let rates = rates[..ns].to_vec();
+        let at = AtPoint::new(
+            std::iter::once(t_sub)
+                .chain(states.iter().copied())
+                .map(|v| g.var_id(v))
+                .collect(),
+        );
+        let mut rate = |gr: &mut crate::symbolic::Graph, t: NodeId, z: &[NodeId]| {
+            let point: Vec<NodeId> = std::iter::once(t).chain(z.iter().copied()).collect();
+            at.eval(gr, &point, &rates)
+        };
+        let mut next = integrate_substep(&mut g.graph, rule, h, t_sub, &states, &mut rate);
+        let uses_time = model.uses_time();
+        if uses_time {
+            next.push(g.graph.add(t_sub, h));
+        }
+        Substep {
+            g,
+            rule,
+            count,
+            t_sub,
+            states,
+            next,
+            uses_time,
+        }
+    }
+
+    /// The loop over `F_SUBSTEPS`, carrying [`X_SUB`] (and [`T_SUB`]).
+    fn lower(&self, model: &Model, scalar: Scalar) -> SubstepLoop {
+        let g = &self.g;
+        let reserved = argument_names(model).chain([X_SUB, T_SUB, F_SUBSTEPS]);
+        let namer = super::names::TempNamer::new(reserved);
+        let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &self.next);
+        let (state_next, t_next) = self.next.split_at(self.states.len());
+        let state_idents = super::code::var_idents(&g.graph, &self.states);
+        let mut carried = vec![Carried {
+            name: X_SUB,
+            initial: quote! { [#(#state_idents),*] },
+            vars: &self.states,
+            next: state_next,
+            scalar: false,
+        }];
+        let t_vars = [self.t_sub];
+        if self.uses_time {
+            carried.push(Carried {
+                name: T_SUB,
+                initial: quote! { t },
+                vars: &t_vars,
+                next: t_next,
+                scalar: true,
+            });
+        }
+        let count = ident(F_SUBSTEPS);
+        lower_loop(&mut lowerer, &carried, &quote! { #count })
+    }
+
+    /// `pub fn f(t, x, u)` around the lowered loop `code`: unpacks the arguments, runs
+    /// the loop, and returns the states it carried with the parameters as they were.
+    fn f_tokens(&self, code: TokenStream, scalar: Scalar) -> TokenStream {
+        let g = &self.g;
+        let ty = ident(scalar.type_name());
+        let state_idents = super::code::var_idents(&g.graph, &self.states);
+        let x_idents = super::code::var_idents(&g.graph, &g.x);
+        let n = proc_macro2::Literal::usize_unsuffixed(g.x.len());
+        let time = self.uses_time.then(|| quote! { t: #ty, });
+        let u_param = (!g.u.is_empty()).then(|| {
+            let u_idents = super::code::var_idents(&g.graph, &g.u);
+            let len = proc_macro2::Literal::usize_unsuffixed(g.u.len());
+            (
+                quote! { u: &[#ty; #len] },
+                quote! { let [#(#u_idents),*] = *u; },
+            )
+        });
+        let (u_arg, u_unpack) = u_param.unzip();
+        let x_sub = ident(X_SUB);
+        let doc = format!(
+            " One sample of the dynamics, `x[k+1] = f(x[k], u[k])`, integrating the continuous \
+             dynamics with {} ({} steps per sample, in a loop: too many to \
+             unroll, so there are no Jacobians of `f`; the continuous filters differentiate \
+             `dx/dt` instead).",
+            integration_rule_name(self.rule),
+            self.count
+        );
+        quote! {
+            #[doc = #doc]
+            #[doc = ""]
+            #[doc = " Cost: see [`F_OPS`]."]
+            #[must_use]
+            pub fn f(#time x: &[#ty; #n], #u_arg) -> [#ty; #n] {
+                let [#(#x_idents),*] = *x;
+                #u_unpack
+                #code
+                let [#(#state_idents),*] = #x_sub;
+                [#(#x_idents),*]
+            }
+        }
+    }
 }

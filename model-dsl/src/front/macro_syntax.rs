@@ -89,86 +89,23 @@ fn parse_item(input: ParseStream, decl: &mut ModelDecl, diag: &mut Diagnostics) 
     let docs = docs(&Attribute::parse_outer(input)?, diag);
     let look = input.lookahead1();
     if look.peek(kw::scalar) {
-        let keyword = input.parse::<kw::scalar>()?;
-        let types = input.parse_terminated_until_semi(|i| i.parse::<Ident>())?;
-        if types.is_empty() {
-            return Err(syn::Error::new(
-                keyword.span,
-                "write `scalar f32;` or `scalar f64;`",
-            ));
-        }
-        if !decl.scalars.is_empty() {
-            diag.error(keyword.span, "the scalar type is declared twice");
-        }
-        decl.scalars.extend(types.iter().map(name));
+        parse_scalar(input, decl, diag)?;
     } else if look.peek(Token![const]) {
-        input.parse::<Token![const]>()?;
-        let ident: Ident = input.parse()?;
-        input.parse::<Token![=]>()?;
-        let value = expr(&input.parse()?, diag);
-        input.parse::<Token![;]>()?;
-        decl.constants.push(ConstDecl {
-            docs,
-            name: name(&ident),
-            value,
-        });
+        let constant = parse_const(input, docs, diag)?;
+        decl.constants.push(constant);
     } else if look.peek(kw::state)
         || look.peek(kw::param)
         || look.peek(kw::input)
         || look.peek(kw::known)
     {
-        let kind = if input.parse::<Option<kw::state>>()?.is_some() {
-            SymbolKind::State
-        } else if input.parse::<Option<kw::param>>()?.is_some() {
-            SymbolKind::Param
-        } else if input.parse::<Option<kw::known>>()?.is_some() {
-            SymbolKind::Known
-        } else {
-            input.parse::<kw::input>()?;
-            SymbolKind::Input
-        };
-        let entries = input.parse_terminated_until_semi(|i| {
-            let own = Attribute::parse_outer(i)?;
-            Ok((own, i.parse::<Ident>()?))
-        })?;
-        for (own, ident) in entries {
-            let own = self::docs(&own, diag);
-            decl.symbols.push(SymbolDecl {
-                docs: if own.is_empty() { docs.clone() } else { own },
-                name: name(&ident),
-                kind,
-            });
-        }
+        let symbols = parse_symbols(input, &docs, diag)?;
+        decl.symbols.extend(symbols);
     } else if look.peek(kw::output) {
-        input.parse::<kw::output>()?;
-        let entries = input.parse_terminated_until_semi(|i| {
-            let own = Attribute::parse_outer(i)?;
-            let ident: Ident = i.parse()?;
-            i.parse::<Token![=]>()?;
-            Ok((own, ident, i.parse::<Expr>()?))
-        })?;
-        for (own, ident, value) in entries {
-            let own = self::docs(&own, diag);
-            decl.outputs.push(OutputDecl {
-                docs: if own.is_empty() { docs.clone() } else { own },
-                name: name(&ident),
-                expr: expr(&value, diag),
-            });
-        }
+        let outputs = parse_outputs(input, &docs, diag)?;
+        decl.outputs.extend(outputs);
     } else if look.peek(kw::dynamics) {
-        let keyword = input.parse::<kw::dynamics>()?;
-        let kind = parse_dynamics_kind(input, diag)?;
-        let content;
-        braced!(content in input);
-        let mut statements = Vec::new();
-        while !content.is_empty() {
-            statements.push(parse_statement(&content, diag)?);
-        }
-        decl.dynamics.push(DynamicsDecl {
-            span: keyword.span,
-            kind,
-            statements,
-        });
+        let dynamics = parse_dynamics(input, diag)?;
+        decl.dynamics.push(dynamics);
     } else if look.peek(kw::generate) {
         input.parse::<kw::generate>()?;
         let items = input.parse_terminated_until_semi(parse_generate_item)?;
@@ -177,6 +114,118 @@ fn parse_item(input: ParseStream, decl: &mut ModelDecl, diag: &mut Diagnostics) 
         return Err(look.error());
     }
     Ok(())
+}
+
+/// `scalar f32, f64;`: the scalar types, declared once.
+fn parse_scalar(
+    input: ParseStream,
+    decl: &mut ModelDecl,
+    diag: &mut Diagnostics,
+) -> syn::Result<()> {
+    let keyword = input.parse::<kw::scalar>()?;
+    let types = input.parse_terminated_until_semi(|i| i.parse::<Ident>())?;
+    if types.is_empty() {
+        return Err(syn::Error::new(
+            keyword.span,
+            "write `scalar f32;` or `scalar f64;`",
+        ));
+    }
+    if !decl.scalars.is_empty() {
+        diag.error(keyword.span, "the scalar type is declared twice");
+    }
+    decl.scalars.extend(types.iter().map(name));
+    Ok(())
+}
+
+/// `const NAME = expr;`
+fn parse_const(
+    input: ParseStream,
+    docs: Vec<String>,
+    diag: &mut Diagnostics,
+) -> syn::Result<ConstDecl> {
+    input.parse::<Token![const]>()?;
+    let ident: Ident = input.parse()?;
+    input.parse::<Token![=]>()?;
+    let value = expr(&input.parse()?, diag);
+    input.parse::<Token![;]>()?;
+    Ok(ConstDecl {
+        docs,
+        name: name(&ident),
+        value,
+    })
+}
+
+/// `state a, b;` (or `param`, `input`, `known`): each name with its own doc comment, or
+/// the item's.
+fn parse_symbols(
+    input: ParseStream,
+    docs: &[String],
+    diag: &mut Diagnostics,
+) -> syn::Result<Vec<SymbolDecl>> {
+    let kind = if input.parse::<Option<kw::state>>()?.is_some() {
+        SymbolKind::State
+    } else if input.parse::<Option<kw::param>>()?.is_some() {
+        SymbolKind::Param
+    } else if input.parse::<Option<kw::known>>()?.is_some() {
+        SymbolKind::Known
+    } else {
+        input.parse::<kw::input>()?;
+        SymbolKind::Input
+    };
+    let entries = input.parse_terminated_until_semi(|i| {
+        let own = Attribute::parse_outer(i)?;
+        Ok((own, i.parse::<Ident>()?))
+    })?;
+    let symbols = entries.into_iter().map(|(own, ident)| {
+        let own = self::docs(&own, diag);
+        SymbolDecl {
+            docs: if own.is_empty() { docs.to_vec() } else { own },
+            name: name(&ident),
+            kind,
+        }
+    });
+    Ok(symbols.collect())
+}
+
+/// `output y = expr, z = expr;`: each output with its own doc comment, or the item's.
+fn parse_outputs(
+    input: ParseStream,
+    docs: &[String],
+    diag: &mut Diagnostics,
+) -> syn::Result<Vec<OutputDecl>> {
+    input.parse::<kw::output>()?;
+    let entries = input.parse_terminated_until_semi(|i| {
+        let own = Attribute::parse_outer(i)?;
+        let ident: Ident = i.parse()?;
+        i.parse::<Token![=]>()?;
+        Ok((own, ident, i.parse::<Expr>()?))
+    })?;
+    let outputs = entries.into_iter().map(|(own, ident, value)| {
+        let own = self::docs(&own, diag);
+        OutputDecl {
+            docs: if own.is_empty() { docs.to_vec() } else { own },
+            name: name(&ident),
+            expr: expr(&value, diag),
+        }
+    });
+    Ok(outputs.collect())
+}
+
+/// `dynamics discrete { .. }` or `dynamics continuous(..) { .. }`.
+fn parse_dynamics(input: ParseStream, diag: &mut Diagnostics) -> syn::Result<DynamicsDecl> {
+    let keyword = input.parse::<kw::dynamics>()?;
+    let kind = parse_dynamics_kind(input, diag)?;
+    let content;
+    braced!(content in input);
+    let mut statements = Vec::new();
+    while !content.is_empty() {
+        statements.push(parse_statement(&content, diag)?);
+    }
+    Ok(DynamicsDecl {
+        span: keyword.span,
+        kind,
+        statements,
+    })
 }
 
 /// `ekf`, `dkf(eta = 0.5)`, `lqr(horizon = 50, states = [x1, x2], input = u)`
@@ -369,67 +418,15 @@ fn expr(e: &Expr, diag: &mut Diagnostics) -> SurfaceExpr {
             syn::Lit::Float(f) => number(f.base10_parse::<f64>(), span, diag),
             _ => unsupported(span, "only numeric literals are allowed", diag),
         },
-        Expr::Path(p) => match p.path.get_ident() {
-            Some(ident) if p.qself.is_none() => SurfaceKind::Name(ident.to_string()),
-            None if p.path.segments.len() > 1 => {
-                let path = p.path.to_token_stream().to_string().replace(' ', "");
-                let message = format!(
-                    "`{path}` is a path: a model sees only its own names; write the value \
-                     here, or declare it in the model (`const NAME = ..;`)"
-                );
-                unsupported(span, &message, diag)
-            }
-            _ => unsupported(span, "write a plain name such as `x1`", diag),
-        },
+        Expr::Path(p) => path(p, span, diag),
         Expr::Paren(p) => return expr(&p.expr, diag),
         Expr::Group(g) => return expr(&g.expr, diag),
         Expr::Unary(u) => match u.op {
             syn::UnOp::Neg(_) => SurfaceKind::Neg(Box::new(expr(&u.expr, diag))),
             _ => unsupported(span, "the only unary operator is `-`", diag),
         },
-        Expr::Binary(b) => {
-            let op = match b.op {
-                syn::BinOp::Add(_) => Some(BinaryOp::Add),
-                syn::BinOp::Sub(_) => Some(BinaryOp::Sub),
-                syn::BinOp::Mul(_) => Some(BinaryOp::Mul),
-                syn::BinOp::Div(_) => Some(BinaryOp::Div),
-                syn::BinOp::BitXor(_) => {
-                    diag.error(
-                        b.op.span(),
-                        "`^` is exclusive-or in Rust, not a power: write `powi(x, 2)`",
-                    );
-                    None
-                }
-                _ => {
-                    diag.error(
-                        b.op.span(),
-                        "unsupported operator: use `+ - * /`, and comparisons only in the \
-                         condition of `if`",
-                    );
-                    None
-                }
-            };
-            let (lhs, rhs) = (expr(&b.left, diag), expr(&b.right, diag));
-            match op {
-                Some(op) => SurfaceKind::Binary(op, Box::new(lhs), Box::new(rhs)),
-                None => SurfaceKind::Number(0.0),
-            }
-        }
-        Expr::Call(call) => match &*call.func {
-            Expr::Path(p) if p.path.get_ident().is_some() => {
-                let ident = p.path.get_ident().map(name);
-                let args = call.args.iter().map(|a| expr(a, diag)).collect();
-                match ident {
-                    Some(func) => SurfaceKind::Call(func, args),
-                    None => unsupported(span, "call a function by its plain name", diag),
-                }
-            }
-            _ => unsupported(
-                span,
-                "call a function by its plain name, such as `sin(x)`",
-                diag,
-            ),
-        },
+        Expr::Binary(b) => binary(b, diag),
+        Expr::Call(c) => call(c, span, diag),
         Expr::MethodCall(m) => {
             let mut args = vec![expr(&m.receiver, diag)];
             args.extend(m.args.iter().map(|a| expr(a, diag)));
@@ -445,6 +442,72 @@ fn expr(e: &Expr, diag: &mut Diagnostics) -> SurfaceExpr {
         ),
     };
     SurfaceExpr { kind, span }
+}
+
+/// A name: a plain identifier; a path (`core::f64::consts::PI`) is refused.
+fn path(p: &syn::ExprPath, span: Span, diag: &mut Diagnostics) -> SurfaceKind {
+    match p.path.get_ident() {
+        Some(ident) if p.qself.is_none() => SurfaceKind::Name(ident.to_string()),
+        None if p.path.segments.len() > 1 => {
+            let path = p.path.to_token_stream().to_string().replace(' ', "");
+            let message = format!(
+                "`{path}` is a path: a model sees only its own names; write the value \
+                 here, or declare it in the model (`const NAME = ..;`)"
+            );
+            unsupported(span, &message, diag)
+        }
+        _ => unsupported(span, "write a plain name such as `x1`", diag),
+    }
+}
+
+/// `a + b`, `a - b`, `a * b`, `a / b`; any other operator is an error (both operands are
+/// still converted, to report their mistakes too).
+fn binary(b: &syn::ExprBinary, diag: &mut Diagnostics) -> SurfaceKind {
+    let op = match b.op {
+        syn::BinOp::Add(_) => Some(BinaryOp::Add),
+        syn::BinOp::Sub(_) => Some(BinaryOp::Sub),
+        syn::BinOp::Mul(_) => Some(BinaryOp::Mul),
+        syn::BinOp::Div(_) => Some(BinaryOp::Div),
+        syn::BinOp::BitXor(_) => {
+            diag.error(
+                b.op.span(),
+                "`^` is exclusive-or in Rust, not a power: write `powi(x, 2)`",
+            );
+            None
+        }
+        _ => {
+            diag.error(
+                b.op.span(),
+                "unsupported operator: use `+ - * /`, and comparisons only in the \
+                 condition of `if`",
+            );
+            None
+        }
+    };
+    let (lhs, rhs) = (expr(&b.left, diag), expr(&b.right, diag));
+    match op {
+        Some(op) => SurfaceKind::Binary(op, Box::new(lhs), Box::new(rhs)),
+        None => SurfaceKind::Number(0.0),
+    }
+}
+
+/// `f(a, b)`, calling a function by its plain name.
+fn call(call: &syn::ExprCall, span: Span, diag: &mut Diagnostics) -> SurfaceKind {
+    match &*call.func {
+        Expr::Path(p) if p.path.get_ident().is_some() => {
+            let ident = p.path.get_ident().map(name);
+            let args = call.args.iter().map(|a| expr(a, diag)).collect();
+            match ident {
+                Some(func) => SurfaceKind::Call(func, args),
+                None => unsupported(span, "call a function by its plain name", diag),
+            }
+        }
+        _ => unsupported(
+            span,
+            "call a function by its plain name, such as `sin(x)`",
+            diag,
+        ),
+    }
 }
 
 fn number(value: syn::Result<f64>, span: Span, diag: &mut Diagnostics) -> SurfaceKind {

@@ -7,7 +7,7 @@
 use super::design::{self, WindowFit};
 use crate::emit::code::{guard_pivots, pivot_names, unpack_symmetric, INNOVATION};
 use crate::emit::filter::{finiteness_probe, model_names, packed_vars};
-use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
+use crate::emit::lower::{literal, matrix_literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
 use super::spec::PolynomialKfSpec;
 use crate::model::{Model, Scalar};
@@ -95,16 +95,6 @@ impl WindowNames {
         let new = old[1..].iter().cloned().chain([measured.clone()]).collect();
         WindowNames { old, new, measured }
     }
-}
-
-/// A matrix as a nested array literal.
-fn matrix_literal(m: &crate::numerics::Mat, scalar: Scalar) -> TokenStream {
-    let rows = m.to_rows();
-    let rows = rows.iter().map(|row| {
-        let row = row.iter().map(|&v| literal(v, scalar));
-        quote! { [#(#row),*] }
-    });
-    quote! { [#(#rows),*] }
 }
 
 /// `ORDER`, `WINDOW`, `REINIT_EVERY`, `SAMPLE_PERIOD`, `FIT_GAIN`, `FIT_COVARIANCE`.

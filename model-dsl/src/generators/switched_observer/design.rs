@@ -48,60 +48,93 @@ pub fn regimes(model: &Model, mg: &ModelGraph) -> Result<Regimes, String> {
     if model.uses_time() {
         return Err("a switched observer needs time-invariant regimes; this model uses `t`".into());
     }
-    let g = &mg.graph;
+    let switch = read_switch(model, mg, switching_condition(mg)?)?;
+    let mut graph = mg.graph.clone();
+    let (a1, b1, c1) = linear_regime(model, mg, &mut graph, 1, false)?;
+    let (a2, b2, c2) = linear_regime(model, mg, &mut graph, 2, true)?;
+    let c = output_matrix(model, mg)?;
+    Ok(Regimes {
+        switch,
+        a: [a1, a2],
+        b: [b1, b2],
+        offset: [c1, c2],
+        c,
+    })
+}
+
+/// The one condition `(cmp, lhs, rhs)` the piecewise terms of `f` and `h` switch on.
+fn switching_condition(mg: &ModelGraph) -> Result<(Comparison, NodeId, NodeId), String> {
     let mut conditions = Vec::new();
     for &root in mg.f.iter().chain(&mg.h) {
-        collect_conditions(g, root, &mut conditions);
+        collect_conditions(&mg.graph, root, &mut conditions);
     }
-    let condition = match conditions.as_slice() {
-        [] => return Err("the model has no piecewise term: there is nothing to switch on".into()),
-        [one] => *one,
-        _ => {
-            return Err(format!(
-                "switched observers take one switching condition; this model's piecewise \
-                 terms compare {} different things",
-                conditions.len()
-            ))
+    match conditions.as_slice() {
+        [] => Err("the model has no piecewise term: there is nothing to switch on".into()),
+        [one] => Ok(*one),
+        _ => Err(format!(
+            "switched observers take one switching condition; this model's piecewise \
+             terms compare {} different things",
+            conditions.len()
+        )),
+    }
+}
+
+/// Regime `regime` of the step, `x[k+1] = A_i x + B_i u + c_i`: `A_i`, `B_i` and `c_i`,
+/// read from `f` with every select resolved to its `then` branch (`holds`) or its
+/// `otherwise`, built on `graph`; or the entry that is not constant.
+fn linear_regime(
+    model: &Model,
+    mg: &ModelGraph,
+    graph: &mut Graph,
+    regime: usize,
+    holds: bool,
+) -> Result<(Mat, Mat, Vec<f64>), String> {
+    let mut memo = HashMap::new();
+    let f: Vec<NodeId> =
+        mg.f.iter()
+            .map(|&e| resolve(graph, e, holds, &mut memo))
+            .collect();
+    let mut branch = mg.clone();
+    branch.graph = graph.clone();
+    let jx = branch.jacobian(&f, &mg.x);
+    let ju = branch.jacobian(&f, &mg.u);
+    let name = |i: usize| model.state_names().nth(i).unwrap_or("?").to_owned();
+    let input = |j: usize| model.inputs[j].name.clone();
+    let a = constant_jacobian(&branch.graph, &jx, regime, &name, &name)?;
+    let b = constant_jacobian(&branch.graph, &ju, regime, &name, &input)?;
+    let offset = f.iter().map(|&e| branch.graph.eval(e, &|_| 0.0)).collect();
+    *graph = branch.graph;
+    Ok((a, b, offset))
+}
+
+/// The Jacobian `table` of regime `regime`'s step as numbers, or which entry is not
+/// constant (the step is not linear in `wrt(j)`).
+fn constant_jacobian(
+    g: &Graph,
+    table: &[Vec<NodeId>],
+    regime: usize,
+    name: &dyn Fn(usize) -> String,
+    wrt: &dyn Fn(usize) -> String,
+) -> Result<Mat, String> {
+    let mut m = Mat::zeros(table.len(), table.first().map_or(0, Vec::len));
+    for (i, row) in table.iter().enumerate() {
+        for (j, &e) in row.iter().enumerate() {
+            m[(i, j)] = g.constant_value(e).ok_or_else(|| {
+                format!(
+                    "in regime {regime} the step of `{}` is not linear: its derivative \
+                     with respect to `{}` is not constant",
+                    name(i),
+                    wrt(j)
+                )
+            })?;
         }
-    };
-    let switch = read_switch(model, mg, condition)?;
-    let mut graph = mg.graph.clone();
-    let mut a = Vec::new();
-    let mut b = Vec::new();
-    let mut offset = Vec::new();
-    for (regime, holds) in [(1, false), (2, true)] {
-        let mut memo = HashMap::new();
-        let f: Vec<NodeId> =
-            mg.f.iter()
-                .map(|&e| resolve(&mut graph, e, holds, &mut memo))
-                .collect();
-        let mut branch = mg.clone();
-        branch.graph = graph.clone();
-        let jx = branch.jacobian(&f, &mg.x);
-        let ju = branch.jacobian(&f, &mg.u);
-        let name = |i: usize| model.state_names().nth(i).unwrap_or("?").to_owned();
-        let constant = |table: &[Vec<NodeId>], wrt: &dyn Fn(usize) -> String| {
-            let mut m = Mat::zeros(table.len(), table.first().map_or(0, Vec::len));
-            for (i, row) in table.iter().enumerate() {
-                for (j, &e) in row.iter().enumerate() {
-                    m[(i, j)] = branch.graph.constant_value(e).ok_or_else(|| {
-                        format!(
-                            "in regime {regime} the step of `{}` is not linear: its derivative \
-                             with respect to `{}` is not constant",
-                            name(i),
-                            wrt(j)
-                        )
-                    })?;
-                }
-            }
-            Ok::<Mat, String>(m)
-        };
-        a.push(constant(&jx, &name)?);
-        let input = |j: usize| model.inputs[j].name.clone();
-        b.push(constant(&ju, &input)?);
-        offset.push(f.iter().map(|&e| branch.graph.eval(e, &|_| 0.0)).collect());
-        graph = branch.graph;
     }
+    Ok(m)
+}
+
+/// `C = dh/dx`, the same in both regimes, or which output is not linear in the state
+/// (or has a constant term).
+fn output_matrix(model: &Model, mg: &ModelGraph) -> Result<Mat, String> {
     let mut hg = mg.clone();
     let jh = hg.jacobian_h_wrt_x();
     let mut c = Mat::zeros(model.outputs.len(), model.state_len());
@@ -121,16 +154,7 @@ pub fn regimes(model: &Model, mg: &ModelGraph) -> Result<Regimes, String> {
             ));
         }
     }
-    let [a1, a2]: [Mat; 2] = a.try_into().map_err(|_| "two regimes".to_string())?;
-    let [b1, b2]: [Mat; 2] = b.try_into().map_err(|_| "two regimes".to_string())?;
-    let [c1, c2]: [Vec<f64>; 2] = offset.try_into().map_err(|_| "two regimes".to_string())?;
-    Ok(Regimes {
-        switch,
-        a: [a1, a2],
-        b: [b1, b2],
-        offset: [c1, c2],
-        c,
-    })
+    Ok(c)
 }
 
 /// The distinct conditions `(cmp, lhs, rhs)` of the selects under `root`.

@@ -3,15 +3,15 @@
 //! `x[k+1] = F_i x[k] + B_i u[k] + c_i + K_i y[k]` with `F_i = A_i - K_i C` computed at
 //! generation time and the regime `i` read from the measurement.
 
-use super::design::{Designs, Gains, Regimes};
-use crate::emit::code::var_idents;
+use super::design::{observer_step, Designs, Gains, Regimes, Switch};
+use crate::emit::code::{reject_non_finite, var_idents};
 use crate::emit::filter::model_names;
-use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
+use crate::emit::lower::{literal, matrix_literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
 use crate::numerics::Mat;
 use crate::symbolic::{Graph, NodeId};
-use proc_macro2::{Literal, TokenStream};
+use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
 
 /// Generated observers and the cost of one step.
@@ -29,37 +29,27 @@ pub fn emit_switched_observers(
     designs: &Designs,
     scalar: Scalar,
 ) -> SwitchedCode {
-    let ty = ident(scalar.type_name());
-    let (n, m, p) = (model.state_len(), model.outputs.len(), model.inputs.len());
-    let matrices = |mats: &[Mat]| {
-        let items = mats.iter().map(|mat| matrix_literal(mat, scalar));
-        quote! { [#(#items),*] }
-    };
-    let [n_len, m_len, p_len] = [n, m, p].map(Literal::usize_unsuffixed);
-    let regime_a = matrices(&regimes.a);
-    let regime_b = matrices(&regimes.b);
-    let regime_c = matrix_literal(&regimes.c, scalar);
-    let offsets = regimes.offset.iter().map(|c| {
-        let c = c.iter().map(|&v| literal(v, scalar));
-        quote! { [#(#c),*] }
-    });
-    let switch = &regimes.switch;
-    let condition = format!(
-        "`{} {} {}`",
-        model.outputs[switch.output].name,
-        switch.cmp.symbol(),
-        switch.threshold
-    );
-    let regime_doc = format!(
-        " Regime 1 is where {condition} does not hold (the `else` branches of the model's \
-         piecewise terms), regime 2 where it holds. The observers read it from the \
-         measurement `{}` of `{}`.",
-        model.outputs[switch.output].name,
-        model.state_names().nth(switch.state).unwrap_or("?")
-    );
+    let regime_doc = regime_doc(model, &regimes.switch);
+    let constants = regime_constants(model, regimes, &regime_doc, scalar);
+    let selector = regime_selector(model, &regimes.switch, &regime_doc, scalar);
     let mut step_ops = OpCount::default();
     let mut types = Vec::new();
-    for (name, gains, doc) in [
+    for (name, gains, doc) in observer_designs(designs) {
+        let (tokens, ops) = observer_type(model, regimes, gains, name, doc, scalar);
+        step_ops = costlier(step_ops, ops);
+        types.push(tokens);
+    }
+    let tokens = quote! {
+        #constants
+        #selector
+        #(#types)*
+    };
+    SwitchedCode { tokens, step_ops }
+}
+
+/// The three designs of the seed, each with its type's name and documentation.
+fn observer_designs(designs: &Designs) -> [(&'static str, &Gains, &'static str); 3] {
+    [
         (
             "LinearErrorObserver",
             &designs.linear_error,
@@ -84,25 +74,60 @@ pub fn emit_switched_observers(
              comparison: each regime's error dynamics is stable, but switching between them \
              can diverge (\"Observer design for a piecewise linear beam system\", sect. 3).",
         ),
-    ] {
-        let (tokens, ops) = observer_type(model, regimes, gains, name, doc, scalar);
-        if ops.mul + ops.add > step_ops.mul + step_ops.add {
-            step_ops = ops;
-        }
-        types.push(tokens);
+    ]
+}
+
+/// The larger of two step costs: a step runs one regime's branch, and the reported cost
+/// is the dearer one.
+fn costlier(a: OpCount, b: OpCount) -> OpCount {
+    if b.mul + b.add > a.mul + a.add {
+        b
+    } else {
+        a
     }
-    let y_idents: Vec<_> = model.outputs.iter().map(|o| ident(&o.name)).collect();
-    let switch_y = &y_idents[switch.output];
-    let threshold = literal(switch.threshold, scalar);
-    let cmp = cmp_tokens(switch.cmp);
-    let pattern = y_idents.iter().enumerate().map(|(i, y)| {
-        if i == switch.output {
-            quote! { #y }
-        } else {
-            quote! { _ }
-        }
+}
+
+/// What the regimes are and how the observers tell them apart, for the docs of the
+/// regime constants and of [`regime_selector`]'s function.
+fn regime_doc(model: &Model, switch: &Switch) -> String {
+    let condition = format!(
+        "`{} {} {}`",
+        model.outputs[switch.output].name,
+        switch.cmp.symbol(),
+        switch.threshold
+    );
+    format!(
+        " Regime 1 is where {condition} does not hold (the `else` branches of the model's \
+         piecewise terms), regime 2 where it holds. The observers read it from the \
+         measurement `{}` of `{}`.",
+        model.outputs[switch.output].name,
+        model.state_names().nth(switch.state).unwrap_or("?")
+    )
+}
+
+/// `REGIME_A`, `REGIME_B`, `REGIME_OFFSET` and `OUTPUT_C`: the two regimes'
+/// `x[k+1] = A_i x + B_i u + c_i`, `y = C x`, as read from the model.
+fn regime_constants(
+    model: &Model,
+    regimes: &Regimes,
+    regime_doc: &str,
+    scalar: Scalar,
+) -> TokenStream {
+    let ty = ident(scalar.type_name());
+    let (n, m, p) = (model.state_len(), model.outputs.len(), model.inputs.len());
+    let matrices = |mats: &[Mat]| {
+        let items = mats.iter().map(|mat| matrix_literal(mat, scalar));
+        quote! { [#(#items),*] }
+    };
+    let [n_len, m_len, p_len] = [n, m, p].map(Literal::usize_unsuffixed);
+    let regime_a = matrices(&regimes.a);
+    let regime_b = matrices(&regimes.b);
+    let regime_c = matrix_literal(&regimes.c, scalar);
+    let offsets = regimes.offset.iter().map(|c| {
+        let c = c.iter().map(|&v| literal(v, scalar));
+        quote! { [#(#c),*] }
     });
-    let tokens = quote! {
+    quote! {
         /// `A_i = df/dx` of the two regimes.
         #[doc = #regime_doc]
         pub const REGIME_A: [[[#ty; #n_len]; #n_len]; 2] = #regime_a;
@@ -112,18 +137,43 @@ pub fn emit_switched_observers(
         pub const REGIME_OFFSET: [[#ty; #n_len]; 2] = [#(#offsets),*];
         /// `C = dh/dx`.
         pub const OUTPUT_C: [[#ty; #n_len]; #m_len] = #regime_c;
+    }
+}
 
+/// `in_regime_2(y)`: the switching condition read from the measurement.
+fn regime_selector(
+    model: &Model,
+    switch: &Switch,
+    regime_doc: &str,
+    scalar: Scalar,
+) -> TokenStream {
+    let ty = ident(scalar.type_name());
+    let m_len = Literal::usize_unsuffixed(model.outputs.len());
+    let y_idents: Vec<_> = model.outputs.iter().map(|o| ident(&o.name)).collect();
+    let test = switch_test(switch, &y_idents, scalar);
+    let pattern = y_idents.iter().enumerate().map(|(i, y)| {
+        if i == switch.output {
+            quote! { #y }
+        } else {
+            quote! { _ }
+        }
+    });
+    quote! {
         /// Whether the measurement `y` selects regime 2.
         #[doc = #regime_doc]
         #[must_use]
         pub fn in_regime_2(y: &[#ty; #m_len]) -> bool {
             let [#(#pattern),*] = *y;
-            #switch_y #cmp #threshold
+            #test
         }
+    }
+}
 
-        #(#types)*
-    };
-    SwitchedCode { tokens, step_ops }
+/// `y_s cmp threshold`, true in regime 2, over the outputs named `y_idents`.
+fn switch_test(switch: &Switch, y_idents: &[Ident], scalar: Scalar) -> TokenStream {
+    let switch_y = &y_idents[switch.output];
+    let (cmp, threshold) = (cmp_tokens(switch.cmp), literal(switch.threshold, scalar));
+    quote! { #switch_y #cmp #threshold }
 }
 
 fn cmp_tokens(cmp: crate::ast::Comparison) -> TokenStream {
@@ -134,15 +184,6 @@ fn cmp_tokens(cmp: crate::ast::Comparison) -> TokenStream {
         Comparison::Lt => quote! { < },
         Comparison::Le => quote! { <= },
     }
-}
-
-fn matrix_literal(mat: &Mat, scalar: Scalar) -> TokenStream {
-    let rows = mat.to_rows();
-    let rows = rows.iter().map(|row| {
-        let row = row.iter().map(|&v| literal(v, scalar));
-        quote! { [#(#row),*] }
-    });
-    quote! { [#(#rows),*] }
 }
 
 /// One regime's prediction: its statements and the new estimate, reading `self.x` where
@@ -168,18 +209,22 @@ fn lower_branch(
     (tokens, ops)
 }
 
-/// One observer type with its gains.
-fn observer_type(
-    model: &Model,
-    regimes: &Regimes,
-    gains: &Gains,
-    name: &str,
-    doc: &str,
-    scalar: Scalar,
-) -> (TokenStream, OpCount) {
-    let ty = ident(scalar.type_name());
-    let (n, m, p) = (model.state_len(), model.outputs.len(), model.inputs.len());
-    let [n_len, m_len, p_len] = [n, m, p].map(Literal::usize_unsuffixed);
+/// One observer's step, lowered: the names of its arguments and each regime's prediction
+/// `x[k+1] = F_i x + B_i u + K_i y + c_i`.
+struct LoweredStep {
+    /// The inputs, as the step unpacks them.
+    u_idents: Vec<Ident>,
+    /// The measurements, as the step unpacks them (`<output>_measured`).
+    y_idents: Vec<Ident>,
+    /// Regime 1's and regime 2's prediction: statements, then the new estimate.
+    branches: Vec<TokenStream>,
+    /// The dearer branch's arithmetic.
+    ops: OpCount,
+}
+
+/// Builds the observer's prediction in each regime ([`super::design::observer_step`])
+/// and lowers both branches.
+fn lowered_step(model: &Model, regimes: &Regimes, gains: &Gains, scalar: Scalar) -> LoweredStep {
     let avoid = model_names(model);
     let mut g = Graph::new();
     let x: Vec<NodeId> = model.state_names().map(|s| g.var(s)).collect();
@@ -189,27 +234,76 @@ fn observer_type(
         .iter()
         .map(|o| g.var(&format!("{}_measured", o.name)))
         .collect();
-    let next = crate::generators::switched_observer::design::observer_step(
-        &mut g, regimes, gains, &x, &u, &y,
-    );
+    let next = observer_step(&mut g, regimes, gains, &x, &u, &y);
     let mut ops = OpCount::default();
-    let branches: Vec<TokenStream> = next
+    let branches = next
         .iter()
         .map(|values| {
             let (tokens, branch_ops) = lower_branch(&g, &avoid, &x, values, scalar);
-            if branch_ops.mul + branch_ops.add > ops.mul + ops.add {
-                ops = branch_ops;
-            }
+            ops = costlier(ops, branch_ops);
             tokens
         })
         .collect();
-    let (regime1, regime2) = (&branches[0], &branches[1]);
-    let u_idents = var_idents(&g, &u);
-    let y_idents = var_idents(&g, &y);
-    let checked: Vec<_> = u_idents.iter().chain(&y_idents).cloned().collect();
-    let check = crate::emit::code::reject_non_finite(&checked);
-    let unpack_u = (!u.is_empty()).then(|| quote! { let [#(#u_idents),*] = *u; });
-    let u_param = (!u.is_empty()).then(|| quote! { u: &[#ty; #p_len], });
+    LoweredStep {
+        u_idents: var_idents(&g, &u),
+        y_idents: var_idents(&g, &y),
+        branches,
+        ops,
+    }
+}
+
+/// `step(u, y)`: checks the arguments, picks the regime from `y` and commits the
+/// prediction if it is finite.
+fn step_method(model: &Model, switch: &Switch, step: &LoweredStep, scalar: Scalar) -> TokenStream {
+    let ty = ident(scalar.type_name());
+    let [m_len, p_len] = [model.outputs.len(), model.inputs.len()].map(Literal::usize_unsuffixed);
+    let LoweredStep {
+        u_idents, y_idents, ..
+    } = step;
+    let (regime1, regime2) = (&step.branches[0], &step.branches[1]);
+    let checked: Vec<_> = u_idents.iter().chain(y_idents).cloned().collect();
+    let check = reject_non_finite(&checked);
+    let unpack_u = (!u_idents.is_empty()).then(|| quote! { let [#(#u_idents),*] = *u; });
+    let u_param = (!u_idents.is_empty()).then(|| quote! { u: &[#ty; #p_len], });
+    let test = switch_test(switch, y_idents, scalar);
+    let next_idents: Vec<_> = model
+        .state_names()
+        .map(|s| ident(&format!("{s}_next")))
+        .collect();
+    quote! {
+        /// One sample: `x = A_i x + B_i u + c_i + K_i (y - C x)` with the regime `i`
+        /// chosen by [`in_regime_2`] from `y`. Rejects a non-finite `u` or `y`; leaves
+        /// the observer unchanged unless it returns [`Status::Ok`].
+        pub fn step(&mut self, #u_param y: &[#ty; #m_len]) -> Status {
+            #unpack_u
+            let [#(#y_idents),*] = *y;
+            #check
+            // `next`, not `x_next`: the entries are `<state>_next`, and a state named
+            // `x` would shadow the array.
+            let next = if #test { #regime2 } else { #regime1 };
+            let [#(#next_idents),*] = next;
+            if !(#(#next_idents)+*).is_finite() {
+                return Status::NonFinite;
+            }
+            self.x = next;
+            Status::Ok
+        }
+    }
+}
+
+/// One observer type with its gains: the struct, `GAINS`, `new`, `state` and `step`.
+fn observer_type(
+    model: &Model,
+    regimes: &Regimes,
+    gains: &Gains,
+    name: &str,
+    doc: &str,
+    scalar: Scalar,
+) -> (TokenStream, OpCount) {
+    let ty = ident(scalar.type_name());
+    let [n_len, m_len] = [model.state_len(), model.outputs.len()].map(Literal::usize_unsuffixed);
+    let lowered = lowered_step(model, regimes, gains, scalar);
+    let step = step_method(model, &regimes.switch, &lowered, scalar);
     let gains_literal = {
         let items = gains.k.iter().map(|k| matrix_literal(k, scalar));
         quote! { [#(#items),*] }
@@ -220,13 +314,6 @@ fn observer_type(
          below 1 when the code was generated).",
         gains.radius[0], gains.radius[1]
     );
-    let switch = &regimes.switch;
-    let switch_y = &y_idents[switch.output];
-    let (cmp, threshold) = (cmp_tokens(switch.cmp), literal(switch.threshold, scalar));
-    let next_idents: Vec<_> = model
-        .state_names()
-        .map(|s| ident(&format!("{s}_next")))
-        .collect();
     let tokens = quote! {
         #[doc = #doc]
         #[doc = ""]
@@ -255,24 +342,8 @@ fn observer_type(
                 self.x
             }
 
-            /// One sample: `x = A_i x + B_i u + c_i + K_i (y - C x)` with the regime `i`
-            /// chosen by [`in_regime_2`] from `y`. Rejects a non-finite `u` or `y`; leaves
-            /// the observer unchanged unless it returns [`Status::Ok`].
-            pub fn step(&mut self, #u_param y: &[#ty; #m_len]) -> Status {
-                #unpack_u
-                let [#(#y_idents),*] = *y;
-                #check
-                // `next`, not `x_next`: the entries are `<state>_next`, and a state named
-                // `x` would shadow the array.
-                let next = if #switch_y #cmp #threshold { #regime2 } else { #regime1 };
-                let [#(#next_idents),*] = next;
-                if !(#(#next_idents)+*).is_finite() {
-                    return Status::NonFinite;
-                }
-                self.x = next;
-                Status::Ok
-            }
+            #step
         }
     };
-    (tokens, ops)
+    (tokens, lowered.ops)
 }
