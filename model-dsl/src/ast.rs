@@ -66,13 +66,18 @@ pub enum ArgValue {
     Name(Name),
     /// `[a, b]`, with where the list was written.
     Names(Vec<Name>, Span),
+    /// `[1e-6, 1e-4]`, a list of numbers, with where it was written: no option takes one,
+    /// but its error can then say what the option takes instead.
+    Numbers(Vec<f64>, Span),
 }
 
 impl ArgValue {
     /// Where the value was written.
     pub fn span(&self) -> Span {
         match self {
-            ArgValue::Number(_, span) | ArgValue::Names(_, span) => *span,
+            ArgValue::Number(_, span) | ArgValue::Names(_, span) | ArgValue::Numbers(_, span) => {
+                *span
+            }
             ArgValue::Name(name) => name.span,
         }
     }

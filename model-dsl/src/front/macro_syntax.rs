@@ -8,7 +8,7 @@
 //!                     | 'output' (doc* IDENT '=' expr),+ ';'
 //!                     | 'dynamics' ('discrete' | 'continuous' ['(' method [',' 'dt' '=' expr] [',' 'substeps' '=' INT] ')'])
 //!                       '{' (('let' IDENT | IDENT | 'der' '(' IDENT ')') '=' expr ';')* '}'
-//!                     | 'generate' (IDENT ['(' (IDENT '=' (number | IDENT | '[' IDENT,* ']')),* ')']),+ ';' )
+//!                     | 'generate' (IDENT ['(' (IDENT '=' (number | IDENT | '[' IDENT,* ']' | '[' number,* ']')),* ')']),+ ';' )
 //! ```
 //! Expressions are Rust expressions restricted to arithmetic, calls of the model
 //! functions (`sin cos tan tanh exp ln sqrt abs powi atan2 min max clamp`, also as methods,
@@ -228,6 +228,44 @@ fn parse_dynamics(input: ParseStream, diag: &mut Diagnostics) -> syn::Result<Dyn
     })
 }
 
+/// `[x1, x2]` (names) or `[1e-6, 1e-4]` (numbers, which no option takes: the option's
+/// reader says what it takes instead); a list that mixes them is an error here.
+fn parse_list(content: ParseStream) -> syn::Result<ArgValue> {
+    let list;
+    let bracket = syn::bracketed!(list in content);
+    let span = bracket.span.join();
+    if list.peek(Ident) || list.is_empty() {
+        let names = list.parse_terminated(Ident::parse, Token![,])?;
+        return Ok(ArgValue::Names(names.iter().map(name).collect(), span));
+    }
+    let mut numbers = Vec::new();
+    while !list.is_empty() {
+        if list.peek(Ident) {
+            return Err(list.error(
+                "a list holds names or numbers, not both: write every entry as a name of a \
+                 model constant (`const Q1 = 1e-6;`)",
+            ));
+        }
+        numbers.push(parse_number(&list)?.0);
+        if !list.is_empty() {
+            list.parse::<Token![,]>()?;
+        }
+    }
+    Ok(ArgValue::Numbers(numbers, span))
+}
+
+/// A number, with an optional minus sign, and where its literal was written.
+fn parse_number(input: ParseStream) -> syn::Result<(f64, proc_macro2::Span)> {
+    let negative = input.parse::<Option<Token![-]>>()?.is_some();
+    let lit: syn::Lit = input.parse()?;
+    let value = match &lit {
+        syn::Lit::Int(i) => i.base10_parse::<f64>()?,
+        syn::Lit::Float(f) => f.base10_parse::<f64>()?,
+        _ => return Err(syn::Error::new(lit.span(), "expected a number")),
+    };
+    Ok((if negative { -value } else { value }, lit.span()))
+}
+
 /// `ekf`, `dkf(eta = 0.5)`, `lqr(horizon = 50, states = [x1, x2], input = u)`
 fn parse_generate_item(input: ParseStream) -> syn::Result<GenerateDecl> {
     let generator = name(&input.parse::<Ident>()?);
@@ -239,21 +277,12 @@ fn parse_generate_item(input: ParseStream) -> syn::Result<GenerateDecl> {
             let arg_name = name(&content.parse::<Ident>()?);
             content.parse::<Token![=]>()?;
             let value = if content.peek(syn::token::Bracket) {
-                let list;
-                let bracket = syn::bracketed!(list in content);
-                let names = list.parse_terminated(Ident::parse, Token![,])?;
-                ArgValue::Names(names.iter().map(name).collect(), bracket.span.join())
+                parse_list(&content)?
             } else if content.peek(Ident) {
                 ArgValue::Name(name(&content.parse::<Ident>()?))
             } else {
-                let negative = content.parse::<Option<Token![-]>>()?.is_some();
-                let lit: syn::Lit = content.parse()?;
-                let value = match &lit {
-                    syn::Lit::Int(i) => i.base10_parse::<f64>()?,
-                    syn::Lit::Float(f) => f.base10_parse::<f64>()?,
-                    _ => return Err(syn::Error::new(lit.span(), "expected a number")),
-                };
-                ArgValue::Number(if negative { -value } else { value }, lit.span())
+                let (value, span) = parse_number(&content)?;
+                ArgValue::Number(value, span)
             };
             args.push(GenerateArg {
                 name: arg_name,

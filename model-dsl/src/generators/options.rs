@@ -129,7 +129,7 @@ impl<'a> Args<'a> {
             None => Vec::new(),
             Some(ArgValue::Name(n)) => vec![n.clone()],
             Some(ArgValue::Names(list, _)) => list.clone(),
-            Some(ArgValue::Number(_, span)) => {
+            Some(ArgValue::Number(_, span) | ArgValue::Numbers(_, span)) => {
                 diag.error(
                     *span,
                     format!("`{}` takes a name or a list of names", names[0]),
@@ -155,7 +155,7 @@ impl<'a> Args<'a> {
                     None
                 }
             },
-            ArgValue::Names(_, span) => {
+            ArgValue::Names(_, span) | ArgValue::Numbers(_, span) => {
                 diag.error(*span, format!("`{name}` takes a number or a constant"));
                 None
             }
@@ -183,6 +183,16 @@ impl<'a> Args<'a> {
                     .collect();
                 let values: Option<Vec<f64>> = values.into_iter().collect();
                 values.map(|v| (v, *span))
+            }
+            ArgValue::Numbers(_, span) => {
+                diag.error(
+                    *span,
+                    format!(
+                        "`{name}` takes a list of names of model constants: declare each \
+                         value, `const A = 1e-6;`, and write `{name} = [A, B]`"
+                    ),
+                );
+                None
             }
             other => {
                 diag.error(
@@ -221,7 +231,7 @@ impl<'a> Args<'a> {
             Some(ArgValue::Name(n)) if n.text == "full" => false,
             Some(other) => {
                 let values = match other {
-                    ArgValue::Names(..) | ArgValue::Number(..) => {
+                    ArgValue::Names(..) | ArgValue::Numbers(..) | ArgValue::Number(..) => {
                         "; the noise values themselves are given at run time, to `new` and \
                          `set_process_noise`"
                     }

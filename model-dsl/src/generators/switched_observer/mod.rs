@@ -57,7 +57,9 @@ impl Kind for SwitchedObserver {
         let q = args.constants("process_noise", cx, diag);
         let r = args.constants("measurement_noise", cx, diag);
         let k1 = args.constants("k1", cx, diag);
-        if q.is_none() || r.is_none() {
+        let given = |name: &str| item.args.iter().any(|a| a.name.text == name);
+        // A value given but wrong has its own error already.
+        if !given("process_noise") || !given("measurement_noise") {
             diag.error(
                 span,
                 "`switched_observer` needs the diagonals of the noise covariances: \
