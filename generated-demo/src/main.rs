@@ -13,15 +13,13 @@
 //!    004's helicopter with the continuous-time EKF, standard and with a prescribed degree
 //!    of stability (`experiment::trms`).
 //! 5. Seed 003: the generated switched observers on a piecewise-linear beam, and the
-//!    switching example of its Fig. 3.1 ([`switched_beam`]).
+//!    switching example of its Fig. 3.1 ([`experiment::switched_beam`]).
 //! 6. Seed 002: the generated polynomial Kalman filter on a hub signal for several
-//!    fading factors and re-initialisation periods ([`hub_polynomial`]).
+//!    fading factors and re-initialisation periods ([`experiment::hub_polynomial`]).
 //!
 //! The host runs the generated `f64` code; the `f32` code is what runs on the MCU.
 
 mod experiment;
-mod hub_polynomial;
-mod switched_beam;
 
 use experiment::excitation::Prbs;
 use experiment::metrics::{mean, rms};
@@ -108,8 +106,8 @@ fn main() -> Result<(), Box<dyn Error>> {
     experiment::trms::run(out)?;
 
     print_generated_costs();
-    switched_beam::experiment(out)?;
-    hub_polynomial::experiment(out)?;
+    experiment::switched_beam::experiment(out)?;
+    experiment::hub_polynomial::experiment(out)?;
     println!(
         "\nWrote out/estimation.csv, out/closed_loop.csv, out/wn.svg, out/displacement.svg, \
          out/outliers.csv, out/outliers.svg, out/blade.csv, out/blade_mass.svg, out/blade_identification.svg, \

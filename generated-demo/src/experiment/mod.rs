@@ -10,6 +10,7 @@ pub mod blade_control;
 pub mod blade_plant;
 pub mod controllers;
 pub mod excitation;
+pub mod hub_polynomial;
 pub mod metrics;
 pub mod noise;
 pub mod outliers;
@@ -17,6 +18,7 @@ pub mod plant;
 pub mod ppf;
 pub mod readout;
 pub mod report;
+pub mod switched_beam;
 pub mod trms;
 pub mod tuning;
 

@@ -12,8 +12,8 @@
 //! configurations are generated here, each its own `model!`, since the design is fixed
 //! when the code is generated.
 
-use crate::experiment::noise::GaussianNoise;
-use crate::experiment::report::{self, Line, Trace};
+use super::noise::GaussianNoise;
+use super::report::{self, Line, Trace};
 use std::error::Error;
 use std::path::Path;
 
