@@ -1,5 +1,5 @@
-//! Host-side harness of the cantilever experiment (seed 000, sect. 5): a simulated beam,
-//! the PRBS excitation, read-outs of physical parameters from estimates, metrics and the
+//! Host-side harness of the double Kalman filter paper's cantilever experiment (sect. 5):
+//! a simulated beam, the PRBS excitation, read-outs of physical parameters from estimates, metrics and the
 //! report (table, CSV, SVG). The filters and the LQR live elsewhere; this module only
 //! feeds them data and reports what they estimated.
 //!
