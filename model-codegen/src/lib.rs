@@ -8,6 +8,7 @@
 
 #![forbid(unsafe_code)]
 
+mod expression_places;
 pub mod meval_text;
 pub mod model_file;
 

@@ -30,6 +30,7 @@
 //! `[[known]]` entries (`name`, `doc`) declare constants known only at run time.
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
 
+use crate::expression_places;
 use meval::tokenizer::{Operation, Token};
 use model_dsl::ast::{
     ArgValue, BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg,
@@ -143,10 +144,11 @@ struct Dynamics {
 /// A TOML table's entries in the order of the file, so generated code follows the file.
 /// (`indexmap`'s serde support would do it, but would build `indexmap` differently from the
 /// `model!` macro's, and the compiler with it, twice in a workspace holding both.)
-struct InFileOrder<V>(Vec<(String, V)>);
+/// Keys keep their place in the file, for errors about them.
+struct InFileOrder<V>(Vec<(Spanned<String>, V)>);
 
 impl<V> InFileOrder<V> {
-    fn iter(&self) -> impl Iterator<Item = (&String, &V)> {
+    fn iter(&self) -> impl Iterator<Item = (&Spanned<String>, &V)> {
         self.0.iter().map(|(key, value)| (key, value))
     }
 }
@@ -210,11 +212,22 @@ impl Places {
     fn of_field<T>(&self, field: &Spanned<T>) -> Span {
         self.at(field.span().start)
     }
+
+    /// The span of a string field's first character inside its quotes (of the field, if
+    /// it is not a string).
+    fn inside<T>(&self, source: &str, field: &Spanned<T>) -> Span {
+        let start = field.span().start;
+        let rest = source.get(start..).unwrap_or("");
+        let quotes = ["\"\"\"", "'''", "\"", "'"];
+        let delimiter = quotes.iter().find(|q| rest.starts_with(**q));
+        self.at(start + delimiter.map_or(0, |q| q.len()))
+    }
 }
 
 /// Reads a TOML model file into a [`ModelDecl`]. A file TOML cannot read is an error at
 /// once; expression mistakes are collected, each naming its field. Every error points at
-/// the field's line and column.
+/// its line and column: a value, a key, or inside an expression string the token it is
+/// about.
 pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
     let places = Places::of(source);
     let file: ModelFile = toml::from_str(source).map_err(|e| {
@@ -227,7 +240,7 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
     let top = places.at(0);
     let name = |field: &Spanned<String>| Name {
         text: field.get_ref().clone(),
-        span: places.of_field(field),
+        span: places.inside(source, field),
     };
     let docs = |doc: &str| -> Vec<String> {
         doc.lines()
@@ -242,7 +255,20 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
                 kind: SurfaceKind::Number(*v),
                 span,
             },
-            Value::Text(text) => parse_expression(text, field, span, diag),
+            Value::Text(text) => {
+                // Byte `i` of the expression is at `offsets[i]` in the string's source text.
+                let start = value.span().start;
+                let offsets = source
+                    .get(value.span())
+                    .and_then(|raw| expression_places::string_offsets(raw, text));
+                let at = |i: usize| {
+                    offsets
+                        .as_ref()
+                        .and_then(|o| o.get(i))
+                        .map_or(span, |o| places.at(start + o))
+                };
+                parse_expression(text, field, &at, diag)
+            }
         }
     };
 
@@ -330,17 +356,19 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
                 ),
             });
             let mut statements: Vec<Statement> = lets.collect();
-            statements.extend(d.equations.iter().map(|(state, value)| {
-                Statement::Equation {
-                    // The state's name is a key: its place is taken to be the value's.
-                    target: Name {
-                        text: state.clone(),
-                        span: places.of_field(value),
-                    },
-                    derivative,
-                    value: expr(value, &format!("dynamics.equations.{state}"), &mut diag),
-                }
-            }));
+            statements.extend(
+                d.equations
+                    .iter()
+                    .map(|(state, value)| Statement::Equation {
+                        target: name(state),
+                        derivative,
+                        value: expr(
+                            value,
+                            &format!("dynamics.equations.{}", state.get_ref()),
+                            &mut diag,
+                        ),
+                    }),
+            );
             DynamicsDecl {
                 span: kind_span,
                 kind,
@@ -363,27 +391,57 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
     Ok((decl, diag))
 }
 
-/// Parses one `meval` expression into a surface expression.
-fn parse_expression(text: &str, field: &str, here: Span, diag: &mut Diagnostics) -> SurfaceExpr {
+/// Parses one `meval` expression into a surface expression. `at(i)` is where byte `i` of
+/// `text` stands in the file: each node is placed at its first token, as the macro's are,
+/// and each mistake under the token it is about.
+fn parse_expression(
+    text: &str,
+    field: &str,
+    at: &dyn Fn(usize) -> Span,
+    diag: &mut Diagnostics,
+) -> SurfaceExpr {
+    let start = at(0);
     let zero = SurfaceExpr {
         kind: SurfaceKind::Number(0.0),
-        span: here,
+        span: start,
     };
     if let Err(message) = model_dsl::front::limits::check_expression_text(text) {
-        diag.error(here, format!("{field}: {message}"));
+        // A stray character is named by the check: the caret goes under it.
+        let stray = message
+            .strip_prefix('`')
+            .and_then(|m| m.split_once("` has no meaning"))
+            .map(|(c, _)| c);
+        let place = stray.and_then(|c| text.find(c)).map_or(start, at);
+        let comparison = stray.is_some_and(|c| matches!(c, "<" | ">" | "=" | "!"));
+        let hint = if comparison {
+            "; a comparison is written as a piecewise function, `if_gt(a, b, then, else)` \
+             (also `if_ge`, `if_lt`, `if_le`)"
+        } else {
+            ""
+        };
+        diag.error(place, format!("{field}: {message}{hint}"));
         return zero;
     }
     let parsed = match meval::Expr::from_str(text) {
         Ok(parsed) => parsed,
         Err(e) => {
-            diag.error(here, format!("{field}: cannot parse `{text}`: {e}"));
+            let (offset, message) = parse_error(text, &e);
+            diag.error(at(offset), format!("{field}: {message}"));
             return zero;
         }
     };
-    let node = |kind| SurfaceExpr { kind, span: here };
+    let offsets = expression_places::rpn_offsets(text, &parsed);
+    let place = |i: usize| {
+        offsets
+            .as_ref()
+            .and_then(|o| o.get(i))
+            .map_or(start, |&o| at(o))
+    };
     // `meval` gives reverse Polish notation: operands come before their operator.
     let mut stack: Vec<SurfaceExpr> = Vec::new();
-    for token in parsed.iter() {
+    for (i, token) in parsed.iter().enumerate() {
+        let here = place(i);
+        let node = |kind, span| SurfaceExpr { kind, span };
         let made = match token {
             Token::Number(v) if !v.is_finite() => {
                 diag.error(
@@ -392,11 +450,11 @@ fn parse_expression(text: &str, field: &str, here: Span, diag: &mut Diagnostics)
                 );
                 return zero;
             }
-            Token::Number(v) => node(SurfaceKind::Number(*v)),
-            Token::Var(v) if v == "pi" => node(SurfaceKind::Number(std::f64::consts::PI)),
-            Token::Var(v) => node(SurfaceKind::Name(v.clone())),
+            Token::Number(v) => node(SurfaceKind::Number(*v), here),
+            Token::Var(v) if v == "pi" => node(SurfaceKind::Number(std::f64::consts::PI), here),
+            Token::Var(v) => node(SurfaceKind::Name(v.clone()), here),
             Token::Unary(Operation::Minus) => match stack.pop() {
-                Some(a) => node(SurfaceKind::Neg(Box::new(a))),
+                Some(a) => node(SurfaceKind::Neg(Box::new(a)), here),
                 None => break,
             },
             Token::Unary(Operation::Plus) => continue,
@@ -404,31 +462,32 @@ fn parse_expression(text: &str, field: &str, here: Span, diag: &mut Diagnostics)
                 let (Some(b), Some(a)) = (stack.pop(), stack.pop()) else {
                     break;
                 };
-                match op {
-                    Operation::Plus => {
-                        node(SurfaceKind::Binary(BinaryOp::Add, Box::new(a), Box::new(b)))
-                    }
-                    Operation::Minus => {
-                        node(SurfaceKind::Binary(BinaryOp::Sub, Box::new(a), Box::new(b)))
-                    }
-                    Operation::Times => {
-                        node(SurfaceKind::Binary(BinaryOp::Mul, Box::new(a), Box::new(b)))
-                    }
-                    Operation::Div => {
-                        node(SurfaceKind::Binary(BinaryOp::Div, Box::new(a), Box::new(b)))
-                    }
-                    Operation::Pow => node(SurfaceKind::Call(
-                        Name {
+                let first = a.span;
+                let op = match op {
+                    Operation::Plus => BinaryOp::Add,
+                    Operation::Minus => BinaryOp::Sub,
+                    Operation::Times => BinaryOp::Mul,
+                    Operation::Div => BinaryOp::Div,
+                    Operation::Pow => {
+                        let powi = Name {
                             text: "powi".into(),
                             span: here,
-                        },
-                        vec![a, b],
-                    )),
-                    _ => {
-                        diag.error(here, format!("{field}: `%` is not supported in `{text}`"));
+                        };
+                        stack.push(node(SurfaceKind::Call(powi, vec![a, b]), first));
+                        continue;
+                    }
+                    Operation::Rem => {
+                        diag.error(
+                            here,
+                            format!(
+                                "{field}: `%` (a remainder) is not part of the model language: \
+                                 use `+ - * /` and `^` for a whole power"
+                            ),
+                        );
                         return zero;
                     }
-                }
+                };
+                node(SurfaceKind::Binary(op, Box::new(a), Box::new(b)), first)
             }
             Token::Func(f, arity) => {
                 let n = arity.unwrap_or(0);
@@ -436,14 +495,24 @@ fn parse_expression(text: &str, field: &str, here: Span, diag: &mut Diagnostics)
                     break;
                 }
                 let args = stack.split_off(stack.len() - n);
+                if comparison_of(f).is_some() && n != 4 {
+                    diag.error(
+                        here,
+                        format!("{field}: `{f}(a, b, then, else)` takes 4 arguments, found {n}"),
+                    );
+                    return zero;
+                }
                 piecewise(f, &args, here).unwrap_or_else(|| {
-                    node(SurfaceKind::Call(
-                        Name {
-                            text: f.clone(),
-                            span: here,
-                        },
-                        args,
-                    ))
+                    node(
+                        SurfaceKind::Call(
+                            Name {
+                                text: f.clone(),
+                                span: here,
+                            },
+                            args,
+                        ),
+                        here,
+                    )
                 })
             }
             _ => break,
@@ -454,11 +523,94 @@ fn parse_expression(text: &str, field: &str, here: Span, diag: &mut Diagnostics)
         (Some(e), true) => e,
         _ => {
             diag.error(
-                here,
+                start,
                 format!("{field}: cannot read `{text}` as one expression"),
             );
             zero
         }
+    }
+}
+
+/// Where `meval` stopped reading `text` (a byte of it), and what to write there.
+fn parse_error(text: &str, error: &meval::Error) -> (usize, String) {
+    use meval::tokenizer::ParseError;
+    use meval::{Error, RPNError};
+    let end = text.len();
+    // The place of the infix token `k` of `text` (parentheses and commas counted).
+    let token_at = |k: usize| {
+        meval::tokenizer::tokenize(text)
+            .ok()
+            .and_then(|tokens| expression_places::token_offsets(text, &tokens))
+            .and_then(|offsets| offsets.get(k).copied())
+            .unwrap_or(0)
+    };
+    match error {
+        Error::ParseError(ParseError::UnexpectedToken(i)) => {
+            let i = *i
+                + (text.get(*i..).unwrap_or("").len()
+                    - text.get(*i..).unwrap_or("").trim_start().len());
+            let rest = text.get(i..).unwrap_or("");
+            let word = rest
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == '.'))
+                .unwrap_or(rest.len());
+            let token = match rest.chars().next() {
+                Some(c) if word == 0 => c.to_string(),
+                _ => rest[..word].to_owned(),
+            };
+            // What `meval` wanted there: a value after an operator, `(` or `,` (the text
+            // before is then incomplete), else an operator.
+            let wants_value = matches!(
+                meval::tokenizer::tokenize(&text[..i]),
+                Err(ParseError::MissingArgument)
+            );
+            // Characters outside the language were refused before `meval` read the text.
+            let message = match token.as_str() {
+                ")" => format!("`{text}` has a `)` that closes no `(`: remove it, or add the `(`"),
+                "," => format!(
+                    "`{text}` has a `,` outside a call: commas separate a function's \
+                     arguments, as in `atan2(y, x)`"
+                ),
+                _ if wants_value => format!(
+                    "`{text}` has `{token}` where a value belongs: write a number, a name, a \
+                     call such as `sin(x1)`, or `(` here"
+                ),
+                _ => format!(
+                    "`{text}` has `{token}` where an operator belongs: write `+ - * / ^` \
+                     between two values"
+                ),
+            };
+            (i, message)
+        }
+        Error::ParseError(ParseError::MissingRParen(n)) => {
+            let n = *n;
+            let which = if n == 1 { "a `(`" } else { "`(`s" };
+            (end, format!("`{text}` leaves {which} open: add {n} `)`"))
+        }
+        Error::ParseError(ParseError::MissingArgument) => (
+            end,
+            format!(
+                "`{text}` ends where a value belongs: finish it with a number, a name or a call"
+            ),
+        ),
+        Error::RPNError(RPNError::MismatchedRParen(k)) => (
+            token_at(*k),
+            format!("`{text}` has a `)` that closes no `(`: remove it, or add the `(`"),
+        ),
+        Error::RPNError(RPNError::MismatchedLParen(k)) => (
+            token_at(*k),
+            format!("`{text}` leaves this `(` open: add its `)`"),
+        ),
+        Error::RPNError(RPNError::UnexpectedComma(k)) => (
+            token_at(*k),
+            format!(
+                "`{text}` has a `,` outside a call: commas separate a function's arguments, \
+                 as in `atan2(y, x)`"
+            ),
+        ),
+        _ => (
+            0,
+            format!("cannot read `{text}` as one expression: {error}"),
+        ),
     }
 }
 
@@ -501,6 +653,7 @@ fn generate_items(
 ) -> Vec<GenerateDecl> {
     let mut items = Vec::new();
     for (generator, value) in table.into_iter().flat_map(InFileOrder::iter) {
+        let generator = generator.get_ref();
         let here = places.of_field(value);
         let item = |args| GenerateDecl {
             name: Name {

@@ -28,12 +28,13 @@ fn model_file_errors_give_line_column_and_the_line() {
         "name = \"m\"\nscalar = \"f32\"\n\n[[state]]\nname = \"x\"\n\n[dynamics]\n\
          kind = \"discrete\"\n\n[dynamics.equations]\nx = \"x + y9\"\n",
     );
+    // The caret is under `y9` inside the string, not under its opening quote.
     assert!(
-        errors.starts_with("bad.toml:11:5: error: unknown symbol `y9`"),
+        errors.starts_with("bad.toml:11:10: error: unknown symbol `y9`"),
         "{errors}"
     );
     assert!(
-        errors.contains("11 | x = \"x + y9\"\n   |     ^"),
+        errors.contains("11 | x = \"x + y9\"\n   |          ^"),
         "{errors}"
     );
 }

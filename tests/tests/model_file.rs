@@ -55,7 +55,7 @@ fn model_file_mistakes_are_all_reported_with_their_field() {
         "{errors}"
     );
     assert!(
-        errors.contains("dynamics.equations.x2: cannot parse"),
+        errors.contains("dynamics.equations.x2: `x2 * (` ends where a value belongs"),
         "{errors}"
     );
 }
@@ -174,4 +174,121 @@ fn model_file_numbers_must_be_finite_in_the_scalar_type() {
     // TOML's own `nan` as an equation.
     let equation = small_model("m", "", "x").replace("x = \"x\"", "x = nan");
     assert!(errors_of(&equation).contains("finite"), "{equation}");
+}
+
+/// A small valid model file; each case below changes one thing in it. Its lines:
+/// 1 `name`, 2 `scalar`, 3-5 the constant `TS`, 6-9 the states, 10-11 the input, 12-14 the
+/// output, 15-16 `[dynamics]` and its `kind`, 17-19 the equations.
+const SMALL: &str = r#"name = "m"
+scalar = "f32"
+[[const]]
+name = "TS"
+value = 0.01
+[[state]]
+name = "x1"
+[[state]]
+name = "x2"
+[[input]]
+name = "u"
+[[output]]
+name = "y"
+value = "x1"
+[dynamics]
+kind = "discrete"
+[dynamics.equations]
+x1 = "x1 + TS * x2"
+x2 = "x2 + TS * u"
+"#;
+
+/// `SMALL` with `from` (written once in it) replaced by `to`.
+fn small_with(from: &str, to: &str) -> String {
+    assert_eq!(SMALL.matches(from).count(), 1, "{from}");
+    SMALL.replace(from, to)
+}
+
+/// Each error of the model file as `line:column: message`, the column counted in
+/// characters from 1: where `model-codegen` prints it and puts the caret.
+fn placed_errors_of(toml: &str) -> Vec<String> {
+    match model_codegen::expand_model_file(toml) {
+        Ok(_) => panic!("expected errors for:\n{toml}"),
+        Err(errors) => errors
+            .into_iter()
+            .map(|e| {
+                let at = e.span().start();
+                format!("{}:{}: {e}", at.line, at.column + 1)
+            })
+            .collect(),
+    }
+}
+
+/// Asserts that `toml` gives the error `expected` (`line:column: message`).
+fn assert_error(toml: &str, expected: &str) {
+    let errors = placed_errors_of(toml);
+    assert!(
+        errors.iter().any(|e| e == expected),
+        "expected\n{expected}\namong\n{}",
+        errors.join("\n")
+    );
+}
+
+#[test]
+fn an_error_inside_an_expression_points_at_its_token() {
+    assert_error(
+        &small_with("x1 = \"x1 + TS * x2\"", "x1 = \"x1 + * x2\""),
+        "18:12: dynamics.equations.x1: `x1 + * x2` has `*` where a value belongs: write a \
+         number, a name, a call such as `sin(x1)`, or `(` here",
+    );
+    let unknown = "unknown symbol `foo` in the dynamics of `x1`: declare it with `state`, \
+                   `param`, `input` or `const`";
+    assert_error(
+        &small_with("x1 = \"x1 + TS * x2\"", "x1 = \"x1 + foo\""),
+        &format!("18:12: {unknown}"),
+    );
+    // Escapes, literal and multi-line strings: the caret still finds the token.
+    assert_error(
+        &small_with("x1 = \"x1 + TS * x2\"", "x1 = \"x1\\t+ foo\""),
+        &format!("18:13: {unknown}"),
+    );
+    assert_error(
+        &small_with("x1 = \"x1 + TS * x2\"", "x1 = 'x1 + foo'"),
+        &format!("18:12: {unknown}"),
+    );
+    assert_error(
+        &small_with("x1 = \"x1 + TS * x2\"", "x1 = \"\"\"\nx1 +\n    foo\"\"\""),
+        &format!("20:5: {unknown}"),
+    );
+    let x2 = |expression: &str| small_with("x2 = \"x2 + TS * u\"", &format!("x2 = {expression:?}"));
+    assert_error(
+        &x2("x2 x1"),
+        "19:10: dynamics.equations.x2: `x2 x1` has `x1` where an operator belongs: write `+ - * \
+         / ^` between two values",
+    );
+    assert_error(
+        &x2("(x2 + 1))"),
+        "19:15: dynamics.equations.x2: `(x2 + 1))` has a `)` that closes no `(`: remove it, or \
+         add the `(`",
+    );
+    assert_error(
+        &x2("x2 * (x1 + 1"),
+        "19:19: dynamics.equations.x2: `x2 * (x1 + 1` leaves a `(` open: add 1 `)`",
+    );
+    assert_error(
+        &x2("x2 + (x1 > 0)"),
+        "19:16: dynamics.equations.x2: `>` has no meaning in an expression: use numbers, names, \
+         `+ - * / ^`, parentheses and function calls; a comparison is written as a piecewise \
+         function, `if_gt(a, b, then, else)` (also `if_ge`, `if_lt`, `if_le`)",
+    );
+    assert_error(
+        &x2("if_gt(x1, 0, x2)"),
+        "19:7: dynamics.equations.x2: `if_gt(a, b, then, else)` takes 4 arguments, found 3",
+    );
+    assert_error(
+        &x2("x2 + x1^2.5"),
+        "19:15: the exponent of `powi` must be an integer literal between -64 and 64",
+    );
+    assert_error(
+        &x2("x2 + foo(x1)"),
+        "19:12: unsupported function `foo`: use one of sin, cos, tan, exp, ln, sqrt, abs, tanh, \
+         powi, atan2, min, max, clamp",
+    );
 }
