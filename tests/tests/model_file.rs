@@ -221,13 +221,89 @@ fn placed_errors_of(toml: &str) -> Vec<String> {
     }
 }
 
-/// Asserts that `toml` gives the error `expected` (`line:column: message`).
+/// Asserts that `toml` gives the error `expected` (`line:column: message`), and that no
+/// error of it is written in the macro's syntax.
 fn assert_error(toml: &str, expected: &str) {
     let errors = placed_errors_of(toml);
     assert!(
         errors.iter().any(|e| e == expected),
         "expected\n{expected}\namong\n{}",
         errors.join("\n")
+    );
+    for error in &errors {
+        for macro_syntax in [
+            "dynamics discrete",
+            "dynamics continuous(",
+            "der(",
+            "...;",
+            "(..)",
+            "`state ",
+            "`output ",
+            "scalar f32;",
+            "untagged enum",
+        ] {
+            assert!(
+                !error.contains(macro_syntax),
+                "{error}: `{macro_syntax}` is not how a model file says it"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_generator_entry_that_is_no_generator_says_how_to_ask_for_one() {
+    assert_error(
+        &format!("{SMALL}[generate]\nekff = true\n"),
+        "21:8: unknown generator `ekff`: use `ekf`, `dkf`, `lqr`, `mpc`, `hybrid_ekf`, \
+         `continuous_ekf`, `polynomial_kf` or `switched_observer` (`ekf = true`, or a table of \
+         its options)",
+    );
+    assert_error(
+        &format!("{SMALL}[generate]\nlqr = {{ horizon = 50 }}\n"),
+        "21:7: `lqr` needs the states it regulates and the inputs it computes: `lqr = { horizon \
+         = 50, states = [\"x1\", \"x2\"], input = \"u\" }`",
+    );
+    assert_error(
+        &format!("{SMALL}[generate]\npolynomial_kf = {{ order = 1 }}\n"),
+        "21:17: `polynomial_kf` needs `dt`: write `polynomial_kf = { order = 3, dt = \"TS\", \
+         fading = 1e-9, noise_variance = 1e-4, reinit_every = 100, window = 20 }`",
+    );
+    assert_error(
+        &format!("{SMALL}[generate]\nhybrid_ekf = true\n"),
+        "21:14: `hybrid_ekf` integrates the continuous dynamics between samples: declare them \
+         continuous: `kind = \"continuous\"`, `method = \"euler\"` and `dt = \"TS\"` in \
+         `[dynamics]`",
+    );
+    let no_output = small_with("[[output]]\nname = \"y\"\nvalue = \"x1\"\n", "");
+    assert_error(
+        &format!("{no_output}[generate]\nekf = true\n"),
+        "18:7: `ekf` corrects its estimate with measurements: declare them: `[[output]]` with \
+         `name = \"y\"` and `value = \"x1\"`",
+    );
+}
+
+#[test]
+fn continuous_dynamics_without_a_method_or_a_step_are_told_the_toml() {
+    assert_error(
+        &small_with("kind = \"discrete\"", "kind = \"continuous\""),
+        "16:8: continuous dynamics need an integration method: add `method = \"euler\"` or \
+         `method = \"rk4\"` to `[dynamics]`, with the step, `dt = \"TS\"` (a number or a \
+         constant's name), and optionally `substeps = 2`",
+    );
+    assert_error(
+        &small_with(
+            "kind = \"discrete\"",
+            "kind = \"continuous\"\nmethod = \"rk4\"",
+        ),
+        "16:8: the discretisation needs a step: add `dt = \"TS\"` (a constant's name) or \
+         `dt = 0.01` to `[dynamics]`",
+    );
+    let no_dynamics = SMALL.split("[dynamics]").next().unwrap_or_default();
+    assert_error(
+        no_dynamics,
+        "1:9: the model has no dynamics: add a `[dynamics]` table with `kind = \"discrete\"` (or \
+         `kind = \"continuous\"`, `method = \"rk4\"` and `dt = \"TS\"`), and a \
+         `[dynamics.equations]` table with one `x1 = \"...\"` per state",
     );
 }
 
@@ -238,8 +314,8 @@ fn an_error_inside_an_expression_points_at_its_token() {
         "18:12: dynamics.equations.x1: `x1 + * x2` has `*` where a value belongs: write a \
          number, a name, a call such as `sin(x1)`, or `(` here",
     );
-    let unknown = "unknown symbol `foo` in the dynamics of `x1`: declare it with `state`, \
-                   `param`, `input` or `const`";
+    let unknown = "unknown symbol `foo` in the dynamics of `x1`: declare it as a `[[state]]`, \
+                   `[[param]]`, `[[input]]` or `[[const]]` with `name = \"foo\"`";
     assert_error(
         &small_with("x1 = \"x1 + TS * x2\"", "x1 = \"x1 + foo\""),
         &format!("18:12: {unknown}"),
@@ -284,11 +360,35 @@ fn an_error_inside_an_expression_points_at_its_token() {
     );
     assert_error(
         &x2("x2 + x1^2.5"),
-        "19:15: the exponent of `powi` must be an integer literal between -64 and 64",
+        "19:15: the exponent of `^` (or `powi`) must be a whole number between -64 and 64, such \
+         as `x^2`",
     );
     assert_error(
         &x2("x2 + foo(x1)"),
         "19:12: unsupported function `foo`: use one of sin, cos, tan, exp, ln, sqrt, abs, tanh, \
-         powi, atan2, min, max, clamp",
+         powi, atan2, min, max, clamp, if_gt, if_ge, if_lt, if_le (`if_gt(a, b, then, else)`), \
+         or `^` for a whole power (`x^2`)",
+    );
+}
+
+#[test]
+fn declarations_a_model_file_lacks_are_told_in_toml() {
+    assert_error(
+        &format!("{SMALL}x3 = \"x1\"\n"),
+        "20:1: unknown state `x3`: declare it with `[[state]]` and `name = \"x3\"`",
+    );
+    assert_error(
+        &small_with("x2 = \"x2 + TS * u\"\n", ""),
+        "9:9: state `x2` has no dynamics: add `x2 = \"...\"` under `[dynamics.equations]`",
+    );
+    assert_error(
+        &small_with("[[state]]\nname = \"x1\"\n[[state]]\nname = \"x2\"\n", ""),
+        "1:9: the model declares no state: add a `[[state]]` table with `name = \"x1\"` for each \
+         state",
+    );
+    assert_error(
+        &small_with("scalar = \"f32\"", "scalar = []"),
+        "1:9: the model names no scalar type: add `scalar = \"f32\"` (or `scalar = [\"f32\", \
+         \"f64\"]` to also generate an f64 version for host checks)",
     );
 }
