@@ -31,6 +31,7 @@
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
 
 use crate::expression_places;
+use crate::toml_hints;
 use meval::tokenizer::{Operation, Token};
 use model_dsl::ast::{
     ArgValue, BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg,
@@ -39,8 +40,9 @@ use model_dsl::ast::{
 };
 use model_dsl::diagnostics::Diagnostics;
 use proc_macro2::{Span, TokenStream};
-use serde::de::{Deserializer, MapAccess, Visitor};
+use serde::de::{Deserializer, IgnoredAny, MapAccess, SeqAccess, Unexpected, Visitor};
 use serde::Deserialize;
+use std::fmt;
 use std::marker::PhantomData;
 use std::str::FromStr;
 use toml::Spanned;
@@ -68,7 +70,7 @@ struct ModelFile {
     outputs: Vec<Entry>,
     dynamics: Option<Dynamics>,
     /// `ekf = true`, `dkf = { eta = 0.5 }`, `lqr = { horizon = 50, states = ["x1"], input = "u" }`.
-    generate: Option<InFileOrder<Spanned<toml::Value>>>,
+    generate: Option<InFileOrder<Spanned<Generator>>>,
 }
 
 /// Who may use the generated module: a closed set, so nothing of the file becomes tokens
@@ -97,11 +99,36 @@ impl Visibility {
     }
 }
 
-#[derive(Deserialize)]
-#[serde(untagged)]
+/// `scalar = "f32"` or `scalar = ["f32", "f64"]`.
 enum OneOrMany {
     One(String),
     Many(Vec<String>),
+}
+
+impl<'de> Deserialize<'de> for OneOrMany {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Scalars;
+        impl<'de> Visitor<'de> for Scalars {
+            type Value = OneOrMany;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str(
+                    "a scalar type as a string, `scalar = \"f32\"`, or a list of them, \
+                     `scalar = [\"f32\", \"f64\"]`",
+                )
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<OneOrMany, E> {
+                Ok(OneOrMany::One(v.to_owned()))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<OneOrMany, A::Error> {
+                let mut list = Vec::new();
+                while let Some(scalar) = seq.next_element()? {
+                    list.push(scalar);
+                }
+                Ok(OneOrMany::Many(list))
+            }
+        }
+        deserializer.deserialize_any(Scalars)
+    }
 }
 
 #[derive(Deserialize)]
@@ -122,11 +149,170 @@ struct Entry {
     doc: String,
 }
 
-#[derive(Deserialize)]
-#[serde(untagged)]
+/// A number, or an expression in a string.
 enum Value {
     Number(f64),
     Text(String),
+}
+
+impl<'de> Deserialize<'de> for Value {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct NumberOrExpression;
+        impl Visitor<'_> for NumberOrExpression {
+            type Value = Value;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str(
+                    "a number, such as `0.015`, or an expression in a string, such as \
+                     `\"2 * TS\"`",
+                )
+            }
+            fn visit_i64<E>(self, v: i64) -> Result<Value, E> {
+                Ok(Value::Number(v as f64))
+            }
+            fn visit_u64<E>(self, v: u64) -> Result<Value, E> {
+                Ok(Value::Number(v as f64))
+            }
+            fn visit_f64<E>(self, v: f64) -> Result<Value, E> {
+                Ok(Value::Number(v))
+            }
+            fn visit_str<E>(self, v: &str) -> Result<Value, E> {
+                Ok(Value::Text(v.to_owned()))
+            }
+        }
+        deserializer.deserialize_any(NumberOrExpression)
+    }
+}
+
+/// `substeps = 2`: a whole number (checked to be at least 1 by the checks).
+struct Substeps(u64);
+
+impl<'de> Deserialize<'de> for Substeps {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Whole;
+        impl Visitor<'_> for Whole {
+            type Value = Substeps;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a whole number of sub-steps per sample, `substeps = 2`")
+            }
+            fn visit_u64<E>(self, v: u64) -> Result<Substeps, E> {
+                Ok(Substeps(v))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Substeps, E> {
+                u64::try_from(v)
+                    .map(Substeps)
+                    .map_err(|_| E::invalid_value(Unexpected::Signed(v), &self))
+            }
+        }
+        deserializer.deserialize_any(Whole)
+    }
+}
+
+/// A generator's entry in `[generate]`: `true` (`false` leaves it out), a table of
+/// options, or a list of such tables for several of one kind. Anything else is kept, to be
+/// reported with the file's other mistakes.
+enum Generator {
+    Switch(bool),
+    Options(InFileOrder<Spanned<OptionValue>>),
+    Several(Vec<Spanned<Generator>>),
+    Other(String),
+}
+
+impl<'de> Deserialize<'de> for Generator {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Entry;
+        impl<'de> Visitor<'de> for Entry {
+            type Value = Generator;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("`true`, a table of options, or a list of tables")
+            }
+            fn visit_bool<E>(self, v: bool) -> Result<Generator, E> {
+                Ok(Generator::Switch(v))
+            }
+            fn visit_i64<E>(self, v: i64) -> Result<Generator, E> {
+                Ok(Generator::Other(format!("`{v}`")))
+            }
+            fn visit_u64<E>(self, v: u64) -> Result<Generator, E> {
+                Ok(Generator::Other(format!("`{v}`")))
+            }
+            fn visit_f64<E>(self, v: f64) -> Result<Generator, E> {
+                Ok(Generator::Other(format!("`{v}`")))
+            }
+            fn visit_str<E>(self, v: &str) -> Result<Generator, E> {
+                Ok(Generator::Other(format!("`{v:?}`")))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Generator, A::Error> {
+                Ok(Generator::Options(InFileOrder::read(map)?))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Generator, A::Error> {
+                let mut list = Vec::new();
+                while let Some(entry) = seq.next_element()? {
+                    list.push(entry);
+                }
+                Ok(Generator::Several(list))
+            }
+        }
+        deserializer.deserialize_any(Entry)
+    }
+}
+
+/// A generator option's value as written: a number, a name (a string), a list; or what the
+/// model language has no reading of (`true`, a table), described for the error.
+enum OptionValue {
+    Number(f64),
+    Text(String),
+    List(Vec<Spanned<OptionValue>>),
+    Other(String),
+}
+
+impl OptionValue {
+    /// The value as the user wrote it, for an error message.
+    fn describe(&self) -> String {
+        match self {
+            OptionValue::Number(v) => format!("`{v}`"),
+            OptionValue::Text(s) => format!("`{s:?}`"),
+            OptionValue::List(_) => "a list".to_owned(),
+            OptionValue::Other(what) => what.clone(),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for OptionValue {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Written;
+        impl<'de> Visitor<'de> for Written {
+            type Value = OptionValue;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number, a name as a string, or a list of names")
+            }
+            fn visit_bool<E>(self, v: bool) -> Result<OptionValue, E> {
+                Ok(OptionValue::Other(format!("`{v}`")))
+            }
+            fn visit_i64<E>(self, v: i64) -> Result<OptionValue, E> {
+                Ok(OptionValue::Number(v as f64))
+            }
+            fn visit_u64<E>(self, v: u64) -> Result<OptionValue, E> {
+                Ok(OptionValue::Number(v as f64))
+            }
+            fn visit_f64<E>(self, v: f64) -> Result<OptionValue, E> {
+                Ok(OptionValue::Number(v))
+            }
+            fn visit_str<E>(self, v: &str) -> Result<OptionValue, E> {
+                Ok(OptionValue::Text(v.to_owned()))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<OptionValue, A::Error> {
+                let mut list = Vec::new();
+                while let Some(item) = seq.next_element()? {
+                    list.push(item);
+                }
+                Ok(OptionValue::List(list))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<OptionValue, A::Error> {
+                while map.next_entry::<IgnoredAny, IgnoredAny>()?.is_some() {}
+                Ok(OptionValue::Other("a table".to_owned()))
+            }
+        }
+        deserializer.deserialize_any(Written)
+    }
 }
 
 #[derive(Deserialize)]
@@ -135,7 +321,7 @@ struct Dynamics {
     kind: Spanned<String>,
     method: Option<Spanned<String>>,
     dt: Option<Spanned<Value>>,
-    substeps: Option<Spanned<u64>>,
+    substeps: Option<Spanned<Substeps>>,
     #[serde(default, rename = "let")]
     lets: Vec<Entry>,
     equations: InFileOrder<Spanned<Value>>,
@@ -151,6 +337,17 @@ impl<V> InFileOrder<V> {
     fn iter(&self) -> impl Iterator<Item = (&Spanned<String>, &V)> {
         self.0.iter().map(|(key, value)| (key, value))
     }
+
+    fn read<'de, A: MapAccess<'de>>(mut map: A) -> Result<Self, A::Error>
+    where
+        V: Deserialize<'de>,
+    {
+        let mut entries = Vec::new();
+        while let Some(entry) = map.next_entry()? {
+            entries.push(entry);
+        }
+        Ok(InFileOrder(entries))
+    }
 }
 
 impl<'de, V: Deserialize<'de>> Deserialize<'de> for InFileOrder<V> {
@@ -161,12 +358,8 @@ impl<'de, V: Deserialize<'de>> Deserialize<'de> for InFileOrder<V> {
             fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
                 f.write_str("a table")
             }
-            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
-                let mut entries = Vec::new();
-                while let Some(entry) = map.next_entry()? {
-                    entries.push(entry);
-                }
-                Ok(InFileOrder(entries))
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Self::Value, A::Error> {
+                InFileOrder::read(map)
             }
         }
         deserializer.deserialize_map(Entries(PhantomData))
@@ -227,14 +420,15 @@ impl Places {
 /// Reads a TOML model file into a [`ModelDecl`]. A file TOML cannot read is an error at
 /// once; expression mistakes are collected, each naming its field. Every error points at
 /// its line and column: a value, a key, or inside an expression string the token it is
-/// about.
+/// about; and says what to write, in TOML.
 pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
     let places = Places::of(source);
     let file: ModelFile = toml::from_str(source).map_err(|e| {
         let span = e
             .span()
             .map_or_else(Span::call_site, |r| places.at(r.start));
-        syn::Error::new(span, format!("model file: {}", e.message()))
+        let at = e.span().and_then(|r| source.get(r.start..)).unwrap_or("");
+        syn::Error::new(span, format!("model file: {}", with_fix(e.message(), at)))
     })?;
     let mut diag = Diagnostics::default();
     let top = places.at(0);
@@ -336,7 +530,7 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
                     substeps: d
                         .substeps
                         .as_ref()
-                        .map(|n| (*n.get_ref(), places.of_field(n))),
+                        .map(|n| (n.get_ref().0, places.of_field(n))),
                 },
                 other => {
                     diag.error(
@@ -386,7 +580,7 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
         symbols,
         outputs,
         dynamics,
-        generate: generate_items(file.generate.as_ref(), &places, &mut diag),
+        generate: generate_items(file.generate.as_ref(), source, &places, &mut diag),
     };
     Ok((decl, diag))
 }
@@ -643,81 +837,163 @@ pub fn comparison_of(function: &str) -> Option<Comparison> {
     })
 }
 
-/// The `[generate]` table as `generate` items; everything of one item points at its value.
-/// A generator's value is `true`, a table of arguments, or a list of tables for several
-/// of its kind (`ekf = [{ .. }, { name = "GatedEkf", .. }]`).
+/// The `[generate]` table as `generate` items. A generator's value is `true`, a table of
+/// options, or a list of tables for several of its kind (`ekf = [{ .. }, { name =
+/// "GatedEkf", .. }]`). An item is named where its key is written, an option placed where
+/// its value is.
 fn generate_items(
-    table: Option<&InFileOrder<Spanned<toml::Value>>>,
+    table: Option<&InFileOrder<Spanned<Generator>>>,
+    source: &str,
     places: &Places,
     diag: &mut Diagnostics,
 ) -> Vec<GenerateDecl> {
     let mut items = Vec::new();
-    for (generator, value) in table.into_iter().flat_map(InFileOrder::iter) {
-        let generator = generator.get_ref();
-        let here = places.of_field(value);
-        let item = |args| GenerateDecl {
-            name: Name {
-                text: generator.clone(),
-                span: here,
-            },
-            args,
+    for (key, value) in table.into_iter().flat_map(InFileOrder::iter) {
+        let generator = key.get_ref();
+        let name = Name {
+            text: generator.clone(),
+            span: places.of_field(key),
         };
-        match value.get_ref() {
-            toml::Value::Boolean(true) => items.push(item(Vec::new())),
-            toml::Value::Boolean(false) => {}
-            toml::Value::Table(args) => {
-                items.push(item(generate_args(generator, args, here, diag)))
-            }
-            toml::Value::Array(list) if list.iter().all(toml::Value::is_table) => {
-                for args in list.iter().filter_map(toml::Value::as_table) {
-                    items.push(item(generate_args(generator, args, here, diag)));
+        let entries: Vec<&Spanned<Generator>> = match value.get_ref() {
+            Generator::Several(list) => list.iter().collect(),
+            _ => vec![value],
+        };
+        for entry in entries {
+            let what = match entry.get_ref() {
+                Generator::Switch(true) => {
+                    items.push(GenerateDecl {
+                        name: name.clone(),
+                        args: Vec::new(),
+                    });
+                    continue;
                 }
-            }
-            _ => diag.error(
-                here,
+                Generator::Switch(false) => continue,
+                Generator::Options(options) => {
+                    items.push(GenerateDecl {
+                        name: name.clone(),
+                        args: generate_args(generator, options, source, places, diag),
+                    });
+                    continue;
+                }
+                Generator::Several(_) => "a list".to_owned(),
+                Generator::Other(what) => what.clone(),
+            };
+            diag.error(
+                places.inside(source, entry),
                 format!(
-                    "generate.{generator}: write `true`, a table of arguments, or a list of \
-                     tables for several"
+                    "generate.{generator}: {what} does not ask for a generator: write \
+                     `{generator} = true`, a table of its options (`{generator} = {{ .. }}` or \
+                     a `[generate.{generator}]` table), or a list of tables for several \
+                     (`{generator} = [{{ .. }}, {{ .. }}]`)"
                 ),
-            ),
+            );
         }
     }
     items
 }
 
-/// One generator's arguments: numbers, names (strings) and lists of names.
+/// One generator's options: numbers, names (strings) and lists of names. A value the model
+/// language has no reading of is an error under it that says what the option takes.
 fn generate_args(
     generator: &str,
-    args: &toml::Table,
-    here: Span,
+    options: &InFileOrder<Spanned<OptionValue>>,
+    source: &str,
+    places: &Places,
     diag: &mut Diagnostics,
 ) -> Vec<GenerateArg> {
-    let name = |text: &str| Name {
-        text: text.to_owned(),
-        span: here,
-    };
-    args.iter()
-        .filter_map(|(arg, v)| {
-            let value = match v {
-                toml::Value::Integer(i) => ArgValue::Number(*i as f64, here),
-                toml::Value::Float(f) => ArgValue::Number(*f, here),
-                toml::Value::String(s) => ArgValue::Name(name(s)),
-                toml::Value::Array(list) => ArgValue::Names(
-                    list.iter().filter_map(|n| n.as_str().map(name)).collect(),
-                    here,
-                ),
-                _ => {
-                    diag.error(
-                        here,
-                        format!("generate.{generator}.{arg}: unsupported value"),
-                    );
-                    return None;
+    let mut args = Vec::new();
+    'options: for (option, value) in options.iter() {
+        let option_name = option.get_ref();
+        let takes = toml_hints::option_takes(generator, option_name);
+        let here = places.inside(source, value);
+        let value = match value.get_ref() {
+            OptionValue::Number(v) => ArgValue::Number(*v, here),
+            OptionValue::Text(text) => ArgValue::Name(Name {
+                text: text.clone(),
+                span: here,
+            }),
+            OptionValue::List(list) => {
+                let mut names = Vec::new();
+                for item in list {
+                    match item.get_ref() {
+                        OptionValue::Text(text) => names.push(Name {
+                            text: text.clone(),
+                            span: places.inside(source, item),
+                        }),
+                        other => {
+                            diag.error(
+                                places.inside(source, item),
+                                format!(
+                                    "generate.{generator}.{option_name}: {} is not a name: a \
+                                     list holds names as strings, and `{option_name}` takes \
+                                     {takes}",
+                                    other.describe()
+                                ),
+                            );
+                            continue 'options;
+                        }
+                    }
                 }
-            };
-            Some(GenerateArg {
-                name: name(arg),
-                value,
-            })
-        })
-        .collect()
+                ArgValue::Names(names, here)
+            }
+            OptionValue::Other(what) => {
+                diag.error(
+                    here,
+                    format!(
+                        "generate.{generator}.{option_name}: {what} is not a value of \
+                         `{option_name}`, which takes {takes}"
+                    ),
+                );
+                continue;
+            }
+        };
+        args.push(GenerateArg {
+            name: Name {
+                text: option_name.clone(),
+                span: places.of_field(option),
+            },
+            value,
+        });
+    }
+    args
+}
+
+/// The `toml` crate's `message` about the file from `at` on, with what to write.
+fn with_fix(message: &str, at: &str) -> String {
+    let message = message.trim_end();
+    if let Some(field) = message
+        .strip_prefix("missing field `")
+        .and_then(|rest| rest.strip_suffix('`'))
+    {
+        let fix = match field {
+            "name" => "add `name = \"...\"`",
+            "scalar" => "add `scalar = \"f32\"` (or `scalar = [\"f32\", \"f64\"]`)",
+            "kind" => {
+                "add `kind = \"discrete\"`, or `kind = \"continuous\"` with `method = \"rk4\"` \
+                 and `dt = \"TS\"`"
+            }
+            "equations" => "add a `[dynamics.equations]` table with one `x1 = \"...\"` per state",
+            "value" => "add `value = ...`: a number, or an expression in a string",
+            _ => return message.to_owned(),
+        };
+        return format!("{message}: {fix}");
+    }
+    if message.starts_with("string values must be quoted") {
+        let written = at.lines().next().unwrap_or("");
+        let written = written.split('#').next().unwrap_or("").trim();
+        if !written.is_empty() {
+            return format!("string values must be quoted: write `{written:?}`");
+        }
+    }
+    if message == "duplicate key" {
+        let key: String = at
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_' || *c == '-')
+            .collect();
+        return format!("duplicate key `{key}`: a table gives each key once; remove or rename one");
+    }
+    if message.ends_with("expected a string") {
+        return format!("{message}: write it in quotes, `\"...\"`");
+    }
+    message.to_owned()
 }

@@ -278,6 +278,39 @@ fn is_identifier(text: &str) -> bool {
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
+/// What a generator's option takes, in TOML, for a value the model language has no reading
+/// of (`true`, a table, a list holding numbers). Numbers, names and lists of names out of
+/// place are explained by the checks, per option.
+pub(crate) fn option_takes(generator: &str, option: &str) -> &'static str {
+    match (generator, option) {
+        ("ekf", "gate") => {
+            "a positive number (a chi-square quantile), `gate = 10.83`, or `gate = \"off\"`"
+        }
+        ("ekf", "name") => "a type name in UpperCamelCase as a string, `name = \"GatedEkf\"`",
+        ("switched_observer", _) => {
+            "a list of the model's constants' names, `process_noise = [\"Q1\", \"Q2\"]`"
+        }
+        (_, "process_noise") => "`process_noise = \"diagonal\"` or `process_noise = \"full\"`",
+        ("dkf", "eta") => "a number from 0 to 1, `eta = 0.5`",
+        ("continuous_ekf", "alpha") => "a number of at least 0, `alpha = 0.5`",
+        ("lqr" | "mpc", "states" | "state") => {
+            "a state's name as a string or a list of them, `states = [\"x1\", \"x2\"]`"
+        }
+        ("lqr" | "mpc", "inputs" | "input") => {
+            "an input's name as a string or a list of them, `input = \"u\"`"
+        }
+        ("mpc", "discretisation") => {
+            "`discretisation = \"zoh\"` or `discretisation = \"sample_step\"`"
+        }
+        ("lqr" | "mpc", _) => "a whole number, `horizon = 50`",
+        ("polynomial_kf", _) => "a number, or a constant's name as a string: `dt = \"TS\"`",
+        _ => {
+            "a number (`horizon = 50`), a name as a string (`input = \"u\"`) or a list of \
+             names (`states = [\"x1\", \"x2\"]`)"
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::rewrite;

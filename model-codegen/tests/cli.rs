@@ -40,6 +40,28 @@ fn model_file_errors_give_line_column_and_the_line() {
 }
 
 #[test]
+fn model_file_option_errors_point_at_the_value_and_say_what_it_takes() {
+    let errors = errors_for(
+        "toml-option",
+        "bad.toml",
+        "name = \"m\"\nscalar = \"f32\"\n[[state]]\nname = \"x\"\n[[output]]\nname = \"y\"\n\
+         value = \"x\"\n[dynamics]\nkind = \"discrete\"\n[dynamics.equations]\nx = \"x\"\n\
+         [generate.ekf]\ngate = true\n",
+    );
+    assert!(
+        errors.starts_with(
+            "bad.toml:13:8: error: generate.ekf.gate: `true` is not a value of `gate`, which \
+             takes a positive number"
+        ),
+        "{errors}"
+    );
+    assert!(
+        errors.contains("13 | gate = true\n   |        ^"),
+        "{errors}"
+    );
+}
+
+#[test]
 fn model_file_syntax_errors_are_placed_too() {
     let errors = errors_for(
         "toml-syntax",

@@ -251,33 +251,76 @@ fn assert_error(toml: &str, expected: &str) {
 }
 
 #[test]
+fn a_generator_option_of_the_wrong_kind_says_what_it_takes_under_the_value() {
+    let takes = "`true` is not a value of `gate`, which takes a positive number (a chi-square \
+                 quantile), `gate = 10.83`, or `gate = \"off\"`";
+    let table = format!("{SMALL}[generate.ekf]\ngate = true\n");
+    assert_error(&table, &format!("21:8: generate.ekf.gate: {takes}"));
+    let inline =
+        format!("{SMALL}[generate]\nekf = {{ process_noise = \"diagonal\", gate = true }}\n");
+    assert_error(&inline, &format!("21:44: generate.ekf.gate: {takes}"));
+    // A table where a number belongs, a number where a name belongs in a list.
+    let horizon = format!(
+        "{SMALL}[generate.lqr]\nhorizon = {{ steps = 50 }}\nstates = [\"x1\", 2]\ninput = \"u\"\n"
+    );
+    assert_error(
+        &horizon,
+        "21:11: generate.lqr.horizon: a table is not a value of `horizon`, which takes a whole \
+         number, `horizon = 50`",
+    );
+    assert_error(
+        &horizon,
+        "22:17: generate.lqr.states: `2` is not a name: a list holds names as strings, and \
+         `states` takes a state's name as a string or a list of them, `states = [\"x1\", \"x2\"]`",
+    );
+    // The checks' own explanations of an option's value, in TOML.
+    let name = format!("{SMALL}[generate]\nekf = {{ name = \"gated\" }}\n");
+    assert_error(
+        &name,
+        "21:17: `name` is the generated type's name, in UpperCamelCase: `name = \"GatedEkf\"`",
+    );
+    let noise = format!("{SMALL}[generate]\nekf = {{ process_noise = \"diag\" }}\n");
+    assert_error(
+        &noise,
+        "21:26: `process_noise` is `\"diagonal\"` (only the variances) or `\"full\"` (a \
+         symmetric matrix)",
+    );
+}
+
+#[test]
 fn a_generator_entry_that_is_no_generator_says_how_to_ask_for_one() {
     assert_error(
+        &format!("{SMALL}[generate]\nekf = \"yes\"\n"),
+        "21:8: generate.ekf: `\"yes\"` does not ask for a generator: write `ekf = true`, a table \
+         of its options (`ekf = { .. }` or a `[generate.ekf]` table), or a list of tables for \
+         several (`ekf = [{ .. }, { .. }]`)",
+    );
+    assert_error(
         &format!("{SMALL}[generate]\nekff = true\n"),
-        "21:8: unknown generator `ekff`: use `ekf`, `dkf`, `lqr`, `mpc`, `hybrid_ekf`, \
+        "21:1: unknown generator `ekff`: use `ekf`, `dkf`, `lqr`, `mpc`, `hybrid_ekf`, \
          `continuous_ekf`, `polynomial_kf` or `switched_observer` (`ekf = true`, or a table of \
          its options)",
     );
     assert_error(
         &format!("{SMALL}[generate]\nlqr = {{ horizon = 50 }}\n"),
-        "21:7: `lqr` needs the states it regulates and the inputs it computes: `lqr = { horizon \
+        "21:1: `lqr` needs the states it regulates and the inputs it computes: `lqr = { horizon \
          = 50, states = [\"x1\", \"x2\"], input = \"u\" }`",
     );
     assert_error(
         &format!("{SMALL}[generate]\npolynomial_kf = {{ order = 1 }}\n"),
-        "21:17: `polynomial_kf` needs `dt`: write `polynomial_kf = { order = 3, dt = \"TS\", \
+        "21:1: `polynomial_kf` needs `dt`: write `polynomial_kf = { order = 3, dt = \"TS\", \
          fading = 1e-9, noise_variance = 1e-4, reinit_every = 100, window = 20 }`",
     );
     assert_error(
         &format!("{SMALL}[generate]\nhybrid_ekf = true\n"),
-        "21:14: `hybrid_ekf` integrates the continuous dynamics between samples: declare them \
+        "21:1: `hybrid_ekf` integrates the continuous dynamics between samples: declare them \
          continuous: `kind = \"continuous\"`, `method = \"euler\"` and `dt = \"TS\"` in \
          `[dynamics]`",
     );
     let no_output = small_with("[[output]]\nname = \"y\"\nvalue = \"x1\"\n", "");
     assert_error(
         &format!("{no_output}[generate]\nekf = true\n"),
-        "18:7: `ekf` corrects its estimate with measurements: declare them: `[[output]]` with \
+        "18:1: `ekf` corrects its estimate with measurements: declare them: `[[output]]` with \
          `name = \"y\"` and `value = \"x1\"`",
     );
 }
@@ -297,6 +340,19 @@ fn continuous_dynamics_without_a_method_or_a_step_are_told_the_toml() {
         ),
         "16:8: the discretisation needs a step: add `dt = \"TS\"` (a constant's name) or \
          `dt = 0.01` to `[dynamics]`",
+    );
+    assert_error(
+        &small_with(
+            "kind = \"discrete\"",
+            "kind = \"continuous\"\nmethod = \"rk4\"\ndt = \"TS\"\nsubsteps = -1",
+        ),
+        "19:12: model file: invalid value: integer `-1`, expected a whole number of sub-steps \
+         per sample, `substeps = 2`",
+    );
+    assert_error(
+        &small_with("kind = \"discrete\"\n", ""),
+        "15:1: model file: missing field `kind`: add `kind = \"discrete\"`, or `kind = \
+         \"continuous\"` with `method = \"rk4\"` and `dt = \"TS\"`",
     );
     let no_dynamics = SMALL.split("[dynamics]").next().unwrap_or_default();
     assert_error(
@@ -368,6 +424,36 @@ fn an_error_inside_an_expression_points_at_its_token() {
         "19:12: unsupported function `foo`: use one of sin, cos, tan, exp, ln, sqrt, abs, tanh, \
          powi, atan2, min, max, clamp, if_gt, if_ge, if_lt, if_le (`if_gt(a, b, then, else)`), \
          or `^` for a whole power (`x^2`)",
+    );
+}
+
+#[test]
+fn values_toml_reads_but_a_model_does_not_say_what_to_write() {
+    assert_error(
+        &small_with("value = 0.01", "value = true"),
+        "5:9: model file: invalid type: boolean `true`, expected a number, such as `0.015`, or \
+         an expression in a string, such as `\"2 * TS\"`",
+    );
+    assert_error(
+        &small_with("scalar = \"f32\"", "scalar = 32"),
+        "2:10: model file: invalid type: integer `32`, expected a scalar type as a string, \
+         `scalar = \"f32\"`, or a list of them, `scalar = [\"f32\", \"f64\"]`",
+    );
+    assert_error(
+        &small_with(
+            "x2 = \"x2 + TS * u\"",
+            "x2 = x2 + TS * u  # forgot the quotes",
+        ),
+        "19:6: model file: string values must be quoted: write `\"x2 + TS * u\"`",
+    );
+    assert_error(
+        &format!("{SMALL}x2 = \"x1\"\n"),
+        "20:1: model file: duplicate key `x2`: a table gives each key once; remove or rename one",
+    );
+    assert_error(
+        &small_with("scalar = \"f32\"\n", ""),
+        "1:1: model file: missing field `scalar`: add `scalar = \"f32\"` (or `scalar = [\"f32\", \
+         \"f64\"]`)",
     );
 }
 
