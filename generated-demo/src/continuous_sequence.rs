@@ -1,5 +1,5 @@
 //! Deterministic measured sequences for the continuous filters, computed in `f32` the same
-//! way on the host and on the Cortex-M4F: the seed models' own generated `f32` dynamics
+//! way on the host and on the Cortex-M4F: the papers' models' own generated `f32` dynamics
 //! (`helicopter::f`, `mass_spring_damper::f`; `libm` is software, so its results are the
 //! same on both), integer pseudo-random inputs and measurement noise. The firmware runs the
 //! `f32` filters on them and the host the `f64` filters on the same values, widened.
@@ -30,7 +30,7 @@ pub struct Sample<const U: usize, const Y: usize> {
     pub y: [f32; Y],
 }
 
-/// The helicopter of seed 004 from rest under rotor voltages switching every 0.7 s and
+/// The helicopter of Kulkarni and Purwar from rest under rotor voltages switching every 0.7 s and
 /// 0.9 s, encoders with uniform noise of +-1 mrad.
 #[derive(Clone, Debug)]
 pub struct Helicopter {
@@ -84,7 +84,7 @@ impl Iterator for Helicopter {
     }
 }
 
-/// The blade of seed 001 in control mode (true 1/m = 5 1/kg) under a +-50 V random binary
+/// The blade of Takács, Polóni and Rohal-Ilkiv in control mode (true 1/m = 5 1/kg) under a +-50 V random binary
 /// input, with uniform laser noise of +-10 um.
 #[derive(Clone, Debug)]
 pub struct Blade {
@@ -128,7 +128,7 @@ impl Iterator for Blade {
 }
 
 /// The continuous-time EKF's tuning for the sequence: the paper's `x0`, `P0` (`gamma = 1`),
-/// `Q` and `R` (seed 004, sects. 4 and 6.1).
+/// `Q` and `R` (Kulkarni and Purwar, sects. 4 and 6.1).
 pub mod helicopter_tuning {
     /// Initial estimate.
     pub const X0: [f32; 6] = [0.05, 0.0, -0.05, 0.0, 0.0, 0.0];
@@ -141,7 +141,7 @@ pub mod helicopter_tuning {
 }
 
 /// The control-mode hybrid EKF's tuning for the sequence: the paper's `x0`, `P0`, `R` and
-/// `Q = Q~ / T` (seed 001, sect. 4.1), in the order `[q, q', eta1, eta2, 1/m]`.
+/// `Q = Q~ / T` (Takács et al., sect. 4.1), in the order `[q, q', eta1, eta2, 1/m]`.
 pub mod blade_tuning {
     /// Initial estimate.
     pub const X0: [f32; 5] = [0.0, 0.0, 0.0, 0.0, 2.0];

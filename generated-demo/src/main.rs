@@ -1,5 +1,6 @@
 //! The main job (`cargo run --release -p generated-demo`): the cantilever experiment of
-//! seed 000 run on a simulated beam with the generated filters and controller.
+//! the double Kalman filter paper (EKF against DKF, adaptive LQR) run on a simulated beam
+//! with the generated filters and controller, then the experiments of the other papers.
 //!
 //! 1. Parameter estimation (Table 1 of the paper): the generated EKF and DKF (with its
 //!    AKF) from the paper's close and wrong initial guesses, on PRBS excitation with
@@ -7,21 +8,24 @@
 //! 2. Adaptive LQR (Alg. 3) closed loop with two stinger hits: RMS tip displacement for
 //!    open loop, EKF-LQR and DKF-LQR.
 //! 3. Traces as CSV and plots as SVG in `out/`, and what the generated code costs.
-//! 4. Seed 001's blade with the generated hybrid EKFs (`experiment::blade`), its
-//!    controller comparison (adaptive EKF-MPC, nominal LQ, PPF, open loop:
-//!    `experiment::blade_control`), and seed
-//!    004's helicopter with the continuous-time EKF, standard and with a prescribed degree
-//!    of stability (`experiment::trms`).
-//! 5. Seed 003: the generated switched observers on a piecewise-linear beam, and the
-//!    switching example of its Fig. 3.1 ([`switched_beam`]).
-//! 6. Seed 002: the generated polynomial Kalman filter on a hub signal for several
-//!    fading factors and re-initialisation periods ([`hub_polynomial`]).
+//! 4. The blade of Takács, Polóni and Rohal-Ilkiv ("Adaptive predictive control of
+//!    transient vibrations of cantilevers with changing weight") with the generated hybrid
+//!    EKFs (`experiment::blade`), its controller comparison (adaptive EKF-MPC, nominal LQ,
+//!    PPF, open loop: `experiment::blade_control`), and the helicopter of Kulkarni and
+//!    Purwar ("Nonlinear experimental estimation and verification of a MIMO system through
+//!    EKF") with the continuous-time EKF, standard and with a prescribed degree of
+//!    stability (`experiment::trms`).
+//! 5. The piecewise linear beam report (observers with linear error dynamics, a switched
+//!    Kalman filter): the generated switched observers on a piecewise-linear beam, and
+//!    the switching example of its Fig. 3.1 ([`experiment::switched_beam`]).
+//! 6. Shults, Brubaker and Lee ("A fast algorithm for control and estimation using a
+//!    polynomial state-space structure"): the generated polynomial Kalman filter on a hub
+//!    signal for several fading factors and re-initialisation periods
+//!    ([`experiment::hub_polynomial`]).
 //!
 //! The host runs the generated `f64` code; the `f32` code is what runs on the MCU.
 
 mod experiment;
-mod hub_polynomial;
-mod switched_beam;
 
 use experiment::excitation::Prbs;
 use experiment::metrics::{mean, rms};
@@ -59,9 +63,10 @@ fn main() -> Result<(), Box<dyn Error>> {
     std::fs::create_dir_all(out)?;
 
     let estimation = estimation_runs();
-    println!("Parameter estimation, cantilever (seed 000): simulated beam wn = 20 rad/s,");
-    println!("zeta = 0.026, alpha = 0.5 mm/(s^2 V); PRBS +-100 V; noise sigma 1e-4 mm;");
-    println!("tip mass detached at {MASS_REMOVED_AT} s (wn -> 50 rad/s). Table 1 of the paper:\n");
+    println!("Parameter estimation, cantilever of the double Kalman filter (DKF) paper, EKF");
+    println!("against DKF: simulated beam wn = 20 rad/s, zeta = 0.026, alpha = 0.5 mm/(s^2 V);");
+    println!("PRBS +-100 V; noise sigma 1e-4 mm; tip mass detached at {MASS_REMOVED_AT} s");
+    println!("(wn -> 50 rad/s). Table 1 of the paper:\n");
     let labels = [
         "EKF close",
         "AKF close",
@@ -108,8 +113,8 @@ fn main() -> Result<(), Box<dyn Error>> {
     experiment::trms::run(out)?;
 
     print_generated_costs();
-    switched_beam::experiment(out)?;
-    hub_polynomial::experiment(out)?;
+    experiment::switched_beam::experiment(out)?;
+    experiment::hub_polynomial::experiment(out)?;
     println!(
         "\nWrote out/estimation.csv, out/closed_loop.csv, out/wn.svg, out/displacement.svg, \
          out/outliers.csv, out/outliers.svg, out/blade.csv, out/blade_mass.svg, out/blade_identification.svg, \

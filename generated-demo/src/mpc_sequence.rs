@@ -1,5 +1,5 @@
 //! A deterministic sequence of blade estimates for the MPC, computed in `f32` the same way
-//! on the host and on the Cortex-M4F: the blade of seed 001 simulated by the model's own
+//! on the host and on the Cortex-M4F: the blade of Takács et al. simulated by the model's own
 //! generated `f32` dynamics (`mass_spring_damper::f`, 500 Euler sub-steps a sample), struck
 //! every second and damped by a clipped velocity feedback (so the sequence does not depend
 //! on the controller under test), with 54 g added half-way through; the estimate is the
@@ -71,7 +71,7 @@ impl Iterator for BladeEstimates {
 }
 
 /// The MPC's tuning on the sequence: the paper's weights `Q = C'C`, `R = 1e-10` and
-/// bounds of +-100 V (seed 001, sect. 4.1).
+/// bounds of +-100 V (Takács et al., sect. 4.1).
 pub mod mpc_tuning {
     /// State weight on `[q, qd]`.
     pub const Q: [[f32; 2]; 2] = [[1.0, 0.0], [0.0, 0.0]];

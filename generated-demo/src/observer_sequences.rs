@@ -1,6 +1,7 @@
 //! Deterministic measured sequences for the firmware checks of the compile-time designed
-//! observers: the piecewise beam (seed 003) under the 35 Hz mass-unbalance force, and a
-//! flexible-arm hub angle (seed 002). The firmware embeds them (computed on the host when
+//! observers: the piecewise beam (of the piecewise linear beam report) under the 35 Hz
+//! mass-unbalance force, and a flexible-arm hub angle (of Shults, Brubaker and Lee). The
+//! firmware embeds them (computed on the host when
 //! it is built) and the host filters the same `f32` values, so both must agree.
 
 use crate::piecewise_beam::in_f64 as beam;

@@ -8,8 +8,10 @@
 
 #![forbid(unsafe_code)]
 
+mod expression_places;
 pub mod meval_text;
 pub mod model_file;
+mod toml_hints;
 
 use model_dsl::check::Checked;
 use proc_macro2::TokenStream;
@@ -58,12 +60,13 @@ pub fn rustfmt(code: &str) -> Result<String, String> {
 }
 
 /// Reads and checks a TOML model file into the model IR and the generators it asks for.
+/// The checks are the macro's; their hints are rewritten in the model file's syntax.
 pub fn parse_model_file(source: &str) -> syn::Result<Checked> {
     let (decl, diag) = model_file::parse_model_file(source)?;
-    model_dsl::check::check(&decl, diag)
+    model_dsl::check::check(&decl, diag).map_err(toml_hints::in_toml_terms)
 }
 
 /// Expands a TOML model file: the same module the macro would generate.
 pub fn expand_model_file(source: &str) -> syn::Result<TokenStream> {
-    model_dsl::pipeline::emit_model(&parse_model_file(source)?)
+    model_dsl::pipeline::emit_model(&parse_model_file(source)?).map_err(toml_hints::in_toml_terms)
 }

@@ -30,6 +30,8 @@
 //! `[[known]]` entries (`name`, `doc`) declare constants known only at run time.
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
 
+use crate::expression_places;
+use crate::toml_hints;
 use meval::tokenizer::{Operation, Token};
 use model_dsl::ast::{
     ArgValue, BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg,
@@ -38,8 +40,9 @@ use model_dsl::ast::{
 };
 use model_dsl::diagnostics::Diagnostics;
 use proc_macro2::{Span, TokenStream};
-use serde::de::{Deserializer, MapAccess, Visitor};
+use serde::de::{Deserializer, IgnoredAny, MapAccess, SeqAccess, Unexpected, Visitor};
 use serde::Deserialize;
+use std::fmt;
 use std::marker::PhantomData;
 use std::str::FromStr;
 use toml::Spanned;
@@ -67,7 +70,7 @@ struct ModelFile {
     outputs: Vec<Entry>,
     dynamics: Option<Dynamics>,
     /// `ekf = true`, `dkf = { eta = 0.5 }`, `lqr = { horizon = 50, states = ["x1"], input = "u" }`.
-    generate: Option<InFileOrder<Spanned<toml::Value>>>,
+    generate: Option<InFileOrder<Spanned<Generator>>>,
 }
 
 /// Who may use the generated module: a closed set, so nothing of the file becomes tokens
@@ -96,11 +99,36 @@ impl Visibility {
     }
 }
 
-#[derive(Deserialize)]
-#[serde(untagged)]
+/// `scalar = "f32"` or `scalar = ["f32", "f64"]`.
 enum OneOrMany {
     One(String),
     Many(Vec<String>),
+}
+
+impl<'de> Deserialize<'de> for OneOrMany {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Scalars;
+        impl<'de> Visitor<'de> for Scalars {
+            type Value = OneOrMany;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str(
+                    "a scalar type as a string, `scalar = \"f32\"`, or a list of them, \
+                     `scalar = [\"f32\", \"f64\"]`",
+                )
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<OneOrMany, E> {
+                Ok(OneOrMany::One(v.to_owned()))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<OneOrMany, A::Error> {
+                let mut list = Vec::new();
+                while let Some(scalar) = seq.next_element()? {
+                    list.push(scalar);
+                }
+                Ok(OneOrMany::Many(list))
+            }
+        }
+        deserializer.deserialize_any(Scalars)
+    }
 }
 
 #[derive(Deserialize)]
@@ -121,11 +149,170 @@ struct Entry {
     doc: String,
 }
 
-#[derive(Deserialize)]
-#[serde(untagged)]
+/// A number, or an expression in a string.
 enum Value {
     Number(f64),
     Text(String),
+}
+
+impl<'de> Deserialize<'de> for Value {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct NumberOrExpression;
+        impl Visitor<'_> for NumberOrExpression {
+            type Value = Value;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str(
+                    "a number, such as `0.015`, or an expression in a string, such as \
+                     `\"2 * TS\"`",
+                )
+            }
+            fn visit_i64<E>(self, v: i64) -> Result<Value, E> {
+                Ok(Value::Number(v as f64))
+            }
+            fn visit_u64<E>(self, v: u64) -> Result<Value, E> {
+                Ok(Value::Number(v as f64))
+            }
+            fn visit_f64<E>(self, v: f64) -> Result<Value, E> {
+                Ok(Value::Number(v))
+            }
+            fn visit_str<E>(self, v: &str) -> Result<Value, E> {
+                Ok(Value::Text(v.to_owned()))
+            }
+        }
+        deserializer.deserialize_any(NumberOrExpression)
+    }
+}
+
+/// `substeps = 2`: a whole number (checked to be at least 1 by the checks).
+struct Substeps(u64);
+
+impl<'de> Deserialize<'de> for Substeps {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Whole;
+        impl Visitor<'_> for Whole {
+            type Value = Substeps;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a whole number of sub-steps per sample, `substeps = 2`")
+            }
+            fn visit_u64<E>(self, v: u64) -> Result<Substeps, E> {
+                Ok(Substeps(v))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Substeps, E> {
+                u64::try_from(v)
+                    .map(Substeps)
+                    .map_err(|_| E::invalid_value(Unexpected::Signed(v), &self))
+            }
+        }
+        deserializer.deserialize_any(Whole)
+    }
+}
+
+/// A generator's entry in `[generate]`: `true` (`false` leaves it out), a table of
+/// options, or a list of such tables for several of one kind. Anything else is kept, to be
+/// reported with the file's other mistakes.
+enum Generator {
+    Switch(bool),
+    Options(InFileOrder<Spanned<OptionValue>>),
+    Several(Vec<Spanned<Generator>>),
+    Other(String),
+}
+
+impl<'de> Deserialize<'de> for Generator {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Entry;
+        impl<'de> Visitor<'de> for Entry {
+            type Value = Generator;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("`true`, a table of options, or a list of tables")
+            }
+            fn visit_bool<E>(self, v: bool) -> Result<Generator, E> {
+                Ok(Generator::Switch(v))
+            }
+            fn visit_i64<E>(self, v: i64) -> Result<Generator, E> {
+                Ok(Generator::Other(format!("`{v}`")))
+            }
+            fn visit_u64<E>(self, v: u64) -> Result<Generator, E> {
+                Ok(Generator::Other(format!("`{v}`")))
+            }
+            fn visit_f64<E>(self, v: f64) -> Result<Generator, E> {
+                Ok(Generator::Other(format!("`{v}`")))
+            }
+            fn visit_str<E>(self, v: &str) -> Result<Generator, E> {
+                Ok(Generator::Other(format!("`{v:?}`")))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Generator, A::Error> {
+                Ok(Generator::Options(InFileOrder::read(map)?))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Generator, A::Error> {
+                let mut list = Vec::new();
+                while let Some(entry) = seq.next_element()? {
+                    list.push(entry);
+                }
+                Ok(Generator::Several(list))
+            }
+        }
+        deserializer.deserialize_any(Entry)
+    }
+}
+
+/// A generator option's value as written: a number, a name (a string), a list; or what the
+/// model language has no reading of (`true`, a table), described for the error.
+enum OptionValue {
+    Number(f64),
+    Text(String),
+    List(Vec<Spanned<OptionValue>>),
+    Other(String),
+}
+
+impl OptionValue {
+    /// The value as the user wrote it, for an error message.
+    fn describe(&self) -> String {
+        match self {
+            OptionValue::Number(v) => format!("`{v}`"),
+            OptionValue::Text(s) => format!("`{s:?}`"),
+            OptionValue::List(_) => "a list".to_owned(),
+            OptionValue::Other(what) => what.clone(),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for OptionValue {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Written;
+        impl<'de> Visitor<'de> for Written {
+            type Value = OptionValue;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number, a name as a string, or a list of names")
+            }
+            fn visit_bool<E>(self, v: bool) -> Result<OptionValue, E> {
+                Ok(OptionValue::Other(format!("`{v}`")))
+            }
+            fn visit_i64<E>(self, v: i64) -> Result<OptionValue, E> {
+                Ok(OptionValue::Number(v as f64))
+            }
+            fn visit_u64<E>(self, v: u64) -> Result<OptionValue, E> {
+                Ok(OptionValue::Number(v as f64))
+            }
+            fn visit_f64<E>(self, v: f64) -> Result<OptionValue, E> {
+                Ok(OptionValue::Number(v))
+            }
+            fn visit_str<E>(self, v: &str) -> Result<OptionValue, E> {
+                Ok(OptionValue::Text(v.to_owned()))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<OptionValue, A::Error> {
+                let mut list = Vec::new();
+                while let Some(item) = seq.next_element()? {
+                    list.push(item);
+                }
+                Ok(OptionValue::List(list))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<OptionValue, A::Error> {
+                while map.next_entry::<IgnoredAny, IgnoredAny>()?.is_some() {}
+                Ok(OptionValue::Other("a table".to_owned()))
+            }
+        }
+        deserializer.deserialize_any(Written)
+    }
 }
 
 #[derive(Deserialize)]
@@ -134,7 +321,7 @@ struct Dynamics {
     kind: Spanned<String>,
     method: Option<Spanned<String>>,
     dt: Option<Spanned<Value>>,
-    substeps: Option<Spanned<u64>>,
+    substeps: Option<Spanned<Substeps>>,
     #[serde(default, rename = "let")]
     lets: Vec<Entry>,
     equations: InFileOrder<Spanned<Value>>,
@@ -143,11 +330,23 @@ struct Dynamics {
 /// A TOML table's entries in the order of the file, so generated code follows the file.
 /// (`indexmap`'s serde support would do it, but would build `indexmap` differently from the
 /// `model!` macro's, and the compiler with it, twice in a workspace holding both.)
-struct InFileOrder<V>(Vec<(String, V)>);
+/// Keys keep their place in the file, for errors about them.
+struct InFileOrder<V>(Vec<(Spanned<String>, V)>);
 
 impl<V> InFileOrder<V> {
-    fn iter(&self) -> impl Iterator<Item = (&String, &V)> {
+    fn iter(&self) -> impl Iterator<Item = (&Spanned<String>, &V)> {
         self.0.iter().map(|(key, value)| (key, value))
+    }
+
+    fn read<'de, A: MapAccess<'de>>(mut map: A) -> Result<Self, A::Error>
+    where
+        V: Deserialize<'de>,
+    {
+        let mut entries = Vec::new();
+        while let Some(entry) = map.next_entry()? {
+            entries.push(entry);
+        }
+        Ok(InFileOrder(entries))
     }
 }
 
@@ -159,12 +358,8 @@ impl<'de, V: Deserialize<'de>> Deserialize<'de> for InFileOrder<V> {
             fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
                 f.write_str("a table")
             }
-            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
-                let mut entries = Vec::new();
-                while let Some(entry) = map.next_entry()? {
-                    entries.push(entry);
-                }
-                Ok(InFileOrder(entries))
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Self::Value, A::Error> {
+                InFileOrder::read(map)
             }
         }
         deserializer.deserialize_map(Entries(PhantomData))
@@ -210,24 +405,36 @@ impl Places {
     fn of_field<T>(&self, field: &Spanned<T>) -> Span {
         self.at(field.span().start)
     }
+
+    /// The span of a string field's first character inside its quotes (of the field, if
+    /// it is not a string).
+    fn inside<T>(&self, source: &str, field: &Spanned<T>) -> Span {
+        let start = field.span().start;
+        let rest = source.get(start..).unwrap_or("");
+        let quotes = ["\"\"\"", "'''", "\"", "'"];
+        let delimiter = quotes.iter().find(|q| rest.starts_with(**q));
+        self.at(start + delimiter.map_or(0, |q| q.len()))
+    }
 }
 
 /// Reads a TOML model file into a [`ModelDecl`]. A file TOML cannot read is an error at
 /// once; expression mistakes are collected, each naming its field. Every error points at
-/// the field's line and column.
+/// its line and column: a value, a key, or inside an expression string the token it is
+/// about; and says what to write, in TOML.
 pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
     let places = Places::of(source);
     let file: ModelFile = toml::from_str(source).map_err(|e| {
         let span = e
             .span()
             .map_or_else(Span::call_site, |r| places.at(r.start));
-        syn::Error::new(span, format!("model file: {}", e.message()))
+        let at = e.span().and_then(|r| source.get(r.start..)).unwrap_or("");
+        syn::Error::new(span, format!("model file: {}", with_fix(e.message(), at)))
     })?;
     let mut diag = Diagnostics::default();
     let top = places.at(0);
     let name = |field: &Spanned<String>| Name {
         text: field.get_ref().clone(),
-        span: places.of_field(field),
+        span: places.inside(source, field),
     };
     let docs = |doc: &str| -> Vec<String> {
         doc.lines()
@@ -242,7 +449,20 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
                 kind: SurfaceKind::Number(*v),
                 span,
             },
-            Value::Text(text) => parse_expression(text, field, span, diag),
+            Value::Text(text) => {
+                // Byte `i` of the expression is at `offsets[i]` in the string's source text.
+                let start = value.span().start;
+                let offsets = source
+                    .get(value.span())
+                    .and_then(|raw| expression_places::string_offsets(raw, text));
+                let at = |i: usize| {
+                    offsets
+                        .as_ref()
+                        .and_then(|o| o.get(i))
+                        .map_or(span, |o| places.at(start + o))
+                };
+                parse_expression(text, field, &at, diag)
+            }
         }
     };
 
@@ -310,7 +530,7 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
                     substeps: d
                         .substeps
                         .as_ref()
-                        .map(|n| (*n.get_ref(), places.of_field(n))),
+                        .map(|n| (n.get_ref().0, places.of_field(n))),
                 },
                 other => {
                     diag.error(
@@ -330,17 +550,19 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
                 ),
             });
             let mut statements: Vec<Statement> = lets.collect();
-            statements.extend(d.equations.iter().map(|(state, value)| {
-                Statement::Equation {
-                    // The state's name is a key: its place is taken to be the value's.
-                    target: Name {
-                        text: state.clone(),
-                        span: places.of_field(value),
-                    },
-                    derivative,
-                    value: expr(value, &format!("dynamics.equations.{state}"), &mut diag),
-                }
-            }));
+            statements.extend(
+                d.equations
+                    .iter()
+                    .map(|(state, value)| Statement::Equation {
+                        target: name(state),
+                        derivative,
+                        value: expr(
+                            value,
+                            &format!("dynamics.equations.{}", state.get_ref()),
+                            &mut diag,
+                        ),
+                    }),
+            );
             DynamicsDecl {
                 span: kind_span,
                 kind,
@@ -358,32 +580,62 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
         symbols,
         outputs,
         dynamics,
-        generate: generate_items(file.generate.as_ref(), &places, &mut diag),
+        generate: generate_items(file.generate.as_ref(), source, &places, &mut diag),
     };
     Ok((decl, diag))
 }
 
-/// Parses one `meval` expression into a surface expression.
-fn parse_expression(text: &str, field: &str, here: Span, diag: &mut Diagnostics) -> SurfaceExpr {
+/// Parses one `meval` expression into a surface expression. `at(i)` is where byte `i` of
+/// `text` stands in the file: each node is placed at its first token, as the macro's are,
+/// and each mistake under the token it is about.
+fn parse_expression(
+    text: &str,
+    field: &str,
+    at: &dyn Fn(usize) -> Span,
+    diag: &mut Diagnostics,
+) -> SurfaceExpr {
+    let start = at(0);
     let zero = SurfaceExpr {
         kind: SurfaceKind::Number(0.0),
-        span: here,
+        span: start,
     };
     if let Err(message) = model_dsl::front::limits::check_expression_text(text) {
-        diag.error(here, format!("{field}: {message}"));
+        // A stray character is named by the check: the caret goes under it.
+        let stray = message
+            .strip_prefix('`')
+            .and_then(|m| m.split_once("` has no meaning"))
+            .map(|(c, _)| c);
+        let place = stray.and_then(|c| text.find(c)).map_or(start, at);
+        let comparison = stray.is_some_and(|c| matches!(c, "<" | ">" | "=" | "!"));
+        let hint = if comparison {
+            "; a comparison is written as a piecewise function, `if_gt(a, b, then, else)` \
+             (also `if_ge`, `if_lt`, `if_le`)"
+        } else {
+            ""
+        };
+        diag.error(place, format!("{field}: {message}{hint}"));
         return zero;
     }
     let parsed = match meval::Expr::from_str(text) {
         Ok(parsed) => parsed,
         Err(e) => {
-            diag.error(here, format!("{field}: cannot parse `{text}`: {e}"));
+            let (offset, message) = parse_error(text, &e);
+            diag.error(at(offset), format!("{field}: {message}"));
             return zero;
         }
     };
-    let node = |kind| SurfaceExpr { kind, span: here };
+    let offsets = expression_places::rpn_offsets(text, &parsed);
+    let place = |i: usize| {
+        offsets
+            .as_ref()
+            .and_then(|o| o.get(i))
+            .map_or(start, |&o| at(o))
+    };
     // `meval` gives reverse Polish notation: operands come before their operator.
     let mut stack: Vec<SurfaceExpr> = Vec::new();
-    for token in parsed.iter() {
+    for (i, token) in parsed.iter().enumerate() {
+        let here = place(i);
+        let node = |kind, span| SurfaceExpr { kind, span };
         let made = match token {
             Token::Number(v) if !v.is_finite() => {
                 diag.error(
@@ -392,11 +644,11 @@ fn parse_expression(text: &str, field: &str, here: Span, diag: &mut Diagnostics)
                 );
                 return zero;
             }
-            Token::Number(v) => node(SurfaceKind::Number(*v)),
-            Token::Var(v) if v == "pi" => node(SurfaceKind::Number(std::f64::consts::PI)),
-            Token::Var(v) => node(SurfaceKind::Name(v.clone())),
+            Token::Number(v) => node(SurfaceKind::Number(*v), here),
+            Token::Var(v) if v == "pi" => node(SurfaceKind::Number(std::f64::consts::PI), here),
+            Token::Var(v) => node(SurfaceKind::Name(v.clone()), here),
             Token::Unary(Operation::Minus) => match stack.pop() {
-                Some(a) => node(SurfaceKind::Neg(Box::new(a))),
+                Some(a) => node(SurfaceKind::Neg(Box::new(a)), here),
                 None => break,
             },
             Token::Unary(Operation::Plus) => continue,
@@ -404,31 +656,32 @@ fn parse_expression(text: &str, field: &str, here: Span, diag: &mut Diagnostics)
                 let (Some(b), Some(a)) = (stack.pop(), stack.pop()) else {
                     break;
                 };
-                match op {
-                    Operation::Plus => {
-                        node(SurfaceKind::Binary(BinaryOp::Add, Box::new(a), Box::new(b)))
-                    }
-                    Operation::Minus => {
-                        node(SurfaceKind::Binary(BinaryOp::Sub, Box::new(a), Box::new(b)))
-                    }
-                    Operation::Times => {
-                        node(SurfaceKind::Binary(BinaryOp::Mul, Box::new(a), Box::new(b)))
-                    }
-                    Operation::Div => {
-                        node(SurfaceKind::Binary(BinaryOp::Div, Box::new(a), Box::new(b)))
-                    }
-                    Operation::Pow => node(SurfaceKind::Call(
-                        Name {
+                let first = a.span;
+                let op = match op {
+                    Operation::Plus => BinaryOp::Add,
+                    Operation::Minus => BinaryOp::Sub,
+                    Operation::Times => BinaryOp::Mul,
+                    Operation::Div => BinaryOp::Div,
+                    Operation::Pow => {
+                        let powi = Name {
                             text: "powi".into(),
                             span: here,
-                        },
-                        vec![a, b],
-                    )),
-                    _ => {
-                        diag.error(here, format!("{field}: `%` is not supported in `{text}`"));
+                        };
+                        stack.push(node(SurfaceKind::Call(powi, vec![a, b]), first));
+                        continue;
+                    }
+                    Operation::Rem => {
+                        diag.error(
+                            here,
+                            format!(
+                                "{field}: `%` (a remainder) is not part of the model language: \
+                                 use `+ - * /` and `^` for a whole power"
+                            ),
+                        );
                         return zero;
                     }
-                }
+                };
+                node(SurfaceKind::Binary(op, Box::new(a), Box::new(b)), first)
             }
             Token::Func(f, arity) => {
                 let n = arity.unwrap_or(0);
@@ -436,14 +689,24 @@ fn parse_expression(text: &str, field: &str, here: Span, diag: &mut Diagnostics)
                     break;
                 }
                 let args = stack.split_off(stack.len() - n);
+                if comparison_of(f).is_some() && n != 4 {
+                    diag.error(
+                        here,
+                        format!("{field}: `{f}(a, b, then, else)` takes 4 arguments, found {n}"),
+                    );
+                    return zero;
+                }
                 piecewise(f, &args, here).unwrap_or_else(|| {
-                    node(SurfaceKind::Call(
-                        Name {
-                            text: f.clone(),
-                            span: here,
-                        },
-                        args,
-                    ))
+                    node(
+                        SurfaceKind::Call(
+                            Name {
+                                text: f.clone(),
+                                span: here,
+                            },
+                            args,
+                        ),
+                        here,
+                    )
                 })
             }
             _ => break,
@@ -454,11 +717,94 @@ fn parse_expression(text: &str, field: &str, here: Span, diag: &mut Diagnostics)
         (Some(e), true) => e,
         _ => {
             diag.error(
-                here,
+                start,
                 format!("{field}: cannot read `{text}` as one expression"),
             );
             zero
         }
+    }
+}
+
+/// Where `meval` stopped reading `text` (a byte of it), and what to write there.
+fn parse_error(text: &str, error: &meval::Error) -> (usize, String) {
+    use meval::tokenizer::ParseError;
+    use meval::{Error, RPNError};
+    let end = text.len();
+    // The place of the infix token `k` of `text` (parentheses and commas counted).
+    let token_at = |k: usize| {
+        meval::tokenizer::tokenize(text)
+            .ok()
+            .and_then(|tokens| expression_places::token_offsets(text, &tokens))
+            .and_then(|offsets| offsets.get(k).copied())
+            .unwrap_or(0)
+    };
+    match error {
+        Error::ParseError(ParseError::UnexpectedToken(i)) => {
+            let i = *i
+                + (text.get(*i..).unwrap_or("").len()
+                    - text.get(*i..).unwrap_or("").trim_start().len());
+            let rest = text.get(i..).unwrap_or("");
+            let word = rest
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == '.'))
+                .unwrap_or(rest.len());
+            let token = match rest.chars().next() {
+                Some(c) if word == 0 => c.to_string(),
+                _ => rest[..word].to_owned(),
+            };
+            // What `meval` wanted there: a value after an operator, `(` or `,` (the text
+            // before is then incomplete), else an operator.
+            let wants_value = matches!(
+                meval::tokenizer::tokenize(&text[..i]),
+                Err(ParseError::MissingArgument)
+            );
+            // Characters outside the language were refused before `meval` read the text.
+            let message = match token.as_str() {
+                ")" => format!("`{text}` has a `)` that closes no `(`: remove it, or add the `(`"),
+                "," => format!(
+                    "`{text}` has a `,` outside a call: commas separate a function's \
+                     arguments, as in `atan2(y, x)`"
+                ),
+                _ if wants_value => format!(
+                    "`{text}` has `{token}` where a value belongs: write a number, a name, a \
+                     call such as `sin(x1)`, or `(` here"
+                ),
+                _ => format!(
+                    "`{text}` has `{token}` where an operator belongs: write `+ - * / ^` \
+                     between two values"
+                ),
+            };
+            (i, message)
+        }
+        Error::ParseError(ParseError::MissingRParen(n)) => {
+            let n = *n;
+            let which = if n == 1 { "a `(`" } else { "`(`s" };
+            (end, format!("`{text}` leaves {which} open: add {n} `)`"))
+        }
+        Error::ParseError(ParseError::MissingArgument) => (
+            end,
+            format!(
+                "`{text}` ends where a value belongs: finish it with a number, a name or a call"
+            ),
+        ),
+        Error::RPNError(RPNError::MismatchedRParen(k)) => (
+            token_at(*k),
+            format!("`{text}` has a `)` that closes no `(`: remove it, or add the `(`"),
+        ),
+        Error::RPNError(RPNError::MismatchedLParen(k)) => (
+            token_at(*k),
+            format!("`{text}` leaves this `(` open: add its `)`"),
+        ),
+        Error::RPNError(RPNError::UnexpectedComma(k)) => (
+            token_at(*k),
+            format!(
+                "`{text}` has a `,` outside a call: commas separate a function's arguments, \
+                 as in `atan2(y, x)`"
+            ),
+        ),
+        _ => (
+            0,
+            format!("cannot read `{text}` as one expression: {error}"),
+        ),
     }
 }
 
@@ -491,80 +837,163 @@ pub fn comparison_of(function: &str) -> Option<Comparison> {
     })
 }
 
-/// The `[generate]` table as `generate` items; everything of one item points at its value.
-/// A generator's value is `true`, a table of arguments, or a list of tables for several
-/// of its kind (`ekf = [{ .. }, { name = "GatedEkf", .. }]`).
+/// The `[generate]` table as `generate` items. A generator's value is `true`, a table of
+/// options, or a list of tables for several of its kind (`ekf = [{ .. }, { name =
+/// "GatedEkf", .. }]`). An item is named where its key is written, an option placed where
+/// its value is.
 fn generate_items(
-    table: Option<&InFileOrder<Spanned<toml::Value>>>,
+    table: Option<&InFileOrder<Spanned<Generator>>>,
+    source: &str,
     places: &Places,
     diag: &mut Diagnostics,
 ) -> Vec<GenerateDecl> {
     let mut items = Vec::new();
-    for (generator, value) in table.into_iter().flat_map(InFileOrder::iter) {
-        let here = places.of_field(value);
-        let item = |args| GenerateDecl {
-            name: Name {
-                text: generator.clone(),
-                span: here,
-            },
-            args,
+    for (key, value) in table.into_iter().flat_map(InFileOrder::iter) {
+        let generator = key.get_ref();
+        let name = Name {
+            text: generator.clone(),
+            span: places.of_field(key),
         };
-        match value.get_ref() {
-            toml::Value::Boolean(true) => items.push(item(Vec::new())),
-            toml::Value::Boolean(false) => {}
-            toml::Value::Table(args) => {
-                items.push(item(generate_args(generator, args, here, diag)))
-            }
-            toml::Value::Array(list) if list.iter().all(toml::Value::is_table) => {
-                for args in list.iter().filter_map(toml::Value::as_table) {
-                    items.push(item(generate_args(generator, args, here, diag)));
+        let entries: Vec<&Spanned<Generator>> = match value.get_ref() {
+            Generator::Several(list) => list.iter().collect(),
+            _ => vec![value],
+        };
+        for entry in entries {
+            let what = match entry.get_ref() {
+                Generator::Switch(true) => {
+                    items.push(GenerateDecl {
+                        name: name.clone(),
+                        args: Vec::new(),
+                    });
+                    continue;
                 }
-            }
-            _ => diag.error(
-                here,
+                Generator::Switch(false) => continue,
+                Generator::Options(options) => {
+                    items.push(GenerateDecl {
+                        name: name.clone(),
+                        args: generate_args(generator, options, source, places, diag),
+                    });
+                    continue;
+                }
+                Generator::Several(_) => "a list".to_owned(),
+                Generator::Other(what) => what.clone(),
+            };
+            diag.error(
+                places.inside(source, entry),
                 format!(
-                    "generate.{generator}: write `true`, a table of arguments, or a list of \
-                     tables for several"
+                    "generate.{generator}: {what} does not ask for a generator: write \
+                     `{generator} = true`, a table of its options (`{generator} = {{ .. }}` or \
+                     a `[generate.{generator}]` table), or a list of tables for several \
+                     (`{generator} = [{{ .. }}, {{ .. }}]`)"
                 ),
-            ),
+            );
         }
     }
     items
 }
 
-/// One generator's arguments: numbers, names (strings) and lists of names.
+/// One generator's options: numbers, names (strings) and lists of names. A value the model
+/// language has no reading of is an error under it that says what the option takes.
 fn generate_args(
     generator: &str,
-    args: &toml::Table,
-    here: Span,
+    options: &InFileOrder<Spanned<OptionValue>>,
+    source: &str,
+    places: &Places,
     diag: &mut Diagnostics,
 ) -> Vec<GenerateArg> {
-    let name = |text: &str| Name {
-        text: text.to_owned(),
-        span: here,
-    };
-    args.iter()
-        .filter_map(|(arg, v)| {
-            let value = match v {
-                toml::Value::Integer(i) => ArgValue::Number(*i as f64, here),
-                toml::Value::Float(f) => ArgValue::Number(*f, here),
-                toml::Value::String(s) => ArgValue::Name(name(s)),
-                toml::Value::Array(list) => ArgValue::Names(
-                    list.iter().filter_map(|n| n.as_str().map(name)).collect(),
-                    here,
-                ),
-                _ => {
-                    diag.error(
-                        here,
-                        format!("generate.{generator}.{arg}: unsupported value"),
-                    );
-                    return None;
+    let mut args = Vec::new();
+    'options: for (option, value) in options.iter() {
+        let option_name = option.get_ref();
+        let takes = toml_hints::option_takes(generator, option_name);
+        let here = places.inside(source, value);
+        let value = match value.get_ref() {
+            OptionValue::Number(v) => ArgValue::Number(*v, here),
+            OptionValue::Text(text) => ArgValue::Name(Name {
+                text: text.clone(),
+                span: here,
+            }),
+            OptionValue::List(list) => {
+                let mut names = Vec::new();
+                for item in list {
+                    match item.get_ref() {
+                        OptionValue::Text(text) => names.push(Name {
+                            text: text.clone(),
+                            span: places.inside(source, item),
+                        }),
+                        other => {
+                            diag.error(
+                                places.inside(source, item),
+                                format!(
+                                    "generate.{generator}.{option_name}: {} is not a name: a \
+                                     list holds names as strings, and `{option_name}` takes \
+                                     {takes}",
+                                    other.describe()
+                                ),
+                            );
+                            continue 'options;
+                        }
+                    }
                 }
-            };
-            Some(GenerateArg {
-                name: name(arg),
-                value,
-            })
-        })
-        .collect()
+                ArgValue::Names(names, here)
+            }
+            OptionValue::Other(what) => {
+                diag.error(
+                    here,
+                    format!(
+                        "generate.{generator}.{option_name}: {what} is not a value of \
+                         `{option_name}`, which takes {takes}"
+                    ),
+                );
+                continue;
+            }
+        };
+        args.push(GenerateArg {
+            name: Name {
+                text: option_name.clone(),
+                span: places.of_field(option),
+            },
+            value,
+        });
+    }
+    args
+}
+
+/// The `toml` crate's `message` about the file from `at` on, with what to write.
+fn with_fix(message: &str, at: &str) -> String {
+    let message = message.trim_end();
+    if let Some(field) = message
+        .strip_prefix("missing field `")
+        .and_then(|rest| rest.strip_suffix('`'))
+    {
+        let fix = match field {
+            "name" => "add `name = \"...\"`",
+            "scalar" => "add `scalar = \"f32\"` (or `scalar = [\"f32\", \"f64\"]`)",
+            "kind" => {
+                "add `kind = \"discrete\"`, or `kind = \"continuous\"` with `method = \"rk4\"` \
+                 and `dt = \"TS\"`"
+            }
+            "equations" => "add a `[dynamics.equations]` table with one `x1 = \"...\"` per state",
+            "value" => "add `value = ...`: a number, or an expression in a string",
+            _ => return message.to_owned(),
+        };
+        return format!("{message}: {fix}");
+    }
+    if message.starts_with("string values must be quoted") {
+        let written = at.lines().next().unwrap_or("");
+        let written = written.split('#').next().unwrap_or("").trim();
+        if !written.is_empty() {
+            return format!("string values must be quoted: write `{written:?}`");
+        }
+    }
+    if message == "duplicate key" {
+        let key: String = at
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_' || *c == '-')
+            .collect();
+        return format!("duplicate key `{key}`: a table gives each key once; remove or rename one");
+    }
+    if message.ends_with("expected a string") {
+        return format!("{message}: write it in quotes, `\"...\"`");
+    }
+    message.to_owned()
 }

@@ -28,12 +28,35 @@ fn model_file_errors_give_line_column_and_the_line() {
         "name = \"m\"\nscalar = \"f32\"\n\n[[state]]\nname = \"x\"\n\n[dynamics]\n\
          kind = \"discrete\"\n\n[dynamics.equations]\nx = \"x + y9\"\n",
     );
+    // The caret is under `y9` inside the string, not under its opening quote.
     assert!(
-        errors.starts_with("bad.toml:11:5: error: unknown symbol `y9`"),
+        errors.starts_with("bad.toml:11:10: error: unknown symbol `y9`"),
         "{errors}"
     );
     assert!(
-        errors.contains("11 | x = \"x + y9\"\n   |     ^"),
+        errors.contains("11 | x = \"x + y9\"\n   |          ^"),
+        "{errors}"
+    );
+}
+
+#[test]
+fn model_file_option_errors_point_at_the_value_and_say_what_it_takes() {
+    let errors = errors_for(
+        "toml-option",
+        "bad.toml",
+        "name = \"m\"\nscalar = \"f32\"\n[[state]]\nname = \"x\"\n[[output]]\nname = \"y\"\n\
+         value = \"x\"\n[dynamics]\nkind = \"discrete\"\n[dynamics.equations]\nx = \"x\"\n\
+         [generate.ekf]\ngate = true\n",
+    );
+    assert!(
+        errors.starts_with(
+            "bad.toml:13:8: error: generate.ekf.gate: `true` is not a value of `gate`, which \
+             takes a positive number"
+        ),
+        "{errors}"
+    );
+    assert!(
+        errors.contains("13 | gate = true\n   |        ^"),
         "{errors}"
     );
 }

@@ -55,7 +55,7 @@ fn model_file_mistakes_are_all_reported_with_their_field() {
         "{errors}"
     );
     assert!(
-        errors.contains("dynamics.equations.x2: cannot parse"),
+        errors.contains("dynamics.equations.x2: `x2 * (` ends where a value belongs"),
         "{errors}"
     );
 }
@@ -175,4 +175,307 @@ fn model_file_numbers_must_be_finite_in_the_scalar_type() {
     // TOML's own `nan` as an equation.
     let equation = small_model("m", "", "x").replace("x = \"x\"", "x = nan");
     assert!(errors_of(&equation).contains("finite"), "{equation}");
+}
+
+/// A small valid model file; each case below changes one thing in it. Its lines:
+/// 1 `name`, 2 `scalar`, 3-5 the constant `TS`, 6-9 the states, 10-11 the input, 12-14 the
+/// output, 15-16 `[dynamics]` and its `kind`, 17-19 the equations.
+const SMALL: &str = r#"name = "m"
+scalar = "f32"
+[[const]]
+name = "TS"
+value = 0.01
+[[state]]
+name = "x1"
+[[state]]
+name = "x2"
+[[input]]
+name = "u"
+[[output]]
+name = "y"
+value = "x1"
+[dynamics]
+kind = "discrete"
+[dynamics.equations]
+x1 = "x1 + TS * x2"
+x2 = "x2 + TS * u"
+"#;
+
+/// `SMALL` with `from` (written once in it) replaced by `to`.
+fn small_with(from: &str, to: &str) -> String {
+    assert_eq!(SMALL.matches(from).count(), 1, "{from}");
+    SMALL.replace(from, to)
+}
+
+/// Each error of the model file as `line:column: message`, the column counted in
+/// characters from 1: where `model-codegen` prints it and puts the caret.
+fn placed_errors_of(toml: &str) -> Vec<String> {
+    match model_codegen::expand_model_file(toml) {
+        Ok(_) => panic!("expected errors for:\n{toml}"),
+        Err(errors) => errors
+            .into_iter()
+            .map(|e| {
+                let at = e.span().start();
+                format!("{}:{}: {e}", at.line, at.column + 1)
+            })
+            .collect(),
+    }
+}
+
+/// Asserts that `toml` gives the error `expected` (`line:column: message`), and that no
+/// error of it is written in the macro's syntax.
+fn assert_error(toml: &str, expected: &str) {
+    let errors = placed_errors_of(toml);
+    assert!(
+        errors.iter().any(|e| e == expected),
+        "expected\n{expected}\namong\n{}",
+        errors.join("\n")
+    );
+    for error in &errors {
+        for macro_syntax in [
+            "dynamics discrete",
+            "dynamics continuous(",
+            "der(",
+            "...;",
+            "(..)",
+            "`state ",
+            "`output ",
+            "scalar f32;",
+            "untagged enum",
+        ] {
+            assert!(
+                !error.contains(macro_syntax),
+                "{error}: `{macro_syntax}` is not how a model file says it"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_generator_option_of_the_wrong_kind_says_what_it_takes_under_the_value() {
+    let takes = "`true` is not a value of `gate`, which takes a positive number (a chi-square \
+                 quantile), `gate = 10.83`, or `gate = \"off\"`";
+    let table = format!("{SMALL}[generate.ekf]\ngate = true\n");
+    assert_error(&table, &format!("21:8: generate.ekf.gate: {takes}"));
+    let inline =
+        format!("{SMALL}[generate]\nekf = {{ process_noise = \"diagonal\", gate = true }}\n");
+    assert_error(&inline, &format!("21:44: generate.ekf.gate: {takes}"));
+    // A table where a number belongs, a number where a name belongs in a list.
+    let horizon = format!(
+        "{SMALL}[generate.lqr]\nhorizon = {{ steps = 50 }}\nstates = [\"x1\", 2]\ninput = \"u\"\n"
+    );
+    assert_error(
+        &horizon,
+        "21:11: generate.lqr.horizon: a table is not a value of `horizon`, which takes a whole \
+         number, `horizon = 50`",
+    );
+    assert_error(
+        &horizon,
+        "22:17: generate.lqr.states: `2` is not a name: a list holds names as strings, and \
+         `states` takes a state's name as a string or a list of them, `states = [\"x1\", \"x2\"]`",
+    );
+    // The checks' own explanations of an option's value, in TOML.
+    let name = format!("{SMALL}[generate]\nekf = {{ name = \"gated\" }}\n");
+    assert_error(
+        &name,
+        "21:17: `name` is the generated type's name, in UpperCamelCase: `name = \"GatedEkf\"`",
+    );
+    let noise = format!("{SMALL}[generate]\nekf = {{ process_noise = \"diag\" }}\n");
+    assert_error(
+        &noise,
+        "21:26: `process_noise` is `\"diagonal\"` (only the variances) or `\"full\"` (a \
+         symmetric matrix)",
+    );
+}
+
+#[test]
+fn a_generator_entry_that_is_no_generator_says_how_to_ask_for_one() {
+    assert_error(
+        &format!("{SMALL}[generate]\nekf = \"yes\"\n"),
+        "21:8: generate.ekf: `\"yes\"` does not ask for a generator: write `ekf = true`, a table \
+         of its options (`ekf = { .. }` or a `[generate.ekf]` table), or a list of tables for \
+         several (`ekf = [{ .. }, { .. }]`)",
+    );
+    assert_error(
+        &format!("{SMALL}[generate]\nekff = true\n"),
+        "21:1: unknown generator `ekff`: use `ekf`, `dkf`, `polynomial_kf`, \
+         `switched_observer`, `lqr`, `mpc`, `hybrid_ekf` or `continuous_ekf` (`ekf = true`, or \
+         a table of its options)",
+    );
+    assert_error(
+        &format!("{SMALL}[generate]\nlqr = {{ horizon = 50 }}\n"),
+        "21:1: `lqr` needs the states it regulates and the inputs it computes: `lqr = { horizon \
+         = 50, states = [\"x1\", \"x2\"], input = \"u\" }`",
+    );
+    assert_error(
+        &format!("{SMALL}[generate]\npolynomial_kf = {{ order = 1 }}\n"),
+        "21:1: `polynomial_kf` needs `dt`: write `polynomial_kf = { order = 3, dt = \"TS\", \
+         fading = 1e-9, noise_variance = 1e-4, reinit_every = 100, window = 20 }`",
+    );
+    assert_error(
+        &format!("{SMALL}[generate]\nhybrid_ekf = true\n"),
+        "21:1: `hybrid_ekf` integrates the continuous dynamics between samples: declare them \
+         continuous: `kind = \"continuous\"`, `method = \"euler\"` and `dt = \"TS\"` in \
+         `[dynamics]`",
+    );
+    let no_output = small_with("[[output]]\nname = \"y\"\nvalue = \"x1\"\n", "");
+    assert_error(
+        &format!("{no_output}[generate]\nekf = true\n"),
+        "18:1: `ekf` corrects its estimate with measurements: declare them: `[[output]]` with \
+         `name = \"y\"` and `value = \"x1\"`",
+    );
+}
+
+#[test]
+fn continuous_dynamics_without_a_method_or_a_step_are_told_the_toml() {
+    assert_error(
+        &small_with("kind = \"discrete\"", "kind = \"continuous\""),
+        "16:8: continuous dynamics need an integration method: add `method = \"euler\"` or \
+         `method = \"rk4\"` to `[dynamics]`, with the step, `dt = \"TS\"` (a number or a \
+         constant's name), and optionally `substeps = 2`",
+    );
+    assert_error(
+        &small_with(
+            "kind = \"discrete\"",
+            "kind = \"continuous\"\nmethod = \"rk4\"",
+        ),
+        "16:8: the discretisation needs a step: add `dt = \"TS\"` (a constant's name) or \
+         `dt = 0.01` to `[dynamics]`",
+    );
+    assert_error(
+        &small_with(
+            "kind = \"discrete\"",
+            "kind = \"continuous\"\nmethod = \"rk4\"\ndt = \"TS\"\nsubsteps = -1",
+        ),
+        "19:12: model file: invalid value: integer `-1`, expected a whole number of sub-steps \
+         per sample, `substeps = 2`",
+    );
+    assert_error(
+        &small_with("kind = \"discrete\"\n", ""),
+        "15:1: model file: missing field `kind`: add `kind = \"discrete\"`, or `kind = \
+         \"continuous\"` with `method = \"rk4\"` and `dt = \"TS\"`",
+    );
+    let no_dynamics = SMALL.split("[dynamics]").next().unwrap_or_default();
+    assert_error(
+        no_dynamics,
+        "1:9: the model has no dynamics: add a `[dynamics]` table with `kind = \"discrete\"` (or \
+         `kind = \"continuous\"`, `method = \"rk4\"` and `dt = \"TS\"`), and a \
+         `[dynamics.equations]` table with one `x1 = \"...\"` per state",
+    );
+}
+
+#[test]
+fn an_error_inside_an_expression_points_at_its_token() {
+    assert_error(
+        &small_with("x1 = \"x1 + TS * x2\"", "x1 = \"x1 + * x2\""),
+        "18:12: dynamics.equations.x1: `x1 + * x2` has `*` where a value belongs: write a \
+         number, a name, a call such as `sin(x1)`, or `(` here",
+    );
+    let unknown = "unknown symbol `foo` in the dynamics of `x1`: declare it as a `[[state]]`, \
+                   `[[param]]`, `[[input]]` or `[[const]]` with `name = \"foo\"`";
+    assert_error(
+        &small_with("x1 = \"x1 + TS * x2\"", "x1 = \"x1 + foo\""),
+        &format!("18:12: {unknown}"),
+    );
+    // Escapes, literal and multi-line strings: the caret still finds the token.
+    assert_error(
+        &small_with("x1 = \"x1 + TS * x2\"", "x1 = \"x1\\t+ foo\""),
+        &format!("18:13: {unknown}"),
+    );
+    assert_error(
+        &small_with("x1 = \"x1 + TS * x2\"", "x1 = 'x1 + foo'"),
+        &format!("18:12: {unknown}"),
+    );
+    assert_error(
+        &small_with("x1 = \"x1 + TS * x2\"", "x1 = \"\"\"\nx1 +\n    foo\"\"\""),
+        &format!("20:5: {unknown}"),
+    );
+    let x2 = |expression: &str| small_with("x2 = \"x2 + TS * u\"", &format!("x2 = {expression:?}"));
+    assert_error(
+        &x2("x2 x1"),
+        "19:10: dynamics.equations.x2: `x2 x1` has `x1` where an operator belongs: write `+ - * \
+         / ^` between two values",
+    );
+    assert_error(
+        &x2("(x2 + 1))"),
+        "19:15: dynamics.equations.x2: `(x2 + 1))` has a `)` that closes no `(`: remove it, or \
+         add the `(`",
+    );
+    assert_error(
+        &x2("x2 * (x1 + 1"),
+        "19:19: dynamics.equations.x2: `x2 * (x1 + 1` leaves a `(` open: add 1 `)`",
+    );
+    assert_error(
+        &x2("x2 + (x1 > 0)"),
+        "19:16: dynamics.equations.x2: `>` has no meaning in an expression: use numbers, names, \
+         `+ - * / ^`, parentheses and function calls; a comparison is written as a piecewise \
+         function, `if_gt(a, b, then, else)` (also `if_ge`, `if_lt`, `if_le`)",
+    );
+    assert_error(
+        &x2("if_gt(x1, 0, x2)"),
+        "19:7: dynamics.equations.x2: `if_gt(a, b, then, else)` takes 4 arguments, found 3",
+    );
+    assert_error(
+        &x2("x2 + x1^2.5"),
+        "19:15: the exponent of `^` (or `powi`) must be a whole number between -64 and 64, such \
+         as `x^2`",
+    );
+    assert_error(
+        &x2("x2 + foo(x1)"),
+        "19:12: unsupported function `foo`: use one of sin, cos, tan, exp, ln, sqrt, abs, tanh, \
+         powi, atan2, min, max, clamp, if_gt, if_ge, if_lt, if_le (`if_gt(a, b, then, else)`), \
+         or `^` for a whole power (`x^2`)",
+    );
+}
+
+#[test]
+fn values_toml_reads_but_a_model_does_not_say_what_to_write() {
+    assert_error(
+        &small_with("value = 0.01", "value = true"),
+        "5:9: model file: invalid type: boolean `true`, expected a number, such as `0.015`, or \
+         an expression in a string, such as `\"2 * TS\"`",
+    );
+    assert_error(
+        &small_with("scalar = \"f32\"", "scalar = 32"),
+        "2:10: model file: invalid type: integer `32`, expected a scalar type as a string, \
+         `scalar = \"f32\"`, or a list of them, `scalar = [\"f32\", \"f64\"]`",
+    );
+    assert_error(
+        &small_with(
+            "x2 = \"x2 + TS * u\"",
+            "x2 = x2 + TS * u  # forgot the quotes",
+        ),
+        "19:6: model file: string values must be quoted: write `\"x2 + TS * u\"`",
+    );
+    assert_error(
+        &format!("{SMALL}x2 = \"x1\"\n"),
+        "20:1: model file: duplicate key `x2`: a table gives each key once; remove or rename one",
+    );
+    assert_error(
+        &small_with("scalar = \"f32\"\n", ""),
+        "1:1: model file: missing field `scalar`: add `scalar = \"f32\"` (or `scalar = [\"f32\", \
+         \"f64\"]`)",
+    );
+}
+
+#[test]
+fn declarations_a_model_file_lacks_are_told_in_toml() {
+    assert_error(
+        &format!("{SMALL}x3 = \"x1\"\n"),
+        "20:1: unknown state `x3`: declare it with `[[state]]` and `name = \"x3\"`",
+    );
+    assert_error(
+        &small_with("x2 = \"x2 + TS * u\"\n", ""),
+        "9:9: state `x2` has no dynamics: add `x2 = \"...\"` under `[dynamics.equations]`",
+    );
+    assert_error(
+        &small_with("[[state]]\nname = \"x1\"\n[[state]]\nname = \"x2\"\n", ""),
+        "1:9: the model declares no state: add a `[[state]]` table with `name = \"x1\"` for each \
+         state",
+    );
+    assert_error(
+        &small_with("scalar = \"f32\"", "scalar = []"),
+        "1:9: the model names no scalar type: add `scalar = \"f32\"` (or `scalar = [\"f32\", \
+         \"f64\"]` to also generate an f64 version for host checks)",
+    );
 }

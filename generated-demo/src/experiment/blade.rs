@@ -1,4 +1,4 @@
-//! The blade of seed 001 (Takacs, Poloni, Rohal-Ilkiv, "Adaptive predictive control of
+//! The blade of Takács, Polóni and Rohal-Ilkiv ("Adaptive predictive control of
 //! transient vibrations of cantilevers with changing weight", sect. 4) on a simulated
 //! mass-spring-damper with the generated hybrid EKFs (500 Euler sub-steps per 10 ms
 //! sample, as the paper's `dt = T/500`):
@@ -132,9 +132,14 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
     let column = |name: &str| trace.column(name).unwrap_or(&[]).to_vec();
     let median = column("m median");
 
-    println!("\nBlade of seed 001, identification mode (eq. 19, hybrid EKF, 500 Euler sub-steps");
-    println!("per 10 ms sample; white input sigma {INPUT_SIGMA} V, laser noise {NOISE_SIGMA} m),");
-    println!("means over 15-20 s:\n");
+    println!(
+        "\nBlade of Takács, Polóni and Rohal-Ilkiv, \"Adaptive predictive control of transient"
+    );
+    println!(
+        "vibrations of cantilevers with changing weight\", identification mode (eq. 19, hybrid"
+    );
+    println!("EKF, 500 Euler sub-steps per 10 ms sample; white input sigma {INPUT_SIGMA} V, laser");
+    println!("noise {NOISE_SIGMA} m), means over 15-20 s:\n");
     println!(
         "{:<10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}",
         "", "k", "b", "c", "m", "k/m", "b/m", "c/m"

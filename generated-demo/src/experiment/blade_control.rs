@@ -1,4 +1,4 @@
-//! Seed 001's controller comparison (sect. 4, Figs. 3-4) on the simulated blade over 80 s:
+//! Takács et al.'s controller comparison (sect. 4, Figs. 3-4) on the simulated blade over 80 s:
 //! 0-20 s identification (white-noise input, no hits), then control of the nominal blade
 //! (20-40 s), with 54 g added (40-60 s) and nominal again (60-80 s), a stinger hit every
 //! 4 s from 22 s. Four runs on the same noise and hits: the adaptive EKF-MPC, the nominal
@@ -174,9 +174,11 @@ fn describe(designs: &Designs) -> String {
     let [k1, k2] = designs.lq_gain;
     let p = designs.ppf;
     format!(
-        "\nBlade of seed 001, control (sect. 4): identification 0-20 s, then hits every 4 s,\n\
-         +54 g over 40-60 s; MPC n = {}, Q = C'C, R = 1e-10, |u| <= {U_MAX} V at the 50-sample\n\
-         median mass; nominal LQ K = [{k1:.4e}, {k2:.4e}] (m = 0.20 kg), clipped;\n\
+        "\nBlade of Takács, Polóni and Rohal-Ilkiv, \"Adaptive predictive control of transient\n\
+         vibrations of cantilevers with changing weight\", control (sect. 4): identification\n\
+         0-20 s, then hits every 4 s, +54 g over 40-60 s; MPC n = {}, Q = C'C, R = 1e-10,\n\
+         |u| <= {U_MAX} V at the 50-sample median mass; nominal LQ K = [{k1:.4e}, {k2:.4e}]\n\
+         (m = 0.20 kg), clipped;\n\
          PPF g = {:.4e} V/m, w_p = {:.2} rad/s, xi_p = {:.4} (optimal for alpha = 1.7e8,\n\
          delta = 1e-10, a unit velocity impact), clipped.\n",
         Mpc::HORIZON,

@@ -1,4 +1,4 @@
-//! The simulated blade of seed 001 (sect. 4): eq. (1) integrated with RK4, the 54 g
+//! The simulated blade of Takács et al. (sect. 4): eq. (1) integrated with RK4, the 54 g
 //! weight added between 40 and 60 s, a stinger hit every 4 s from 22 s, laser noise, and
 //! the paper's 50-sample running median of the weight estimate. Shared by the filter
 //! experiment (`blade`) and the controller comparison (`blade_control`).

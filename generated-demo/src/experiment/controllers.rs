@@ -1,4 +1,4 @@
-//! The four controllers of seed 001's comparison (sect. 4) behind one interface: the
+//! The four controllers of Takács et al.'s comparison (sect. 4) behind one interface: the
 //! adaptive EKF-MPC (the generated `Mpc` at the median-filtered mass estimate), the
 //! nominal LQ clipped at the actuator's limits, positive position feedback, open loop.
 //! Each sees, once a sample, the control filter's estimate and the measured position.

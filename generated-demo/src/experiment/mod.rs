@@ -1,5 +1,5 @@
-//! Host-side harness of the cantilever experiment (seed 000, sect. 5): a simulated beam,
-//! the PRBS excitation, read-outs of physical parameters from estimates, metrics and the
+//! Host-side harness of the double Kalman filter paper's cantilever experiment (sect. 5):
+//! a simulated beam, the PRBS excitation, read-outs of physical parameters from estimates, metrics and the
 //! report (table, CSV, SVG). The filters and the LQR live elsewhere; this module only
 //! feeds them data and reports what they estimated.
 //!
@@ -10,6 +10,7 @@ pub mod blade_control;
 pub mod blade_plant;
 pub mod controllers;
 pub mod excitation;
+pub mod hub_polynomial;
 pub mod metrics;
 pub mod noise;
 pub mod outliers;
@@ -17,6 +18,7 @@ pub mod plant;
 pub mod ppf;
 pub mod readout;
 pub mod report;
+pub mod switched_beam;
 pub mod trms;
 pub mod tuning;
 

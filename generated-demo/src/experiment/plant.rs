@@ -9,7 +9,7 @@
 //!   Same poles and DC gain, different zero: the DKF's window relation then holds only
 //!   while u is constant across the window (a bias at every input switch).
 //!
-//! Scenario (seed 000, sect. 5.1): "The experiment starts with an additional weight on the
+//! Scenario (the double Kalman filter paper, sect. 5.1): "The experiment starts with an additional weight on the
 //! tip mass and in the middle of the experiment it was detached". So the beam starts with
 //! the 400 g tip mass (wn = 20 rad/s) and the mass change *removes* it (wn -> 50 rad/s,
 //! the free beam). Removing mass m keeps the stiffness k and the actuator's force gain b:

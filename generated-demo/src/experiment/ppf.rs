@@ -1,4 +1,4 @@
-//! Positive position feedback for the blade (seed 001, sect. 4.1, after Friswell and
+//! Positive position feedback for the blade (Takács et al., sect. 4.1, after Friswell and
 //! Inman, "The relationship between positive position feedback and output feedback
 //! controllers", 1999), tuned optimally on the host and run as a sampled compensator.
 //!

@@ -1,4 +1,4 @@
-//! The twin-rotor helicopter of seed 004 (Kulkarni and Purwar, "Nonlinear experimental
+//! The twin-rotor helicopter of Kulkarni and Purwar ("Nonlinear experimental
 //! estimation and verification of a MIMO system through EKF", sect. 6) on a simulation of
 //! its own model (eq. 2, `generated-demo/models/helicopter.rs`) with the generated
 //! continuous-time EKF: the standard filter (eq. 5, `alpha = 0`) against the one with a
@@ -97,12 +97,11 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
     let mut surged = Trace::new();
     run_once(alpha, true, &mut surged, "surge")?;
 
+    println!("\nHelicopter (TRMS) of Kulkarni and Purwar, \"Nonlinear experimental estimation and");
+    println!("verification of a MIMO system through EKF\": continuous-time EKF (eq. 5, one RK4");
+    println!("step per 1 ms), multi-sine input, estimate from x0 = [0.05 0 -0.05 0 0 0], encoder");
     println!(
-        "\nHelicopter (TRMS) of seed 004: continuous-time EKF (eq. 5, one RK4 step per 1 ms),"
-    );
-    println!("multi-sine input, estimate from x0 = [0.05 0 -0.05 0 0 0], encoder noise sigma");
-    println!(
-        "[{} {}] rad, the paper's Q, R, P0; RMS estimation errors (rad, rad/s):\n",
+        "noise sigma [{} {}] rad, the paper's Q, R, P0; RMS estimation errors (rad, rad/s):\n",
         NOISE[0], NOISE[1]
     );
     println!(

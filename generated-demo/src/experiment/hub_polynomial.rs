@@ -1,4 +1,4 @@
-//! Seed 002 (Shults, Brubaker and Lee, "A fast algorithm for control and estimation using a
+//! Shults, Brubaker and Lee ("A fast algorithm for control and estimation using a
 //! polynomial state-space structure"): the generated polynomial Kalman filter on a
 //! simulated flexible-arm hub signal, for several fading factors and re-initialisation
 //! periods, and the paper's design rule: the smallest fading factor whose deterministic
@@ -12,8 +12,8 @@
 //! configurations are generated here, each its own `model!`, since the design is fixed
 //! when the code is generated.
 
-use crate::experiment::noise::GaussianNoise;
-use crate::experiment::report::{self, Line, Trace};
+use super::noise::GaussianNoise;
+use super::report::{self, Line, Trace};
 use std::error::Error;
 use std::path::Path;
 
@@ -23,7 +23,7 @@ mod variants {
     macro_rules! hub_filter_model {
         ($name:ident, fading = $fading:tt, reinit_every = $period:tt) => {
             codegen_macros::model! {
-                /// A hub filter of the seed 002 experiment.
+                /// A hub filter of the polynomial Kalman filter experiment.
                 pub mod $name {
                     scalar f64;
                     state z0, z1, z2, z3;
@@ -215,12 +215,19 @@ fn evaluate(
     }
 }
 
-/// Runs the seed 002 experiment: prints the table and the design rule, writes CSV and SVG.
+/// Runs the polynomial Kalman filter experiment: prints the table and the design rule,
+/// writes CSV and SVG.
 pub fn experiment(out: &Path) -> Result<(), Box<dyn Error>> {
-    println!("\nPolynomial Kalman filter, flexible-arm hub (seed 002): order 3, 100 samples/s,");
     println!(
-        "noise variance 1e-4, window {WINDOW} samples; synthetic hub angle [rad] over {RUN} s."
+        "\nPolynomial Kalman filter of Shults, Brubaker and Lee, \"A fast algorithm for control"
     );
+    println!(
+        "and estimation using a polynomial state-space structure\", flexible-arm hub: order 3,"
+    );
+    println!(
+        "100 samples/s, noise variance 1e-4, window {WINDOW} samples; synthetic hub angle [rad]"
+    );
+    println!("over {RUN} s.");
     println!(
         "{:<22} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9}",
         "filter", "det z", "det dz", "rand z", "rand dz", "rms z", "rms dz", "rms d2z", "rms d3z"
@@ -264,7 +271,7 @@ pub fn experiment(out: &Path) -> Result<(), Box<dyn Error>> {
     let lines: Vec<Line> = names.iter().filter_map(|n| trace.line(n)).collect();
     report::plot_lines(
         &out.join("hub_velocity.svg"),
-        "Seed 002: hub velocity, polynomial Kalman filter (f = 1e-9, re-initialised every 1 s)",
+        "Shults, Brubaker and Lee: hub velocity, polynomial KF (f = 1e-9, re-initialised every 1 s)",
         "dz/dt [rad/s]",
         &lines,
         None,

@@ -1,6 +1,7 @@
-//! Seed 003 ("Observer design for a piecewise linear beam system"): the generated switched
-//! observers on a simulated piecewise-linear beam, and the two-regime example of its
-//! Fig. 3.1.
+//! The piecewise linear beam report (observers for a beam with a one-sided spring: linear
+//! error dynamics, a switched Kalman filter; our copy has lost its title page): the
+//! generated switched observers on a simulated piecewise-linear beam, and the two-regime
+//! example of its Fig. 3.1.
 //!
 //! The true beam is the continuous 3-DOF model (eq. 2.1-2.2, the reconstructed matrices of
 //! `models/piecewise_beam.rs`) integrated by RK4 with 20 steps per 0.5 ms sample (the
@@ -8,10 +9,10 @@
 //! observers see LVDT displacements with white noise of variance `R_LVDT` and the force
 //! sampled and held. They are switched on after a 2 s run-in from a zero estimate (a wrong
 //! initial state, as in sect. 5.2), and the errors are measured over the last two response
-//! periods, as the seed's Tables 5.1-6.2: `SSE = 1/T int e^2 dt` and `|e|max`.
+//! periods, as the report's Tables 5.1-6.2: `SSE = 1/T int e^2 dt` and `|e|max`.
 
-use crate::experiment::noise::GaussianNoise;
-use crate::experiment::report::{self, Line, Trace};
+use super::noise::GaussianNoise;
+use super::report::{self, Line, Trace};
 use generated_demo::piecewise_beam::in_f64 as beam;
 use std::error::Error;
 use std::path::Path;
@@ -148,15 +149,18 @@ fn run(freq: f64, response_periods: f64) -> (Trace, Vec<Errors>, Amplitudes) {
     (trace, errors, amplitudes)
 }
 
-/// Runs the seed 003 experiment: prints the tables and writes CSV and SVG into `out`.
+/// Runs the piecewise linear beam experiment: prints the tables, writes CSV and SVG into `out`.
 pub fn experiment(out: &Path) -> Result<(), Box<dyn Error>> {
-    println!("\nSwitched observers, piecewise-linear beam (seed 003): true beam by RK4, LVDT");
+    println!("\nSwitched observers, the piecewise linear beam report (linear error dynamics,");
+    println!("switched Kalman filter): true beam by RK4, LVDT");
     println!(
         "noise sigma {:.0e} m, sample time {} s; observers start from a zero estimate after a {RUN_IN} s run-in.",
         beam::R_LVDT.sqrt(),
         beam::TS
     );
-    println!("Errors over the last two response periods of a {RUN} s run (seed Tables 5.1-6.2):");
+    println!(
+        "Errors over the last two response periods of a {RUN} s run (the report's Tables 5.1-6.2):"
+    );
     for (freq, periods, file) in [(20.0, 1.0, "beam_20hz.csv"), (35.0, 2.0, "beam_35hz.csv")] {
         let (trace, errors, amplitudes) = run(freq, periods);
         println!(
@@ -197,7 +201,7 @@ pub fn experiment(out: &Path) -> Result<(), Box<dyn Error>> {
             let lines: Vec<Line> = names.iter().filter_map(|n| trace.line(n)).collect();
             report::plot_lines(
                 &out.join("beam_velocity.svg"),
-                "Seed 003: velocity of the middle of the beam at 35 Hz, observers from a zero estimate",
+                "Piecewise linear beam: velocity of the middle at 35 Hz, observers from a zero estimate",
                 "v_mid [m/s]",
                 &lines,
                 None,
@@ -213,7 +217,7 @@ pub fn experiment(out: &Path) -> Result<(), Box<dyn Error>> {
 /// observer with linear error dynamics keeps it in one of them (`A1`) whatever the
 /// switching. Integrated by RK4 with a 1 ms step.
 fn switching_example(out: &Path) -> Result<(), Box<dyn Error>> {
-    // The seed's matrices (OCR-damaged; this reading is the one where both are stable and
+    // The report's matrices (OCR-damaged; this reading is the one where both are stable and
     // their switching diverges, as the figure shows).
     const A1: [[f64; 2]; 2] = [[-0.4, 10.0], [-10.0, -1.0]];
     const A2: [[f64; 2]; 2] = [[-1.2, 1.0], [-10.0, -1.0]];
@@ -280,7 +284,7 @@ fn switching_example(out: &Path) -> Result<(), Box<dyn Error>> {
     let lines: Vec<Line> = names.iter().filter_map(|n| trace.line(n)).collect();
     report::plot_lines(
         &out.join("switching_example.svg"),
-        "Seed 003, Fig. 3.1: switching between two stable error dynamics diverges",
+        "Piecewise linear beam report, Fig. 3.1: switching two stable error dynamics diverges",
         "log10 |e|",
         &lines,
         None,
