@@ -1,9 +1,9 @@
-//! The continuous filters' methods. The hybrid (continuous-discrete) EKF of seed 001
+//! The continuous filters' methods. The hybrid (continuous-discrete) EKF of Takacs, Poloni and Rohal-Ilkiv
 //! ("Adaptive predictive control of transient vibrations of cantilevers with changing
 //! weight", sect. 3.2): between samples the estimate follows `x' = f(x, u)` and its
 //! covariance `P' = F P + P F' + Q` (eq. 21), integrated together with the model's rule and
 //! sub-steps (a loop when there are several); at each sample the discrete Joseph-form
-//! update (eqs. 24-26), shared with the EKF. The continuous-time EKF of seed 004 (eq. 5):
+//! update (eqs. 24-26), shared with the EKF. The continuous-time EKF of Kulkarni and Purwar (eq. 5):
 //! the same integration with the measurement terms `K (y - h)` and `- P H' R^-1 H P`.
 
 use crate::emit::code::{commit_or_non_finite, guard_pivots, pivot_names, var_idents, INNOVATION};
@@ -333,7 +333,7 @@ impl MethodNodes {
         }
     }
 
-    /// The Joseph-form update at the sample (seed 001 eqs. 24-26) with every one of the
+    /// The Joseph-form update at the sample (Takacs et al., eqs. 24-26) with every one of the
     /// `m` outputs: the shared Kalman stage, with `h` and its Jacobian at the estimate.
     fn correct(&mut self, m: usize) {
         let r = symmetric_from_packed(&self.vars.r, m);
@@ -523,7 +523,7 @@ fn arguments(
 /// The pivot names of the measurement noise covariance's `L D L'` inverse.
 const MEASUREMENT: (&str, &str) = ("measurement_variance", "inv_r");
 
-/// The measurement terms of the continuous-time EKF (seed 004 eq. 5): `R^-1` through
+/// The measurement terms of the continuous-time EKF (Kulkarni and Purwar, eq. 5): `R^-1` through
 /// guarded pivots, and `h`, `H` as expressions over the measurement time and state.
 struct ContinuousTerms {
     r_inv: Matrix,

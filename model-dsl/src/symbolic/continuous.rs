@@ -1,6 +1,6 @@
 //! Stages of the continuous filters on graph nodes: one explicit integration sub-step of an
-//! ODE system, the covariance rate `F P + P F' + Q` (hybrid EKF, seed 001 eq. 21) and the
-//! Riccati rate of the continuous-time EKF (seed 004 eq. 5, with Reif et al.'s prescribed
+//! ODE system, the covariance rate `F P + P F' + Q` (hybrid EKF, Takacs et al., eq. 21) and the
+//! Riccati rate of the continuous-time EKF (Kulkarni and Purwar, eq. 5, with Reif et al.'s prescribed
 //! degree of stability, eq. 26). Symmetric rates are built on the upper triangle.
 
 // Index loops mirror the formulas' subscripts (P_ij, K_il) more plainly than iterators.
@@ -68,7 +68,7 @@ pub fn integrate_substep(
 }
 
 /// `F P + P F' + Q + 2 alpha P` (the last term only with `two_alpha`), upper triangle
-/// computed once: seed 001 eq. (21), and with `alpha` the Riccati equation of Reif et al.,
+/// computed once: Takacs et al., eq. (21), and with `alpha` the Riccati equation of Reif et al.,
 /// where `(F + alpha I) P + P (F + alpha I)' = F P + P F' + 2 alpha P`.
 pub fn covariance_rate(
     g: &mut Graph,
@@ -142,7 +142,7 @@ pub fn euler_covariance_step(
     out
 }
 
-/// The measurement terms of the continuous-time EKF (seed 004 eq. 5): the gain
+/// The measurement terms of the continuous-time EKF (Kulkarni and Purwar, eq. 5): the gain
 /// `K = P H' R^-1` and `rate - K (P H')'`, i.e. `rate - P H' R^-1 H P`, upper triangle.
 pub fn riccati_measurement_terms(
     g: &mut Graph,

@@ -134,7 +134,7 @@ pub struct Correction {
     pub update: Update,
 }
 
-/// The EKF's correction (Alg. 1; seed 001 eqs. 24-26) of the estimate `x`, covariance `p`
+/// The EKF's correction (Alg. 1; Takacs et al., eqs. 24-26) of the estimate `x`, covariance `p`
 /// with the measurement `y` of the model's outputs `outputs` and their noise covariance
 /// `r`: `h` and its Jacobian `C = dh/dx` evaluated at `x`, the innovation `y - h(x)`, and
 /// the Joseph-form [`update`] (`reciprocal` declares the pivots' reciprocals).
@@ -159,7 +159,7 @@ pub fn ekf_correct(
     Correction { residual, update }
 }
 
-/// The continuous-time filter's state rate `rate + K (y - h)` (seed 004 eq. 5, the
+/// The continuous-time filter's state rate `rate + K (y - h)` (Kulkarni and Purwar, eq. 5, the
 /// Kalman-Bucy filter's innovation feedback), each row summed term by term.
 pub fn innovation_feedback(
     g: &mut Graph,

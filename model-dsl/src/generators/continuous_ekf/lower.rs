@@ -1,4 +1,4 @@
-//! The continuous-time EKF of seed 004 (Kulkarni and Purwar, "Nonlinear experimental
+//! The continuous-time EKF of Kulkarni and Purwar (Kulkarni and Purwar, "Nonlinear experimental
 //! estimation and verification of a MIMO system through EKF", eq. 5): the estimate follows
 //! `x' = f + K (z - h)`, `K = P H' R^-1`, and the covariance the Riccati equation
 //! `P' = F P + P F' + Q - P H' R^-1 H P`, integrated over each sample with the model's rule

@@ -1,4 +1,4 @@
-//! Piecewise-linear models and their switched observers (seed 003: "Observer design for a
+//! Piecewise-linear models and their switched observers ("Observer design for a
 //! piecewise linear beam system"). [`regimes`] reads the model's one switching condition
 //! and, for each side of it, the constant matrices of `x[k+1] = A_i x + B_i u + c_i`,
 //! `y = C x`; [`design`] computes, at generation time, the per-regime gains of the

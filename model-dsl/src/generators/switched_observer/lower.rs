@@ -1,4 +1,4 @@
-//! The switched observers of a piecewise-linear model (seed 003): one type per design of
+//! The switched observers of a piecewise-linear model: one type per design of
 //! [`crate::generators::switched_observer::design::design`], each a one-step predictor
 //! `x[k+1] = F_i x[k] + B_i u[k] + c_i + K_i y[k]` with `F_i = A_i - K_i C` computed at
 //! generation time and the regime `i` read from the measurement.
