@@ -4,7 +4,7 @@
 //! A model file reads into the same [`model_dsl::ast::ModelDecl`] as the macro's tokens and
 //! goes through the same checks and emitters, so both give the same module. This crate
 //! carries what the macro does not need (`serde`, `toml`, `meval`, `prettyplease`, `clap`),
-//! which keeps `codegen-macros` light to build.
+//! which keeps `stateforge` light to build.
 
 #![forbid(unsafe_code)]
 

@@ -56,7 +56,7 @@ fn macro_file_errors_give_line_column_and_the_line() {
     let errors = errors_for(
         "macro",
         "bad.rs",
-        "// A model with a mistake.\ncodegen_macros::model! {\n    pub mod m {\n        \
+        "// A model with a mistake.\nstateforge::model! {\n    pub mod m {\n        \
          scalar f32;\n        state x1;\n        dynamics discrete {\n            \
          x1 = x1 ^ 2;\n        }\n    }\n}\n",
     );

@@ -215,7 +215,7 @@ fn linear_error_dynamics_hold_under_arbitrary_switching() {
 #[test]
 fn a_given_k1_is_used_and_k2_follows_through_the_pseudo_inverse() {
     let source = r#"
-        codegen_macros::model! {
+        stateforge::model! {
             /// Two masses; a one-sided spring on the first.
             pub mod given {
                 scalar f64;

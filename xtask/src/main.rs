@@ -38,7 +38,7 @@ const SEQUENCE_SAMPLES: usize = 1000;
 /// Users' crates, outside the workspace, built and tested like a user's project.
 const EXAMPLES: &str = "examples";
 /// The crates published to crates.io, in dependency order.
-const PUBLISHED: [&str; 3] = ["model-dsl", "codegen-macros", "model-codegen"];
+const PUBLISHED: [&str; 3] = ["model-dsl", "stateforge", "model-codegen"];
 /// Commands the firmware checks run, with the Debian packages that provide them.
 const FIRMWARE_TOOLS: &[(&str, &str)] = &[
     ("qemu-system-arm", "qemu-system-arm"),
@@ -74,7 +74,7 @@ enum Task {
     /// Benchmark: build a one-model user crate (outside the workspace, its own target
     /// directory) from nothing and report the time, the crates compiled and any warning.
     ColdBuild {
-        /// The `codegen-macros` directory to depend on (default: this workspace's), to
+        /// The `stateforge` directory to depend on (default: this workspace's), to
         /// compare with another checkout.
         #[arg(long)]
         macros: Option<std::path::PathBuf>,
