@@ -1,18 +1,18 @@
 //! Vendoring the code of the `model!` macro: the TOML model-file front end, formatting of
 //! generated code, and the `model-codegen` command-line tool built on them.
 //!
-//! A model file reads into the same [`model_dsl::ast::ModelDecl`] as the macro's tokens and
-//! goes through the same checks and emitters, so both give the same module. This crate
-//! carries what the macro does not need (`serde`, `toml`, `meval`, `prettyplease`, `clap`),
-//! which keeps `stateforge` light to build.
+//! A model file reads into the same [`stateforge_compiler::ast::ModelDecl`] as the macro's
+//! tokens and goes through the same checks and emitters, so both give the same module.
+//! This crate carries what the macro does not need (`serde`, `toml`, `meval`,
+//! `prettyplease`, `clap`), which keeps `stateforge` light to build.
 
 #![forbid(unsafe_code)]
 
 pub mod meval_text;
 pub mod model_file;
 
-use model_dsl::model::Model;
 use proc_macro2::TokenStream;
+use stateforge_compiler::model::Model;
 
 /// Formats generated tokens as a Rust source file with `prettyplease` (for snapshots; the
 /// tool then passes the file through [`rustfmt`]).
@@ -60,10 +60,10 @@ pub fn rustfmt(code: &str) -> Result<String, String> {
 /// Reads and checks a TOML model file into the model IR.
 pub fn parse_model_file(source: &str) -> syn::Result<Model> {
     let (decl, diag) = model_file::parse_model_file(source)?;
-    model_dsl::check::check(&decl, diag)
+    stateforge_compiler::check::check(&decl, diag)
 }
 
 /// Expands a TOML model file: the same module the macro would generate.
 pub fn expand_model_file(source: &str) -> syn::Result<TokenStream> {
-    model_dsl::emit::emit_model(&parse_model_file(source)?)
+    stateforge_compiler::emit::emit_model(&parse_model_file(source)?)
 }

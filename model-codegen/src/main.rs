@@ -1,5 +1,6 @@
-//! Prints the Rust that `model-dsl` generates for a model file, formatted, so it can be
-//! reviewed or vendored. The first line names the tool, its version and the model file.
+//! Prints the Rust that `stateforge-compiler` generates for a model file, formatted, so it
+//! can be reviewed or vendored. The first line names the tool, its version and the model
+//! file.
 //!
 //! ```text
 //! model-codegen models/cantilever.toml -o src/cantilever.rs
@@ -51,7 +52,7 @@ fn main() -> ExitCode {
     let generated = if is_toml {
         model_codegen::expand_model_file(&source)
     } else {
-        model_dsl::expand_macro_source(&source)
+        stateforge_compiler::expand_macro_source(&source)
     };
     match generated.and_then(model_codegen::format) {
         Ok(code) => {

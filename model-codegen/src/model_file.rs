@@ -31,15 +31,15 @@
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
 
 use meval::tokenizer::{Operation, Token};
-use model_dsl::ast::{
+use proc_macro2::{Span, TokenStream};
+use serde::de::{Deserializer, MapAccess, Visitor};
+use serde::Deserialize;
+use stateforge_compiler::ast::{
     ArgValue, BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg,
     GenerateDecl, ModelDecl, Name, OutputDecl, Statement, SurfaceExpr, SurfaceKind, SymbolDecl,
     SymbolKind,
 };
-use model_dsl::diagnostics::Diagnostics;
-use proc_macro2::{Span, TokenStream};
-use serde::de::{Deserializer, MapAccess, Visitor};
-use serde::Deserialize;
+use stateforge_compiler::diagnostics::Diagnostics;
 use std::marker::PhantomData;
 use std::str::FromStr;
 use toml::Spanned;
@@ -369,7 +369,7 @@ fn parse_expression(text: &str, field: &str, here: Span, diag: &mut Diagnostics)
         kind: SurfaceKind::Number(0.0),
         span: here,
     };
-    if let Err(message) = model_dsl::front::limits::check_expression_text(text) {
+    if let Err(message) = stateforge_compiler::front::limits::check_expression_text(text) {
         diag.error(here, format!("{field}: {message}"));
         return zero;
     }

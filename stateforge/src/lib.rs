@@ -1,5 +1,5 @@
-//! The `model!` macro. All the work happens in `model-dsl`; this crate only adapts the
-//! compiler's types to `proc_macro`'s.
+//! The `model!` macro. All the work happens in `stateforge-compiler`; this crate only adapts
+//! the compiler's types to `proc_macro`'s.
 
 #![forbid(unsafe_code)]
 
@@ -15,11 +15,11 @@ pub fn model(input: TokenStream) -> TokenStream {
         .into_iter()
         .next()
         .map_or_else(proc_macro2::Span::call_site, |t| t.span());
-    let options = model_dsl::emit::Options {
+    let options = stateforge_compiler::emit::Options {
         // The `nalgebra` feature adds each model's `interop` module.
         nalgebra: cfg!(feature = "nalgebra"),
     };
-    match model_dsl::expand_with(input, &options) {
+    match stateforge_compiler::expand_with(input, &options) {
         Ok(generated) => respan(generated, anchor).into(),
         Err(errors) => errors.to_compile_error().into(),
     }

@@ -62,7 +62,7 @@ fn run(sizes: &[usize]) -> Result<(), String> {
     println!("states  generated code   build (debug)   peak memory");
     for &n in sizes {
         write_model(&dir, n)?;
-        let tokens = model_dsl::expand_macro_source(&integrator_chain(n, true))
+        let tokens = stateforge_compiler::expand_macro_source(&integrator_chain(n, true))
             .map_err(|e| format!("{n} states: {e}"))?;
         let code_bytes = tokens.to_string().len();
         let (seconds, peak_kib) = measure(&dir)?;

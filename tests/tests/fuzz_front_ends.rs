@@ -209,7 +209,7 @@ fn mutated_macro_models_never_panic_and_accepted_ones_parse() {
             let text = edits
                 .iter()
                 .fold(sources[model].clone(), |t, e| apply(&t, e));
-            check(model_dsl::expand_macro_source(&text))
+            check(stateforge_compiler::expand_macro_source(&text))
         })
         .unwrap();
 }

@@ -187,16 +187,17 @@ fn the_model_file_generates_the_macros_code() {
     let read = |name| std::fs::read_to_string(workspace_path(name)).expect("test model exists");
     let from_file = model_codegen::expand_model_file(&read("tests/models/rover.toml"))
         .expect("model file expands");
-    let from_macro =
-        model_dsl::expand_macro_source(&read("tests/models/rover.rs")).expect("macro expands");
+    let from_macro = stateforge_compiler::expand_macro_source(&read("tests/models/rover.rs"))
+        .expect("macro expands");
     assert_eq!(without_docs(from_file), without_docs(from_macro));
 }
 
 #[test]
 fn the_generated_code_calls_libm_and_compares_typed_values() {
     let source = std::fs::read_to_string(workspace_path("tests/models/rover.rs")).expect("exists");
-    let code = model_codegen::format(model_dsl::expand_macro_source(&source).expect("expands"))
-        .expect("formats");
+    let code =
+        model_codegen::format(stateforge_compiler::expand_macro_source(&source).expect("expands"))
+            .expect("formats");
     for call in [
         "libm::atan2f(",
         "libm::tanhf(",

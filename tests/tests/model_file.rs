@@ -17,8 +17,8 @@ fn cantilever_model_file_generates_the_macros_code() {
     let toml = std::fs::read_to_string(workspace_path("model-codegen/models/cantilever.toml"))
         .expect("model file exists");
     let from_file = model_codegen::expand_model_file(&toml).expect("model file expands");
-    let from_macro =
-        model_dsl::expand_macro_source(&demo_model_source("cantilever")).expect("macro expands");
+    let from_macro = stateforge_compiler::expand_macro_source(&demo_model_source("cantilever"))
+        .expect("macro expands");
     assert_eq!(code_without_docs(from_file), code_without_docs(from_macro));
 }
 

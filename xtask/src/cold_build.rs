@@ -45,10 +45,7 @@ pub struct Measurement {
 /// `stateforge` by default) in a fresh directory with an empty target directory, `jobs`
 /// parallel jobs.
 pub fn measure(macros: Option<&Path>, jobs: Option<u32>) -> Result<Measurement, String> {
-    let macros = macros.map_or_else(
-        || workspace_root().join("stateforge"),
-        Path::to_path_buf,
-    );
+    let macros = macros.map_or_else(|| workspace_root().join("stateforge"), Path::to_path_buf);
     let macros = macros
         .canonicalize()
         .map_err(|e| format!("{}: {e}", macros.display()))?;
@@ -114,8 +111,8 @@ pub fn measure(macros: Option<&Path>, jobs: Option<u32>) -> Result<Measurement, 
 /// The `name` of the package whose directory is `dir`, read from its `Cargo.toml`.
 fn package_name(dir: &Path) -> Result<String, String> {
     let manifest = dir.join("Cargo.toml");
-    let text = std::fs::read_to_string(&manifest)
-        .map_err(|e| format!("{}: {e}", manifest.display()))?;
+    let text =
+        std::fs::read_to_string(&manifest).map_err(|e| format!("{}: {e}", manifest.display()))?;
     text.lines()
         .skip_while(|line| line.trim() != "[package]")
         .find_map(|line| {

@@ -38,7 +38,7 @@ const SEQUENCE_SAMPLES: usize = 1000;
 /// Users' crates, outside the workspace, built and tested like a user's project.
 const EXAMPLES: &str = "examples";
 /// The crates published to crates.io, in dependency order.
-const PUBLISHED: [&str; 3] = ["model-dsl", "stateforge", "model-codegen"];
+const PUBLISHED: [&str; 3] = ["stateforge-compiler", "stateforge", "model-codegen"];
 /// Commands the firmware checks run, with the Debian packages that provide them.
 const FIRMWARE_TOOLS: &[(&str, &str)] = &[
     ("qemu-system-arm", "qemu-system-arm"),
