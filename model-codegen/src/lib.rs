@@ -1,5 +1,5 @@
 //! Vendoring the code of the `model!` macro: the TOML model-file front end, formatting of
-//! generated code, and the `model-codegen` command-line tool built on them.
+//! generated code, and the `stateforge-codegen` command-line tool built on them.
 //!
 //! A model file reads into the same [`stateforge_compiler::ast::ModelDecl`] as the macro's
 //! tokens and goes through the same checks and emitters, so both give the same module.

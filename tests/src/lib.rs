@@ -35,7 +35,7 @@ pub fn test_model_code(name: &str) -> String {
         .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
     let tokens = stateforge_compiler::expand_macro_source(&source)
         .unwrap_or_else(|e| panic!("test model {name} does not expand: {e}"));
-    model_codegen::format(tokens).expect("generated code parses as a Rust file")
+    stateforge_cli::format(tokens).expect("generated code parses as a Rust file")
 }
 
 /// Path of a file of the workspace, given relative to its root.
@@ -55,5 +55,5 @@ pub fn demo_model_source(name: &str) -> String {
 pub fn demo_model_code(name: &str) -> String {
     let tokens = stateforge_compiler::expand_macro_source(&demo_model_source(name))
         .unwrap_or_else(|e| panic!("demo model {name} does not expand: {e}"));
-    model_codegen::format(tokens).expect("generated code parses as a Rust file")
+    stateforge_cli::format(tokens).expect("generated code parses as a Rust file")
 }

@@ -55,7 +55,7 @@ impl Reference {
         let model = stateforge_compiler::parse_macro_source(&demo_model_source(name))
             .unwrap_or_else(|e| panic!("{name}: {e}"));
         let parse = |e: &stateforge_compiler::model::Expr| -> meval::Expr {
-            let text = model_codegen::meval_text::to_meval(&model, e);
+            let text = stateforge_cli::meval_text::to_meval(&model, e);
             text.parse()
                 .unwrap_or_else(|err| panic!("{name}: meval cannot parse {text}: {err}"))
         };
@@ -69,7 +69,7 @@ impl Reference {
     }
 
     fn eval(&self, exprs: &[meval::Expr], t: f64, x: &[f64], u: &[f64]) -> Vec<f64> {
-        let mut ctx = model_codegen::meval_text::context(&self.model);
+        let mut ctx = stateforge_cli::meval_text::context(&self.model);
         ctx.var("t", t);
         for (name, v) in self.model.state_names().zip(x) {
             ctx.var(name, *v);

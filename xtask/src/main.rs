@@ -38,7 +38,7 @@ const SEQUENCE_SAMPLES: usize = 1000;
 /// Users' crates, outside the workspace, built and tested like a user's project.
 const EXAMPLES: &str = "examples";
 /// The crates published to crates.io, in dependency order.
-const PUBLISHED: [&str; 3] = ["stateforge-compiler", "stateforge", "model-codegen"];
+const PUBLISHED: [&str; 3] = ["stateforge-compiler", "stateforge", "stateforge-cli"];
 /// Commands the firmware checks run, with the Debian packages that provide them.
 const FIRMWARE_TOOLS: &[(&str, &str)] = &[
     ("qemu-system-arm", "qemu-system-arm"),
@@ -62,8 +62,8 @@ enum Task {
     /// Run the firmware under QEMU and print what the generated filters cost on the
     /// Cortex-M4F, beside the nalgebra baseline.
     Cost,
-    /// Vendor every demo model with `model-codegen` into a user crate and check it with
-    /// rustfmt, `-D warnings` and clippy (part of `test`).
+    /// Vendor every demo model with `stateforge-codegen` into a user crate and check it
+    /// with rustfmt, `-D warnings` and clippy (part of `test`).
     Vendored,
     /// On the host, how far the f32 filters drift from f64 over many noise sequences.
     Accuracy {
