@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// The cantilever of the double Kalman filter paper driven by two actuators, each with its own unknown gain:
     /// four parameters, two inputs. It shows the window transform on a model whose
     /// parameter system is 4 x 4 and which has two input-only parameters (Case 2 freezes

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// The blade of Takacs, Polóni, Rohal'-Ilkiv, "Adaptive predictive control of
     /// transient vibrations of cantilevers with changing weight" in its initial identification mode, eq. (19): the
     /// single-DOF mass-spring-damper m q'' + b q' + k q = c u (eq. 1) with all four

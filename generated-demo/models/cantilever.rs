@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// Vibrating cantilever beam, first bending mode, with augmented unknown
     /// parameters for joint state and parameter estimation (from the paper on the double
     /// Kalman filter (DKF) vs EKF for adaptive vibration attenuation of a

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// The cantilever of the double Kalman filter paper with an unknown cubic stiffness (a hardening spring, as
     /// in large-amplitude vibration): the parameter `kc` multiplies the nonlinear term
     /// `x1^3`. It shows the window transform where a parameter's coefficient is nonlinear

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// Twin Rotor MIMO System (TRMS, Feedback Instruments 33-949), a laboratory
     /// helicopter model with pitch (main rotor) and yaw (tail rotor) motion,
     /// for a continuous-time EKF (Kulkarni and Purwar, "Nonlinear

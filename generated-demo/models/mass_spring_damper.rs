@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// Single-DOF mass-spring-damper model of the first mode of a piezo-actuated
     /// aluminium cantilever blade (550 x 40 x 3 mm) whose weight changes, for the
     /// continuous-discrete (hybrid) EKF of the control mode (Takacs, Polóni,

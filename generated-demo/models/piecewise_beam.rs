@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// Piecewise-linear beam: a steel beam supported at both ends by leaf
     /// springs, excited at its middle by a rotating mass unbalance, with a
     /// one-sided spring (a second clamped beam) that acts only when the middle

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// Polynomial (kinematic) signal model for a Kalman filter estimating the
     /// position of a flexible arm and its first three time derivatives
     /// (Shults, Brubaker, Lee, "A fast algorithm for control and

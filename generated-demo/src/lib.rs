@@ -11,6 +11,26 @@ pub mod mpc_sequence;
 pub mod observer_sequences;
 pub mod sequence;
 
+/// The project's notes, documentation only: what the main job runs and prints, the
+/// firmware's checks and cost table on the Cortex-M4F, the benchmarks, the tests, the
+/// layout and where the issues stand. Each is a file in `generated-demo/doc/`; `cargo
+/// xtask test` builds them with `cargo doc -D warnings`, so a broken intra-doc link fails.
+/// The user's guide is the `stateforge` crate's documentation.
+pub mod notes {
+    #[doc = include_str!("../doc/experiments.md")]
+    pub mod experiments {}
+    #[doc = include_str!("../doc/cortex-m4f.md")]
+    pub mod cortex_m4f {}
+    #[doc = include_str!("../doc/benchmarks.md")]
+    pub mod benchmarks {}
+    #[doc = include_str!("../doc/tests.md")]
+    pub mod tests {}
+    #[doc = include_str!("../doc/layout.md")]
+    pub mod layout {}
+    #[doc = include_str!("../doc/status.md")]
+    pub mod status {}
+}
+
 include!("../models/cantilever.rs");
 include!("../models/mass_spring_damper.rs");
 include!("../models/blade_identification.rs");

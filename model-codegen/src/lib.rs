@@ -1,10 +1,10 @@
 //! Vendoring the code of the `model!` macro: the TOML model-file front end, formatting of
-//! generated code, and the `model-codegen` command-line tool built on them.
+//! generated code, and the `stateforge-codegen` command-line tool built on them.
 //!
-//! A model file reads into the same [`model_dsl::ast::ModelDecl`] as the macro's tokens and
-//! goes through the same checks and emitters, so both give the same module. This crate
-//! carries what the macro does not need (`serde`, `toml`, `meval`, `prettyplease`, `clap`),
-//! which keeps `codegen-macros` light to build.
+//! A model file reads into the same [`stateforge_compiler::ast::ModelDecl`] as the macro's
+//! tokens and goes through the same checks and emitters, so both give the same module.
+//! This crate carries what the macro does not need (`serde`, `toml`, `meval`,
+//! `prettyplease`, `clap`), which keeps `stateforge` light to build.
 
 #![forbid(unsafe_code)]
 
@@ -13,8 +13,8 @@ pub mod meval_text;
 pub mod model_file;
 mod toml_hints;
 
-use model_dsl::check::Checked;
 use proc_macro2::TokenStream;
+use stateforge_compiler::check::Checked;
 
 /// Formats generated tokens as a Rust source file with `prettyplease` (for snapshots; the
 /// tool then passes the file through [`rustfmt`]).
@@ -63,10 +63,11 @@ pub fn rustfmt(code: &str) -> Result<String, String> {
 /// The checks are the macro's; their hints are rewritten in the model file's syntax.
 pub fn parse_model_file(source: &str) -> syn::Result<Checked> {
     let (decl, diag) = model_file::parse_model_file(source)?;
-    model_dsl::check::check(&decl, diag).map_err(toml_hints::in_toml_terms)
+    stateforge_compiler::check::check(&decl, diag).map_err(toml_hints::in_toml_terms)
 }
 
 /// Expands a TOML model file: the same module the macro would generate.
 pub fn expand_model_file(source: &str) -> syn::Result<TokenStream> {
-    model_dsl::pipeline::emit_model(&parse_model_file(source)?).map_err(toml_hints::in_toml_terms)
+    stateforge_compiler::pipeline::emit_model(&parse_model_file(source)?)
+        .map_err(toml_hints::in_toml_terms)
 }

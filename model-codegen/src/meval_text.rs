@@ -2,8 +2,8 @@
 //! `meval` context that evaluates them. Tests use it to evaluate a model numerically by a
 //! path independent of the symbolic engine and the emitters.
 
-use model_dsl::ast::Comparison;
-use model_dsl::model::{Expr, Model};
+use stateforge_compiler::ast::Comparison;
+use stateforge_compiler::model::{Expr, Model};
 
 /// `expr` of `model` as a `meval` expression over the model's own names and `t`.
 /// Intermediates are written out in place; piecewise terms use `if_gt(a, b, then, else)`

@@ -33,15 +33,15 @@
 use crate::expression_places;
 use crate::toml_hints;
 use meval::tokenizer::{Operation, Token};
-use model_dsl::ast::{
+use proc_macro2::{Span, TokenStream};
+use serde::de::{Deserializer, IgnoredAny, MapAccess, SeqAccess, Unexpected, Visitor};
+use serde::Deserialize;
+use stateforge_compiler::ast::{
     ArgValue, BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg,
     GenerateDecl, ModelDecl, Name, OutputDecl, Statement, SurfaceExpr, SurfaceKind, SymbolDecl,
     SymbolKind,
 };
-use model_dsl::diagnostics::Diagnostics;
-use proc_macro2::{Span, TokenStream};
-use serde::de::{Deserializer, IgnoredAny, MapAccess, SeqAccess, Unexpected, Visitor};
-use serde::Deserialize;
+use stateforge_compiler::diagnostics::Diagnostics;
 use std::fmt;
 use std::marker::PhantomData;
 use std::str::FromStr;
@@ -599,7 +599,7 @@ fn parse_expression(
         kind: SurfaceKind::Number(0.0),
         span: start,
     };
-    if let Err(message) = model_dsl::front::limits::check_expression_text(text) {
+    if let Err(message) = stateforge_compiler::front::limits::check_expression_text(text) {
         // A stray character is named by the check: the caret goes under it.
         let stray = message
             .strip_prefix('`')

@@ -155,7 +155,7 @@ pub(crate) fn rewrite(message: &str) -> String {
     text = rewrite_quoted(&text, |code| {
         let (generator, options) = code.strip_suffix(')')?.split_once('(')?;
         // A generator's call, not other text: its name is in the compiler's registry.
-        let registered = model_dsl::generators::REGISTRY
+        let registered = stateforge_compiler::generators::REGISTRY
             .iter()
             .any(|k| k.name() == generator);
         registered.then_some(())?;
@@ -183,7 +183,7 @@ fn first_quoted(message: &str) -> Option<&str> {
 fn unknown_generator(message: &str) -> Option<String> {
     let rest = message.strip_prefix("unknown generator `")?;
     let (name, _) = rest.split_once("`: use ")?;
-    let names: Vec<String> = model_dsl::generators::REGISTRY
+    let names: Vec<String> = stateforge_compiler::generators::REGISTRY
         .iter()
         .map(|kind| format!("`{}`", kind.name()))
         .collect();

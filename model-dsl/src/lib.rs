@@ -6,9 +6,9 @@
 //! -> lowering ([`emit`] stages, each generator's own) -> tokens, assembled by [`pipeline`].
 //! [`expand`] is the whole pipeline for the `model!` macro; tests call it directly.
 //!
-//! This crate is what the `model!` macro (`codegen-macros`) builds, so it depends on
+//! This crate (`stateforge-compiler`) is what the `model!` macro (`stateforge`) builds, so it depends on
 //! `syn`, `quote`, `proc-macro2` and `indexmap` only. Model files (TOML), formatting and
-//! the command-line tool are in `model-codegen`, which produces a [`ast::ModelDecl`]
+//! the command-line tool are in `stateforge-cli`, which produces a [`ast::ModelDecl`]
 //! through the same [`check`].
 
 #![forbid(unsafe_code)]
@@ -37,7 +37,7 @@ pub fn expand(tokens: TokenStream) -> syn::Result<TokenStream> {
     expand_with(tokens, &pipeline::Options::default())
 }
 
-/// [`expand`], with the generated module's extras (`codegen-macros`' features).
+/// [`expand`], with the generated module's extras (the `stateforge` crate's features).
 pub fn expand_with(tokens: TokenStream, options: &pipeline::Options) -> syn::Result<TokenStream> {
     let model = parse_model(tokens)?;
     pipeline::emit_model_with(&model, options)

@@ -48,10 +48,10 @@ fn run(sizes: &[usize]) -> Result<(), String> {
     std::fs::create_dir_all(dir.join("src")).map_err(|e| e.to_string())?;
     let manifest = format!(
         "[package]\nname = \"build-scale\"\nversion = \"0.0.0\"\nedition = \"2021\"\n\
-         publish = false\n\n[dependencies]\ncodegen-macros = {{ path = {:?} }}\nlibm = \"0.2\"\n\n\
+         publish = false\n\n[dependencies]\nstateforge = {{ path = {:?} }}\nlibm = \"0.2\"\n\n\
          [workspace]\n",
         workspace
-            .join("codegen-macros")
+            .join("stateforge")
             .canonicalize()
             .map_err(|e| e.to_string())?
     );
@@ -62,7 +62,7 @@ fn run(sizes: &[usize]) -> Result<(), String> {
     println!("states  generated code   build (debug)   peak memory");
     for &n in sizes {
         write_model(&dir, n)?;
-        let tokens = model_dsl::expand_macro_source(&integrator_chain(n, true))
+        let tokens = stateforge_compiler::expand_macro_source(&integrator_chain(n, true))
             .map_err(|e| format!("{n} states: {e}"))?;
         let code_bytes = tokens.to_string().len();
         let (seconds, peak_kib) = measure(&dir)?;
@@ -77,7 +77,7 @@ fn run(sizes: &[usize]) -> Result<(), String> {
 
 fn write_model(dir: &Path, n: usize) -> Result<(), String> {
     let source = format!(
-        "//! Scratch crate of the build benchmark.\nuse codegen_macros::model;\n{}",
+        "//! Scratch crate of the build benchmark.\nuse stateforge::model;\n{}",
         integrator_chain(n, true)
     );
     std::fs::write(dir.join("src/lib.rs"), source).map_err(|e| e.to_string())

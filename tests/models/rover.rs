@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A planar rover (test model of the language's functions): position, heading and
     /// speed with an unknown drag, a steering input saturated at its stop and a throttle
     /// that only pushes; the bearing and the range of a beacon at the origin are measured.

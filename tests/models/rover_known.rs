@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// The rover with its wheelbase known only at run time (test model of `known`): position, heading and
     /// speed with an unknown drag, a steering input saturated at its stop and a throttle
     /// that only pushes; the bearing and the range of a beacon at the origin are measured.

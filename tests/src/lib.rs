@@ -33,9 +33,9 @@ pub fn test_model_code(name: &str) -> String {
     let path = workspace_path(&format!("tests/models/{name}.rs"));
     let source = std::fs::read_to_string(&path)
         .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
-    let tokens = model_dsl::expand_macro_source(&source)
+    let tokens = stateforge_compiler::expand_macro_source(&source)
         .unwrap_or_else(|e| panic!("test model {name} does not expand: {e}"));
-    model_codegen::format(tokens).expect("generated code parses as a Rust file")
+    stateforge_cli::format(tokens).expect("generated code parses as a Rust file")
 }
 
 /// Path of a file of the workspace, given relative to its root.
@@ -53,7 +53,7 @@ pub fn demo_model_source(name: &str) -> String {
 
 /// The generated code of a demo model, formatted.
 pub fn demo_model_code(name: &str) -> String {
-    let tokens = model_dsl::expand_macro_source(&demo_model_source(name))
+    let tokens = stateforge_compiler::expand_macro_source(&demo_model_source(name))
         .unwrap_or_else(|e| panic!("demo model {name} does not expand: {e}"));
-    model_codegen::format(tokens).expect("generated code parses as a Rust file")
+    stateforge_cli::format(tokens).expect("generated code parses as a Rust file")
 }

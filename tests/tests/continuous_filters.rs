@@ -416,7 +416,7 @@ fn prescribed_degree_of_stability_bounds_the_error_decay() {
     );
 }
 
-codegen_macros::model! {
+stateforge::model! {
     /// The blade of seed 001 in identification mode (eq. 19) with one Euler step per
     /// sample, generating both the discrete EKF and the hybrid EKF.
     mod blade_one_euler_step {
@@ -504,7 +504,7 @@ fn hybrid_ekf_with_one_euler_substep_is_the_discrete_ekf_of_the_euler_model() {
     println!("one Euler sub-step: the predicted covariances agree within {worst:.1e}");
 }
 
-codegen_macros::model! {
+stateforge::model! {
     /// A damped pendulum with a decaying input gain: explicit time, a transcendental
     /// term, RK4 with four looped sub-steps, both continuous filters.
     mod pendulum {

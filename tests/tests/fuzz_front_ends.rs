@@ -185,7 +185,7 @@ fn runner(default_cases: u32) -> TestRunner {
 /// Accepted input must give a Rust file; rejected input just returns its errors.
 fn check(generated: syn::Result<proc_macro2::TokenStream>) -> Result<(), TestCaseError> {
     if let Ok(tokens) = generated {
-        if let Err(e) = model_codegen::format(tokens) {
+        if let Err(e) = stateforge_cli::format(tokens) {
             return Err(TestCaseError::fail(format!(
                 "accepted, but the code does not parse: {e}"
             )));
@@ -209,7 +209,7 @@ fn mutated_macro_models_never_panic_and_accepted_ones_parse() {
             let text = edits
                 .iter()
                 .fold(sources[model].clone(), |t, e| apply(&t, e));
-            check(model_dsl::expand_macro_source(&text))
+            check(stateforge_compiler::expand_macro_source(&text))
         })
         .unwrap();
 }
@@ -222,7 +222,7 @@ fn mutated_model_files_never_panic_and_accepted_ones_parse() {
     runner(160)
         .run(&case, |edits| {
             let text = edits.iter().fold(toml.clone(), |t, e| apply(&t, e));
-            check(model_codegen::expand_model_file(&text))
+            check(stateforge_cli::expand_model_file(&text))
         })
         .unwrap();
 }

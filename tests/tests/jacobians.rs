@@ -4,9 +4,9 @@
 //! points.
 
 use generated_demo::{helicopter, polynomial};
-use model_dsl::model::{Discretisation, Method, Model};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
+use stateforge_compiler::model::{Discretisation, Method, Model};
 use tests::demo_model_source;
 
 /// Relative agreement required of each Jacobian entry.
@@ -52,11 +52,11 @@ struct Reference {
 
 impl Reference {
     fn new(name: &str) -> Reference {
-        let model = model_dsl::parse_macro_source(&demo_model_source(name))
+        let model = stateforge_compiler::parse_macro_source(&demo_model_source(name))
             .unwrap_or_else(|e| panic!("{name}: {e}"))
             .model;
-        let parse = |e: &model_dsl::model::Expr| -> meval::Expr {
-            let text = model_codegen::meval_text::to_meval(&model, e);
+        let parse = |e: &stateforge_compiler::model::Expr| -> meval::Expr {
+            let text = stateforge_cli::meval_text::to_meval(&model, e);
             text.parse()
                 .unwrap_or_else(|err| panic!("{name}: meval cannot parse {text}: {err}"))
         };
@@ -70,7 +70,7 @@ impl Reference {
     }
 
     fn eval(&self, exprs: &[meval::Expr], t: f64, x: &[f64], u: &[f64]) -> Vec<f64> {
-        let mut ctx = model_codegen::meval_text::context(&self.model);
+        let mut ctx = stateforge_cli::meval_text::context(&self.model);
         ctx.var("t", t);
         for (name, v) in self.model.state_names().zip(x) {
             ctx.var(name, *v);

@@ -178,25 +178,26 @@ fn a_saturated_input_has_no_effect_and_a_zero_derivative() {
 #[test]
 fn the_model_file_generates_the_macros_code() {
     let without_docs = |tokens| {
-        let text = model_codegen::format(tokens).expect("formats");
+        let text = stateforge_cli::format(tokens).expect("formats");
         text.lines()
             .filter(|l| !l.trim_start().starts_with("///") && !l.trim_start().starts_with("//!"))
             .collect::<Vec<_>>()
             .join("\n")
     };
     let read = |name| std::fs::read_to_string(workspace_path(name)).expect("test model exists");
-    let from_file = model_codegen::expand_model_file(&read("tests/models/rover.toml"))
+    let from_file = stateforge_cli::expand_model_file(&read("tests/models/rover.toml"))
         .expect("model file expands");
-    let from_macro =
-        model_dsl::expand_macro_source(&read("tests/models/rover.rs")).expect("macro expands");
+    let from_macro = stateforge_compiler::expand_macro_source(&read("tests/models/rover.rs"))
+        .expect("macro expands");
     assert_eq!(without_docs(from_file), without_docs(from_macro));
 }
 
 #[test]
 fn the_generated_code_calls_libm_and_compares_typed_values() {
     let source = std::fs::read_to_string(workspace_path("tests/models/rover.rs")).expect("exists");
-    let code = model_codegen::format(model_dsl::expand_macro_source(&source).expect("expands"))
-        .expect("formats");
+    let code =
+        stateforge_cli::format(stateforge_compiler::expand_macro_source(&source).expect("expands"))
+            .expect("formats");
     for call in [
         "libm::atan2f(",
         "libm::tanhf(",

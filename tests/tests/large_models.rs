@@ -30,7 +30,7 @@ impl<'ast> Visit<'ast> for Shape {
 }
 
 fn generated(n: usize) -> (usize, Shape) {
-    let tokens = model_dsl::expand_macro_source(&integrator_chain(n, true))
+    let tokens = stateforge_compiler::expand_macro_source(&integrator_chain(n, true))
         .unwrap_or_else(|e| panic!("the {n}-state chain does not expand: {e}"));
     let file: syn::File = syn::parse2(tokens.clone()).expect("generated code parses");
     let mut shape = Shape::default();
@@ -50,7 +50,7 @@ fn a_100_state_ekf_is_shallow_and_its_size_grows_with_the_covariance() {
         shape.deepest
     );
     assert!(
-        shape.longest_block <= model_dsl::emit::scopes::BLOCK_LEN + 8,
+        shape.longest_block <= stateforge_compiler::emit::scopes::BLOCK_LEN + 8,
         "a block holds {} statements",
         shape.longest_block
     );
@@ -75,7 +75,7 @@ fn ten_thousand_chained_lets_expand_without_exhausting_the_stack() {
         "model! {{ pub mod chained {{ scalar f64; state x1; input u; output y = x1;
          dynamics discrete {{ let a0 = x1; {lets} x1 = a10000 + u; }} }} }}"
     );
-    let tokens = model_dsl::expand_macro_source(&source).expect("the chain expands");
+    let tokens = stateforge_compiler::expand_macro_source(&source).expect("the chain expands");
     let file: syn::File = syn::parse2(tokens).expect("generated code parses");
     let mut shape = Shape::default();
     shape.visit_file(&file);

@@ -5,7 +5,7 @@ use tests::{demo_model_source, workspace_path};
 
 /// Generated code without its documentation lines.
 fn code_without_docs(tokens: proc_macro2::TokenStream) -> String {
-    let text = model_codegen::format(tokens).expect("formats");
+    let text = stateforge_cli::format(tokens).expect("formats");
     text.lines()
         .filter(|l| !l.trim_start().starts_with("///") && !l.trim_start().starts_with("//!"))
         .collect::<Vec<_>>()
@@ -16,14 +16,14 @@ fn code_without_docs(tokens: proc_macro2::TokenStream) -> String {
 fn cantilever_model_file_generates_the_macros_code() {
     let toml = std::fs::read_to_string(workspace_path("model-codegen/models/cantilever.toml"))
         .expect("model file exists");
-    let from_file = model_codegen::expand_model_file(&toml).expect("model file expands");
-    let from_macro =
-        model_dsl::expand_macro_source(&demo_model_source("cantilever")).expect("macro expands");
+    let from_file = stateforge_cli::expand_model_file(&toml).expect("model file expands");
+    let from_macro = stateforge_compiler::expand_macro_source(&demo_model_source("cantilever"))
+        .expect("macro expands");
     assert_eq!(code_without_docs(from_file), code_without_docs(from_macro));
 }
 
 fn errors_of(toml: &str) -> String {
-    match model_codegen::expand_model_file(toml) {
+    match stateforge_cli::expand_model_file(toml) {
         Ok(_) => panic!("expected errors for:\n{toml}"),
         Err(e) => e
             .into_iter()
@@ -62,7 +62,7 @@ fn model_file_mistakes_are_all_reported_with_their_field() {
 
 #[test]
 fn model_file_piecewise_and_powers_are_understood() {
-    let model = model_codegen::parse_model_file(
+    let model = stateforge_cli::parse_model_file(
         r#"
         name = "spring"
         scalar = "f64"
@@ -82,7 +82,7 @@ fn model_file_piecewise_and_powers_are_understood() {
     .expect("valid model file")
     .model;
     assert_eq!(model.constants[0].value, 6.0);
-    let text = model_codegen::meval_text::to_meval(&model, &model.dynamics.rhs[0]);
+    let text = stateforge_cli::meval_text::to_meval(&model, &model.dynamics.rhs[0]);
     // meval binds unary minus tighter than `*`: `(-K) * x^3`, the same value.
     assert_eq!(text, "if_gt(x, (0e0), ((-K) * (x^(3))), (0e0))");
 }
@@ -116,13 +116,13 @@ fn model_file_visibility_is_one_of_four_words_never_pasted() {
         );
     }
     for good in ["pub", "pub(crate)", "pub(super)", "private"] {
-        let tokens = model_codegen::expand_model_file(&small_model(
+        let tokens = stateforge_cli::expand_model_file(&small_model(
             "m",
             &format!("visibility = {good:?}"),
             "x",
         ))
         .unwrap_or_else(|e| panic!("{good}: {e}"));
-        let code = model_codegen::format(tokens).expect("parses");
+        let code = stateforge_cli::format(tokens).expect("parses");
         let expected = match good {
             "private" => "mod m {".to_string(),
             vis => format!("{vis} mod m {{"),
@@ -210,7 +210,7 @@ fn small_with(from: &str, to: &str) -> String {
 /// Each error of the model file as `line:column: message`, the column counted in
 /// characters from 1: where `model-codegen` prints it and puts the caret.
 fn placed_errors_of(toml: &str) -> Vec<String> {
-    match model_codegen::expand_model_file(toml) {
+    match stateforge_cli::expand_model_file(toml) {
         Ok(_) => panic!("expected errors for:\n{toml}"),
         Err(errors) => errors
             .into_iter()

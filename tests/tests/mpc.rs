@@ -9,7 +9,7 @@ use nalgebra::{DMatrix, DVector};
 use tests::predictive_reference as reference;
 use tests::rng::Lcg;
 
-codegen_macros::model! {
+stateforge::model! {
     /// A discrete double integrator whose MPC may take one active-set iteration a solve.
     pub mod double_integrator {
         scalar f64;
@@ -25,7 +25,7 @@ codegen_macros::model! {
     }
 }
 
-codegen_macros::model! {
+stateforge::model! {
     /// The same integrator with the default iteration bound.
     pub mod double_integrator_full {
         scalar f64;

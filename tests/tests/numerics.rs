@@ -1,9 +1,10 @@
-//! The build-time numerics of `model_dsl::numerics` against nalgebra: the pseudo-inverse
-//! and rank against nalgebra's SVD, eigenvalues against its Schur form, and the Riccati
-//! solutions by their residual computed here with nalgebra (and the closed loop's poles).
+//! The build-time numerics of `stateforge_compiler::numerics` against nalgebra: the
+//! pseudo-inverse and rank against nalgebra's SVD, eigenvalues against its Schur form, and
+//! the Riccati solutions by their residual computed here with nalgebra (and the closed
+//! loop's poles).
 
-use model_dsl::numerics::{self, Mat};
 use nalgebra::DMatrix;
+use stateforge_compiler::numerics::{self, Mat};
 use tests::rng::Lcg;
 
 /// A random `rows x cols` matrix with entries in [-1, 1).

@@ -215,7 +215,7 @@ fn linear_error_dynamics_hold_under_arbitrary_switching() {
 #[test]
 fn a_given_k1_is_used_and_k2_follows_through_the_pseudo_inverse() {
     let source = r#"
-        codegen_macros::model! {
+        stateforge::model! {
             /// Two masses; a one-sided spring on the first.
             pub mod given {
                 scalar f64;
@@ -236,18 +236,20 @@ fn a_given_k1_is_used_and_k2_follows_through_the_pseudo_inverse() {
             }
         }
     "#;
-    let checked = model_dsl::parse_macro_source(source).expect("a valid model");
+    let checked = stateforge_compiler::parse_macro_source(source).expect("a valid model");
     let model = &checked.model;
-    let mg = model_dsl::symbolic::ModelGraph::build(model);
-    let regimes = model_dsl::generators::switched_observer::design::regimes(model, &mg)
+    let mg = stateforge_compiler::symbolic::ModelGraph::build(model);
+    let regimes = stateforge_compiler::generators::switched_observer::design::regimes(model, &mg)
         .expect("piecewise linear");
     let spec = checked
-        .options::<model_dsl::generators::switched_observer::SwitchedObserverSpec>()
+        .options::<stateforge_compiler::generators::switched_observer::SwitchedObserverSpec>()
         .expect("asked for");
-    let designs = model_dsl::generators::switched_observer::design::design(&regimes, spec)
-        .expect("designable");
-    let to_na =
-        |m: &model_dsl::numerics::Mat| DMatrix::from_fn(m.rows(), m.cols(), |i, j| m[(i, j)]);
+    let designs =
+        stateforge_compiler::generators::switched_observer::design::design(&regimes, spec)
+            .expect("designable");
+    let to_na = |m: &stateforge_compiler::numerics::Mat| {
+        DMatrix::from_fn(m.rows(), m.cols(), |i, j| m[(i, j)])
+    };
     let k1 = DMatrix::from_row_slice(2, 2, &[0.3, 0.0, 0.1, 0.2]);
     let led = &designs.linear_error;
     assert_eq!(to_na(&led.k[0]), k1);
@@ -265,5 +267,5 @@ fn a_given_k1_is_used_and_k2_follows_through_the_pseudo_inverse() {
         "one error matrix for both regimes"
     );
     // The generated code compiles from the same source (checked by expanding it).
-    let _ = model_dsl::expand_macro_source(source).expect("expands");
+    let _ = stateforge_compiler::expand_macro_source(source).expect("expands");
 }

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A piecewise-linear model with no input: the regime matrices `B_i` have no columns.
     pub mod m {
         scalar f32, f64;

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A saturation whose bounds are written the wrong way round.
     pub mod m {
         scalar f32;

@@ -1,6 +1,6 @@
 const DT: f32 = 0.01;
 
-codegen_macros::model! {
+stateforge::model! {
     /// A model sees only its own names.
     pub mod m {
         scalar f32;

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// `ltv_model` is generated for the DKF.
     pub mod m {
         scalar f32;

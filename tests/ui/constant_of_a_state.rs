@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A constant cannot depend on the state.
     pub mod m {
         scalar f32;

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A model with one mistake: the hybrid EKF integrates `dx/dt`, which a discrete
     /// model does not give.
     pub mod m {

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// Nesting past 64 levels is refused before anything recurses through it.
     pub mod m {
         scalar f32;

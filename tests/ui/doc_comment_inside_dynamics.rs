@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A doc comment inside dynamics documents nothing.
     pub mod m {
         scalar f32;

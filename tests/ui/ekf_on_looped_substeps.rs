@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A model with one mistake: the discrete EKF differentiates the unrolled sample
     /// step, and 500 sub-steps are integrated in a loop.
     pub mod m {

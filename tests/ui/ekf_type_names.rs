@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// Several EKFs need distinct UpperCamelCase type names that the module does not use.
     pub mod m {
         scalar f32;

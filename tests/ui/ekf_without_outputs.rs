@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// An EKF needs a measurement.
     pub mod m {
         scalar f32;

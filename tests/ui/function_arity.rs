@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A model calling the two-argument functions with the wrong number of arguments.
     pub mod m {
         scalar f32;

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// Out-of-range values are reported under the value.
     pub mod m {
         scalar f32;

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A constant known only at run time where the design needs a number.
     pub mod m {
         scalar f32;

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// Wrong MPC options are reported under the option, several at once.
     pub mod m {
         scalar f32;

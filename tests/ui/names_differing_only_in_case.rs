@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// `x2` and `X2` would both be `index::X2`.
     pub mod m {
         scalar f32;

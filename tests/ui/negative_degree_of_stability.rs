@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A model with one mistake: a prescribed degree of stability is at least 0.
     pub mod m {
         scalar f32;

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// Noise values are given at run time (`process_noise` is the covariance's shape), and
     /// a list of numbers where model constants go names what to write instead.
     pub mod m {

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// Every constant must be finite in the model's scalar types.
     pub mod m {
         scalar f32, f64;

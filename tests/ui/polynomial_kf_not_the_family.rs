@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A constant-velocity model whose step is not Phi(1) of the stated order.
     pub mod m {
         scalar f32;

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A raw identifier cannot name a state.
     pub mod m {
         scalar f32;

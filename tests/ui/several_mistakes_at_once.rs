@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A model with several mistakes, all reported in one compile.
     pub mod m {
         scalar f32;

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// Two different switching conditions: the observers take one.
     pub mod m {
         scalar f32;

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A piecewise-linear model whose second state the output never sees.
     pub mod m {
         scalar f32;

@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// An unstable regime and a given gain too small to stabilise it.
     pub mod m {
         scalar f32;

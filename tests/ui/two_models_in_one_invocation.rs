@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// The first model.
     pub mod first {
         scalar f32;

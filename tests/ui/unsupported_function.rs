@@ -1,4 +1,4 @@
-codegen_macros::model! {
+stateforge::model! {
     /// A model with one mistake.
     pub mod m {
         scalar f32;

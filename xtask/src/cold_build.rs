@@ -12,7 +12,7 @@ const MODEL: &str = r#"//! One model, built the way a user's crate builds it.
 #![no_std]
 #![forbid(unsafe_code)]
 
-codegen_macros::model! {
+stateforge::model! {
     /// Cantilever beam, first mode, with unknown stiffness, damping and input gain.
     pub mod cantilever {
         scalar f32;
@@ -41,13 +41,11 @@ pub struct Measurement {
     pub warnings: Vec<String>,
 }
 
-/// Builds the one-model crate against the `codegen-macros` at `macros` (this workspace's
-/// by default) in a fresh directory with an empty target directory, `jobs` parallel jobs.
+/// Builds the one-model crate against the macro crate at `macros` (this workspace's
+/// `stateforge` by default) in a fresh directory with an empty target directory, `jobs`
+/// parallel jobs.
 pub fn measure(macros: Option<&Path>, jobs: Option<u32>) -> Result<Measurement, String> {
-    let macros = macros.map_or_else(
-        || workspace_root().join("codegen-macros"),
-        Path::to_path_buf,
-    );
+    let macros = macros.map_or_else(|| workspace_root().join("stateforge"), Path::to_path_buf);
     let macros = macros
         .canonicalize()
         .map_err(|e| format!("{}: {e}", macros.display()))?;
@@ -55,8 +53,11 @@ pub fn measure(macros: Option<&Path>, jobs: Option<u32>) -> Result<Measurement, 
         .parent()
         .map(|root| root.join("Cargo.lock"))
         .filter(|lock| lock.exists());
+    // Under its package name, which an older checkout may spell otherwise
+    // (`codegen-macros`), and imported as `stateforge`, the name the model uses.
     let dependencies = format!(
-        "codegen-macros = {{ path = {:?} }}\nlibm = \"0.2\"",
+        "stateforge = {{ package = {:?}, path = {:?} }}\nlibm = \"0.2\"",
+        package_name(&macros)?,
         macros.display().to_string()
     );
     let user = Scratch::new(
@@ -105,6 +106,20 @@ pub fn measure(macros: Option<&Path>, jobs: Option<u32>) -> Result<Measurement, 
         compiled,
         warnings,
     })
+}
+
+/// The `name` of the package whose directory is `dir`, read from its `Cargo.toml`.
+fn package_name(dir: &Path) -> Result<String, String> {
+    let manifest = dir.join("Cargo.toml");
+    let text =
+        std::fs::read_to_string(&manifest).map_err(|e| format!("{}: {e}", manifest.display()))?;
+    text.lines()
+        .skip_while(|line| line.trim() != "[package]")
+        .find_map(|line| {
+            let (key, value) = line.split_once('=')?;
+            (key.trim() == "name").then(|| value.trim().trim_matches('"').to_string())
+        })
+        .ok_or_else(|| format!("{}: no package name", manifest.display()))
 }
 
 impl std::fmt::Display for Measurement {

@@ -41,7 +41,7 @@ const SEQUENCE_SAMPLES: usize = 1000;
 /// Users' crates, outside the workspace, built and tested like a user's project.
 const EXAMPLES: &str = "examples";
 /// The crates published to crates.io, in dependency order.
-const PUBLISHED: [&str; 3] = ["model-dsl", "codegen-macros", "model-codegen"];
+const PUBLISHED: [&str; 3] = ["stateforge-compiler", "stateforge", "stateforge-cli"];
 /// Commands the firmware checks run, with the Debian packages that provide them.
 const FIRMWARE_TOOLS: &[(&str, &str)] = &[
     ("qemu-system-arm", "qemu-system-arm"),
@@ -67,8 +67,8 @@ enum Task {
     /// Run the firmware under QEMU and print what the generated filters cost on the
     /// Cortex-M4F, beside the nalgebra baseline.
     Cost,
-    /// Vendor every demo model with `model-codegen` into a user crate and check it with
-    /// rustfmt, `-D warnings` and clippy (part of `test`).
+    /// Vendor every demo model with `stateforge-codegen` into a user crate and check it
+    /// with rustfmt, `-D warnings` and clippy (part of `test`).
     Vendored,
     /// On the host, how far the f32 filters drift from f64 over many noise sequences.
     Accuracy {
@@ -79,7 +79,7 @@ enum Task {
     /// Benchmark: build a one-model user crate (outside the workspace, its own target
     /// directory) from nothing and report the time, the crates compiled and any warning.
     ColdBuild {
-        /// The `codegen-macros` directory to depend on (default: this workspace's), to
+        /// The `stateforge` directory to depend on (default: this workspace's), to
         /// compare with another checkout.
         #[arg(long)]
         macros: Option<std::path::PathBuf>,

@@ -1,5 +1,5 @@
 //! The check that vendored generated code is as clean as hand-written code: every demo
-//! model and model file through `model-codegen`, into one user crate outside the
+//! model and model file through `stateforge-codegen`, into one user crate outside the
 //! workspace, which must pass `cargo fmt --check`, build with `-D warnings` and pass
 //! clippy with `-D warnings`, with no lint allowed by the crate.
 
@@ -27,12 +27,12 @@ fn models(root: &Path) -> Result<Vec<(String, PathBuf)>, String> {
     Ok(models)
 }
 
-/// Vendors every model with `model-codegen -o` and checks the crate they make.
+/// Vendors every model with `stateforge-codegen -o` and checks the crate they make.
 pub fn check() -> Result<String, String> {
     let root = workspace_root();
     let models = models(&root)?;
     let lib = format!(
-        "//! Every demo model and model file, vendored with `model-codegen`.\n\
+        "//! Every demo model and model file, vendored with `stateforge-codegen`.\n\
          #![no_std]\n#![forbid(unsafe_code)]\n\n{}",
         models
             .iter()
@@ -67,7 +67,7 @@ fn vendor_and_check(
             &format!("vendoring {}", source.display()),
             crate::command::cargo()
                 .current_dir(root)
-                .args(["run", "--quiet", "--package", "model-codegen", "--"])
+                .args(["run", "--quiet", "--package", "stateforge-cli", "--"])
                 .arg(source)
                 .arg("-o")
                 .arg(vendored.dir.join("src").join(format!("{module}.rs"))),

@@ -1,4 +1,4 @@
-//! A DC motor, as a user of `codegen-macros` declares it: armature current and speed,
+//! A DC motor, as a user of `stateforge` declares it: armature current and speed,
 //! with the viscous friction and the load torque unknown, integrated by RK4 over the
 //! 1 ms sample. The generated EKF estimates all four from the measured current and
 //! speed; the generated LQR brakes the motor using the estimated model.
@@ -12,7 +12,7 @@
 pub mod experiment;
 pub mod plant;
 
-codegen_macros::model! {
+stateforge::model! {
     /// Permanent-magnet DC motor with a load: armature circuit and rotor.
     ///
     /// `L di/dt = v - R i - K_E w`, `J dw/dt = K_T i - b w - tau_L`, with the viscous

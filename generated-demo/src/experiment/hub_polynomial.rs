@@ -22,7 +22,7 @@ use std::path::Path;
 mod variants {
     macro_rules! hub_filter_model {
         ($name:ident, fading = $fading:tt, reinit_every = $period:tt) => {
-            codegen_macros::model! {
+            stateforge::model! {
                 /// A hub filter of the polynomial Kalman filter experiment.
                 pub mod $name {
                     scalar f64;

@@ -1,6 +1,12 @@
-//! The `model!` macro. All the work happens in `model-dsl`; this crate only adapts the
-//! compiler's types to `proc_macro`'s.
+// The `model!` macro. All the work happens in `stateforge-compiler`; this crate only adapts
+// the compiler's types to `proc_macro`'s. The crate's documentation is the guide, in
+// `doc/` (a proc-macro crate exports nothing but its macros, so no documentation-only
+// modules): using the crates, the generators, model files and the tool, the limits. The
+// language reference is the macro's own documentation, `doc/model.md`.
 
+#![doc = include_str!("../doc/guide.md")]
+#![doc = include_str!("../doc/model-files.md")]
+#![doc = include_str!("../doc/robustness.md")]
 #![forbid(unsafe_code)]
 
 use proc_macro::TokenStream;
@@ -15,11 +21,11 @@ pub fn model(input: TokenStream) -> TokenStream {
         .into_iter()
         .next()
         .map_or_else(proc_macro2::Span::call_site, |t| t.span());
-    let options = model_dsl::pipeline::Options {
+    let options = stateforge_compiler::pipeline::Options {
         // The `nalgebra` feature adds each model's `interop` module.
         nalgebra: cfg!(feature = "nalgebra"),
     };
-    match model_dsl::expand_with(input, &options) {
+    match stateforge_compiler::expand_with(input, &options) {
         Ok(generated) => respan(generated, anchor).into(),
         Err(errors) => errors.to_compile_error().into(),
     }
