@@ -51,7 +51,10 @@ fn lookup(item: &GenerateDecl, diag: &mut Diagnostics) -> Option<(usize, &'stati
         .enumerate()
         .find(|(_, kind)| kind.name() == item.name.text);
     if found.is_none() {
-        let usages: Vec<String> = REGISTRY.iter().map(|k| k.usage().to_owned()).collect();
+        let usages: Vec<String> = REGISTRY
+            .iter()
+            .map(|k| k.description().usage.to_owned())
+            .collect();
         diag.error(
             item.name.span,
             format!(
@@ -67,7 +70,7 @@ fn lookup(item: &GenerateDecl, diag: &mut Diagnostics) -> Option<(usize, &'stati
 /// What tells two items of one kind apart: its name, and the type name where a model may
 /// ask for several under different names.
 fn instance_key(kind: &dyn Kind, item: &GenerateDecl) -> String {
-    match kind.type_name_option() {
+    match kind.description().type_name_option {
         Some(default) => format!("{} {}", kind.name(), written_type_name(item, default)),
         None => kind.name().to_owned(),
     }
@@ -86,7 +89,7 @@ fn written_type_name<'a>(item: &'a GenerateDecl, default: &'a str) -> &'a str {
 }
 
 fn asked_twice(kind: &dyn Kind, item: &GenerateDecl) -> String {
-    match kind.type_name_option() {
+    match kind.description().type_name_option {
         Some(default) => format!(
             "{} `{}` of type `{}` is asked for twice: give the second another type name, \
              `{}(name = Gated{default})`",
@@ -147,7 +150,7 @@ fn check_type_names(
     generator: &dyn Generator,
     diag: &mut Diagnostics,
 ) {
-    let Some(default) = kind.type_name_option() else {
+    let Some(default) = kind.description().type_name_option else {
         return;
     };
     for name in generator.type_names() {

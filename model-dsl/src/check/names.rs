@@ -7,7 +7,7 @@ use crate::diagnostics::Diagnostics;
 
 /// Items the generated module defines whatever the model asks for; a constant (also an
 /// item) may not take their names, nor those of the generators' items
-/// ([`crate::generators::Kind::items`]).
+/// ([`crate::generators::Description::items`]).
 const MODEL_ITEMS: &[&str] = &[
     "f",
     "F_SUBSTEPS",
@@ -37,7 +37,7 @@ pub fn generated_item(text: &str) -> bool {
     MODEL_ITEMS.contains(&text)
         || crate::generators::REGISTRY
             .iter()
-            .any(|kind| kind.items().contains(&text))
+            .any(|kind| kind.description().items.contains(&text))
 }
 
 pub(super) fn declare(scope: &mut Scope, name: &Name, binding: Binding, diag: &mut Diagnostics) {

@@ -9,8 +9,9 @@
 //! # Adding a generator
 //!
 //! 1. Make its folder, `generators/<name>/`, with a `mod.rs` holding a unit struct (the
-//!    [`Kind`]: its name, usage, [`Requirement`]s, the items it defines, and `options`,
-//!    which reads its options with [`Args`] into a spec), the spec (the [`Generator`]:
+//!    [`Kind`]: its [`Description`], a table of its name, usage, [`Requirement`]s and the
+//!    items it defines, and `options`, which reads its options with [`Args`] into a spec
+//!    kept in `spec.rs`), the spec (the [`Generator`]:
 //!    `design`, the work that needs the model's graph, once, with errors spanned at the
 //!    `generate` item), and the design's [`Lowering`] (the code for one scalar type and
 //!    its [`Cost`]s, published as `*_OPS` constants). Put its lowering in `lower.rs`
@@ -26,7 +27,7 @@ pub mod options;
 pub mod unit;
 
 pub use options::{Args, Context};
-pub use unit::{Code, Cost, Generator, Kind, Lowering, Requirement};
+pub use unit::{Code, Cost, Description, Generator, Kind, Lowering, Requirement};
 
 /// Declares each generator's module and lists its [`Kind`] in [`REGISTRY`]: one line per
 /// generator.

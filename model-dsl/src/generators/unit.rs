@@ -20,28 +20,29 @@ use proc_macro2::TokenStream;
 use std::any::Any;
 use std::fmt::Debug;
 
-/// One kind of generator, what `generate <name>(..)` asks for: its name, what it requires
-/// of the model, and how its options are read.
-pub trait Kind: Sync {
+/// What a generator is and what it asks of the model: each unit states it in one table.
+#[derive(Debug)]
+pub struct Description {
     /// The name written after `generate` (`ekf`).
-    fn name(&self) -> &'static str;
-
+    pub name: &'static str,
     /// How it is written with typical options, for the error that lists the generators
     /// (`` `dkf(eta = ..)` ``).
-    fn usage(&self) -> &'static str;
-
+    pub usage: &'static str,
     /// What the model must give for this generator, checked before any of its code runs.
-    fn requirements(&self) -> &'static [Requirement];
-
+    pub requirements: &'static [Requirement],
     /// The items it defines in the generated module (types and the like), which a model
     /// constant or another generator's `name = ..` may not take.
-    fn items(&self) -> &'static [&'static str];
-
+    pub items: &'static [&'static str],
     /// `Some(default type name)` when a model may ask for several of this generator under
     /// different type names (`ekf(name = GatedEkf)`); `None` when it is asked for once.
-    fn type_name_option(&self) -> Option<&'static str> {
-        None
-    }
+    pub type_name_option: Option<&'static str>,
+}
+
+/// One kind of generator, what `generate <name>(..)` asks for: its [`Description`], and
+/// how its options are read.
+pub trait Kind: Sync {
+    /// What it is and what it requires of the model.
+    fn description(&self) -> &'static Description;
 
     /// Reads and checks the options of `item`, taking them from `args` (what is left is
     /// reported as unknown). `None` after reporting an error.
@@ -54,13 +55,25 @@ pub trait Kind: Sync {
     ) -> Option<Box<dyn Generator>>;
 }
 
+impl dyn Kind + '_ {
+    /// The name written after `generate`.
+    pub fn name(&self) -> &'static str {
+        self.description().name
+    }
+
+    /// What the model must give for this generator.
+    pub fn requirements(&self) -> &'static [Requirement] {
+        self.description().requirements
+    }
+}
+
 /// A generator with its checked options.
 pub trait Generator: Debug + Any {
     /// The design, made once from the model's graph: an error under the `generate` item
     /// when the model is outside what the generator supports.
     fn design(&self, model: &Model, mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>>;
 
-    /// The type names it chose with `name = ..` (see [`Kind::type_name_option`]), which
+    /// The type names it chose with `name = ..` (see [`Description::type_name_option`]), which
     /// must not be other items of the module.
     fn type_names(&self) -> Vec<String> {
         Vec::new()

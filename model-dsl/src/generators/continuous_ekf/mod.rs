@@ -7,7 +7,7 @@ pub mod spec;
 
 pub use spec::ContinuousEkfSpec;
 use super::options::{Args, Context};
-use super::unit::{Cost, Generator, Kind, Code, Lowering, Requirement};
+use super::unit::{Description, Cost, Generator, Kind, Code, Lowering, Requirement};
 use crate::ast::GenerateDecl;
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar};
@@ -17,25 +17,22 @@ use std::any::Any;
 /// The `continuous_ekf` generator.
 pub struct ContinuousEkf;
 
-impl Kind for ContinuousEkf {
-    fn name(&self) -> &'static str {
-        "continuous_ekf"
-    }
-
-    fn usage(&self) -> &'static str {
-        "`continuous_ekf(alpha = ..)`"
-    }
-
-    fn requirements(&self) -> &'static [Requirement] {
-        &[
+/// What `continuous_ekf` is and what it requires of the model.
+const DESCRIPTION: Description = Description {
+    name: "continuous_ekf",
+    usage: "`continuous_ekf(alpha = ..)`",
+    requirements: &[
             Requirement::Outputs,
             Requirement::ContinuousDynamics,
             Requirement::CoefficientsAtGeneration,
-        ]
-    }
+        ],
+    items: &["ContinuousEkf"],
+    type_name_option: None,
+};
 
-    fn items(&self) -> &'static [&'static str] {
-        &["ContinuousEkf"]
+impl Kind for ContinuousEkf {
+    fn description(&self) -> &'static Description {
+        &DESCRIPTION
     }
 
     fn options(

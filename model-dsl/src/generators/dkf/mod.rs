@@ -11,7 +11,7 @@ pub mod window;
 
 pub use spec::DkfSpec;
 use super::options::{Args, Context};
-use super::unit::{Cost, Generator, Kind, Code, Lowering, Requirement};
+use super::unit::{Description, Cost, Generator, Kind, Code, Lowering, Requirement};
 use crate::ast::GenerateDecl;
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar};
@@ -21,25 +21,22 @@ use std::any::Any;
 /// The `dkf` generator.
 pub struct Dkf;
 
-impl Kind for Dkf {
-    fn name(&self) -> &'static str {
-        "dkf"
-    }
-
-    fn usage(&self) -> &'static str {
-        "`dkf(eta = ..)`"
-    }
-
-    fn requirements(&self) -> &'static [Requirement] {
-        &[
+/// What `dkf` is and what it requires of the model.
+const DESCRIPTION: Description = Description {
+    name: "dkf",
+    usage: "`dkf(eta = ..)`",
+    requirements: &[
             Requirement::Outputs,
             Requirement::UnrolledStep,
             Requirement::CoefficientsAtGeneration,
-        ]
-    }
+        ],
+    items: &["Dkf", "DkfStatus", "WindowStatus", "ltv_model"],
+    type_name_option: None,
+};
 
-    fn items(&self) -> &'static [&'static str] {
-        &["Dkf", "DkfStatus", "WindowStatus", "ltv_model"]
+impl Kind for Dkf {
+    fn description(&self) -> &'static Description {
+        &DESCRIPTION
     }
 
     fn options(

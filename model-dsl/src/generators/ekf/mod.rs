@@ -6,7 +6,7 @@ pub mod spec;
 
 pub use spec::EkfSpec;
 use super::options::{Args, Context};
-use super::unit::{Cost, Generator, Kind, Code, Lowering, Requirement};
+use super::unit::{Description, Cost, Generator, Kind, Code, Lowering, Requirement};
 use crate::ast::{ArgValue, GenerateDecl};
 use crate::diagnostics::Diagnostics;
 use crate::emit::names::screaming_snake;
@@ -17,25 +17,18 @@ use std::any::Any;
 /// The `ekf` generator.
 pub struct Ekf;
 
+/// What `ekf` is and what it requires of the model.
+const DESCRIPTION: Description = Description {
+    name: "ekf",
+    usage: "`ekf`",
+    requirements: &[Requirement::Outputs, Requirement::UnrolledStep],
+    items: &["Ekf"],
+    type_name_option: Some("Ekf"),
+};
+
 impl Kind for Ekf {
-    fn name(&self) -> &'static str {
-        "ekf"
-    }
-
-    fn usage(&self) -> &'static str {
-        "`ekf`"
-    }
-
-    fn requirements(&self) -> &'static [Requirement] {
-        &[Requirement::Outputs, Requirement::UnrolledStep]
-    }
-
-    fn items(&self) -> &'static [&'static str] {
-        &["Ekf"]
-    }
-
-    fn type_name_option(&self) -> Option<&'static str> {
-        Some("Ekf")
+    fn description(&self) -> &'static Description {
+        &DESCRIPTION
     }
 
     fn options(

@@ -7,7 +7,7 @@ pub mod spec;
 
 pub use spec::HybridEkfSpec;
 use super::options::{Args, Context};
-use super::unit::{Cost, Generator, Kind, Code, Lowering, Requirement};
+use super::unit::{Description, Cost, Generator, Kind, Code, Lowering, Requirement};
 use crate::ast::GenerateDecl;
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar};
@@ -17,25 +17,22 @@ use std::any::Any;
 /// The `hybrid_ekf` generator.
 pub struct HybridEkf;
 
-impl Kind for HybridEkf {
-    fn name(&self) -> &'static str {
-        "hybrid_ekf"
-    }
-
-    fn usage(&self) -> &'static str {
-        "`hybrid_ekf`"
-    }
-
-    fn requirements(&self) -> &'static [Requirement] {
-        &[
+/// What `hybrid_ekf` is and what it requires of the model.
+const DESCRIPTION: Description = Description {
+    name: "hybrid_ekf",
+    usage: "`hybrid_ekf`",
+    requirements: &[
             Requirement::Outputs,
             Requirement::ContinuousDynamics,
             Requirement::CoefficientsAtGeneration,
-        ]
-    }
+        ],
+    items: &["HybridEkf"],
+    type_name_option: None,
+};
 
-    fn items(&self) -> &'static [&'static str] {
-        &["HybridEkf"]
+impl Kind for HybridEkf {
+    fn description(&self) -> &'static Description {
+        &DESCRIPTION
     }
 
     fn options(

@@ -7,7 +7,7 @@ pub mod steady_state;
 
 pub use spec::LqrSpec;
 use super::options::{regulated, Args, Context};
-use super::unit::{Cost, Generator, Kind, Code, Lowering, Requirement};
+use super::unit::{Description, Cost, Generator, Kind, Code, Lowering, Requirement};
 use crate::ast::GenerateDecl;
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar};
@@ -17,21 +17,18 @@ use std::any::Any;
 /// The `lqr` generator.
 pub struct Lqr;
 
+/// What `lqr` is and what it requires of the model.
+const DESCRIPTION: Description = Description {
+    name: "lqr",
+    usage: "`lqr(..)`",
+    requirements: &[Requirement::Inputs, Requirement::UnrolledStep],
+    items: &["Lqr"],
+    type_name_option: None,
+};
+
 impl Kind for Lqr {
-    fn name(&self) -> &'static str {
-        "lqr"
-    }
-
-    fn usage(&self) -> &'static str {
-        "`lqr(..)`"
-    }
-
-    fn requirements(&self) -> &'static [Requirement] {
-        &[Requirement::Inputs, Requirement::UnrolledStep]
-    }
-
-    fn items(&self) -> &'static [&'static str] {
-        &["Lqr"]
+    fn description(&self) -> &'static Description {
+        &DESCRIPTION
     }
 
     fn options(

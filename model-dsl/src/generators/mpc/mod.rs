@@ -13,7 +13,7 @@ pub mod qp;
 
 pub use spec::{MpcDiscretisation, MpcSpec, MPC_UNKNOWNS_MAX};
 use super::options::{regulated, Args, Context};
-use super::unit::{Cost, Generator, Kind, Code, Lowering, Requirement};
+use super::unit::{Description, Cost, Generator, Kind, Code, Lowering, Requirement};
 use crate::ast::{ArgValue, DynamicsKind, GenerateDecl, ModelDecl};
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar, UNROLLED_SUBSTEPS_MAX};
@@ -23,21 +23,18 @@ use std::any::Any;
 /// The `mpc` generator.
 pub struct Mpc;
 
+/// What `mpc` is and what it requires of the model.
+const DESCRIPTION: Description = Description {
+    name: "mpc",
+    usage: "`mpc(..)`",
+    requirements: &[Requirement::Inputs, Requirement::CoefficientsAtGeneration],
+    items: &["Mpc", "MpcStatus", "PredictionModel"],
+    type_name_option: None,
+};
+
 impl Kind for Mpc {
-    fn name(&self) -> &'static str {
-        "mpc"
-    }
-
-    fn usage(&self) -> &'static str {
-        "`mpc(..)`"
-    }
-
-    fn requirements(&self) -> &'static [Requirement] {
-        &[Requirement::Inputs, Requirement::CoefficientsAtGeneration]
-    }
-
-    fn items(&self) -> &'static [&'static str] {
-        &["Mpc", "MpcStatus", "PredictionModel"]
+    fn description(&self) -> &'static Description {
+        &DESCRIPTION
     }
 
     fn options(

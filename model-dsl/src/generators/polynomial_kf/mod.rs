@@ -9,7 +9,7 @@ pub mod spec;
 
 pub use spec::PolynomialKfSpec;
 use super::options::{Args, Context};
-use super::unit::{Cost, Generator, Kind, Code, Lowering, Requirement};
+use super::unit::{Description, Cost, Generator, Kind, Code, Lowering, Requirement};
 use crate::ast::GenerateDecl;
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar};
@@ -25,24 +25,21 @@ pub struct PolynomialKf;
 const USAGE: &str = "polynomial_kf(order = 3, dt = TS, fading = 1e-9, noise_variance = 1e-4, \
                      reinit_every = 100, window = 20)";
 
-impl Kind for PolynomialKf {
-    fn name(&self) -> &'static str {
-        "polynomial_kf"
-    }
-
-    fn usage(&self) -> &'static str {
-        "`polynomial_kf(..)`"
-    }
-
-    fn requirements(&self) -> &'static [Requirement] {
-        &[
+/// What `polynomial_kf` is and what it requires of the model.
+const DESCRIPTION: Description = Description {
+    name: "polynomial_kf",
+    usage: "`polynomial_kf(..)`",
+    requirements: &[
             Requirement::Outputs,
             Requirement::CoefficientsAtGeneration,
-        ]
-    }
+        ],
+    items: &["PolynomialKf"],
+    type_name_option: None,
+};
 
-    fn items(&self) -> &'static [&'static str] {
-        &["PolynomialKf"]
+impl Kind for PolynomialKf {
+    fn description(&self) -> &'static Description {
+        &DESCRIPTION
     }
 
     fn options(

@@ -9,7 +9,7 @@ pub mod spec;
 
 pub use spec::SwitchedObserverSpec;
 use super::options::{Args, Context};
-use super::unit::{Code, Cost, Generator, Kind, Lowering, Requirement};
+use super::unit::{Description, Code, Cost, Generator, Kind, Lowering, Requirement};
 use crate::ast::GenerateDecl;
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar};
@@ -20,30 +20,27 @@ use std::any::Any;
 /// The `switched_observer` generator.
 pub struct SwitchedObserver;
 
-impl Kind for SwitchedObserver {
-    fn name(&self) -> &'static str {
-        "switched_observer"
-    }
-
-    fn usage(&self) -> &'static str {
-        "`switched_observer(..)`"
-    }
-
-    fn requirements(&self) -> &'static [Requirement] {
-        &[
+/// What `switched_observer` is and what it requires of the model.
+const DESCRIPTION: Description = Description {
+    name: "switched_observer",
+    usage: "`switched_observer(..)`",
+    requirements: &[
             Requirement::Outputs,
             Requirement::UnrolledStep,
             Requirement::CoefficientsAtGeneration,
             Requirement::NoParameters,
-        ]
-    }
-
-    fn items(&self) -> &'static [&'static str] {
-        &[
+        ],
+    items: &[
             "LinearErrorObserver",
             "SwitchedKalmanObserver",
             "CommonGainObserver",
-        ]
+        ],
+    type_name_option: None,
+};
+
+impl Kind for SwitchedObserver {
+    fn description(&self) -> &'static Description {
+        &DESCRIPTION
     }
 
     fn options(
