@@ -3,7 +3,7 @@
 //! path independent of the symbolic engine and the emitters.
 
 use stateforge_compiler::ast::Comparison;
-use stateforge_compiler::model::{Expr, Model};
+use stateforge_compiler::model::{Expr, Func, Model};
 
 /// `expr` of `model` as a `meval` expression over the model's own names and `t`.
 /// Intermediates are written out in place; piecewise terms use `if_gt(a, b, then, else)`
@@ -26,7 +26,7 @@ pub fn to_meval(model: &Model, expr: &Expr) -> String {
         Expr::Div(a, b) => format!("({} / {})", go(a), go(b)),
         Expr::Powi(a, n) => format!("({}^({n}))", go(a)),
         Expr::Call(f, a) => format!("{}({})", f.name(), go(a)),
-        Expr::Atan2(y, x) => format!("atan2({}, {})", go(y), go(x)),
+        Expr::Atan2(y, x) => format!("{}({}, {})", Func::ATAN2.name, go(y), go(x)),
         Expr::Select {
             cmp,
             lhs,
