@@ -7,8 +7,10 @@
 //! raw identifiers, stray keywords). The test command runs a modest number of cases;
 //! `PROPTEST_CASES=20000 cargo test --release -p tests --test fuzz_front_ends` runs long.
 
+use proc_macro2::TokenStream;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use tests::{demo_model_source, workspace_path, DEMO_MODELS};
 
 /// Fragments inserted by the mutator.
@@ -182,16 +184,31 @@ fn runner(default_cases: u32) -> TestRunner {
     })
 }
 
-/// Accepted input must give a Rust file; rejected input just returns its errors.
-fn check(generated: syn::Result<proc_macro2::TokenStream>) -> Result<(), TestCaseError> {
+/// Expands `text` with `expand`: a panic fails the case, and so does accepted input whose
+/// code does not parse as a Rust file; rejected input just returns its errors. A failure
+/// shows the input, so proptest's minimal case reads as a model.
+fn check(text: &str, expand: fn(&str) -> syn::Result<TokenStream>) -> Result<(), TestCaseError> {
+    let fail = |what: String| TestCaseError::fail(format!("{what}\n--- input ---\n{text}\n---"));
+    let generated = catch_unwind(AssertUnwindSafe(|| expand(text))).map_err(|payload| {
+        let message = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or("(a panic without a message)");
+        fail(format!("panicked: {message}"))
+    })?;
     if let Ok(tokens) = generated {
         if let Err(e) = model_codegen::format(tokens) {
-            return Err(TestCaseError::fail(format!(
-                "accepted, but the code does not parse: {e}"
-            )));
+            return Err(fail(format!("accepted, but the code does not parse: {e}")));
         }
     }
     Ok(())
+}
+
+/// Whether the run is a long one (`PROPTEST_CASES` set), which also takes the models that
+/// expand slowly in a debug build.
+fn long_run() -> bool {
+    std::env::var_os("PROPTEST_CASES").is_some()
 }
 
 #[test]
@@ -200,7 +217,7 @@ fn mutated_macro_models_never_panic_and_accepted_ones_parse() {
     // by the long run.
     let sources: Vec<String> = DEMO_MODELS
         .iter()
-        .filter(|m| **m != "piecewise_beam")
+        .filter(|m| **m != "piecewise_beam" || long_run())
         .map(|m| demo_model_source(m))
         .collect();
     let case = (0..sources.len(), prop::collection::vec(edit(), 1..4));
@@ -209,7 +226,7 @@ fn mutated_macro_models_never_panic_and_accepted_ones_parse() {
             let text = edits
                 .iter()
                 .fold(sources[model].clone(), |t, e| apply(&t, e));
-            check(model_dsl::expand_macro_source(&text))
+            check(&text, model_dsl::expand_macro_source)
         })
         .unwrap();
 }
@@ -222,7 +239,7 @@ fn mutated_model_files_never_panic_and_accepted_ones_parse() {
     runner(160)
         .run(&case, |edits| {
             let text = edits.iter().fold(toml.clone(), |t, e| apply(&t, e));
-            check(model_codegen::expand_model_file(&text))
+            check(&text, model_codegen::expand_model_file)
         })
         .unwrap();
 }
