@@ -4,12 +4,23 @@
 //! Each case takes a demo model (as a `model!` file or the TOML cantilever) and applies a
 //! few random edits: deleting, duplicating or moving a span of text, or inserting a
 //! fragment known to have troubled compilers (deep nesting, huge or non-finite numbers,
-//! raw identifiers, stray keywords). The test command runs a modest number of cases;
+//! raw identifiers, stray keywords). The generator cases take a small model valid for one
+//! generator (or a demo model), in either front end, and change what the generators
+//! require of it (no outputs, no inputs, the other kind of dynamics, a `known` or a
+//! `param`, sub-steps past the unrolled limit) and their options (dropped, given twice,
+//! out of range, of the wrong kind, naming what is not declared, another generator's),
+//! then maybe a random edit. The test command runs a modest number of cases;
 //! `PROPTEST_CASES=20000 cargo test --release -p tests --test fuzz_front_ends` runs long.
 
+use proc_macro2::TokenStream;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
-use tests::{demo_model_source, workspace_path, DEMO_MODELS};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use tests::{demo_model_source, workspace_path, DEMO_MODELS, TEST_MODELS};
+
+#[path = "fuzz_front_ends/generators.rs"]
+mod generators;
+use generators::{changed_macro_model, changed_model_file, changes, Changes};
 
 /// Fragments inserted by the mutator.
 const FRAGMENTS: &[&str] = &[
@@ -129,6 +140,12 @@ fn edit() -> impl Strategy<Value = Edit> {
     ]
 }
 
+/// Mostly no edit, else one: after a generator case's changes an edit mostly breaks the
+/// syntax, which the other tests try.
+fn rare_edits() -> impl Strategy<Value = Vec<Edit>> {
+    prop_oneof![3 => Just(Vec::new()), 1 => prop::collection::vec(edit(), 1..2)]
+}
+
 /// The byte offset of `at` (reduced into the text) moved back to a character boundary.
 fn boundary(text: &str, at: usize) -> usize {
     let mut i = at % (text.len() + 1);
@@ -182,16 +199,31 @@ fn runner(default_cases: u32) -> TestRunner {
     })
 }
 
-/// Accepted input must give a Rust file; rejected input just returns its errors.
-fn check(generated: syn::Result<proc_macro2::TokenStream>) -> Result<(), TestCaseError> {
+/// Expands `text` with `expand`: a panic fails the case, and so does accepted input whose
+/// code does not parse as a Rust file; rejected input just returns its errors. A failure
+/// shows the input, so proptest's minimal case reads as a model.
+fn check(text: &str, expand: fn(&str) -> syn::Result<TokenStream>) -> Result<(), TestCaseError> {
+    let fail = |what: String| TestCaseError::fail(format!("{what}\n--- input ---\n{text}\n---"));
+    let generated = catch_unwind(AssertUnwindSafe(|| expand(text))).map_err(|payload| {
+        let message = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or("(a panic without a message)");
+        fail(format!("panicked: {message}"))
+    })?;
     if let Ok(tokens) = generated {
         if let Err(e) = stateforge_cli::format(tokens) {
-            return Err(TestCaseError::fail(format!(
-                "accepted, but the code does not parse: {e}"
-            )));
+            return Err(fail(format!("accepted, but the code does not parse: {e}")));
         }
     }
     Ok(())
+}
+
+/// Whether the run is a long one (`PROPTEST_CASES` set), which also takes the models that
+/// expand slowly in a debug build.
+fn long_run() -> bool {
+    std::env::var_os("PROPTEST_CASES").is_some()
 }
 
 #[test]
@@ -200,7 +232,7 @@ fn mutated_macro_models_never_panic_and_accepted_ones_parse() {
     // by the long run.
     let sources: Vec<String> = DEMO_MODELS
         .iter()
-        .filter(|m| **m != "piecewise_beam")
+        .filter(|m| **m != "piecewise_beam" || long_run())
         .map(|m| demo_model_source(m))
         .collect();
     let case = (0..sources.len(), prop::collection::vec(edit(), 1..4));
@@ -209,7 +241,7 @@ fn mutated_macro_models_never_panic_and_accepted_ones_parse() {
             let text = edits
                 .iter()
                 .fold(sources[model].clone(), |t, e| apply(&t, e));
-            check(stateforge_compiler::expand_macro_source(&text))
+            check(&text, stateforge_compiler::expand_macro_source)
         })
         .unwrap();
 }
@@ -222,7 +254,331 @@ fn mutated_model_files_never_panic_and_accepted_ones_parse() {
     runner(160)
         .run(&case, |edits| {
             let text = edits.iter().fold(toml.clone(), |t, e| apply(&t, e));
-            check(stateforge_cli::expand_model_file(&text))
+            check(&text, stateforge_cli::expand_model_file)
+        })
+        .unwrap();
+}
+
+// ---------------------------------------------------------------------------------------
+// Generators: their requirements and their options.
+
+/// Small `model!` models, each valid for the generators it asks for; together they ask for
+/// every generator, with names (`x1`, `x2`, `u`, `y`, `TS`) that the option edits reuse.
+const MACRO_MODELS: &[&str] = &[
+    // ekf, twice
+    "stateforge::model! {
+    pub mod m {
+        scalar f32;
+        const TS = 0.01;
+        state x1, x2;
+        param k;
+        input u;
+        output y = x1;
+        generate ekf(process_noise = diagonal), ekf(gate = 10.83, name = GatedEkf);
+        dynamics discrete {
+            x1 = x1 + TS * x2;
+            x2 = x2 - TS * k * x1 + TS * u;
+        }
+    }
+}",
+    // dkf
+    "stateforge::model! {
+    pub mod m {
+        scalar f32;
+        const TS = 0.015;
+        state x1, x2;
+        param x3, x4, x5;
+        input u;
+        output y = x1;
+        generate dkf(eta = 0.5, process_noise = diagonal);
+        dynamics discrete {
+            x1 = x1 + TS * x2;
+            x2 = TS * x1 * x3 + (1.0 + TS * x4) * x2 + TS * x5 * u;
+        }
+    }
+}",
+    // polynomial_kf
+    "stateforge::model! {
+    pub mod m {
+        scalar f64;
+        const TS = 0.01;
+        state x1, x2;
+        output y = x1;
+        generate polynomial_kf(order = 1, dt = TS, fading = 1e-6, noise_variance = 1e-4,
+            reinit_every = 50, window = 10);
+        dynamics discrete {
+            x1 = x1 + x2;
+            x2 = x2;
+        }
+    }
+}",
+    // switched_observer
+    "stateforge::model! {
+    pub mod m {
+        scalar f64;
+        const TS = 0.001;
+        const Q_POS = 1e-8;
+        const Q_VEL = 1e-4;
+        const R_POS = 1e-6;
+        state x1, x2;
+        input u;
+        output y = x1;
+        generate switched_observer(process_noise = [Q_POS, Q_VEL], measurement_noise = [R_POS]);
+        dynamics discrete {
+            let spring = if x1 > 0.0 { 400.0 * x1 } else { 100.0 * x1 };
+            x2 = x2 + TS * (u - spring - 0.5 * x2);
+            x1 = x1 + TS * x2;
+        }
+    }
+}",
+    // lqr
+    "stateforge::model! {
+    pub mod m {
+        scalar f32;
+        const TS = 0.01;
+        state x1, x2;
+        input u;
+        output y = x1;
+        generate lqr(horizon = 50, states = [x1, x2], input = u);
+        dynamics discrete {
+            x1 = x1 + TS * x2;
+            x2 = x2 + TS * (sin(x1) + u);
+        }
+    }
+}",
+    // mpc
+    "stateforge::model! {
+    pub mod m {
+        scalar f64;
+        const TS = 0.1;
+        state x1, x2;
+        input u;
+        output y = x1;
+        generate mpc(horizon = 8, states = [x1, x2], input = u);
+        dynamics discrete {
+            x1 = x1 + TS * x2 + 0.5 * TS * TS * u;
+            x2 = x2 + TS * u;
+        }
+    }
+}",
+    // hybrid_ekf
+    "stateforge::model! {
+    pub mod m {
+        scalar f64;
+        const TS = 0.01;
+        state x1, x2;
+        param k;
+        input u;
+        output y = x1;
+        generate hybrid_ekf(process_noise = diagonal);
+        dynamics continuous(euler, dt = TS, substeps = 100) {
+            der(x1) = x2;
+            der(x2) = k * (u - 500.0 * x1 - 0.1 * x2);
+        }
+    }
+}",
+    // continuous_ekf
+    "stateforge::model! {
+    pub mod m {
+        scalar f32;
+        const TS = 0.001;
+        state x1, x2;
+        input u;
+        output y = x1;
+        generate continuous_ekf(alpha = 0.5, process_noise = diagonal);
+        dynamics continuous(rk4, dt = TS) {
+            der(x1) = x2;
+            der(x2) = -4.0 * x1.sin() - 0.5 * x2 + u;
+        }
+    }
+}",
+];
+
+/// Small model files (without their `[generate]` table) and the generators each is valid
+/// for, written as in a `model!`; together they ask for every generator.
+const FILE_MODELS: &[(&str, &str)] = &[
+    (
+        r#"name = "oscillator"
+scalar = ["f64"]
+
+[[const]]
+name = "TS"
+value = 0.01
+
+[[state]]
+name = "x1"
+
+[[state]]
+name = "x2"
+
+[[param]]
+name = "k"
+
+[[input]]
+name = "u"
+
+[[output]]
+name = "y"
+value = "x1"
+
+[dynamics]
+kind = "continuous"
+method = "euler"
+dt = "TS"
+substeps = 10
+
+[dynamics.equations]
+x1 = "x2"
+x2 = "-k * x1 - 0.5 * x2 + u"
+"#,
+        "hybrid_ekf(process_noise = diagonal), continuous_ekf(alpha = 0.5), \
+         mpc(horizon = 8, states = [x1, x2], input = u)",
+    ),
+    (
+        r#"name = "stop"
+scalar = ["f64"]
+
+[[const]]
+name = "TS"
+value = 0.001
+
+[[const]]
+name = "Q_POS"
+value = 1e-8
+
+[[const]]
+name = "Q_VEL"
+value = 1e-4
+
+[[const]]
+name = "R_POS"
+value = 1e-6
+
+[[state]]
+name = "x1"
+
+[[state]]
+name = "x2"
+
+[[input]]
+name = "u"
+
+[[output]]
+name = "y"
+value = "x1"
+
+[dynamics]
+kind = "discrete"
+
+[dynamics.equations]
+x1 = "x1 + TS * x2"
+x2 = "x2 + TS * (u - if_gt(x1, 0, 400 * x1, 100 * x1) - 0.5 * x2)"
+"#,
+        "switched_observer(process_noise = [Q_POS, Q_VEL], measurement_noise = [R_POS])",
+    ),
+    (
+        r#"name = "track"
+scalar = ["f64"]
+
+[[const]]
+name = "TS"
+value = 0.01
+
+[[state]]
+name = "x1"
+
+[[state]]
+name = "x2"
+
+[[output]]
+name = "y"
+value = "x1"
+
+[dynamics]
+kind = "discrete"
+
+[dynamics.equations]
+x1 = "x1 + x2"
+x2 = "x2"
+"#,
+        "polynomial_kf(order = 1, dt = TS, fading = 1e-6, noise_variance = 1e-4, \
+         reinit_every = 50, window = 10)",
+    ),
+];
+
+/// The cantilever's model file's generators, as in a `model!`.
+const CANTILEVER_FILE_GENERATORS: &str = "ekf(process_noise = diagonal), \
+    ekf(process_noise = diagonal, gate = 10.83, name = GatedEkf), \
+    dkf(eta = 0.5, process_noise = diagonal), lqr(horizon = 50, states = [x1, x2], input = u)";
+
+/// The cantilever's model file without its `[generate]` table.
+fn cantilever_file_without_generators() -> String {
+    let toml = std::fs::read_to_string(workspace_path("model-codegen/models/cantilever.toml"))
+        .expect("the cantilever model file");
+    let at = toml
+        .find("[generate]")
+        .expect("the cantilever file generates");
+    toml[..at].to_owned()
+}
+
+#[test]
+fn generator_base_models_are_valid() {
+    // A requirement removed from a valid model leaves the requirement's error alone; a
+    // base model that is already wrong would test less than it seems to.
+    let unchanged = Changes::none();
+    for base in MACRO_MODELS {
+        let text = changed_macro_model(base, &unchanged);
+        if let Err(e) = stateforge_compiler::expand_macro_source(&text) {
+            panic!("{e}\n{text}");
+        }
+    }
+    let cantilever = cantilever_file_without_generators();
+    let files = FILE_MODELS
+        .iter()
+        .copied()
+        .chain([(cantilever.as_str(), CANTILEVER_FILE_GENERATORS)]);
+    for base in files {
+        let text = changed_model_file(base, &unchanged);
+        if let Err(e) = stateforge_cli::expand_model_file(&text) {
+            panic!("{e}\n{text}");
+        }
+    }
+}
+
+#[test]
+fn macro_models_with_changed_generators_never_panic_and_accepted_ones_parse() {
+    let mut sources: Vec<String> = MACRO_MODELS.iter().map(|m| m.to_string()).collect();
+    sources.extend(
+        DEMO_MODELS
+            .iter()
+            .filter(|m| **m != "piecewise_beam" || long_run())
+            .map(|m| demo_model_source(m)),
+    );
+    sources.extend(TEST_MODELS.iter().map(|m| {
+        std::fs::read_to_string(workspace_path(&format!("tests/models/{m}.rs")))
+            .expect("the test model")
+    }));
+    let case = (0..sources.len(), changes(), rare_edits());
+    runner(256)
+        .run(&case, |(model, changes, edits)| {
+            let text = changed_macro_model(&sources[model], &changes);
+            let text = edits.iter().fold(text, |t, e| apply(&t, e));
+            check(&text, stateforge_compiler::expand_macro_source)
+        })
+        .unwrap();
+}
+
+#[test]
+fn model_files_with_changed_generators_never_panic_and_accepted_ones_parse() {
+    let cantilever = cantilever_file_without_generators();
+    let mut files: Vec<(&str, &str)> = FILE_MODELS.to_vec();
+    files.push((&cantilever, CANTILEVER_FILE_GENERATORS));
+    let case = (0..files.len(), changes(), rare_edits());
+    runner(256)
+        .run(&case, |(model, changes, edits)| {
+            let text = changed_model_file(files[model], &changes);
+            let text = edits.iter().fold(text, |t, e| apply(&t, e));
+            check(&text, stateforge_cli::expand_model_file)
         })
         .unwrap();
 }
