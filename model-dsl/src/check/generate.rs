@@ -114,8 +114,12 @@ fn requirements_met(
     diag: &mut Diagnostics,
 ) -> bool {
     let mut met = true;
-    for requirement in kind.requirements() {
-        let alternatives = without(Requirement::CoefficientsAtGeneration);
+    for &requirement in kind.requirements() {
+        let alternatives = match requirement {
+            // The filters that integrate the continuous dynamics need no unrolled step.
+            Requirement::UnrolledStep => with(Requirement::ContinuousDynamics),
+            other => without(other),
+        };
         if let Some(message) = requirement.unmet(kind.name(), decl, &alternatives) {
             diag.error(item.name.span, message);
             met = false;
@@ -129,6 +133,16 @@ fn without(requirement: Requirement) -> String {
     let names: Vec<String> = REGISTRY
         .iter()
         .filter(|kind| !kind.requirements().contains(&requirement))
+        .map(|kind| format!("`{}`", kind.name()))
+        .collect();
+    phrase(&names, "and")
+}
+
+/// The generators that have `requirement`, as a phrase: "`hybrid_ekf` and `continuous_ekf`".
+fn with(requirement: Requirement) -> String {
+    let names: Vec<String> = REGISTRY
+        .iter()
+        .filter(|kind| kind.requirements().contains(&requirement))
         .map(|kind| format!("`{}`", kind.name()))
         .collect();
     phrase(&names, "and")

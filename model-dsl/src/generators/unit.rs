@@ -141,7 +141,8 @@ pub enum Requirement {
 impl Requirement {
     /// Why `decl` does not meet the requirement of the generator `name`, saying what to
     /// write; `None` when it does. `alternatives` names the generators that do without
-    /// run-time constants, for that requirement's message.
+    /// it: those without run-time constants' requirement, or those that integrate
+    /// continuous dynamics in a loop.
     pub fn unmet(self, name: &str, decl: &ModelDecl, alternatives: &str) -> Option<String> {
         let symbol = |kind: SymbolKind| decl.symbols.iter().find(|s| s.kind == kind);
         match self {
@@ -163,14 +164,16 @@ impl Requirement {
             Requirement::UnrolledStep => looped(decl).then(|| {
                 format!(
                     "`{name}` differentiates the unrolled sample step, which allows at most \
-                     {UNROLLED_SUBSTEPS_MAX} sub-steps: use fewer, or `hybrid_ekf`, which \
-                     integrates them in a loop"
+                     {UNROLLED_SUBSTEPS_MAX} sub-steps: use fewer, or a generator that \
+                     integrates them in a loop ({alternatives} among the filters, \
+                     `mpc(discretisation = zoh)` among the controllers)"
                 )
             }),
             Requirement::CoefficientsAtGeneration => symbol(SymbolKind::Known).map(|known| {
                 format!(
                     "`{name}` needs every coefficient when the code is generated, and `{}` is \
-                     known only at run time: declare it with `const`, or use {alternatives}",
+                     known only at run time: declare it with `const` (of the generators, only \
+                     {alternatives} read constants known at run time)",
                     known.name.text
                 )
             }),
