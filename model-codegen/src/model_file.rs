@@ -912,6 +912,22 @@ fn generate_args(
                 text: text.clone(),
                 span: here,
             }),
+            OptionValue::List(list)
+                if list
+                    .iter()
+                    .all(|i| matches!(i.get_ref(), OptionValue::Number(_)))
+                    && !list.is_empty() =>
+            {
+                // A list of numbers: the option's reader says what it takes instead.
+                let numbers = list
+                    .iter()
+                    .filter_map(|i| match i.get_ref() {
+                        OptionValue::Number(v) => Some(*v),
+                        _ => None,
+                    })
+                    .collect();
+                ArgValue::Numbers(numbers, here)
+            }
             OptionValue::List(list) => {
                 let mut names = Vec::new();
                 for item in list {

@@ -75,8 +75,12 @@ const HINTS: [(&str, &str); 13] = [
 ];
 
 /// Short pieces of macro syntax and their TOML form.
-const PIECES: [(&str, &str); 6] = [
+const PIECES: [(&str, &str); 7] = [
     ("(`state`)", "(`[[state]]`)"),
+    (
+        "declare each value, `const A = 1e-6;`,",
+        "declare each value as a `[[const]]` (`name = \"A\"`, `value = 1e-6`),",
+    ),
     ("(`input`)", "(`[[input]]`)"),
     ("`discretisation` is `zoh`", "`discretisation` is `\"zoh\"`"),
     (") or `sample_step` (", ") or `\"sample_step\"` ("),

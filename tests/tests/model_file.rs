@@ -479,3 +479,22 @@ fn declarations_a_model_file_lacks_are_told_in_toml() {
          \"f64\"]` to also generate an f64 version for host checks)",
     );
 }
+
+#[test]
+fn noise_values_in_generate_say_what_the_option_takes() {
+    assert_error(
+        &format!("{SMALL}[generate.ekf]\nprocess_noise = [1e-6, 1e-4]\n"),
+        "21:17: `process_noise` is `\"diagonal\"` (only the variances) or `\"full\"` (a \
+         symmetric matrix); the noise values themselves are given at run time, to `new` and \
+         `set_process_noise`",
+    );
+    assert_error(
+        &format!(
+            "{SMALL}[generate.switched_observer]\nprocess_noise = [1e-6, 1e-4]\n\
+             measurement_noise = [\"TS\"]\n"
+        ),
+        "21:17: `process_noise` takes a list of names of model constants: declare each value \
+         as a `[[const]]` (`name = \"A\"`, `value = 1e-6`), and write `process_noise = [\"A\", \
+         \"B\"]`",
+    );
+}
