@@ -132,10 +132,18 @@ fn output_file_gets_the_code_under_a_header_naming_tool_version_and_model() {
     let body = &written[header.len()..];
     assert!(body.starts_with("#![allow(\n"), "{}", &body[..100]);
     let (allowed, module) = body.split_once(")]\n").expect("the attribute closes");
-    for lint in ["similar_names", "trivially_copy_pass_by_ref", "unreadable_literal"] {
+    for lint in [
+        "similar_names",
+        "trivially_copy_pass_by_ref",
+        "unreadable_literal",
+    ] {
         assert!(allowed.contains(&format!("clippy::{lint},")), "{allowed}");
     }
-    assert!(module.starts_with("/// Cantilever beam"), "{}", &module[..100]);
+    assert!(
+        module.starts_with("/// Cantilever beam"),
+        "{}",
+        &module[..100]
+    );
     let to_stdout = Command::new(env!("CARGO_BIN_EXE_stateforge-codegen"))
         .arg(model)
         .output()
