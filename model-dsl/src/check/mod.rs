@@ -1,7 +1,7 @@
 //! Resolves a [`ModelDecl`] into the model IR, collecting every mistake on the way: the
 //! model-level checks (names, constants, symbols, outputs, dynamics) here and in the
 //! modules below; each generator's options and requirements through the registry
-//! ([`generate`]).
+//! (`generate`).
 
 mod dynamics;
 mod expr;

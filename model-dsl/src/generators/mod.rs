@@ -1,7 +1,7 @@
 //! The generators: one folder per kind of filter or controller a model can ask for with
 //! `generate <name>(..)`. Each is a self-contained unit: its options and their checks,
 //! what it requires of the model, its design and its lowering live in its folder, behind
-//! the interface of [`unit`] ([`Kind`], [`Generator`], [`Lowering`]). Shared stages (the
+//! the interface of [`mod@unit`] ([`Kind`], [`Generator`], [`Lowering`]). Shared stages (the
 //! filter layout, Kalman predict and Joseph update, the Riccati step, the `L D L'` solve,
 //! integration sub-steps) live in [`crate::emit`] and [`crate::symbolic`]; the checks and
 //! the pipeline iterate over [`REGISTRY`] and know no generator by name.
