@@ -304,6 +304,11 @@ pub enum Expr {
 }
 
 impl Discretisation {
+    /// Whether the equations give `dx/dt`, integrated over a sample time the model states.
+    pub fn is_continuous(&self) -> bool {
+        matches!(self, Discretisation::Continuous { .. })
+    }
+
     /// Whether the sub-steps are too many to unroll: `f` is then generated as a loop.
     pub fn is_looped(&self) -> bool {
         matches!(self, Discretisation::Continuous { substeps, .. } if *substeps > UNROLLED_SUBSTEPS_MAX)

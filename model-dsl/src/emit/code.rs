@@ -124,6 +124,17 @@ pub fn packed_names(prefix: &str, n: usize, taken: &dyn Fn(&str) -> bool) -> Vec
 /// symmetric matrix argument `name` (its lower triangle is not read).
 pub fn pack_upper(name: &str, size: usize) -> TokenStream {
     let arg = ident(name);
+    let (pattern, packed) = upper_triangle(name, size);
+    quote! {{
+        let #pattern = *#arg;
+        [#(#packed),*]
+    }}
+}
+
+/// `[[a, b], [_, c]]`: the pattern that binds the upper triangle of the `size x size`
+/// symmetric matrix `name` to `<name>_<i>_<j>` and skips the lower, and the names it binds,
+/// packed (row by row).
+pub fn upper_triangle(name: &str, size: usize) -> (TokenStream, Vec<proc_macro2::Ident>) {
     let names: Vec<Vec<proc_macro2::Ident>> = (0..size)
         .map(|i| {
             (0..size)
@@ -131,7 +142,7 @@ pub fn pack_upper(name: &str, size: usize) -> TokenStream {
                 .collect()
         })
         .collect();
-    let pattern = names.iter().enumerate().map(|(i, row)| {
+    let rows = names.iter().enumerate().map(|(i, row)| {
         let entries = row.iter().enumerate().map(|(j, e)| {
             if j >= i {
                 quote! { #e }
@@ -142,11 +153,8 @@ pub fn pack_upper(name: &str, size: usize) -> TokenStream {
         quote! { [#(#entries),*] }
     });
     let packed = (0..size).flat_map(|i| (i..size).map(move |j| (i, j)));
-    let packed: Vec<proc_macro2::Ident> = packed.map(|(i, j)| names[i][j].clone()).collect();
-    quote! {{
-        let [#(#pattern),*] = *#arg;
-        [#(#packed),*]
-    }}
+    let packed = packed.map(|(i, j)| names[i][j].clone()).collect();
+    (quote! { [#(#rows),*] }, packed)
 }
 
 /// `state()` and `covariance()` of a filter whose fields `x` (`n` entries) and `p` (packed)

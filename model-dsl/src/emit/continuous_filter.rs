@@ -6,9 +6,10 @@
 //! update (eqs. 24-26), shared with the EKF. The continuous-time EKF of Kulkarni and Purwar (eq. 5):
 //! the same integration with the measurement terms `K (y - h)` and `- P H' R^-1 H P`.
 
+use crate::emit::arguments::Arguments;
 use crate::emit::code::{commit_or_non_finite, guard_pivots, pivot_names, var_idents, INNOVATION};
 use crate::emit::filter::{
-    finiteness_probe, model_names, name_estimate, time_param, unclaimed_name, Arguments, FilterVars,
+    finiteness_probe, model_names, name_estimate, time_param, unclaimed_name, FilterVars,
 };
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
@@ -57,10 +58,19 @@ impl Kind {
         matches!(self, Kind::Continuous { .. })
     }
 
-    /// Whether the integration starts at the previous sample's time, an argument `t_prev`
-    /// (at `t` in `predict`).
-    fn starts_at_t_prev(self) -> bool {
-        self == Kind::Step || self.is_continuous()
+    /// What the method's documentation says of its times, for a model that reads `t`.
+    fn time_doc(self) -> &'static str {
+        match self {
+            Kind::Predict => " The integration starts at `t_prev`, the previous sample's time.",
+            Kind::Update => " `h` is evaluated at `t`, the measurement's time.",
+            Kind::Step => {
+                " The integration starts at `t_prev`, the previous sample's time, and `h` is \
+                 evaluated a sample time `dt` later, at `t_prev + dt`."
+            }
+            Kind::Continuous { .. } => {
+                " The integration starts at `t_prev`, the previous sample's time."
+            }
+        }
     }
 
     /// The method's name and documentation.
@@ -69,8 +79,8 @@ impl Kind {
             Kind::Predict => (
                 "predict",
                 " Integrates the estimate and its covariance over one sample (eqs. 21-23) with \
-                 the input `u` held, from time `t`. Rejects a non-finite input; leaves the \
-                 filter unchanged unless it returns [`Status::Ok`].",
+                 the input `u_prev` held. Rejects a non-finite input; leaves the filter \
+                 unchanged unless it returns [`Status::Ok`].",
             ),
             Kind::Update => (
                 "update",
@@ -112,7 +122,13 @@ pub fn method(
     let ty = ident(scalar.type_name());
     let arguments = arguments(&nodes, model, kind, &lowered.used_vars, &ty);
     let (name, doc) = kind.name_and_doc();
-    let tokens = arguments.method(&ident(name), doc, lowered.body);
+    let time_doc = if model.uses_time() {
+        kind.time_doc()
+    } else {
+        ""
+    };
+    let doc = format!("{doc}{time_doc}");
+    let tokens = arguments.method(&ident(name), &quote! { #[doc = #doc] }, lowered.body);
     (tokens, lowered.total, lowered.per_substep)
 }
 
@@ -252,8 +268,10 @@ struct MethodNodes {
     substeps: u32,
     /// Whether the sub-steps run as a loop (a propagation of several).
     looped: bool,
-    /// The time the integration starts at: `t_prev`, or `t` in `predict`.
+    /// The time the integration starts at: `t_prev` where the model reads time.
     t_start: NodeId,
+    /// A step's measurement time, `t_prev + dt`, where the model reads time.
+    t_measured: Option<NodeId>,
     /// The loop's running time.
     t_sub: NodeId,
     /// The new estimate (after the loop, over the carried variables).
@@ -280,11 +298,21 @@ impl MethodNodes {
         let (rule, h, substeps) = g
             .substep(model)
             .expect("the checker admits the hybrid EKF on continuous dynamics only");
-        let t_start = if kind.starts_at_t_prev() && model.uses_time() {
-            g.graph.var("t_prev")
-        } else {
-            g.t
+        let t_start = match kind {
+            _ if !model.uses_time() => g.t,
+            // `predict` evaluates the model from one time, the previous sample's.
+            Kind::Predict => g.name_time("t_prev"),
+            // A step's update and the continuous-time EKF's running time are at other
+            // times than the start: it is a variable of its own.
+            Kind::Step | Kind::Continuous { .. } => g.graph.var("t_prev"),
+            Kind::Update => g.t,
         };
+        let t_measured = (kind == Kind::Step && model.uses_time()).then(|| {
+            let dt = g
+                .sample_time(model)
+                .expect("continuous dynamics state their sample time");
+            g.graph.add(t_start, dt)
+        });
         let t_sub = g.graph.var(T_SUB);
         let dynamics = Dynamics::new(&mut g, model, kind, &vars, t_sub, &avoid);
         let mut nodes = MethodNodes {
@@ -297,6 +325,7 @@ impl MethodNodes {
             substeps,
             looped: kind.predicts() && substeps > 1,
             t_start,
+            t_measured,
             t_sub,
             loop_next: Vec::new(),
             pivots: Vec::new(),
@@ -334,17 +363,17 @@ impl MethodNodes {
     }
 
     /// The Joseph-form update at the sample (Takacs et al., eqs. 24-26) with every one of the
-    /// `m` outputs: the shared Kalman stage, with `h` and its Jacobian at the estimate.
+    /// `m` outputs: the shared Kalman stage, with `h` and its Jacobian at the estimate (and
+    /// at a step's measurement time).
     fn correct(&mut self, m: usize) {
         let r = symmetric_from_packed(&self.vars.r, m);
         let all: Vec<usize> = (0..m).collect();
         let update = kalman::ekf_correct(
             &mut self.g,
-            &self.x,
+            (self.t_measured, &self.x),
             &self.p,
-            &self.vars.y,
+            (&self.vars.y, &all),
             &r,
-            &all,
             |g, j| g.var(&pivot_names(m, j, INNOVATION, "").1),
         )
         .update;
@@ -489,9 +518,9 @@ fn substep_loop(lowerer: &mut Lowerer, nodes: &MethodNodes, uses_time: bool) -> 
     lowered
 }
 
-/// The method's arguments: the times (the start `t_prev` of a step, the sample's `t`
-/// of the hybrid EKF), the input of a propagation, the measurement of an update or of the
-/// continuous-time EKF.
+/// The method's arguments: the times where the model reads `t` (the start `t_prev` of a
+/// propagation, the measurement's time `t` of the hybrid EKF's update), the input
+/// `u_prev` of a propagation, the measurement of an update or of the continuous-time EKF.
 fn arguments(
     nodes: &MethodNodes,
     model: &Model,
@@ -503,16 +532,14 @@ fn arguments(
     let graph = &g.graph;
     let mut arguments = Arguments::default();
     if model.uses_time() {
-        if kind.starts_at_t_prev() {
+        if kind.predicts() {
             arguments.plain(time_param(graph, nodes.t_start, used_vars, ty, "t_prev"));
-        }
-        if !kind.is_continuous() {
+        } else {
             arguments.plain(time_param(graph, g.t, used_vars, ty, "t"));
         }
     }
     if kind.predicts() && !g.u.is_empty() {
-        let name = if kind == Kind::Predict { "u" } else { "u_prev" };
-        arguments.array(name, var_idents(graph, &g.u), ty);
+        arguments.array("u_prev", var_idents(graph, &g.u), ty);
     }
     if kind.updates() || kind.is_continuous() {
         arguments.array("y", var_idents(graph, &nodes.vars.y), ty);

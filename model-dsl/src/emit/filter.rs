@@ -2,10 +2,11 @@
 //! packed symmetric matrices and their variables, process noise arguments (full or
 //! diagonal), the finiteness probe that guards a whole result, and time arguments; the
 //! stored estimate, covariance and noise with their constructor, accessors and setters
-//! ([`FilterLayout`]), the variables a filter's method reads ([`FilterVars`]) and the
-//! arguments it takes ([`Arguments`]).
+//! ([`FilterLayout`]) and the variables a filter's method reads ([`FilterVars`]).
 
-use crate::emit::code::{estimate_accessors, pack_upper, packed_names, reject_non_finite};
+use crate::emit::arguments::{Arguments, REJECTS_NON_FINITE};
+use crate::emit::code::{estimate_accessors, packed_names};
+use crate::emit::known::KnownItems;
 use crate::emit::lower::Lowerer;
 use crate::emit::names::ident;
 /// The process noise argument, shared by the constructors and the setters.
@@ -20,29 +21,27 @@ use quote::quote;
 /// What the EKF, the hybrid EKF and the continuous-time EKF store and assemble alike: the
 /// estimate `x` (`n` entries), its covariance `p` (packed upper triangle), the process
 /// noise `q` (packed, or its variances when diagonal) and the measurement noise `r`
-/// (packed, `m x m`); their dimension literals, the constructor's packing of `p0`, `q`
-/// and `r`, the estimate's accessors and the noise setters.
+/// (packed, `m x m`); their dimension literals, the constructor, the estimate's accessors
+/// and the noise setters.
 pub struct FilterLayout {
     /// The scalar type, `f32` or `f64`.
     pub ty: Ident,
     /// `n`, the state's length.
-    pub n_len: Literal,
+    n: usize,
     /// `m`, the measurement's length.
+    m: usize,
+    /// Whether the process noise is diagonal (stored as its variances).
+    diagonal: bool,
+    /// `n`, as a literal.
+    pub n_len: Literal,
+    /// `m`, as a literal.
     pub m_len: Literal,
     /// `n (n + 1) / 2`, the packed covariance's length.
     pub np: Literal,
     /// `m (m + 1) / 2`, the packed measurement noise's length.
     pub mp: Literal,
-    /// The upper triangle of the argument `p0`, packed.
-    pub pack_p0: TokenStream,
-    /// The upper triangle of the argument `r`, packed.
-    pub pack_r: TokenStream,
-    /// The constructor's process noise argument `q`.
-    pub q_param: TokenStream,
     /// The type of the field `q`.
     pub q_field: TokenStream,
-    /// The value stored in `q` from the argument.
-    pub pack_q: TokenStream,
     /// `state()` and `covariance()`.
     pub accessors: TokenStream,
     /// `set_process_noise` and `set_measurement_noise`.
@@ -56,19 +55,17 @@ impl FilterLayout {
         let (n, m) = (model.state_len(), model.outputs.len());
         let [n_len, m_len, np, mp] =
             [n, m, packed_len(n), packed_len(m)].map(Literal::usize_unsuffixed);
-        let (pack_p0, pack_r) = (pack_upper("p0", n), pack_upper("r", m));
-        let (q_param, q_field, pack_q) = noise_argument("q", n, diagonal, ty);
+        let (_, q_field, _) = noise_argument("q", n, diagonal, ty);
         FilterLayout {
             ty: ty.clone(),
+            n,
+            m,
+            diagonal,
             n_len,
             m_len,
             np,
             mp,
-            pack_p0,
-            pack_r,
-            q_param,
             q_field,
-            pack_q,
             accessors: estimate_accessors(n, ty),
             setters: noise_setters(n, m, diagonal, ty),
         }
@@ -92,45 +89,56 @@ impl FilterLayout {
         }
     }
 
-    /// `fn new(x0, p0, q, r ..) -> type_name`: the constructor, documented by the
-    /// attributes `doc`, storing `x0` and the packed upper triangles of `p0`, `q` and `r`.
-    /// `extra_params` continues the argument list (from a comma), `extra_init` the struct
-    /// literal (from a comma) for the fields a filter adds.
+    /// The arguments `x0: &[S; n]` and `p0: &[[S; n]; n]` of an initial estimate (the
+    /// constructor's, `reset`'s), both checked; returns the packed upper triangle of `p0`
+    /// as the method binds it (`x0` is stored as it is).
+    pub fn initial_estimate(&self, arguments: &mut Arguments) -> Vec<Ident> {
+        arguments.vector("x0", self.n, &self.ty);
+        arguments.symmetric("p0", self.n, &self.ty)
+    }
+
+    /// `fn new(x0, p0, q, r, known?) -> Result<Self, Status>`: the constructor,
+    /// documented by the attributes `doc`, rejecting a non-finite entry of what it reads and storing
+    /// `x0` and the packed upper triangles of `p0`, `q` and `r`, and the `known`
+    /// constants if the filter holds them. `extra_init` continues the struct literal
+    /// (each field followed by a comma) with the fields a filter adds.
     pub fn constructor(
         &self,
         type_name: &Ident,
         doc: &TokenStream,
-        extra_params: &TokenStream,
+        known: &KnownItems,
         extra_init: &TokenStream,
     ) -> TokenStream {
-        let FilterLayout {
-            ty,
-            n_len,
-            m_len,
-            pack_p0,
-            pack_r,
-            q_param,
-            pack_q,
-            ..
-        } = self;
-        quote! {
-            #doc
-            #[must_use]
-            pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len], #q_param, r: &[[#ty; #m_len]; #m_len] #extra_params) -> #type_name {
-                #type_name { x: x0, p: #pack_p0, q: #pack_q, r: #pack_r #extra_init }
-            }
-        }
+        let mut arguments = Arguments::default();
+        let p0 = self.initial_estimate(&mut arguments);
+        let q = arguments.process_noise("q", self.n, self.diagonal, &self.ty);
+        let r = arguments.symmetric("r", self.m, &self.ty);
+        let known_init = known.argument(&mut arguments);
+        arguments.constructor(
+            doc,
+            REJECTS_NON_FINITE,
+            quote! {
+                Ok(#type_name {
+                    x: *x0,
+                    p: [#(#p0),*],
+                    q: [#(#q),*],
+                    r: [#(#r),*],
+                    #extra_init
+                    #known_init
+                })
+            },
+        )
     }
 }
 
-/// `pub const SUBSTEPS: u32`, documented by the attributes `doc`: the integration
+/// `pub const SUBSTEPS: usize`, documented by the attributes `doc`: the integration
 /// sub-steps per sample of the continuous filters (1 for discrete dynamics).
 pub fn substeps_constant(model: &Model, mg: &ModelGraph, doc: &TokenStream) -> TokenStream {
     let substeps = mg.clone().substep(model).map_or(1, |(_, _, n)| n);
-    let substeps_lit = Literal::u32_unsuffixed(substeps);
+    let substeps_lit = Literal::usize_unsuffixed(substeps as usize);
     quote! {
         #doc
-        pub const SUBSTEPS: u32 = #substeps_lit;
+        pub const SUBSTEPS: usize = #substeps_lit;
     }
 }
 
@@ -199,61 +207,6 @@ pub fn unclaimed_name(mut name: String, avoid: &[String]) -> String {
         name.push('_');
     }
     name
-}
-
-/// The arguments of a generated filter method, the statements unpacking them into the
-/// variables the code reads, and those variables, which the method rejects unless finite.
-#[derive(Default)]
-pub struct Arguments {
-    /// `name: type`, in order.
-    pub params: Vec<TokenStream>,
-    /// `let [..] = *name;`, in order.
-    pub unpack: Vec<TokenStream>,
-    /// The variables checked finite before anything is computed.
-    pub checked: Vec<Ident>,
-}
-
-impl Arguments {
-    /// An argument read as it is (a time; a gated step's `t_prev`).
-    pub fn plain(&mut self, param: TokenStream) {
-        self.params.push(param);
-    }
-
-    /// `name: &[S; len]`, unpacked into `vars` and checked finite.
-    pub fn array(&mut self, name: &str, vars: Vec<Ident>, ty: &Ident) {
-        let arg = ident(name);
-        let len = Literal::usize_unsuffixed(vars.len());
-        self.params.push(quote! { #arg: &[#ty; #len] });
-        self.unpack.push(quote! { let [#(#vars),*] = *#arg; });
-        self.checked.extend(vars);
-    }
-
-    /// `name: S`, bound to `var` and checked finite.
-    pub fn scalar(&mut self, name: &str, var: Ident, ty: &Ident) {
-        let arg = ident(name);
-        self.params.push(quote! { #arg: #ty });
-        self.unpack.push(quote! { let #var = #arg; });
-        self.checked.push(var);
-    }
-
-    /// `pub fn name(&mut self, ..) -> Status`, documented by `doc`: unpacks and checks the
-    /// arguments, then runs `body` (which ends by returning the status).
-    pub fn method(self, name: &Ident, doc: &str, body: TokenStream) -> TokenStream {
-        let Arguments {
-            params,
-            unpack,
-            checked,
-        } = self;
-        let check = reject_non_finite(&checked);
-        quote! {
-            #[doc = #doc]
-            pub fn #name(&mut self, #(#params),*) -> Status {
-                #(#unpack)*
-                #check
-                #body
-            }
-        }
-    }
 }
 
 /// Names already used by the model, which generated variables must avoid.

@@ -2,6 +2,7 @@
 //! a field, a constructor argument, a setter and a getter. Each method reads the entries
 //! it uses from the field, so a model without `known` generates exactly what it did.
 
+use super::arguments::Arguments;
 use super::names::ident;
 use crate::model::Model;
 use proc_macro2::{Literal, TokenStream};
@@ -12,12 +13,23 @@ use quote::quote;
 pub struct KnownItems {
     /// `known: [S; KNOWN_LEN],` in the struct.
     pub field: TokenStream,
-    /// `known: &[S; KNOWN_LEN]` as the constructor's last argument (with its comma).
-    pub param: TokenStream,
-    /// `known: *known,` in the constructor's struct expression.
-    pub init: TokenStream,
     /// `known()` and `set_known(..)`.
     pub methods: TokenStream,
+    /// The constants' names and the scalar type, if the model declares any.
+    argument: Option<(Vec<proc_macro2::Ident>, proc_macro2::Ident)>,
+}
+
+impl KnownItems {
+    /// Adds `known: &[S; KNOWN_LEN]` to a constructor's `arguments` (each entry bound to
+    /// its constant's name and checked finite, as every argument is), and returns the
+    /// field's initialisation, `known: [..],`; nothing if the model declares no `known`.
+    pub fn argument(&self, arguments: &mut Arguments) -> TokenStream {
+        let Some((names, ty)) = &self.argument else {
+            return TokenStream::new();
+        };
+        arguments.array("known", names.clone(), ty);
+        quote! { known: [#(#names),*], }
+    }
 }
 
 /// The items for `model` in scalar type `ty`; empty if the model declares no `known`.
@@ -29,8 +41,6 @@ pub fn known_items(model: &Model, ty: &proc_macro2::Ident) -> KnownItems {
     let names: Vec<_> = model.known.iter().map(|s| ident(&s.name)).collect();
     KnownItems {
         field: quote! { known: [#ty; #len], },
-        param: quote! { , known: &[#ty; #len] },
-        init: quote! { known: *known, },
         methods: quote! {
             /// The constants known at run time (`KNOWN_NAMES`, in that order) the model
             /// functions are evaluated with.
@@ -50,5 +60,6 @@ pub fn known_items(model: &Model, ty: &proc_macro2::Ident) -> KnownItems {
                 Status::Ok
             }
         },
+        argument: Some((names, ty.clone())),
     }
 }

@@ -1,6 +1,7 @@
 //! Shared lowering stages: a checked model's graph to straight-line Rust. The generators
 //! (`crate::generators`) compose these; [`crate::pipeline`] assembles the module.
 
+pub mod arguments;
 pub mod code;
 pub mod continuous_filter;
 pub mod filter;

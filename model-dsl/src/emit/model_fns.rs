@@ -273,7 +273,7 @@ pub fn named_ops_item(name: &str, what: &str, ops: OpCount) -> TokenStream {
     let name = ident(name);
     let doc = format!(" What `{what}` computes per call.");
     let [add, mul, div, call, compare] = [ops.add, ops.mul, ops.div, ops.call, ops.compare]
-        .map(proc_macro2::Literal::u32_unsuffixed);
+        .map(|count| proc_macro2::Literal::usize_unsuffixed(count as usize));
     quote! {
         #[doc = #doc]
         pub const #name: OpCount = OpCount { add: #add, mul: #mul, div: #div, call: #call, compare: #compare };

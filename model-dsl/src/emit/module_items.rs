@@ -7,22 +7,23 @@ use crate::model::{Model, Scalar, Symbol};
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
-/// The generated twin of [`crate::emit::lower::OpCount`], so generated code needs no support crate.
+/// The generated twin of [`crate::emit::lower::OpCount`], so generated code needs no support
+/// crate; its counts are `usize`, as every count in generated code.
 pub fn op_count_struct() -> TokenStream {
     quote! {
         /// Arithmetic one call of a generated function performs, counted from its code.
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
         pub struct OpCount {
             /// Additions, subtractions and negations.
-            pub add: u32,
+            pub add: usize,
             /// Multiplications.
-            pub mul: u32,
+            pub mul: usize,
             /// Divisions.
-            pub div: u32,
+            pub div: usize,
             /// Library calls (`sin cos tan tanh exp ln sqrt abs atan2`, through `libm`).
-            pub call: u32,
+            pub call: usize,
             /// Comparisons of piecewise terms.
-            pub compare: u32,
+            pub compare: usize,
         }
     }
 }

@@ -134,10 +134,10 @@ pub fn looped_f(
         .before
         .plus(lowered.per_substep.times(substep.count));
     let f = substep.f_tokens(lowered.code, scalar);
-    let count = proc_macro2::Literal::u32_unsuffixed(substep.count);
+    let count = proc_macro2::Literal::usize_unsuffixed(substep.count as usize);
     let constant = quote! {
         /// Integration sub-steps of one sample of [`f`].
-        pub const F_SUBSTEPS: u32 = #count;
+        pub const F_SUBSTEPS: usize = #count;
     };
     (f, constant, ops)
 }

@@ -147,6 +147,12 @@ impl Graph {
         &self.vars[var.0 as usize]
     }
 
+    /// Gives the variable `var` another identifier in generated code; the nodes over it
+    /// are unchanged.
+    pub fn rename_var(&mut self, var: VarId, name: &str) {
+        self.vars[var.0 as usize].name = name.to_owned();
+    }
+
     /// A named constant's description.
     pub fn const_info(&self, c: ConstId) -> &ConstInfo {
         &self.constants[c.0 as usize]

@@ -136,23 +136,29 @@ pub struct Correction {
 
 /// The EKF's correction (Alg. 1; Takacs et al., eqs. 24-26) of the estimate `x`, covariance `p`
 /// with the measurement `y` of the model's outputs `outputs` and their noise covariance
-/// `r`: `h` and its Jacobian `C = dh/dx` evaluated at `x`, the innovation `y - h(x)`, and
-/// the Joseph-form [`update`] (`reciprocal` declares the pivots' reciprocals).
+/// `r`: `h` and its Jacobian `C = dh/dx` evaluated at `x` (and at the measurement's time
+/// `t`, if given; else at the variable `t`), the innovation `y - h(x)`, and the
+/// Joseph-form [`update`] (`reciprocal` declares the pivots' reciprocals).
 pub fn ekf_correct(
     mg: &mut ModelGraph,
-    x: &[NodeId],
+    (t, x): (Option<NodeId>, &[NodeId]),
     p: &Matrix,
-    y: &[NodeId],
+    (y, outputs): (&[NodeId], &[usize]),
     r: &Matrix,
-    outputs: &[usize],
     reciprocal: impl FnMut(&mut Graph, usize) -> NodeId,
 ) -> Correction {
-    let at_x = AtPoint::new(mg.x.iter().map(|&v| mg.var_id(v)).collect());
+    let mut vars: Vec<_> = mg.x.iter().map(|&v| mg.var_id(v)).collect();
+    let mut point = x.to_vec();
+    if let Some(t) = t {
+        vars.push(mg.var_id(mg.t));
+        point.push(t);
+    }
+    let at = AtPoint::new(vars);
     let c = mg.jacobian_h_wrt_x();
     let c: Matrix = outputs.iter().map(|&i| c[i].clone()).collect();
-    let c = at_x.eval_matrix(&mut mg.graph, x, &c);
+    let c = at.eval_matrix(&mut mg.graph, &point, &c);
     let h: Vec<NodeId> = outputs.iter().map(|&i| mg.h[i]).collect();
-    let h = at_x.eval(&mut mg.graph, x, &h);
+    let h = at.eval(&mut mg.graph, &point, &h);
     let graph = &mut mg.graph;
     let residual: Vec<NodeId> = y.iter().zip(&h).map(|(&y, &h)| graph.sub(y, h)).collect();
     let update = update(graph, x, p, &residual, &c, r, reciprocal);

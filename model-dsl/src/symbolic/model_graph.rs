@@ -131,6 +131,16 @@ impl ModelGraph {
         rates
     }
 
+    /// The sample time `dt` of continuous dynamics (the time between a sample and the
+    /// next); `None` if discrete, whose model does not state it.
+    pub fn sample_time(&mut self, model: &Model) -> Option<NodeId> {
+        let Discretisation::Continuous { dt, .. } = &model.dynamics.discretisation else {
+            return None;
+        };
+        let t = self.t;
+        Some(self.lower(model, dt, &mut Env::at(model, t, Vec::new())))
+    }
+
     /// The integration rule of continuous dynamics, the length of one sub-step
     /// (`dt / substeps`) and the number of sub-steps per sample; `None` if discrete.
     pub fn substep(&mut self, model: &Model) -> Option<(Method, NodeId, u32)> {
@@ -280,6 +290,14 @@ impl ModelGraph {
                 self.graph.select(*cmp, lhs, rhs, then, otherwise)
             }
         }
+    }
+
+    /// Names the time variable `name` in generated code: a method that evaluates the
+    /// model at one time names it for what that time is (`t_prev`). Returns its node.
+    pub fn name_time(&mut self, name: &str) -> NodeId {
+        let t = self.var_id(self.t);
+        self.graph.rename_var(t, name);
+        self.t
     }
 
     /// The variable behind a variable node.

@@ -7,6 +7,7 @@
 
 use crate::emit::continuous_filter::{method, Kind};
 use crate::emit::filter::{substeps_constant, FilterLayout};
+use crate::emit::known::KnownItems;
 use crate::emit::lower::{literal, OpCount};
 use crate::emit::names::ident;
 use super::spec::ContinuousEkfSpec;
@@ -52,14 +53,16 @@ pub fn emit_continuous_ekf(
     );
     let alpha_field = spec.alpha.map(|_| quote! { alpha: #ty, });
     let alpha_init = spec.alpha.map(|_| quote! { alpha: Self::ALPHA, });
+    // The model has no `known` constants: the filter asks for every coefficient at
+    // generation.
     let constructor = layout.constructor(
         &ident("ContinuousEkf"),
         &quote! {
             /// A filter from the initial estimate `x0` and covariance `p0` and the noise
             /// spectral densities `q` and `r` (symmetric: upper triangles are read).
         },
-        &TokenStream::new(),
-        &quote! { , #alpha_init },
+        &KnownItems::default(),
+        &quote! { #alpha_init },
     );
     let alpha_items = spec.alpha.map(|alpha| alpha_items(alpha, scalar));
     let doc = type_doc(spec);

@@ -8,7 +8,8 @@
 use super::filters::step_fn;
 use super::transform::transform_fn;
 use super::window::WindowTransform;
-use crate::emit::code::{destructure, pack_upper, unpack_symmetric, var_idents};
+use crate::emit::arguments::{Arguments, REJECTS_NON_FINITE};
+use crate::emit::code::{destructure, unpack_symmetric, var_idents};
 use crate::emit::filter::{model_names, noise_argument};
 use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
@@ -163,11 +164,11 @@ impl DkfType {
     }
 
     /// `DEFAULT_MIN_EXCITATION`, `new` (both filters start from `x0`, the window empty,
-    /// the parameters those of `x0`) and `with_min_excitation` (Case 1's threshold).
+    /// the parameters those of `x0`; every entry read checked finite) and
+    /// `set_min_excitation` (Case 1's threshold).
     fn constructor_tokens(&self, model: &Model) -> TokenStream {
         let ty = &self.ty;
         let lit = Literal::usize_unsuffixed;
-        let (n_len, m_len) = (lit(self.n), lit(self.m));
         let outputs_len = lit(self.m * self.window_outputs);
         let inputs_len = lit(self.nu * self.window_inputs);
         let window_outputs_lit = lit(self.window_outputs);
@@ -179,57 +180,55 @@ impl DkfType {
             },
             self.scalar,
         );
-        let (pack_p0, pack_pbar0, pack_r) = (
-            pack_upper("p0", self.n),
-            pack_upper("pbar0", self.n),
-            pack_upper("r", self.m),
-        );
-        let (q_param, _, pack_q) = self.noise("q");
-        let (qbar_param, _, pack_qbar) = self.noise("qbar");
-        let params: Vec<Ident> = model.params.iter().map(|p| ident(&p.name)).collect();
+        let mut arguments = Arguments::default();
+        let x0 = arguments.vector("x0", self.n, ty);
+        let p0 = arguments.symmetric("p0", self.n, ty);
+        let q = arguments.process_noise("q", self.n, self.diagonal_noise, ty);
+        let pbar0 = arguments.symmetric("pbar0", self.n, ty);
+        let qbar = arguments.process_noise("qbar", self.n, self.diagonal_noise, ty);
+        let r = arguments.symmetric("r", self.m, ty);
+        // The parameters come last in the state vector.
+        let params = &x0[model.states.len()..];
         let new_doc = self.new_doc();
-        quote! {
-            /// Default threshold of the window's excitation measure (Case 1).
-            pub const DEFAULT_MIN_EXCITATION: #ty = #default_excitation;
-
-            #[doc = #new_doc]
-            #[must_use]
-            pub fn new(
-                x0: [#ty; #n_len],
-                p0: &[[#ty; #n_len]; #n_len],
-                #q_param,
-                pbar0: &[[#ty; #n_len]; #n_len],
-                #qbar_param,
-                r: &[[#ty; #m_len]; #m_len],
-            ) -> Dkf {
-                Dkf {
+        let new = arguments.constructor(
+            &quote! { #[doc = #new_doc] },
+            REJECTS_NON_FINITE,
+            quote! {
+                Ok(Dkf {
                     outputs: [#zero; #outputs_len],
                     inputs: [#zero; #inputs_len],
                     filled: [false; #window_outputs_lit],
-                    phi_params: {
-                        let [.., #(#params),*] = x0;
-                        [#(#params),*]
-                    },
+                    phi_params: [#(#params),*],
                     window_det_sq: #zero,
                     window_column_norms: #zero,
                     min_excitation_sq: Self::DEFAULT_MIN_EXCITATION
                         * Self::DEFAULT_MIN_EXCITATION,
-                    xbar: x0,
-                    pbar: #pack_pbar0,
-                    qbar: #pack_qbar,
-                    x: x0,
-                    p: #pack_p0,
-                    q: #pack_q,
-                    r: #pack_r,
-                }
-            }
+                    xbar: *x0,
+                    pbar: [#(#pbar0),*],
+                    qbar: [#(#qbar),*],
+                    x: *x0,
+                    p: [#(#p0),*],
+                    q: [#(#q),*],
+                    r: [#(#r),*],
+                })
+            },
+        );
+        quote! {
+            /// Default threshold of the window's excitation measure (Case 1).
+            pub const DEFAULT_MIN_EXCITATION: #ty = #default_excitation;
 
-            /// The same filter with another excitation threshold (Case 1): windows whose
-            /// excitation measure is not above it keep the last solved parameters.
-            #[must_use]
-            pub fn with_min_excitation(mut self, min_excitation: #ty) -> Dkf {
+            #new
+
+            /// Sets the excitation threshold (Case 1, [`Dkf::DEFAULT_MIN_EXCITATION`] until
+            /// set): windows whose excitation measure is not above it keep the last solved
+            /// parameters. Rejects a negative or non-finite threshold with
+            /// [`Status::RejectedInput`], leaving the filter unchanged.
+            pub fn set_min_excitation(&mut self, min_excitation: #ty) -> Status {
+                if !(min_excitation >= #zero && min_excitation.is_finite()) {
+                    return Status::RejectedInput;
+                }
                 self.min_excitation_sq = min_excitation * min_excitation;
-                self
+                Status::Ok
             }
         }
     }

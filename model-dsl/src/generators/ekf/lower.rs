@@ -6,9 +6,10 @@
 use crate::emit::code::{
     commit_or_non_finite_with, guard_pivots, pivot_names, var_idents, INNOVATION,
 };
+use crate::emit::arguments::Arguments;
 use crate::emit::filter::{
     finiteness_probe, model_names, name_estimate, packed_vars, time_param, unclaimed_name,
-    Arguments, FilterLayout, FilterVars,
+    FilterLayout, FilterVars,
 };
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
@@ -147,17 +148,14 @@ fn constructor_tokens(
          symmetric: only their upper triangles are read."
     };
     let m_len = &layout.m_len;
-    let known_init = &known.init;
     layout.constructor(
         &ident(&spec.type_name),
         &quote! { #[doc = #new_doc] },
-        &known.param,
+        known,
         &quote! {
-            ,
             innovation: [#zero; #m_len],
             innovation_covariance: #identity,
             #gate_init
-            #known_init
         },
     )
 }
@@ -170,25 +168,29 @@ fn innovation_methods(
     scalar: Scalar,
     (zero, identity): (&TokenStream, &TokenStream),
 ) -> TokenStream {
-    let FilterLayout {
-        ty,
-        n_len,
-        m_len,
-        pack_p0,
-        ..
-    } = layout;
-    let nis_method = nis_method(model, scalar);
-    quote! {
-        /// Starts the filter again from the estimate `x0` and covariance `p0` (only its
-        /// upper triangle is read), keeping the noise covariances: the way back after
-        /// a fault (a run of [`Status::NonFinite`] or of rejected outliers) or a
-        /// restart of the plant. The innovation is cleared.
-        pub fn reset(&mut self, x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len]) {
-            self.x = x0;
-            self.p = #pack_p0;
+    let FilterLayout { ty, m_len, .. } = layout;
+    let mut arguments = Arguments::default();
+    let p0 = layout.initial_estimate(&mut arguments);
+    let reset = arguments.method(
+        &ident("reset"),
+        &quote! {
+            /// Starts the filter again from the estimate `x0` and covariance `p0` (only its
+            /// upper triangle is read), keeping the noise covariances: the way back after
+            /// a fault (a run of [`Status::NonFinite`] or of rejected outliers) or a
+            /// restart of the plant. The innovation is cleared. Rejects a non-finite entry
+            /// with [`Status::RejectedInput`], leaving the filter unchanged.
+        },
+        quote! {
+            self.x = *x0;
+            self.p = [#(#p0),*];
             self.innovation = [#zero; #m_len];
             self.innovation_covariance = #identity;
-        }
+            Status::Ok
+        },
+    );
+    let nis_method = nis_method(model, scalar);
+    quote! {
+        #reset
 
         /// The innovation `y - h(x)` of the last measurement used or rejected: what
         /// the measurement said that the prediction did not.
@@ -384,13 +386,14 @@ impl EkfMethod {
                      filter unchanged unless it returns [`Status::Ok`].",
                     ty_name = spec.type_name
                 );
-                return (ident(&format!("update_{output}")), doc);
+                return (ident(&format!("update_{output}")), doc + self.time_doc(model));
             }
             EkfMethod::Predict => (
                 "predict",
-                " Predicts the next sample: `x = f(x, u)`, `P = A P A' + Q` with \
-                 `A = df/dx` at the current estimate. Rejects a non-finite input; leaves the \
-                 filter unchanged unless it returns [`Status::Ok`].",
+                " Predicts the next sample: `x = f(x, u_prev)`, `P = A P A' + Q` with \
+                 `A = df/dx` at the current estimate, `u_prev` the input applied since the \
+                 previous sample. Rejects a non-finite input; leaves the filter unchanged \
+                 unless it returns [`Status::Ok`].",
             ),
             EkfMethod::Update => (
                 "update",
@@ -406,7 +409,28 @@ impl EkfMethod {
                  [`Status::Ok`].",
             ),
         };
-        (ident(name), doc.to_owned())
+        (ident(name), doc.to_owned() + self.time_doc(model))
+    }
+
+    /// What the method's documentation says of its times, for a model that reads `t`.
+    fn time_doc(self, model: &Model) -> &'static str {
+        if !model.uses_time() {
+            return "";
+        }
+        match self {
+            EkfMethod::Predict => " `f` is evaluated at `t_prev`, the previous sample's time.",
+            EkfMethod::Update | EkfMethod::UpdateOutput(_) => {
+                " `h` is evaluated at `t`, the measurement's time."
+            }
+            EkfMethod::Step if model.dynamics.discretisation.is_continuous() => {
+                " The prediction runs from `t_prev`, the previous sample's time, and `h` is \
+                 evaluated a sample time `dt` later, at `t_prev + dt`."
+            }
+            EkfMethod::Step => {
+                " The prediction runs from `t_prev`, the previous sample's time, and `h` is \
+                 evaluated at `t`, the measurement's time."
+            }
+        }
     }
 }
 
@@ -424,7 +448,7 @@ fn method(
     let ty = ident(scalar.type_name());
     let arguments = arguments(&nodes, model, kind, &used_vars, &ty);
     let (name, doc) = kind.name_and_doc(model, spec);
-    (arguments.method(&name, &doc, body), ops)
+    (arguments.method(&name, &quote! { #[doc = #doc] }, body), ops)
 }
 
 /// One EKF method before lowering: the model's graph with the method's variables, and
@@ -436,9 +460,12 @@ struct EkfNodes {
     avoid: Vec<String>,
     /// The covariance, noise and measurement variables.
     vars: FilterVars,
-    /// In a step, the previous sample's time: the prediction runs from it, the
-    /// correction at the measurement's time.
+    /// In a prediction, when the model reads `t`: the previous sample's time, which the
+    /// prediction runs from.
     t_prev: Option<NodeId>,
+    /// In a correction, when the model reads `t`: the measurement's time, `t_prev + dt`
+    /// in a step of continuous dynamics; `None` where it is the argument `t`.
+    t_measured: Option<NodeId>,
     /// The new estimate.
     x: Vec<NodeId>,
     /// The new covariance.
@@ -463,7 +490,13 @@ impl EkfNodes {
         let outputs = kind.outputs(model.outputs.len());
         let avoid = model_names(model);
         let vars = FilterVars::declare(&mut g.graph, model, &outputs, spec.diagonal_noise, &avoid);
-        let t_prev = (kind == EkfMethod::Step && model.uses_time()).then(|| g.graph.var("t_prev"));
+        let t_prev = (kind.predicts() && model.uses_time()).then(|| match kind {
+            // A step evaluates `h` at another time than `f`: a variable of its own.
+            EkfMethod::Step => g.graph.var("t_prev"),
+            // `predict` evaluates the model at one time, the previous sample's.
+            _ => g.name_time("t_prev"),
+        });
+        let t_measured = measurement_time(model, &mut g, kind, t_prev);
         let mut nodes = EkfNodes {
             x: g.x.clone(),
             p: symmetric_from_packed(&vars.p, model.state_len()),
@@ -471,6 +504,7 @@ impl EkfNodes {
             avoid,
             vars,
             t_prev,
+            t_measured,
             pivots: Vec::new(),
             reciprocals: Vec::new(),
             innovation: Vec::new(),
@@ -503,11 +537,10 @@ impl EkfNodes {
         let mu = outputs.len();
         let correction = kalman::ekf_correct(
             &mut self.g,
-            &self.x,
+            (self.t_measured, &self.x),
             &self.p,
-            &self.vars.y,
+            (&self.vars.y, outputs),
             &r,
-            outputs,
             |g, j| g.var(&pivot_names(mu, j, INNOVATION, "").1),
         );
         let update = correction.update;
@@ -523,6 +556,20 @@ impl EkfNodes {
             self.nis = gated.then_some(update.nis);
         }
     }
+}
+
+/// The time a step's correction evaluates `h` at when the model reads `t` and its
+/// dynamics are continuous: the measurement is a sample time `dt` after the previous
+/// sample's `t_prev`. `None` otherwise: the correction is at the argument `t`.
+fn measurement_time(
+    model: &Model,
+    g: &mut ModelGraph,
+    kind: EkfMethod,
+    t_prev: Option<NodeId>,
+) -> Option<NodeId> {
+    let t_prev = t_prev.filter(|_| kind == EkfMethod::Step)?;
+    let dt = g.sample_time(model)?;
+    Some(g.graph.add(t_prev, dt))
 }
 
 /// Lowers an EKF method: its statements, ending in the commit of the new estimate (with
@@ -622,9 +669,11 @@ fn innovation_and_gate(
     store_innovation
 }
 
-/// The method's arguments: the times (a gated step passes `t_prev` on to `predict` when
-/// it rejects an outlier, so always reads it), the input of a prediction, the
-/// measurement of a correction (a scalar for one output alone).
+/// The method's arguments: the times where the model reads `t` (the previous sample's
+/// `t_prev` of a prediction, which a gated step passes on to `predict` when it rejects an
+/// outlier, so always reads; the measurement's `t` of a correction, unless a step knows
+/// it), the input `u_prev` of a prediction, the measurement `y` of a correction (a scalar
+/// for one output alone).
 fn arguments(
     nodes: &EkfNodes,
     model: &Model,
@@ -635,23 +684,18 @@ fn arguments(
     let g = &nodes.g;
     let graph = &g.graph;
     let mut arguments = Arguments::default();
-    if model.uses_time() {
-        if let Some(t_prev) = nodes.t_prev {
-            arguments.plain(if nodes.nis.is_some() {
-                quote! { t_prev: #ty }
-            } else {
-                time_param(graph, t_prev, used_vars, ty, "t_prev")
-            });
-        }
+    if let Some(t_prev) = nodes.t_prev {
+        arguments.plain(if nodes.nis.is_some() {
+            quote! { t_prev: #ty }
+        } else {
+            time_param(graph, t_prev, used_vars, ty, "t_prev")
+        });
+    }
+    if model.uses_time() && kind.updates() && nodes.t_measured.is_none() {
         arguments.plain(time_param(graph, g.t, used_vars, ty, "t"));
     }
     if kind.predicts() && !g.u.is_empty() {
-        let name = if kind == EkfMethod::Step {
-            "u_prev"
-        } else {
-            "u"
-        };
-        arguments.array(name, var_idents(graph, &g.u), ty);
+        arguments.array("u_prev", var_idents(graph, &g.u), ty);
     }
     let y = var_idents(graph, &nodes.vars.y);
     match kind {

@@ -5,6 +5,7 @@
 
 use crate::emit::continuous_filter::{method, Kind};
 use crate::emit::filter::{substeps_constant, FilterLayout};
+use crate::emit::known::KnownItems;
 use crate::emit::lower::OpCount;
 use crate::emit::names::ident;
 use super::spec::HybridEkfSpec;
@@ -87,7 +88,8 @@ pub fn emit_hybrid_ekf(
     }
 }
 
-/// `fn new`: the shared layout's constructor, `Q` a spectral density.
+/// `fn new`: the shared layout's constructor, `Q` a spectral density (the model has no
+/// `known` constants: the hybrid EKF asks for every coefficient at generation).
 fn constructor_tokens(layout: &FilterLayout, diagonal: bool) -> TokenStream {
     let q_words = if diagonal {
         "the process noise spectral densities `q` (a diagonal `Q`)"
@@ -100,11 +102,10 @@ fn constructor_tokens(layout: &FilterLayout, diagonal: bool) -> TokenStream {
          covariance divided by the sample time, the paper's `Q = Q~ / T`). The matrices \
          are symmetric: only their upper triangles are read."
     );
-    let empty = TokenStream::new();
     layout.constructor(
         &ident("HybridEkf"),
         &quote! { #[doc = #new_doc] },
-        &empty,
-        &empty,
+        &KnownItems::default(),
+        &TokenStream::new(),
     )
 }

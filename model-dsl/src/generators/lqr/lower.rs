@@ -4,10 +4,12 @@
 //! whose body is generated straight-line code.
 
 use super::steady_state::{steady_state_step, SteadyStateStep};
+use crate::emit::arguments::{Arguments, REJECTS_NON_FINITE};
 use crate::emit::code::{
-    all_finite, destructure, guard_pivots, pack_upper, pivot_names, reject_non_finite, var_idents,
+    all_finite, destructure, guard_pivots, pivot_names, reject_non_finite, var_idents,
 };
 use crate::emit::filter::{model_names, packed_vars, time_param};
+use crate::emit::known::KnownItems;
 use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
 use super::spec::LqrSpec;
@@ -34,7 +36,7 @@ pub fn emit_lqr(model: &Model, spec: &LqrSpec, mg: &ModelGraph, scalar: Scalar) 
     let laws = ControlLaws::new(model, spec, scalar);
     let solve = solve_method(model, &recursion, &code, &laws, scalar);
     let steady_state = steady_state_input(model, spec, mg, scalar);
-    let tokens = lqr_type(model, spec, scalar, (steady_state, solve, laws.methods()));
+    let tokens = lqr_type(model, spec, scalar, &laws, (steady_state, solve));
     LqrCode {
         tokens,
         solve_ops: code.ops,
@@ -272,8 +274,8 @@ fn solve_method(
 struct SolveArguments {
     /// The method's doc, which says whether `A` and `B` depend on the input.
     doc: &'static str,
-    /// `t` if the model uses time, the estimate `x` (`_x` if unread), and the operating
-    /// input `u` only where `A` or `B` depend on it.
+    /// `t` if the model uses time, the estimate `x` and the operating input `u` (`_x`,
+    /// `_u` if unread: `A` and `B` need not depend on them).
     params: TokenStream,
     /// The entries read unpacked (the known constants too) and checked finite.
     reads: TokenStream,
@@ -295,25 +297,24 @@ impl SolveArguments {
             quote! { #t, }
         });
         let x_name = argument("x", !x_idents.is_empty());
-        // The linearisation's input: an argument only where `A` or `B` depend on it.
-        let u_param = (!u_idents.is_empty()).then(|| {
-            let len = Literal::usize_unsuffixed(g.u.len());
-            quote! { u: &[#ty; #len] }
-        });
-        let doc = if u_param.is_some() {
+        // The linearisation's input, an argument whether or not `A` and `B` depend on it.
+        let u_name = argument("u", !u_idents.is_empty());
+        let u_len = Literal::usize_unsuffixed(g.u.len());
+        let doc = if !u_idents.is_empty() {
             " Recomputes the gain for the estimate `x` and the input `u` the model is \
              linearised at (the operating input: `A` and `B` depend on it): `HORIZON` Riccati \
              steps from `P = Q`, then `K` from the final `P`. Leaves the gain \
              unchanged unless it returns [`Status::Ok`]."
         } else {
-            " Recomputes the gain for the estimate `x` (`A` and `B` do not depend on the input): \
-             `HORIZON` Riccati steps from `P = Q`, then `K` from the final `P`. Leaves \
-             the gain unchanged unless it returns [`Status::Ok`]."
+            " Recomputes the gain for the estimate `x` (`A` and `B` do not depend on the \
+             input, so the operating input is not read): `HORIZON` Riccati steps from \
+             `P = Q`, then `K` from the final `P`. Leaves the gain unchanged unless it \
+             returns [`Status::Ok`]."
         };
         let n = Literal::usize_unsuffixed(model.state_len());
         SolveArguments {
             doc,
-            params: quote! { #time #x_name: &[#ty; #n], #u_param },
+            params: quote! { #time #x_name: &[#ty; #n], #u_name: &[#ty; #u_len] },
             reads: quote! {
                 #unpack_x
                 #unpack_u
@@ -495,12 +496,13 @@ fn regulated_entries(model: &Model, regulated: &[&str], suffix: &str) -> Vec<Tok
 }
 
 /// The `Lqr` type: its fields, `HORIZON`, the constructor and the gain's accessor, around
-/// the steady-state input, `solve` and the control laws.
+/// the steady-state input, `solve` and the control laws (`laws`).
 fn lqr_type(
     model: &Model,
     spec: &LqrSpec,
     scalar: Scalar,
-    (steady_state, solve, laws): (TokenStream, TokenStream, TokenStream),
+    laws: &ControlLaws,
+    (steady_state, solve): (TokenStream, TokenStream),
 ) -> TokenStream {
     let ty = ident(scalar.type_name());
     let (ns, nu) = (spec.states.len(), spec.inputs.len());
@@ -509,11 +511,12 @@ fn lqr_type(
         Literal::usize_unsuffixed(packed_len(ns)),
         Literal::usize_unsuffixed(packed_len(nu)),
     );
-    let horizon = Literal::u32_unsuffixed(spec.horizon);
+    let horizon = Literal::usize_unsuffixed(spec.horizon as usize);
     let doc = lqr_doc(model, spec);
     let known = crate::emit::known::known_items(model, &ty);
     let (known_field, known_methods) = (&known.field, &known.methods);
-    let constructor = constructor(spec, scalar, (&known.param, &known.init));
+    let constructor = constructor(spec, scalar, &laws.limits, &known);
+    let laws = laws.methods();
     quote! {
         #[doc = #doc]
         #[derive(Clone, Copy, Debug, PartialEq)]
@@ -527,7 +530,7 @@ fn lqr_type(
 
         impl Lqr {
             /// Steps of the backward Riccati recursion.
-            pub const HORIZON: u32 = #horizon;
+            pub const HORIZON: usize = #horizon;
 
             #constructor
 
@@ -563,26 +566,46 @@ fn lqr_doc(model: &Model, spec: &LqrSpec) -> String {
     )
 }
 
-/// `fn new`: the weights' upper triangles packed, the limits, a zero gain.
+/// `fn new`: the weights' upper triangles packed, the limits, a zero gain; every entry
+/// read checked finite, the limits' when given.
 fn constructor(
     spec: &LqrSpec,
     scalar: Scalar,
-    (known_param, known_init): (&TokenStream, &TokenStream),
+    limits: &[Ident],
+    known: &KnownItems,
 ) -> TokenStream {
     let ty = ident(scalar.type_name());
     let (ns, nu) = (spec.states.len(), spec.inputs.len());
     let (ns_len, nu_len) = (Literal::usize_unsuffixed(ns), Literal::usize_unsuffixed(nu));
     let zero = literal(0.0, scalar);
-    let (pack_q, pack_r) = (pack_upper("q", ns), pack_upper("r", nu));
-    quote! {
-        /// A controller with state weight `q` and input weight `r` (symmetric: upper
-        /// triangles are read) and, if given, the symmetric input limits `u_max`. The
-        /// gain is zero until the first [`Lqr::solve`].
-        #[must_use]
-        pub fn new(q: &[[#ty; #ns_len]; #ns_len], r: &[[#ty; #nu_len]; #nu_len], u_max: Option<[#ty; #nu_len]> #known_param) -> Lqr {
-            Lqr { q: #pack_q, r: #pack_r, u_max, gain: [[#zero; #ns_len]; #nu_len], #known_init }
-        }
-    }
+    let mut arguments = Arguments::default();
+    let q = arguments.symmetric("q", ns, &ty);
+    let r = arguments.symmetric("r", nu, &ty);
+    arguments.plain(quote! { u_max: Option<&[#ty; #nu_len]> });
+    let known_init = known.argument(&mut arguments);
+    let limits_finite = all_finite(limits);
+    arguments.constructor(
+        &quote! {
+            /// A controller with state weight `q` and input weight `r` (symmetric: upper
+            /// triangles are read) and, if given, the symmetric input limits `u_max`. The
+            /// gain is zero until the first [`Lqr::solve`].
+        },
+        REJECTS_NON_FINITE,
+        quote! {
+            let u_max = match u_max {
+                None => None,
+                Some(&[#(#limits),*]) if #limits_finite => Some([#(#limits),*]),
+                Some(_) => return Err(Status::RejectedInput),
+            };
+            Ok(Lqr {
+                q: [#(#q),*],
+                r: [#(#r),*],
+                u_max,
+                gain: [[#zero; #ns_len]; #nu_len],
+                #known_init
+            })
+        },
+    )
 }
 
 /// The pivot names of the Gram matrix `B'B`.
@@ -630,7 +653,7 @@ fn lower_steady_state(
         &step.pivots,
         &step.reciprocals,
         (GRAM, ""),
-        &quote! { return None; },
+        &quote! { return Err(Status::NonFinite); },
         scalar,
     );
     let values = lowerer.segment(&step.input);
@@ -661,7 +684,8 @@ fn steady_state_method(
     let unpack_u = destructure(graph, quote! { *u }, &g.u, &used_vars);
     let checked: Vec<_> = x_idents.iter().chain(&u_idents).cloned().collect();
     let finite = all_finite(&checked);
-    let check = (!checked.is_empty()).then(|| quote! { if !(#finite) { return None; } });
+    let check = (!checked.is_empty())
+        .then(|| quote! { if !(#finite) { return Err(Status::RejectedInput); } });
     let time = model.uses_time().then(|| {
         let t = time_param(graph, g.t, &used_vars, &ty, "t");
         quote! { #t, }
@@ -682,19 +706,23 @@ fn steady_state_method(
         /// B' (x_ref - f(x_ref, u))` over the regulated states and inputs, `B = df/du` at
         /// `(x_ref, u)`, starting from the input `u` (the inputs not computed by the LQR
         /// stay as given). Exact for a model affine in its inputs; otherwise one
-        /// Gauss-Newton step, repeated from its result to converge. `None` if an argument
-        /// is not finite, or the inputs cannot move the regulated states (`B'B` singular).
-        #[must_use]
-        pub fn steady_state_input(&self, #time #x_name: &[#ty; #n], #u_name: &[#ty; #u_len]) -> Option<[#ty; #nu_len]> {
+        /// Gauss-Newton step, repeated from its result to converge.
+        ///
+        /// # Errors
+        ///
+        /// [`Status::RejectedInput`] if an entry it reads of `x_ref` or `u` is not finite,
+        /// [`Status::NonFinite`] if the inputs cannot move the regulated states (`B'B`
+        /// singular: `u_ref` would not be finite) or `u_ref` is not finite.
+        pub fn steady_state_input(&self, #time #x_name: &[#ty; #n], #u_name: &[#ty; #u_len]) -> Result<[#ty; #nu_len], Status> {
             #unpack_x
             #unpack_u
             #check
             #(#statements)*
             let [#(#result),*] = [#(#values),*];
             if !(#finite_result) {
-                return None;
+                return Err(Status::NonFinite);
             }
-            Some([#(#result),*])
+            Ok([#(#result),*])
         }
     }
 }

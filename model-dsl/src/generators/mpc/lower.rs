@@ -8,8 +8,9 @@
 use super::names::{failure, Names};
 use super::predictive::{column_norm, condensed_qp, scale, zoh_square, zoh_taylor};
 use super::qp::{active_set_loop, MoveNames};
+use crate::emit::arguments::Arguments;
 use crate::emit::code::{
-    all_finite, guard_pivots, pack_upper, pivot_names, unpack_symmetric, var_idents,
+    all_finite, guard_pivots, pivot_names, unpack_symmetric, var_idents,
 };
 use crate::emit::filter::{packed_vars, time_param};
 use crate::emit::lower::{literal, Lowerer, OpCount};
@@ -157,8 +158,12 @@ fn prediction_method(
     );
     quote! {
         /// The prediction model `x+ = A x + B u` (eq. 30) of the regulated states at the
-        /// estimate `x` and operating input `u`, as [`Mpc::solve`] takes it: `Err` if they
-        /// are not finite, or the hold would not be.
+        /// estimate `x` and operating input `u`, as [`Mpc::solve`] takes it.
+        ///
+        /// # Errors
+        ///
+        /// [`Status::RejectedInput`] if an entry it reads of `x` or `u` is not finite,
+        /// [`Status::NonFinite`] if the hold would not be finite.
         pub fn prediction_model(#signature) -> Result<PredictionModel, Status> {
             #read
             #code
@@ -994,7 +999,7 @@ fn result_types(dims: &Dims) -> TokenStream {
             /// within the bounds and no costlier than the shifted last plan.
             pub optimal: bool,
             /// Active-set iterations (Newton steps on the free moves) used.
-            pub iterations: u32,
+            pub iterations: usize,
             /// Whether the last Riccati step changed the terminal weight by at most
             /// `RICCATI_TOLERANCE` of its size: the weight then solves the discrete
             /// algebraic Riccati equation (eq. 35) of the current model, and without
@@ -1032,9 +1037,12 @@ fn mpc_doc(model: &Model, spec: &MpcSpec, holds: bool) -> String {
 /// hold).
 fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenStream {
     let Dims { ty, horizon, .. } = dims;
-    let max_iterations = Literal::u32_unsuffixed(spec.max_iterations);
-    let passes = Literal::u32_unsuffixed(spec.max_iterations + 1);
-    let riccati_iterations = Literal::u32_unsuffixed(spec.riccati_iterations);
+    let [max_iterations, passes, riccati_iterations] = [
+        spec.max_iterations,
+        spec.max_iterations + 1,
+        spec.riccati_iterations,
+    ]
+    .map(|count| Literal::usize_unsuffixed(count as usize));
     // Both tolerances sit well above the scalar's rounding of the sums they compare.
     let tolerance = literal(
         match scalar {
@@ -1044,22 +1052,22 @@ fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenS
         scalar,
     );
     let squarings = holds.then(|| {
-        let max = Literal::u32_unsuffixed(MAX_SQUARINGS);
+        let max = Literal::usize_unsuffixed(MAX_SQUARINGS as usize);
         quote! {
             /// Most squarings of the zero-order hold (scaling and squaring).
-            pub const MAX_SQUARINGS: u32 = #max;
+            pub const MAX_SQUARINGS: usize = #max;
         }
     });
     quote! {
         /// Moves optimised over, `n`.
         pub const HORIZON: usize = #horizon;
         /// Bound on the active-set iterations (Newton steps) of one solve.
-        pub const MAX_ITERATIONS: u32 = #max_iterations;
+        pub const MAX_ITERATIONS: usize = #max_iterations;
         /// Passes of the active-set loop: one per iteration, and one more that only
         /// checks the multipliers after the last step.
-        const PASSES: u32 = #passes;
+        const PASSES: usize = #passes;
         /// Riccati steps per solve towards the terminal weight.
-        pub const RICCATI_ITERATIONS: u32 = #riccati_iterations;
+        pub const RICCATI_ITERATIONS: usize = #riccati_iterations;
         /// Relative change of the terminal weight under which it counts as converged.
         pub const RICCATI_TOLERANCE: #ty = #tolerance;
         /// A bound stays held unless releasing it would move its input by more than
@@ -1071,8 +1079,8 @@ fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenS
     }
 }
 
-/// `fn new`: the bounds checked, the weights packed, the terminal weight at `q`, and the
-/// plan at zero clipped to the bounds.
+/// `fn new`: every entry read checked finite and the bounds ordered, the weights packed,
+/// the terminal weight at `q`, and the plan at zero clipped to the bounds.
 fn constructor(spec: &MpcSpec, moves: &MoveNames, dims: &Dims, scalar: Scalar) -> TokenStream {
     let Dims {
         ty,
@@ -1083,37 +1091,40 @@ fn constructor(spec: &MpcSpec, moves: &MoveNames, dims: &Dims, scalar: Scalar) -
     } = dims;
     let (ns, nu) = (spec.states.len(), spec.inputs.len());
     let zero = literal(0.0, scalar);
-    let (pack_q, pack_r) = (pack_upper("q", ns), pack_upper("r", nu));
-    let bounds_check = moves.bounds_check();
+    let mut arguments = Arguments::default();
+    let q = arguments.symmetric("q", ns, ty);
+    let r = arguments.symmetric("r", nu, ty);
+    let (min, max) = moves.bounds();
+    arguments.array("u_min", min.clone(), ty);
+    arguments.array("u_max", max.clone(), ty);
+    let bounds_order_check = moves.bounds_order_check();
     let start_move = moves.start_move(&zero);
-    quote! {
-        /// A controller with state weight `q` and input weight `r` (symmetric: upper
-        /// triangles are read; `r` positive definite) and the input bounds
-        /// `u_min < u_max`, regulating to zero until [`Mpc::set_reference`]. The
-        /// terminal weight starts at `q` and converges over the first solves; the plan
-        /// starts at zero, clipped to the bounds. Rejects bounds that are not finite
-        /// or leave no room.
-        pub fn new(
-            q: &[[#ty; #ns_len]; #ns_len],
-            r: &[[#ty; #nu_len]; #nu_len],
-            u_min: [#ty; #nu_len],
-            u_max: [#ty; #nu_len],
-        ) -> Result<Mpc, Status> {
-            #bounds_check
-            let q = #pack_q;
+    arguments.constructor(
+        &quote! {
+            /// A controller with state weight `q` and input weight `r` (symmetric: upper
+            /// triangles are read; `r` positive definite) and the input bounds
+            /// `u_min < u_max`, regulating to zero until [`Mpc::set_reference`]. The
+            /// terminal weight starts at `q` and converges over the first solves; the plan
+            /// starts at zero, clipped to the bounds.
+        },
+        " [`Status::RejectedInput`] if an entry it reads is not finite (of a symmetric \
+         matrix, the upper triangle), or if the bounds leave no room (not `u_min < u_max`).",
+        quote! {
+            #bounds_order_check
+            let q = [#(#q),*];
             Ok(Mpc {
                 q,
-                r: #pack_r,
-                u_min,
-                u_max,
+                r: [#(#r),*],
+                u_min: [#(#min),*],
+                u_max: [#(#max),*],
                 x_ref: [#zero; #ns_len],
                 u_ref: [#zero; #nu_len],
                 terminal_weight: q,
                 terminal_gain: [[#zero; #ns_len]; #nu_len],
                 plan: [#start_move; #horizon],
             })
-        }
-    }
+        },
+    )
 }
 
 /// `fn set_reference`: a finite set-point `x_ref` and input `u_ref` stored.
@@ -1133,10 +1144,10 @@ fn set_reference(model: &Model, spec: &MpcSpec, moves: &MoveNames, dims: &Dims) 
         /// of the linear model, `u_ref` is the input that holds it
         /// (`x_ref = A x_ref + B u_ref`). Rejects non-finite values, leaving the
         /// reference as it was.
-        pub fn set_reference(&mut self, x_ref: [#ty; #ns_len], u_ref: [#ty; #nu_len]) -> Status {
+        pub fn set_reference(&mut self, x_ref: &[#ty; #ns_len], u_ref: &[#ty; #nu_len]) -> Status {
             #reference_check
-            self.x_ref = x_ref;
-            self.u_ref = u_ref;
+            self.x_ref = *x_ref;
+            self.u_ref = *u_ref;
             Status::Ok
         }
     }

@@ -98,22 +98,24 @@ impl MoveNames {
         self.moves.iter().map(|m| ident(m)).collect()
     }
 
-    /// The rejection of bounds that are not finite or not `u_min < u_max`, for `new`.
-    pub fn bounds_check(&self) -> TokenStream {
-        let (min, max) = (self.per_input("minimum"), self.per_input("maximum"));
-        let finite: Vec<Ident> = min.iter().chain(&max).cloned().collect();
-        let finite = all_finite(&finite);
+    /// The bounds' entries as `new` binds them: `<input>_minimum` and `<input>_maximum`.
+    pub fn bounds(&self) -> (Vec<Ident>, Vec<Ident>) {
+        (self.per_input("minimum"), self.per_input("maximum"))
+    }
+
+    /// The rejection of bounds that leave no room (not `u_min < u_max`), for `new`, after
+    /// the check that they are finite.
+    pub fn bounds_order_check(&self) -> TokenStream {
+        let (min, max) = self.bounds();
         quote! {
-            let [#(#min),*] = u_min;
-            let [#(#max),*] = u_max;
-            if !(#finite) #(|| #min >= #max)* {
+            if #(#min >= #max)||* {
                 return Err(Status::RejectedInput);
             }
         }
     }
 
     /// The first plan's move, zero clipped to the bounds (`new`, after
-    /// [`MoveNames::bounds_check`]).
+    /// [`MoveNames::bounds_order_check`]).
     pub fn start_move(&self, zero: &TokenStream) -> TokenStream {
         let (min, max) = (self.per_input("minimum"), self.per_input("maximum"));
         let clipped = min.iter().zip(&max).map(|(lo, hi)| {
@@ -137,8 +139,8 @@ impl MoveNames {
         let finite = all_finite(&all);
         quote! {
             let finite = {
-                let [#(#state_refs),*] = x_ref;
-                let [#(#inputs),*] = u_ref;
+                let [#(#state_refs),*] = *x_ref;
+                let [#(#inputs),*] = *u_ref;
                 #finite
             };
             if !finite {
@@ -222,7 +224,7 @@ pub fn active_set_loop(g: &mut Graph, moves: &MoveNames, names: &Names, scalar: 
         let mut full_step = false;
         let mut optimal = false;
         // Newton steps taken; the pass after the last step only checks the multipliers.
-        let mut steps = u32::MIN;
+        let mut steps = usize::MIN;
         for pass in 1..=Self::PASSES {
             // The cost's gradient H v + c at the iterate.
             #(#grad_statements)*

@@ -5,6 +5,7 @@
 //! floats (exact below 2^24), so the code has no integer arithmetic.
 
 use super::design::{self, WindowFit};
+use crate::emit::arguments::{Arguments, REJECTS_NON_FINITE};
 use crate::emit::code::{guard_pivots, pivot_names, unpack_symmetric, INNOVATION};
 use crate::emit::filter::{finiteness_probe, model_names, packed_vars};
 use crate::emit::lower::{literal, matrix_literal, Lowered, Lowerer, OpCount};
@@ -102,7 +103,7 @@ fn associated_constants(spec: &PolynomialKfSpec, fit: &WindowFit, scalar: Scalar
     let ty = ident(scalar.type_name());
     let [n_len, w_len] = [spec.order + 1, spec.window].map(Literal::usize_unsuffixed);
     let order = Literal::usize_unsuffixed(spec.order);
-    let reinit = Literal::u32_unsuffixed(spec.reinit_every);
+    let reinit = Literal::usize_unsuffixed(spec.reinit_every as usize);
     let dt = literal(spec.dt, scalar);
     let (fit_gain, fit_cov) = (
         matrix_literal(&fit.gain, scalar),
@@ -114,7 +115,7 @@ fn associated_constants(spec: &PolynomialKfSpec, fit: &WindowFit, scalar: Scalar
         /// Samples in the re-initialisation window.
         pub const WINDOW: usize = #w_len;
         /// Samples between re-initialisations.
-        pub const REINIT_EVERY: u32 = #reinit;
+        pub const REINIT_EVERY: usize = #reinit;
         /// Sample period `T` [s].
         pub const SAMPLE_PERIOD: #ty = #dt;
         /// The window fit, `x = FIT_GAIN [y[k-N+1], .., y[k]]` (oldest sample first):
@@ -141,15 +142,28 @@ fn accessors(spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStream {
         }
     });
     let unpack_p = unpack_symmetric("p", n);
-    let pack_p0 = crate::emit::code::pack_upper("p0", n);
+    let mut arguments = Arguments::default();
+    arguments.vector("x0", n, &ty);
+    let p0 = arguments.symmetric("p0", n, &ty);
+    let new = arguments.constructor(
+        &quote! {
+            /// A filter from the estimate `x0` (scaled as the state) and covariance `p0`
+            /// (only its upper triangle is read), with an empty window: it runs the
+            /// recursive filter from this prior until its first re-initialisation.
+        },
+        REJECTS_NON_FINITE,
+        quote! {
+            Ok(PolynomialKf {
+                x: *x0,
+                p: [#(#p0),*],
+                window: [#zero; #w_len],
+                filled: #zero,
+                since: #zero,
+            })
+        },
+    );
     quote! {
-        /// A filter from the estimate `x0` (scaled as the state) and covariance `p0`
-        /// (only its upper triangle is read), with an empty window: it runs the
-        /// recursive filter from this prior until its first re-initialisation.
-        #[must_use]
-        pub fn new(x0: [#ty; #n_len], p0: &[[#ty; #n_len]; #n_len]) -> PolynomialKf {
-            PolynomialKf { x: x0, p: #pack_p0, window: [#zero; #w_len], filled: #zero, since: #zero }
-        }
+        #new
 
         /// The state estimate, scaled as eq. (2): `[z, T z', .., T^m/m! z^(m)]`.
         #[must_use]

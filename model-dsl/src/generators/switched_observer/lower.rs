@@ -4,6 +4,7 @@
 //! generation time and the regime `i` read from the measurement.
 
 use super::design::{observer_step, Designs, Gains, Regimes, Switch};
+use crate::emit::arguments::{Arguments, REJECTS_NON_FINITE};
 use crate::emit::code::{reject_non_finite, var_idents};
 use crate::emit::filter::model_names;
 use crate::emit::lower::{literal, matrix_literal, Lowered, Lowerer, OpCount};
@@ -309,6 +310,15 @@ fn observer_type(
         quote! { [#(#items),*] }
     };
     let type_name = ident(name);
+    let mut arguments = Arguments::default();
+    arguments.vector("x0", model.state_len(), &ty);
+    let new = arguments.constructor(
+        &quote! {
+            /// An observer starting from the estimate `x0`.
+        },
+        REJECTS_NON_FINITE,
+        quote! { Ok(#type_name { x: *x0 }) },
+    );
     let radius_doc = format!(
         " Largest pole modulus of `A_i - K_i C`: regime 1 {:.6}, regime 2 {:.6} (certified \
          below 1 when the code was generated).",
@@ -330,11 +340,7 @@ fn observer_type(
             /// The gains `K_1`, `K_2` (`states x outputs`).
             pub const GAINS: [[[#ty; #m_len]; #n_len]; 2] = #gains_literal;
 
-            /// An observer starting from the estimate `x0`.
-            #[must_use]
-            pub fn new(x0: [#ty; #n_len]) -> #type_name {
-                #type_name { x: x0 }
-            }
+            #new
 
             /// The estimate of the state at the next sample.
             #[must_use]

@@ -1,0 +1,136 @@
+//! The arguments of a generated method or constructor: their parameters, the statements
+//! binding the entries the code reads, and the check that those entries are finite, made
+//! where the arguments enter, before anything is computed or stored.
+
+use super::code::{all_finite, reject_non_finite, upper_triangle};
+use super::names::ident;
+use proc_macro2::{Ident, Literal, TokenStream};
+use quote::quote;
+
+/// What a constructor's `# Errors` section says of the check every constructor makes.
+pub const REJECTS_NON_FINITE: &str = " [`Status::RejectedInput`] if an entry it reads is not \
+     finite (of a symmetric matrix, the upper triangle).";
+
+/// The arguments of a generated method or constructor, the statements unpacking them into
+/// the variables the code reads, and those variables, which it rejects unless finite.
+#[derive(Default)]
+pub struct Arguments {
+    /// `name: type`, in order.
+    params: Vec<TokenStream>,
+    /// `let [..] = *name;`, in order.
+    unpack: Vec<TokenStream>,
+    /// The variables checked finite before anything is computed.
+    checked: Vec<Ident>,
+}
+
+impl Arguments {
+    /// An argument read as it is (a time; a gated step's `t_prev`).
+    pub fn plain(&mut self, param: TokenStream) {
+        self.params.push(param);
+    }
+
+    /// `name: &[S; len]`, unpacked into `vars` and checked finite.
+    pub fn array(&mut self, name: &str, vars: Vec<Ident>, ty: &Ident) {
+        let arg = ident(name);
+        let len = Literal::usize_unsuffixed(vars.len());
+        self.params.push(quote! { #arg: &[#ty; #len] });
+        self.unpack.push(quote! { let [#(#vars),*] = *#arg; });
+        self.checked.extend(vars);
+    }
+
+    /// `name: &[S; len]`, unpacked into `<name>_0`, `<name>_1`, .. (returned) and checked
+    /// finite.
+    pub fn vector(&mut self, name: &str, len: usize, ty: &Ident) -> Vec<Ident> {
+        let entries: Vec<Ident> = (0..len).map(|i| ident(&format!("{name}_{i}"))).collect();
+        self.array(name, entries.clone(), ty);
+        entries
+    }
+
+    /// `name: &[[S; n]; n]`, a symmetric matrix: its upper triangle, the entries read,
+    /// unpacked into `<name>_<i>_<j>` and checked finite. Returns them packed, row by row.
+    pub fn symmetric(&mut self, name: &str, n: usize, ty: &Ident) -> Vec<Ident> {
+        let arg = ident(name);
+        let len = Literal::usize_unsuffixed(n);
+        let (pattern, packed) = upper_triangle(name, n);
+        self.params.push(quote! { #arg: &[[#ty; #len]; #len] });
+        self.unpack.push(quote! { let #pattern = *#arg; });
+        self.checked.extend(packed.iter().cloned());
+        packed
+    }
+
+    /// A process noise covariance `name` (`n x n`): its variances if `diagonal`
+    /// ([`Arguments::vector`]), else the symmetric matrix ([`Arguments::symmetric`]).
+    pub fn process_noise(
+        &mut self,
+        name: &str,
+        n: usize,
+        diagonal: bool,
+        ty: &Ident,
+    ) -> Vec<Ident> {
+        if diagonal {
+            self.vector(name, n, ty)
+        } else {
+            self.symmetric(name, n, ty)
+        }
+    }
+
+    /// `name: S`, bound to `var` and checked finite.
+    pub fn scalar(&mut self, name: &str, var: Ident, ty: &Ident) {
+        let arg = ident(name);
+        self.params.push(quote! { #arg: #ty });
+        self.unpack.push(quote! { let #var = #arg; });
+        self.checked.push(var);
+    }
+
+    /// `pub fn name(&mut self, ..) -> Status`, documented by the attributes `doc`: unpacks
+    /// and checks the arguments, then runs `body` (which ends by returning the status).
+    pub fn method(self, name: &Ident, doc: &TokenStream, body: TokenStream) -> TokenStream {
+        let Arguments {
+            params,
+            unpack,
+            checked,
+        } = self;
+        let check = reject_non_finite(&checked);
+        quote! {
+            #doc
+            pub fn #name(&mut self, #(#params),*) -> Status {
+                #(#unpack)*
+                #check
+                #body
+            }
+        }
+    }
+
+    /// `pub fn new(..) -> Result<Self, Status>`, documented by the attributes `doc` and
+    /// its `# Errors` section, `errors` ([`REJECTS_NON_FINITE`], and what else `body`
+    /// rejects): unpacks the arguments and returns `Err(Status::RejectedInput)` unless
+    /// every entry read is finite, then runs `body` (which ends in `Ok(..)`, or returns
+    /// another `Err`).
+    pub fn constructor(self, doc: &TokenStream, errors: &str, body: TokenStream) -> TokenStream {
+        let Arguments {
+            params,
+            unpack,
+            checked,
+        } = self;
+        let check = (!checked.is_empty()).then(|| {
+            let finite = all_finite(&checked);
+            quote! {
+                if !(#finite) {
+                    return Err(Status::RejectedInput);
+                }
+            }
+        });
+        quote! {
+            #doc
+            ///
+            /// # Errors
+            ///
+            #[doc = #errors]
+            pub fn new(#(#params),*) -> Result<Self, Status> {
+                #(#unpack)*
+                #check
+                #body
+            }
+        }
+    }
+}
