@@ -56,6 +56,8 @@ const MASS_REMOVED_AT: f64 = 20.0;
 const CONTROL_FROM: f64 = 10.0;
 const CONTROL_END: f64 = 25.0;
 const STINGER_AT: [f64; 2] = [12.0, 18.0];
+/// Why the filters' and controllers' constructors cannot fail here.
+const FINITE_TUNING: &str = "the tuning is finite";
 
 fn main() -> Result<(), Box<dyn Error>> {
     let started = Instant::now();
@@ -141,8 +143,8 @@ fn estimation_runs() -> Trace {
     let mut plant = Plant::new(config);
     let mut filters = [(X0_CLOSE, 2e4, "close"), (X0_WRONG, 2e6, "wrong")].map(|(x0, p3, name)| {
         (
-            Ekf::new(x0, &p0(p3), &Q_DIAG, &[[R]]),
-            Dkf::new(x0, &p0(p3), &Q_DIAG, &p0(p3), &Q_DIAG, &[[R]]),
+            Ekf::new(&x0, &p0(p3), &Q_DIAG, &[[R]]).expect(FINITE_TUNING),
+            Dkf::new(&x0, &p0(p3), &Q_DIAG, &p0(p3), &Q_DIAG, &[[R]]).expect(FINITE_TUNING),
             name,
         )
     });
@@ -199,8 +201,9 @@ fn sensitivity() {
             noise: GaussianNoise::new(sigma, 11),
             ..PlantConfig::default()
         });
-        let mut ekf = Ekf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]);
-        let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
+        let mut ekf = Ekf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]).expect(FINITE_TUNING);
+        let mut dkf =
+            Dkf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]).expect(FINITE_TUNING);
         let mut prbs = Prbs::paper();
         let mut trace = Trace::new();
         let mut u_prev = 0.0;
@@ -261,20 +264,22 @@ fn closed_loop_runs() -> Trace {
     let mut open = Plant::new(config());
     let mut with_ekf = (
         Plant::new(config()),
-        Ekf::new(X0_CLOSE, &p0(2e4), &Q_DIAG_CONTROL, &[[R]]),
+        Ekf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG_CONTROL, &[[R]]).expect(FINITE_TUNING),
     );
     let mut with_dkf = (
         Plant::new(config()),
         Dkf::new(
-            X0_CLOSE,
+            &X0_CLOSE,
             &p0(2e4),
             &Q_DIAG_CONTROL,
             &p0(2e4),
             &Q_DIAG_CONTROL,
             &[[R]],
-        ),
+        )
+        .expect(FINITE_TUNING),
     );
-    let lqr = || Lqr::new(&[[1.0, 0.0], [0.0, 1.0]], &[[LQR_R]], Some([U_MAX]));
+    let lqr =
+        || Lqr::new(&[[1.0, 0.0], [0.0, 1.0]], &[[LQR_R]], Some(&[U_MAX])).expect(FINITE_TUNING);
     let (mut lqr_ekf, mut lqr_dkf) = (lqr(), lqr());
     let mut prbs = Prbs::paper();
     let (mut u_ekf, mut u_dkf) = (0.0, 0.0);
@@ -291,7 +296,7 @@ fn closed_loop_runs() -> Trace {
 
         let (plant, ekf) = &mut with_ekf;
         let _ = ekf.step(&[u_ekf], &[plant.output()]);
-        u_ekf = control(&mut lqr_ekf, &ekf.state(), identifying, dither);
+        u_ekf = control(&mut lqr_ekf, &ekf.state(), u_ekf, (identifying, dither));
         trace.set("EKF-LQR x1", plant.state()[0]);
         trace.set("EKF-LQR u", u_ekf);
         trace.set_estimate("EKF-LQR", &ekf.state());
@@ -299,7 +304,7 @@ fn closed_loop_runs() -> Trace {
 
         let (plant, dkf) = &mut with_dkf;
         let _ = dkf.step(&[u_dkf], &[plant.output()]);
-        u_dkf = control(&mut lqr_dkf, &dkf.state(), identifying, dither);
+        u_dkf = control(&mut lqr_dkf, &dkf.state(), u_dkf, (identifying, dither));
         trace.set("DKF-LQR x1", plant.state()[0]);
         trace.set("DKF-LQR u", u_dkf);
         trace.set_estimate("DKF-LQR", &dkf.state());
@@ -309,12 +314,18 @@ fn closed_loop_runs() -> Trace {
 }
 
 /// The PRBS while identifying; then the adaptive LQR's control for `estimate` (the gain
-/// is re-solved every sample; if that fails the last gain stays in use).
-fn control(lqr: &mut Lqr, estimate: &[f64; 5], identifying: bool, dither: f64) -> f64 {
+/// is re-solved every sample at the estimate and the last input `u_prev`; if that fails
+/// the last gain stays in use).
+fn control(
+    lqr: &mut Lqr,
+    estimate: &[f64; 5],
+    u_prev: f64,
+    (identifying, dither): (bool, f64),
+) -> f64 {
     if identifying {
         return dither;
     }
-    let _: Status = lqr.solve(estimate);
+    let _: Status = lqr.solve(estimate, &[u_prev]);
     saturate(lqr.control(estimate)[0])
 }
 

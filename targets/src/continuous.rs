@@ -27,20 +27,22 @@ fn continuous_ekf() -> ContinuousEkf {
         [0.0, helicopter_tuning::R[1]],
     ];
     ContinuousEkf::new(
-        helicopter_tuning::X0,
+        &helicopter_tuning::X0,
         &diag(helicopter_tuning::P0),
         &helicopter_tuning::Q,
         &r,
     )
+    .expect("the continuous EKF's tuning is finite")
 }
 
 fn hybrid_ekf() -> HybridEkf {
     HybridEkf::new(
-        blade_tuning::X0,
+        &blade_tuning::X0,
         &diag(blade_tuning::P0),
         &blade_tuning::Q,
         &[[blade_tuning::R]],
     )
+    .expect("the hybrid EKF's tuning is finite")
 }
 
 #[inline(never)]

@@ -50,15 +50,16 @@ const WARM_UP: usize = 100;
 const MEASURED: usize = 800;
 
 fn ekf(x0: [f32; 5], p0: [f32; 5]) -> Ekf {
-    Ekf::new(x0, &diag(p0), &Q, &[[R]])
+    Ekf::new(&x0, &diag(p0), &Q, &[[R]]).expect("the EKF's tuning is finite")
 }
 
 fn dkf(x0: [f32; 5], p0: [f32; 5]) -> Dkf {
-    Dkf::new(x0, &diag(p0), &Q, &diag(p0), &Q, &[[R]])
+    Dkf::new(&x0, &diag(p0), &Q, &diag(p0), &Q, &[[R]]).expect("the DKF's tuning is finite")
 }
 
 fn lqr() -> Lqr {
-    Lqr::new(&[[1.0, 0.0], [0.0, 1.0]], &[[0.001]], Some([U_MAX]))
+    Lqr::new(&[[1.0, 0.0], [0.0, 1.0]], &[[0.001]], Some(&[U_MAX]))
+        .expect("the LQR's weights and limit are finite")
 }
 
 #[entry]
@@ -97,7 +98,7 @@ fn estimates() {
         let _: Status = ekf_close.step(&[u_prev], &[y]);
         let _ = dkf_close.step(&[u_prev], &[y]);
         let _ = dkf_wrong.step(&[u_prev], &[y]);
-        let _: Status = controller.solve(&dkf_close.state());
+        let _: Status = controller.solve(&dkf_close.state(), &[u_prev]);
         let u = controller.control(&dkf_close.state())[0];
         if k % 10 == 0 {
             let (ekf, dkf, wrong) = (ekf_close.state(), dkf_close.state(), dkf_wrong.state());
@@ -127,15 +128,15 @@ fn generated_dkf_step(filter: &mut Dkf, u_prev: f32, y: f32) -> bool {
 }
 
 #[inline(never)]
-fn generated_lqr_solve(controller: &mut Lqr, estimate: &[f32; 5]) -> Status {
-    controller.solve(estimate)
+fn generated_lqr_solve(controller: &mut Lqr, estimate: &[f32; 5], u_prev: &[f32; 1]) -> Status {
+    controller.solve(estimate, u_prev)
 }
 
 #[inline(never)]
 fn generated_loop(filter: &mut Dkf, controller: &mut Lqr, u_prev: f32, y: f32) -> f32 {
     let _ = filter.step(&[u_prev], &[y]);
     let estimate = filter.state();
-    let _: Status = controller.solve(&estimate);
+    let _: Status = controller.solve(&estimate, &[u_prev]);
     controller.control(&estimate)[0]
 }
 
@@ -223,7 +224,11 @@ fn costs(clock: &Clock) {
     let mut controller = lqr();
     let lqr_costs = (
         per_call(clock, |_, _| {
-            let _ = black_box(generated_lqr_solve(&mut controller, black_box(&estimate)));
+            let _ = black_box(generated_lqr_solve(
+                &mut controller,
+                black_box(&estimate),
+                black_box(&[0.0]),
+            ));
         }),
         per_call(clock, |_, _| {
             black_box(baseline_lqr_solve(black_box(&estimate)));
@@ -231,7 +236,7 @@ fn costs(clock: &Clock) {
     );
     let lqr_stacks = (
         stack_depth(|| {
-            let _ = black_box(generated_lqr_solve(&mut controller, &estimate));
+            let _ = black_box(generated_lqr_solve(&mut controller, &estimate, &[0.0]));
         }),
         stack_depth(|| {
             black_box(baseline_lqr_solve(&estimate));

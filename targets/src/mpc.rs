@@ -20,8 +20,8 @@ fn controller() -> Mpc {
     match Mpc::new(
         &mpc_tuning::Q,
         &mpc_tuning::R,
-        [-mpc_tuning::U_MAX],
-        [mpc_tuning::U_MAX],
+        &[-mpc_tuning::U_MAX],
+        &[mpc_tuning::U_MAX],
     ) {
         Ok(mpc) => mpc,
         Err(status) => panic!("MPC rejected its tuning: {:?}", status),

@@ -28,14 +28,14 @@ pub const POLY_P0: [[f32; 4]; 4] = [
 
 /// Both observers over their sequences, every tenth estimate printed.
 pub fn estimates() {
-    let mut observer = LinearErrorObserver::new([0.0; 6]);
+    let mut observer = LinearErrorObserver::new(&[0.0; 6]).expect("the start is finite");
     for (k, (u, y)) in BEAM_SEQUENCE.iter().enumerate() {
         let _ = observer.step(&[*u], y);
         if k % 10 == 9 {
             estimate_line("observer", k, &observer.state());
         }
     }
-    let mut kf = PolynomialKf::new([0.0; 4], &POLY_P0);
+    let mut kf = PolynomialKf::new(&[0.0; 4], &POLY_P0).expect("the prior is finite");
     for (k, y) in HUB_SEQUENCE.iter().enumerate() {
         let _ = kf.step(*y);
         if k % 10 == 9 {
@@ -71,7 +71,7 @@ fn baseline_polynomial_kf_step(kf: &mut baseline::PolynomialKf, y: f32) {
 /// Per-call cost of one switched-observer step and one polynomial-KF step (averaged over
 /// 800 samples, so over 8 re-initialisations of the polynomial filter).
 pub fn costs(clock: &Clock) {
-    let mut generated = LinearErrorObserver::new([0.0; 6]);
+    let mut generated = LinearErrorObserver::new(&[0.0; 6]).expect("the start is finite");
     let mut plain = baseline::SwitchedObserver::new();
     for (u, y) in &BEAM_SEQUENCE[..100] {
         generated_switched_observer_step(black_box(&mut generated), *u, y);
@@ -95,7 +95,7 @@ pub fn costs(clock: &Clock) {
     );
     report("switched_observer_step", costs, stacks);
 
-    let mut generated = PolynomialKf::new([0.0; 4], &POLY_P0);
+    let mut generated = PolynomialKf::new(&[0.0; 4], &POLY_P0).expect("the prior is finite");
     let mut plain = baseline::PolynomialKf::new(&POLY_P0);
     for y in &HUB_SEQUENCE[..100] {
         generated_polynomial_kf_step(black_box(&mut generated), *y);

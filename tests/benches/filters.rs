@@ -41,7 +41,7 @@ fn benches(c: &mut Criterion) {
     let q = diag(Q_DIAG);
 
     let mut group = c.benchmark_group("EKF step");
-    let (mut ekf, mut feed) = (Ekf::new(X0, &p0, &Q_DIAG, &[[R]]), Feed::new());
+    let (mut ekf, mut feed) = (Ekf::new(&X0, &p0, &Q_DIAG, &[[R]]).unwrap(), Feed::new());
     group.bench_function("generated f64", |b| {
         b.iter(|| {
             let (u, y) = feed.next();
@@ -49,11 +49,12 @@ fn benches(c: &mut Criterion) {
         })
     });
     let mut ekf32 = cantilever::Ekf::new(
-        X0.map(|v| v as f32),
+        &X0.map(|v| v as f32),
         &p0.map(|r| r.map(|v| v as f32)),
         &Q_DIAG.map(|v| v as f32),
         &[[R as f32]],
-    );
+    )
+    .unwrap();
     let mut feed = Feed::new();
     group.bench_function("generated f32", |b| {
         b.iter(|| {
@@ -74,7 +75,7 @@ fn benches(c: &mut Criterion) {
 
     let mut group = c.benchmark_group("DKF step");
     let (mut dkf, mut feed) = (
-        Dkf::new(X0, &p0, &Q_DIAG, &p0, &Q_DIAG, &[[R]]),
+        Dkf::new(&X0, &p0, &Q_DIAG, &p0, &Q_DIAG, &[[R]]).unwrap(),
         Feed::new(),
     );
     group.bench_function("generated f64", |b| {
@@ -102,9 +103,9 @@ fn benches(c: &mut Criterion) {
 
     let mut group = c.benchmark_group("LQR solve (N = 50)");
     let estimate = [0.1, 0.2, -393.93, -6.941, 0.4924];
-    let mut lqr = Lqr::new(&[[1.0, 0.0], [0.0, 1.0]], &[[0.001]], Some([100.0]));
+    let mut lqr = Lqr::new(&[[1.0, 0.0], [0.0, 1.0]], &[[0.001]], Some(&[100.0])).unwrap();
     group.bench_function("generated f64", |b| {
-        b.iter(|| black_box(lqr.solve(black_box(&estimate))))
+        b.iter(|| black_box(lqr.solve(black_box(&estimate), black_box(&[0.0]))))
     });
     group.bench_function("nalgebra reference", |b| {
         b.iter(|| {

@@ -32,7 +32,7 @@ fn matrix<const R: usize, const C: usize>(m: &[[f64; C]; R]) -> DMatrix<f64> {
 }
 
 fn benches(c: &mut Criterion) {
-    let mut mpc = Mpc::new(&Q, &R, [-LIMIT], [LIMIT]).expect("valid bounds");
+    let mut mpc = Mpc::new(&Q, &R, &[-LIMIT], &[LIMIT]).expect("valid bounds");
     let mut converged = false;
     for _ in 0..200 {
         let status = mpc.solve(&X, &[0.0]);

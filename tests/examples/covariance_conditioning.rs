@@ -121,12 +121,13 @@ fn measure(steps: usize) {
     let to_f32 = |v: f64| v as f32;
     let p0_64 = p0(2e4);
     let mut ekf32 = Ekf::new(
-        X0_CLOSE.map(to_f32),
+        &X0_CLOSE.map(to_f32),
         &p0_64.map(|row| row.map(to_f32)),
         &Q_DIAG.map(to_f32),
         &[[R as f32]],
-    );
-    let mut ekf64 = in_f64::Ekf::new(X0_CLOSE, &p0_64, &Q_DIAG, &[[R]]);
+    )
+    .unwrap();
+    let mut ekf64 = in_f64::Ekf::new(&X0_CLOSE, &p0_64, &Q_DIAG, &[[R]]).unwrap();
 
     let checkpoints: Vec<usize> = (3..8)
         .flat_map(|e| [10usize.pow(e), 3 * 10usize.pow(e)])

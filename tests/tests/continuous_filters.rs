@@ -214,7 +214,7 @@ fn hybrid_ekf_agrees_with_a_dense_reference_in_control_mode() {
     let p0 = diagonal([1e-5, 1.0, 1e-4, 1e-6, 1e-6]);
     let r = 1e-6;
     let x0 = [0.0, 0.0, 0.0, 0.0, 2.0];
-    let mut generated = Generated::new(x0, &to_array(&p0), &q, &[[r]]);
+    let mut generated = Generated::new(&x0, &to_array(&p0), &q, &[[r]]).unwrap();
     let mut reference = HybridEkf {
         model: &blade_control::MODEL,
         estimate: (SVector::from(x0), p0),
@@ -255,7 +255,7 @@ fn hybrid_ekf_agrees_with_a_dense_reference_in_identification_mode() {
     let p0 = diagonal([1e-5, 1.0, 1e4, 1e-2, 1e-6, 0.1]);
     let r = 1e-10;
     let x0 = [0.0, 0.0, 450.0, 0.1, 5e-4, 2.0];
-    let mut generated = Generated::new(x0, &to_array(&p0), &q, &[[r]]);
+    let mut generated = Generated::new(&x0, &to_array(&p0), &q, &[[r]]).unwrap();
     let mut reference = HybridEkf {
         model: &blade_identification::MODEL,
         estimate: (SVector::from(x0), p0),
@@ -301,7 +301,7 @@ fn continuous_ekf_agrees_with_a_dense_reference() {
         let p0 = diagonal(HELICOPTER_P0);
         let x0 = [0.05, 0.0, -0.05, 0.0, 0.0, 0.0];
         let r = [[HELICOPTER_R[0], 0.0], [0.0, HELICOPTER_R[1]]];
-        let mut generated = Generated::new(x0, &to_array(&p0), &HELICOPTER_Q, &r);
+        let mut generated = Generated::new(&x0, &to_array(&p0), &HELICOPTER_Q, &r).unwrap();
         assert_eq!(generated.set_alpha(alpha), Status::Ok);
         let mut reference = ContinuousEkf {
             model: &helicopter_model::MODEL,
@@ -341,7 +341,8 @@ fn noise_free_errors(alpha: f64, samples: usize, input: impl Fn(f64) -> [f64; 2]
     use helicopter::in_f64::{f, h, ContinuousEkf as Generated, Status, TS};
     let r = [[HELICOPTER_R[0], 0.0], [0.0, HELICOPTER_R[1]]];
     let x0 = [0.05, 0.0, -0.05, 0.0, 0.0, 0.0];
-    let mut filter = Generated::new(x0, &to_array(&diagonal(HELICOPTER_P0)), &HELICOPTER_Q, &r);
+    let mut filter =
+        Generated::new(&x0, &to_array(&diagonal(HELICOPTER_P0)), &HELICOPTER_Q, &r).unwrap();
     assert_eq!(filter.set_alpha(alpha), Status::Ok);
     let mut truth = [0.0; 6];
     let error = |x: &[f64; 6], truth: &[f64; 6]| {
@@ -466,8 +467,8 @@ fn hybrid_ekf_with_one_euler_substep_is_the_discrete_ekf_of_the_euler_model() {
         let u = [100.0 * w(20)];
         let y = [x0[0] + 1e-4 * w(21)];
 
-        let mut ekf = Ekf::new(x0, &p0, &discrete, &r);
-        let mut hybrid = HybridEkf::new(x0, &p0, &density, &r);
+        let mut ekf = Ekf::new(&x0, &p0, &discrete, &r).unwrap();
+        let mut hybrid = HybridEkf::new(&x0, &p0, &density, &r).unwrap();
         assert_eq!(ekf.update(&y), Status::Ok);
         assert_eq!(hybrid.update(&y), Status::Ok);
         assert_eq!(ekf.state(), hybrid.state(), "case {case}: updated estimate");
@@ -477,8 +478,8 @@ fn hybrid_ekf_with_one_euler_substep_is_the_discrete_ekf_of_the_euler_model() {
             "case {case}: updated P"
         );
 
-        let mut ekf = Ekf::new(x0, &p0, &discrete, &r);
-        let mut hybrid = HybridEkf::new(x0, &p0, &density, &r);
+        let mut ekf = Ekf::new(&x0, &p0, &discrete, &r).unwrap();
+        let mut hybrid = HybridEkf::new(&x0, &p0, &density, &r).unwrap();
         assert_eq!(ekf.predict(&u), Status::Ok);
         assert_eq!(hybrid.predict(&u), Status::Ok);
         let scale = ekf.state().iter().fold(0.0_f64, |m, v| m.max(v.abs()));
@@ -573,8 +574,8 @@ fn looped_rk4_substeps_with_time_agree_with_the_references() {
     // A full process noise (the default, not `diagonal`), with a coupling.
     let q = SMatrix::<f64, 3, 3>::new(1e-4, 2e-5, 0.0, 2e-5, 1e-3, 0.0, 0.0, 0.0, 1e-3);
     let r = 1e-3;
-    let mut hybrid = Hybrid::new(x0, &to_array(&p0), &to_array(&q), &[[r]]);
-    let mut ct = Ct::new(x0, &to_array(&p0), &to_array(&q), &[[r]]);
+    let mut hybrid = Hybrid::new(&x0, &to_array(&p0), &to_array(&q), &[[r]]).unwrap();
+    let mut ct = Ct::new(&x0, &to_array(&p0), &to_array(&q), &[[r]]).unwrap();
     let mut hybrid_reference = HybridEkf {
         model: &pendulum_model::MODEL,
         estimate: (SVector::from(x0), p0),
@@ -607,7 +608,7 @@ fn looped_rk4_substeps_with_time_agree_with_the_references() {
         }
         let y = [truth[0] + wobble(k, 1e-2)];
         assert_eq!(
-            hybrid.step(t_prev, t, &u, &y),
+            hybrid.step(t_prev, &u, &y),
             Status::Ok,
             "hybrid, sample {k}"
         );
@@ -646,18 +647,12 @@ fn non_finite_inputs_leave_the_continuous_filters_unchanged() {
     use pendulum::{ContinuousEkf as Ct, HybridEkf as Hybrid, Status};
     let p0 = to_array(&diagonal([0.1, 0.1, 0.1]));
     let q = to_array(&diagonal([1e-4, 1e-3, 1e-3]));
-    let mut hybrid = Hybrid::new([0.3, 0.0, 0.5], &p0, &q, &[[1e-3]]);
-    let mut ct = Ct::new([0.3, 0.0, 0.5], &p0, &q, &[[1e-3]]);
+    let mut hybrid = Hybrid::new(&[0.3, 0.0, 0.5], &p0, &q, &[[1e-3]]).unwrap();
+    let mut ct = Ct::new(&[0.3, 0.0, 0.5], &p0, &q, &[[1e-3]]).unwrap();
     for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
         let (hybrid_before, ct_before) = (hybrid, ct);
-        assert_eq!(
-            hybrid.step(0.0, 0.02, &[bad], &[0.1]),
-            Status::RejectedInput
-        );
-        assert_eq!(
-            hybrid.step(0.0, 0.02, &[0.1], &[bad]),
-            Status::RejectedInput
-        );
+        assert_eq!(hybrid.step(0.0, &[bad], &[0.1]), Status::RejectedInput);
+        assert_eq!(hybrid.step(0.0, &[0.1], &[bad]), Status::RejectedInput);
         assert_eq!(hybrid.predict(0.0, &[bad]), Status::RejectedInput);
         assert_eq!(hybrid.update(0.02, &[bad]), Status::RejectedInput);
         assert_eq!(ct.step(0.0, &[bad], &[0.1]), Status::RejectedInput);
@@ -669,7 +664,7 @@ fn non_finite_inputs_leave_the_continuous_filters_unchanged() {
     // filter's final check after the integration.
     let (hybrid_before, ct_before) = (hybrid, ct);
     assert_eq!(
-        hybrid.step(0.0, 0.02, &[1e308], &[0.1]),
+        hybrid.step(0.0, &[1e308], &[0.1]),
         Status::NonPositiveInnovation
     );
     assert_eq!(hybrid.predict(0.0, &[1e308]), Status::NonFinite);

@@ -20,11 +20,11 @@ fn data() -> Vec<Sample> {
 }
 
 fn ekf() -> Ekf {
-    Ekf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]])
+    Ekf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]).unwrap()
 }
 
 fn gated() -> GatedEkf {
-    GatedEkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]])
+    GatedEkf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]).unwrap()
 }
 
 #[test]
@@ -158,7 +158,7 @@ fn reset_starts_the_filter_again_after_a_fault() {
     assert!(failures > 0, "the wild value was not refused");
     assert_ne!(filter.state(), X0_CLOSE);
 
-    filter.reset(X0_CLOSE, &p0(2e4));
+    assert_eq!(filter.reset(&X0_CLOSE, &p0(2e4)), Status::Ok);
     let fresh = ekf();
     assert_eq!(
         filter, fresh,

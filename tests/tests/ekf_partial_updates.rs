@@ -25,11 +25,12 @@ fn filter() -> Ekf {
     let p0 = diagonal([0.1; 6]);
     let q = diagonal([1e-6, 1e-4, 1e-6, 1e-4, 1e-5, 1e-5]);
     Ekf::new(
-        [0.1, 0.0, -0.2, 0.0, 0.0, 0.0],
+        &[0.1, 0.0, -0.2, 0.0, 0.0, 0.0],
         &p0,
         &q,
         &diagonal([1e-4, 2e-4]),
     )
+    .unwrap()
 }
 
 #[test]

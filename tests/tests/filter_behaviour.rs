@@ -21,8 +21,8 @@ fn diverged(x: &[f64; 5]) -> bool {
 
 #[test]
 fn from_the_wrong_guess_the_dkf_converges_and_the_ekf_does_not() {
-    let mut ekf = Ekf::new(X0_WRONG, &p0(2e6), &Q_DIAG, &[[R]]);
-    let mut dkf = Dkf::new(X0_WRONG, &p0(2e6), &Q_DIAG, &p0(2e6), &Q_DIAG, &[[R]]);
+    let mut ekf = Ekf::new(&X0_WRONG, &p0(2e6), &Q_DIAG, &[[R]]).unwrap();
+    let mut dkf = Dkf::new(&X0_WRONG, &p0(2e6), &Q_DIAG, &p0(2e6), &Q_DIAG, &[[R]]).unwrap();
     let samples = run(1001, 1e-4, 3);
     let ten_seconds = (10.0 / 0.015) as usize;
     let mut ekf_diverged_at = None;
@@ -61,7 +61,7 @@ fn from_the_wrong_guess_the_dkf_converges_and_the_ekf_does_not() {
 #[test]
 fn windows_without_excitation_produce_no_nan() {
     // Case 1: the beam at rest, no input: every window is degenerate.
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
+    let mut dkf = Dkf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]).unwrap();
     for k in 0..50 {
         let status = dkf.step(&[0.0], &[0.0]);
         assert!(status.is_ok(), "step {k}: {status:?}");
@@ -76,7 +76,7 @@ fn windows_without_excitation_produce_no_nan() {
     }
     assert_eq!(dkf.window_parameters(), [-400.0, -1.0, 0.01]);
     // Case 1 again: a constant input holding the beam still at its deflection.
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
+    let mut dkf = Dkf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]).unwrap();
     for _ in 0..50 {
         let status = dkf.step(&[10.0], &[0.0125]);
         assert_ne!(status.window, WindowStatus::Solved);
@@ -86,7 +86,7 @@ fn windows_without_excitation_produce_no_nan() {
 
 #[test]
 fn an_input_free_window_freezes_the_input_gain() {
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
+    let mut dkf = Dkf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]).unwrap();
     // Excite, then let the beam ring down with no input (Case 2).
     let excited = run(200, 0.0, 1);
     for k in 1..excited.len() {
@@ -119,8 +119,8 @@ fn an_input_free_window_freezes_the_input_gain() {
 #[test]
 fn nan_input_leaves_every_filter_unchanged() {
     let samples = run(100, 1e-4, 5);
-    let mut ekf = Ekf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]);
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
+    let mut ekf = Ekf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]).unwrap();
+    let mut dkf = Dkf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]).unwrap();
     for k in 1..samples.len() {
         assert_eq!(ekf.step(&[samples[k - 1].u], &[samples[k].y]), Status::Ok);
         let status = dkf.step(&[samples[k - 1].u], &[samples[k].y]);
@@ -147,11 +147,11 @@ fn nan_input_leaves_every_filter_unchanged() {
     let status = dkf.step(&[samples[0].u], &[samples[1].y]);
     assert_eq!(status.window, WindowStatus::Filling);
 
-    let mut lqr = Lqr::new(&[[1.0, 0.0], [0.0, 1.0]], &[[0.001]], Some([100.0]));
-    assert_eq!(lqr.solve(&ekf.state()), Status::Ok);
+    let mut lqr = Lqr::new(&[[1.0, 0.0], [0.0, 1.0]], &[[0.001]], Some(&[100.0])).unwrap();
+    assert_eq!(lqr.solve(&ekf.state(), &[0.0]), Status::Ok);
     let gain = lqr.gain();
     let mut estimate = ekf.state();
     estimate[2] = f64::NAN;
-    assert_eq!(lqr.solve(&estimate), Status::RejectedInput);
+    assert_eq!(lqr.solve(&estimate, &[0.0]), Status::RejectedInput);
     assert_eq!(lqr.gain(), gain);
 }

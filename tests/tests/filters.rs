@@ -45,7 +45,7 @@ fn data() -> Vec<Sample> {
 #[test]
 fn ekf_agrees_with_the_reference_over_2000_steps() {
     let q = diag(Q_DIAG);
-    let mut ekf = Ekf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]);
+    let mut ekf = Ekf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]).unwrap();
     let mut reference = reference::Ekf::new(
         State::from(X0_CLOSE),
         mat(&p0(2e4)),
@@ -67,7 +67,7 @@ fn ekf_agrees_with_the_reference_over_2000_steps() {
 #[test]
 fn dkf_agrees_with_the_reference_over_2000_steps() {
     let q = diag(Q_DIAG);
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
+    let mut dkf = Dkf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]).unwrap();
     let mut reference = reference::Dkf::new(
         State::from(X0_CLOSE),
         mat(&p0(2e4)),
@@ -112,14 +112,14 @@ fn dkf_agrees_with_the_reference_over_2000_steps() {
 #[test]
 fn lqr_agrees_with_the_reference() {
     let q = [[1.0, 0.0], [0.0, 1.0]];
-    let mut lqr = Lqr::new(&q, &[[0.001]], Some([100.0]));
+    let mut lqr = Lqr::new(&q, &[[0.001]], Some(&[100.0])).unwrap();
     let samples = data();
     for (k, sample) in samples.iter().enumerate().step_by(97) {
         // Gains at the true parameters and at perturbed ones.
         let mut x = [0.0; 5];
         x.copy_from_slice(sample.truth.as_slice());
         x[2] *= 1.0 + 0.1 * (k as f64 / 2000.0);
-        assert_eq!(lqr.solve(&x), Status::Ok);
+        assert_eq!(lqr.solve(&x, &[0.0]), Status::Ok);
         let expected = reference::lqr_gain(&x, 50, Matrix2::identity(), 0.001).expect("gain");
         assert_agree(
             "LQR K",

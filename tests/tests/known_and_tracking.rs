@@ -85,8 +85,8 @@ fn identity<const N: usize>(scale: f64) -> [[f64; N]; N] {
 fn an_ekf_with_a_known_wheelbase_runs_as_the_const_models() {
     let x0 = [1.0, 1.0, 0.2, 1.0, 0.4];
     let (p0, q, r) = (identity::<5>(0.1), identity::<5>(1e-4), identity::<2>(1e-3));
-    let mut known = with_known::Ekf::new(x0, &p0, &q, &r, &WHEELBASE);
-    let mut constant = with_const::Ekf::new(x0, &p0, &q, &r);
+    let mut known = with_known::Ekf::new(&x0, &p0, &q, &r, &WHEELBASE).unwrap();
+    let mut constant = with_const::Ekf::new(&x0, &p0, &q, &r).unwrap();
     let mut truth = [1.2, 0.9, 0.1, 1.5, 0.5];
     let mut rng = Lcg(22);
     for _ in 0..300 {
@@ -118,8 +118,8 @@ fn an_ekf_with_a_known_wheelbase_runs_as_the_const_models() {
 #[test]
 fn an_lqr_with_a_known_wheelbase_solves_the_const_models_gain() {
     let (q, r) = (identity::<2>(1.0), identity::<2>(0.1));
-    let mut known = with_known::Lqr::new(&q, &r, None, &WHEELBASE);
-    let mut constant = with_const::Lqr::new(&q, &r, None);
+    let mut known = with_known::Lqr::new(&q, &r, None, &WHEELBASE).unwrap();
+    let mut constant = with_const::Lqr::new(&q, &r, None).unwrap();
     let x = [1.0, 1.0, 0.2, 1.5, 0.4];
     let u = [0.3, 0.2];
     assert_eq!(known.solve(&x, &u), rover_known::Status::Ok);
@@ -150,7 +150,7 @@ fn cantilever_parameters() -> [f64; 3] {
 #[test]
 fn the_steady_state_input_is_the_models_equilibrium() {
     let [x3, x4, x5] = cantilever_parameters();
-    let lqr = cantilever::Lqr::new(&identity::<2>(1.0), &[[1e-3]], None);
+    let lqr = cantilever::Lqr::new(&identity::<2>(1.0), &[[1e-3]], None).unwrap();
     for set_point in [-0.3, 0.0, 0.02, 1.5] {
         let x_ref = [set_point, 0.0, x3, x4, x5];
         // x2 = 0 at rest; then x2[k+1] = 0 = TS x1 x3 + TS x5 u: u = -x1 x3 / x5.
@@ -169,20 +169,20 @@ fn the_steady_state_input_is_the_models_equilibrium() {
     // An input gain of zero cannot hold anything.
     assert_eq!(
         lqr.steady_state_input(&[0.1, 0.0, x3, x4, 0.0], &[0.0]),
-        None
+        Err(Status::NonFinite)
     );
     assert_eq!(
         lqr.steady_state_input(&[f64::NAN, 0.0, x3, x4, x5], &[0.0]),
-        None
+        Err(Status::RejectedInput)
     );
 }
 
 #[test]
 fn the_lqr_tracks_a_set_point() {
     let [x3, x4, x5] = cantilever_parameters();
-    let mut lqr = cantilever::Lqr::new(&identity::<2>(1.0), &[[1e-3]], None);
+    let mut lqr = cantilever::Lqr::new(&identity::<2>(1.0), &[[1e-3]], None).unwrap();
     let mut x = [0.0, 0.0, x3, x4, x5];
-    assert_eq!(lqr.solve(&x), Status::Ok);
+    assert_eq!(lqr.solve(&x, &[0.0]), Status::Ok);
     let x_ref = [0.25, 0.0, x3, x4, x5];
     let u_ref = lqr.steady_state_input(&x_ref, &[0.0]).expect("reachable");
     // At the set-point the control is the feed-forward alone.

@@ -55,7 +55,7 @@ fn estimate(q: f64, qd: f64, inv_m: f64) -> [f64; 5] {
 }
 
 fn controller(limit: f64) -> blade::Mpc {
-    blade::Mpc::new(&Q, &R, [-limit], [limit]).expect("valid bounds")
+    blade::Mpc::new(&Q, &R, &[-limit], &[limit]).expect("valid bounds")
 }
 
 /// Solves at `x` until the terminal weight has converged; the last status.
@@ -158,7 +158,7 @@ fn the_plan_agrees_with_clarabel_on_random_problems() {
         let limit = 100.0 * (0.2 + 0.8 * rng.uniform().abs());
         let (x_ref, u_ref) = ([0.002 * rng.uniform(), 0.0], [0.3 * limit * rng.uniform()]);
         let mut mpc = controller(limit);
-        assert_eq!(mpc.set_reference(x_ref, u_ref), Status::Ok);
+        assert_eq!(mpc.set_reference(&x_ref, &u_ref), Status::Ok);
         let status = converge(&mut mpc, &x);
         let status = if status.optimal {
             status
@@ -223,13 +223,13 @@ fn non_finite_estimates_and_bounds_are_rejected_with_the_controller_unchanged() 
     assert_eq!(stiff.status, Status::NonFinite);
     assert_eq!(mpc, before);
     assert_eq!(
-        mpc.set_reference([f64::NAN, 0.0], [0.0]),
+        mpc.set_reference(&[f64::NAN, 0.0], &[0.0]),
         Status::RejectedInput
     );
     assert_eq!(mpc, before);
     for (low, high) in [(1.0, 1.0), (f64::NAN, 1.0), (-1.0, f64::INFINITY)] {
         assert!(
-            blade::Mpc::new(&Q, &R, [low], [high]).is_err(),
+            blade::Mpc::new(&Q, &R, &[low], &[high]).is_err(),
             "{low}..{high}"
         );
     }
@@ -238,7 +238,7 @@ fn non_finite_estimates_and_bounds_are_rejected_with_the_controller_unchanged() 
 #[test]
 fn when_the_iterations_run_out_the_plan_stays_within_the_bounds() {
     let (q, r, x) = ([[1.0, 0.0], [0.0, 1.0]], [[0.01]], [5.0, -3.0]);
-    let mut limited = double_integrator::Mpc::new(&q, &r, [-0.2], [0.3]).expect("bounds");
+    let mut limited = double_integrator::Mpc::new(&q, &r, &[-0.2], &[0.3]).expect("bounds");
     for _ in 0..5 {
         let status = limited.solve(&x, &[0.0]);
         assert_eq!(status.status, double_integrator::Status::Ok);
@@ -248,7 +248,7 @@ fn when_the_iterations_run_out_the_plan_stays_within_the_bounds() {
     }
     // With its iterations, the same problem is solved, holding the bound that slows the
     // integrator down.
-    let mut full = double_integrator_full::Mpc::new(&q, &r, [-0.2], [0.3]).expect("bounds");
+    let mut full = double_integrator_full::Mpc::new(&q, &r, &[-0.2], &[0.3]).expect("bounds");
     let status = full.solve(&x, &[0.0]);
     assert!(status.optimal && status.iterations > 1, "{status:?}");
     assert_eq!(full.control(), [-0.2]);

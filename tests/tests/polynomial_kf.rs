@@ -41,9 +41,7 @@ impl Reference {
             self.window.remove(0);
         }
         self.since += 1;
-        if self.since >= PolynomialKf::REINIT_EVERY as usize
-            && self.window.len() == PolynomialKf::WINDOW
-        {
+        if self.since >= PolynomialKf::REINIT_EVERY && self.window.len() == PolynomialKf::WINDOW {
             let h = design(PolynomialKf::WINDOW);
             let svd = h.clone().svd(true, true);
             self.x = svd
@@ -79,7 +77,7 @@ fn generated_polynomial_kf_matches_the_dense_reference_at_every_step() {
     let p0_diag = [1.0, 1e-2, 1e-4, 1e-6];
     let p0 =
         core::array::from_fn(|i| core::array::from_fn(|j| if i == j { p0_diag[i] } else { 0.0 }));
-    let mut kf = PolynomialKf::new(x0, &p0);
+    let mut kf = PolynomialKf::new(&x0, &p0).unwrap();
     let mut reference = Reference {
         x: DVector::from_row_slice(&x0),
         s: DMatrix::from_diagonal(&DVector::from_row_slice(&p0_diag)),
@@ -129,8 +127,8 @@ fn window_fit_gain_is_nalgebras_pseudo_inverse() {
 fn a_cubic_is_reconstructed_exactly_in_physical_units_after_a_fit() {
     let (a, b, c, d) = (0.3, -1.2, 4.0, 2.5);
     let ts = PolynomialKf::SAMPLE_PERIOD;
-    let mut kf = PolynomialKf::new([0.0; N], &[[0.0; N]; N]);
-    let steps = PolynomialKf::REINIT_EVERY as usize;
+    let mut kf = PolynomialKf::new(&[0.0; N], &[[0.0; N]; N]).unwrap();
+    let steps = PolynomialKf::REINIT_EVERY;
     for k in 0..steps {
         let t = k as f64 * ts;
         assert_eq!(kf.step(a + b * t + c * t * t + d * t * t * t), Status::Ok);
@@ -153,7 +151,7 @@ fn a_cubic_is_reconstructed_exactly_in_physical_units_after_a_fit() {
 
 #[test]
 fn a_rejected_measurement_leaves_the_filter_unchanged() {
-    let mut kf = PolynomialKf::new([1.0, 0.0, 0.0, 0.0], &[[1e-3; N]; N]);
+    let mut kf = PolynomialKf::new(&[1.0, 0.0, 0.0, 0.0], &[[1e-3; N]; N]).unwrap();
     for k in 0..10 {
         assert_eq!(kf.step(signal(k)), Status::Ok);
     }

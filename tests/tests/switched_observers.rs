@@ -121,9 +121,9 @@ fn generated_observers_match_a_dense_nalgebra_simulation() {
     ];
     for freq in [20.0, 35.0] {
         let x0 = [5e-4, -1e-3, 2e-4, 0.0, 0.01, 0.0];
-        let mut led = beam::LinearErrorObserver::new(x0);
-        let mut skf = beam::SwitchedKalmanObserver::new(x0);
-        let mut cgo = beam::CommonGainObserver::new(x0);
+        let mut led = beam::LinearErrorObserver::new(&x0).unwrap();
+        let mut skf = beam::SwitchedKalmanObserver::new(&x0).unwrap();
+        let mut cgo = beam::CommonGainObserver::new(&x0).unwrap();
         let mut dense = [0, 1, 2].map(|_| DVector::from_row_slice(&x0));
         let mut x = DVector::zeros(N);
         let mut worst = 0.0_f64;
@@ -181,7 +181,7 @@ fn linear_error_dynamics_hold_under_arbitrary_switching() {
         let x_next = f(&x, u);
         let y = [x[0], x[1]];
         let estimate: [f64; N] = core::array::from_fn(|i| x[i] - e[i]);
-        let mut obs = beam::LinearErrorObserver::new(estimate);
+        let mut obs = beam::LinearErrorObserver::new(&estimate).unwrap();
         assert_eq!(obs.step(&[u], &y), beam::Status::Ok);
         let e_next = &x_next - DVector::from_row_slice(&obs.state());
         let predicted = &error_matrix * &e;
@@ -190,7 +190,7 @@ fn linear_error_dynamics_hold_under_arbitrary_switching() {
         assert!(diff < 1e-9, "error left the linear system: {diff:e}");
 
         let estimate: [f64; N] = core::array::from_fn(|i| x[i] - e[i]);
-        let mut obs = beam::CommonGainObserver::new(estimate);
+        let mut obs = beam::CommonGainObserver::new(&estimate).unwrap();
         assert_eq!(obs.step(&[u], &y), beam::Status::Ok);
         let e_next = &x_next - DVector::from_row_slice(&obs.state());
         let predicted = (&reg.a[0] - &common[0] * &reg.c) * &e;

@@ -9,7 +9,7 @@ use tests::tuning::{diag, p0, Q_DIAG, R, X0_CLOSE};
 fn ekf_and_dkf_noise_setters() {
     use cantilever::in_f64::{Dkf, Ekf, Status};
     let q2 = [0.0, 0.0, 50.0, 100.0, 1e-4];
-    let mut ekf = Ekf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]);
+    let mut ekf = Ekf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]).unwrap();
     let before = ekf;
     assert_eq!(
         ekf.set_process_noise(&[0.0, f64::NAN, 0.0, 0.0, 0.0]),
@@ -22,9 +22,12 @@ fn ekf_and_dkf_noise_setters() {
     assert_eq!(ekf, before);
     assert_eq!(ekf.set_process_noise(&q2), Status::Ok);
     assert_eq!(ekf.set_measurement_noise(&[[2.0 * R]]), Status::Ok);
-    assert_eq!(ekf, Ekf::new(X0_CLOSE, &p0(2e4), &q2, &[[2.0 * R]]));
+    assert_eq!(
+        ekf,
+        Ekf::new(&X0_CLOSE, &p0(2e4), &q2, &[[2.0 * R]]).unwrap()
+    );
 
-    let mut dkf = Dkf::new(X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]);
+    let mut dkf = Dkf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]).unwrap();
     let before = dkf;
     assert_eq!(
         dkf.set_akf_process_noise(&[f64::NAN; 5]),
@@ -36,7 +39,7 @@ fn ekf_and_dkf_noise_setters() {
     assert_eq!(dkf.set_measurement_noise(&[[2.0 * R]]), Status::Ok);
     assert_eq!(
         dkf,
-        Dkf::new(X0_CLOSE, &p0(2e4), &q2, &p0(2e4), &Q_DIAG, &[[2.0 * R]])
+        Dkf::new(&X0_CLOSE, &p0(2e4), &q2, &p0(2e4), &Q_DIAG, &[[2.0 * R]]).unwrap()
     );
 }
 
@@ -46,7 +49,7 @@ fn hybrid_ekf_noise_setters() {
     let x0 = [0.0, 0.0, 0.0, 0.0, 2.0];
     let p = [1e-5, 1.0, 1e-4, 1e-6, 1e-6];
     let q = [0.0, 0.0, 0.0, 3e4, 1e4];
-    let mut filter = HybridEkf::new(x0, &diag(p), &q, &[[1e-6]]);
+    let mut filter = HybridEkf::new(&x0, &diag(p), &q, &[[1e-6]]).unwrap();
     let before = filter;
     assert_eq!(
         filter.set_measurement_noise(&[[f64::NAN]]),
@@ -55,7 +58,7 @@ fn hybrid_ekf_noise_setters() {
     assert_eq!(filter, before);
     assert_eq!(filter.set_process_noise(&[1.0; 5]), Status::Ok);
     assert_eq!(filter.set_measurement_noise(&[[1e-4]]), Status::Ok);
-    let mut fresh = HybridEkf::new(x0, &diag(p), &[1.0; 5], &[[1e-4]]);
+    let mut fresh = HybridEkf::new(&x0, &diag(p), &[1.0; 5], &[[1e-4]]).unwrap();
     assert_eq!(filter.step(&[10.0], &[1e-3]), Status::Ok);
     assert_eq!(fresh.step(&[10.0], &[1e-3]), Status::Ok);
     assert_eq!(filter, fresh);
@@ -69,7 +72,7 @@ fn continuous_ekf_noise_and_alpha_setters() {
         std::array::from_fn(|i| std::array::from_fn(|j| if i == j { 1.0 } else { 0.0 }));
     let q = [0.0099, 0.0022, 0.0894, 0.0017, 1.2678, 1.27];
     let r = [[0.0007, 0.0], [0.0, 0.00193]];
-    let mut filter = ContinuousEkf::new(x0, &p, &q, &r);
+    let mut filter = ContinuousEkf::new(&x0, &p, &q, &r).unwrap();
     assert_eq!(filter.alpha(), ContinuousEkf::ALPHA);
     let before = filter;
     assert_eq!(filter.set_alpha(-0.1), Status::RejectedInput);

@@ -40,7 +40,7 @@ macro_rules! check_exactness {
             m
         };
         let noise = $noise;
-        let mut dkf = Dkf::new(truth0, &identity, &noise, &identity, &noise, &[[1e-3]]);
+        let mut dkf = Dkf::new(&truth0, &identity, &noise, &identity, &noise, &[[1e-3]]).unwrap();
         let mut x = truth0;
         let inputs = $inputs;
         let mut checked = 0;

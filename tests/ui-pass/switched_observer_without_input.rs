@@ -15,7 +15,7 @@ stateforge::model! {
 }
 
 fn main() {
-    let mut observer = m::LinearErrorObserver::new([0.0; 2]);
+    let mut observer = m::LinearErrorObserver::new(&[0.0; 2]).unwrap();
     assert_eq!(observer.step(&[0.5, 0.7]), m::Status::Ok);
     assert!(observer.state().iter().all(|v| v.is_finite()));
     assert_eq!(m::REGIME_B, [[[]; 2]; 2]);

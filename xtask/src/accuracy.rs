@@ -85,8 +85,9 @@ fn largest_difference(filter: Filter, seed: u64) -> f64 {
     match filter {
         Filter::Ekf => {
             let (x0, p0) = CLOSE;
-            let mut a = single::Ekf::new(narrow(x0), &diag32(p0), &narrow(Q), &[[R as f32]]);
-            let mut b = double::Ekf::new(x0, &diag(p0), &Q, &[[R]]);
+            let mut a = single::Ekf::new(&narrow(x0), &diag32(p0), &narrow(Q), &[[R as f32]])
+                .expect("the tuning is finite");
+            let mut b = double::Ekf::new(&x0, &diag(p0), &Q, &[[R]]).expect("the tuning is finite");
             for k in 1..data.len() {
                 let (u, y) = (data[k - 1].0, data[k].1);
                 let _ = a.step(&[u], &[y]);
@@ -98,8 +99,10 @@ fn largest_difference(filter: Filter, seed: u64) -> f64 {
         }
         Filter::Dkf((x0, p0)) => {
             let (p32, q32) = (diag32(p0), narrow(Q));
-            let mut a = single::Dkf::new(narrow(x0), &p32, &q32, &p32, &q32, &[[R as f32]]);
-            let mut b = double::Dkf::new(x0, &diag(p0), &Q, &diag(p0), &Q, &[[R]]);
+            let mut a = single::Dkf::new(&narrow(x0), &p32, &q32, &p32, &q32, &[[R as f32]])
+                .expect("the tuning is finite");
+            let mut b = double::Dkf::new(&x0, &diag(p0), &Q, &diag(p0), &Q, &[[R]])
+                .expect("the tuning is finite");
             for k in 1..data.len() {
                 let (u, y) = (data[k - 1].0, data[k].1);
                 let _ = a.step(&[u], &[y]);

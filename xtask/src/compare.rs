@@ -13,10 +13,12 @@ pub fn host_run(samples: usize) -> Vec<Estimate> {
     let wrong = [0.01, 0.0, -50000.0, -10.0, 0.01];
     let p_close = diag([0.1, 1.0, 2e4, 1000.0, 0.1]);
     let p_wrong = diag([0.1, 1.0, 2e6, 1000.0, 0.1]);
-    let mut ekf = Ekf::new(close, &p_close, &q, &r);
-    let mut dkf = Dkf::new(close, &p_close, &q, &p_close, &q, &r);
-    let mut dkf_wrong = Dkf::new(wrong, &p_wrong, &q, &p_wrong, &q, &r);
-    let mut lqr = Lqr::new(&[[1.0, 0.0], [0.0, 1.0]], &[[0.001]], Some([100.0]));
+    let mut ekf = Ekf::new(&close, &p_close, &q, &r).expect("the tuning is finite");
+    let mut dkf = Dkf::new(&close, &p_close, &q, &p_close, &q, &r).expect("the tuning is finite");
+    let mut dkf_wrong =
+        Dkf::new(&wrong, &p_wrong, &q, &p_wrong, &q, &r).expect("the tuning is finite");
+    let mut lqr = Lqr::new(&[[1.0, 0.0], [0.0, 1.0]], &[[0.001]], Some(&[100.0]))
+        .expect("the tuning is finite");
     // The firmware sees the f32 samples; so does the host, widened exactly.
     let data: Vec<(f64, f64)> = Measured::new()
         .take(samples)
@@ -28,7 +30,7 @@ pub fn host_run(samples: usize) -> Vec<Estimate> {
         let _: Status = ekf.step(&[u_prev], &[y]);
         let _ = dkf.step(&[u_prev], &[y]);
         let _ = dkf_wrong.step(&[u_prev], &[y]);
-        let _: Status = lqr.solve(&dkf.state());
+        let _: Status = lqr.solve(&dkf.state(), &[u_prev]);
         out.push(Estimate {
             k,
             ekf: ekf.state(),

@@ -26,11 +26,12 @@ fn host_runs(helicopter: usize, blade: usize) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) 
         [0.0, f64::from(helicopter_tuning::R[1])],
     ];
     let mut filter = ContinuousEkf::new(
-        helicopter_tuning::X0.map(f64::from),
+        &helicopter_tuning::X0.map(f64::from),
         &diag(helicopter_tuning::P0),
         &helicopter_tuning::Q.map(f64::from),
         &r,
-    );
+    )
+    .expect("the tuning is finite");
     let mut continuous = Vec::new();
     for sample in Helicopter::new().take(helicopter) {
         let _ = filter.step(
@@ -41,11 +42,12 @@ fn host_runs(helicopter: usize, blade: usize) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) 
         continuous.push(filter.state().to_vec());
     }
     let mut filter = HybridEkf::new(
-        blade_tuning::X0.map(f64::from),
+        &blade_tuning::X0.map(f64::from),
         &diag(blade_tuning::P0),
         &blade_tuning::Q.map(f64::from),
         &[[f64::from(blade_tuning::R)]],
-    );
+    )
+    .expect("the tuning is finite");
     let mut hybrid = Vec::new();
     for sample in Blade::new().take(blade) {
         let _ = filter.step(&sample.u_prev.map(f64::from), &sample.y.map(f64::from));

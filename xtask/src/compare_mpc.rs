@@ -15,11 +15,11 @@ use generated_demo::mpc_sequence::{mpc_tuning, BladeEstimates};
 pub const RANGE_FRACTION: f64 = 1e-4;
 
 /// The host's plans (moves) after every sample, and the most iterations of a solve.
-fn host_run(samples: usize) -> Result<(Vec<Vec<f64>>, u32), String> {
+fn host_run(samples: usize) -> Result<(Vec<Vec<f64>>, usize), String> {
     let widen = |m: [[f32; 2]; 2]| m.map(|row| row.map(f64::from));
     let r = [[f64::from(mpc_tuning::R[0][0])]];
     let limit = f64::from(mpc_tuning::U_MAX);
-    let mut mpc = Mpc::new(&widen(mpc_tuning::Q), &r, [-limit], [limit])
+    let mut mpc = Mpc::new(&widen(mpc_tuning::Q), &r, &[-limit], &[limit])
         .map_err(|s| format!("the host's MPC rejected its tuning: {s:?}"))?;
     let (mut plans, mut most) = (Vec::new(), 0);
     for (k, x) in BladeEstimates::new().take(samples).enumerate() {

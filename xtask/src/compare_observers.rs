@@ -18,7 +18,7 @@ const OBSERVER_FLOORS: [f64; 6] = [1e-5, 1e-5, 1e-5, 1e-3, 1e-3, 1e-3];
 const POLYKF_FLOORS: [f64; 4] = [1e-2, 1e-3, 1e-4, 1e-5];
 
 fn host_observer() -> Vec<[f64; 6]> {
-    let mut observer = LinearErrorObserver::new([0.0; 6]);
+    let mut observer = LinearErrorObserver::new(&[0.0; 6]).expect("the start is finite");
     BeamMeasured::new()
         .take(SAMPLES)
         .map(|s| {
@@ -34,7 +34,7 @@ fn host_polykf() -> Vec<[f64; 4]> {
     let variances = [1.0_f32, 1e-4, 2.5e-7, 2.78e-10].map(f64::from);
     let p0 =
         core::array::from_fn(|i| core::array::from_fn(|j| if i == j { variances[i] } else { 0.0 }));
-    let mut kf = PolynomialKf::new([0.0; 4], &p0);
+    let mut kf = PolynomialKf::new(&[0.0; 4], &p0).expect("the prior is finite");
     HubMeasured::new()
         .take(SAMPLES)
         .map(|y| {
@@ -95,7 +95,7 @@ pub fn check(report: &Report) -> Result<String, String> {
     // From the first re-initialisation: before it the filter runs from its prior, whose
     // first updates (a 4-state estimate from a handful of noisy samples) lose digits in
     // f32 (3e-4 relative at sample 9); the fit is what puts the filter on its footing.
-    let first_fit = PolynomialKf::REINIT_EVERY as usize - 1;
+    let first_fit = PolynomialKf::REINIT_EVERY - 1;
     let b = worst(
         &report.polykf,
         &polykf,

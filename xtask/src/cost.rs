@@ -181,7 +181,7 @@ pub fn table(
 }
 
 /// Floating-point operations (adds, muls, divs, library calls, comparisons) of `ops`.
-fn operations(ops: generated_demo::mass_spring_damper::OpCount) -> u32 {
+fn operations(ops: generated_demo::mass_spring_damper::OpCount) -> usize {
     ops.add + ops.mul + ops.div + ops.call + ops.compare
 }
 

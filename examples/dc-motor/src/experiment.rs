@@ -40,7 +40,8 @@ pub struct Sample {
 }
 
 /// Runs the experiment with sensor noise from `seed`, handing every sample to `observe`.
-/// Returns the first status of the EKF or LQR that was not `Ok`, if any.
+/// Returns the first status of the EKF or LQR (their construction included) that was not
+/// `Ok`, if any.
 pub fn run(seed: u64, mut observe: impl FnMut(&Sample)) -> Result<(), Status> {
     let mut motor = TRUE_MOTOR;
     let mut noise = Noise::new(seed);
@@ -58,9 +59,13 @@ pub fn run(seed: u64, mut observe: impl FnMut(&Sample)) -> Result<(), Status> {
         [(CURRENT_NOISE * CURRENT_NOISE) as f32, 0.0],
         [0.0, (SPEED_NOISE * SPEED_NOISE) as f32],
     ];
-    let mut ekf = Ekf::new(x0, &p0, &q, &r);
+    let mut ekf = Ekf::new(&x0, &p0, &q, &r)?;
     // Speed matters most; current is cheap; volts are weighted to stay within the limit.
-    let mut lqr = Lqr::new(&[[0.01, 0.0], [0.0, 1.0]], &[[0.05]], Some([VOLTAGE_LIMIT]));
+    let mut lqr = Lqr::new(
+        &[[0.01, 0.0], [0.0, 1.0]],
+        &[[0.05]],
+        Some(&[VOLTAGE_LIMIT]),
+    )?;
     let mut voltage = 0.0_f32;
     for k in 1..=SAMPLES {
         motor.advance(f64::from(voltage));
@@ -85,7 +90,7 @@ pub fn run(seed: u64, mut observe: impl FnMut(&Sample)) -> Result<(), Status> {
             }
         } else {
             if k.is_multiple_of(10) {
-                check(lqr.solve(&estimate))?;
+                check(lqr.solve(&estimate, &[voltage]))?;
             }
             let [v] = lqr.control(&estimate);
             v

@@ -58,11 +58,12 @@ pub fn control_ekf() -> control::in_f64::HybridEkf {
         1e2 / ts,
     ];
     control::in_f64::HybridEkf::new(
-        [0.0, 0.0, 0.0, 0.0, 2.0],
+        &[0.0, 0.0, 0.0, 0.0, 2.0],
         &diag([1e-5, 1.0, 0.0, 0.0, 1e-4]),
         &q_control,
         &[[1e-6]],
     )
+    .expect("the prior and the noise densities are finite")
 }
 
 /// Runs both modes, prints the tables, writes `out/blade.csv`, `out/blade_mass.svg` and
@@ -73,11 +74,12 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
     // [q', k, b, c, 1/m] with no noise on the position, Q = Q~ / T.
     let q_ident = [0.0, 1e-4, 10.0, 1e-5, 1e-11, 1e-2].map(|q| q / ts);
     let mut identification = ident::in_f64::HybridEkf::new(
-        [0.0, 0.0, 450.0, 0.1, 5e-4, 2.0],
+        &[0.0, 0.0, 450.0, 0.1, 5e-4, 2.0],
         &diag([1e-5, 1.0, 1e4, 1e-2, 1e-6, 0.1]),
         &q_ident,
         &[[1e-10]],
-    );
+    )
+    .expect("the prior and the noise densities are finite");
     let mut controlled: Option<control::in_f64::HybridEkf> = None;
     let input = GaussianNoise::new(1.0, 11);
     let noise = GaussianNoise::new(NOISE_SIGMA, 12);

@@ -52,9 +52,9 @@ pub struct MpcStats {
     /// Solves whose status was not `Ok` (the controller then kept its last plan).
     pub failures: u64,
     /// The most active-set iterations of one solve.
-    pub worst_iterations: u32,
+    pub worst_iterations: usize,
     /// Active-set iterations summed over the successful solves.
-    pub total_iterations: u64,
+    pub total_iterations: usize,
     /// Successful solves that reached the QP's optimum within the iteration bound.
     pub optimal: u64,
     /// Successful solves whose terminal weight had converged.
@@ -69,7 +69,7 @@ impl MpcStats {
             return;
         }
         self.worst_iterations = self.worst_iterations.max(status.iterations);
-        self.total_iterations += u64::from(status.iterations);
+        self.total_iterations += status.iterations;
         self.optimal += u64::from(status.optimal);
         self.converged += u64::from(status.terminal_weight_converged);
     }
@@ -98,7 +98,7 @@ impl AdaptiveMpc {
     /// The MPC of sect. 4.1: `n = 10`, `Q = C'C`, `R = 1e-10`, +-100 V.
     pub fn new() -> Result<Self, Status> {
         Ok(Self {
-            mpc: Mpc::new(&Q, &R, [-U_MAX], [U_MAX])?,
+            mpc: Mpc::new(&Q, &R, &[-U_MAX], &[U_MAX])?,
             masses: Vec::new(),
             stats: MpcStats::default(),
         })
@@ -125,7 +125,7 @@ impl AdaptiveMpc {
 /// infinite-horizon LQR of the model held over a sample, converged at the nominal mass
 /// `m = 0.20 kg` with the MPC's weights (sect. 4.1).
 pub fn nominal_lq_gain() -> Result<[f64; 2], String> {
-    let mut mpc = Mpc::new(&Q, &R, [-U_MAX], [U_MAX]).map_err(|s| format!("{s:?}"))?;
+    let mut mpc = Mpc::new(&Q, &R, &[-U_MAX], &[U_MAX]).map_err(|s| format!("{s:?}"))?;
     let nominal = [0.0, 0.0, 0.0, 0.0, 1.0 / M];
     for _ in 0..1000 {
         let status = mpc.solve(&nominal, &[0.0]);

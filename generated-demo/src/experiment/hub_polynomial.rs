@@ -119,36 +119,35 @@ const P0: [[f64; 4]; 4] = [
     [0.0, 0.0, 0.0, 1.0],
 ];
 
+/// Why the filters' constructors cannot fail.
+const PRIOR: &str = "the prior is finite";
+
 const CONFIGURATIONS: [Configuration; 8] = [
     ("f = 0", 0.0, 100, || {
-        Box::new(variants::fade_0::PolynomialKf::new([0.0; 4], &P0))
+        Box::new(variants::fade_0::PolynomialKf::new(&[0.0; 4], &P0).expect(PRIOR))
     }),
     ("f = 1e-12", 1e-12, 100, || {
-        Box::new(variants::fade_1e12::PolynomialKf::new([0.0; 4], &P0))
+        Box::new(variants::fade_1e12::PolynomialKf::new(&[0.0; 4], &P0).expect(PRIOR))
     }),
     ("f = 1e-10", 1e-10, 100, || {
-        Box::new(variants::fade_1e10::PolynomialKf::new([0.0; 4], &P0))
+        Box::new(variants::fade_1e10::PolynomialKf::new(&[0.0; 4], &P0).expect(PRIOR))
     }),
     ("f = 1e-9 (paper)", 1e-9, 100, || {
-        Box::new(generated_demo::polynomial::in_f64::PolynomialKf::new(
-            [0.0; 4], &P0,
-        ))
+        Box::new(
+            generated_demo::polynomial::in_f64::PolynomialKf::new(&[0.0; 4], &P0).expect(PRIOR),
+        )
     }),
     ("f = 1e-8", 1e-8, 100, || {
-        Box::new(variants::fade_1e8::PolynomialKf::new([0.0; 4], &P0))
+        Box::new(variants::fade_1e8::PolynomialKf::new(&[0.0; 4], &P0).expect(PRIOR))
     }),
     ("f = 1e-6", 1e-6, 100, || {
-        Box::new(variants::fade_1e6::PolynomialKf::new([0.0; 4], &P0))
+        Box::new(variants::fade_1e6::PolynomialKf::new(&[0.0; 4], &P0).expect(PRIOR))
     }),
     ("f = 1e-9, every 50", 1e-9, 50, || {
-        Box::new(variants::fade_1e9_every_50::PolynomialKf::new(
-            [0.0; 4], &P0,
-        ))
+        Box::new(variants::fade_1e9_every_50::PolynomialKf::new(&[0.0; 4], &P0).expect(PRIOR))
     }),
     ("f = 1e-9, every 400", 1e-9, 400, || {
-        Box::new(variants::fade_1e9_every_400::PolynomialKf::new(
-            [0.0; 4], &P0,
-        ))
+        Box::new(variants::fade_1e9_every_400::PolynomialKf::new(&[0.0; 4], &P0).expect(PRIOR))
     }),
 ];
 

@@ -88,11 +88,12 @@ struct Filters {
 impl Filters {
     fn new() -> Self {
         let (x0, p0, q, r) = tuning_f32();
+        let finite = "the tuning is finite";
         Filters {
-            ungated: Ekf::new(x0, &p0, &q, &[[r]]),
-            recovering: Ekf::new(x0, &p0, &q, &[[r]]),
+            ungated: Ekf::new(&x0, &p0, &q, &[[r]]).expect(finite),
+            recovering: Ekf::new(&x0, &p0, &q, &[[r]]).expect(finite),
             failed_in_a_row: 0,
-            gated: GatedEkf::new(x0, &p0, &q, &[[r]]),
+            gated: GatedEkf::new(&x0, &p0, &q, &[[r]]).expect(finite),
         }
     }
 
@@ -110,7 +111,8 @@ impl Filters {
         if self.failed_in_a_row >= RESET_AFTER {
             // The documented way back: start again from the prior.
             let (x0, p0, ..) = tuning_f32();
-            self.recovering.reset(x0, &p0);
+            let reset = self.recovering.reset(&x0, &p0);
+            assert_eq!(reset, Status::Ok, "the prior is finite");
             self.failed_in_a_row = 0;
             outcomes[1].resets += 1;
         }

@@ -96,9 +96,10 @@ fn run(freq: f64, response_periods: f64) -> (Trace, Vec<Errors>, Amplitudes) {
         t += beam::TS;
     }
     let start = [0.0; 6];
-    let mut common = beam::CommonGainObserver::new(start);
-    let mut linear = beam::LinearErrorObserver::new(start);
-    let mut kalman = beam::SwitchedKalmanObserver::new(start);
+    let finite = "the start is finite";
+    let mut common = beam::CommonGainObserver::new(&start).expect(finite);
+    let mut linear = beam::LinearErrorObserver::new(&start).expect(finite);
+    let mut kalman = beam::SwitchedKalmanObserver::new(&start).expect(finite);
     let steps = (RUN / beam::TS).round() as usize;
     // Two response periods at the end: T = response_periods / f.
     let window = 2.0 * response_periods / freq;

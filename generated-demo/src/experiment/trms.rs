@@ -37,8 +37,10 @@ fn run_once(alpha: f64, surge: bool, trace: &mut Trace, tag: &str) -> Result<(),
     let p0: [[f64; 6]; 6] =
         std::array::from_fn(|i| std::array::from_fn(|j| if i == j { P0[i] } else { 0.0 }));
     let r = [[R[0], 0.0], [0.0, R[1]]];
+    let filter = ContinuousEkf::new(&X0_ESTIMATE, &p0, &Q, &r)
+        .map_err(|status| format!("the filter's tuning was rejected: {status:?}"))?;
     let mut filters = [0.0, alpha].map(|a| {
-        let mut filter = ContinuousEkf::new(X0_ESTIMATE, &p0, &Q, &r);
+        let mut filter = filter;
         (filter.set_alpha(a), filter)
     });
     if filters.iter().any(|(status, _)| *status != Status::Ok) {
