@@ -12,6 +12,8 @@
 //! through the same [`check`].
 
 #![forbid(unsafe_code)]
+// Functions fit on a screen: 80 lines of code (`clippy.toml`).
+#![warn(clippy::too_many_lines)]
 
 pub mod ast;
 pub mod check;

@@ -5,12 +5,12 @@
 //! and sub-steps; optionally with a prescribed degree of stability `alpha` (Reif et al.,
 //! the paper's eq. 26): `F + alpha I` in place of `F` in the Riccati equation.
 
+use super::spec::ContinuousEkfSpec;
 use crate::emit::continuous_filter::{method, Kind};
 use crate::emit::filter::{substeps_constant, FilterLayout};
 use crate::emit::known::KnownItems;
 use crate::emit::lower::{literal, OpCount};
 use crate::emit::names::ident;
-use super::spec::ContinuousEkfSpec;
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
 use proc_macro2::TokenStream;

@@ -5,13 +5,13 @@
 pub mod lower;
 pub mod spec;
 
-pub use spec::ContinuousEkfSpec;
 use super::options::{Args, Context};
-use super::unit::{Description, Cost, Generator, Kind, Code, Lowering, Requirement};
+use super::unit::{Code, Cost, Description, Generator, Kind, Lowering, Requirement};
 use crate::ast::GenerateDecl;
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
+pub use spec::ContinuousEkfSpec;
 use std::any::Any;
 
 /// The `continuous_ekf` generator.
@@ -22,10 +22,10 @@ const DESCRIPTION: Description = Description {
     name: "continuous_ekf",
     usage: "`continuous_ekf(alpha = ..)`",
     requirements: &[
-            Requirement::Outputs,
-            Requirement::ContinuousDynamics,
-            Requirement::CoefficientsAtGeneration,
-        ],
+        Requirement::Outputs,
+        Requirement::ContinuousDynamics,
+        Requirement::CoefficientsAtGeneration,
+    ],
     items: &["ContinuousEkf"],
     type_name_option: None,
 };
@@ -80,7 +80,11 @@ impl Lowering for ContinuousEkfSpec {
                     "one sub-step of ContinuousEkf::step",
                     ct.substep_ops,
                 ),
-                Cost::new("CONTINUOUS_EKF_STEP_OPS", "ContinuousEkf::step", ct.step_ops),
+                Cost::new(
+                    "CONTINUOUS_EKF_STEP_OPS",
+                    "ContinuousEkf::step",
+                    ct.step_ops,
+                ),
             ],
         }
     }

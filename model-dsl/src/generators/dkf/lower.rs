@@ -6,6 +6,7 @@
 //! [`super::transform`], the two filters' in [`super::filters`].
 
 use super::filters::step_fn;
+use super::spec::DkfSpec;
 use super::transform::transform_fn;
 use super::window::WindowTransform;
 use crate::emit::arguments::{Arguments, REJECTS_NON_FINITE};
@@ -13,7 +14,6 @@ use crate::emit::code::{destructure, unpack_symmetric, var_idents};
 use crate::emit::filter::{model_names, noise_argument};
 use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
-use super::spec::DkfSpec;
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::packed_len;
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};

@@ -9,13 +9,13 @@ pub mod spec;
 pub mod transform;
 pub mod window;
 
-pub use spec::DkfSpec;
 use super::options::{Args, Context};
-use super::unit::{Description, Cost, Generator, Kind, Code, Lowering, Requirement};
+use super::unit::{Code, Cost, Description, Generator, Kind, Lowering, Requirement};
 use crate::ast::GenerateDecl;
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
+pub use spec::DkfSpec;
 use std::any::Any;
 
 /// The `dkf` generator.
@@ -26,10 +26,10 @@ const DESCRIPTION: Description = Description {
     name: "dkf",
     usage: "`dkf(eta = ..)`",
     requirements: &[
-            Requirement::Outputs,
-            Requirement::UnrolledStep,
-            Requirement::CoefficientsAtGeneration,
-        ],
+        Requirement::Outputs,
+        Requirement::UnrolledStep,
+        Requirement::CoefficientsAtGeneration,
+    ],
     items: &["Dkf", "DkfStatus", "WindowStatus", "ltv_model"],
     type_name_option: None,
 };

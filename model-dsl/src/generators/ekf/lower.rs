@@ -3,17 +3,17 @@
 //! measurement handled with one guarded reciprocal, several with an unrolled `L D L'` solve,
 //! and the Joseph-form covariance update.
 
+use super::spec::EkfSpec;
+use crate::emit::arguments::Arguments;
 use crate::emit::code::{
     commit_or_non_finite_with, guard_pivots, pivot_names, var_idents, INNOVATION,
 };
-use crate::emit::arguments::Arguments;
 use crate::emit::filter::{
     finiteness_probe, model_names, name_estimate, packed_vars, time_param, unclaimed_name,
     FilterLayout, FilterVars,
 };
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
-use super::spec::EkfSpec;
 use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
 use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed, Matrix};
@@ -386,7 +386,10 @@ impl EkfMethod {
                      filter unchanged unless it returns [`Status::Ok`].",
                     ty_name = spec.type_name
                 );
-                return (ident(&format!("update_{output}")), doc + self.time_doc(model));
+                return (
+                    ident(&format!("update_{output}")),
+                    doc + self.time_doc(model),
+                );
             }
             EkfMethod::Predict => (
                 "predict",
@@ -448,7 +451,10 @@ fn method(
     let ty = ident(scalar.type_name());
     let arguments = arguments(&nodes, model, kind, &used_vars, &ty);
     let (name, doc) = kind.name_and_doc(model, spec);
-    (arguments.method(&name, &quote! { #[doc = #doc] }, body), ops)
+    (
+        arguments.method(&name, &quote! { #[doc = #doc] }, body),
+        ops,
+    )
 }
 
 /// One EKF method before lowering: the model's graph with the method's variables, and

@@ -4,14 +4,14 @@
 pub mod lower;
 pub mod spec;
 
-pub use spec::EkfSpec;
 use super::options::{Args, Context};
-use super::unit::{Description, Cost, Generator, Kind, Code, Lowering, Requirement};
+use super::unit::{Code, Cost, Description, Generator, Kind, Lowering, Requirement};
 use crate::ast::{ArgValue, GenerateDecl};
 use crate::diagnostics::Diagnostics;
 use crate::emit::names::screaming_snake;
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
+pub use spec::EkfSpec;
 use std::any::Any;
 
 /// The `ekf` generator.

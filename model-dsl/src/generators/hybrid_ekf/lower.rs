@@ -3,12 +3,12 @@
 //! sect. 3.2): the shared continuous stage between samples and the EKF's Joseph-form
 //! update at each sample, assembled into the `HybridEkf` type.
 
+use super::spec::HybridEkfSpec;
 use crate::emit::continuous_filter::{method, Kind};
 use crate::emit::filter::{substeps_constant, FilterLayout};
 use crate::emit::known::KnownItems;
 use crate::emit::lower::OpCount;
 use crate::emit::names::ident;
-use super::spec::HybridEkfSpec;
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
 use proc_macro2::TokenStream;

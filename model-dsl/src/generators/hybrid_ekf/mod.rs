@@ -5,13 +5,13 @@
 pub mod lower;
 pub mod spec;
 
-pub use spec::HybridEkfSpec;
 use super::options::{Args, Context};
-use super::unit::{Description, Cost, Generator, Kind, Code, Lowering, Requirement};
+use super::unit::{Code, Cost, Description, Generator, Kind, Lowering, Requirement};
 use crate::ast::GenerateDecl;
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
+pub use spec::HybridEkfSpec;
 use std::any::Any;
 
 /// The `hybrid_ekf` generator.
@@ -22,10 +22,10 @@ const DESCRIPTION: Description = Description {
     name: "hybrid_ekf",
     usage: "`hybrid_ekf`",
     requirements: &[
-            Requirement::Outputs,
-            Requirement::ContinuousDynamics,
-            Requirement::CoefficientsAtGeneration,
-        ],
+        Requirement::Outputs,
+        Requirement::ContinuousDynamics,
+        Requirement::CoefficientsAtGeneration,
+    ],
     items: &["HybridEkf"],
     type_name_option: None,
 };

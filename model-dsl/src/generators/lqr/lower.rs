@@ -3,6 +3,7 @@
 //! at the current estimate; the backward Riccati recursion runs as a loop over the horizon
 //! whose body is generated straight-line code.
 
+use super::spec::LqrSpec;
 use super::steady_state::{steady_state_step, SteadyStateStep};
 use crate::emit::arguments::{Arguments, REJECTS_NON_FINITE};
 use crate::emit::code::{
@@ -12,7 +13,6 @@ use crate::emit::filter::{model_names, packed_vars, time_param};
 use crate::emit::known::KnownItems;
 use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
-use super::spec::LqrSpec;
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
 use crate::symbolic::riccati::{riccati_step, RiccatiStep};

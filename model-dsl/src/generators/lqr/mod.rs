@@ -5,13 +5,13 @@ pub mod lower;
 pub mod spec;
 pub mod steady_state;
 
-pub use spec::LqrSpec;
 use super::options::{regulated, Args, Context};
-use super::unit::{Description, Cost, Generator, Kind, Code, Lowering, Requirement};
+use super::unit::{Code, Cost, Description, Generator, Kind, Lowering, Requirement};
 use crate::ast::GenerateDecl;
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
+pub use spec::LqrSpec;
 use std::any::Any;
 
 /// The `lqr` generator.

@@ -8,15 +8,13 @@
 use super::names::{failure, Names};
 use super::predictive::{column_norm, condensed_qp, scale, zoh_square, zoh_taylor};
 use super::qp::{active_set_loop, MoveNames};
+use super::spec::MpcDiscretisation;
+use super::spec::MpcSpec;
 use crate::emit::arguments::Arguments;
-use crate::emit::code::{
-    all_finite, guard_pivots, pivot_names, unpack_symmetric, var_idents,
-};
+use crate::emit::code::{all_finite, guard_pivots, pivot_names, unpack_symmetric, var_idents};
 use crate::emit::filter::{packed_vars, time_param};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
-use super::spec::MpcDiscretisation;
-use super::spec::MpcSpec;
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
 use crate::symbolic::loop_invariant_operands;

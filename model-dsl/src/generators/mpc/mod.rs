@@ -6,18 +6,18 @@
 //! max_iterations = 20, riccati_iterations = 20)`.
 
 pub mod lower;
-pub mod spec;
 pub mod names;
 pub mod predictive;
 pub mod qp;
+pub mod spec;
 
-pub use spec::{MpcDiscretisation, MpcSpec, MPC_UNKNOWNS_MAX};
 use super::options::{regulated, Args, Context};
-use super::unit::{Description, Cost, Generator, Kind, Code, Lowering, Requirement};
+use super::unit::{Code, Cost, Description, Generator, Kind, Lowering, Requirement};
 use crate::ast::{ArgValue, DynamicsKind, GenerateDecl, ModelDecl};
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar, UNROLLED_SUBSTEPS_MAX};
 use crate::symbolic::ModelGraph;
+pub use spec::{MpcDiscretisation, MpcSpec, MPC_UNKNOWNS_MAX};
 use std::any::Any;
 
 /// The `mpc` generator.

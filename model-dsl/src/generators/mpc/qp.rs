@@ -12,10 +12,10 @@
 //! finish it, with an exact answer rather than a tolerance-bound one.
 
 use super::names::{failure, Names};
+use super::spec::MpcSpec;
 use crate::emit::code::{all_finite, guard_pivots, packed_names, pivot_names};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
-use super::spec::MpcSpec;
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::{ldl_solve, matmul, symmetric_from_packed, LdlSolve, Matrix};
 use crate::symbolic::{Graph, NodeId};

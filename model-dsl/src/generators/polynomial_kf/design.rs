@@ -5,7 +5,7 @@
 //! Joseph-form update, eq. 7-9) as graph nodes.
 
 use super::spec::PolynomialKfSpec;
-use crate::model::{Model};
+use crate::model::Model;
 use crate::numerics::{pinv, Mat};
 use crate::symbolic::graph::{Graph, NodeId};
 use crate::symbolic::kalman::{self, Update};

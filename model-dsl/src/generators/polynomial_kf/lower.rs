@@ -5,12 +5,12 @@
 //! floats (exact below 2^24), so the code has no integer arithmetic.
 
 use super::design::{self, WindowFit};
+use super::spec::PolynomialKfSpec;
 use crate::emit::arguments::{Arguments, REJECTS_NON_FINITE};
 use crate::emit::code::{guard_pivots, pivot_names, unpack_symmetric, INNOVATION};
 use crate::emit::filter::{finiteness_probe, model_names, packed_vars};
 use crate::emit::lower::{literal, matrix_literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
-use super::spec::PolynomialKfSpec;
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed};
 use crate::symbolic::{Graph, NodeId};

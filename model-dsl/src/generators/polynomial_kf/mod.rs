@@ -7,14 +7,14 @@ pub mod design;
 pub mod lower;
 pub mod spec;
 
-pub use spec::PolynomialKfSpec;
 use super::options::{Args, Context};
-use super::unit::{Description, Cost, Generator, Kind, Code, Lowering, Requirement};
+use super::unit::{Code, Cost, Description, Generator, Kind, Lowering, Requirement};
 use crate::ast::GenerateDecl;
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
 use proc_macro2::Span;
+pub use spec::PolynomialKfSpec;
 use std::any::Any;
 
 /// The `polynomial_kf` generator.
@@ -29,10 +29,7 @@ const USAGE: &str = "polynomial_kf(order = 3, dt = TS, fading = 1e-9, noise_vari
 const DESCRIPTION: Description = Description {
     name: "polynomial_kf",
     usage: "`polynomial_kf(..)`",
-    requirements: &[
-            Requirement::Outputs,
-            Requirement::CoefficientsAtGeneration,
-        ],
+    requirements: &[Requirement::Outputs, Requirement::CoefficientsAtGeneration],
     items: &["PolynomialKf"],
     type_name_option: None,
 };
@@ -53,7 +50,10 @@ impl Kind for PolynomialKf {
         let mut get = |name: &str, diag: &mut Diagnostics| {
             let value = args.scalar(name, cx, diag);
             if value.is_none() {
-                diag.error(span, format!("`polynomial_kf` needs `{name}`: write `{USAGE}`"));
+                diag.error(
+                    span,
+                    format!("`polynomial_kf` needs `{name}`: write `{USAGE}`"),
+                );
             }
             value
         };

@@ -5,9 +5,9 @@
 //! observer `x[k+1] = A_i x + B_i u + c_i + K_i (y - C x)` three ways, each certified by
 //! its poles.
 
-use crate::ast::Comparison;
 use super::spec::SwitchedObserverSpec;
-use crate::model::{Model};
+use crate::ast::Comparison;
+use crate::model::Model;
 use crate::numerics::{self, largest_pole, Mat};
 use crate::symbolic::graph::{Graph, Node, NodeId};
 use crate::symbolic::ModelGraph;

@@ -7,14 +7,14 @@ pub mod design;
 pub mod lower;
 pub mod spec;
 
-pub use spec::SwitchedObserverSpec;
 use super::options::{Args, Context};
-use super::unit::{Description, Code, Cost, Generator, Kind, Lowering, Requirement};
+use super::unit::{Code, Cost, Description, Generator, Kind, Lowering, Requirement};
 use crate::ast::GenerateDecl;
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
 use design::{Culprit, Designs, Regimes};
+pub use spec::SwitchedObserverSpec;
 use std::any::Any;
 
 /// The `switched_observer` generator.
@@ -25,16 +25,16 @@ const DESCRIPTION: Description = Description {
     name: "switched_observer",
     usage: "`switched_observer(..)`",
     requirements: &[
-            Requirement::Outputs,
-            Requirement::UnrolledStep,
-            Requirement::CoefficientsAtGeneration,
-            Requirement::NoParameters,
-        ],
+        Requirement::Outputs,
+        Requirement::UnrolledStep,
+        Requirement::CoefficientsAtGeneration,
+        Requirement::NoParameters,
+    ],
     items: &[
-            "LinearErrorObserver",
-            "SwitchedKalmanObserver",
-            "CommonGainObserver",
-        ],
+        "LinearErrorObserver",
+        "SwitchedKalmanObserver",
+        "CommonGainObserver",
+    ],
     type_name_option: None,
 };
 
@@ -94,9 +94,8 @@ impl Generator for SwitchedObserverSpec {
     /// The regimes and observer designs, or a compile error at the option that failed: the
     /// noise covariances, `k1`, or the generator (the model's form).
     fn design(&self, model: &Model, mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
-        let at = |span, reason: String| {
-            syn::Error::new(span, format!("`switched_observer`: {reason}"))
-        };
+        let at =
+            |span, reason: String| syn::Error::new(span, format!("`switched_observer`: {reason}"));
         let regimes = design::regimes(model, mg).map_err(|reason| at(self.span, reason))?;
         let designs = design::design(&regimes, self).map_err(|(culprit, reason)| {
             let span = match culprit {
