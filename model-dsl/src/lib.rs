@@ -24,6 +24,7 @@ pub mod generators;
 pub mod model;
 pub mod numerics;
 pub mod pipeline;
+pub mod scope;
 pub mod symbolic;
 
 use proc_macro2::TokenStream;

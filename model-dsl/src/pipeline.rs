@@ -37,11 +37,7 @@ pub fn emit_model_with(checked: &Checked, options: &Options) -> syn::Result<Toke
     let Some((&primary, others)) = model.scalars.split_first() else {
         return Ok(TokenStream::new());
     };
-    let designs = checked
-        .generators
-        .iter()
-        .map(|generator| generator.design(model, &mg))
-        .collect::<syn::Result<Vec<_>>>()?;
+    let designs = designs(checked, &mg)?;
     let module = Module {
         model,
         mg: &mg,
@@ -71,6 +67,22 @@ pub fn emit_model_with(checked: &Checked, options: &Options) -> syn::Result<Toke
             #interop
         }
     })
+}
+
+/// Every generator's design, or all their errors at once.
+fn designs(checked: &Checked, mg: &ModelGraph) -> syn::Result<Vec<Box<dyn Lowering>>> {
+    let mut designs = Vec::new();
+    let mut errors: Option<syn::Error> = None;
+    for generator in &checked.generators {
+        match generator.design(&checked.model, mg) {
+            Ok(design) => designs.push(design),
+            Err(error) => match &mut errors {
+                Some(all) => all.combine(error),
+                None => errors = Some(error),
+            },
+        }
+    }
+    errors.map_or(Ok(designs), Err)
 }
 
 /// What every scalar type's items are made of.

@@ -4,10 +4,10 @@
 
 use super::expr::resolve;
 use super::names::declare;
-use super::scope::{Binding, Scope};
-use crate::ast::{DynamicsDecl, DynamicsKind, Name, Statement, SurfaceExpr};
+use crate::ast::{DynamicsDecl, DynamicsKind, ModelDecl, Name, Statement, SurfaceExpr, SymbolKind};
 use crate::diagnostics::Diagnostics;
-use crate::model::{Discretisation, Dynamics, Expr, Local, Method, Symbol};
+use crate::model::{Discretisation, Dynamics, Expr, Local, Method, Symbol, UNROLLED_SUBSTEPS_MAX};
+use crate::scope::{Binding, Scope};
 use proc_macro2::Span;
 
 /// Resolves the dynamics of the states `(states, where each was declared)`; `None` after
@@ -255,5 +255,33 @@ fn check_substeps(substeps: &Option<(u64, Span)>, diag: &mut Diagnostics) -> Opt
                 None
             }
         },
+    }
+}
+
+/// Sub-steps past the unrolled limit run as a loop, which reads no run-time constant.
+pub(super) fn check_known_substeps(decl: &ModelDecl, diag: &mut Diagnostics) {
+    let Some(first) = decl.symbols.iter().find(|s| s.kind == SymbolKind::Known) else {
+        return;
+    };
+    if let Some(DynamicsDecl {
+        kind:
+            DynamicsKind::Continuous {
+                substeps: Some((n, span)),
+                ..
+            },
+        ..
+    }) = decl.dynamics.first()
+    {
+        if *n > u64::from(UNROLLED_SUBSTEPS_MAX) {
+            diag.error(
+                *span,
+                format!(
+                    "sub-steps past {UNROLLED_SUBSTEPS_MAX} run as a loop, which does not \
+                     read `{}`, known at run time: use at most {UNROLLED_SUBSTEPS_MAX} \
+                     sub-steps, or declare it with `const`",
+                    first.name.text
+                ),
+            );
+        }
     }
 }

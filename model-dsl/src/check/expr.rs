@@ -2,10 +2,10 @@
 //! arity and domain, piecewise terms, and every constant part folded and checked finite in
 //! the model's scalar types.
 
-use super::scope::{Binding, Scope};
 use crate::ast::{BinaryOp, Comparison, Name, SurfaceExpr, SurfaceKind};
 use crate::diagnostics::Diagnostics;
 use crate::model::{Expr, Func, Local, Scalar};
+use crate::scope::{Binding, Scope};
 
 /// Why `value` cannot be a literal of the model's scalar types, if it cannot: it must be
 /// finite, and a non-zero value must not round to zero or overflow in `f32`.

@@ -2,11 +2,10 @@
 //! model must meet before its options are read. The checks know no generator by name.
 
 use super::names::generated_item;
-use super::scope::Scope;
-use crate::ast::{DynamicsDecl, DynamicsKind, GenerateDecl, ModelDecl, SymbolKind};
+use crate::ast::{GenerateDecl, ModelDecl};
 use crate::diagnostics::Diagnostics;
 use crate::generators::{Args, Context, Generator, Kind, Requirement, REGISTRY};
-use crate::model::UNROLLED_SUBSTEPS_MAX;
+use crate::scope::Scope;
 
 /// The generators the model asks for, with their options checked, in the order of
 /// [`REGISTRY`] (the order their code takes in the generated module) and, within one kind,
@@ -38,7 +37,6 @@ pub(super) fn check_generate(
             generators.push((rank, generator));
         }
     }
-    check_known_substeps(decl, diag);
     // A stable sort: within one kind, the order written.
     generators.sort_by_key(|(rank, _)| *rank);
     generators.into_iter().map(|(_, g)| g).collect()
@@ -179,34 +177,6 @@ fn check_type_names(
                 format!(
                     "`{name}` is already an item of the generated module: choose another \
                      type name"
-                ),
-            );
-        }
-    }
-}
-
-/// Sub-steps past the unrolled limit run as a loop, which reads no run-time constant.
-fn check_known_substeps(decl: &ModelDecl, diag: &mut Diagnostics) {
-    let Some(first) = decl.symbols.iter().find(|s| s.kind == SymbolKind::Known) else {
-        return;
-    };
-    if let Some(DynamicsDecl {
-        kind:
-            DynamicsKind::Continuous {
-                substeps: Some((n, span)),
-                ..
-            },
-        ..
-    }) = decl.dynamics.first()
-    {
-        if *n > u64::from(UNROLLED_SUBSTEPS_MAX) {
-            diag.error(
-                *span,
-                format!(
-                    "sub-steps past {UNROLLED_SUBSTEPS_MAX} run as a loop, which does not \
-                     read `{}`, known at run time: use at most {UNROLLED_SUBSTEPS_MAX} \
-                     sub-steps, or declare it with `const`",
-                    first.name.text
                 ),
             );
         }

@@ -7,20 +7,19 @@ mod dynamics;
 mod expr;
 mod generate;
 mod names;
-pub mod scope;
 
 use crate::ast::{ModelDecl, SymbolKind};
 use crate::diagnostics::Diagnostics;
 use crate::generators::Generator;
 use crate::model::{Constant, Model, Output, Scalar, Symbol};
-use dynamics::check_dynamics;
+use crate::scope::{Binding, Scope};
+use dynamics::{check_dynamics, check_known_substeps};
 use expr::resolve;
 use generate::check_generate;
 use names::{
     check_case_collisions, check_identifier, check_name_allowed, declare, duplicate_error,
 };
 use proc_macro2::Span;
-use scope::{Binding, Scope};
 
 /// A checked model and the generators it asks for, with their options checked.
 #[derive(Debug)]
@@ -72,6 +71,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Checked> {
             check_dynamics(block, &mut scope, states, &mut locals, &mut diag)
         }
     };
+    check_known_substeps(decl, &mut diag);
     let generators = check_generate(decl, &scope, &mut diag);
     let Some(dynamics) = dynamics else {
         // `check_dynamics` only returns `None` after recording an error.

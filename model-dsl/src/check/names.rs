@@ -1,9 +1,9 @@
 //! The rules for the names a model declares: each is a plain Rust identifier, declared
 //! once, not one the generated module uses, and not differing from another only in case.
 
-use super::scope::{Binding, Scope};
 use crate::ast::{ModelDecl, Name};
 use crate::diagnostics::Diagnostics;
+use crate::scope::{Binding, Scope};
 
 /// Items the generated module defines whatever the model asks for; a constant (also an
 /// item) may not take their names, nor those of the generators' items

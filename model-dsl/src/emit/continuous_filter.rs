@@ -27,7 +27,7 @@ use std::collections::BTreeSet;
 
 /// Which method to generate.
 #[derive(Clone, Copy, PartialEq, Eq)]
-pub enum Kind {
+pub enum FilterMethod {
     /// The hybrid EKF's propagation over one sample.
     Predict,
     /// The hybrid EKF's update at a sample.
@@ -42,32 +42,34 @@ pub enum Kind {
     },
 }
 
-impl Kind {
+impl FilterMethod {
     /// Whether the method integrates over the sample.
     fn predicts(self) -> bool {
-        self != Kind::Update
+        self != FilterMethod::Update
     }
 
     /// Whether the method makes the discrete update at the sample.
     fn updates(self) -> bool {
-        matches!(self, Kind::Update | Kind::Step)
+        matches!(self, FilterMethod::Update | FilterMethod::Step)
     }
 
     /// Whether it is the continuous-time EKF's step.
     fn is_continuous(self) -> bool {
-        matches!(self, Kind::Continuous { .. })
+        matches!(self, FilterMethod::Continuous { .. })
     }
 
     /// What the method's documentation says of its times, for a model that reads `t`.
     fn time_doc(self) -> &'static str {
         match self {
-            Kind::Predict => " The integration starts at `t_prev`, the previous sample's time.",
-            Kind::Update => " `h` is evaluated at `t`, the measurement's time.",
-            Kind::Step => {
+            FilterMethod::Predict => {
+                " The integration starts at `t_prev`, the previous sample's time."
+            }
+            FilterMethod::Update => " `h` is evaluated at `t`, the measurement's time.",
+            FilterMethod::Step => {
                 " The integration starts at `t_prev`, the previous sample's time, and `h` is \
                  evaluated a sample time `dt` later, at `t_prev + dt`."
             }
-            Kind::Continuous { .. } => {
+            FilterMethod::Continuous { .. } => {
                 " The integration starts at `t_prev`, the previous sample's time."
             }
         }
@@ -76,26 +78,26 @@ impl Kind {
     /// The method's name and documentation.
     fn name_and_doc(self) -> (&'static str, &'static str) {
         match self {
-            Kind::Predict => (
+            FilterMethod::Predict => (
                 "predict",
                 " Integrates the estimate and its covariance over one sample (eqs. 21-23) with \
                  the input `u_prev` held. Rejects a non-finite input; leaves the filter \
                  unchanged unless it returns [`Status::Ok`].",
             ),
-            Kind::Update => (
+            FilterMethod::Update => (
                 "update",
                 " Corrects the estimate with the measurement `y` (eqs. 24-26, Joseph form). \
                  Rejects a non-finite measurement and a non-positive innovation variance (never \
                  divided by); leaves the filter unchanged unless it returns [`Status::Ok`].",
             ),
-            Kind::Step => (
+            FilterMethod::Step => (
                 "step",
                 " One sample: integrates `x[k-1]` and its covariance to the sample `k` with the \
                  input `u[k-1]` held (eqs. 21-23), then corrects them with the measurement \
                  `y[k]` (eqs. 24-26). Leaves the filter unchanged unless it returns \
                  [`Status::Ok`].",
             ),
-            Kind::Continuous { .. } => (
+            FilterMethod::Continuous { .. } => (
                 "step",
                 " One sample: integrates the estimate and the Riccati equation (eq. 5) from \
                  `x[k-1]` to the sample `k` with the input `u[k-1]` and the measurement `y` \
@@ -114,7 +116,7 @@ pub fn method(
     model: &Model,
     mg: &ModelGraph,
     scalar: Scalar,
-    kind: Kind,
+    kind: FilterMethod,
     diagonal_noise: bool,
 ) -> (TokenStream, OpCount, OpCount) {
     let mut nodes = MethodNodes::build(model, mg, kind, diagonal_noise);
@@ -162,7 +164,7 @@ impl Dynamics {
     fn new(
         g: &mut ModelGraph,
         model: &Model,
-        kind: Kind,
+        kind: FilterMethod,
         vars: &FilterVars,
         t_sub: NodeId,
         avoid: &[String],
@@ -183,7 +185,7 @@ impl Dynamics {
             .is_continuous()
             .then(|| ContinuousTerms::new(g, &vars.r, m));
         // A model symbol may be called `alpha`: the local must not shadow it.
-        let alpha = matches!(kind, Kind::Continuous { alpha: true })
+        let alpha = matches!(kind, FilterMethod::Continuous { alpha: true })
             .then(|| g.graph.var(&unclaimed_name(String::from("alpha"), avoid)));
         let two_alpha = alpha.map(|alpha| {
             let two = g.graph.num(2.0);
@@ -288,7 +290,12 @@ struct MethodNodes {
 
 impl MethodNodes {
     /// Declares the method's variables, then integrates and/or updates as `kind` asks.
-    fn build(model: &Model, mg: &ModelGraph, kind: Kind, diagonal_noise: bool) -> MethodNodes {
+    fn build(
+        model: &Model,
+        mg: &ModelGraph,
+        kind: FilterMethod,
+        diagonal_noise: bool,
+    ) -> MethodNodes {
         let mut g = mg.clone();
         let (n, m) = (model.state_len(), model.outputs.len());
         let mut avoid = model_names(model);
@@ -301,13 +308,13 @@ impl MethodNodes {
         let t_start = match kind {
             _ if !model.uses_time() => g.t,
             // `predict` evaluates the model from one time, the previous sample's.
-            Kind::Predict => g.name_time("t_prev"),
+            FilterMethod::Predict => g.name_time("t_prev"),
             // A step's update and the continuous-time EKF's running time are at other
             // times than the start: it is a variable of its own.
-            Kind::Step | Kind::Continuous { .. } => g.graph.var("t_prev"),
-            Kind::Update => g.t,
+            FilterMethod::Step | FilterMethod::Continuous { .. } => g.graph.var("t_prev"),
+            FilterMethod::Update => g.t,
         };
-        let t_measured = (kind == Kind::Step && model.uses_time()).then(|| {
+        let t_measured = (kind == FilterMethod::Step && model.uses_time()).then(|| {
             let dt = g
                 .sample_time(model)
                 .expect("continuous dynamics state their sample time");
@@ -393,7 +400,12 @@ struct LoweredMethod {
 
 /// Lowers a method: the noise and `alpha` read, `R`'s pivots guarded, the sub-step loop
 /// (or the sub-step, unrolled), the update's guards, and the commit.
-fn lower(nodes: &mut MethodNodes, model: &Model, scalar: Scalar, kind: Kind) -> LoweredMethod {
+fn lower(
+    nodes: &mut MethodNodes,
+    model: &Model,
+    scalar: Scalar,
+    kind: FilterMethod,
+) -> LoweredMethod {
     let n = model.state_len();
     let probe = finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p);
     let p_packed = packed_upper(&nodes.p);
@@ -524,7 +536,7 @@ fn substep_loop(lowerer: &mut Lowerer, nodes: &MethodNodes, uses_time: bool) -> 
 fn arguments(
     nodes: &MethodNodes,
     model: &Model,
-    kind: Kind,
+    kind: FilterMethod,
     used_vars: &BTreeSet<VarId>,
     ty: &proc_macro2::Ident,
 ) -> Arguments {

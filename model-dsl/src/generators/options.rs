@@ -4,8 +4,8 @@
 //! every generator.
 
 use crate::ast::{ArgValue, GenerateArg, GenerateDecl, ModelDecl, Name};
-use crate::check::scope::{Binding, Scope};
 use crate::diagnostics::Diagnostics;
+use crate::scope::{Binding, Scope};
 use proc_macro2::Span;
 
 /// What a generator's options may refer to: the declaration (its dynamics, say) and the
@@ -51,6 +51,8 @@ impl<'a> Context<'a> {
 pub struct Args<'a> {
     item: &'a GenerateDecl,
     used: Vec<bool>,
+    /// An option written under two of its names (`state` and `states`): where, and why.
+    aliased: Vec<(Span, String)>,
 }
 
 impl<'a> Args<'a> {
@@ -65,18 +67,33 @@ impl<'a> Args<'a> {
         Args {
             item,
             used: vec![false; item.args.len()],
+            aliased: Vec::new(),
         }
     }
 
-    /// The argument written under one of `names`, marked as used.
+    /// The argument written under one of `names`, the first if several were (the others
+    /// are reported as given twice, not as unknown: all are marked as used).
     pub fn take(&mut self, names: &[&str]) -> Option<&'a GenerateArg> {
-        let i = self
-            .item
-            .args
-            .iter()
-            .position(|a| names.contains(&a.name.text.as_str()))?;
-        self.used[i] = true;
-        Some(&self.item.args[i])
+        let mut first: Option<&'a GenerateArg> = None;
+        for (i, arg) in self.item.args.iter().enumerate() {
+            if !names.contains(&arg.name.text.as_str()) {
+                continue;
+            }
+            self.used[i] = true;
+            match first {
+                None => first = Some(arg),
+                Some(earlier) if earlier.name.text != arg.name.text => self.aliased.push((
+                    arg.name.span,
+                    format!(
+                        "`{}` and `{}` are the same option: give it once",
+                        arg.name.text, earlier.name.text
+                    ),
+                )),
+                // The same name twice is reported when the arguments are read.
+                Some(_) => {}
+            }
+        }
+        first
     }
 
     /// The number given as `name`, or `default`, with where to report a wrong value: the
@@ -249,8 +266,11 @@ impl<'a> Args<'a> {
         }
     }
 
-    /// Reports every argument no reader took.
+    /// Reports every argument no reader took, and options written under two names.
     pub fn report_unused(&self, diag: &mut Diagnostics) {
+        for (span, message) in &self.aliased {
+            diag.error(*span, message);
+        }
         for (arg, used) in self.item.args.iter().zip(&self.used) {
             if !used {
                 diag.error(
@@ -305,6 +325,8 @@ pub fn regulated(
             })
             .collect::<Vec<usize>>()
     };
+    // Names given but not states or inputs have their own errors.
+    let missing = states.is_empty() || inputs.is_empty();
     let states = lookup(
         states,
         &|n| cx.state_index(n),
@@ -312,7 +334,19 @@ pub fn regulated(
         diag,
     );
     let inputs = lookup(inputs, &|n| cx.input_index(n), "an input (`input`)", diag);
-    if states.is_empty() || inputs.is_empty() {
+    for (list, what) in [(&states, "state"), (&inputs, "input")] {
+        let mut seen = std::collections::HashSet::new();
+        if list.iter().any(|i| !seen.insert(*i)) {
+            diag.error(
+                item.name.span,
+                format!(
+                    "`{}` lists a regulated {what} twice: name each once",
+                    item.name.text
+                ),
+            );
+        }
+    }
+    if missing {
         diag.error(
             item.name.span,
             format!(

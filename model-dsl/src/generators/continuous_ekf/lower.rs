@@ -6,7 +6,7 @@
 //! the paper's eq. 26): `F + alpha I` in place of `F` in the Riccati equation.
 
 use super::spec::ContinuousEkfSpec;
-use crate::emit::continuous_filter::{method, Kind};
+use crate::emit::continuous_filter::{method, FilterMethod};
 use crate::emit::filter::{substeps_constant, FilterLayout};
 use crate::emit::known::KnownItems;
 use crate::emit::lower::{literal, OpCount};
@@ -34,7 +34,7 @@ pub fn emit_continuous_ekf(
     scalar: Scalar,
 ) -> ContinuousEkfCode {
     let diagonal = spec.diagonal_noise;
-    let kind = Kind::Continuous {
+    let kind = FilterMethod::Continuous {
         alpha: spec.alpha.is_some(),
     };
     let (step, step_ops, substep_ops) = method(model, mg, scalar, kind, diagonal);

@@ -30,7 +30,14 @@ const DESCRIPTION: Description = Description {
         Requirement::UnrolledStep,
         Requirement::CoefficientsAtGeneration,
     ],
-    items: &["Dkf", "DkfStatus", "WindowStatus", "ltv_model"],
+    items: &[
+        "Dkf",
+        "DkfStatus",
+        "WindowStatus",
+        "ltv_model",
+        "WINDOW_OUTPUTS",
+        "WINDOW_INPUTS",
+    ],
     type_name_option: None,
 };
 

@@ -4,7 +4,7 @@
 //! update at each sample, assembled into the `HybridEkf` type.
 
 use super::spec::HybridEkfSpec;
-use crate::emit::continuous_filter::{method, Kind};
+use crate::emit::continuous_filter::{method, FilterMethod};
 use crate::emit::filter::{substeps_constant, FilterLayout};
 use crate::emit::known::KnownItems;
 use crate::emit::lower::OpCount;
@@ -32,9 +32,9 @@ pub fn emit_hybrid_ekf(
     scalar: Scalar,
 ) -> HybridEkfCode {
     let diagonal = spec.diagonal_noise;
-    let (step, step_ops, substep_ops) = method(model, mg, scalar, Kind::Step, diagonal);
-    let (predict, ..) = method(model, mg, scalar, Kind::Predict, diagonal);
-    let (update, ..) = method(model, mg, scalar, Kind::Update, diagonal);
+    let (step, step_ops, substep_ops) = method(model, mg, scalar, FilterMethod::Step, diagonal);
+    let (predict, ..) = method(model, mg, scalar, FilterMethod::Predict, diagonal);
+    let (update, ..) = method(model, mg, scalar, FilterMethod::Update, diagonal);
     let layout = FilterLayout::new(model, diagonal, &ident(scalar.type_name()));
     let fields = layout.fields();
     let FilterLayout {

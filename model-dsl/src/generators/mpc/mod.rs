@@ -12,7 +12,7 @@ pub mod qp;
 pub mod spec;
 
 use super::options::{regulated, Args, Context};
-use super::unit::{Code, Cost, Description, Generator, Kind, Lowering, Requirement};
+use super::unit::{looped, Code, Cost, Description, Generator, Kind, Lowering, Requirement};
 use crate::ast::{ArgValue, DynamicsKind, GenerateDecl, ModelDecl};
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar, UNROLLED_SUBSTEPS_MAX};
@@ -57,7 +57,8 @@ impl Kind for Mpc {
             );
         }
         let discretisation = discretisation(cx.decl, args, diag);
-        let default_iterations = 2 * unknowns.max(1) as u32;
+        // Clamped so that a horizon already reported as too long adds no error of its own.
+        let default_iterations = 2 * unknowns.clamp(1, u64::from(MPC_UNKNOWNS_MAX)) as u32;
         let iterations = ("max_iterations", "iterations");
         let max_iterations = args.whole(iterations, default_iterations, 1000, diag);
         let riccati_iterations = args.whole(("riccati_iterations", "steps"), 20, 10_000, diag);
@@ -78,14 +79,11 @@ impl Kind for Mpc {
 /// dynamics).
 fn discretisation(decl: &ModelDecl, args: &mut Args, diag: &mut Diagnostics) -> MpcDiscretisation {
     // `Some(looped)` for continuous dynamics, `None` for discrete ones.
-    let continuous = decl.dynamics.iter().find_map(|d| match &d.kind {
-        DynamicsKind::Continuous { substeps, .. } => Some(
-            substeps
-                .as_ref()
-                .is_some_and(|(n, _)| *n > u64::from(UNROLLED_SUBSTEPS_MAX)),
-        ),
-        DynamicsKind::Discrete => None,
-    });
+    let continuous = decl
+        .dynamics
+        .iter()
+        .any(|d| matches!(d.kind, DynamicsKind::Continuous { .. }))
+        .then(|| looped(decl));
     let default = match continuous {
         Some(_) => MpcDiscretisation::ZeroOrderHold,
         None => MpcDiscretisation::SampleStep,

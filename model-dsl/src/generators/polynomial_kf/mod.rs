@@ -48,8 +48,10 @@ impl Kind for PolynomialKf {
     ) -> Option<Box<dyn Generator>> {
         let span = item.name.span;
         let mut get = |name: &str, diag: &mut Diagnostics| {
+            let given = item.args.iter().any(|a| a.name.text == name);
             let value = args.scalar(name, cx, diag);
-            if value.is_none() {
+            // A value given but wrong has its own error already.
+            if !given {
                 diag.error(
                     span,
                     format!("`polynomial_kf` needs `{name}`: write `{USAGE}`"),

@@ -34,6 +34,11 @@ const DESCRIPTION: Description = Description {
         "LinearErrorObserver",
         "SwitchedKalmanObserver",
         "CommonGainObserver",
+        "REGIME_A",
+        "REGIME_B",
+        "REGIME_OFFSET",
+        "OUTPUT_C",
+        "in_regime_2",
     ],
     type_name_option: None,
 };
@@ -63,11 +68,15 @@ impl Kind for SwitchedObserver {
                  `switched_observer(process_noise = [Q1, Q2, ..], measurement_noise = [R1, ..])`",
             );
         }
-        let ((q, q_span), (r, _)) = (q?, r?);
-        for (what, values) in [("process_noise", &q), ("measurement_noise", &r)] {
+        let ((q, q_span), (r, r_span)) = (q?, r?);
+        let lists = [
+            ("process_noise", &q, q_span),
+            ("measurement_noise", &r, r_span),
+        ];
+        for (what, values, at) in lists {
             if let Some(bad) = values.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
                 diag.error(
-                    q_span,
+                    at,
                     format!("`{what}` holds {bad}: variances are finite and >= 0"),
                 );
                 return None;

@@ -1,4 +1,6 @@
-//! The names a model declares and what each refers to, as the checks resolve them.
+//! The names a model declares and what each refers to, as the checks resolve them and as
+//! the generators' options look them up (a module of its own, so that neither `check` nor
+//! `generators` imports the other both ways).
 
 use crate::ast::{ModelDecl, Statement, SymbolKind};
 use crate::model::Scalar;
@@ -18,19 +20,19 @@ pub enum Binding {
 
 /// The names declared so far, and what expressions need to know of them.
 pub struct Scope {
-    pub(super) names: IndexMap<String, (Binding, Span)>,
+    pub(crate) names: IndexMap<String, (Binding, Span)>,
     /// The values of the constants declared so far, by index.
-    pub(super) const_values: Vec<f64>,
+    pub(crate) const_values: Vec<f64>,
     /// The model's scalar types: every constant must be finite in each.
-    pub(super) scalars: Vec<Scalar>,
+    pub(crate) scalars: Vec<Scalar>,
     /// What each name of the model is, declared yet or not, for a name used before (or
     /// where) it can be.
-    pub(super) declared: std::collections::HashMap<String, &'static str>,
+    pub(crate) declared: std::collections::HashMap<String, &'static str>,
 }
 
 impl Scope {
     /// An empty scope for `decl`, knowing what each of its names will be.
-    pub(super) fn new(decl: &ModelDecl) -> Scope {
+    pub(crate) fn new(decl: &ModelDecl) -> Scope {
         let mut declared = std::collections::HashMap::new();
         for sym in &decl.symbols {
             let what = match sym.kind {
@@ -63,7 +65,7 @@ impl Scope {
     }
 
     /// Whether `name` is declared.
-    pub(super) fn contains_key(&self, name: &str) -> bool {
+    pub(crate) fn contains_key(&self, name: &str) -> bool {
         self.names.contains_key(name)
     }
 
