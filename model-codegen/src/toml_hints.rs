@@ -138,6 +138,13 @@ pub(crate) fn rewrite(message: &str) -> String {
         let name = code.strip_prefix("state ")?.strip_suffix(';')?;
         Some(format!("[[state]]` and `name = \"{name}\""))
     });
+    // `const k = ..;`: one constant's declaration.
+    text = rewrite_quoted(&text, |code| {
+        let name = code.strip_prefix("const ")?.strip_suffix(" = ..;")?;
+        Some(format!(
+            "[[const]]` with `name = \"{name}\"` and its `value"
+        ))
+    });
     // `add `x2 = ...;`` or `add `der(x2) = ...;``: a state's equation.
     text = rewrite_quoted(&text, |code| {
         let target = code.strip_suffix(" = ...;")?;
@@ -181,8 +188,6 @@ fn first_quoted(message: &str) -> Option<&str> {
     is_identifier(name).then_some(name)
 }
 
-/// `text` with each backquoted piece of code that `rule` rewrites replaced by its
-/// rewriting (which may close and reopen backquotes).
 /// `unknown generator `x`: use ..`, with the registry's generators as TOML keys.
 fn unknown_generator(message: &str) -> Option<String> {
     let rest = message.strip_prefix("unknown generator `")?;
@@ -198,6 +203,8 @@ fn unknown_generator(message: &str) -> Option<String> {
     ))
 }
 
+/// `text` with each backquoted piece of code that `rule` rewrites replaced by its
+/// rewriting (which may close and reopen backquotes).
 fn rewrite_quoted(text: &str, rule: impl Fn(&str) -> Option<String>) -> String {
     let mut out = String::with_capacity(text.len());
     let mut pieces = text.split('`');

@@ -498,3 +498,22 @@ fn noise_values_in_generate_say_what_the_option_takes() {
          \"B\"]`",
     );
 }
+
+#[test]
+fn a_requirement_names_the_parameter_to_declare_as_a_constant_in_toml() {
+    let toml = small_with("[[input]]\nname = \"u\"\n", "[[param]]\nname = \"k\"\n")
+        .replace("x2 + TS * u", "x2 - TS * k * x1")
+        .replace(
+            "x1 + TS * x2\"",
+            "x1 + TS * x2 - if_gt(x1, 0, 0.1 * x1, 0)\"",
+        );
+    assert_error(
+        &format!(
+            "{toml}[generate.switched_observer]\nprocess_noise = [\"TS\", \"TS\"]\n\
+             measurement_noise = [\"TS\"]\n"
+        ),
+        "20:11: `switched_observer` is designed for a known system, and `k` is a parameter \
+         (an unknown estimated as a state): declare it as a constant, `[[const]]` with \
+         `name = \"k\"` and its `value`, or estimate it with `ekf`",
+    );
+}

@@ -180,8 +180,8 @@ impl Requirement {
             Requirement::NoParameters => symbol(SymbolKind::Param).map(|param| {
                 format!(
                     "`{name}` is designed for a known system, and `{}` is a parameter (an \
-                     unknown estimated as a state): declare it with `const {} = ..;`, or \
-                     estimate it with `ekf`",
+                     unknown estimated as a state): declare it as a constant, `const {} = \
+                     ..;`, or estimate it with `ekf`",
                     param.name.text, param.name.text
                 )
             }),
