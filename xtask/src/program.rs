@@ -95,6 +95,15 @@ impl Program {
         seen
     }
 
+    /// Records that `from` can call each of `callees` where the disassembly does not show
+    /// it (calls through function pointers, as in C libraries' dispatch tables).
+    pub fn add_calls(&mut self, from: &str, callees: impl IntoIterator<Item = String>) {
+        self.calls
+            .entry(from.to_owned())
+            .or_default()
+            .extend(callees);
+    }
+
     /// Bytes of code `root` can execute: itself and everything it calls, once each.
     pub fn reachable_size(&self, root: &str) -> Option<u64> {
         self.functions.get(root)?;
