@@ -2,13 +2,28 @@
 `cargo xtask peers` (and `cargo xtask cost`) in the venv it makes under target/peers.
 
 TinyMPC (ADMM with a cached infinite-horizon Riccati gain) takes a fixed model: its
-cache (Kinf, Pinf, C1, C2) is computed here, on the host, and cannot be recomputed on the
-target. It is handed the generated MPC's problem at the first step: the prediction
-model (A, B) at the first estimate (1/m = 5, unchanged until the mass change at step
-150, after which the generated MPC's model differs from TinyMPC's), Q = diag(1, 0),
-R = 1e-10 (both times 1/R = 1e10, as OSQP's objective), N = 11 knot points (10 moves),
-input bounds +-100 V. Its terminal weight is its own cached Pinf (of the rho-augmented
-problem), not the generated MPC's Riccati-iterated P_f.
+cache (Kinf, Pinf, Quu_inv, AmBKt) is computed here, on the host, for one (A, B) and one
+rho, and is not recomputed on the target. It is handed the generated MPC's problem at
+the first step: the prediction model (A, B) at the first estimate (1/m = 5, unchanged
+until the blade's mass changes at step 150; from then on the generated MPC's model
+differs from TinyMPC's), Q = diag(1, 0), R = 1e-10 (both times 1/R = 1e10, as OSQP's
+objective), N = 11 knot points (10 moves), input bounds +-100 V, the estimate's
+regulated states as x0 at every step, reference zero. Its terminal weight is its own:
+the cached Pinf of the rho-augmented problem (Q + rho I, R + rho I), which makes the QP
+its ADMM converges to
+
+    min sum_{k=0}^{9} (x_k' Q x_k + u_k' R u_k) + x_10' (Pinf - rho I) x_10
+    s.t. x_{k+1} = A x_k + B u_k, x_0 given, -100 <= u_k <= 100,
+
+not the generated MPC's (whose terminal weight P_f comes from its Riccati iterations,
+and whose model follows the estimate). So two differences are reported: from the
+generated MPC's plans, and from the exact solution of this fixed-model QP at every
+step (`reference` below: the same condensing as OSQP's, solved by the desktop OSQP in
+f64 to 1e-10 with polishing), which is the solver's own accuracy.
+
+Writes, into out_dir: tinympc/ (TinyMPC's generated C++), tinympc/peer_steps.h (the
+300 initial states, for the firmware, `peers/firmware/tinympc_main.cpp`) and
+tinympc/reference.json (the exact plans).
 
     python tinympc_codegen.py problem.json out_dir
 """
@@ -17,29 +32,81 @@ import json
 import sys
 
 import numpy as np
+import osqp
+import scipy.sparse as sp
 import tinympc
 
+from osqp_codegen import condensed
+
+# The penalty and the tolerances handed to TinyMPC (xtask prints them beside the rows).
 RHO = 1.0
 SETTINGS = dict(abs_pri_tol=1e-3, abs_dua_tol=1e-3, max_iter=500, check_termination=1)
+
+
+def model(problem):
+    """TinyMPC's data: the first step's model, the weights times 1/R."""
+    step = problem["steps"][0]
+    scale = 1.0 / float(problem["r"][0][0])
+    a = np.array(step["a"], dtype=float)
+    b = np.array(step["b"], dtype=float)
+    q = np.diag(np.diag(np.array(problem["q"], dtype=float))) * scale
+    r = np.array([[float(problem["r"][0][0]) * scale]])
+    return a, b, q, r, scale
+
+
+def reference(problem, pinf):
+    """The exact plan of TinyMPC's fixed-model QP at every step (see the module's doc)."""
+    a, b, q, r, scale = model(problem)
+    n = problem["horizon"]
+    terminal = (pinf - RHO * np.eye(2)) / scale  # in the problem's units, as condensed()
+    bound = float(problem["u_max"]) * np.ones(n)
+    plans, worst_kkt = [], 0.0
+    for step in problem["steps"]:
+        fixed = dict(a=a, b=b, p=terminal, x0=step["x0"])
+        h, c = condensed(problem, fixed)
+        h, c = h * scale, c * scale
+        solver = osqp.OSQP()
+        solver.setup(sp.csc_matrix(np.triu(h)), c, sp.identity(n, format="csc"),
+                     -bound, bound, verbose=False, eps_abs=1e-10, eps_rel=1e-10,
+                     max_iter=100000, polishing=True)
+        u = solver.solve().x
+        # Optimality of a box QP: the projected gradient step leaves u where it is.
+        step_back = np.clip(u - (h @ u + c) / np.linalg.norm(h, 2), -bound, bound)
+        worst_kkt = max(worst_kkt, np.abs(step_back - u).max())
+        plans.append(u.tolist())
+    return plans, worst_kkt
 
 
 def main():
     problem = json.load(open(sys.argv[1]))
     out = sys.argv[2]
-    step = problem["steps"][0]
-    scale = 1.0 / float(problem["r"][0][0])
-    a = np.array(step["a"], dtype=float)
-    b = np.array(step["b"], dtype=float)
-    q = np.diag(np.array(problem["q"], dtype=float)) * scale
-    r = np.array([float(problem["r"][0][0]) * scale])
+    a, b, q, r, _ = model(problem)
     u_max = float(problem["u_max"])
     n = problem["horizon"] + 1
     solver = tinympc.TinyMPC()
-    solver.setup(a, b, np.diag(q), np.diag(r), n, rho=RHO,
+    solver.setup(a, b, q, r, n, rho=RHO,
                  u_min=-u_max * np.ones((1, n - 1)), u_max=u_max * np.ones((1, n - 1)),
                  **SETTINGS)
-    solver.codegen(f"{out}/tinympc")
-    print("tinympc", "rho", RHO, "settings", SETTINGS)
+    _, pinf, _, _ = solver.compute_cache_terms()
+    plans, kkt = reference(problem, pinf)
+    # The codegen writes the C++ sources, then builds a Python extension of them with
+    # cmake; only the sources are needed, so xtask checks for them, not for our status.
+    with open(f"{out}/tinympc_reference.json", "w") as f:
+        json.dump({"plans": plans, "projected_gradient_residual": kkt}, f)
+    try:
+        solver.codegen(f"{out}/tinympc")
+    except Exception as error:  # noqa: BLE001 -- the Python extension's build, see above
+        print(f"tinympc codegen's own extension build failed ({error}); sources kept")
+    with open(f"{out}/tinympc/peer_steps.h", "w") as f:
+        f.write("/* Generated by peers/tinympc_codegen.py: the estimate's regulated states "
+                "at each step. */\n"
+                f"#define PEER_HORIZON {problem['horizon']}\n"
+                f"#define PEER_STEPS {len(problem['steps'])}\n"
+                "static const float peer_x0[PEER_STEPS][2] = {\n")
+        for step in problem["steps"]:
+            f.write(f"    {{{step['x0'][0]:.9e}f, {step['x0'][1]:.9e}f}},\n")
+        f.write("};\n")
+    print("tinympc", "rho", RHO, "settings", SETTINGS, "reference residual", kkt)
 
 
 if __name__ == "__main__":
