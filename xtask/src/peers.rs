@@ -60,10 +60,12 @@ pub fn report() -> Result<String, String> {
         })
         .collect();
     let osqp = build_osqp(&root, &python, &problem_path, &dir)?;
-    let tinympc = crate::peers_tinympc::build(&root, &python, &problem_path, &dir);
     peers_build::archive(&dir, &osqp)?;
     let text = run_firmware(&root.join(TARGETS), &dir, "peers")?;
-    let solvers = parse(&text)?;
+    let mut solvers = parse(&text)?;
+    if !solvers.contains_key("mpc") || !solvers.contains_key("osqp") {
+        return Err("the peers' firmware printed no plans of the MPC or OSQP".into());
+    }
     let elf = root.join(TARGETS).join(ELF);
     let mut program = Program::read(&elf)?;
     // OSQP dispatches to its linear-system solver through function pointers, which the
@@ -77,24 +79,45 @@ pub fn report() -> Result<String, String> {
             .collect();
         program.add_calls(&wrapper, linked);
     }
-    let names: Vec<&str> = solvers.keys().map(String::as_str).collect();
-    let wrappers: Vec<String> = names
+    let wrappers: Vec<String> = ["mpc", "osqp"]
         .iter()
         .filter_map(|n| program.function(&format!("peers_{n}_solve")))
         .collect();
     println!("xtask: the peers' firmware again, traced instruction by instruction");
     let traced = crate::trace::run(&elf, &program, &wrappers)?;
+    let mut rows = vec![
+        row("mpc", &solvers, None, &program, &traced)?,
+        row("osqp", &solvers, None, &program, &traced)?,
+    ];
+    // TinyMPC in its own C++ firmware (peers_tinympc.rs); a failure is its row's text.
+    let tinympc =
+        crate::peers_tinympc::build(&root, &python, &problem_path, &dir).and_then(|elf| {
+            let text = crate::peers_tinympc::run(&elf)?;
+            solvers.extend(parse(&text)?);
+            let program = Program::read(&elf)?;
+            let wrapper = vec!["peers_tinympc_solve".to_owned()];
+            println!("xtask: TinyMPC's firmware again, traced instruction by instruction");
+            let traced = crate::trace::run(&elf, &program, &wrapper)?;
+            let own = crate::peers_tinympc::reference(&dir)?;
+            row("tinympc", &solvers, Some(&own), &program, &traced)
+        });
+    match tinympc {
+        Ok(line) => rows.push(line),
+        Err(e) => rows.push(format!("{:<22} cannot run here: {e}\n", "TinyMPC (solve)")),
+    }
     let mut out = format!(
         "Embedded-QP peers on the blade's MPC QP, same Cortex-M4F, same 300 steps \
          ({}; {gcc}, {}):\n",
         versions.join(", "),
         peers_build::CFLAGS.join(" ")
     );
-    out.push_str(&table(&solvers, &program, &traced)?);
-    out.push_str(&format!("  {OSQP_TERMS}.\n"));
-    if let Err(e) = tinympc {
-        out.push_str(&format!("  TinyMPC cannot run here: {e}.\n"));
-    }
+    out.push_str(&header());
+    out.push_str(&rows.concat());
+    out.push_str(NOTE);
+    out.push_str(&format!(
+        "  {OSQP_TERMS}.\n  {}.\n",
+        crate::peers_tinympc::TERMS
+    ));
     Ok(out)
 }
 
@@ -174,21 +197,21 @@ fn parse(text: &str) -> Result<BTreeMap<String, Solver>, String> {
             _ => {}
         }
     }
-    if !solvers.contains_key("mpc") || !solvers.contains_key("osqp") {
-        return Err("the peers' firmware printed no plans of the MPC or OSQP".into());
-    }
     Ok(solvers)
 }
 
-/// Largest difference of `solver`'s plans from the generated MPC's: first moves, whole
-/// plans (V), and the steps where the solver reported a failure.
-fn difference(solver: &Solver, ours: &Solver) -> (f64, f64, usize) {
+/// Largest difference of `solver`'s plans from `reference(k)`: first moves and whole plans
+/// (V); and the steps where the solver reported a failure.
+fn difference<'a>(
+    solver: &Solver,
+    reference: impl Fn(usize) -> Option<&'a [f64]>,
+) -> (f64, f64, usize) {
     let (mut first, mut whole, mut failed) = (0.0_f64, 0.0_f64, 0);
     for (k, (iterations, plan)) in &solver.plans {
         if *iterations < 0 {
             failed += 1;
         }
-        let Some((_, reference)) = ours.plans.get(k) else {
+        let Some(reference) = reference(*k) else {
             continue;
         };
         for (i, (a, b)) in plan.iter().zip(reference).enumerate() {
@@ -202,15 +225,10 @@ fn difference(solver: &Solver, ours: &Solver) -> (f64, f64, usize) {
     (first, whole, failed)
 }
 
-/// The rows, one per solver, the generated MPC first.
-fn table(
-    solvers: &BTreeMap<String, Solver>,
-    program: &Program,
-    traced: &BTreeMap<String, crate::trace::Traced>,
-) -> Result<String, String> {
-    let ours = &solvers["mpc"];
-    let mut out = format!(
-        "{:<22} {:>8} {:>8} {:>9} {:>9} {:>8} {:>8} {:>6} {:>10} {:>10} {:>6}\n",
+/// The table's header.
+fn header() -> String {
+    format!(
+        "{:<22} {:>8} {:>8} {:>9} {:>9} {:>8} {:>8} {:>6} {:>10} {:>10} {:>10} {:>6}\n",
         "solver",
         "median",
         "worst",
@@ -221,51 +239,79 @@ fn table(
         "iters",
         "d first V",
         "d plan V",
+        "d own V",
         "failed"
-    );
-    let order = ["mpc", "osqp", "tinympc"];
-    for name in order.iter().filter(|n| solvers.contains_key(**n)) {
-        let solver = &solvers[*name];
-        let [median, worst, most, mean] = solver
-            .spread
-            .ok_or_else(|| format!("no spread line for {name}"))?;
-        let wrapper = program
-            .function(&format!("peers_{name}_solve"))
-            .ok_or_else(|| format!("no `peers_{name}_solve` in the firmware"))?;
-        let trace = traced
-            .get(&wrapper)
-            .filter(|t| t.calls > 0)
-            .ok_or_else(|| format!("the trace saw no call of `{wrapper}`"))?;
-        // The counter reads SysTick to 40 instructions, once per call; their mean and the
-        // trace's must agree to that and the few instructions of the call around it.
-        if (trace.instructions_per_call() - mean).abs() > 48.0 {
-            return Err(format!(
-                "`{wrapper}`: the trace saw {:.0} instructions per call, the counter {mean:.0}",
-                trace.instructions_per_call()
-            ));
-        }
-        let cpi = trace.cycles_per_call() / trace.instructions_per_call().max(1.0);
-        let (first, whole, failed) = difference(solver, ours);
-        let label = match *name {
-            "mpc" => "generated Mpc::solve",
-            "osqp" => "OSQP (update + solve)",
-            _ => "TinyMPC (solve)",
-        };
-        out.push_str(&format!(
-            "{label:<22} {median:>8.0} {worst:>8.0} {:>9.0} {:>9.0} {:>8.1} {:>8} {most:>6.0} {:>10} {:>10} {failed:>6}\n",
-            median * cpi,
-            worst * cpi,
-            worst * cpi / CLOCK_MHZ,
-            program.reachable_size(&wrapper).map_or("?".into(), |b| b.to_string()),
-            if *name == "mpc" { "-".into() } else { format!("{first:.2e}") },
-            if *name == "mpc" { "-".into() } else { format!("{whole:.2e}") },
+    )
+}
+
+/// What the columns mean.
+const NOTE: &str =
+    "  Instructions per solve over the 300 steps (SysTick under -icount, the call of \
+     an empty function subtracted); cycles estimated at each solver's traced cycles per \
+     instruction; us at 168 MHz; text: bytes of code the call can reach; d first, d plan: \
+     largest difference from the generated MPC's plan at the same step (V, bounds +-100 \
+     V); d own: from the exact solution of the QP the solver was given (OSQP's is the \
+     generated MPC's own QP, so its d plan).\n";
+
+/// One solver's row: `name`'s counts and plans from `solvers`, its cycles and size from
+/// the firmware it ran in; `own`, the exact plans of its own QP where that differs from
+/// the generated MPC's.
+fn row(
+    name: &str,
+    solvers: &BTreeMap<String, Solver>,
+    own: Option<&[Vec<f64>]>,
+    program: &Program,
+    traced: &BTreeMap<String, crate::trace::Traced>,
+) -> Result<String, String> {
+    let ours = solvers.get("mpc").ok_or("no plans of the generated MPC")?;
+    let solver = solvers
+        .get(name)
+        .ok_or_else(|| format!("no plans of {name}"))?;
+    let [median, worst, most, mean] = solver
+        .spread
+        .ok_or_else(|| format!("no spread line for {name}"))?;
+    let wrapper = program
+        .function(&format!("peers_{name}_solve"))
+        .ok_or_else(|| format!("no `peers_{name}_solve` in the firmware"))?;
+    let trace = traced
+        .get(&wrapper)
+        .filter(|t| t.calls > 0)
+        .ok_or_else(|| format!("the trace saw no call of `{wrapper}`"))?;
+    // The counter reads SysTick to 40 instructions, once per call; their mean and the
+    // trace's must agree to that and the few instructions of the call around it.
+    if (trace.instructions_per_call() - mean).abs() > 48.0 {
+        return Err(format!(
+            "`{wrapper}`: the trace saw {:.0} instructions per call, the counter {mean:.0}",
+            trace.instructions_per_call()
         ));
     }
-    out.push_str(
-        "  Instructions per solve over the 300 steps (SysTick under -icount, the call of an \
-         empty function subtracted); cycles estimated at each solver's traced cycles per \
-         instruction; us at 168 MHz; text: bytes of code the call can reach; d: largest \
-         difference from the generated MPC's plan at the same step (V, bounds +-100 V).\n",
-    );
-    Ok(out)
+    let cpi = trace.cycles_per_call() / trace.instructions_per_call().max(1.0);
+    let (first, whole, failed) =
+        difference(solver, |k| ours.plans.get(&k).map(|(_, p)| p.as_slice()));
+    let (_, whole_own, _) = match own {
+        Some(plans) => difference(solver, |k| plans.get(k - 1).map(Vec::as_slice)),
+        None => (first, whole, failed),
+    };
+    let label = match name {
+        "mpc" => "generated Mpc::solve",
+        "osqp" => "OSQP (update + solve)",
+        _ => "TinyMPC (solve)",
+    };
+    let shown = |d: f64| {
+        if name == "mpc" {
+            "-".into()
+        } else {
+            format!("{d:.2e}")
+        }
+    };
+    Ok(format!(
+        "{label:<22} {median:>8.0} {worst:>8.0} {:>9.0} {:>9.0} {:>8.1} {:>8} {most:>6.0} {:>10} {:>10} {:>10} {failed:>6}\n",
+        median * cpi,
+        worst * cpi,
+        worst * cpi / CLOCK_MHZ,
+        program.reachable_size(&wrapper).map_or("?".into(), |b| b.to_string()),
+        shown(first),
+        shown(whole),
+        shown(whole_own),
+    ))
 }
