@@ -1,7 +1,8 @@
 //! Embedded-QP peers of the blade's MPC on the same target (`--features peers`, built by
 //! `cargo xtask peers`, never by the normal build): OSQP's generated C solver, linked as
-//! `libpeers.a` (TinyMPC's generated code cannot be linked here: `xtask/src/peers_tinympc.rs`), on the QP the
-//! generated `Mpc` solves at each of the 300 estimates of `generated_demo::mpc_sequence`.
+//! `libpeers.a` (TinyMPC's generated C++ needs a C/C++ runtime and runs in its own
+//! firmware instead: `peers/firmware/`, `xtask/src/peers_tinympc.rs`), on the QP the generated
+//! `Mpc` solves at each of the 300 estimates of `generated_demo::mpc_sequence`.
 //!
 //! Each step, the generated `f32` `Mpc` solves first; its public API then gives the QP it
 //! solved (the prediction model at the estimate, the terminal weight of that solve, the
