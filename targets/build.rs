@@ -26,6 +26,26 @@ fn main() {
     code.push_str("];\n");
     std::fs::write(out.join("sequence.rs"), code).expect("OUT_DIR is writable");
     observer_sequences(&out);
+    peers();
+}
+
+/// With the `peers` feature, links `libpeers.a` from `$PEERS_LIB_DIR` (compiled by
+/// `cargo xtask peers` with arm-none-eabi-gcc).
+fn peers() {
+    println!("cargo:rerun-if-env-changed=PEERS_LIB_DIR");
+    if std::env::var_os("CARGO_FEATURE_PEERS").is_none() {
+        return;
+    }
+    let Some(dir) = std::env::var_os("PEERS_LIB_DIR") else {
+        panic!("the `peers` feature links libpeers.a from $PEERS_LIB_DIR: run `cargo xtask peers`");
+    };
+    let dir = PathBuf::from(dir);
+    println!("cargo:rustc-link-search=native={}", dir.display());
+    println!("cargo:rustc-link-lib=static=peers");
+    println!(
+        "cargo:rerun-if-changed={}",
+        dir.join("libpeers.a").display()
+    );
 }
 
 /// Samples of the beam (0.5 s at 0.5 ms) and hub (10 s at 10 ms) sequences.

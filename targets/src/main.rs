@@ -24,6 +24,8 @@ mod measure;
 mod mpc;
 mod observers;
 mod observers_baseline;
+#[cfg(feature = "peers")]
+mod peers;
 
 use core::hint::black_box;
 use cortex_m_rt::entry;
@@ -69,6 +71,13 @@ fn main() -> ! {
         panic!("peripherals taken twice");
     };
     let clock = Clock::start(peripherals.SYST);
+    // The embedded-QP peers' build runs them and the generated MPC only.
+    #[cfg(feature = "peers")]
+    {
+        peers::run(&clock);
+        hprintln!("done");
+        debug::exit(debug::EXIT_SUCCESS);
+    }
     estimates();
     continuous::estimates();
     observers::estimates();

@@ -20,6 +20,10 @@ mod cost;
 mod firmware;
 mod imports;
 mod msrv;
+mod peers;
+mod peers_build;
+mod peers_problem;
+mod peers_tinympc;
 mod program;
 mod scratch;
 mod setup;
@@ -67,6 +71,11 @@ enum Task {
     /// Run the firmware under QEMU and print what the generated filters cost on the
     /// Cortex-M4F, beside the nalgebra baseline.
     Cost,
+    /// Benchmark: the blade's MPC QP solved by embedded-QP peers (OSQP's and TinyMPC's
+    /// generated C/C++, built with arm-none-eabi-gcc) on the same emulated Cortex-M4F, beside
+    /// the generated MPC (part of `cost`; installs the peers' Python packages and the ARM
+    /// compiler into `target/peers` when missing).
+    Peers,
     /// Vendor every demo model with `stateforge-codegen` into a user crate and check it
     /// with rustfmt, `-D warnings` and clippy (part of `test`).
     Vendored,
@@ -101,6 +110,7 @@ fn main() -> ExitCode {
         Task::Msrv => msrv::check(&PUBLISHED).map(|summary| format!("xtask: {summary}\n")),
         Task::Vendored => vendored::check().map(|summary| format!("xtask: {summary}\n")),
         Task::Cost => cost(),
+        Task::Peers => peers::report(),
         Task::Test => test().map(|()| "xtask: every check passed\n".to_string()),
     };
     match outcome {
@@ -268,6 +278,11 @@ fn cost() -> Result<String, String> {
         let report = firmware::run(Path::new(TARGETS), build)?;
         tables.push(cost_table(&report, build)?);
     }
+    // The embedded-QP peers: their packages and compiler are the benchmark's to install;
+    // where that or their build is impossible, the table says why instead.
+    tables.push(
+        peers::report().unwrap_or_else(|e| format!("Embedded-QP peers: cannot run here: {e}\n")),
+    );
     Ok(tables.join("\n"))
 }
 

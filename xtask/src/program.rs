@@ -44,7 +44,8 @@ impl Program {
         for line in text(&["-S", "--demangle", "--defined-only"], "arm-none-eabi-nm")?.lines() {
             let words: Vec<&str> = line.splitn(4, ' ').collect();
             if let [address, bytes, kind, name] = words[..] {
-                if kind.eq_ignore_ascii_case("t") {
+                // Code: `t`/`T`, or `W`/`w` (C++ template functions are weak symbols).
+                if kind.eq_ignore_ascii_case("t") || kind.eq_ignore_ascii_case("w") {
                     let hex = |w| u32::from_str_radix(w, 16).unwrap_or(0);
                     // Thumb symbols may carry the mode in bit 0.
                     functions.insert(name.to_owned(), (hex(address) & !1, hex(bytes)));
@@ -95,6 +96,15 @@ impl Program {
         seen
     }
 
+    /// Records that `from` can call each of `callees` where the disassembly does not show
+    /// it (calls through function pointers, as in C libraries' dispatch tables).
+    pub fn add_calls(&mut self, from: &str, callees: impl IntoIterator<Item = String>) {
+        self.calls
+            .entry(from.to_owned())
+            .or_default()
+            .extend(callees);
+    }
+
     /// Bytes of code `root` can execute: itself and everything it calls, once each.
     pub fn reachable_size(&self, root: &str) -> Option<u64> {
         self.functions.get(root)?;
@@ -107,8 +117,12 @@ impl Program {
         Some(sizes)
     }
 
-    /// The function whose demangled name ends with `::name`.
+    /// The function named `name` (a C symbol), else the one whose demangled name ends
+    /// with `::name` (a Rust path).
     pub fn function(&self, name: &str) -> Option<String> {
+        if self.functions.contains_key(name) {
+            return Some(name.to_owned());
+        }
         let suffix = format!("::{name}");
         self.functions
             .keys()

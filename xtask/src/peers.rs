@@ -1,0 +1,317 @@
+//! Embedded-QP peers of the generated MPC on the same emulated Cortex-M4F (`cargo xtask
+//! peers`, and the end of `cargo xtask cost`; not part of `cargo xtask test`, which stays
+//! offline and needs neither Python nor gcc): OSQP's and TinyMPC's code generators
+//! (their Python packages, pinned, in a venv under `target/peers`) write their solvers
+//! for the blade's QP into `target/peers`, `arm-none-eabi-gcc -O2` compiles them with the
+//! project's glue (`peers/`) into `libpeers.a`, and the firmware built with
+//! `--features peers` runs them beside the generated `Mpc` on the 300 steps of
+//! `generated_demo::mpc_sequence` (`targets/src/peers.rs`). The rows: median and worst
+//! instructions per solve (SysTick under -icount), estimated cycles (the traced calls'
+//! cycles per instruction), code size, and the largest difference of each peer's plan from
+//! the generated MPC's in the same run. A peer that cannot be built is reported with its
+//! error.
+
+use crate::peers_build::{self, PACKAGES};
+use crate::program::Program;
+use crate::scratch::workspace_root;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Stdio;
+
+/// The paper's clock, as the cost table's.
+const CLOCK_MHZ: f64 = 168.0;
+/// The firmware crate, and where the peers' build of it goes (relative to it).
+const TARGETS: &str = "targets";
+const TARGET_DIR: &str = "target/peers";
+const ELF: &str = "target/peers/thumbv7em-none-eabihf/release/firmware";
+
+/// What each peer was handed and how it was tuned, printed under the rows.
+const OSQP_TERMS: &str = "OSQP: the generated MPC's condensed QP (10 moves, H and c \
+     condensed on the target from the Mpc's prediction model, terminal weight and \
+     estimate, outside the measured call), objective times 1/R = 1e10; float, embedded \
+     mode 2 (the update refactors the KKT matrix on the target), eps_abs = eps_rel = 1e-4, \
+     max_iter 4000, rho 0.1 adaptive, sigma 1e-6, alpha 1.6, check every 25 iterations, \
+     warm start from the last solution, scaling 10 Ruiz passes, no polishing (not in \
+     embedded code)";
+
+/// A solver's line of the firmware's output: its plan at every step, and its spread.
+#[derive(Debug, Default)]
+struct Solver {
+    plans: BTreeMap<usize, (i64, Vec<f64>)>,
+    spread: Option<[f64; 4]>,
+}
+
+/// Builds what it can, runs the peers' firmware, and returns the rows.
+pub fn report() -> Result<String, String> {
+    let root = workspace_root();
+    let dir = root.join("target/peers");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let problem = crate::peers_problem::problem()?;
+    let problem_path = dir.join("problem.json");
+    std::fs::write(&problem_path, problem.to_string())
+        .map_err(|e| format!("{}: {e}", problem_path.display()))?;
+    let gcc = peers_build::arm_gcc()?;
+    let python = peers_build::python(&dir)?;
+    let versions: Vec<String> = PACKAGES
+        .iter()
+        .map(|(name, _)| {
+            let v = peers_build::package_version(&python, name).unwrap_or_else(|e| e);
+            format!("{name} {v}")
+        })
+        .collect();
+    let osqp = build_osqp(&root, &python, &problem_path, &dir)?;
+    peers_build::archive(&dir, &osqp)?;
+    let text = run_firmware(&root.join(TARGETS), &dir, "peers")?;
+    let mut solvers = parse(&text)?;
+    if !solvers.contains_key("mpc") || !solvers.contains_key("osqp") {
+        return Err("the peers' firmware printed no plans of the MPC or OSQP".into());
+    }
+    let elf = root.join(TARGETS).join(ELF);
+    let mut program = Program::read(&elf)?;
+    // OSQP dispatches to its linear-system solver through function pointers, which the
+    // disassembly's call graph does not follow: its wrapper can reach every function of
+    // the library.
+    if let Some(wrapper) = program.function("peers_osqp_solve") {
+        let library = peers_build::defined_functions(&dir.join("libpeers.a"))?;
+        let linked: Vec<String> = library
+            .into_iter()
+            .filter(|f| program.functions.contains_key(f))
+            .collect();
+        program.add_calls(&wrapper, linked);
+    }
+    let wrappers: Vec<String> = ["mpc", "osqp"]
+        .iter()
+        .filter_map(|n| program.function(&format!("peers_{n}_solve")))
+        .collect();
+    println!("xtask: the peers' firmware again, traced instruction by instruction");
+    let traced = crate::trace::run(&elf, &program, &wrappers)?;
+    let mut rows = vec![
+        row("mpc", &solvers, None, &program, &traced)?,
+        row("osqp", &solvers, None, &program, &traced)?,
+    ];
+    // TinyMPC in its own C++ firmware (peers_tinympc.rs); a failure is its row's text.
+    let tinympc =
+        crate::peers_tinympc::build(&root, &python, &problem_path, &dir).and_then(|elf| {
+            let text = crate::peers_tinympc::run(&elf)?;
+            solvers.extend(parse(&text)?);
+            let program = Program::read(&elf)?;
+            let wrapper = vec!["peers_tinympc_solve".to_owned()];
+            println!("xtask: TinyMPC's firmware again, traced instruction by instruction");
+            let traced = crate::trace::run(&elf, &program, &wrapper)?;
+            let own = crate::peers_tinympc::reference(&dir)?;
+            row("tinympc", &solvers, Some(&own), &program, &traced)
+        });
+    match tinympc {
+        Ok(line) => rows.push(line),
+        Err(e) => rows.push(format!("{:<22} cannot run here: {e}\n", "TinyMPC (solve)")),
+    }
+    let mut out = format!(
+        "Embedded-QP peers on the blade's MPC QP, same Cortex-M4F, same 300 steps \
+         ({}; {gcc}, {}):\n",
+        versions.join(", "),
+        peers_build::CFLAGS.join(" ")
+    );
+    out.push_str(&header());
+    out.push_str(&rows.concat());
+    out.push_str(NOTE);
+    out.push_str(&format!(
+        "  {OSQP_TERMS}.\n  {}.\n",
+        crate::peers_tinympc::TERMS
+    ));
+    Ok(out)
+}
+
+/// OSQP's solver generated (`peers/osqp_codegen.py`) and compiled with the glue.
+fn build_osqp(
+    root: &Path,
+    python: &Path,
+    problem: &Path,
+    dir: &Path,
+) -> Result<Vec<PathBuf>, String> {
+    let script = root.join("peers/osqp_codegen.py");
+    let said = peers_build::generate(python, &script, problem, dir)
+        .map_err(|e| format!("OSQP's code generation: {e}"))?;
+    print!("xtask: {said}");
+    let generated = dir.join("osqp");
+    let mut sources = peers_build::sources(&generated.join("src"), "c")?;
+    sources.push(generated.join("peer_workspace.c"));
+    sources.push(root.join("peers/osqp_glue.c"));
+    let includes =
+        ["inc/public", "inc/private", ""].map(|sub| format!("-I{}", generated.join(sub).display()));
+    peers_build::compile(
+        "arm-none-eabi-gcc",
+        &sources,
+        &includes,
+        &dir.join("obj/osqp"),
+    )
+    .map_err(|e| format!("OSQP cannot be built here: {e}"))
+}
+
+/// Builds and runs the firmware with the peers; its output.
+fn run_firmware(targets: &Path, lib: &Path, features: &str) -> Result<String, String> {
+    println!("xtask: the firmware with the peers ({features}) under QEMU");
+    let output = crate::command::cargo()
+        .args(["run", "--release", "--quiet", "--features", features])
+        .current_dir(targets)
+        .env("CARGO_TARGET_DIR", TARGET_DIR)
+        .env("PEERS_LIB_DIR", lib)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .output()
+        .map_err(|e| format!("cannot start the peers' firmware: {e}"))?;
+    let text = String::from_utf8_lossy(&output.stdout).into_owned();
+    if !output.status.success() || !text.lines().any(|l| l == "done") {
+        let tail: Vec<&str> = text.lines().rev().take(5).collect();
+        return Err(format!(
+            "the peers' firmware failed ({}); its last lines: {tail:?}",
+            output.status
+        ));
+    }
+    Ok(text)
+}
+
+/// The `peer` and `peerspread` lines, by solver.
+fn parse(text: &str) -> Result<BTreeMap<String, Solver>, String> {
+    let mut solvers: BTreeMap<String, Solver> = BTreeMap::new();
+    for line in text.lines() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let number = |w: &str| {
+            w.parse::<f64>()
+                .map_err(|_| format!("bad number in `{line}`"))
+        };
+        match words.as_slice() {
+            ["peer", name, k, iterations, moves @ ..] => {
+                let k = k.parse().map_err(|_| format!("bad step in `{line}`"))?;
+                let iterations = iterations
+                    .parse()
+                    .map_err(|_| format!("bad iterations in `{line}`"))?;
+                let plan = moves.iter().map(|w| number(w)).collect::<Result<_, _>>()?;
+                let solver = solvers.entry((*name).to_owned()).or_default();
+                solver.plans.insert(k, (iterations, plan));
+            }
+            ["peerspread", name, values @ ..] if values.len() == 4 => {
+                let v: Vec<f64> = values.iter().map(|w| number(w)).collect::<Result<_, _>>()?;
+                solvers.entry((*name).to_owned()).or_default().spread =
+                    Some([v[0], v[1], v[2], v[3]]);
+            }
+            _ => {}
+        }
+    }
+    Ok(solvers)
+}
+
+/// Largest difference of `solver`'s plans from `reference(k)`: first moves and whole plans
+/// (V); and the steps where the solver reported a failure.
+fn difference<'a>(
+    solver: &Solver,
+    reference: impl Fn(usize) -> Option<&'a [f64]>,
+) -> (f64, f64, usize) {
+    let (mut first, mut whole, mut failed) = (0.0_f64, 0.0_f64, 0);
+    for (k, (iterations, plan)) in &solver.plans {
+        if *iterations < 0 {
+            failed += 1;
+        }
+        let Some(reference) = reference(*k) else {
+            continue;
+        };
+        for (i, (a, b)) in plan.iter().zip(reference).enumerate() {
+            let d = (a - b).abs();
+            whole = whole.max(d);
+            if i == 0 {
+                first = first.max(d);
+            }
+        }
+    }
+    (first, whole, failed)
+}
+
+/// The table's header.
+fn header() -> String {
+    format!(
+        "{:<22} {:>8} {:>8} {:>9} {:>9} {:>8} {:>8} {:>6} {:>10} {:>10} {:>10} {:>6}\n",
+        "solver",
+        "median",
+        "worst",
+        "cyc med",
+        "cyc worst",
+        "us worst",
+        "text B",
+        "iters",
+        "d first V",
+        "d plan V",
+        "d own V",
+        "failed"
+    )
+}
+
+/// What the columns mean.
+const NOTE: &str =
+    "  Instructions per solve over the 300 steps (SysTick under -icount, the call of \
+     an empty function subtracted); cycles estimated at each solver's traced cycles per \
+     instruction; us at 168 MHz; text: bytes of code the call can reach; d first, d plan: \
+     largest difference from the generated MPC's plan at the same step (V, bounds +-100 \
+     V); d own: from the exact solution of the QP the solver was given (OSQP's is the \
+     generated MPC's own QP, so its d plan).\n";
+
+/// One solver's row: `name`'s counts and plans from `solvers`, its cycles and size from
+/// the firmware it ran in; `own`, the exact plans of its own QP where that differs from
+/// the generated MPC's.
+fn row(
+    name: &str,
+    solvers: &BTreeMap<String, Solver>,
+    own: Option<&[Vec<f64>]>,
+    program: &Program,
+    traced: &BTreeMap<String, crate::trace::Traced>,
+) -> Result<String, String> {
+    let ours = solvers.get("mpc").ok_or("no plans of the generated MPC")?;
+    let solver = solvers
+        .get(name)
+        .ok_or_else(|| format!("no plans of {name}"))?;
+    let [median, worst, most, mean] = solver
+        .spread
+        .ok_or_else(|| format!("no spread line for {name}"))?;
+    let wrapper = program
+        .function(&format!("peers_{name}_solve"))
+        .ok_or_else(|| format!("no `peers_{name}_solve` in the firmware"))?;
+    let trace = traced
+        .get(&wrapper)
+        .filter(|t| t.calls > 0)
+        .ok_or_else(|| format!("the trace saw no call of `{wrapper}`"))?;
+    // The counter reads SysTick to 40 instructions, once per call; their mean and the
+    // trace's must agree to that and the few instructions of the call around it.
+    if (trace.instructions_per_call() - mean).abs() > 48.0 {
+        return Err(format!(
+            "`{wrapper}`: the trace saw {:.0} instructions per call, the counter {mean:.0}",
+            trace.instructions_per_call()
+        ));
+    }
+    let cpi = trace.cycles_per_call() / trace.instructions_per_call().max(1.0);
+    let (first, whole, failed) =
+        difference(solver, |k| ours.plans.get(&k).map(|(_, p)| p.as_slice()));
+    let (_, whole_own, _) = match own {
+        Some(plans) => difference(solver, |k| plans.get(k - 1).map(Vec::as_slice)),
+        None => (first, whole, failed),
+    };
+    let label = match name {
+        "mpc" => "generated Mpc::solve",
+        "osqp" => "OSQP (update + solve)",
+        _ => "TinyMPC (solve)",
+    };
+    let shown = |d: f64| {
+        if name == "mpc" {
+            "-".into()
+        } else {
+            format!("{d:.2e}")
+        }
+    };
+    Ok(format!(
+        "{label:<22} {median:>8.0} {worst:>8.0} {:>9.0} {:>9.0} {:>8.1} {:>8} {most:>6.0} {:>10} {:>10} {:>10} {failed:>6}\n",
+        median * cpi,
+        worst * cpi,
+        worst * cpi / CLOCK_MHZ,
+        program.reachable_size(&wrapper).map_or("?".into(), |b| b.to_string()),
+        shown(first),
+        shown(whole),
+        shown(whole_own),
+    ))
+}
