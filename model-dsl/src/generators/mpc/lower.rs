@@ -5,8 +5,11 @@
 //! (42)-(44), and a primal active-set solve of its box-constrained QP. Each stage is a
 //! symbolic stage lowered to straight-line code; stages hand over through named values.
 
+use super::cache::Cache;
 use super::names::{failure, Names};
-use super::predictive::{column_norm, condensed_qp, scale, zoh_square, zoh_taylor};
+use super::predictive::{
+    column_norm, condensed_hessian, condensed_linear, scale, zoh_square, zoh_taylor,
+};
 use super::qp::{active_set_loop, MoveNames};
 use super::spec::MpcDiscretisation;
 use super::spec::MpcSpec;
@@ -100,36 +103,62 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
     let prediction = prediction_model(model, spec, &mut mg, &names, scalar);
     let (a, b) = (&prediction.a, &prediction.b);
     let terminal = terminal_weight(&mut mg.graph, (a, b), spec, &names, scalar);
-    let condensed = condense(
+    let condensed = condense_model(spec, &mut mg.graph, (a, b, &terminal.p), &moves, &names);
+    let lowered = condensed.lower(&mg.graph, &moves, &names, scalar);
+    let linear = linear_term(
         model,
         spec,
         &mut mg,
-        (a, b, &terminal.p),
+        (a, &condensed),
         &moves,
         &names,
         scalar,
     );
     let qp = active_set_loop(&mut mg.graph, &moves, &names, scalar);
+    let weighted: Vec<NodeId> = condensed
+        .weighted
+        .iter()
+        .flatten()
+        .flatten()
+        .copied()
+        .collect();
+    let cache = Cache::new(&mg, &prediction.used, &moves.hessian, &weighted, scalar);
 
-    let stages = [&terminal.stage.code, &condensed.stage.code, &qp.code];
+    let (linear_code, qp_code) = (&linear.stage.code, &qp.code);
     let commit = commit(&moves, &terminal);
     let plan = quote! {
-        #(#stages)*
+        #linear_code
+        #qp_code
         #commit
     };
+    let rebuild = [&terminal.stage.code, &lowered.code];
+    let rebuild = quote! { #(#rebuild)* };
     let prediction_method = prediction_method(model, &mg, &prediction, scalar);
-    let solve = solve_method(model, &mg, (&prediction, &condensed.used), plan, scalar);
+    let solve = SolveParts {
+        prediction: &prediction,
+        used: &linear.used,
+        cache: &cache,
+        terminal: &terminal,
+    };
+    let solve = solve_method(model, &mg, &solve, (rebuild, plan), scalar);
     let methods = quote! {
         #prediction_method
 
         #solve
     };
-    let tokens = type_tokens(model, spec, methods, &moves, scalar, prediction.holds);
+    let tokens = type_tokens(
+        model,
+        spec,
+        methods,
+        (&moves, &cache),
+        scalar,
+        prediction.holds,
+    );
     MpcCode {
         tokens,
         prediction_ops: prediction.stage.ops,
         riccati_ops: terminal.stage.ops,
-        condense_ops: condensed.stage.ops,
+        condense_ops: lowered.ops.plus(linear.stage.ops),
         iteration_ops: qp.iteration_ops,
     }
 }
@@ -173,37 +202,72 @@ fn prediction_method(
     }
 }
 
-/// `fn solve`: the prediction model, then the estimate's reading for the condensed
-/// problem, then `plan` (the terminal weight, the condensed problem, the active-set loop
-/// and the commit).
+/// What `solve` is built of besides its plan.
+struct SolveParts<'a> {
+    prediction: &'a Prediction,
+    /// The model variables the linear term reads.
+    used: &'a BTreeSet<VarId>,
+    cache: &'a Cache,
+    terminal: &'a Terminal,
+}
+
+/// `fn solve`: the kept model, or the prediction model and `rebuild` (the terminal
+/// weight and the condensed Hessian) on it; then the estimate's reading for the linear
+/// term and `plan` (the linear term, the active-set loop and the commit).
 fn solve_method(
     model: &Model,
     mg: &ModelGraph,
-    (prediction, used): (&Prediction, &BTreeSet<VarId>),
-    plan: TokenStream,
+    parts: &SolveParts,
+    (rebuild, plan): (TokenStream, TokenStream),
     scalar: Scalar,
 ) -> TokenStream {
     let ty = ident(scalar.type_name());
     let [n, m] = [model.state_len(), model.inputs.len()].map(Literal::usize_unsuffixed);
-    let (a, b) = (&prediction.a, &prediction.b);
+    let (a, b) = (&parts.prediction.a, &parts.prediction.b);
     let (a_pattern, b_pattern) = (received(&mg.graph, a), received(&mg.graph, b));
-    let solve_read = read_estimate(mg, used, &failure(quote! { Status::RejectedInput }));
+    let solve_read = read_estimate(mg, parts.used, &failure(quote! { Status::RejectedInput }));
     let time = model.uses_time().then(|| quote! { t: #ty, });
     let time_arg = model.uses_time().then(|| quote! { t, });
     let failed = failure(quote! { rejected });
+    let reuse_test = parts.cache.reuse_test(scalar);
+    let (a_values, b_values) = (
+        returned(&mg.graph, a, scalar),
+        returned(&mg.graph, b, scalar),
+    );
+    let (p, gain) = (&parts.terminal.p_idents, &parts.terminal.gain_idents);
+    let gain_rows: Vec<TokenStream> = gain.iter().map(|row| quote! { [#(#row),*] }).collect();
+    let rebuilt = parts.cache.rebuilt(
+        quote! { PredictionModel { a: [#(#a_values),*], b: [#(#b_values),*] } },
+        quote! { ([#(#p),*], [#(#gain_rows),*], terminal_weight_converged) },
+    );
+    let kept = Cache::kept();
+    let unpack = parts.cache.unpack();
     quote! {
         /// Recomputes the plan for the estimate `x`: the prediction model at `x` (and
         /// the operating input `u`), `RICCATI_ITERATIONS` Riccati steps from the last
-        /// terminal weight, the condensed problem (eqs. 42-44) and at most
-        /// `MAX_ITERATIONS` active-set iterations from the last plan, shifted by one
+        /// terminal weight and the condensed Hessian (eqs. 42-43), all three kept from the
+        /// last solve while the values the model reads stay within `MODEL_TOLERANCE` and
+        /// the terminal weight has converged; then the linear term (eq. 44) at `x` and at
+        /// most `MAX_ITERATIONS` active-set iterations from the last plan, shifted by one
         /// move. Leaves the controller unchanged unless the status is [`Status::Ok`].
         pub fn solve(&mut self, #time x: &[#ty; #n], u: &[#ty; #m]) -> MpcStatus {
-            let PredictionModel { a: #a_pattern, b: #b_pattern } = match Self::prediction_model(#time_arg x, u) {
-                Ok(model) => model,
-                Err(rejected) => {
-                    #failed
-                }
+            #reuse_test
+            let (model_key, model, (terminal_weight, terminal_gain, terminal_weight_converged), hessian, weighted) = if reuse {
+                #kept
+            } else {
+                let PredictionModel { a: #a_pattern, b: #b_pattern } = match Self::prediction_model(#time_arg x, u) {
+                    Ok(model) => model,
+                    Err(rejected) => {
+                        #failed
+                    }
+                };
+                #rebuild
+                #rebuilt
             };
+            let PredictionModel { a: #a_pattern, .. } = model;
+            let [#(#p),*] = terminal_weight;
+            let [#(#gain_rows),*] = terminal_gain;
+            #unpack
             #solve_read
             #plan
         }
@@ -771,33 +835,94 @@ fn abs_fn(scalar: Scalar) -> TokenStream {
     }
 }
 
-/// The condensed problem's code, which binds `H` (packed) and `c` by name, and the model
-/// variables it reads.
-struct Condensed {
+/// The model's part of the condensed problem as nodes: `H` (packed), and the weighted
+/// responses `S_(i+1) B` as nodes, and as the variables (or literals) the linear term
+/// reads.
+struct CondensedNodes {
+    hessian: Vec<NodeId>,
+    weighted_nodes: Vec<Matrix>,
+    weighted: Vec<Matrix>,
+    weighted_names: Vec<Vec<Vec<String>>>,
+}
+
+/// Eqs. (42)-(43): `H` and the weighted responses from `A`, `B`, `Q`, `R` and `P_f`.
+fn condense_model(
+    spec: &MpcSpec,
+    g: &mut Graph,
+    (a, b, p): (&Matrix, &Matrix, &[NodeId]),
+    moves: &MoveNames,
+    names: &Names,
+) -> CondensedNodes {
+    let (ns, nu) = (spec.states.len(), spec.inputs.len());
+    let q = symmetric_from_packed(&packed_vars(g, "q", ns, &names.taken), ns);
+    let r = symmetric_from_packed(&packed_vars(g, "r", nu, &names.taken), nu);
+    let terminal = symmetric_from_packed(p, ns);
+    let horizon = spec.horizon as usize;
+    let model = condensed_hessian(g, (a, b), (&q, &r, &terminal), horizon);
+    let weighted_names: Vec<Vec<Vec<String>>> = (1..=horizon)
+        .map(|step| names.matrix(&format!("s{step}b"), ns, nu))
+        .collect();
+    let weighted = model
+        .weighted
+        .iter()
+        .zip(&weighted_names)
+        .map(|(w, names)| declare_matrix(g, w, names))
+        .collect();
+    debug_assert_eq!(model.hessian.len(), moves.hessian.len());
+    CondensedNodes {
+        hessian: model.hessian,
+        weighted_nodes: model.weighted,
+        weighted,
+        weighted_names,
+    }
+}
+
+impl CondensedNodes {
+    /// The code that binds `H` and the weighted responses by name.
+    fn lower(&self, g: &Graph, moves: &MoveNames, names: &Names, scalar: Scalar) -> Stage {
+        let mut roots = self.hessian.clone();
+        roots.extend(self.weighted_nodes.iter().flatten().flatten());
+        let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
+        for (&node, name) in self.hessian.iter().zip(&moves.hessian) {
+            bind_as(&mut lowerer, node, name);
+        }
+        for (w, names) in self.weighted_nodes.iter().zip(&self.weighted_names) {
+            bind_matrix(&mut lowerer, w, names);
+        }
+        let ops = lowerer.ops();
+        let statements = lowerer.take_statements();
+        Stage {
+            code: quote! {
+                // The condensed Hessian (eqs. 42-43) and the weighted responses of eq. 44.
+                #(#statements)*
+            },
+            ops,
+        }
+    }
+}
+
+/// The linear term's code, which binds `c` by name, and the model variables it reads.
+struct Linear {
     stage: Stage,
     used: BTreeSet<VarId>,
 }
 
-/// Eqs. (42)-(44) on the deviation `x - x_ref` of the regulated states.
-fn condense(
+/// Eq. (44) on the deviation `x - x_ref` of the regulated states.
+fn linear_term(
     model: &Model,
     spec: &MpcSpec,
     mg: &mut ModelGraph,
-    (a, b, p): (&Matrix, &Matrix, &[NodeId]),
+    (a, condensed): (&Matrix, &CondensedNodes),
     moves: &MoveNames,
     names: &Names,
     scalar: Scalar,
-) -> Condensed {
-    let (ns, nu) = (spec.states.len(), spec.inputs.len());
+) -> Linear {
     let references: Vec<String> = spec
         .states
         .iter()
         .map(|&i| names.fresh(&format!("{}_ref", model.states[i].name)))
         .collect();
     let g = &mut mg.graph;
-    let q = symmetric_from_packed(&packed_vars(g, "q", ns, &names.taken), ns);
-    let r = symmetric_from_packed(&packed_vars(g, "r", nu, &names.taken), nu);
-    let terminal = symmetric_from_packed(p, ns);
     let deviation: Vec<NodeId> = spec
         .states
         .iter()
@@ -807,12 +932,9 @@ fn condense(
             g.sub(mg.x[i], reference)
         })
         .collect();
-    let horizon = spec.horizon as usize;
-    let qp = condensed_qp(g, (a, b), (&q, &r, &terminal), &deviation, horizon);
-    let roots = [&qp.hessian[..], &qp.linear].concat();
-    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
-    let named = qp.hessian.iter().zip(&moves.hessian);
-    for (&node, name) in named.chain(qp.linear.iter().zip(&moves.linear)) {
+    let linear = condensed_linear(g, a, &condensed.weighted, &deviation);
+    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &linear);
+    for (&node, name) in linear.iter().zip(&moves.linear) {
         bind_as(&mut lowerer, node, name);
     }
     let ops = lowerer.ops();
@@ -820,11 +942,11 @@ fn condense(
     let used = lowerer.finish().used_vars;
     let references = references.iter().map(|n| ident(n));
     let code = quote! {
-        // The condensed problem (eqs. 42-44) on the deviation from the reference.
+        // The linear term (eq. 44) on the deviation from the reference.
         let [#(#references),*] = self.x_ref;
         #(#statements)*
     };
-    Condensed {
+    Linear {
         stage: Stage { code, ops },
         used,
     }
@@ -845,6 +967,7 @@ fn commit(moves: &MoveNames, terminal: &Terminal) -> TokenStream {
     let finite = all_finite(&stored);
     let non_finite = failure(quote! { Status::NonFinite });
     let plan_rows = moves.plan_rows();
+    let keep = Cache::store();
     quote! {
         #plan
         if !(#finite) {
@@ -853,6 +976,7 @@ fn commit(moves: &MoveNames, terminal: &Terminal) -> TokenStream {
         self.plan = [#(#plan_rows),*];
         self.terminal_weight = [#(#p),*];
         self.terminal_gain = [#(#gain_rows),*];
+        #keep
         MpcStatus {
             status: Status::Ok,
             optimal,
@@ -920,7 +1044,7 @@ fn type_tokens(
     model: &Model,
     spec: &MpcSpec,
     solve: TokenStream,
-    moves: &MoveNames,
+    (moves, cache): (&MoveNames, &Cache),
     scalar: Scalar,
     holds: bool,
 ) -> TokenStream {
@@ -928,7 +1052,8 @@ fn type_tokens(
     let results = result_types(&dims);
     let doc = mpc_doc(model, spec, holds);
     let constants = constants(spec, &dims, scalar, holds);
-    let constructor = constructor(spec, moves, &dims, scalar);
+    let constructor = constructor(spec, (moves, cache), &dims, scalar);
+    let kept = cache.fields(&dims.ty);
     let set_reference = set_reference(model, spec, moves, &dims);
     let accessors = accessors(spec, &dims);
     let Dims {
@@ -954,6 +1079,7 @@ fn type_tokens(
             terminal_weight: [#ty; #nsp],
             terminal_gain: [[#ty; #ns_len]; #nu_len],
             plan: [[#ty; #nu_len]; #horizon],
+            #kept
         }
 
         impl Mpc {
@@ -1049,6 +1175,7 @@ fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenS
         },
         scalar,
     );
+    let model_tolerance = literal(spec.model_tolerance, scalar);
     let squarings = holds.then(|| {
         let max = Literal::usize_unsuffixed(MAX_SQUARINGS as usize);
         quote! {
@@ -1066,6 +1193,10 @@ fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenS
         const PASSES: usize = #passes;
         /// Riccati steps per solve towards the terminal weight.
         pub const RICCATI_ITERATIONS: usize = #riccati_iterations;
+        /// Largest change, relative to each value, of the values the prediction model
+        /// reads under which a solve keeps the last solve's model, terminal weight and
+        /// condensed Hessian (once the terminal weight has converged).
+        pub const MODEL_TOLERANCE: #ty = #model_tolerance;
         /// Relative change of the terminal weight under which it counts as converged.
         pub const RICCATI_TOLERANCE: #ty = #tolerance;
         /// A bound stays held unless releasing it would move its input by more than
@@ -1079,7 +1210,12 @@ fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenS
 
 /// `fn new`: every entry read checked finite and the bounds ordered, the weights packed,
 /// the terminal weight at `q`, and the plan at zero clipped to the bounds.
-fn constructor(spec: &MpcSpec, moves: &MoveNames, dims: &Dims, scalar: Scalar) -> TokenStream {
+fn constructor(
+    spec: &MpcSpec,
+    (moves, cache): (&MoveNames, &Cache),
+    dims: &Dims,
+    scalar: Scalar,
+) -> TokenStream {
     let Dims {
         ty,
         ns_len,
@@ -1097,6 +1233,7 @@ fn constructor(spec: &MpcSpec, moves: &MoveNames, dims: &Dims, scalar: Scalar) -
     arguments.array("u_max", max.clone(), ty);
     let bounds_order_check = moves.bounds_order_check();
     let start_move = moves.start_move(&zero);
+    let nothing_kept = cache.initial(&zero, ns_len, nu_len);
     arguments.constructor(
         &quote! {
             /// A controller with state weight `q` and input weight `r` (symmetric: upper
@@ -1120,6 +1257,7 @@ fn constructor(spec: &MpcSpec, moves: &MoveNames, dims: &Dims, scalar: Scalar) -
                 terminal_weight: q,
                 terminal_gain: [[#zero; #ns_len]; #nu_len],
                 plan: [#start_move; #horizon],
+                #nothing_kept
             })
         },
     )
