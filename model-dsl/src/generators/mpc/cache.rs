@@ -77,7 +77,7 @@ impl Cache {
             hessian: [#ty; #hessian],
             weighted: [#ty; #weighted],
             model_kept: bool,
-            terminal_weight_converged: bool,
+            terminal_weight_settled: bool,
         }
     }
 
@@ -98,11 +98,12 @@ impl Cache {
             hessian: [#zero; #hessian],
             weighted: [#zero; #weighted],
             model_kept: false,
-            terminal_weight_converged: false,
+            terminal_weight_settled: false,
         }
     }
 
-    /// `let reuse = ..;`: whether the kept model serves this solve.
+    /// `let keep_model = ..;`: whether the kept prediction model serves this solve, and
+    /// `let reuse = ..;`: whether its terminal weight and Hessian serve too.
     pub fn reuse_test(&self, scalar: Scalar) -> TokenStream {
         let zero = literal(0.0, scalar);
         let read_key = &self.read_key;
@@ -119,23 +120,37 @@ impl Cache {
         });
         quote! {
             // The kept model serves while every value it was built at is within
-            // MODEL_TOLERANCE of its value now (a NaN never is) and its terminal weight
-            // had converged.
+            // MODEL_TOLERANCE of its value now (a NaN never is); its terminal weight and
+            // Hessian too once the weight has settled.
             #read_key
             let [#(#kept),*] = self.model_key;
-            let reuse = self.model_kept && self.terminal_weight_converged #(&& (#close))*;
+            let keep_model = self.model_kept #(&& (#close))*;
+            let reuse = keep_model && self.terminal_weight_settled;
+        }
+    }
+
+    /// The model's key and the model: the kept ones, or the values read now and the
+    /// prediction model at them (`prediction`, which returns on failure).
+    pub fn model(&self, prediction: TokenStream) -> TokenStream {
+        let key = &self.key;
+        quote! {
+            let (model_key, model) = if keep_model {
+                (self.model_key, self.model)
+            } else {
+                ([#(#key),*], #prediction)
+            };
         }
     }
 
     /// The value of the rebuilt branch: the key, then the model, the terminal weight and
-    /// gain, whether it converged, the Hessian and the weighted responses, as `kept` lists
-    /// them.
-    pub fn rebuilt(&self, model: TokenStream, terminal: TokenStream) -> TokenStream {
-        let (key, hessian, weighted) = (&self.key, &self.hessian, &self.weighted_stored);
+    /// gain with whether it converged, the Hessian and the weighted responses, as
+    /// [`Cache::kept`] lists them.
+    pub fn rebuilt(&self, terminal: TokenStream) -> TokenStream {
+        let (hessian, weighted) = (&self.hessian, &self.weighted_stored);
         quote! {
             (
-                [#(#key),*],
-                #model,
+                model_key,
+                model,
                 #terminal,
                 [#(#hessian),*],
                 [#(#weighted),*],
@@ -149,7 +164,7 @@ impl Cache {
             (
                 self.model_key,
                 self.model,
-                (self.terminal_weight, self.terminal_gain, true),
+                (self.terminal_weight, self.terminal_gain, true, true),
                 self.hessian,
                 self.weighted,
             )
@@ -174,7 +189,7 @@ impl Cache {
             self.hessian = hessian;
             self.weighted = weighted;
             self.model_kept = true;
-            self.terminal_weight_converged = terminal_weight_converged;
+            self.terminal_weight_settled = terminal_weight_settled;
         }
     }
 }

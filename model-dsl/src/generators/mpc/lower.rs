@@ -230,37 +230,41 @@ fn solve_method(
     let time_arg = model.uses_time().then(|| quote! { t, });
     let failed = failure(quote! { rejected });
     let reuse_test = parts.cache.reuse_test(scalar);
-    let (a_values, b_values) = (
-        returned(&mg.graph, a, scalar),
-        returned(&mg.graph, b, scalar),
-    );
+    let model = parts.cache.model(quote! {
+        match Self::prediction_model(#time_arg x, u) {
+            Ok(model) => model,
+            Err(rejected) => {
+                #failed
+            }
+        }
+    });
     let (p, gain) = (&parts.terminal.p_idents, &parts.terminal.gain_idents);
     let gain_rows: Vec<TokenStream> = gain.iter().map(|row| quote! { [#(#row),*] }).collect();
-    let rebuilt = parts.cache.rebuilt(
-        quote! { PredictionModel { a: [#(#a_values),*], b: [#(#b_values),*] } },
-        quote! { ([#(#p),*], [#(#gain_rows),*], terminal_weight_converged) },
-    );
+    let rebuilt = parts.cache.rebuilt(quote! {
+        (
+            [#(#p),*],
+            [#(#gain_rows),*],
+            terminal_weight_converged,
+            terminal_weight_settled,
+        )
+    });
     let kept = Cache::kept();
     let unpack = parts.cache.unpack();
     quote! {
         /// Recomputes the plan for the estimate `x`: the prediction model at `x` (and
-        /// the operating input `u`), `RICCATI_ITERATIONS` Riccati steps from the last
-        /// terminal weight and the condensed Hessian (eqs. 42-43), all three kept from the
-        /// last solve while the values the model reads stay within `MODEL_TOLERANCE` and
-        /// the terminal weight has converged; then the linear term (eq. 44) at `x` and at
-        /// most `MAX_ITERATIONS` active-set iterations from the last plan, shifted by one
-        /// move. Leaves the controller unchanged unless the status is [`Status::Ok`].
+        /// the operating input `u`), kept from the last solve while the values it reads
+        /// stay within `MODEL_TOLERANCE` of those it was built at; unless the terminal
+        /// weight had converged on that kept model, `RICCATI_ITERATIONS` Riccati steps
+        /// from the last terminal weight and the condensed Hessian (eqs. 42-43); then the
+        /// linear term (eq. 44) at `x` and at most `MAX_ITERATIONS` active-set iterations
+        /// from the last plan, shifted by one move. Leaves the controller unchanged unless the status is [`Status::Ok`].
         pub fn solve(&mut self, #time x: &[#ty; #n], u: &[#ty; #m]) -> MpcStatus {
             #reuse_test
-            let (model_key, model, (terminal_weight, terminal_gain, terminal_weight_converged), hessian, weighted) = if reuse {
+            let (model_key, model, (terminal_weight, terminal_gain, terminal_weight_converged, terminal_weight_settled), hessian, weighted) = if reuse {
                 #kept
             } else {
-                let PredictionModel { a: #a_pattern, b: #b_pattern } = match Self::prediction_model(#time_arg x, u) {
-                    Ok(model) => model,
-                    Err(rejected) => {
-                        #failed
-                    }
-                };
+                #model
+                let PredictionModel { a: #a_pattern, b: #b_pattern } = model;
                 #rebuild
                 #rebuilt
             };
@@ -801,7 +805,15 @@ fn terminal_code(
         .iter()
         .zip(&previous)
         .map(|(p, prev)| quote! { #abs(#p - #prev) });
-    let sizes = p_idents.iter().map(|p| quote! { #abs(#p) });
+    let sizes: Vec<TokenStream> = p_idents.iter().map(|p| quote! { #abs(#p) }).collect();
+    let first: Vec<Ident> = p_idents
+        .iter()
+        .map(|p| ident(&format!("first_{p}")))
+        .collect();
+    let settled = p_idents
+        .iter()
+        .zip(&first)
+        .map(|(p, first)| quote! { #abs(#p - #first) });
     let (hoisted, body, p_next) = (&code.hoisted, &code.body, &code.p_next);
     let (gain_statements, gain_values) = (&code.gain_statements, &code.gain_values);
     quote! {
@@ -810,6 +822,7 @@ fn terminal_code(
         let [#(#r_idents),*] = self.r;
         #(#hoisted)*
         let mut p = self.terminal_weight;
+        let first_p = p;
         let mut previous_p = p;
         for _ in 0..Self::RICCATI_ITERATIONS {
             let [#(#p_idents),*] = p;
@@ -821,6 +834,12 @@ fn terminal_code(
         let [#(#previous),*] = previous_p;
         let terminal_weight_converged =
             #(#changes)+* <= Self::RICCATI_TOLERANCE * (#(#sizes)+*);
+        // Settled: the whole solve's steps moved it by at most the tolerance too. The last
+        // step alone can be small far from the fixed point when the closed loop has a pole
+        // near -1 (a sampling zero), whose error alternates and decays slowly.
+        let [#(#first),*] = first_p;
+        let terminal_weight_settled = terminal_weight_converged
+            && #(#settled)+* <= Self::RICCATI_TOLERANCE * (#(#sizes)+*);
         // The gain of the fixed feedback after the horizon (eq. 41).
         #(#gain_statements)*
         #(let #gain_flat = #gain_values;)*

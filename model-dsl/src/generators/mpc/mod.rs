@@ -8,6 +8,7 @@
 pub mod cache;
 pub mod lower;
 pub mod names;
+pub mod newton;
 pub mod predictive;
 pub mod qp;
 pub mod spec;
