@@ -184,12 +184,15 @@ impl Cache {
     /// The commit of what the next solve may keep.
     pub fn store() -> TokenStream {
         quote! {
-            self.model_key = model_key;
-            self.model = model;
-            self.hessian = hessian;
-            self.weighted = weighted;
-            self.model_kept = true;
-            self.terminal_weight_settled = terminal_weight_settled;
+            // (A solve that reused them leaves them as they are.)
+            if !reuse {
+                self.model_key = model_key;
+                self.model = model;
+                self.hessian = hessian;
+                self.weighted = weighted;
+                self.model_kept = true;
+                self.terminal_weight_settled = terminal_weight_settled;
+            }
         }
     }
 }

@@ -19,7 +19,7 @@ use crate::emit::filter::{packed_vars, time_param};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
 use crate::model::{Model, Scalar};
-use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
+use crate::symbolic::linalg::{add, matmul, packed_len, symmetric_from_packed, Matrix};
 use crate::symbolic::loop_invariant_operands;
 use crate::symbolic::riccati::{riccati_step, RiccatiStep};
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
@@ -114,7 +114,8 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         &names,
         scalar,
     );
-    let qp = active_set_loop(&mut mg.graph, &moves, &names, scalar);
+    let tail = dual_mode_tail(model, spec, &mut mg, (a, b), &moves, &names, scalar);
+    let qp = active_set_loop(&mut mg.graph, &moves, (&names, &tail), scalar);
     let weighted: Vec<NodeId> = condensed
         .weighted
         .iter()
@@ -268,7 +269,7 @@ fn solve_method(
                 #rebuild
                 #rebuilt
             };
-            let PredictionModel { a: #a_pattern, .. } = model;
+            let PredictionModel { a: #a_pattern, b: #b_pattern } = model;
             let [#(#p),*] = terminal_weight;
             let [#(#gain_rows),*] = terminal_gain;
             #unpack
@@ -968,6 +969,52 @@ fn linear_term(
     Linear {
         stage: Stage { code, ops },
         used,
+    }
+}
+
+/// The warm start's new last move (the dual mode's control after the horizon, eq. 41):
+/// `u_tail = -K x`, `x` the deviation the shifted plan's other moves lead to from the
+/// estimate's, through `x+ = A x + B u` (the deviations' dynamics when `u_ref` holds
+/// `x_ref`). Binds `<input>_tail`; reads the warm start's moves `warm_<move>`.
+fn dual_mode_tail(
+    model: &Model,
+    spec: &MpcSpec,
+    mg: &mut ModelGraph,
+    (a, b): (&Matrix, &Matrix),
+    moves: &MoveNames,
+    names: &Names,
+    scalar: Scalar,
+) -> TokenStream {
+    let (ns, nu) = (spec.states.len(), spec.inputs.len());
+    let g = &mut mg.graph;
+    let mut state: Matrix = spec
+        .states
+        .iter()
+        .map(|&i| {
+            let reference = g.var(&names.fresh(&format!("{}_ref", model.states[i].name)));
+            vec![g.sub(mg.x[i], reference)]
+        })
+        .collect();
+    let warm = moves.per_move("warm");
+    for step in warm.chunks(nu.max(1)).take(spec.horizon as usize - 1) {
+        let u: Matrix = step.iter().map(|w| vec![g.var(&w.to_string())]).collect();
+        let (free, forced) = (matmul(g, a, &state), matmul(g, b, &u));
+        state = add(g, &free, &forced);
+    }
+    let gain = matrix_vars(g, &names.matrix("k", nu, ns));
+    let feedback = matmul(g, &gain, &state);
+    let tail: Vec<NodeId> = feedback.iter().map(|row| g.neg(row[0])).collect();
+    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &tail);
+    let values = lowerer.segment(&tail);
+    let statements = lowerer.take_statements();
+    let tail_names = spec
+        .inputs
+        .iter()
+        .map(|&i| ident(&format!("{}_tail", model.inputs[i].name)));
+    quote! {
+        // The new last move: the terminal feedback at the state the others lead to.
+        #(#statements)*
+        #(let #tail_names = #values;)*
     }
 }
 

@@ -33,12 +33,12 @@ pub struct NewtonNames {
     pub hessian: Vec<Ident>,
 }
 
-/// The step's working names: the trailing matrix (packed), `L` below the diagonal, the
-/// pivots' reciprocals and the forward substitution's values.
+/// The step's working names: the trailing matrix (packed; row `k` of it holds column `k`
+/// of `L`, and its diagonal `1 / d_k`, once pivot `k` is done), the column being formed,
+/// and the forward substitution's values.
 struct Work {
     trailing: Vec<Ident>,
-    l: Vec<Vec<Ident>>,
-    inv_d: Vec<Ident>,
+    column: Vec<Ident>,
     forward: Vec<Ident>,
 }
 
@@ -49,24 +49,15 @@ impl Work {
             .iter()
             .map(|n| ident(n))
             .collect();
-        let l = (0..m)
-            .map(|i| {
-                (0..i)
-                    .map(|k| ident(&names.fresh(&format!("l_{}_{}", i + 1, k + 1))))
-                    .collect()
-            })
-            .collect();
-        let inv_d = (1..=m)
-            .map(|k| ident(&names.fresh(&format!("inv_d{k}"))))
-            .collect();
-        let forward = (1..=m)
-            .map(|k| ident(&names.fresh(&format!("forward{k}"))))
-            .collect();
+        let fresh = |prefix: &str| -> Vec<Ident> {
+            (1..=m)
+                .map(|k| ident(&names.fresh(&format!("{prefix}{k}"))))
+                .collect()
+        };
         Work {
             trailing,
-            l,
-            inv_d,
-            forward,
+            column: fresh("column"),
+            forward: fresh("forward"),
         }
     }
 
@@ -84,13 +75,14 @@ pub fn newton_step(n: &NewtonNames, names: &Names, scalar: Scalar) -> (TokenStre
     let (free, lower, upper) = (&n.free, &n.lower, &n.upper);
     let start = start(n, &work, &zero);
     let pivots: Vec<TokenStream> = (0..m).map(|k| pivot(n, &work, k, scalar)).collect();
-    let substitution = substitution(n, &work, &zero);
+    let back = back_substitution(n, &work, &zero);
     let code = quote! {
-        // The Newton step on the free moves: L D L' over the free pivots only.
+        // The Newton step on the free moves: L D L' over the free pivots only, with the
+        // forward substitution L w = -grad alongside.
         #(let #free = !(#lower || #upper);)*
         #start
         #(#pivots)*
-        #substitution
+        #back
     };
     let (m32, pairs) = (m as u32, (m * (m - 1) / 2) as u32);
     let trailing_updates = ((m * m * m - m) / 6) as u32;
@@ -105,24 +97,17 @@ pub fn newton_step(n: &NewtonNames, names: &Names, scalar: Scalar) -> (TokenStre
     (code, ops)
 }
 
-/// The trailing matrix from `H`, `L` and the reciprocals at zero, and the right side
-/// `-grad` on the free moves (zero on the held).
+/// The trailing matrix from `H`, and the right side `-grad` on the free moves (zero on
+/// the held).
 fn start(n: &NewtonNames, work: &Work, zero: &TokenStream) -> TokenStream {
     let m = n.free.len();
     let mut trailing = Vec::new();
     for i in 0..m {
         for j in i..m {
             let (t, h) = (work.at(m, i, j), &n.hessian[packed_index(m, i, j)]);
-            // Row 1 is never updated: no pivot comes before it.
-            trailing.push(if i == 0 {
-                quote! { let #t = #h; }
-            } else {
-                quote! { let mut #t = #h; }
-            });
+            trailing.push(quote! { let mut #t = #h; });
         }
     }
-    let l = work.l.iter().flatten();
-    let inv_d = &work.inv_d;
     let rhs = (0..m).map(|k| {
         let (w, f, g) = (&work.forward[k], &n.free[k], &n.grad[k]);
         // The first is never updated: no pivot comes before it.
@@ -135,63 +120,60 @@ fn start(n: &NewtonNames, work: &Work, zero: &TokenStream) -> TokenStream {
     });
     quote! {
         #(#trailing)*
-        #(let mut #l = #zero;)*
-        #(let mut #inv_d = #zero;)*
         #(#rhs)*
     }
 }
 
-/// Pivot `k` (from 0), if its move is free: `d_k` checked positive, its column of `L`
-/// (zero in held rows), and the rank-one update of the trailing matrix.
+/// Pivot `k` (from 0), if its move is free: `d_k` checked positive and replaced by its
+/// reciprocal, its column of `L` (zero in held rows), the rank-one update of the trailing
+/// matrix and of the forward substitution, and the column stored in row `k`.
 fn pivot(n: &NewtonNames, work: &Work, k: usize, scalar: Scalar) -> TokenStream {
     let m = n.free.len();
     let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
-    let (free, d, inv_d) = (&n.free[k], work.at(m, k, k), &work.inv_d[k]);
+    let (free, d) = (&n.free[k], work.at(m, k, k));
     let on_failure = failure(quote! { Status::NonPositiveControlWeight });
     let column = (k + 1..m).map(|i| {
-        let (l, f, t) = (&work.l[i][k], &n.free[i], work.at(m, k, i));
-        quote! { #l = if #f { #t * #inv_d } else { #zero }; }
+        let (l, f, t) = (&work.column[i], &n.free[i], work.at(m, k, i));
+        quote! { let #l = if #f { #t * #d } else { #zero }; }
     });
     let mut updates = Vec::new();
     for i in k + 1..m {
         for j in i..m {
-            let (t, l, u) = (work.at(m, i, j), &work.l[i][k], work.at(m, k, j));
+            let (t, l, u) = (work.at(m, i, j), &work.column[i], work.at(m, k, j));
             updates.push(quote! { #t -= #l * #u; });
         }
     }
+    let wk = &work.forward[k];
+    let forward = (k + 1..m).map(|i| {
+        let (wi, l) = (&work.forward[i], &work.column[i]);
+        quote! { #wi -= #l * #wk; }
+    });
+    let store = (k + 1..m).map(|i| {
+        let (t, l) = (work.at(m, k, i), &work.column[i]);
+        quote! { #t = #l; }
+    });
     quote! {
         if #free {
             if #d > #zero {
-                #inv_d = #one / #d;
+                #d = #one / #d;
             } else {
                 #on_failure
             }
             #(#column)*
             #(#updates)*
+            #(#forward)*
+            #(#store)*
         }
     }
 }
 
-/// Forward substitution `L w = rhs` column by column over the free pivots, then back
-/// substitution `L' p = D^-1 w`, zero on the held moves.
-fn substitution(n: &NewtonNames, work: &Work, zero: &TokenStream) -> TokenStream {
+/// Back substitution `L' p = D^-1 w`, zero on the held moves.
+fn back_substitution(n: &NewtonNames, work: &Work, zero: &TokenStream) -> TokenStream {
     let m = n.free.len();
-    let forward = (0..m.saturating_sub(1)).map(|k| {
-        let (f, wk) = (&n.free[k], &work.forward[k]);
-        let updates = (k + 1..m).map(|i| {
-            let (wi, l) = (&work.forward[i], &work.l[i][k]);
-            quote! { #wi -= #l * #wk; }
-        });
-        quote! {
-            if #f {
-                #(#updates)*
-            }
-        }
-    });
     let back = (0..m).rev().map(|k| {
-        let (s, f, w, inv) = (&n.step[k], &n.free[k], &work.forward[k], &work.inv_d[k]);
+        let (s, f, w, inv) = (&n.step[k], &n.free[k], &work.forward[k], work.at(m, k, k));
         let later = (k + 1..m).map(|i| {
-            let (l, si) = (&work.l[i][k], &n.step[i]);
+            let (l, si) = (work.at(m, k, i), &n.step[i]);
             quote! { - #l * #si }
         });
         quote! {
@@ -199,7 +181,6 @@ fn substitution(n: &NewtonNames, work: &Work, zero: &TokenStream) -> TokenStream
         }
     });
     quote! {
-        #(#forward)*
         #(#back)*
     }
 }

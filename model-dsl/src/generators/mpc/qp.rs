@@ -18,7 +18,7 @@ use crate::emit::code::{all_finite, packed_names};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
 use crate::model::{Model, Scalar};
-use crate::symbolic::linalg::{matmul, symmetric_from_packed, Matrix};
+use crate::symbolic::linalg::{matmul, packed_index, symmetric_from_packed, Matrix};
 use crate::symbolic::Graph;
 use proc_macro2::{Ident, TokenStream};
 use quote::quote;
@@ -72,7 +72,7 @@ impl MoveNames {
     }
 
     /// `<prefix>_<move>` for every move.
-    fn per_move(&self, prefix: &str) -> Vec<Ident> {
+    pub fn per_move(&self, prefix: &str) -> Vec<Ident> {
         self.moves
             .iter()
             .map(|m| ident(&format!("{prefix}_{m}")))
@@ -208,17 +208,15 @@ pub struct QpCode {
 }
 
 /// The loop, on the names of `moves`: `H` and `c` must be bound before it.
-pub fn active_set_loop(g: &mut Graph, moves: &MoveNames, names: &Names, scalar: Scalar) -> QpCode {
+pub fn active_set_loop(
+    g: &mut Graph,
+    moves: &MoveNames,
+    (names, tail): (&Names, &TokenStream),
+    scalar: Scalar,
+) -> QpCode {
     let m = moves.len();
-    let (grad_statements, grad_values, grad_ops) =
-        gradient(g, (moves, &moves.moves), names, scalar);
-    let projected: Vec<String> = moves
-        .per_move("projected")
-        .iter()
-        .map(|p| p.to_string())
-        .collect();
-    let projected_gradient = gradient(g, (moves, &projected), names, scalar);
-    let setup = bounds_and_warm_start(moves);
+    let (grad_statements, grad_values) = gradient(g, moves, names, scalar);
+    let setup = bounds_and_warm_start(moves, tail);
     let release = release_check(moves, scalar);
     let newton = NewtonNames {
         free: moves.per_move("free"),
@@ -229,18 +227,18 @@ pub fn active_set_loop(g: &mut Graph, moves: &MoveNames, names: &Names, scalar: 
         hessian: moves.hessian.iter().map(|h| ident(h)).collect(),
     };
     let (step, step_ops) = newton_step(&newton, names, scalar);
-    let ratio = ratio_test(moves, scalar, &projected_gradient);
+    let ratio = ratio_test(moves, scalar);
     let grad = &newton.grad;
     let code = quote! {
         #setup
+        // The cost's gradient H v + c at the warm start; each step updates it.
+        #(#grad_statements)*
+        #(let mut #grad = #grad_values;)*
         let mut full_step = false;
         let mut optimal = false;
         // Newton steps taken; the pass after the last step only checks the multipliers.
         let mut steps = usize::MIN;
         for pass in 1..=Self::PASSES {
-            // The cost's gradient H v + c at the iterate.
-            #(#grad_statements)*
-            #(let #grad = #grad_values;)*
             if full_step {
                 #release
             }
@@ -260,31 +258,32 @@ pub fn active_set_loop(g: &mut Graph, moves: &MoveNames, names: &Names, scalar: 
         compare: 4 * m as u32,
         ..Default::default()
     };
-    // The projection's gradient and costs, when the step is cut short.
-    let projection = projected_gradient.2.plus(OpCount {
-        add: 4 * m as u32 + 2,
-        mul: 3 * m as u32 + 4,
-        compare: 2 * m as u32 + 1,
+    // The gradient's update along the step, with every move free; and the projection's
+    // when the step is cut short: its moves, their gradient and the costs' changes.
+    let (m32, square) = (m as u32, (m * m) as u32);
+    let update = OpCount {
+        add: square + 4 * m32 + 2,
+        mul: square + 3 * m32 + 4,
+        compare: 2 * m32 + 1,
         ..Default::default()
-    });
+    };
     QpCode {
         code,
-        iteration_ops: grad_ops.plus(step_ops).plus(extra).plus(projection),
+        iteration_ops: step_ops.plus(extra).plus(update),
     }
 }
 
-/// The gradient `H v + c` at the variables named `at`, lowered: its statements,
-/// its values and its arithmetic.
+/// The gradient `H v + c` at the moves, lowered: its statements and its values.
 fn gradient(
     g: &mut Graph,
-    (moves, at): (&MoveNames, &[String]),
+    moves: &MoveNames,
     names: &Names,
     scalar: Scalar,
-) -> (Vec<TokenStream>, Vec<TokenStream>, OpCount) {
+) -> (Vec<TokenStream>, Vec<TokenStream>) {
     let m = moves.len();
     let hessian_vars: Vec<_> = moves.hessian.iter().map(|n| g.var(n)).collect();
     let linear_vars: Vec<_> = moves.linear.iter().map(|n| g.var(n)).collect();
-    let move_vars: Vec<_> = at.iter().map(|n| g.var(n)).collect();
+    let move_vars: Vec<_> = moves.moves.iter().map(|n| g.var(n)).collect();
     let hessian = symmetric_from_packed(&hessian_vars, m);
     let column: Matrix = move_vars.iter().map(|&v| vec![v]).collect();
     let product = matmul(g, &hessian, &column);
@@ -295,14 +294,14 @@ fn gradient(
         .collect();
     let mut lowerer = Lowerer::new(g, scalar, names.namer(), &gradient);
     let values = lowerer.segment(&gradient);
-    let ops = lowerer.ops();
-    (lowerer.take_statements(), values, ops)
+    (lowerer.take_statements(), values)
 }
 
 /// Bounds of the deviations from `u_ref`, and the warm start: the last plan shifted by
-/// one move (the last move repeated), clipped to the bounds, with the bounds it touches
-/// held.
-fn bounds_and_warm_start(moves: &MoveNames) -> TokenStream {
+/// one move, its new last move the terminal feedback `-K x` at the state the shifted
+/// moves lead to (`tail`, which binds `<input>_tail` from the others: the dual mode's
+/// control after the horizon), clipped to the bounds, with the bounds it touches held.
+fn bounds_and_warm_start(moves: &MoveNames, tail: &TokenStream) -> TokenStream {
     let (reference, min, max) = (
         moves.per_input("ref"),
         moves.per_input("minimum"),
@@ -337,6 +336,9 @@ fn bounds_and_warm_start(moves: &MoveNames) -> TokenStream {
         .map(|k| ident(&moves.hessian[crate::symbolic::linalg::packed_index(moves.len(), k, k)]))
         .collect();
     let warm = moves.per_move("warm");
+    let (early, last) = warm.split_at(last_step * nu);
+    let early_shifted = &shifted[..last_step * nu];
+    let (early_ref, tail_values) = (&move_ref[..last_step * nu], moves.per_input("tail"));
     let clipped: Vec<TokenStream> = warm
         .iter()
         .zip(move_low.iter().zip(&move_high))
@@ -352,7 +354,9 @@ fn bounds_and_warm_start(moves: &MoveNames) -> TokenStream {
         // Warm start: the last plan shifted by one move, clipped, holding the bounds it
         // touches.
         let [#(#previous_rows),*] = self.plan;
-        #(let #warm = #shifted - #move_ref;)*
+        #(let #early = #early_shifted - #early_ref;)*
+        #tail
+        #(let #last = #tail_values;)*
         #(let mut #move_ids = #clipped;)*
         #(let mut #lower = #move_ids <= #move_low;)*
         #(let mut #upper = !#lower && #move_ids >= #move_high;)*
@@ -418,11 +422,7 @@ fn release_check(moves: &MoveNames, scalar: Scalar) -> TokenStream {
 /// "Projected Newton methods for optimization problems with simple constraints"): it
 /// holds every bound the step crosses at once, instead of one an iteration, and is taken
 /// when it costs less, so the cost still never rises.
-fn ratio_test(
-    moves: &MoveNames,
-    scalar: Scalar,
-    projected_gradient: &(Vec<TokenStream>, Vec<TokenStream>, OpCount),
-) -> TokenStream {
+fn ratio_test(moves: &MoveNames, scalar: Scalar) -> TokenStream {
     let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
     let (step, ratio) = (moves.per_move("step"), moves.per_move("ratio"));
     let (lower, upper) = (moves.per_move("lower"), moves.per_move("upper"));
@@ -449,8 +449,10 @@ fn ratio_test(
         .into_iter()
         .reduce(|first, next| quote! { #first else #next })
         .unwrap_or_default();
-    let projection = projection(moves, scalar, projected_gradient);
+    let projection = projection(moves, scalar);
     let projected = moves.per_move("projected");
+    let (grad, grad_projected) = (moves.per_move("grad"), moves.per_move("grad_projected"));
+    let update = gradient_update(moves);
     quote! {
         // Ratio test: the longest step that keeps every move within its bounds.
         #(
@@ -474,14 +476,17 @@ fn ratio_test(
         full_step = alpha >= #one;
         if full_step {
             #(#v += alpha * #step;)*
+            #update
         } else {
             #projection
-            if cost_projected < cost_cut {
+            if gain_projected < gain_cut {
                 #(#v = #projected;)*
+                #(#grad = #grad_projected;)*
                 #(#lower = #v <= #low;)*
                 #(#upper = !#lower && #v >= #high;)*
             } else {
                 #(#v += alpha * #step;)*
+                #update
                 // Hold the first bound in the way, exactly.
                 #chain
             }
@@ -489,35 +494,83 @@ fn ratio_test(
     }
 }
 
-/// The costs `1/2 v' H v + c' v` of the step cut short, `cost_cut`, and of the projected
-/// step, `cost_projected`, with the projected moves `projected_<move>`. The cut step's
-/// cost follows from the iterate's: along the Newton step `p` on the free moves,
-/// `p' H p = -p' grad`, so the cost changes by `alpha (1 - alpha / 2) p' grad`.
-fn projection(
-    moves: &MoveNames,
-    scalar: Scalar,
-    (statements, values, _): &(Vec<TokenStream>, Vec<TokenStream>, OpCount),
-) -> TokenStream {
+/// The gradient's update along `alpha` times the step: `H` times it, which is zero on the
+/// held moves, so only the free moves' columns are added.
+fn gradient_update(moves: &MoveNames) -> TokenStream {
+    let m = moves.len();
+    let (free, step, grad) = (
+        moves.per_move("free"),
+        moves.per_move("step"),
+        moves.per_move("grad"),
+    );
+    let columns = (0..m).map(|k| {
+        let (f, s) = (&free[k], &step[k]);
+        let adds = (0..m).map(|i| {
+            let h = ident(&moves.hessian[packed_index(m, i.min(k), i.max(k))]);
+            let g = &grad[i];
+            quote! { #g += #h * moved; }
+        });
+        quote! {
+            if #f {
+                let moved = alpha * #s;
+                #(#adds)*
+            }
+        }
+    });
+    quote! {
+        // The gradient follows the step: H times it, on the free moves' columns.
+        #(#columns)*
+    }
+}
+
+/// The costs' changes from the iterate's: `gain_cut` of the step cut short and
+/// `gain_projected` of the projected step, with the projected moves `projected_<move>` and
+/// the gradient there. Along the Newton step `p` on the free moves, `p' H p = -p' grad`,
+/// so the cut step changes the cost by `alpha (1 - alpha / 2) p' grad`; the projection
+/// moves the free moves only, by `d`, and changes it by `d' grad + 1/2 d' H d`, that is
+/// `1/2 d' (grad + grad_projected)` with `grad_projected = grad + H d`.
+fn projection(moves: &MoveNames, scalar: Scalar) -> TokenStream {
+    let m = moves.len();
     let (half, one) = (literal(0.5, scalar), literal(1.0, scalar));
-    let (step, grad) = (moves.per_move("step"), moves.per_move("grad"));
+    let (step, grad, free) = (
+        moves.per_move("step"),
+        moves.per_move("grad"),
+        moves.per_move("free"),
+    );
     let (low, high) = (moves.per_move_input("low"), moves.per_move_input("high"));
     let v = moves.move_idents();
-    let c: Vec<Ident> = moves.linear.iter().map(|n| ident(n)).collect();
-    let projected = moves.per_move("projected");
-    let whole = moves.per_move("whole");
+    let (projected, whole, shift) = (
+        moves.per_move("projected"),
+        moves.per_move("whole"),
+        moves.per_move("shift"),
+    );
     let grad_projected = moves.per_move("grad_projected");
     let clipped = whole
         .iter()
         .zip(low.iter().zip(&high))
         .map(|(w, (lo, hi))| clip(w, lo, hi));
+    let columns = (0..m).map(|k| {
+        let (f, d) = (&free[k], &shift[k]);
+        let adds = (0..m).map(|i| {
+            let h = ident(&moves.hessian[packed_index(m, i.min(k), i.max(k))]);
+            let g = &grad_projected[i];
+            quote! { #g += #h * #d; }
+        });
+        quote! {
+            if #f {
+                #(#adds)*
+            }
+        }
+    });
     quote! {
-        let cost = #half * (#(#v * (#grad + #c))+*);
         let descent = #(#step * #grad)+*;
-        let cost_cut = cost + alpha * (#one - #half * alpha) * descent;
+        let gain_cut = alpha * (#one - #half * alpha) * descent;
         #(let #whole = #v + #step;)*
         #(let #projected = #clipped;)*
-        #(#statements)*
-        #(let #grad_projected = #values;)*
-        let cost_projected = #half * (#(#projected * (#grad_projected + #c))+*);
+        // Zero on the held moves, whose step is zero.
+        #(let #shift = #projected - #v;)*
+        #(let mut #grad_projected = #grad;)*
+        #(#columns)*
+        let gain_projected = #half * (#(#shift * (#grad + #grad_projected))+*);
     }
 }
