@@ -206,6 +206,42 @@ fn the_plan_agrees_with_clarabel_on_random_problems() {
 }
 
 #[test]
+fn the_model_is_kept_within_its_tolerance_and_rebuilt_beyond_it() {
+    // The blade's demo keeps its model while 1/m moves by less than 1e-3 of itself.
+    assert_eq!(blade::Mpc::MODEL_TOLERANCE, 1e-3);
+    let x = estimate(2e-3, 0.1, 5.0);
+    let mut settled = controller(100.0);
+    for _ in 0..300 {
+        assert_eq!(settled.solve(&x, &[0.0]).status, Status::Ok);
+    }
+    let solve_at = |inv_m: f64| {
+        let mut mpc = settled;
+        let status = mpc.solve(&estimate(x[0], x[1], inv_m), &[0.0]);
+        assert!(status.optimal, "{status:?}");
+        mpc
+    };
+    let same = solve_at(5.0);
+    // Within the tolerance the kept model (and terminal weight) serve: the same plan and
+    // weight, bit for bit.
+    let near = solve_at(5.0 * (1.0 + 5e-4));
+    assert_eq!(near.plan(), same.plan());
+    assert_eq!(near.terminal_weight(), same.terminal_weight());
+    // Beyond it the model is rebuilt at the estimate, and the terminal weight moves.
+    let far = solve_at(5.0 * (1.0 + 2e-3));
+    assert_ne!(far.terminal_weight(), same.terminal_weight());
+    let (a, b) = prediction(5.0 * (1.0 + 2e-3));
+    let p_ref = reference::dare(&a, &b, &matrix(&Q), &matrix(&R));
+    let (p_far, p_same) = (
+        matrix(&far.terminal_weight()),
+        matrix(&same.terminal_weight()),
+    );
+    assert!(
+        relative(&p_far, &p_ref) < relative(&p_same, &p_ref),
+        "the rebuilt weight moves towards the new model's DARE"
+    );
+}
+
+#[test]
 fn non_finite_estimates_and_bounds_are_rejected_with_the_controller_unchanged() {
     let mut mpc = controller(100.0);
     assert!(converge(&mut mpc, &estimate(1e-3, 0.0, 5.0)).optimal);
