@@ -1019,18 +1019,22 @@ fn dual_mode_tail(
 }
 
 /// The plan's commit: moves back to absolute inputs, clipped to the bounds (so rounding
-/// never puts one outside), then the finiteness check of everything stored.
+/// never puts one outside), then the finiteness check of everything stored (the kept
+/// terminal weight and gain were checked when they were stored).
 fn commit(moves: &MoveNames, terminal: &Terminal) -> TokenStream {
     let plan = moves.absolute_plan();
     let (p, gain) = (&terminal.p_idents, &terminal.gain_idents);
     let gain_rows = gain.iter().map(|row| quote! { [#(#row),*] });
-    let stored: Vec<Ident> = moves
-        .absolute_names()
-        .into_iter()
-        .chain(p.iter().cloned())
+    let terminal_values: Vec<Ident> = p
+        .iter()
+        .cloned()
         .chain(gain.iter().flatten().cloned())
         .collect();
-    let finite = all_finite(&stored);
+    let (plan_finite, terminal_finite) = (
+        all_finite(&moves.absolute_names()),
+        all_finite(&terminal_values),
+    );
+    let finite = quote! { #plan_finite && (reuse || #terminal_finite) };
     let non_finite = failure(quote! { Status::NonFinite });
     let plan_rows = moves.plan_rows();
     let keep = Cache::store();
