@@ -242,6 +242,36 @@ fn the_model_is_kept_within_its_tolerance_and_rebuilt_beyond_it() {
 }
 
 #[test]
+fn every_solve_of_the_blade_run_is_the_qp_its_model_and_weight_define() {
+    // The QP each solve of the firmware's run minimises, rebuilt on the host from what the
+    // controller exposes (the model it used, its terminal weight, the estimate and the
+    // tuning), as a peer solver would take it: Clarabel agrees with every plan.
+    use generated_demo::mpc_sequence::{mpc_tuning, BladeEstimates};
+    let limit = f64::from(mpc_tuning::U_MAX);
+    let mut mpc = controller(limit);
+    let mut worst = 0.0_f64;
+    for (k, x) in BladeEstimates::new().take(300).enumerate() {
+        let x = x.map(f64::from);
+        let status = mpc.solve(&x, &[0.0]);
+        assert!(
+            status.status == Status::Ok && status.optimal,
+            "{k}: {status:?}"
+        );
+        let model = mpc.model();
+        let (a, b) = (matrix(&model.a), matrix(&model.b));
+        let p = matrix(&mpc.terminal_weight());
+        let x0 = DVector::from_vec(vec![x[0], x[1]]);
+        let (h, c) = reference::condensed((&a, &b), (&matrix(&Q), &matrix(&R), &p), &x0, 10);
+        let expected = reference::box_qp(&h, &c, &[-limit; 10], &[limit; 10]);
+        for (u, v) in mpc.plan().iter().zip(expected.iter()) {
+            worst = worst.max((u[0] - v).abs());
+        }
+    }
+    println!("the blade run's plans against Clarabel on their QPs: {worst:.2e} V");
+    assert!(worst < 1e-6, "{worst:e} V");
+}
+
+#[test]
 fn non_finite_estimates_and_bounds_are_rejected_with_the_controller_unchanged() {
     let mut mpc = controller(100.0);
     assert!(converge(&mut mpc, &estimate(1e-3, 0.0, 5.0)).optimal);

@@ -1383,6 +1383,15 @@ fn accessors(spec: &MpcSpec, dims: &Dims) -> TokenStream {
             self.plan
         }
 
+        /// The prediction model `x+ = A x + B u` the last solve used: built at its
+        /// estimate, or kept from an earlier one within `MODEL_TOLERANCE` (all zero before
+        /// the first solve). With the terminal weight, the weights, the bounds, the
+        /// reference and the estimate, it is the whole problem the plan minimises.
+        #[must_use]
+        pub fn model(&self) -> PredictionModel {
+            self.model
+        }
+
         /// The terminal weight `P_f` of the last solve.
         #[must_use]
         pub fn terminal_weight(&self) -> [[#ty; #ns_len]; #ns_len] {
