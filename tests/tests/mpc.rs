@@ -206,6 +206,72 @@ fn the_plan_agrees_with_clarabel_on_random_problems() {
 }
 
 #[test]
+fn the_model_is_kept_within_its_tolerance_and_rebuilt_beyond_it() {
+    // The blade's demo keeps its model while 1/m moves by less than 1e-3 of itself.
+    assert_eq!(blade::Mpc::MODEL_TOLERANCE, 1e-3);
+    let x = estimate(2e-3, 0.1, 5.0);
+    let mut settled = controller(100.0);
+    for _ in 0..300 {
+        assert_eq!(settled.solve(&x, &[0.0]).status, Status::Ok);
+    }
+    let solve_at = |inv_m: f64| {
+        let mut mpc = settled;
+        let status = mpc.solve(&estimate(x[0], x[1], inv_m), &[0.0]);
+        assert!(status.optimal, "{status:?}");
+        mpc
+    };
+    let same = solve_at(5.0);
+    // Within the tolerance the kept model (and terminal weight) serve: the same plan and
+    // weight, bit for bit.
+    let near = solve_at(5.0 * (1.0 + 5e-4));
+    assert_eq!(near.plan(), same.plan());
+    assert_eq!(near.terminal_weight(), same.terminal_weight());
+    // Beyond it the model is rebuilt at the estimate, and the terminal weight moves.
+    let far = solve_at(5.0 * (1.0 + 2e-3));
+    assert_ne!(far.terminal_weight(), same.terminal_weight());
+    let (a, b) = prediction(5.0 * (1.0 + 2e-3));
+    let p_ref = reference::dare(&a, &b, &matrix(&Q), &matrix(&R));
+    let (p_far, p_same) = (
+        matrix(&far.terminal_weight()),
+        matrix(&same.terminal_weight()),
+    );
+    assert!(
+        relative(&p_far, &p_ref) < relative(&p_same, &p_ref),
+        "the rebuilt weight moves towards the new model's DARE"
+    );
+}
+
+#[test]
+fn every_solve_of_the_blade_run_is_the_qp_its_model_and_weight_define() {
+    // The QP each solve of the firmware's run minimises, rebuilt on the host from what the
+    // controller exposes (the model it used, its terminal weight, the estimate and the
+    // tuning), as a peer solver would take it: Clarabel agrees with every plan.
+    use generated_demo::mpc_sequence::{mpc_tuning, BladeEstimates};
+    let limit = f64::from(mpc_tuning::U_MAX);
+    let mut mpc = controller(limit);
+    let mut worst = 0.0_f64;
+    for (k, x) in BladeEstimates::new().take(300).enumerate() {
+        let x = x.map(f64::from);
+        let status = mpc.solve(&x, &[0.0]);
+        assert!(
+            status.status == Status::Ok && status.optimal,
+            "{k}: {status:?}"
+        );
+        let model = mpc.model();
+        let (a, b) = (matrix(&model.a), matrix(&model.b));
+        let p = matrix(&mpc.terminal_weight());
+        let x0 = DVector::from_vec(vec![x[0], x[1]]);
+        let (h, c) = reference::condensed((&a, &b), (&matrix(&Q), &matrix(&R), &p), &x0, 10);
+        let expected = reference::box_qp(&h, &c, &[-limit; 10], &[limit; 10]);
+        for (u, v) in mpc.plan().iter().zip(expected.iter()) {
+            worst = worst.max((u[0] - v).abs());
+        }
+    }
+    println!("the blade run's plans against Clarabel on their QPs: {worst:.2e} V");
+    assert!(worst < 1e-6, "{worst:e} V");
+}
+
+#[test]
 fn non_finite_estimates_and_bounds_are_rejected_with_the_controller_unchanged() {
     let mut mpc = controller(100.0);
     assert!(converge(&mut mpc, &estimate(1e-3, 0.0, 5.0)).optimal);

@@ -5,8 +5,11 @@
 //! (42)-(44), and a primal active-set solve of its box-constrained QP. Each stage is a
 //! symbolic stage lowered to straight-line code; stages hand over through named values.
 
+use super::cache::Cache;
 use super::names::{failure, Names};
-use super::predictive::{column_norm, condensed_qp, scale, zoh_square, zoh_taylor};
+use super::predictive::{
+    column_norm, condensed_hessian, condensed_linear, scale, zoh_square, zoh_taylor,
+};
 use super::qp::{active_set_loop, MoveNames};
 use super::spec::MpcDiscretisation;
 use super::spec::MpcSpec;
@@ -16,7 +19,7 @@ use crate::emit::filter::{packed_vars, time_param};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
 use crate::model::{Model, Scalar};
-use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
+use crate::symbolic::linalg::{add, matmul, packed_len, symmetric_from_packed, Matrix};
 use crate::symbolic::loop_invariant_operands;
 use crate::symbolic::riccati::{riccati_step, RiccatiStep};
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
@@ -100,36 +103,63 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
     let prediction = prediction_model(model, spec, &mut mg, &names, scalar);
     let (a, b) = (&prediction.a, &prediction.b);
     let terminal = terminal_weight(&mut mg.graph, (a, b), spec, &names, scalar);
-    let condensed = condense(
+    let condensed = condense_model(spec, &mut mg.graph, (a, b, &terminal.p), &moves, &names);
+    let lowered = condensed.lower(&mg.graph, &moves, &names, scalar);
+    let linear = linear_term(
         model,
         spec,
         &mut mg,
-        (a, b, &terminal.p),
+        (a, &condensed),
         &moves,
         &names,
         scalar,
     );
-    let qp = active_set_loop(&mut mg.graph, &moves, &names, scalar);
+    let tail = dual_mode_tail(model, spec, &mut mg, (a, b), &moves, &names, scalar);
+    let qp = active_set_loop(&mut mg.graph, &moves, (&names, &tail), scalar);
+    let weighted: Vec<NodeId> = condensed
+        .weighted
+        .iter()
+        .flatten()
+        .flatten()
+        .copied()
+        .collect();
+    let cache = Cache::new(&mg, &prediction.used, &moves.hessian, &weighted, scalar);
 
-    let stages = [&terminal.stage.code, &condensed.stage.code, &qp.code];
+    let (linear_code, qp_code) = (&linear.stage.code, &qp.code);
     let commit = commit(&moves, &terminal);
     let plan = quote! {
-        #(#stages)*
+        #linear_code
+        #qp_code
         #commit
     };
+    let rebuild = [&terminal.stage.code, &lowered.code];
+    let rebuild = quote! { #(#rebuild)* };
     let prediction_method = prediction_method(model, &mg, &prediction, scalar);
-    let solve = solve_method(model, &mg, (&prediction, &condensed.used), plan, scalar);
+    let solve = SolveParts {
+        prediction: &prediction,
+        used: &linear.used,
+        cache: &cache,
+        terminal: &terminal,
+    };
+    let solve = solve_method(model, &mg, &solve, (rebuild, plan), scalar);
     let methods = quote! {
         #prediction_method
 
         #solve
     };
-    let tokens = type_tokens(model, spec, methods, &moves, scalar, prediction.holds);
+    let tokens = type_tokens(
+        model,
+        spec,
+        methods,
+        (&moves, &cache),
+        scalar,
+        prediction.holds,
+    );
     MpcCode {
         tokens,
         prediction_ops: prediction.stage.ops,
         riccati_ops: terminal.stage.ops,
-        condense_ops: condensed.stage.ops,
+        condense_ops: lowered.ops.plus(linear.stage.ops),
         iteration_ops: qp.iteration_ops,
     }
 }
@@ -173,37 +203,76 @@ fn prediction_method(
     }
 }
 
-/// `fn solve`: the prediction model, then the estimate's reading for the condensed
-/// problem, then `plan` (the terminal weight, the condensed problem, the active-set loop
-/// and the commit).
+/// What `solve` is built of besides its plan.
+struct SolveParts<'a> {
+    prediction: &'a Prediction,
+    /// The model variables the linear term reads.
+    used: &'a BTreeSet<VarId>,
+    cache: &'a Cache,
+    terminal: &'a Terminal,
+}
+
+/// `fn solve`: the kept model, or the prediction model and `rebuild` (the terminal
+/// weight and the condensed Hessian) on it; then the estimate's reading for the linear
+/// term and `plan` (the linear term, the active-set loop and the commit).
 fn solve_method(
     model: &Model,
     mg: &ModelGraph,
-    (prediction, used): (&Prediction, &BTreeSet<VarId>),
-    plan: TokenStream,
+    parts: &SolveParts,
+    (rebuild, plan): (TokenStream, TokenStream),
     scalar: Scalar,
 ) -> TokenStream {
     let ty = ident(scalar.type_name());
     let [n, m] = [model.state_len(), model.inputs.len()].map(Literal::usize_unsuffixed);
-    let (a, b) = (&prediction.a, &prediction.b);
+    let (a, b) = (&parts.prediction.a, &parts.prediction.b);
     let (a_pattern, b_pattern) = (received(&mg.graph, a), received(&mg.graph, b));
-    let solve_read = read_estimate(mg, used, &failure(quote! { Status::RejectedInput }));
+    let solve_read = read_estimate(mg, parts.used, &failure(quote! { Status::RejectedInput }));
     let time = model.uses_time().then(|| quote! { t: #ty, });
     let time_arg = model.uses_time().then(|| quote! { t, });
     let failed = failure(quote! { rejected });
+    let reuse_test = parts.cache.reuse_test(scalar);
+    let model = parts.cache.model(quote! {
+        match Self::prediction_model(#time_arg x, u) {
+            Ok(model) => model,
+            Err(rejected) => {
+                #failed
+            }
+        }
+    });
+    let (p, gain) = (&parts.terminal.p_idents, &parts.terminal.gain_idents);
+    let gain_rows: Vec<TokenStream> = gain.iter().map(|row| quote! { [#(#row),*] }).collect();
+    let rebuilt = parts.cache.rebuilt(quote! {
+        (
+            [#(#p),*],
+            [#(#gain_rows),*],
+            terminal_weight_converged,
+            terminal_weight_settled,
+        )
+    });
+    let kept = Cache::kept();
+    let unpack = parts.cache.unpack();
     quote! {
         /// Recomputes the plan for the estimate `x`: the prediction model at `x` (and
-        /// the operating input `u`), `RICCATI_ITERATIONS` Riccati steps from the last
-        /// terminal weight, the condensed problem (eqs. 42-44) and at most
-        /// `MAX_ITERATIONS` active-set iterations from the last plan, shifted by one
-        /// move. Leaves the controller unchanged unless the status is [`Status::Ok`].
+        /// the operating input `u`), kept from the last solve while the values it reads
+        /// stay within `MODEL_TOLERANCE` of those it was built at; unless the terminal
+        /// weight had converged on that kept model, `RICCATI_ITERATIONS` Riccati steps
+        /// from the last terminal weight and the condensed Hessian (eqs. 42-43); then the
+        /// linear term (eq. 44) at `x` and at most `MAX_ITERATIONS` active-set iterations
+        /// from the last plan, shifted by one move. Leaves the controller unchanged unless the status is [`Status::Ok`].
         pub fn solve(&mut self, #time x: &[#ty; #n], u: &[#ty; #m]) -> MpcStatus {
-            let PredictionModel { a: #a_pattern, b: #b_pattern } = match Self::prediction_model(#time_arg x, u) {
-                Ok(model) => model,
-                Err(rejected) => {
-                    #failed
-                }
+            #reuse_test
+            let (model_key, model, (terminal_weight, terminal_gain, terminal_weight_converged, terminal_weight_settled), hessian, weighted) = if reuse {
+                #kept
+            } else {
+                #model
+                let PredictionModel { a: #a_pattern, b: #b_pattern } = model;
+                #rebuild
+                #rebuilt
             };
+            let PredictionModel { a: #a_pattern, b: #b_pattern } = model;
+            let [#(#p),*] = terminal_weight;
+            let [#(#gain_rows),*] = terminal_gain;
+            #unpack
             #solve_read
             #plan
         }
@@ -737,7 +806,15 @@ fn terminal_code(
         .iter()
         .zip(&previous)
         .map(|(p, prev)| quote! { #abs(#p - #prev) });
-    let sizes = p_idents.iter().map(|p| quote! { #abs(#p) });
+    let sizes: Vec<TokenStream> = p_idents.iter().map(|p| quote! { #abs(#p) }).collect();
+    let first: Vec<Ident> = p_idents
+        .iter()
+        .map(|p| ident(&format!("first_{p}")))
+        .collect();
+    let settled = p_idents
+        .iter()
+        .zip(&first)
+        .map(|(p, first)| quote! { #abs(#p - #first) });
     let (hoisted, body, p_next) = (&code.hoisted, &code.body, &code.p_next);
     let (gain_statements, gain_values) = (&code.gain_statements, &code.gain_values);
     quote! {
@@ -746,6 +823,7 @@ fn terminal_code(
         let [#(#r_idents),*] = self.r;
         #(#hoisted)*
         let mut p = self.terminal_weight;
+        let first_p = p;
         let mut previous_p = p;
         for _ in 0..Self::RICCATI_ITERATIONS {
             let [#(#p_idents),*] = p;
@@ -757,6 +835,12 @@ fn terminal_code(
         let [#(#previous),*] = previous_p;
         let terminal_weight_converged =
             #(#changes)+* <= Self::RICCATI_TOLERANCE * (#(#sizes)+*);
+        // Settled: the whole solve's steps moved it by at most the tolerance too. The last
+        // step alone can be small far from the fixed point when the closed loop has a pole
+        // near -1 (a sampling zero), whose error alternates and decays slowly.
+        let [#(#first),*] = first_p;
+        let terminal_weight_settled = terminal_weight_converged
+            && #(#settled)+* <= Self::RICCATI_TOLERANCE * (#(#sizes)+*);
         // The gain of the fixed feedback after the horizon (eq. 41).
         #(#gain_statements)*
         #(let #gain_flat = #gain_values;)*
@@ -771,33 +855,94 @@ fn abs_fn(scalar: Scalar) -> TokenStream {
     }
 }
 
-/// The condensed problem's code, which binds `H` (packed) and `c` by name, and the model
-/// variables it reads.
-struct Condensed {
+/// The model's part of the condensed problem as nodes: `H` (packed), and the weighted
+/// responses `S_(i+1) B` as nodes, and as the variables (or literals) the linear term
+/// reads.
+struct CondensedNodes {
+    hessian: Vec<NodeId>,
+    weighted_nodes: Vec<Matrix>,
+    weighted: Vec<Matrix>,
+    weighted_names: Vec<Vec<Vec<String>>>,
+}
+
+/// Eqs. (42)-(43): `H` and the weighted responses from `A`, `B`, `Q`, `R` and `P_f`.
+fn condense_model(
+    spec: &MpcSpec,
+    g: &mut Graph,
+    (a, b, p): (&Matrix, &Matrix, &[NodeId]),
+    moves: &MoveNames,
+    names: &Names,
+) -> CondensedNodes {
+    let (ns, nu) = (spec.states.len(), spec.inputs.len());
+    let q = symmetric_from_packed(&packed_vars(g, "q", ns, &names.taken), ns);
+    let r = symmetric_from_packed(&packed_vars(g, "r", nu, &names.taken), nu);
+    let terminal = symmetric_from_packed(p, ns);
+    let horizon = spec.horizon as usize;
+    let model = condensed_hessian(g, (a, b), (&q, &r, &terminal), horizon);
+    let weighted_names: Vec<Vec<Vec<String>>> = (1..=horizon)
+        .map(|step| names.matrix(&format!("s{step}b"), ns, nu))
+        .collect();
+    let weighted = model
+        .weighted
+        .iter()
+        .zip(&weighted_names)
+        .map(|(w, names)| declare_matrix(g, w, names))
+        .collect();
+    debug_assert_eq!(model.hessian.len(), moves.hessian.len());
+    CondensedNodes {
+        hessian: model.hessian,
+        weighted_nodes: model.weighted,
+        weighted,
+        weighted_names,
+    }
+}
+
+impl CondensedNodes {
+    /// The code that binds `H` and the weighted responses by name.
+    fn lower(&self, g: &Graph, moves: &MoveNames, names: &Names, scalar: Scalar) -> Stage {
+        let mut roots = self.hessian.clone();
+        roots.extend(self.weighted_nodes.iter().flatten().flatten());
+        let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
+        for (&node, name) in self.hessian.iter().zip(&moves.hessian) {
+            bind_as(&mut lowerer, node, name);
+        }
+        for (w, names) in self.weighted_nodes.iter().zip(&self.weighted_names) {
+            bind_matrix(&mut lowerer, w, names);
+        }
+        let ops = lowerer.ops();
+        let statements = lowerer.take_statements();
+        Stage {
+            code: quote! {
+                // The condensed Hessian (eqs. 42-43) and the weighted responses of eq. 44.
+                #(#statements)*
+            },
+            ops,
+        }
+    }
+}
+
+/// The linear term's code, which binds `c` by name, and the model variables it reads.
+struct Linear {
     stage: Stage,
     used: BTreeSet<VarId>,
 }
 
-/// Eqs. (42)-(44) on the deviation `x - x_ref` of the regulated states.
-fn condense(
+/// Eq. (44) on the deviation `x - x_ref` of the regulated states.
+fn linear_term(
     model: &Model,
     spec: &MpcSpec,
     mg: &mut ModelGraph,
-    (a, b, p): (&Matrix, &Matrix, &[NodeId]),
+    (a, condensed): (&Matrix, &CondensedNodes),
     moves: &MoveNames,
     names: &Names,
     scalar: Scalar,
-) -> Condensed {
-    let (ns, nu) = (spec.states.len(), spec.inputs.len());
+) -> Linear {
     let references: Vec<String> = spec
         .states
         .iter()
         .map(|&i| names.fresh(&format!("{}_ref", model.states[i].name)))
         .collect();
     let g = &mut mg.graph;
-    let q = symmetric_from_packed(&packed_vars(g, "q", ns, &names.taken), ns);
-    let r = symmetric_from_packed(&packed_vars(g, "r", nu, &names.taken), nu);
-    let terminal = symmetric_from_packed(p, ns);
     let deviation: Vec<NodeId> = spec
         .states
         .iter()
@@ -807,12 +952,9 @@ fn condense(
             g.sub(mg.x[i], reference)
         })
         .collect();
-    let horizon = spec.horizon as usize;
-    let qp = condensed_qp(g, (a, b), (&q, &r, &terminal), &deviation, horizon);
-    let roots = [&qp.hessian[..], &qp.linear].concat();
-    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
-    let named = qp.hessian.iter().zip(&moves.hessian);
-    for (&node, name) in named.chain(qp.linear.iter().zip(&moves.linear)) {
+    let linear = condensed_linear(g, a, &condensed.weighted, &deviation);
+    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &linear);
+    for (&node, name) in linear.iter().zip(&moves.linear) {
         bind_as(&mut lowerer, node, name);
     }
     let ops = lowerer.ops();
@@ -820,31 +962,82 @@ fn condense(
     let used = lowerer.finish().used_vars;
     let references = references.iter().map(|n| ident(n));
     let code = quote! {
-        // The condensed problem (eqs. 42-44) on the deviation from the reference.
+        // The linear term (eq. 44) on the deviation from the reference.
         let [#(#references),*] = self.x_ref;
         #(#statements)*
     };
-    Condensed {
+    Linear {
         stage: Stage { code, ops },
         used,
     }
 }
 
+/// The warm start's new last move (the dual mode's control after the horizon, eq. 41):
+/// `u_tail = -K x`, `x` the deviation the shifted plan's other moves lead to from the
+/// estimate's, through `x+ = A x + B u` (the deviations' dynamics when `u_ref` holds
+/// `x_ref`). Binds `<input>_tail`; reads the warm start's moves `warm_<move>`.
+fn dual_mode_tail(
+    model: &Model,
+    spec: &MpcSpec,
+    mg: &mut ModelGraph,
+    (a, b): (&Matrix, &Matrix),
+    moves: &MoveNames,
+    names: &Names,
+    scalar: Scalar,
+) -> TokenStream {
+    let (ns, nu) = (spec.states.len(), spec.inputs.len());
+    let g = &mut mg.graph;
+    let mut state: Matrix = spec
+        .states
+        .iter()
+        .map(|&i| {
+            let reference = g.var(&names.fresh(&format!("{}_ref", model.states[i].name)));
+            vec![g.sub(mg.x[i], reference)]
+        })
+        .collect();
+    let warm = moves.per_move("warm");
+    for step in warm.chunks(nu.max(1)).take(spec.horizon as usize - 1) {
+        let u: Matrix = step.iter().map(|w| vec![g.var(&w.to_string())]).collect();
+        let (free, forced) = (matmul(g, a, &state), matmul(g, b, &u));
+        state = add(g, &free, &forced);
+    }
+    let gain = matrix_vars(g, &names.matrix("k", nu, ns));
+    let feedback = matmul(g, &gain, &state);
+    let tail: Vec<NodeId> = feedback.iter().map(|row| g.neg(row[0])).collect();
+    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &tail);
+    let values = lowerer.segment(&tail);
+    let statements = lowerer.take_statements();
+    let tail_names = spec
+        .inputs
+        .iter()
+        .map(|&i| ident(&format!("{}_tail", model.inputs[i].name)));
+    quote! {
+        // The new last move: the terminal feedback at the state the others lead to.
+        #(#statements)*
+        #(let #tail_names = #values;)*
+    }
+}
+
 /// The plan's commit: moves back to absolute inputs, clipped to the bounds (so rounding
-/// never puts one outside), then the finiteness check of everything stored.
+/// never puts one outside), then the finiteness check of everything stored (the kept
+/// terminal weight and gain were checked when they were stored).
 fn commit(moves: &MoveNames, terminal: &Terminal) -> TokenStream {
     let plan = moves.absolute_plan();
     let (p, gain) = (&terminal.p_idents, &terminal.gain_idents);
     let gain_rows = gain.iter().map(|row| quote! { [#(#row),*] });
-    let stored: Vec<Ident> = moves
-        .absolute_names()
-        .into_iter()
-        .chain(p.iter().cloned())
+    let terminal_values: Vec<Ident> = p
+        .iter()
+        .cloned()
         .chain(gain.iter().flatten().cloned())
         .collect();
-    let finite = all_finite(&stored);
+    let (plan_finite, terminal_finite) = (
+        all_finite(&moves.absolute_names()),
+        all_finite(&terminal_values),
+    );
+    let finite = quote! { #plan_finite && (reuse || #terminal_finite) };
     let non_finite = failure(quote! { Status::NonFinite });
     let plan_rows = moves.plan_rows();
+    let keep = Cache::store();
     quote! {
         #plan
         if !(#finite) {
@@ -853,6 +1046,7 @@ fn commit(moves: &MoveNames, terminal: &Terminal) -> TokenStream {
         self.plan = [#(#plan_rows),*];
         self.terminal_weight = [#(#p),*];
         self.terminal_gain = [#(#gain_rows),*];
+        #keep
         MpcStatus {
             status: Status::Ok,
             optimal,
@@ -920,7 +1114,7 @@ fn type_tokens(
     model: &Model,
     spec: &MpcSpec,
     solve: TokenStream,
-    moves: &MoveNames,
+    (moves, cache): (&MoveNames, &Cache),
     scalar: Scalar,
     holds: bool,
 ) -> TokenStream {
@@ -928,7 +1122,8 @@ fn type_tokens(
     let results = result_types(&dims);
     let doc = mpc_doc(model, spec, holds);
     let constants = constants(spec, &dims, scalar, holds);
-    let constructor = constructor(spec, moves, &dims, scalar);
+    let constructor = constructor(spec, (moves, cache), &dims, scalar);
+    let kept = cache.fields(&dims.ty);
     let set_reference = set_reference(model, spec, moves, &dims);
     let accessors = accessors(spec, &dims);
     let Dims {
@@ -954,6 +1149,7 @@ fn type_tokens(
             terminal_weight: [#ty; #nsp],
             terminal_gain: [[#ty; #ns_len]; #nu_len],
             plan: [[#ty; #nu_len]; #horizon],
+            #kept
         }
 
         impl Mpc {
@@ -1049,6 +1245,7 @@ fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenS
         },
         scalar,
     );
+    let model_tolerance = literal(spec.model_tolerance, scalar);
     let squarings = holds.then(|| {
         let max = Literal::usize_unsuffixed(MAX_SQUARINGS as usize);
         quote! {
@@ -1066,6 +1263,10 @@ fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenS
         const PASSES: usize = #passes;
         /// Riccati steps per solve towards the terminal weight.
         pub const RICCATI_ITERATIONS: usize = #riccati_iterations;
+        /// Largest change, relative to each value, of the values the prediction model
+        /// reads under which a solve keeps the last solve's model, terminal weight and
+        /// condensed Hessian (once the terminal weight has converged).
+        pub const MODEL_TOLERANCE: #ty = #model_tolerance;
         /// Relative change of the terminal weight under which it counts as converged.
         pub const RICCATI_TOLERANCE: #ty = #tolerance;
         /// A bound stays held unless releasing it would move its input by more than
@@ -1079,7 +1280,12 @@ fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenS
 
 /// `fn new`: every entry read checked finite and the bounds ordered, the weights packed,
 /// the terminal weight at `q`, and the plan at zero clipped to the bounds.
-fn constructor(spec: &MpcSpec, moves: &MoveNames, dims: &Dims, scalar: Scalar) -> TokenStream {
+fn constructor(
+    spec: &MpcSpec,
+    (moves, cache): (&MoveNames, &Cache),
+    dims: &Dims,
+    scalar: Scalar,
+) -> TokenStream {
     let Dims {
         ty,
         ns_len,
@@ -1097,6 +1303,7 @@ fn constructor(spec: &MpcSpec, moves: &MoveNames, dims: &Dims, scalar: Scalar) -
     arguments.array("u_max", max.clone(), ty);
     let bounds_order_check = moves.bounds_order_check();
     let start_move = moves.start_move(&zero);
+    let nothing_kept = cache.initial(&zero, ns_len, nu_len);
     arguments.constructor(
         &quote! {
             /// A controller with state weight `q` and input weight `r` (symmetric: upper
@@ -1120,6 +1327,7 @@ fn constructor(spec: &MpcSpec, moves: &MoveNames, dims: &Dims, scalar: Scalar) -
                 terminal_weight: q,
                 terminal_gain: [[#zero; #ns_len]; #nu_len],
                 plan: [#start_move; #horizon],
+                #nothing_kept
             })
         },
     )
@@ -1173,6 +1381,15 @@ fn accessors(spec: &MpcSpec, dims: &Dims) -> TokenStream {
         #[must_use]
         pub fn plan(&self) -> [[#ty; #nu_len]; #horizon] {
             self.plan
+        }
+
+        /// The prediction model `x+ = A x + B u` the last solve used: built at its
+        /// estimate, or kept from an earlier one within `MODEL_TOLERANCE` (all zero before
+        /// the first solve). With the terminal weight, the weights, the bounds, the
+        /// reference and the estimate, it is the whole problem the plan minimises.
+        #[must_use]
+        pub fn model(&self) -> PredictionModel {
+            self.model
         }
 
         /// The terminal weight `P_f` of the last solve.

@@ -5,8 +5,10 @@
 //! `mpc(horizon = 10, states = [q, qd], input = u, discretisation = zoh,
 //! max_iterations = 20, riccati_iterations = 20)`.
 
+pub mod cache;
 pub mod lower;
 pub mod names;
+pub mod newton;
 pub mod predictive;
 pub mod qp;
 pub mod spec;
@@ -62,6 +64,7 @@ impl Kind for Mpc {
         let iterations = ("max_iterations", "iterations");
         let max_iterations = args.whole(iterations, default_iterations, 1000, diag);
         let riccati_iterations = args.whole(("riccati_iterations", "steps"), 20, 10_000, diag);
+        let model_tolerance = model_tolerance(args, diag);
         Some(Box::new(MpcSpec {
             horizon,
             states,
@@ -69,7 +72,24 @@ impl Kind for Mpc {
             discretisation,
             max_iterations,
             riccati_iterations,
+            model_tolerance,
         }))
+    }
+}
+
+/// `model_tolerance` (`0`: the model is kept only while the values it reads are
+/// unchanged, when rebuilding it would give it bit for bit): a fraction, `0 <= .. < 1`.
+fn model_tolerance(args: &mut Args, diag: &mut Diagnostics) -> f64 {
+    let (value, span) = args.number("model_tolerance", 0.0, diag);
+    if (0.0..1.0).contains(&value) {
+        value
+    } else {
+        diag.error(
+            span,
+            "`model_tolerance` is the relative change of the values the prediction model \
+             reads under which it is kept, `0 <= model_tolerance < 1`",
+        );
+        0.0
     }
 }
 

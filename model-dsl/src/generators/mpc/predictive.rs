@@ -75,28 +75,27 @@ pub fn column_norm(g: &mut Graph, phi: &Matrix, gamma: &Matrix) -> NodeId {
     norm.unwrap_or_else(|| g.zero())
 }
 
-/// The condensed problem `min 1/2 U' H U + c' U` over the moves `U = [u_0; ..; u_(n-1)]`
-/// (step by step, each `u_i` all inputs).
-pub struct CondensedQp {
+/// The model's part of the condensed problem `min 1/2 U' H U + c' U` over the moves
+/// `U = [u_0; ..; u_(n-1)]` (step by step, each `u_i` all inputs): what does not depend on
+/// the estimate, so it can be kept while the prediction model is.
+pub struct CondensedModel {
     /// `H`, packed upper triangle, `n m` unknowns.
     pub hessian: Vec<NodeId>,
-    /// `c`, one entry per unknown.
-    pub linear: Vec<NodeId>,
+    /// `S_(i+1) B` for each move `i`, which the linear term weighs the free response by.
+    pub weighted: Vec<Matrix>,
 }
 
-/// Eqs. (42)-(44) without forming the prediction matrices `M` and `N` of eqs. (32)-(33):
+/// Eqs. (42)-(43) without forming the prediction matrices `M` and `N` of eqs. (32)-(33):
 /// with the cost-to-go weights `S_n = P_f`, `S_k = Q + A' S_(k+1) A`, the block of `H`
-/// coupling moves `i <= j` is `(A^(j-i) B)' S_(j+1) B` (plus `R` on the diagonal), and
-/// the linear term of move `i` is `(S_(i+1) B)' A^(i+1) x0`, i.e. eq. (44) times `x0`.
+/// coupling moves `i <= j` is `(A^(j-i) B)' S_(j+1) B` (plus `R` on the diagonal).
 /// `J = x' Q x` summed over the horizon plus `x_n' P_f x_n` and `u' R u` is then
 /// `1/2 U' (2H) U + (2c)' U` + const, which has the same minimiser.
-pub fn condensed_qp(
+pub fn condensed_hessian(
     g: &mut Graph,
     (a, b): (&Matrix, &Matrix),
     (q, r, terminal): (&Matrix, &Matrix, &Matrix),
-    x0: &[NodeId],
     horizon: usize,
-) -> CondensedQp {
+) -> CondensedModel {
     let inputs = b.first().map_or(0, Vec::len);
     let a_t = transpose(a);
     // cost_to_go[k] = S_(k+1), k = 0..horizon-1.
@@ -107,17 +106,11 @@ pub fn condensed_qp(
         cost_to_go.push(add(g, q, &propagated));
     }
     cost_to_go.reverse();
-    // responses[d] = A^d B; free[i] = A^(i+1) x0.
+    // responses[d] = A^d B.
     let mut responses = vec![b.clone()];
     for _ in 1..horizon {
         let previous = responses.last().cloned().unwrap_or_default();
         responses.push(matmul(g, a, &previous));
-    }
-    let mut free = Vec::with_capacity(horizon);
-    let mut state: Matrix = x0.iter().map(|&v| vec![v]).collect();
-    for _ in 0..horizon {
-        state = matmul(g, a, &state);
-        free.push(state.clone());
     }
     // weighted[j] = S_(j+1) B.
     let weighted: Vec<Matrix> = cost_to_go.iter().map(|s| matmul(g, s, b)).collect();
@@ -136,13 +129,26 @@ pub fn condensed_qp(
             }
         }
     }
-    let mut linear = Vec::with_capacity(unknowns);
-    for i in 0..horizon {
-        let term = matmul(g, &transpose(&weighted[i]), &free[i]);
+    CondensedModel {
+        hessian: packed_upper(&hessian),
+        weighted,
+    }
+}
+
+/// Eq. (44) times `x0`: the linear term of move `i` is `(S_(i+1) B)' A^(i+1) x0`, one entry
+/// per unknown, from the weighted responses of [`condensed_hessian`].
+pub fn condensed_linear(
+    g: &mut Graph,
+    a: &Matrix,
+    weighted: &[Matrix],
+    x0: &[NodeId],
+) -> Vec<NodeId> {
+    let mut linear = Vec::new();
+    let mut state: Matrix = x0.iter().map(|&v| vec![v]).collect();
+    for w in weighted {
+        state = matmul(g, a, &state);
+        let term = matmul(g, &transpose(w), &state);
         linear.extend(term.iter().map(|row| row[0]));
     }
-    CondensedQp {
-        hessian: packed_upper(&hessian),
-        linear,
-    }
+    linear
 }

@@ -11,14 +11,15 @@
 //! from the shifted plan usually holds the right bounds: one or two `L D L'` solves
 //! finish it, with an exact answer rather than a tolerance-bound one.
 
-use super::names::{failure, Names};
+use super::names::Names;
+use super::newton::{newton_step, NewtonNames};
 use super::spec::MpcSpec;
-use crate::emit::code::{all_finite, guard_pivots, packed_names, pivot_names};
+use crate::emit::code::{all_finite, packed_names};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
 use crate::model::{Model, Scalar};
-use crate::symbolic::linalg::{ldl_solve, matmul, symmetric_from_packed, LdlSolve, Matrix};
-use crate::symbolic::{Graph, NodeId};
+use crate::symbolic::linalg::{matmul, packed_index, symmetric_from_packed, Matrix};
+use crate::symbolic::Graph;
 use proc_macro2::{Ident, TokenStream};
 use quote::quote;
 
@@ -71,7 +72,7 @@ impl MoveNames {
     }
 
     /// `<prefix>_<move>` for every move.
-    fn per_move(&self, prefix: &str) -> Vec<Ident> {
+    pub fn per_move(&self, prefix: &str) -> Vec<Ident> {
         self.moves
             .iter()
             .map(|m| ident(&format!("{prefix}_{m}")))
@@ -207,28 +208,37 @@ pub struct QpCode {
 }
 
 /// The loop, on the names of `moves`: `H` and `c` must be bound before it.
-pub fn active_set_loop(g: &mut Graph, moves: &MoveNames, names: &Names, scalar: Scalar) -> QpCode {
+pub fn active_set_loop(
+    g: &mut Graph,
+    moves: &MoveNames,
+    (names, tail): (&Names, &TokenStream),
+    scalar: Scalar,
+) -> QpCode {
     let m = moves.len();
-    let iteration = Iteration::new(g, moves, names);
-    let lowered = IterationCode::new(g, &iteration, names, scalar);
-    let setup = bounds_and_warm_start(moves);
+    let (grad_statements, grad_values) = gradient(g, moves, names, scalar);
+    let setup = bounds_and_warm_start(moves, tail);
     let release = release_check(moves, scalar);
-    let mask = mask(moves, &iteration.masked_names, scalar);
+    let newton = NewtonNames {
+        free: moves.per_move("free"),
+        grad: moves.per_move("grad"),
+        step: moves.per_move("step"),
+        lower: moves.per_move("lower"),
+        upper: moves.per_move("upper"),
+        hessian: moves.hessian.iter().map(|h| ident(h)).collect(),
+    };
+    let (step, step_ops) = newton_step(&newton, names, scalar);
     let ratio = ratio_test(moves, scalar);
-    let grad = moves.per_move("grad");
-    let step = moves.per_move("step");
-    let (grad_statements, grad_values) = (&lowered.grad_statements, &lowered.grad_values);
-    let (step_statements, step_values) = (&lowered.step_statements, &lowered.step_values);
+    let grad = &newton.grad;
     let code = quote! {
         #setup
+        // The cost's gradient H v + c at the warm start; each step updates it.
+        #(#grad_statements)*
+        #(let mut #grad = #grad_values;)*
         let mut full_step = false;
         let mut optimal = false;
         // Newton steps taken; the pass after the last step only checks the multipliers.
         let mut steps = usize::MIN;
         for pass in 1..=Self::PASSES {
-            // The cost's gradient H v + c at the iterate.
-            #(#grad_statements)*
-            #(let #grad = #grad_values;)*
             if full_step {
                 #release
             }
@@ -236,118 +246,62 @@ pub fn active_set_loop(g: &mut Graph, moves: &MoveNames, names: &Names, scalar: 
                 break;
             }
             steps = pass;
-            #mask
-            #(#step_statements)*
-            #(let #step = #step_values;)*
+            #step
             #ratio
         }
     };
-    // Per iteration: the masks' selects, the ratio test's divisions, the update.
+    // Per iteration: the ratio test's divisions and comparisons, the update.
     let extra = OpCount {
         add: 2 * m as u32,
         mul: m as u32,
         div: m as u32,
-        compare: (m * (m + 1) / 2 + 4 * m) as u32,
+        compare: 4 * m as u32,
+        ..Default::default()
+    };
+    // The gradient's update along the step, with every move free; and the projection's
+    // when the step is cut short: its moves, their gradient and the costs' changes.
+    let (m32, square) = (m as u32, (m * m) as u32);
+    let update = OpCount {
+        add: square + 4 * m32 + 2,
+        mul: square + 3 * m32 + 4,
+        compare: 2 * m32 + 1,
         ..Default::default()
     };
     QpCode {
         code,
-        iteration_ops: lowered.ops.plus(extra),
+        iteration_ops: step_ops.plus(extra).plus(update),
     }
 }
 
-/// The pivot names of the masked Hessian `H~`.
-const PIVOT: (&str, &str) = ("pivot", "inv_pivot");
-
-/// One iteration's arithmetic as nodes on the variables named by the moves: the gradient
-/// `H v + c`, and the Newton step on the free moves, `H~ p = rhs` with `H~ = H` on the
-/// free moves and the identity on the held ones, `rhs = -grad` on the free moves and 0 on
-/// the held ones, by an `L D L'` solve.
-struct Iteration {
-    gradient: Vec<NodeId>,
-    /// `H~`'s packed entries, `masked11 ..`.
-    masked_names: Vec<String>,
-    solve: LdlSolve,
-}
-
-impl Iteration {
-    fn new(g: &mut Graph, moves: &MoveNames, names: &Names) -> Iteration {
-        let m = moves.len();
-        let hessian_vars: Vec<_> = moves.hessian.iter().map(|n| g.var(n)).collect();
-        let linear_vars: Vec<_> = moves.linear.iter().map(|n| g.var(n)).collect();
-        let move_vars: Vec<_> = moves.moves.iter().map(|n| g.var(n)).collect();
-        let hessian = symmetric_from_packed(&hessian_vars, m);
-        // grad = H v + c
-        let column: Matrix = move_vars.iter().map(|&v| vec![v]).collect();
-        let product = matmul(g, &hessian, &column);
-        let gradient: Vec<_> = product
-            .iter()
-            .zip(&linear_vars)
-            .map(|(row, &c)| g.add(row[0], c))
-            .collect();
-        let masked_names = packed_names("masked", m, &|name| names.takes(name));
-        let masked_vars: Vec<_> = masked_names.iter().map(|n| g.var(n)).collect();
-        let rhs_idents = moves.per_move("rhs");
-        let rhs_vars: Vec<_> = rhs_idents.iter().map(|n| g.var(&n.to_string())).collect();
-        let masked = symmetric_from_packed(&masked_vars, m);
-        let solve = ldl_solve(g, &masked, &rhs_vars, |g, j| {
-            g.var(&pivot_names(m, j, PIVOT, "").1)
-        });
-        Iteration {
-            gradient,
-            masked_names,
-            solve,
-        }
-    }
-}
-
-/// The iteration lowered: the gradient's statements and values, and the Newton step's
-/// behind the checked pivots of `H~`, with their arithmetic.
-struct IterationCode {
-    grad_statements: Vec<TokenStream>,
-    grad_values: Vec<TokenStream>,
-    step_statements: Vec<TokenStream>,
-    step_values: Vec<TokenStream>,
-    ops: OpCount,
-}
-
-impl IterationCode {
-    fn new(g: &Graph, iteration: &Iteration, names: &Names, scalar: Scalar) -> IterationCode {
-        let (gradient, solve) = (&iteration.gradient, &iteration.solve);
-        let namer = names.namer();
-        let mut step_roots = solve.solution.clone();
-        step_roots.extend(&solve.pivots);
-        let mut grad_lowerer = Lowerer::new(g, scalar, namer.clone(), gradient);
-        let grad_values = grad_lowerer.segment(gradient);
-        let grad_ops = grad_lowerer.ops();
-        let grad_statements = grad_lowerer.take_statements();
-        let mut step_lowerer = Lowerer::new(g, scalar, namer, &step_roots);
-        let on_failure = failure(quote! { Status::NonPositiveControlWeight });
-        guard_pivots(
-            &mut step_lowerer,
-            &solve.pivots,
-            &solve.reciprocals,
-            (PIVOT, ""),
-            &on_failure,
-            scalar,
-        );
-        let step_values = step_lowerer.segment(&solve.solution);
-        let step_ops = step_lowerer.ops();
-        let step_statements = step_lowerer.take_statements();
-        IterationCode {
-            grad_statements,
-            grad_values,
-            step_statements,
-            step_values,
-            ops: grad_ops.plus(step_ops),
-        }
-    }
+/// The gradient `H v + c` at the moves, lowered: its statements and its values.
+fn gradient(
+    g: &mut Graph,
+    moves: &MoveNames,
+    names: &Names,
+    scalar: Scalar,
+) -> (Vec<TokenStream>, Vec<TokenStream>) {
+    let m = moves.len();
+    let hessian_vars: Vec<_> = moves.hessian.iter().map(|n| g.var(n)).collect();
+    let linear_vars: Vec<_> = moves.linear.iter().map(|n| g.var(n)).collect();
+    let move_vars: Vec<_> = moves.moves.iter().map(|n| g.var(n)).collect();
+    let hessian = symmetric_from_packed(&hessian_vars, m);
+    let column: Matrix = move_vars.iter().map(|&v| vec![v]).collect();
+    let product = matmul(g, &hessian, &column);
+    let gradient: Vec<_> = product
+        .iter()
+        .zip(&linear_vars)
+        .map(|(row, &c)| g.add(row[0], c))
+        .collect();
+    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &gradient);
+    let values = lowerer.segment(&gradient);
+    (lowerer.take_statements(), values)
 }
 
 /// Bounds of the deviations from `u_ref`, and the warm start: the last plan shifted by
-/// one move (the last move repeated), clipped to the bounds, with the bounds it touches
-/// held.
-fn bounds_and_warm_start(moves: &MoveNames) -> TokenStream {
+/// one move, its new last move the terminal feedback `-K x` at the state the shifted
+/// moves lead to (`tail`, which binds `<input>_tail` from the others: the dual mode's
+/// control after the horizon), clipped to the bounds, with the bounds it touches held.
+fn bounds_and_warm_start(moves: &MoveNames, tail: &TokenStream) -> TokenStream {
     let (reference, min, max) = (
         moves.per_input("ref"),
         moves.per_input("minimum"),
@@ -382,6 +336,9 @@ fn bounds_and_warm_start(moves: &MoveNames) -> TokenStream {
         .map(|k| ident(&moves.hessian[crate::symbolic::linalg::packed_index(moves.len(), k, k)]))
         .collect();
     let warm = moves.per_move("warm");
+    let (early, last) = warm.split_at(last_step * nu);
+    let early_shifted = &shifted[..last_step * nu];
+    let (early_ref, tail_values) = (&move_ref[..last_step * nu], moves.per_input("tail"));
     let clipped: Vec<TokenStream> = warm
         .iter()
         .zip(move_low.iter().zip(&move_high))
@@ -397,7 +354,9 @@ fn bounds_and_warm_start(moves: &MoveNames) -> TokenStream {
         // Warm start: the last plan shifted by one move, clipped, holding the bounds it
         // touches.
         let [#(#previous_rows),*] = self.plan;
-        #(let #warm = #shifted - #move_ref;)*
+        #(let #early = #early_shifted - #early_ref;)*
+        #tail
+        #(let #last = #tail_values;)*
         #(let mut #move_ids = #clipped;)*
         #(let mut #lower = #move_ids <= #move_low;)*
         #(let mut #upper = !#lower && #move_ids >= #move_high;)*
@@ -457,37 +416,12 @@ fn release_check(moves: &MoveNames, scalar: Scalar) -> TokenStream {
     }
 }
 
-/// `H~` and `rhs` of the Newton step on the free moves.
-fn mask(moves: &MoveNames, masked_names: &[String], scalar: Scalar) -> TokenStream {
-    let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
-    let (lower, upper) = (moves.per_move("lower"), moves.per_move("upper"));
-    let free = moves.per_move("free");
-    let (grad, rhs) = (moves.per_move("grad"), moves.per_move("rhs"));
-    let m = moves.len();
-    let mut entries = Vec::new();
-    let mut k = 0;
-    for i in 0..m {
-        for j in i..m {
-            let (name, h) = (ident(&masked_names[k]), ident(&moves.hessian[k]));
-            let (fi, fj) = (&free[i], &free[j]);
-            entries.push(if i == j {
-                quote! { let #name = if #fi { #h } else { #one }; }
-            } else {
-                quote! { let #name = if #fi && #fj { #h } else { #zero }; }
-            });
-            k += 1;
-        }
-    }
-    quote! {
-        // The Newton step on the free moves: H on them, the identity on the held ones.
-        #(let #free = !(#lower || #upper);)*
-        #(#entries)*
-        #(let #rhs = if #free { -#grad } else { #zero };)*
-    }
-}
-
 /// The longest step along `step` (at most 1) that keeps every move within its bounds;
-/// a move that stops it holds that bound.
+/// a move that stops it holds that bound. When the step is cut short, the projection of
+/// the whole step onto the bounds competes with it (a projected Newton step, Bertsekas,
+/// "Projected Newton methods for optimization problems with simple constraints"): it
+/// holds every bound the step crosses at once, instead of one an iteration, and is taken
+/// when it costs less, so the cost still never rises.
 fn ratio_test(moves: &MoveNames, scalar: Scalar) -> TokenStream {
     let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
     let (step, ratio) = (moves.per_move("step"), moves.per_move("ratio"));
@@ -515,6 +449,10 @@ fn ratio_test(moves: &MoveNames, scalar: Scalar) -> TokenStream {
         .into_iter()
         .reduce(|first, next| quote! { #first else #next })
         .unwrap_or_default();
+    let projection = projection(moves, scalar);
+    let projected = moves.per_move("projected");
+    let (grad, grad_projected) = (moves.per_move("grad"), moves.per_move("grad_projected"));
+    let update = gradient_update(moves);
     quote! {
         // Ratio test: the longest step that keeps every move within its bounds.
         #(
@@ -536,10 +474,103 @@ fn ratio_test(moves: &MoveNames, scalar: Scalar) -> TokenStream {
             alpha = #zero;
         }
         full_step = alpha >= #one;
-        #(#v += alpha * #step;)*
-        if !full_step {
-            // Hold the first bound in the way, exactly.
-            #chain
+        if full_step {
+            #(#v += alpha * #step;)*
+            #update
+        } else {
+            #projection
+            if gain_projected < gain_cut {
+                #(#v = #projected;)*
+                #(#grad = #grad_projected;)*
+                #(#lower = #v <= #low;)*
+                #(#upper = !#lower && #v >= #high;)*
+            } else {
+                #(#v += alpha * #step;)*
+                #update
+                // Hold the first bound in the way, exactly.
+                #chain
+            }
         }
+    }
+}
+
+/// The gradient's update along `alpha` times the step: `H` times it, which is zero on the
+/// held moves, so only the free moves' columns are added.
+fn gradient_update(moves: &MoveNames) -> TokenStream {
+    let m = moves.len();
+    let (free, step, grad) = (
+        moves.per_move("free"),
+        moves.per_move("step"),
+        moves.per_move("grad"),
+    );
+    let columns = (0..m).map(|k| {
+        let (f, s) = (&free[k], &step[k]);
+        let adds = (0..m).map(|i| {
+            let h = ident(&moves.hessian[packed_index(m, i.min(k), i.max(k))]);
+            let g = &grad[i];
+            quote! { #g += #h * moved; }
+        });
+        quote! {
+            if #f {
+                let moved = alpha * #s;
+                #(#adds)*
+            }
+        }
+    });
+    quote! {
+        // The gradient follows the step: H times it, on the free moves' columns.
+        #(#columns)*
+    }
+}
+
+/// The costs' changes from the iterate's: `gain_cut` of the step cut short and
+/// `gain_projected` of the projected step, with the projected moves `projected_<move>` and
+/// the gradient there. Along the Newton step `p` on the free moves, `p' H p = -p' grad`,
+/// so the cut step changes the cost by `alpha (1 - alpha / 2) p' grad`; the projection
+/// moves the free moves only, by `d`, and changes it by `d' grad + 1/2 d' H d`, that is
+/// `1/2 d' (grad + grad_projected)` with `grad_projected = grad + H d`.
+fn projection(moves: &MoveNames, scalar: Scalar) -> TokenStream {
+    let m = moves.len();
+    let (half, one) = (literal(0.5, scalar), literal(1.0, scalar));
+    let (step, grad, free) = (
+        moves.per_move("step"),
+        moves.per_move("grad"),
+        moves.per_move("free"),
+    );
+    let (low, high) = (moves.per_move_input("low"), moves.per_move_input("high"));
+    let v = moves.move_idents();
+    let (projected, whole, shift) = (
+        moves.per_move("projected"),
+        moves.per_move("whole"),
+        moves.per_move("shift"),
+    );
+    let grad_projected = moves.per_move("grad_projected");
+    let clipped = whole
+        .iter()
+        .zip(low.iter().zip(&high))
+        .map(|(w, (lo, hi))| clip(w, lo, hi));
+    let columns = (0..m).map(|k| {
+        let (f, d) = (&free[k], &shift[k]);
+        let adds = (0..m).map(|i| {
+            let h = ident(&moves.hessian[packed_index(m, i.min(k), i.max(k))]);
+            let g = &grad_projected[i];
+            quote! { #g += #h * #d; }
+        });
+        quote! {
+            if #f {
+                #(#adds)*
+            }
+        }
+    });
+    quote! {
+        let descent = #(#step * #grad)+*;
+        let gain_cut = alpha * (#one - #half * alpha) * descent;
+        #(let #whole = #v + #step;)*
+        #(let #projected = #clipped;)*
+        // Zero on the held moves, whose step is zero.
+        #(let #shift = #projected - #v;)*
+        #(let mut #grad_projected = #grad;)*
+        #(#columns)*
+        let gain_projected = #half * (#(#shift * (#grad + #grad_projected))+*);
     }
 }

@@ -25,6 +25,9 @@ pub struct MpcSpec {
     pub max_iterations: u32,
     /// Riccati steps per solve towards the terminal weight (warm-started).
     pub riccati_iterations: u32,
+    /// Relative change of the values the prediction model reads under which a solve
+    /// keeps the last one's model, terminal weight and condensed Hessian.
+    pub model_tolerance: f64,
 }
 
 /// The largest condensed problem (horizon times inputs unknowns) the MPC unrolls: its

@@ -1,0 +1,220 @@
+//! What one solve keeps for the next: the prediction model, with the terminal weight and
+//! the condensed Hessian built on it, and the estimate's values it was built at. While
+//! those values stay within `MODEL_TOLERANCE` of them (relative), and the terminal weight
+//! had converged, the next solve skips the prediction model, the Riccati steps and the
+//! Hessian: only the linear term (eq. 44), which depends on the estimate itself, and the
+//! active-set solve run. With the default tolerance, zero, the model is kept only when
+//! it would be rebuilt bit for bit the same.
+
+use crate::emit::code::destructure;
+use crate::emit::lower::literal;
+use crate::emit::names::ident;
+use crate::model::Scalar;
+use crate::symbolic::{Graph, ModelGraph, Node, NodeId, VarId};
+use proc_macro2::{Ident, Literal, TokenStream};
+use quote::quote;
+use std::collections::BTreeSet;
+
+/// The values the prediction model reads, and the kept values' names.
+pub struct Cache {
+    /// The estimate's (and operating input's, and time's) entries the prediction model
+    /// reads, as the solve names them.
+    key: Vec<Ident>,
+    /// Statements that bind [`Cache::key`] from `x` and `u`.
+    read_key: TokenStream,
+    /// The Hessian's packed entries, by name.
+    hessian: Vec<Ident>,
+    /// The weighted responses `S_(i+1) B`, flat: names, or literals that stay literals.
+    weighted_stored: Vec<TokenStream>,
+    /// The same as a pattern: names, or `_` for literals.
+    weighted_pattern: Vec<TokenStream>,
+}
+
+impl Cache {
+    /// The cache of a solve whose prediction model reads `used`, whose Hessian entries are
+    /// named `hessian` and whose weighted responses are the nodes `weighted`.
+    pub fn new(
+        mg: &ModelGraph,
+        used: &BTreeSet<VarId>,
+        hessian: &[String],
+        weighted: &[NodeId],
+        scalar: Scalar,
+    ) -> Cache {
+        let g = &mg.graph;
+        let mut key: Vec<Ident> = Vec::new();
+        let mut inputs = mg.x.clone();
+        inputs.extend(&mg.u);
+        inputs.push(mg.t);
+        for node in inputs {
+            if let Node::Var(v) = g.node(node) {
+                if used.contains(&v) {
+                    key.push(ident(&g.var_info(v).name));
+                }
+            }
+        }
+        let read_x = destructure(g, quote! { *x }, &mg.x, used);
+        let read_u = destructure(g, quote! { *u }, &mg.u, used);
+        Cache {
+            key,
+            read_key: quote! { #read_x #read_u },
+            hessian: hessian.iter().map(|h| ident(h)).collect(),
+            weighted_stored: weighted.iter().map(|&w| stored(g, w, scalar)).collect(),
+            weighted_pattern: weighted.iter().map(|&w| pattern(g, w)).collect(),
+        }
+    }
+
+    /// The fields of `Mpc` that keep the model, in the scalar type `ty`.
+    pub fn fields(&self, ty: &Ident) -> TokenStream {
+        let [key, hessian, weighted] = [
+            self.key.len(),
+            self.hessian.len(),
+            self.weighted_stored.len(),
+        ]
+        .map(Literal::usize_unsuffixed);
+        quote! {
+            model_key: [#ty; #key],
+            model: PredictionModel,
+            hessian: [#ty; #hessian],
+            weighted: [#ty; #weighted],
+            model_kept: bool,
+            terminal_weight_settled: bool,
+        }
+    }
+
+    /// The fields' values in `new`: nothing kept yet.
+    pub fn initial(&self, zero: &TokenStream, ns: &Literal, nu: &Literal) -> TokenStream {
+        let [key, hessian, weighted] = [
+            self.key.len(),
+            self.hessian.len(),
+            self.weighted_stored.len(),
+        ]
+        .map(Literal::usize_unsuffixed);
+        quote! {
+            model_key: [#zero; #key],
+            model: PredictionModel {
+                a: [[#zero; #ns]; #ns],
+                b: [[#zero; #nu]; #ns],
+            },
+            hessian: [#zero; #hessian],
+            weighted: [#zero; #weighted],
+            model_kept: false,
+            terminal_weight_settled: false,
+        }
+    }
+
+    /// `let keep_model = ..;`: whether the kept prediction model serves this solve, and
+    /// `let reuse = ..;`: whether its terminal weight and Hessian serve too.
+    pub fn reuse_test(&self, scalar: Scalar) -> TokenStream {
+        let zero = literal(0.0, scalar);
+        let read_key = &self.read_key;
+        let kept: Vec<Ident> = self
+            .key
+            .iter()
+            .map(|k| ident(&format!("kept_{k}")))
+            .collect();
+        let close = self.key.iter().zip(&kept).map(|(v, k)| {
+            quote! {
+                #v - #k <= Self::MODEL_TOLERANCE * (if #k < #zero { -#k } else { #k })
+                    && #k - #v <= Self::MODEL_TOLERANCE * (if #k < #zero { -#k } else { #k })
+            }
+        });
+        quote! {
+            // The kept model serves while every value it was built at is within
+            // MODEL_TOLERANCE of its value now (a NaN never is); its terminal weight and
+            // Hessian too once the weight has settled.
+            #read_key
+            let [#(#kept),*] = self.model_key;
+            let keep_model = self.model_kept #(&& (#close))*;
+            let reuse = keep_model && self.terminal_weight_settled;
+        }
+    }
+
+    /// The model's key and the model: the kept ones, or the values read now and the
+    /// prediction model at them (`prediction`, which returns on failure).
+    pub fn model(&self, prediction: TokenStream) -> TokenStream {
+        let key = &self.key;
+        quote! {
+            let (model_key, model) = if keep_model {
+                (self.model_key, self.model)
+            } else {
+                ([#(#key),*], #prediction)
+            };
+        }
+    }
+
+    /// The value of the rebuilt branch: the key, then the model, the terminal weight and
+    /// gain with whether it converged, the Hessian and the weighted responses, as
+    /// [`Cache::kept`] lists them.
+    pub fn rebuilt(&self, terminal: TokenStream) -> TokenStream {
+        let (hessian, weighted) = (&self.hessian, &self.weighted_stored);
+        quote! {
+            (
+                model_key,
+                model,
+                #terminal,
+                [#(#hessian),*],
+                [#(#weighted),*],
+            )
+        }
+    }
+
+    /// The value of the kept branch, in the order of [`Cache::rebuilt`].
+    pub fn kept() -> TokenStream {
+        quote! {
+            (
+                self.model_key,
+                self.model,
+                (self.terminal_weight, self.terminal_gain, true, true),
+                self.hessian,
+                self.weighted,
+            )
+        }
+    }
+
+    /// The names the branches' value binds, and the Hessian's and weighted responses'
+    /// entries bound from it.
+    pub fn unpack(&self) -> TokenStream {
+        let (hessian, weighted) = (&self.hessian, &self.weighted_pattern);
+        quote! {
+            let [#(#hessian),*] = hessian;
+            let [#(#weighted),*] = weighted;
+        }
+    }
+
+    /// The commit of what the next solve may keep.
+    pub fn store() -> TokenStream {
+        quote! {
+            // (A solve that reused them leaves them as they are.)
+            if !reuse {
+                self.model_key = model_key;
+                self.model = model;
+                self.hessian = hessian;
+                self.weighted = weighted;
+                self.model_kept = true;
+                self.terminal_weight_settled = terminal_weight_settled;
+            }
+        }
+    }
+}
+
+/// A node as stored: its variable's name, or its literal.
+fn stored(g: &Graph, node: NodeId, scalar: Scalar) -> TokenStream {
+    match g.node(node) {
+        Node::Var(v) => {
+            let name = ident(&g.var_info(v).name);
+            quote! { #name }
+        }
+        _ => literal(g.literal(node).unwrap_or(0.0), scalar),
+    }
+}
+
+/// A node as bound by a pattern: its variable's name, or `_`.
+fn pattern(g: &Graph, node: NodeId) -> TokenStream {
+    match g.node(node) {
+        Node::Var(v) => {
+            let name = ident(&g.var_info(v).name);
+            quote! { #name }
+        }
+        _ => quote! { _ },
+    }
+}
