@@ -763,12 +763,9 @@ fn terminal_code(
     }
 }
 
-/// `libm::fabs` or `libm::fabsf`.
+/// `stateforge_math::f32::abs` or `stateforge_math::f64::abs`.
 fn abs_fn(scalar: Scalar) -> TokenStream {
-    match scalar {
-        Scalar::F32 => quote! { libm::fabsf },
-        Scalar::F64 => quote! { libm::fabs },
-    }
+    crate::emit::names::math_fn(scalar, "abs")
 }
 
 /// The condensed problem's code, which binds `H` (packed) and `c` by name, and the model
