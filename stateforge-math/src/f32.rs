@@ -34,13 +34,37 @@ const PIO2_4: f32 = 2.563_344e-12;
 /// reduction is not Payne and Hanek's).
 pub const TRIG_ACCURATE: f32 = 6433.0;
 
-/// The sine and cosine of `r`, `|r| <= pi/4` (Cephes `sinf`, `cosf` polynomials).
+/// The sine and cosine of `r + r_lo`, `|r| <= pi/4`, `|r_lo|` below half an ulp of `r`
+/// (Cephes `sinf`, `cosf` polynomials in `r`; `r_lo` enters to first order:
+/// `sin(r + r_lo) = sin r + r_lo cos r`, `cos(r + r_lo) = cos r - r_lo sin r`, with
+/// `cos r` and `sin r` taken as 1 and `r`, which is exact to far below an ulp).
 #[inline(always)]
-fn sin_cos_kernel(r: f32) -> (f32, f32) {
+fn sin_cos_kernel(r: f32, r_lo: f32) -> (f32, f32) {
     let z = r * r;
-    let sin = ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1) * z * r + r;
-    let cos = ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z - 0.5 * z + 1.0;
+    let sin = r + (((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1) * z * r + r_lo);
+    let cos = ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z
+        - (r * r_lo + 0.5 * z)
+        + 1.0;
     (sin, cos)
+}
+
+/// `x - k pi/2` as `r + r_lo` (`|r_lo|` at most half an ulp of `r`), for
+/// `|x| <=` [`TRIG_ACCURATE`] and `k` the nearest integer to `x 2/pi` (Cody and Waite).
+/// `x - k P1 - k P2` is exact (each product is, and the differences fit in 24 bits);
+/// subtracting `k P3` is rounded once, its error recovered exactly by Knuth's two-sum,
+/// and `k P4` (below `2^-26`) joins that error: `r + r_lo` is `x - k pi/2` to about
+/// `2^-45` relative, however near `x` is to a multiple of pi/2.
+#[inline(always)]
+fn reduce(x: f32, k: f32) -> (f32, f32) {
+    let b = x - k * PIO2_1 - k * PIO2_2;
+    let t = k * PIO2_3;
+    let s = b - t;
+    // Two-sum: s + e = b - t exactly.
+    let bb = s - b;
+    let e = (b - (s - bb)) - (t + bb);
+    let c = e - k * PIO2_4;
+    let r = s + c;
+    (r, c - (r - s))
 }
 
 /// Places the kernel's values `(sin r, cos r)` in quadrant `q` (`x = r + q pi/2`).
@@ -71,8 +95,8 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
     if abs(x) <= TRIG_ACCURATE {
         let shifted = x * FRAC_2_PI + ROUNDER;
         let k = shifted - ROUNDER;
-        let r = x - k * PIO2_1 - k * PIO2_2 - k * PIO2_3 - k * PIO2_4;
-        quadrant(sin_cos_kernel(r), shifted.to_bits())
+        let (r, r_lo) = reduce(x, k);
+        quadrant(sin_cos_kernel(r, r_lo), shifted.to_bits())
     } else {
         sin_cos_far(x)
     }
@@ -91,7 +115,7 @@ fn sin_cos_far(x: f32) -> (f32, f32) {
     let k = k_int as f32;
     let r = x - k * PIO2_1 - k * PIO2_2 - k * PIO2_3 - k * PIO2_4;
     let r = r.clamp(-FRAC_PI_4, FRAC_PI_4);
-    quadrant(sin_cos_kernel(r), k_int as u32)
+    quadrant(sin_cos_kernel(r, 0.0), k_int as u32)
 }
 
 /// Sine (see [`sin_cos`] for the method, accuracy and edges).

@@ -530,3 +530,39 @@ pub fn matrix_literal(mat: &crate::numerics::Mat, scalar: Scalar) -> TokenStream
     });
     quote! { [#(#rows),*] }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The statements and root expressions of `roots` lowered in `f32`, as one string.
+    fn lowered(graph: &Graph, roots: &[NodeId]) -> (String, OpCount) {
+        let mut lowerer = Lowerer::new(graph, Scalar::F32, TempNamer::new(["x"]), roots);
+        let exprs = lowerer.segment(roots);
+        let ops = lowerer.ops();
+        let statements = lowerer.finish().statements;
+        (quote! { #(#statements)* #(#exprs;)* }.to_string(), ops)
+    }
+
+    #[test]
+    fn a_sine_and_cosine_of_one_argument_are_one_sin_cos_call() {
+        let mut g = Graph::new();
+        let x = g.var("x");
+        let (sin, cos) = (g.call(Func::Sin, x), g.call(Func::Cos, x));
+        let (code, ops) = lowered(&g, &[sin, cos]);
+        assert_eq!(
+            code.matches("stateforge_math :: f32 :: sin_cos (x)")
+                .count(),
+            1
+        );
+        assert!(
+            !code.contains(":: sin (") && !code.contains(":: cos ("),
+            "{code}"
+        );
+        assert_eq!(ops.call, 1);
+        // Alone, a sine is a sine.
+        let (code, ops) = lowered(&g, &[sin]);
+        assert!(code.contains("stateforge_math :: f32 :: sin (x)"), "{code}");
+        assert_eq!(ops.call, 1);
+    }
+}

@@ -714,6 +714,31 @@ mod tests {
     use super::*;
 
     #[test]
+    fn double_angles_are_written_with_the_sine_and_cosine_of_the_angle() {
+        let mut g = Graph::new();
+        let x = g.var("x");
+        let two = g.num(2.0);
+        let twice = g.mul(two, x);
+        let (sin2, cos2) = (g.call(Func::Sin, twice), g.call(Func::Cos, twice));
+        let (sin, cos) = (g.call(Func::Sin, x), g.call(Func::Cos, x));
+        let product = g.mul(sin, cos);
+        assert_eq!(sin2, g.mul(two, product));
+        let square = g.mul(sin, sin);
+        let twice_square = g.mul(two, square);
+        let one = g.one();
+        assert_eq!(cos2, g.sub(one, twice_square));
+        assert!(g.find(Node::Call(Func::Sin, twice)).is_none());
+        // sin(-2x) is -(2 sin x cos x); sin(3x) stays a call.
+        let minus = g.neg(twice);
+        let negated = g.call(Func::Sin, minus);
+        assert_eq!(negated, g.neg(sin2));
+        let three = g.num(3.0);
+        let thrice = g.mul(three, x);
+        let sin3 = g.call(Func::Sin, thrice);
+        assert!(matches!(g.node(sin3), Node::Call(Func::Sin, _)));
+    }
+
+    #[test]
     fn equal_expressions_are_one_node_in_either_order() {
         let mut g = Graph::new();
         let (x, y) = (g.var("x"), g.var("y"));
