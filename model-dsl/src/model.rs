@@ -155,28 +155,17 @@ pub enum Func {
     Tanh,
 }
 
-/// What the language and `libm` call a library function.
+/// What the language calls a library function; generated code calls the function of the
+/// same name in `stateforge_math::f32` or `stateforge_math::f64`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FuncNames {
-    /// The name a model writes, in both front ends (`ln`).
+    /// The name a model writes, in both front ends (`ln`), and the runtime crate's.
     pub name: &'static str,
-    /// `libm`'s function in `f64` (`log`).
-    pub f64: &'static str,
-    /// `libm`'s function in `f32` (`logf`).
-    pub f32: &'static str,
 }
 
 impl FuncNames {
-    const fn new(name: &'static str, f64: &'static str, f32: &'static str) -> FuncNames {
-        FuncNames { name, f64, f32 }
-    }
-
-    /// `libm`'s function in `scalar`.
-    pub fn libm(self, scalar: Scalar) -> &'static str {
-        match scalar {
-            Scalar::F32 => self.f32,
-            Scalar::F64 => self.f64,
-        }
+    const fn new(name: &'static str) -> FuncNames {
+        FuncNames { name }
     }
 }
 
@@ -187,27 +176,19 @@ impl Func {
     /// The function table, in declaration order (`Func as usize` indexes it): each
     /// function's names and its value in `f64`.
     const TABLE: [FuncRow; 8] = [
-        (Func::Sin, FuncNames::new("sin", "sin", "sinf"), f64::sin),
-        (Func::Cos, FuncNames::new("cos", "cos", "cosf"), f64::cos),
-        (Func::Tan, FuncNames::new("tan", "tan", "tanf"), f64::tan),
-        (Func::Exp, FuncNames::new("exp", "exp", "expf"), f64::exp),
-        (Func::Ln, FuncNames::new("ln", "log", "logf"), f64::ln),
-        (
-            Func::Sqrt,
-            FuncNames::new("sqrt", "sqrt", "sqrtf"),
-            f64::sqrt,
-        ),
-        (Func::Abs, FuncNames::new("abs", "fabs", "fabsf"), f64::abs),
-        (
-            Func::Tanh,
-            FuncNames::new("tanh", "tanh", "tanhf"),
-            f64::tanh,
-        ),
+        (Func::Sin, FuncNames::new("sin"), f64::sin),
+        (Func::Cos, FuncNames::new("cos"), f64::cos),
+        (Func::Tan, FuncNames::new("tan"), f64::tan),
+        (Func::Exp, FuncNames::new("exp"), f64::exp),
+        (Func::Ln, FuncNames::new("ln"), f64::ln),
+        (Func::Sqrt, FuncNames::new("sqrt"), f64::sqrt),
+        (Func::Abs, FuncNames::new("abs"), f64::abs),
+        (Func::Tanh, FuncNames::new("tanh"), f64::tanh),
     ];
 
     /// `atan2(y, x)`, the library function of two arguments: an [`Expr::Atan2`], not a
     /// `Func`, but named like one.
-    pub const ATAN2: FuncNames = FuncNames::new("atan2", "atan2", "atan2f");
+    pub const ATAN2: FuncNames = FuncNames::new("atan2");
 
     /// Every function, for lookups and messages.
     pub const ALL: [Func; 8] = {
@@ -220,7 +201,7 @@ impl Func {
         all
     };
 
-    /// The function's names, in the model and in `libm`.
+    /// The function's names, in the model and in the runtime crate.
     pub fn names(self) -> FuncNames {
         Func::TABLE[self as usize].1
     }

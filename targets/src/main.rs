@@ -10,6 +10,7 @@
 //! - `mpc k ..` plans and `spread mpc_solve ..` (see `mpc`);
 //! - `fused <differing> <of>`: how many of a set of `a * b + c` differ, bit for bit,
 //!   from `libm::fmaf` (none when the build fuses multiply-adds into `vfma.f32`);
+//! - `math <function> <argument bits> <result bits>` (see `math`);
 //! - `done`, then a zero exit status (a panic exits non-zero).
 
 #![no_std]
@@ -19,6 +20,7 @@
 mod baseline;
 mod continuous;
 mod lines;
+mod math;
 mod matrix;
 mod measure;
 mod mpc;
@@ -82,10 +84,12 @@ fn main() -> ! {
     continuous::estimates();
     observers::estimates();
     mpc::plans();
+    math::values();
     costs(&clock);
     continuous::costs(&clock);
     observers::costs(&clock);
     mpc::costs(&clock);
+    math::costs(&clock);
     fused_multiply_add();
     hprintln!("done");
     debug::exit(debug::EXIT_SUCCESS);

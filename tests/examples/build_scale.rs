@@ -48,10 +48,14 @@ fn run(sizes: &[usize]) -> Result<(), String> {
     std::fs::create_dir_all(dir.join("src")).map_err(|e| e.to_string())?;
     let manifest = format!(
         "[package]\nname = \"build-scale\"\nversion = \"0.0.0\"\nedition = \"2021\"\n\
-         publish = false\n\n[dependencies]\nstateforge = {{ path = {:?} }}\nlibm = \"0.2\"\n\n\
-         [workspace]\n",
+         publish = false\n\n[dependencies]\nstateforge = {{ path = {:?} }}\n\
+         stateforge-math = {{ path = {:?} }}\n\n[workspace]\n",
         workspace
             .join("stateforge")
+            .canonicalize()
+            .map_err(|e| e.to_string())?,
+        workspace
+            .join("stateforge-math")
             .canonicalize()
             .map_err(|e| e.to_string())?
     );

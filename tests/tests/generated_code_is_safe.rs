@@ -39,14 +39,21 @@ impl<'ast> Visit<'ast> for Findings {
             Expr::Cast(_) => Some("a cast"),
             Expr::Range(_) => Some("a range (slicing)"),
             Expr::Call(call) => match &*call.func {
-                // The only calls are `libm` functions of floats.
-                Expr::Path(p) if p.path.segments.first().is_some_and(|s| s.ident == "libm") => None,
+                // The only calls are the runtime crate's functions of floats.
+                Expr::Path(p)
+                    if p.path
+                        .segments
+                        .first()
+                        .is_some_and(|s| s.ident == "stateforge_math") =>
+                {
+                    None
+                }
                 // `Some(..)`, `Ok(..)` and `Err(..)` build a value (the LQR's
                 // `steady_state_input`, the MPC's results); they call nothing.
                 Expr::Path(p) if ["Some", "Ok", "Err"].iter().any(|c| p.path.is_ident(c)) => None,
                 // The generated type's own associated functions (`Self::prediction_model`).
                 Expr::Path(p) if p.path.segments.first().is_some_and(|s| s.ident == "Self") => None,
-                _ => Some("a call of something other than libm"),
+                _ => Some("a call of something other than stateforge_math"),
             },
             Expr::Lit(lit) => match &lit.lit {
                 syn::Lit::Float(f) if matches!(f.suffix(), "f32" | "f64") => None,
@@ -218,7 +225,7 @@ fn the_check_rejects_what_it_should() {
         "a macro",
         "non-float literal",
         "Vec",
-        "other than libm",
+        "other than stateforge_math",
     ] {
         assert!(all.contains(expected), "missed {expected} in:\n{all}");
     }

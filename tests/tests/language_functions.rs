@@ -193,16 +193,16 @@ fn the_model_file_generates_the_macros_code() {
 }
 
 #[test]
-fn the_generated_code_calls_libm_and_compares_typed_values() {
+fn the_generated_code_calls_stateforge_math_and_compares_typed_values() {
     let source = std::fs::read_to_string(workspace_path("tests/models/rover.rs")).expect("exists");
     let code =
         stateforge_cli::format(stateforge_compiler::expand_macro_source(&source).expect("expands"))
             .expect("formats");
     for call in [
-        "libm::atan2f(",
-        "libm::tanhf(",
-        "libm::atan2(",
-        "libm::tanh(",
+        "stateforge_math::f32::atan2(",
+        "stateforge_math::f32::tanh(",
+        "stateforge_math::f64::atan2(",
+        "stateforge_math::f64::tanh(",
     ] {
         assert!(code.contains(call), "no `{call}` in the generated code");
     }

@@ -55,8 +55,20 @@ pub fn measure(macros: Option<&Path>, jobs: Option<u32>) -> Result<Measurement, 
         .filter(|lock| lock.exists());
     // Under its package name, which an older checkout may spell otherwise
     // (`codegen-macros`), and imported as `stateforge`, the name the model uses.
+    // The runtime crate the generated code calls: `stateforge-math` beside the macros,
+    // or `libm` for a checkout from before it.
+    let runtime = macros
+        .parent()
+        .map(|root| root.join("stateforge-math"))
+        .filter(|math| math.exists())
+        .map_or("libm = \"0.2\"".to_owned(), |math| {
+            format!(
+                "stateforge-math = {{ path = {:?} }}",
+                math.display().to_string()
+            )
+        });
     let dependencies = format!(
-        "stateforge = {{ package = {:?}, path = {:?} }}\nlibm = \"0.2\"",
+        "stateforge = {{ package = {:?}, path = {:?} }}\n{runtime}",
         package_name(&macros)?,
         macros.display().to_string()
     );

@@ -115,6 +115,9 @@ pub struct Report {
     pub spreads: Vec<Spread>,
     /// Of the multiply-adds compared with `libm::fmaf`: how many differed, of how many.
     pub fused: Option<(u32, u32)>,
+    /// `math <function> <argument bits> <result bits>`: `stateforge_math::f32` on the
+    /// target, for the host to compare bit for bit.
+    pub math: Vec<(String, u32, u32)>,
 }
 
 /// Builds the firmware in release mode and runs it under QEMU (the runner in
@@ -234,6 +237,14 @@ fn parse(text: &str) -> Result<Report, String> {
                         .map_err(|_| format!("bad count in `{line}`"))
                 };
                 report.fused = Some((parse(differing)?, parse(of)?));
+            }
+            ["math", function, x, y] => {
+                let bits = |w: &str| {
+                    u32::from_str_radix(w, 16).map_err(|_| format!("bad bits in `{line}`"))
+                };
+                report
+                    .math
+                    .push(((*function).to_owned(), bits(x)?, bits(y)?));
             }
             ["done"] => done = true,
             _ => {}

@@ -14,11 +14,13 @@ mod cold_build;
 mod command;
 mod compare;
 mod compare_continuous;
+mod compare_math;
 mod compare_mpc;
 mod compare_observers;
 mod cost;
 mod firmware;
 mod imports;
+mod math_ulps;
 mod msrv;
 mod peers;
 mod peers_build;
@@ -45,7 +47,12 @@ const SEQUENCE_SAMPLES: usize = 1000;
 /// Users' crates, outside the workspace, built and tested like a user's project.
 const EXAMPLES: &str = "examples";
 /// The crates published to crates.io, in dependency order.
-const PUBLISHED: [&str; 3] = ["stateforge-compiler", "stateforge", "stateforge-cli"];
+const PUBLISHED: [&str; 4] = [
+    "stateforge-math",
+    "stateforge-compiler",
+    "stateforge",
+    "stateforge-cli",
+];
 /// Commands the firmware checks run, with the Debian packages that provide them.
 const FIRMWARE_TOOLS: &[(&str, &str)] = &[
     ("qemu-system-arm", "qemu-system-arm"),
@@ -79,6 +86,12 @@ enum Task {
     /// Vendor every demo model with `stateforge-codegen` into a user crate and check it
     /// with rustfmt, `-D warnings` and clippy (part of `test`).
     Vendored,
+    /// The largest error in ulps of each `stateforge_math::f32` function over every f32
+    /// input (`atan2`: a grid and random pairs); builds and runs itself in release.
+    MathUlps {
+        /// Functions to measure (default: all).
+        functions: Vec<String>,
+    },
     /// On the host, how far the f32 filters drift from f64 over many noise sequences.
     Accuracy {
         /// How many sequences (the first is the CI's).
@@ -111,6 +124,7 @@ fn main() -> ExitCode {
         Task::Vendored => vendored::check().map(|summary| format!("xtask: {summary}\n")),
         Task::Cost => cost(),
         Task::Peers => peers::report(),
+        Task::MathUlps { functions } => math_ulps(&functions),
         Task::Test => test().map(|()| "xtask: every check passed\n".to_string()),
     };
     match outcome {
@@ -123,6 +137,29 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// `cargo xtask math-ulps`: measured in a release build (an unoptimised one takes far
+/// longer), so a debug build runs its release self.
+fn math_ulps(functions: &[String]) -> Result<String, String> {
+    if cfg!(debug_assertions) {
+        run(
+            "math-ulps (release build)",
+            cargo()
+                .args([
+                    "run",
+                    "--quiet",
+                    "--release",
+                    "--package",
+                    "xtask",
+                    "--",
+                    "math-ulps",
+                ])
+                .args(functions),
+        )?;
+        return Ok(String::new());
+    }
+    Ok(math_ulps::report(functions))
 }
 
 fn test() -> Result<(), String> {
@@ -199,6 +236,7 @@ fn test() -> Result<(), String> {
         println!("xtask: {}", compare_observers::check(&report)?);
         println!("xtask: {}", compare_mpc::check(&report.mpc)?);
         println!("xtask: {}", check_fused(&report, build)?);
+        println!("xtask: {}", compare_math::check(&report.math, build)?);
         tables.push(cost_table(&report, build)?);
     }
     print!("{}", tables.join("\n"));
@@ -276,6 +314,7 @@ fn cost() -> Result<String, String> {
     let mut tables = Vec::new();
     for build in firmware::BUILDS {
         let report = firmware::run(Path::new(TARGETS), build)?;
+        println!("xtask: {}", compare_math::check(&report.math, build)?);
         tables.push(cost_table(&report, build)?);
     }
     // The embedded-QP peers: their packages and compiler are the benchmark's to install;

@@ -43,7 +43,10 @@ pub fn check() -> Result<String, String> {
         "vendored-models",
         // The workspace's minimum Rust version (xtask inherits it).
         Some(env!("CARGO_PKG_RUST_VERSION")),
-        "libm = \"0.2\"",
+        &format!(
+            "stateforge-math = {{ path = {:?} }}",
+            root.join("stateforge-math").display().to_string()
+        ),
         &[("src/lib.rs", lib)],
         Some(&root.join("Cargo.lock")),
     )?;

@@ -243,9 +243,16 @@ impl<'g> Lowerer<'g> {
             }
         }
         for id in order {
+            if self.emitted[id.index()] {
+                // The cosine of a sine (or the reverse) computed with it.
+                continue;
+            }
             self.emitted[id.index()] = true;
             let node = self.graph.node(id);
             self.count(node);
+            if self.sin_cos(id, node) {
+                continue;
+            }
             if let Some(&value) = self.definitions.get(&id) {
                 let name = self.render(id).0;
                 let value = self.render(value).0;
@@ -267,6 +274,35 @@ impl<'g> Lowerer<'g> {
             }
         }
         roots.iter().map(|&r| self.render(r).0).collect()
+    }
+
+    /// Computes a sine and the cosine of the same argument, both used by this function,
+    /// with one call, `let (sin_x, cos_x) = stateforge_math::f32::sin_cos(x);` (one range
+    /// reduction): true if `node` (`id`) was so emitted with its partner.
+    fn sin_cos(&mut self, id: NodeId, node: Node) -> bool {
+        let (partner, x) = match node {
+            Node::Call(Func::Sin, x) => (Node::Call(Func::Cos, x), x),
+            Node::Call(Func::Cos, x) => (Node::Call(Func::Sin, x), x),
+            _ => return false,
+        };
+        let Some(partner) = self.graph.find(partner) else {
+            return false;
+        };
+        if self.uses[partner.index()] == 0 || self.emitted[partner.index()] {
+            return false;
+        }
+        self.emitted[partner.index()] = true;
+        let (sin, cos) = match node {
+            Node::Call(Func::Sin, _) => (id, partner),
+            _ => (partner, id),
+        };
+        let (x, _) = self.render(x);
+        let function = super::names::math_fn(self.scalar, "sin_cos");
+        let sin = self.namer.assign(self.graph, sin);
+        let cos = self.namer.assign(self.graph, cos);
+        self.statements
+            .push(quote! { let (#sin, #cos) = #function(#x); });
+        true
     }
 
     /// How deeply `node` would nest if written inline: one more than its deepest operand
@@ -417,13 +453,13 @@ impl Lowerer<'_> {
             }
             Node::Call(f, a) => {
                 let a = operand(a, Prec::Sum);
-                let name = super::names::ident(f.names().libm(self.scalar));
-                (quote! { libm::#name(#a) }, Prec::Atom)
+                let function = super::names::math_fn(self.scalar, f.name());
+                (quote! { #function(#a) }, Prec::Atom)
             }
             Node::Atan2(y, x) => {
                 let (y, x) = (operand(y, Prec::Sum), operand(x, Prec::Sum));
-                let name = super::names::ident(Func::ATAN2.libm(self.scalar));
-                (quote! { libm::#name(#y, #x) }, Prec::Atom)
+                let function = super::names::math_fn(self.scalar, Func::ATAN2.name);
+                (quote! { #function(#y, #x) }, Prec::Atom)
             }
             Node::Select {
                 cmp,
@@ -493,4 +529,40 @@ pub fn matrix_literal(mat: &crate::numerics::Mat, scalar: Scalar) -> TokenStream
         quote! { [#(#row),*] }
     });
     quote! { [#(#rows),*] }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The statements and root expressions of `roots` lowered in `f32`, as one string.
+    fn lowered(graph: &Graph, roots: &[NodeId]) -> (String, OpCount) {
+        let mut lowerer = Lowerer::new(graph, Scalar::F32, TempNamer::new(["x"]), roots);
+        let exprs = lowerer.segment(roots);
+        let ops = lowerer.ops();
+        let statements = lowerer.finish().statements;
+        (quote! { #(#statements)* #(#exprs;)* }.to_string(), ops)
+    }
+
+    #[test]
+    fn a_sine_and_cosine_of_one_argument_are_one_sin_cos_call() {
+        let mut g = Graph::new();
+        let x = g.var("x");
+        let (sin, cos) = (g.call(Func::Sin, x), g.call(Func::Cos, x));
+        let (code, ops) = lowered(&g, &[sin, cos]);
+        assert_eq!(
+            code.matches("stateforge_math :: f32 :: sin_cos (x)")
+                .count(),
+            1
+        );
+        assert!(
+            !code.contains(":: sin (") && !code.contains(":: cos ("),
+            "{code}"
+        );
+        assert_eq!(ops.call, 1);
+        // Alone, a sine is a sine.
+        let (code, ops) = lowered(&g, &[sin]);
+        assert!(code.contains("stateforge_math :: f32 :: sin (x)"), "{code}");
+        assert_eq!(ops.call, 1);
+    }
 }

@@ -20,7 +20,8 @@ pub fn op_count_struct() -> TokenStream {
             pub mul: usize,
             /// Divisions.
             pub div: usize,
-            /// Library calls (`sin cos tan tanh exp ln sqrt abs atan2`, through `libm`).
+            /// Library calls (`sin cos sin_cos tan tanh exp ln sqrt abs atan2`, through
+            /// `stateforge_math`; a `sin_cos` counts once).
             pub call: usize,
             /// Comparisons of piecewise terms.
             pub compare: usize,

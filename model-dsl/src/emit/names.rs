@@ -1,7 +1,9 @@
 //! Every rule for names in generated code, in one place.
 
+use crate::model::Scalar;
 use crate::symbolic::{Graph, Node, NodeId};
-use proc_macro2::{Ident, Span};
+use proc_macro2::{Ident, Span, TokenStream};
+use quote::quote;
 use std::collections::{HashMap, HashSet};
 
 /// Longest derived temporary name before falling back to a numbered one.
@@ -10,6 +12,14 @@ const MAX_DERIVED_LEN: usize = 20;
 /// An identifier in generated code.
 pub fn ident(name: &str) -> Ident {
     Ident::new(name, Span::call_site())
+}
+
+/// The runtime crate's function `name` for `scalar`: `stateforge_math::f32::sin`. Generated
+/// code calls elementary functions there only (its `f32` functions never compute in
+/// `f64`; its `f64` ones are `libm`'s), so the calling crate has one runtime dependency.
+pub fn math_fn(scalar: Scalar, name: &str) -> TokenStream {
+    let (module, name) = (ident(scalar.type_name()), ident(name));
+    quote! { stateforge_math::#module::#name }
 }
 
 /// `F_OPS` for `f`, `JACOBIAN_F_WRT_X_OPS` for `jacobian_f_wrt_x`.

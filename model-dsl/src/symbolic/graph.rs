@@ -450,10 +450,14 @@ impl Graph {
         result
     }
 
-    /// `f(a)`
+    /// `f(a)`; a sine or cosine of a double angle, `2 x`, is written with `sin x` and
+    /// `cos x` (see [`Graph::double_angle`]).
     pub fn call(&mut self, f: Func, a: NodeId) -> NodeId {
         if let Some(x) = self.constant_value(a) {
             return self.num(f.eval(x));
+        }
+        if let Some(value) = self.double_angle(f, a) {
+            return value;
         }
         match (f, self.node(a)) {
             (Func::Abs, Node::Neg(x)) => self.call(Func::Abs, x),
@@ -464,6 +468,43 @@ impl Graph {
             }
             _ => self.intern(Node::Call(f, a)),
         }
+    }
+
+    /// `sin 2x = 2 sin x cos x` and `cos 2x = 1 - 2 sin^2 x`, for `f(a)` with `a = 2 x`:
+    /// generated code computes `sin x` and `cos x` with one call
+    /// (`stateforge_math::*::sin_cos`, one range reduction), and a model that has `sin x`
+    /// or `cos x` beside `sin 2x` (the helicopter's `sin(psi)`, `cos(psi)`, `sin(2 psi)`)
+    /// gets `sin 2x` and its derivative `2 cos 2x` for a few products. Accuracy: the sine's
+    /// relative error is its factors' plus one rounding (no cancellation); the cosine's
+    /// error is absolute, about one ulp of 1, where `cos 2x` crosses zero.
+    fn double_angle(&mut self, f: Func, a: NodeId) -> Option<NodeId> {
+        if !matches!(f, Func::Sin | Func::Cos) {
+            return None;
+        }
+        let (factor, x) = self.literal_multiple(a);
+        if factor != 2.0 || x == a {
+            return None;
+        }
+        let (sin, two) = (self.call(Func::Sin, x), self.num(2.0));
+        Some(match f {
+            Func::Sin => {
+                let cos = self.call(Func::Cos, x);
+                let product = self.mul(sin, cos);
+                self.mul(two, product)
+            }
+            _ => {
+                let square = self.mul(sin, sin);
+                let twice = self.mul(two, square);
+                let one = self.one();
+                self.sub(one, twice)
+            }
+        })
+    }
+
+    /// The node `node` if the graph has it (a lowering looks for the cosine beside a
+    /// sine, say), without adding it.
+    pub fn find(&self, node: Node) -> Option<NodeId> {
+        self.lookup.get(&node).copied()
     }
 
     /// `atan2(y, x)`, folded when both are constants.
@@ -671,6 +712,31 @@ pub fn loop_invariant_operands(g: &Graph, roots: &[NodeId], loop_vars: &[NodeId]
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn double_angles_are_written_with_the_sine_and_cosine_of_the_angle() {
+        let mut g = Graph::new();
+        let x = g.var("x");
+        let two = g.num(2.0);
+        let twice = g.mul(two, x);
+        let (sin2, cos2) = (g.call(Func::Sin, twice), g.call(Func::Cos, twice));
+        let (sin, cos) = (g.call(Func::Sin, x), g.call(Func::Cos, x));
+        let product = g.mul(sin, cos);
+        assert_eq!(sin2, g.mul(two, product));
+        let square = g.mul(sin, sin);
+        let twice_square = g.mul(two, square);
+        let one = g.one();
+        assert_eq!(cos2, g.sub(one, twice_square));
+        assert!(g.find(Node::Call(Func::Sin, twice)).is_none());
+        // sin(-2x) is -(2 sin x cos x); sin(3x) stays a call.
+        let minus = g.neg(twice);
+        let negated = g.call(Func::Sin, minus);
+        assert_eq!(negated, g.neg(sin2));
+        let three = g.num(3.0);
+        let thrice = g.mul(three, x);
+        let sin3 = g.call(Func::Sin, thrice);
+        assert!(matches!(g.node(sin3), Node::Call(Func::Sin, _)));
+    }
 
     #[test]
     fn equal_expressions_are_one_node_in_either_order() {

@@ -288,10 +288,7 @@ impl DkfType {
         let lit = Literal::usize_unsuffixed;
         let (n_len, p_len, u_len) = (lit(self.n), lit(self.np), lit(self.nu));
         let zero = literal(0.0, self.scalar);
-        let sqrt = ident(match self.scalar {
-            Scalar::F32 => "sqrtf",
-            Scalar::F64 => "sqrt",
-        });
+        let sqrt = crate::emit::names::math_fn(self.scalar, "sqrt");
         let has_u = !model.inputs.is_empty();
         let u_param_plain = has_u.then(|| quote! { u: &[#ty; #u_len] });
         let u_arg_plain = has_u.then(|| quote! { u });
@@ -309,7 +306,7 @@ impl DkfType {
             pub fn excitation(&self) -> #ty {
                 // Stored as its two squared terms: the step itself never divides them.
                 if self.window_column_norms > #zero {
-                    libm::#sqrt(self.window_det_sq / self.window_column_norms)
+                    #sqrt(self.window_det_sq / self.window_column_norms)
                 } else {
                     #zero
                 }

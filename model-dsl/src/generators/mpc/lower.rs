@@ -847,12 +847,9 @@ fn terminal_code(
     }
 }
 
-/// `libm::fabs` or `libm::fabsf`.
+/// `stateforge_math::f32::abs` or `stateforge_math::f64::abs`.
 fn abs_fn(scalar: Scalar) -> TokenStream {
-    match scalar {
-        Scalar::F32 => quote! { libm::fabsf },
-        Scalar::F64 => quote! { libm::fabs },
-    }
+    crate::emit::names::math_fn(scalar, "abs")
 }
 
 /// The model's part of the condensed problem as nodes: `H` (packed), and the weighted

@@ -1,0 +1,36 @@
+//! Elementary functions for the code `stateforge` generates, in one `no_std` crate.
+//!
+//! [`f32`](crate::f32) computes every function in single precision only: range reduction
+//! and polynomial evaluation are IEEE `f32` additions, multiplications and divisions
+//! (never `f64`, never a fused multiply-add), so a Cortex-M4F, whose FPU has no double
+//! precision, runs them in hardware, and a host computes the same bits. `libm`'s `f32`
+//! functions compute in software `f64` there (about 1000 instructions a call).
+//! [`f64`](crate::f64) delegates to `libm`, so a crate using generated code depends on this
+//! crate alone, whatever its scalar.
+//!
+//! # Accuracy (f32)
+//!
+//! Largest error against `libm`'s `f64` function of the same input, in units in the last
+//! place of the `f32` result, measured over every `f32` input (`cargo xtask math-ulps`;
+//! `atan2` over a dense grid and random pairs), and asserted on millions of samples by the
+//! crate's tests:
+//!
+//! | function | domain | largest error (ulp) | edges |
+//! |---|---|---|---|
+//! | `sin`, `cos`, `sin_cos` | \|x\| ≤ 6433 ([`f32::TRIG_ACCURATE`]) | 1.5 | beyond: finite, in \[-1, 1\], not accurate; ±inf, NaN → NaN |
+//! | `tan` | \|x\| ≤ 6433 | 3 | beyond: finite, not accurate; ±inf, NaN → NaN |
+//! | `exp` | all | 1.5 | > 88.72 → inf; < -103.97 → 0; subnormal results rounded once |
+//! | `ln` | all | 1 | < 0 → NaN; ±0 → -inf; inf → inf; subnormals exact scaling |
+//! | `atan2` | all | 2.5 | signed zeros and infinities as C's `atan2` |
+//! | `tanh` | all | 2.5 | ±1 past ±9.01; -0 → -0 |
+//! | `sqrt` | all | 0.5 (correctly rounded) | `vsqrt.f32` on an Arm FPU, `libm::sqrtf` elsewhere |
+//!
+//! (The numbers are the measured bounds the tests assert; see each function.)
+#![no_std]
+#![deny(unsafe_code)]
+#![warn(missing_docs)]
+
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+mod arm;
+pub mod f32;
+pub mod f64;
