@@ -103,7 +103,14 @@ pub fn covariance_rate(
 /// `P + h (A P + P A' + S) + h^2 A P A'`. The last term, which a plain Euler step of the
 /// ODE leaves out, is what keeps `P` positive semi-definite for any `h` (each term is), and
 /// with it one Euler sub-step is exactly the discrete EKF's `A_d P A_d' + Q` of the Euler
-/// model (`A_d = I + h F`, `Q = h Q_c`). Upper triangle computed once.
+/// model (`A_d = I + h F`, `Q = h Q_c`).
+///
+/// Computed as two products by `Phi = I + h A`, whose entries do not change over a
+/// sub-step where `A` does not (computed once before a loop of sub-steps) and are mostly
+/// structural zeros and ones (a row of `F` that is a unit vector, as `der(q) = qd`
+/// gives): `G = Phi P`, then the upper triangle of `G Phi' + h S`. In each entry the
+/// off-diagonal products are summed first and the diagonal one, usually the entry
+/// itself, added last: a small increment added to the value it changes.
 pub fn euler_covariance_step(
     g: &mut Graph,
     h: NodeId,
@@ -113,33 +120,75 @@ pub fn euler_covariance_step(
     s: &Matrix,
 ) -> Matrix {
     let n = p.len();
-    let mut a = f.clone();
-    if let Some(alpha) = alpha {
-        for i in 0..n {
-            a[i][i] = g.add(f[i][i], alpha);
-        }
-    }
-    let ap = matmul(g, &a, p);
+    let one = g.one();
+    let phi: Matrix = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| {
+                    let a = match alpha {
+                        Some(alpha) if i == j => g.add(f[i][j], alpha),
+                        _ => f[i][j],
+                    };
+                    let step = g.mul(h, a);
+                    if i == j {
+                        g.add(one, step)
+                    } else {
+                        step
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    // G = Phi P: G_ij = sum_k Phi_ik P_kj.
+    let left: Matrix = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| {
+                    let terms = (0..n).map(|k| (phi[i][k], p[k][j]));
+                    increment_then_diagonal(g, terms, i, None)
+                })
+                .collect()
+        })
+        .collect();
+    // N = G Phi' + h S: N_ij = sum_k G_ik Phi_jk + h S_ij, upper triangle.
     let zero = g.zero();
     let mut out = vec![vec![zero; n]; n];
     for i in 0..n {
         for j in i..n {
-            let mut rate = g.add(ap[i][j], ap[j][i]);
-            rate = g.add(rate, s[i][j]);
-            let mut second = zero;
-            for k in 0..n {
-                let term = g.mul(ap[i][k], a[j][k]);
-                second = g.add(second, term);
-            }
-            let h_second = g.mul(h, second);
-            let bracket = g.add(rate, h_second);
-            let step = g.mul(h, bracket);
-            let v = g.add(p[i][j], step);
+            let terms = (0..n).map(|k| (left[i][k], phi[j][k]));
+            let noise = g.mul(h, s[i][j]);
+            let v = increment_then_diagonal(g, terms, j, Some(noise));
             out[i][j] = v;
             out[j][i] = v;
         }
     }
     out
+}
+
+/// `sum_k a_k b_k (+ extra)` with the products of `k != diagonal` and `extra` summed
+/// first and the product at `diagonal` (the entry being changed, times `Phi`'s diagonal
+/// entry, usually one) added last, each product with its factors whole
+/// ([`Graph::mul_whole`]: a coefficient hoisted out of the loop is one multiplication).
+fn increment_then_diagonal(
+    g: &mut Graph,
+    terms: impl Iterator<Item = (NodeId, NodeId)>,
+    diagonal: usize,
+    extra: Option<NodeId>,
+) -> NodeId {
+    let mut sum = g.zero();
+    let mut last = sum;
+    for (k, (a, b)) in terms.enumerate() {
+        let term = g.mul_whole(a, b);
+        if k == diagonal {
+            last = term;
+        } else {
+            sum = g.add(sum, term);
+        }
+    }
+    if let Some(extra) = extra {
+        sum = g.add(sum, extra);
+    }
+    g.add(sum, last)
 }
 
 /// The measurement terms of the continuous-time EKF (Kulkarni and Purwar, eq. 5): the gain
