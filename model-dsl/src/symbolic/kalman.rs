@@ -67,10 +67,12 @@ pub fn update(
     let cpct = matmul(g, c, &pct);
     let s = add(g, &cpct, r);
     let ldl = ldl_inverse(g, &s, reciprocal);
-    let k = matmul(g, &pct, &ldl.inverse);
     let innovation: Matrix = residual.iter().map(|&e| vec![e]).collect();
     let nis = normalised_innovation_squared(g, residual, &ldl.inverse);
-    let correction = matmul(g, &k, &innovation);
+    // K r as U (T r): the measurements' `T r` first, shared with the NIS, then one
+    // product per state and measurement.
+    let weighted = matmul(g, &ldl.inverse, &innovation);
+    let correction = matmul(g, &pct, &weighted);
     let x_new = x
         .iter()
         .zip(&correction)
