@@ -5,13 +5,46 @@
 
 use super::continuous::AtPoint;
 use super::graph::{Graph, NodeId};
-use super::linalg::{add, ldl_inverse, matmul, sandwich_symmetric, transpose, Matrix};
+use super::linalg::{add, dot, ldl_inverse, matmul, sandwich_symmetric, transpose, Matrix};
 use super::model_graph::ModelGraph;
 
 /// `A P A' + Q`, upper triangle computed once.
 pub fn predict_covariance(g: &mut Graph, a: &Matrix, p: &Matrix, q: &Matrix) -> Matrix {
     let apa = sandwich_symmetric(g, a, p, a);
     add(g, &apa, q)
+}
+
+/// [`predict_covariance`] with entry `ij` as `(A P)_j . A_i` rather than
+/// `(A P)_i . A_j` (the same sum) where row `i` of `A` has fewer structural nonzeros than
+/// row `j`, all among `j`'s: that row of `A P` is computed for the diagonal entry `jj`
+/// anyway, and the sum has fewer terms (the EKF's `x1 = x1 + TS x2` row against the
+/// cantilever's `x2` row).
+pub fn predict_covariance_by_sparse_rows(
+    g: &mut Graph,
+    a: &Matrix,
+    p: &Matrix,
+    q: &Matrix,
+) -> Matrix {
+    let ap = matmul(g, a, p);
+    let n = a.len();
+    let support = |g: &Graph, row: &[NodeId]| -> Vec<usize> {
+        (0..row.len()).filter(|&k| !g.is_zero(row[k])).collect()
+    };
+    let mut out = vec![vec![g.zero(); n]; n];
+    for i in 0..n {
+        for j in i..n {
+            let (si, sj) = (support(g, &a[i]), support(g, &a[j]));
+            let (dense, sparse) = if si.len() < sj.len() && si.iter().all(|k| sj.contains(k)) {
+                (j, i)
+            } else {
+                (i, j)
+            };
+            let v = dot(g, &ap[dense], &a[sparse]);
+            out[i][j] = v;
+            out[j][i] = v;
+        }
+    }
+    add(g, &out, q)
 }
 
 /// A measurement update, as nodes.
@@ -138,7 +171,7 @@ pub fn ekf_predict(
         f = at_prev.eval(&mut mg.graph, &[t_prev], &f);
         a = at_prev.eval_matrix(&mut mg.graph, &[t_prev], &a);
     }
-    let p = predict_covariance(&mut mg.graph, &a, p, q);
+    let p = predict_covariance_by_sparse_rows(&mut mg.graph, &a, p, q);
     (f, p)
 }
 
