@@ -132,7 +132,7 @@ impl Module<'_> {
         let consts = constants(model, scalar);
         let looped = self
             .looped_f(scalar)
-            .map(|(f, _, _)| quote! { use super::F_SUBSTEPS; #f });
+            .map(|(f, _, _)| quote! { use super::F_SUBSTEP_PAIRS; #f });
         let fns = self
             .functions
             .iter()

@@ -136,8 +136,9 @@ impl<'ast> Visit<'ast> for Findings {
     }
 }
 
-/// `for _ in 0..Self::HORIZON { .. }` (the LQR's horizon), `for _ in 0..Self::SUBSTEPS`
-/// (a continuous filter's sub-steps), `for _ in 0..F_SUBSTEPS` (a looped `f`), the MPC's
+/// `for _ in 0..Self::HORIZON { .. }` (the LQR's horizon), `for _ in 0..Self::SUBSTEP_PAIRS`
+/// (a continuous filter's sub-steps, two per iteration), `for _ in 0..F_SUBSTEP_PAIRS` (a
+/// looped `f`), the MPC's
 /// `MAX_SQUARINGS` and `RICCATI_ITERATIONS`: a constant number of iterations, with no
 /// counter the body could misuse; or the MPC's `for pass in 1..=Self::PASSES`, whose
 /// counter is only recorded and compared (the body has no indexing or integer
@@ -150,8 +151,8 @@ fn is_horizon_loop(f: &syn::ExprForLoop) -> bool {
         p.path.segments.last().is_some_and(|s| {
             [
                 "HORIZON",
-                "SUBSTEPS",
-                "F_SUBSTEPS",
+                "SUBSTEP_PAIRS",
+                "F_SUBSTEP_PAIRS",
                 "MAX_SQUARINGS",
                 "RICCATI_ITERATIONS",
             ]

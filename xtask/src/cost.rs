@@ -33,7 +33,7 @@ const KERNELS: &[Kernel] = &[
     Kernel {
         name: "ekf_step",
         label: "EKF step",
-        goal: Some(210),
+        goal: Some(170),
         c_peer: Some(254),
         paper_ms: Some(6.92),
     },
@@ -47,7 +47,7 @@ const KERNELS: &[Kernel] = &[
     Kernel {
         name: "lqr_solve",
         label: "LQR solve (N = 50)",
-        goal: Some(2500),
+        goal: Some(1300),
         c_peer: None,
         paper_ms: None,
     },
@@ -69,7 +69,7 @@ const KERNELS: &[Kernel] = &[
     Kernel {
         name: "hybrid_ekf_step",
         label: "hybrid EKF step (500 sub)",
-        goal: None,
+        goal: Some(40000),
         c_peer: None,
         paper_ms: None,
     },

@@ -11,6 +11,7 @@ use crate::scope::{Binding, Scope};
 const MODEL_ITEMS: &[&str] = &[
     "f",
     "F_SUBSTEPS",
+    "F_SUBSTEP_PAIRS",
     "h",
     "jacobian_f_wrt_x",
     "jacobian_f_wrt_u",

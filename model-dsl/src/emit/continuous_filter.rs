@@ -16,8 +16,8 @@ use crate::emit::names::{ident, TempNamer};
 use crate::emit::substeps::{lower_loop, Carried, SubstepLoop, P_SUB, T_SUB, X_SUB};
 use crate::model::{Method, Model, Scalar};
 use crate::symbolic::continuous::{
-    covariance_rate, euler_covariance_step, integrate_substep, join, riccati_measurement_terms,
-    split, AtPoint,
+    covariance_rate, euler_covariance_step, euler_state_step, integrate_substep, join,
+    riccati_measurement_terms, split, AtPoint,
 };
 use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed, Matrix};
 use crate::symbolic::{kalman, Graph, ModelGraph, NodeId, VarId};
@@ -242,14 +242,18 @@ impl Dynamics {
             (dx, s) = terms.apply(g, &point, &self.y, &dx, &self.q, p);
         }
         let p_next = euler_covariance_step(g, h, &f, self.alpha, p, &s);
-        let x_next: Vec<NodeId> = x
-            .iter()
-            .zip(&dx)
-            .map(|(&xi, &di)| {
-                let step = g.mul(h, di);
-                g.add(xi, step)
-            })
-            .collect();
+        let x_next = if self.measurement.is_none() {
+            euler_state_step(g, h, x, &dx, &f)
+        } else {
+            // The innovation feedback is part of the rate: `x + h dx` as it is.
+            x.iter()
+                .zip(&dx)
+                .map(|(&xi, &di)| {
+                    let step = g.mul(h, di);
+                    g.add(xi, step)
+                })
+                .collect()
+        };
         join(&x_next, &p_next)
     }
 }
@@ -523,7 +527,8 @@ fn substep_loop(lowerer: &mut Lowerer, nodes: &MethodNodes, uses_time: bool) -> 
             scalar: true,
         });
     }
-    let lowered = lower_loop(lowerer, &carried, &quote! { Self::SUBSTEPS });
+    let odd = nodes.substeps % 2 == 1;
+    let lowered = lower_loop(lowerer, &carried, (&quote! { Self::SUBSTEP_PAIRS }, odd));
     let (x_sub, p_sub) = (ident(X_SUB), ident(P_SUB));
     lowerer.read_lazily(&quote! { #x_sub }, x_vars);
     lowerer.read_lazily(&quote! { #p_sub }, p_vars);

@@ -136,9 +136,18 @@ impl FilterLayout {
 pub fn substeps_constant(model: &Model, mg: &ModelGraph, doc: &TokenStream) -> TokenStream {
     let substeps = mg.clone().substep(model).map_or(1, |(_, _, n)| n);
     let substeps_lit = Literal::usize_unsuffixed(substeps as usize);
+    // The loop of sub-steps runs two per iteration (`emit::substeps::lower_loop`).
+    let pairs = (substeps > 1).then(|| {
+        let pairs_lit = Literal::usize_unsuffixed(substeps as usize / 2);
+        quote! {
+            /// Iterations of the loop of sub-steps, two sub-steps each.
+            const SUBSTEP_PAIRS: usize = #pairs_lit;
+        }
+    });
     quote! {
         #doc
         pub const SUBSTEPS: usize = #substeps_lit;
+        #pairs
     }
 }
 

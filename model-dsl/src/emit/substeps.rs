@@ -49,14 +49,16 @@ pub struct SubstepLoop {
     pub used_vars: BTreeSet<VarId>,
 }
 
-/// Lowers `carried` as `for _ in 0..#count { .. }` (`count` names a constant: `Self::SUBSTEPS`).
+/// Lowers `carried` as `for _ in 0..#pairs { .. }` running two sub-steps per iteration
+/// (`pairs` names a constant: `Self::SUBSTEP_PAIRS`, half the sub-steps), then one more
+/// if their number is `odd`.
 /// Statements already emitted on `lowerer` (guards) come first. On return `lowerer`
 /// continues after the loop: what the code computes next reads the carried arrays by
 /// their names.
 pub fn lower_loop(
     lowerer: &mut Lowerer,
     carried: &[Carried<'_>],
-    count: &TokenStream,
+    (pairs, odd): (&TokenStream, bool),
 ) -> SubstepLoop {
     let graph = lowerer.graph();
     // A carried value a sub-step leaves as it is (a parameter: a random walk has no
@@ -102,13 +104,23 @@ pub fn lower_loop(
             assign.push(quote! { #name = [#(#next),*]; });
         }
     }
-    let code = quote! {
-        #(#outside)*
-        #(#start)*
-        for _ in 0..#count {
+    // Two sub-steps per iteration: each copy's values stay in registers for the next, where
+    // one copy must move every carried value back into the registers the loop began with.
+    let substep = quote! {
+        {
             #(#statements)*
             #(#assign)*
         }
+    };
+    let last = odd.then(|| substep.clone());
+    let code = quote! {
+        #(#outside)*
+        #(#start)*
+        for _ in 0..#pairs {
+            #substep
+            #substep
+        }
+        #last
     };
     SubstepLoop {
         code,
@@ -120,6 +132,8 @@ pub fn lower_loop(
 
 /// Name of the constant holding the sub-steps of a looped `f`.
 pub const F_SUBSTEPS: &str = "F_SUBSTEPS";
+/// Name of the constant holding the iterations of a looped `f`, two sub-steps each.
+pub const F_SUBSTEP_PAIRS: &str = "F_SUBSTEP_PAIRS";
 
 /// `f` of a model whose sub-steps are too many to unroll: one sub-step of the model's rule,
 /// straight-line, in a loop of `F_SUBSTEPS`; the constant itself; and what `f` computes.
@@ -135,9 +149,12 @@ pub fn looped_f(
         .plus(lowered.per_substep.times(substep.count));
     let f = substep.f_tokens(lowered.code, scalar);
     let count = proc_macro2::Literal::usize_unsuffixed(substep.count as usize);
+    let pairs = proc_macro2::Literal::usize_unsuffixed(substep.count as usize / 2);
     let constant = quote! {
         /// Integration sub-steps of one sample of [`f`].
         pub const F_SUBSTEPS: usize = #count;
+        /// Iterations of [`f`]'s loop, two sub-steps each.
+        const F_SUBSTEP_PAIRS: usize = #pairs;
     };
     (f, constant, ops)
 }
@@ -203,7 +220,7 @@ impl Substep {
     /// The loop over `F_SUBSTEPS`, carrying [`X_SUB`] (and [`T_SUB`]).
     fn lower(&self, model: &Model, scalar: Scalar) -> SubstepLoop {
         let g = &self.g;
-        let reserved = argument_names(model).chain([X_SUB, T_SUB, F_SUBSTEPS]);
+        let reserved = argument_names(model).chain([X_SUB, T_SUB, F_SUBSTEPS, F_SUBSTEP_PAIRS]);
         let namer = super::names::TempNamer::new(reserved);
         let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &self.next);
         let (state_next, t_next) = self.next.split_at(self.states.len());
@@ -225,8 +242,12 @@ impl Substep {
                 scalar: true,
             });
         }
-        let count = ident(F_SUBSTEPS);
-        lower_loop(&mut lowerer, &carried, &quote! { #count })
+        let pairs = ident(F_SUBSTEP_PAIRS);
+        lower_loop(
+            &mut lowerer,
+            &carried,
+            (&quote! { #pairs }, self.count % 2 == 1),
+        )
     }
 
     /// `pub fn f(t, x, u)` around the lowered loop `code`: unpacks the arguments, runs

@@ -6,7 +6,7 @@
 // Index loops mirror the formulas' subscripts (P_ij, K_il) more plainly than iterators.
 #![allow(clippy::needless_range_loop)]
 
-use super::graph::{Graph, NodeId, VarId};
+use super::graph::{Graph, Node, NodeId, VarId};
 use super::linalg::{matmul, packed_upper, symmetric_from_packed, transpose, Matrix};
 use crate::model::Method;
 use std::collections::HashMap;
@@ -103,7 +103,14 @@ pub fn covariance_rate(
 /// `P + h (A P + P A' + S) + h^2 A P A'`. The last term, which a plain Euler step of the
 /// ODE leaves out, is what keeps `P` positive semi-definite for any `h` (each term is), and
 /// with it one Euler sub-step is exactly the discrete EKF's `A_d P A_d' + Q` of the Euler
-/// model (`A_d = I + h F`, `Q = h Q_c`). Upper triangle computed once.
+/// model (`A_d = I + h F`, `Q = h Q_c`).
+///
+/// Computed as two products by `Phi = I + h A`, whose entries do not change over a
+/// sub-step where `A` does not (computed once before a loop of sub-steps) and are mostly
+/// structural zeros and ones (a row of `F` that is a unit vector, as `der(q) = qd`
+/// gives): `G = Phi P`, then the upper triangle of `G Phi' + h S`. In each entry the
+/// off-diagonal products are summed first and the diagonal one, usually the entry
+/// itself, added last: a small increment added to the value it changes.
 pub fn euler_covariance_step(
     g: &mut Graph,
     h: NodeId,
@@ -113,33 +120,183 @@ pub fn euler_covariance_step(
     s: &Matrix,
 ) -> Matrix {
     let n = p.len();
-    let mut a = f.clone();
-    if let Some(alpha) = alpha {
-        for i in 0..n {
-            a[i][i] = g.add(f[i][i], alpha);
-        }
-    }
-    let ap = matmul(g, &a, p);
+    let phi = euler_transition(g, h, f, alpha);
+    // G = Phi P: G_ij = sum_k Phi_ik P_kj.
+    let left: Matrix = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| {
+                    let terms = (0..n).map(|k| (phi[i][k], p[k][j]));
+                    increment_then_diagonal(g, terms, i, None)
+                })
+                .collect()
+        })
+        .collect();
+    // N = G Phi' + h S: N_ij = sum_k G_ik Phi_jk + h S_ij, upper triangle.
     let zero = g.zero();
     let mut out = vec![vec![zero; n]; n];
     for i in 0..n {
         for j in i..n {
-            let mut rate = g.add(ap[i][j], ap[j][i]);
-            rate = g.add(rate, s[i][j]);
-            let mut second = zero;
-            for k in 0..n {
-                let term = g.mul(ap[i][k], a[j][k]);
-                second = g.add(second, term);
-            }
-            let h_second = g.mul(h, second);
-            let bracket = g.add(rate, h_second);
-            let step = g.mul(h, bracket);
-            let v = g.add(p[i][j], step);
+            let terms = (0..n).map(|k| (left[i][k], phi[j][k]));
+            let noise = g.mul(h, s[i][j]);
+            let v = increment_then_diagonal(g, terms, j, Some(noise));
             out[i][j] = v;
             out[j][i] = v;
         }
     }
     out
+}
+
+/// `Phi = I + h A` of an Euler sub-step, `A = F`, or `F + alpha I` with `alpha`.
+pub fn euler_transition(g: &mut Graph, h: NodeId, f: &Matrix, alpha: Option<NodeId>) -> Matrix {
+    let n = f.len();
+    let one = g.one();
+    (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| {
+                    let a = match alpha {
+                        Some(alpha) if i == j => g.add(f[i][j], alpha),
+                        _ => f[i][j],
+                    };
+                    let step = scale(g, h, a);
+                    if i == j {
+                        g.add(one, step)
+                    } else {
+                        step
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// One forward Euler sub-step `x + h f(x)` of the estimate, with `F = df/dx` at `x`. A
+/// row of `f` that is affine in the states that change (those whose rate is not a
+/// structural zero; the parameters, a random walk, do not), with coefficients that
+/// depend on none of them, is that row of `Phi x + h f(x_0)` (`Phi = I + h F`, `x_0` the
+/// point with the changing states at zero): the same value, from `Phi`'s entries, which
+/// the covariance sub-step computes anyway, and a constant term computed before a loop.
+pub fn euler_state_step(
+    g: &mut Graph,
+    h: NodeId,
+    x: &[NodeId],
+    dx: &[NodeId],
+    f: &Matrix,
+) -> Vec<NodeId> {
+    let n = x.len();
+    let changing: Vec<usize> = (0..n).filter(|&i| !g.is_zero(dx[i])).collect();
+    let changing_vars: Vec<NodeId> = changing.iter().map(|&k| x[k]).collect();
+    let to_zero: HashMap<VarId, NodeId> = changing_vars
+        .iter()
+        .filter_map(|&v| match g.node(v) {
+            Node::Var(id) => Some((id, g.zero())),
+            _ => None,
+        })
+        .collect();
+    let phi = euler_transition(g, h, f, None);
+    (0..n)
+        .map(|i| {
+            let affine = to_zero.len() == changing.len()
+                && changing
+                    .iter()
+                    .all(|&k| !depends_on(g, f[i][k], &changing_vars));
+            if !affine || g.is_zero(dx[i]) {
+                let step = g.mul(h, dx[i]);
+                return g.add(x[i], step);
+            }
+            let at_zero = g.substitute(dx[i], &to_zero, &mut HashMap::new());
+            let mut sum = scale(g, h, at_zero);
+            for &k in changing.iter().filter(|&&k| k != i) {
+                let term = g.mul_whole(phi[i][k], x[k]);
+                sum = g.add(sum, term);
+            }
+            if g.constant_value(f[i][i]).is_some() {
+                let diagonal = g.mul_whole(phi[i][i], x[i]);
+                return g.add(sum, diagonal);
+            }
+            let diagonal = scale(g, h, f[i][i]);
+            let term = g.mul_whole(diagonal, x[i]);
+            sum = g.add(sum, term);
+            g.add(sum, x[i])
+        })
+        .collect()
+}
+
+/// Whether `e` reads any of the variables `vars`.
+fn depends_on(g: &Graph, e: NodeId, vars: &[NodeId]) -> bool {
+    let mut stack = vec![e];
+    let mut seen = std::collections::HashSet::new();
+    while let Some(id) = stack.pop() {
+        if vars.contains(&id) {
+            return true;
+        }
+        if seen.insert(id) {
+            stack.extend(g.node(id).children());
+        }
+    }
+    false
+}
+
+/// `h e`, with `h` distributed over the sums of `e` when each of their terms has a
+/// constant factor (`h (c u - k q)` as `(h c) u - (h k) q`: the constants fold, one
+/// operation fewer).
+fn scale(g: &mut Graph, h: NodeId, e: NodeId) -> NodeId {
+    if !matches!(g.node(e), Node::Add(..) | Node::Sub(..) | Node::Neg(_)) || !distributes(g, e) {
+        return g.mul(h, e);
+    }
+    match g.node(e) {
+        Node::Add(a, b) => {
+            let (a, b) = (scale(g, h, a), scale(g, h, b));
+            g.add(a, b)
+        }
+        Node::Sub(a, b) => {
+            let (a, b) = (scale(g, h, a), scale(g, h, b));
+            g.sub(a, b)
+        }
+        Node::Neg(a) => {
+            let a = scale(g, h, a);
+            g.neg(a)
+        }
+        _ => g.mul(h, e),
+    }
+}
+
+/// Whether every term of the sum `e` is a constant or has a constant factor.
+fn distributes(g: &Graph, e: NodeId) -> bool {
+    match g.node(e) {
+        Node::Add(a, b) | Node::Sub(a, b) => distributes(g, a) && distributes(g, b),
+        Node::Neg(a) => distributes(g, a),
+        Node::Mul(a, b) => g.constant_value(a).is_some() || g.constant_value(b).is_some(),
+        Node::Num(_) | Node::Named(_) => true,
+        _ => false,
+    }
+}
+
+/// `sum_k a_k b_k (+ extra)` with the products of `k != diagonal` and `extra` summed
+/// first and the product at `diagonal` (the entry being changed, times `Phi`'s diagonal
+/// entry, usually one) added last, each product with its factors whole
+/// ([`Graph::mul_whole`]: a coefficient hoisted out of the loop is one multiplication).
+fn increment_then_diagonal(
+    g: &mut Graph,
+    terms: impl Iterator<Item = (NodeId, NodeId)>,
+    diagonal: usize,
+    extra: Option<NodeId>,
+) -> NodeId {
+    let mut sum = g.zero();
+    let mut last = sum;
+    for (k, (a, b)) in terms.enumerate() {
+        let term = g.mul_whole(a, b);
+        if k == diagonal {
+            last = term;
+        } else {
+            sum = g.add(sum, term);
+        }
+    }
+    if let Some(extra) = extra {
+        sum = g.add(sum, extra);
+    }
+    g.add(sum, last)
 }
 
 /// The measurement terms of the continuous-time EKF (Kulkarni and Purwar, eq. 5): the gain

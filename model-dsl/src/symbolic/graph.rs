@@ -399,6 +399,31 @@ impl Graph {
         self.intern(Node::Mul(a, b))
     }
 
+    /// `a * b` with both factors kept whole: unlike [`Graph::mul`], no literal factor
+    /// moves out of a product (`(c x) * y` stays so, not `c (x y)`), so a coefficient `c x`
+    /// computed once, before a loop, is one multiplication per use. Zeros, ones, signs
+    /// and products of literals fold as in [`Graph::mul`].
+    pub fn mul_whole(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        if self.literal(a).is_some() || self.literal(b).is_some() {
+            return self.mul(a, b);
+        }
+        match (self.node(a), self.node(b)) {
+            (Node::Neg(x), Node::Neg(y)) => self.mul_whole(x, y),
+            (Node::Neg(x), _) => {
+                let p = self.mul_whole(x, b);
+                self.neg(p)
+            }
+            (_, Node::Neg(y)) => {
+                let p = self.mul_whole(a, y);
+                self.neg(p)
+            }
+            _ => {
+                let (a, b) = self.commutative_order(a, b);
+                self.intern(Node::Mul(a, b))
+            }
+        }
+    }
+
     /// `a / b`; division by a literal becomes multiplication by its reciprocal.
     pub fn div(&mut self, a: NodeId, b: NodeId) -> NodeId {
         if self.is_one(b) {

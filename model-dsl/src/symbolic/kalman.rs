@@ -5,13 +5,46 @@
 
 use super::continuous::AtPoint;
 use super::graph::{Graph, NodeId};
-use super::linalg::{add, ldl_inverse, matmul, sandwich_symmetric, sub, transpose, Matrix};
+use super::linalg::{add, dot, ldl_inverse, matmul, sandwich_symmetric, transpose, Matrix};
 use super::model_graph::ModelGraph;
 
 /// `A P A' + Q`, upper triangle computed once.
 pub fn predict_covariance(g: &mut Graph, a: &Matrix, p: &Matrix, q: &Matrix) -> Matrix {
     let apa = sandwich_symmetric(g, a, p, a);
     add(g, &apa, q)
+}
+
+/// [`predict_covariance`] with entry `ij` as `(A P)_j . A_i` rather than
+/// `(A P)_i . A_j` (the same sum) where row `i` of `A` has fewer structural nonzeros than
+/// row `j`, all among `j`'s: that row of `A P` is computed for the diagonal entry `jj`
+/// anyway, and the sum has fewer terms (the EKF's `x1 = x1 + TS x2` row against the
+/// cantilever's `x2` row).
+pub fn predict_covariance_by_sparse_rows(
+    g: &mut Graph,
+    a: &Matrix,
+    p: &Matrix,
+    q: &Matrix,
+) -> Matrix {
+    let ap = matmul(g, a, p);
+    let n = a.len();
+    let support = |g: &Graph, row: &[NodeId]| -> Vec<usize> {
+        (0..row.len()).filter(|&k| !g.is_zero(row[k])).collect()
+    };
+    let mut out = vec![vec![g.zero(); n]; n];
+    for i in 0..n {
+        for j in i..n {
+            let (si, sj) = (support(g, &a[i]), support(g, &a[j]));
+            let (dense, sparse) = if si.len() < sj.len() && si.iter().all(|k| sj.contains(k)) {
+                (j, i)
+            } else {
+                (i, j)
+            };
+            let v = dot(g, &ap[dense], &a[sparse]);
+            out[i][j] = v;
+            out[j][i] = v;
+        }
+    }
+    add(g, &out, q)
 }
 
 /// A measurement update, as nodes.
@@ -67,33 +100,49 @@ pub fn update(
     let cpct = matmul(g, c, &pct);
     let s = add(g, &cpct, r);
     let ldl = ldl_inverse(g, &s, reciprocal);
-    let k = matmul(g, &pct, &ldl.inverse);
     let innovation: Matrix = residual.iter().map(|&e| vec![e]).collect();
     let nis = normalised_innovation_squared(g, residual, &ldl.inverse);
-    let correction = matmul(g, &k, &innovation);
+    // K r as U (T r): the measurements' `T r` first, shared with the NIS, then one
+    // product per state and measurement.
+    let weighted = matmul(g, &ldl.inverse, &innovation);
+    let correction = matmul(g, &pct, &weighted);
     let x_new = x
         .iter()
         .zip(&correction)
         .map(|(&xi, dx)| g.add(xi, dx[0]))
         .collect();
-    // Joseph form, (I - K C) P (I - K C)' + K R K', associated as M - W K' with
-    // M = P - K (P C')' and W = P C' - K S: the same expression expanded (it holds for
-    // any gain, unlike P - K C P), computed on the upper triangle.
-    let ks = matmul(g, &k, &s);
-    let w = sub(g, &pct, &ks);
+    // Joseph form, (I - K C) P (I - K C)' + K R K'. The gain is K = U T with U = P C'
+    // and T the computed inverse of S (whatever its rounding), so the form expands
+    // exactly to P - U (2 T - T S T) U': one product per entry of the triangle, where the
+    // expansion P - K U' - (U - K S) K' takes two. With T = S^-1 exactly it is
+    // P - U S^-1 U'; the difference 2 T - T S T - S^-1 = -(T - S^-1) S (T - S^-1) is of the
+    // second order in T's error, as the Joseph form's is in the gain's.
+    let two = g.num(2.0);
+    let st = matmul(g, &s, &ldl.inverse);
+    let m = residual.len();
+    let twice_minus_st: Matrix = (0..m)
+        .map(|i| {
+            (0..m)
+                .map(|j| {
+                    let diagonal = if i == j { two } else { g.zero() };
+                    g.sub(diagonal, st[i][j])
+                })
+                .collect()
+        })
+        .collect();
+    let weight = matmul(g, &ldl.inverse, &twice_minus_st);
+    let v = matmul(g, &pct, &weight);
     let zero = g.zero();
     let mut p_new = vec![vec![zero; n]; n];
     for i in 0..n {
         for j in i..n {
-            let mut v = p[i][j];
-            for l in 0..residual.len() {
-                let gain_term = g.mul(k[i][l], pct[j][l]);
-                v = g.sub(v, gain_term);
-                let correction = g.mul(w[i][l], k[j][l]);
-                v = g.sub(v, correction);
+            let mut v_ij = p[i][j];
+            for l in 0..m {
+                let term = g.mul(v[i][l], pct[j][l]);
+                v_ij = g.sub(v_ij, term);
             }
-            p_new[i][j] = v;
-            p_new[j][i] = v;
+            p_new[i][j] = v_ij;
+            p_new[j][i] = v_ij;
         }
     }
     Update {
@@ -122,7 +171,7 @@ pub fn ekf_predict(
         f = at_prev.eval(&mut mg.graph, &[t_prev], &f);
         a = at_prev.eval_matrix(&mut mg.graph, &[t_prev], &a);
     }
-    let p = predict_covariance(&mut mg.graph, &a, p, q);
+    let p = predict_covariance_by_sparse_rows(&mut mg.graph, &a, p, q);
     (f, p)
 }
 
@@ -186,4 +235,51 @@ pub fn innovation_feedback(
             v
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The update's covariance is the Joseph form `(I - K C) P (I - K C)' + K R K'` with
+    /// the gain `K = P C' t` it uses, also when `t` is not exactly `1 / S`.
+    #[test]
+    // Index loops mirror the formula's subscripts.
+    #[allow(clippy::needless_range_loop)]
+    fn update_is_the_joseph_form_of_its_gain() {
+        let mut g = Graph::new();
+        let pm = [[2.0, 0.3, -0.4], [0.3, 1.5, 0.2], [-0.4, 0.2, 0.9]];
+        let cm = [0.7, -1.2, 0.5];
+        let rm = 0.25;
+        let p: Matrix = pm
+            .iter()
+            .map(|row| row.iter().map(|&v| g.num(v)).collect())
+            .collect();
+        let c: Matrix = vec![cm.iter().map(|&v| g.num(v)).collect()];
+        let r = vec![vec![g.num(rm)]];
+        let x: Vec<NodeId> = (0..3).map(|_| g.zero()).collect();
+        let residual = vec![g.zero()];
+        let update = update(&mut g, &x, &p, &residual, &c, &r, |g, _| g.var("t"));
+        let s: f64 = rm
+            + (0..3)
+                .map(|i| (0..3).map(|j| cm[i] * pm[i][j] * cm[j]).sum::<f64>())
+                .sum::<f64>();
+        let t = 1.01 / s;
+        let k: Vec<f64> = (0..3)
+            .map(|i| (0..3).map(|j| pm[i][j] * cm[j]).sum::<f64>() * t)
+            .collect();
+        let a = |i: usize, j: usize| f64::from(u8::from(i == j)) - k[i] * cm[j];
+        for i in 0..3 {
+            for j in 0..3 {
+                let mut joseph = k[i] * rm * k[j];
+                for l in 0..3 {
+                    for m in 0..3 {
+                        joseph += a(i, l) * pm[l][m] * a(j, m);
+                    }
+                }
+                let got = g.eval(update.p[i][j], &|_| t);
+                assert!((got - joseph).abs() < 1e-12, "({i},{j}): {got} vs {joseph}");
+            }
+        }
+    }
 }

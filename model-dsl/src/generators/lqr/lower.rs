@@ -15,7 +15,7 @@ use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
-use crate::symbolic::riccati::{riccati_step, RiccatiStep};
+use crate::symbolic::riccati::{riccati_step_single_input, RiccatiStep};
 use crate::symbolic::{loop_invariant_operands, Graph, ModelGraph, Node, NodeId, VarId};
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
@@ -99,7 +99,7 @@ impl Recursion {
         let q = symmetric_from_packed(&q_vars, ns);
         let r = symmetric_from_packed(&r_vars, nu);
         // eq. (19): K = (R + B'PB)^-1 B'PA; P = A'PA - A'PB K + Q.
-        let step = riccati_step(graph, (&a, &b), &p, (&q, &r), |g, j| {
+        let step = riccati_step_single_input(graph, (&a, &b), &p, (&q, &r), |g, j| {
             g.var(&pivot_names(nu, j, WEIGHT, "").1)
         });
         let k_flat: Vec<NodeId> = step.gain.iter().flatten().copied().collect();
