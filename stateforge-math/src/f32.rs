@@ -85,7 +85,7 @@ fn quadrant((s, c): (f32, f32), q: u32) -> (f32, f32) {
 /// `x = r + k pi/2` with `k` the nearest integer to `x 2/pi` and `r` computed as
 /// `x - k P1 - k P2 - k P3 - k P4` (Cody and Waite): each product is exact and, for
 /// `|x| <=` [`TRIG_ACCURATE`], each subtraction but the last is exact, so `r` carries one
-/// rounding. Largest measured error: 1.5 ulp (see the crate's table). Past
+/// rounding. Largest measured error: 1.26 ulp (sine 1.255, cosine 1.247). Past
 /// [`TRIG_ACCURATE`] the values lose accuracy gradually but stay finite and in `[-1, 1]`;
 /// `sin_cos(±inf)` and `sin_cos(NaN)` are `(NaN, NaN)`. `sin_cos(-0.0) = (0.0, 1.0)`: the
 /// sign of a zero sine is not kept (`r + r^3 p` adds zeros of opposite signs; keeping it
@@ -130,7 +130,7 @@ pub fn cos(x: f32) -> f32 {
     sin_cos(x).1
 }
 
-/// Tangent, `sin x / cos x` from one [`sin_cos`]: largest measured error 3 ulp for
+/// Tangent, `sin x / cos x` from one [`sin_cos`]: largest measured error 3.05 ulp for
 /// `|x| <=` [`TRIG_ACCURATE`]; NaN for ±inf and NaN.
 #[inline]
 pub fn tan(x: f32) -> f32 {
@@ -153,7 +153,7 @@ fn pow2(n: i32) -> f32 {
 /// Exponential, by exponent splitting: `x = r + k ln 2` with `k` the nearest integer to
 /// `x / ln 2` and `|r| <= ln 2 / 2`, `e^x = 2^k e^r`, `e^r` by the Cephes `expf`
 /// polynomial, and `2^k` applied as two exact powers of two so that a subnormal result is
-/// rounded once. Largest measured error: 1.5 ulp.
+/// rounded once. Largest measured error: 0.99 ulp.
 ///
 /// Edges: `exp(x) = inf` for `x > 88.72284` (and `+inf`); `0` for `x < -103.97208` (and
 /// `-inf`); subnormal between; NaN for NaN.
@@ -181,7 +181,7 @@ pub fn exp(x: f32) -> f32 {
 
 /// Natural logarithm: `x = m 2^e` with `m` in `[sqrt(1/2), sqrt(2))`,
 /// `ln x = e ln 2 + ln m`, `ln m` by the Cephes `logf` polynomial in `m - 1`. Largest
-/// measured error: 1 ulp.
+/// measured error: 0.83 ulp.
 ///
 /// Edges: NaN for `x < 0` and NaN; `-inf` for `±0`; `inf` for `inf`; subnormal `x` scaled
 /// exactly first.
@@ -277,7 +277,7 @@ fn atan_ratio(num: f32, den: f32) -> f32 {
 
 /// Four-quadrant arctangent of `y / x`, in `[-pi, pi]`: `atan` of the smaller magnitude
 /// over the larger (in `[0, 1]`), then placed in its octant with pi/2 and pi in two parts.
-/// Largest measured error: 2.5 ulp.
+/// Largest measured error: 2.07 ulp (a grid and 2^28 random pairs).
 ///
 /// Edges as C's `atan2`: `atan2(±0, +0) = ±0`, `atan2(±0, -0) = ±pi`, `atan2(±inf, ±inf)`
 /// is `±pi/4` or `±3pi/4`, the sign of `y` is the result's; NaN if either is NaN.
@@ -310,7 +310,7 @@ pub fn atan2(y: f32, x: f32) -> f32 {
 }
 
 /// Hyperbolic tangent: `1 - 2 / (e^(2|x|) + 1)` with its sign for `|x| >= 0.625`, the
-/// Cephes `tanhf` polynomial below. Largest measured error: 2.5 ulp.
+/// Cephes `tanhf` polynomial below. Largest measured error: 1.33 ulp.
 ///
 /// Edges: `±1` once `e^(2|x|)` overflows (`|x| > 44`, and the rounded value is 1 from
 /// `|x| > 9.01`); `tanh(-0.0) = -0.0`; NaN for NaN.

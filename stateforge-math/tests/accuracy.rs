@@ -1,6 +1,8 @@
 //! The error bounds the crate documents, asserted on millions of sampled inputs over every
 //! range a model can feed (tiny, subnormal, near multiples of pi/2, large, huge, NaN,
-//! infinities, signed zeros). `cargo xtask math-ulps` measures the bounds over every `f32`.
+//! infinities, signed zeros). `cargo xtask math-ulps` measures the bounds over every `f32`
+//! (sin 1.255, cos 1.247, tan 3.043, exp 0.990, ln 0.829, tanh 1.330, atan2 2.064 on its
+//! grid and random pairs; sqrt is correctly rounded): the asserted bounds are those, rounded up.
 
 use stateforge_math::f32 as m;
 
@@ -116,9 +118,9 @@ fn sine_and_cosine_within_their_bound_and_bounded_beyond() {
             .copied()
             .filter(|x| x.abs() <= m::TRIG_ACCURATE || !x.is_finite())
     };
-    assert_within("sin", 1.0, accurate(), m::sin, libm::sin);
-    assert_within("cos", 1.0, accurate(), m::cos, libm::cos);
-    assert_within("tan", 3.6, accurate(), m::tan, libm::tan);
+    assert_within("sin", 1.26, accurate(), m::sin, libm::sin);
+    assert_within("cos", 1.26, accurate(), m::cos, libm::cos);
+    assert_within("tan", 3.05, accurate(), m::tan, libm::tan);
     for x in inputs.iter().copied().filter(|x| x.is_finite()) {
         let (s, c) = m::sin_cos(x);
         assert!(
@@ -145,7 +147,7 @@ fn exponential_within_its_bound_with_overflow_and_underflow() {
     inputs.extend((0..200_000).map(|_| random.uniform(-1e-6, 1e-6)));
     inputs
         .extend((-64..=64).map(|d| f32::from_bits(88.72284_f32.to_bits().wrapping_add_signed(d))));
-    assert_within("exp", 1.0, inputs.into_iter(), m::exp, libm::exp);
+    assert_within("exp", 0.99, inputs.into_iter(), m::exp, libm::exp);
     assert_eq!(m::exp(89.0), f32::INFINITY);
     assert_eq!(m::exp(-104.0), 0.0);
     assert!(m::exp(-100.0) > 0.0 && m::exp(-100.0) < f32::MIN_POSITIVE);
@@ -158,7 +160,7 @@ fn logarithm_within_its_bound_with_its_edges() {
     inputs.extend((0..1_000_000).map(|_| random.any()));
     inputs.extend((0..1_000_000).map(|_| random.uniform(0.5, 2.0)));
     inputs.extend((0..200_000).map(|_| f32::from_bits(random.next() as u32 & 0x007F_FFFF)));
-    assert_within("ln", 0.85, inputs.into_iter(), m::ln, libm::log);
+    assert_within("ln", 0.83, inputs.into_iter(), m::ln, libm::log);
     assert!(m::ln(-1.0).is_nan() && m::ln(f32::NAN).is_nan());
     assert_eq!(m::ln(0.0), f32::NEG_INFINITY);
     assert_eq!(m::ln(-0.0), f32::NEG_INFINITY);
@@ -172,7 +174,7 @@ fn hyperbolic_tangent_and_square_root_within_their_bounds() {
     let mut inputs: Vec<f32> = EDGES.to_vec();
     inputs.extend((0..1_000_000).map(|_| random.any()));
     inputs.extend((0..1_000_000).map(|_| random.uniform(-10.0, 10.0)));
-    assert_within("tanh", 1.35, inputs.iter().copied(), m::tanh, libm::tanh);
+    assert_within("tanh", 1.33, inputs.iter().copied(), m::tanh, libm::tanh);
     assert_within("sqrt", 0.5, inputs.iter().copied(), m::sqrt, libm::sqrt);
     assert_eq!(m::tanh(-0.0).to_bits(), (-0.0_f32).to_bits());
     assert_eq!(m::tanh(f32::NEG_INFINITY), -1.0);
@@ -206,5 +208,5 @@ fn arctangent_within_its_bound_in_every_quadrant_and_at_the_edges() {
     assert_eq!(m::atan2(-0.0, 0.0).to_bits(), (-0.0_f32).to_bits());
 }
 
-/// The largest error of `atan2` measured (`cargo xtask math-ulps atan2`).
-const ATAN2_BOUND: f64 = 2.1;
+/// The largest error of `atan2` measured (`cargo xtask math-ulps atan2`: 2.064).
+const ATAN2_BOUND: f64 = 2.07;

@@ -138,11 +138,24 @@ pub fn run(targets: &Path, build: Build) -> Result<Report, String> {
         .stderr(Stdio::inherit())
         .spawn()
         .map_err(|e| format!("cannot start the firmware build: {e}"))?;
+    // Read as it is printed: a firmware that prints more than a pipe holds (64 KiB) would
+    // otherwise wait for a reader while this waits for it to exit.
+    let mut stdout = child
+        .stdout
+        .take()
+        .ok_or("the firmware's output is not piped")?;
+    let reader = std::thread::spawn(move || {
+        let mut bytes = Vec::new();
+        std::io::Read::read_to_end(&mut stdout, &mut bytes).map(|_| bytes)
+    });
     let started = Instant::now();
     loop {
         if let Some(status) = child.try_wait().map_err(|e| e.to_string())? {
-            let output = child.wait_with_output().map_err(|e| e.to_string())?;
-            let text = String::from_utf8_lossy(&output.stdout).into_owned();
+            let bytes = reader
+                .join()
+                .map_err(|_| "the firmware's output reader panicked")?
+                .map_err(|e| format!("cannot read the firmware's output: {e}"))?;
+            let text = String::from_utf8_lossy(&bytes).into_owned();
             if !status.success() {
                 return Err(format!(
                     "the firmware failed ({status}); it printed:\n{text}"
