@@ -1,11 +1,11 @@
 //! Elementary functions for the code `stateforge` generates, in one `no_std` crate.
 //!
-//! [`f32`](crate::f32) computes every function in single precision only: range reduction
+//! [`f32`](mod@f32) computes every function in single precision only: range reduction
 //! and polynomial evaluation are IEEE `f32` additions, multiplications and divisions
 //! (never `f64`, never a fused multiply-add), so a Cortex-M4F, whose FPU has no double
 //! precision, runs them in hardware, and a host computes the same bits. `libm`'s `f32`
 //! functions compute in software `f64` there (about 1000 instructions a call).
-//! [`f64`](crate::f64) delegates to `libm`, so a crate using generated code depends on this
+//! [`f64`](mod@f64) delegates to `libm`, so a crate using generated code depends on this
 //! crate alone, whatever its scalar.
 //!
 //! # Accuracy (f32)
@@ -17,7 +17,7 @@
 //!
 //! | function | domain | largest error (ulp) | edges |
 //! |---|---|---|---|
-//! | `sin`, `cos`, `sin_cos` | \|x\| ≤ 6433 ([`f32::TRIG_ACCURATE`]) | 1.26 | beyond: finite, in \[-1, 1\], not accurate; ±inf, NaN → NaN; `sin(-0) = +0` |
+//! | `sin`, `cos`, `sin_cos` | \|x\| ≤ 6433 ([`TRIG_ACCURATE`](crate::f32::TRIG_ACCURATE)) | 1.26 | beyond: finite, in \[-1, 1\], not accurate; ±inf, NaN → NaN; `sin(-0) = +0` |
 //! | `tan` | \|x\| ≤ 6433 | 3.05 | beyond: finite, not accurate; ±inf, NaN → NaN |
 //! | `exp` | all | 0.99 | > 88.72 → inf; < -103.97 → 0; subnormal results rounded once; NaN → NaN |
 //! | `ln` | all | 0.83 | < 0 → NaN; ±0 → -inf; inf → inf; subnormals scaled exactly; NaN → NaN |

@@ -228,18 +228,29 @@ fn test() -> Result<(), String> {
             build.name
         );
         let report = firmware::run(Path::new(TARGETS), build)?;
-        println!("xtask: {}", compare::check(&report.estimates, &host)?);
-        println!(
-            "xtask: {}",
-            compare_continuous::check(&report.continuous, &report.hybrid)?
-        );
-        println!("xtask: {}", compare_observers::check(&report)?);
-        println!("xtask: {}", compare_mpc::check(&report.mpc)?);
-        println!("xtask: {}", check_fused(&report, build)?);
-        println!("xtask: {}", compare_math::check(&report.math, build)?);
+        firmware_checks(&report, build, &host)?;
         tables.push(cost_table(&report, build)?);
     }
     print!("{}", tables.join("\n"));
+    Ok(())
+}
+
+/// The firmware's agreement checks: its estimates against the host's runs, its
+/// multiply-adds and its `stateforge_math` values.
+fn firmware_checks(
+    report: &firmware::Report,
+    build: firmware::Build,
+    host: &[firmware::Estimate],
+) -> Result<(), String> {
+    println!("xtask: {}", compare::check(&report.estimates, host)?);
+    println!(
+        "xtask: {}",
+        compare_continuous::check(&report.continuous, &report.hybrid)?
+    );
+    println!("xtask: {}", compare_observers::check(report)?);
+    println!("xtask: {}", compare_mpc::check(&report.mpc)?);
+    println!("xtask: {}", check_fused(report, build)?);
+    println!("xtask: {}", compare_math::check(&report.math, build)?);
     Ok(())
 }
 
@@ -311,10 +322,11 @@ fn check_fused(report: &firmware::Report, build: firmware::Build) -> Result<Stri
 fn cost() -> Result<String, String> {
     setup::rust_target(MCU_TARGET)?;
     setup::debian_commands(FIRMWARE_TOOLS)?;
+    let host = compare::host_run(SEQUENCE_SAMPLES);
     let mut tables = Vec::new();
     for build in firmware::BUILDS {
         let report = firmware::run(Path::new(TARGETS), build)?;
-        println!("xtask: {}", compare_math::check(&report.math, build)?);
+        firmware_checks(&report, build, &host)?;
         tables.push(cost_table(&report, build)?);
     }
     // The embedded-QP peers: their packages and compiler are the benchmark's to install;
