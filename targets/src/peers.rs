@@ -218,9 +218,9 @@ pub fn run(clock: &Clock) {
         };
         let plan = mpc.plan().map(|u| u[0]);
         ours.record(k, count.saturating_sub(empty), iterations, &plan);
-        let Ok(model) = Mpc::prediction_model(&x, &[0.0]) else {
-            panic!("no prediction model at step {}", k + 1);
-        };
+        // The model the solve used: with `model_tolerance` it may be one kept from an
+        // earlier solve rather than the one at this estimate.
+        let model = mpc.model();
         let step = Step {
             a: model.a,
             b: [model.b[0][0], model.b[1][0]],

@@ -1,7 +1,7 @@
 //! The blade's MPC problem at every step of the run, as the embedded-QP peers' code
 //! generators take it (`target/peers/problem.json`): the generated `f32` `Mpc` solves at
 //! each estimate of `generated_demo::mpc_sequence`, and its public API gives the QP it
-//! solved: the prediction model `(A, B)` at the estimate (`Mpc::prediction_model`), the
+//! solved: the prediction model `(A, B)` the solve used (`Mpc::model`: the one at the estimate, or one kept while within the MPC's `MODEL_TOLERANCE`), the
 //! terminal weight of that solve (`Mpc::terminal_weight`), the initial state (the
 //! estimate's regulated states; the reference is zero), the weights and the bounds.
 //!
@@ -31,8 +31,8 @@ pub fn problem() -> Result<Value, String> {
         if status.status != Status::Ok {
             return Err(format!("the MPC at step {}: {status:?}", k + 1));
         }
-        let model = Mpc::prediction_model(&x, &[0.0])
-            .map_err(|s| format!("the prediction model at step {}: {s:?}", k + 1))?;
+        // The model the solve used (a kept one while it is within `MODEL_TOLERANCE`).
+        let model = mpc.model();
         steps.push(json!({
             "x0": [x[0], x[1]],
             "a": model.a,
