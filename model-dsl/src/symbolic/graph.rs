@@ -476,7 +476,7 @@ impl Graph {
     }
 
     /// `f(a)`; a sine or cosine of a double angle, `2 x`, is written with `sin x` and
-    /// `cos x` (see [`Graph::double_angle`]).
+    /// `cos x` (see `Graph::double_angle`).
     pub fn call(&mut self, f: Func, a: NodeId) -> NodeId {
         if let Some(x) = self.constant_value(a) {
             return self.num(f.eval(x));
