@@ -21,6 +21,8 @@ pub struct Arguments {
     unpack: Vec<TokenStream>,
     /// The variables checked finite before anything is computed.
     checked: Vec<Ident>,
+    /// Their scalar type, `f32` or `f64` (the last one given).
+    scalar_type: Option<Ident>,
 }
 
 impl Arguments {
@@ -36,6 +38,7 @@ impl Arguments {
         self.params.push(quote! { #arg: &[#ty; #len] });
         self.unpack.push(quote! { let [#(#vars),*] = *#arg; });
         self.checked.extend(vars);
+        self.scalar_type = Some(ty.clone());
     }
 
     /// `name: &[S; len]`, unpacked into `<name>_0`, `<name>_1`, .. (returned) and checked
@@ -55,6 +58,7 @@ impl Arguments {
         self.params.push(quote! { #arg: &[[#ty; #len]; #len] });
         self.unpack.push(quote! { let #pattern = *#arg; });
         self.checked.extend(packed.iter().cloned());
+        self.scalar_type = Some(ty.clone());
         packed
     }
 
@@ -80,6 +84,7 @@ impl Arguments {
         self.params.push(quote! { #arg: #ty });
         self.unpack.push(quote! { let #var = #arg; });
         self.checked.push(var);
+        self.scalar_type = Some(ty.clone());
     }
 
     /// `pub fn name(&mut self, ..) -> Status`, documented by the attributes `doc`: unpacks
@@ -89,8 +94,9 @@ impl Arguments {
             params,
             unpack,
             checked,
+            scalar_type,
         } = self;
-        let check = reject_non_finite(&checked);
+        let check = scalar_type.map(|ty| reject_non_finite(&checked, &ty));
         quote! {
             #doc
             pub fn #name(&mut self, #(#params),*) -> Status {
@@ -111,6 +117,7 @@ impl Arguments {
             params,
             unpack,
             checked,
+            ..
         } = self;
         let check = (!checked.is_empty()).then(|| {
             let finite = all_finite(&checked);

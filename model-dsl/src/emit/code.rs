@@ -40,18 +40,40 @@ pub fn var_idents(graph: &Graph, vars: &[NodeId]) -> Vec<proc_macro2::Ident> {
         .collect()
 }
 
-/// `if !(a.is_finite() && b.is_finite()) { return Status::RejectedInput; }`, or nothing
-/// when there is nothing to check.
-pub fn reject_non_finite(names: &[proc_macro2::Ident]) -> TokenStream {
+/// `if !stateforge_math::f32::all_finite([a, b]) { return Status::RejectedInput; }`, or
+/// nothing when there is nothing to check: the guard of a method's arguments (a step's
+/// inputs and measurements, each sample), tested in floating point (see `all_finite`
+/// there: cheaper than `is_finite` on each).
+pub fn reject_non_finite(
+    names: &[proc_macro2::Ident],
+    scalar_type: &proc_macro2::Ident,
+) -> TokenStream {
     if names.is_empty() {
         return TokenStream::new();
     }
-    let finite = all_finite(names);
+    let finite = all_finite_in_float(names, scalar_type);
     quote! {
-        if !(#finite) {
+        if !#finite {
             return Status::RejectedInput;
         }
     }
+}
+
+/// `stateforge_math::f32::all_finite([a, b, ..])` for up to 32 names; past that, the
+/// halves' tests joined by `&&`, so that no array on the stack is larger than 32 values
+/// (a 100-state covariance's 5050 entries would be 20 KB) and the nesting stays shallow.
+fn all_finite_in_float(
+    names: &[proc_macro2::Ident],
+    scalar_type: &proc_macro2::Ident,
+) -> TokenStream {
+    const FLAT: usize = 32;
+    if names.len() <= FLAT {
+        return quote! { stateforge_math::#scalar_type::all_finite([#(#names),*]) };
+    }
+    let (left, right) = names.split_at(names.len() / 2);
+    let left = all_finite_in_float(left, scalar_type);
+    let right = all_finite_in_float(right, scalar_type);
+    quote! { (#left && #right) }
 }
 
 /// `a.is_finite() && b.is_finite() && ..`, grouped in a balanced tree of parenthesised
