@@ -68,20 +68,35 @@ fn main() -> ExitCode {
                 },
             };
             match &args.output {
-                None => print!("{code}"),
+                None => print_code(&code),
                 Some(path) => {
                     if let Err(e) = std::fs::write(path, code) {
                         eprintln!("error: cannot write {}: {e}", path.display());
                         return ExitCode::FAILURE;
                     }
+                    ExitCode::SUCCESS
                 }
             }
-            ExitCode::SUCCESS
         }
         Err(errors) => {
             for error in errors {
                 eprint!("{}", report(&args.model, &source, &error));
             }
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Writes `code` to standard output. A reader that stops early (`| head`) closes the pipe:
+/// that ends the output quietly, as it does other command-line tools, instead of a panic.
+fn print_code(code: &str) -> ExitCode {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(code.as_bytes()).and_then(|()| out.flush()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: cannot write the code: {e}");
             ExitCode::FAILURE
         }
     }

@@ -172,3 +172,20 @@ fn a_failed_generation_leaves_the_output_file_alone() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_reader_that_stops_early_ends_the_output_quietly() {
+    // `stateforge-codegen model | head`: the pipe closes before the code is written.
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/models/cantilever.toml");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_stateforge-codegen"))
+        .arg(model)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("stateforge-codegen runs");
+    drop(child.stdout.take());
+    let output = child.wait_with_output().expect("stateforge-codegen ends");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{:?}: {stderr}", output.status);
+    assert!(stderr.is_empty(), "{stderr}");
+}
