@@ -11,7 +11,7 @@ stateforge::model! {
             x2 = x2 + TS * u;
         }
         generate mpc(horizon = 40, states = [x1, y], input = u, discretisation = zoh,
-            max_iterations = 0);
+            max_iterations = 0, model_tolerance = 1.5);
     }
 }
 
