@@ -12,7 +12,7 @@ use crate::emit::code::{
 use crate::emit::filter::{model_names, packed_vars, time_param};
 use crate::emit::known::KnownItems;
 use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
-use crate::emit::names::{ident, TempNamer};
+use crate::emit::names::{clear_of, ident, matrix_entry, TempNamer};
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
 use crate::symbolic::riccati::{riccati_step_single_input, RiccatiStep};
@@ -353,10 +353,16 @@ impl ControlLaws {
         let (ns, nu) = (spec.states.len(), spec.inputs.len());
         let state_names = model.states_named(&spec.states);
         let input_names = model.inputs_named(&spec.inputs);
-        let gain_rows: Vec<Vec<Ident>> = (0..nu)
+        // `k12`, or `k_1_12` past nine states or inputs (`k112` would be ambiguous), clear
+        // of the model's names: `control` binds the states' names beside the gain's.
+        let taken = model_names(model);
+        let gain_rows: Vec<Vec<Ident>> = (1..=nu)
             .map(|i| {
-                (0..ns)
-                    .map(|j| ident(&format!("k{}{}", i + 1, j + 1)))
+                (1..=ns)
+                    .map(|j| {
+                        let name = matrix_entry("k", (nu, ns), (i, j));
+                        ident(&clear_of(&name, |n| taken.iter().any(|t| t == n)))
+                    })
                     .collect()
             })
             .collect();
