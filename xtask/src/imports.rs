@@ -91,9 +91,15 @@ impl Graph {
             let dir = module_dir(&file, owns_dir);
             let mut children = Vec::new();
             declared_modules(&ast.items, &module, &mut children);
-            for (child, inline) in children {
+            for (child, inline, explicit) in children {
                 if inline {
                     graph.modules.insert(child, file.clone());
+                    continue;
+                }
+                // `#[path = ".."]`: relative to the declaring file's folder.
+                if let Some(relative) = explicit {
+                    let folder = file.parent().unwrap_or(Path::new(""));
+                    pending.push((child, folder.join(relative), true));
                     continue;
                 }
                 let name = child.last().cloned().unwrap_or_default();
@@ -190,22 +196,39 @@ fn module_dir(file: &Path, owns_dir: bool) -> PathBuf {
     }
 }
 
-/// The modules `items` declare under `module`: `(path, inline)`, inline ones' own children
-/// included (their files nest in the inline module's folder).
-fn declared_modules(items: &[syn::Item], module: &[String], out: &mut Vec<(Vec<String>, bool)>) {
+/// A module `items` declares: its path, whether it is inline, and its `#[path]` if any.
+type Declared = (Vec<String>, bool, Option<String>);
+
+/// The modules `items` declare under `module`, inline ones' own children included (their
+/// files nest in the inline module's folder).
+fn declared_modules(items: &[syn::Item], module: &[String], out: &mut Vec<Declared>) {
     for item in items {
         if let syn::Item::Mod(m) = item {
             let mut child = module.to_vec();
             child.push(m.ident.to_string());
             match &m.content {
                 Some((_, inner)) => {
-                    out.push((child.clone(), true));
+                    out.push((child.clone(), true, None));
                     declared_modules(inner, &child, out);
                 }
-                None => out.push((child, false)),
+                None => out.push((child, false, path_attribute(&m.attrs))),
             }
         }
     }
+}
+
+/// The file a `#[path = "file.rs"]` attribute names.
+fn path_attribute(attrs: &[syn::Attribute]) -> Option<String> {
+    attrs.iter().find_map(|attr| match &attr.meta {
+        syn::Meta::NameValue(pair) if pair.path.is_ident("path") => match &pair.value {
+            syn::Expr::Lit(syn::ExprLit {
+                lit: syn::Lit::Str(file),
+                ..
+            }) => Some(file.value()),
+            _ => None,
+        },
+        _ => None,
+    })
 }
 
 /// Collects the files a file's paths lead to.
@@ -344,5 +367,24 @@ mod tests {
         let graph = crate_with("use crate::c::C;");
         assert!(graph.circles().is_empty());
         assert_eq!(graph.files.len(), 4);
+    }
+
+    #[test]
+    fn a_module_file_named_by_a_path_attribute_is_read_there() {
+        let dir = std::env::temp_dir().join(format!("xtask-imports-path-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("shared")).unwrap();
+        std::fs::write(
+            dir.join("lib.rs"),
+            "#[path = \"shared/s.rs\"]\nmod s;\npub fn top() { s::h(); }\n",
+        )
+        .unwrap();
+        std::fs::write(dir.join("shared/s.rs"), "pub fn h() { crate::top(); }\n").unwrap();
+        let graph = Graph::read(&dir.join("lib.rs")).unwrap();
+        assert!(
+            graph.files.contains(&dir.join("shared/s.rs")),
+            "{:?}",
+            graph.files
+        );
+        assert_eq!(graph.circles().len(), 1, "lib -> s -> lib");
     }
 }
