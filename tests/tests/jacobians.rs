@@ -137,7 +137,7 @@ impl Reference {
 /// Central differences of `g` with respect to `v`, column by column: `[i][j] = d g_i/d v_j`,
 /// each with an estimate of its own rounding noise.
 ///
-/// With steps of `1e-6 |v_j|` the truncation error (order `step^2`) is negligible, and what
+/// With steps of `1e-6 max(|v_j|, 1)` the truncation error (order `step^2`) is negligible, and what
 /// is left is rounding: about `eps S_i / step`, where `S_i` is the size of the terms that
 /// `g_i` sums, not of `g_i` itself, which can be small after cancellation. That noise is
 /// measured rather than guessed: the difference is taken again at half and twice the step,

@@ -2,7 +2,7 @@
 //! binding the entries the code reads, and the check that those entries are finite, made
 //! where the arguments enter, before anything is computed or stored.
 
-use super::code::{all_finite, reject_non_finite, upper_triangle};
+use super::code::{all_is_finite, reject_non_finite, upper_triangle};
 use super::names::ident;
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
@@ -120,7 +120,7 @@ impl Arguments {
             ..
         } = self;
         let check = (!checked.is_empty()).then(|| {
-            let finite = all_finite(&checked);
+            let finite = all_is_finite(&checked);
             quote! {
                 if !(#finite) {
                     return Err(Status::RejectedInput);

@@ -79,13 +79,13 @@ fn all_finite_in_float(
 /// `a.is_finite() && b.is_finite() && ..`, grouped in a balanced tree of parenthesised
 /// halves past 32 names, so that a 100-state covariance's 5050 entries nest 8 halvings deep,
 /// not 5050.
-pub fn all_finite(names: &[proc_macro2::Ident]) -> TokenStream {
+pub fn all_is_finite(names: &[proc_macro2::Ident]) -> TokenStream {
     const FLAT: usize = 32;
     if names.len() <= FLAT {
         return quote! { #(#names.is_finite())&&* };
     }
     let (left, right) = names.split_at(names.len() / 2);
-    let (left, right) = (all_finite(left), all_finite(right));
+    let (left, right) = (all_is_finite(left), all_is_finite(right));
     quote! { (#left) && (#right) }
 }
 

@@ -2,7 +2,7 @@
 //! which reject a non-finite entry and leave the filter unchanged, and the process noise
 //! argument they share with the constructors.
 
-use super::code::{all_finite, pack_upper};
+use super::code::{all_is_finite, pack_upper};
 use super::names::ident;
 use crate::symbolic::linalg::packed_len;
 use proc_macro2::{Literal, TokenStream};
@@ -67,7 +67,7 @@ pub fn measurement_noise_setter(m: usize, ty: &proc_macro2::Ident) -> TokenStrea
 fn setter(field: &str, packed: &TokenStream, len: usize) -> TokenStream {
     let field = ident(field);
     let names: Vec<proc_macro2::Ident> = (0..len).map(|k| ident(&format!("c{k}"))).collect();
-    let finite = all_finite(&names);
+    let finite = all_is_finite(&names);
     quote! {
         let packed = #packed;
         let [#(#names),*] = packed;

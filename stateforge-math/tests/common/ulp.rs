@@ -3,7 +3,8 @@
 //! the same quantity.
 
 /// Error of `got` against `exact` in units in the last place of the `f32` nearest `exact`
-/// (a correctly rounded result is within 0.5); matching NaNs and infinities are 0.
+/// (subnormal spacing below the normal range): a correctly rounded result is within 0.5.
+/// Matching NaNs and infinities are 0; a NaN or infinity on one side only is infinite.
 pub fn ulp_error(got: f32, exact: f64) -> f64 {
     if exact.is_nan() || got.is_nan() {
         return if exact.is_nan() && got.is_nan() {

@@ -8,7 +8,7 @@ use super::window::{self, WindowTransform};
 use crate::emit::code::{guard_pivots, pivot_names, var_idents, INNOVATION};
 use crate::emit::filter::{finiteness_probe, model_names, noise_vars, packed_vars};
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
-use crate::emit::names::{ident, math_fn, TempNamer};
+use crate::emit::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
 use crate::symbolic::linalg::{matmul, packed_upper, symmetric_from_packed, Matrix};
@@ -437,10 +437,11 @@ impl<'a> StepLowering<'a> {
         let u_idents = var_idents(&g.graph, &g.u);
         let y_idents = var_idents(&g.graph, &self.vars.y);
         let checked: Vec<Ident> = u_idents.iter().chain(&y_idents).cloned().collect();
-        let all_finite = math_fn(self.scalar, "all_finite");
-        let reject_non_finite = (!checked.is_empty()).then(|| {
+        // One test and branch per value: joined by `&&`, the tests are combined into flags
+        // before one branch, which costs more on the target.
+        let reject_non_finite = checked.iter().map(|v| {
             quote! {
-                if !#all_finite([#(#checked),*]) {
+                if !#v.is_finite() {
                     return self.reject_sample();
                 }
             }
@@ -450,7 +451,7 @@ impl<'a> StepLowering<'a> {
         quote! {
             #unpack_u
             let [#(#y_idents),*] = *y;
-            #reject_non_finite
+            #(#reject_non_finite)*
             // The LKF linearises about the AKF's estimate of the previous sample: it runs
             // first, and before the transform, so that `phi` is not held across it.
             let lkf = self.lkf_step(#u_arg y);

@@ -7,7 +7,7 @@ use super::spec::LqrSpec;
 use super::steady_state::{steady_state_step, SteadyStateStep};
 use crate::emit::arguments::{Arguments, REJECTS_NON_FINITE};
 use crate::emit::code::{
-    all_finite, destructure, guard_pivots, pivot_names, reject_non_finite, var_idents,
+    all_is_finite, destructure, guard_pivots, pivot_names, reject_non_finite, var_idents,
 };
 use crate::emit::filter::{model_names, packed_vars, time_param};
 use crate::emit::known::KnownItems;
@@ -589,7 +589,7 @@ fn constructor(
     let r = arguments.symmetric("r", nu, &ty);
     arguments.plain(quote! { u_max: Option<&[#ty; #nu_len]> });
     let known_init = known.argument(&mut arguments);
-    let limits_finite = all_finite(limits);
+    let limits_finite = all_is_finite(limits);
     arguments.constructor(
         &quote! {
             /// A controller with state weight `q` and input weight `r` (symmetric: upper
@@ -689,7 +689,7 @@ fn steady_state_method(
     let unpack_x = destructure(graph, quote! { *x_ref }, &g.x, &used_vars);
     let unpack_u = destructure(graph, quote! { *u }, &g.u, &used_vars);
     let checked: Vec<_> = x_idents.iter().chain(&u_idents).cloned().collect();
-    let finite = all_finite(&checked);
+    let finite = all_is_finite(&checked);
     let check = (!checked.is_empty())
         .then(|| quote! { if !(#finite) { return Err(Status::RejectedInput); } });
     let time = model.uses_time().then(|| {
@@ -704,7 +704,7 @@ fn steady_state_method(
         .iter()
         .map(|&i| ident(&format!("{}_ref", model.inputs[i].name)))
         .collect();
-    let finite_result = all_finite(&result);
+    let finite_result = all_is_finite(&result);
     quote! {
         /// The input `u_ref` that holds the regulated states at the set-point `x_ref` (a
         /// whole state vector: the other states and the parameters at the values to

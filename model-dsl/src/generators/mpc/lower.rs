@@ -14,7 +14,7 @@ use super::qp::{active_set_loop, MoveNames};
 use super::spec::MpcDiscretisation;
 use super::spec::MpcSpec;
 use crate::emit::arguments::Arguments;
-use crate::emit::code::{all_finite, guard_pivots, pivot_names, unpack_symmetric, var_idents};
+use crate::emit::code::{all_is_finite, guard_pivots, pivot_names, unpack_symmetric, var_idents};
 use crate::emit::filter::{packed_vars, time_param};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
@@ -387,7 +387,7 @@ fn read_estimate(mg: &ModelGraph, used: &BTreeSet<VarId>, rejected: &TokenStream
             .map(|&v| ident(&g.var_info(mg.var_id(v)).name))
             .collect();
     let check = (!checked.is_empty()).then(|| {
-        let finite = all_finite(&checked);
+        let finite = all_is_finite(&checked);
         quote! {
             if !(#finite) {
                 #rejected
@@ -1028,8 +1028,8 @@ fn commit(moves: &MoveNames, terminal: &Terminal) -> TokenStream {
         .chain(gain.iter().flatten().cloned())
         .collect();
     let (plan_finite, terminal_finite) = (
-        all_finite(&moves.absolute_names()),
-        all_finite(&terminal_values),
+        all_is_finite(&moves.absolute_names()),
+        all_is_finite(&terminal_values),
     );
     let finite = quote! { #plan_finite && (reuse || #terminal_finite) };
     let non_finite = failure(quote! { Status::NonFinite });

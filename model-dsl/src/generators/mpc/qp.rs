@@ -14,7 +14,7 @@
 use super::names::Names;
 use super::newton::{newton_step, NewtonNames};
 use super::spec::MpcSpec;
-use crate::emit::code::{all_finite, packed_names};
+use crate::emit::code::{all_is_finite, packed_names};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
 use crate::model::{Model, Scalar};
@@ -137,7 +137,7 @@ impl MoveNames {
     pub fn reference_check(&self, state_refs: &[Ident]) -> TokenStream {
         let inputs = self.per_input("ref");
         let all: Vec<Ident> = state_refs.iter().chain(&inputs).cloned().collect();
-        let finite = all_finite(&all);
+        let finite = all_is_finite(&all);
         quote! {
             let finite = {
                 let [#(#state_refs),*] = *x_ref;
