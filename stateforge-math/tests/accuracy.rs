@@ -10,17 +10,11 @@ use stateforge_math::f32 as m;
 mod ulp;
 use ulp::ulp_error;
 
-/// xorshift64*: deterministic samples.
-struct Random(u64);
+#[path = "common/random.rs"]
+mod random;
+use random::Random;
 
 impl Random {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
     /// A random bit pattern: every f32, NaNs and infinities included.
     fn any(&mut self) -> f32 {
         f32::from_bits(self.next() as u32)

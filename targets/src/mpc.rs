@@ -16,7 +16,9 @@ use generated_demo::mpc_sequence::{mpc_tuning, BladeEstimates};
 /// Samples of the run (3 s: three impacts, the mass change at 1.5 s).
 pub const SAMPLES: usize = 300;
 
-fn controller() -> Mpc {
+/// The blade's MPC with the run's tuning (shared with the peers' benchmark, which runs the
+/// same controller beside them).
+pub fn controller() -> Mpc {
     match Mpc::new(
         &mpc_tuning::Q,
         &mpc_tuning::R,

@@ -18,6 +18,7 @@
 //! iterations> <mean>` of the instructions per call over the run.
 
 use crate::measure::{per_call, Clock};
+use crate::mpc::controller;
 use core::hint::black_box;
 use cortex_m_semihosting::{hprint, hprintln};
 use generated_demo::mass_spring_damper::{Mpc, MpcStatus, Status};
@@ -117,18 +118,6 @@ fn condense(step: &Step) -> ([f32; PACKED], Plan) {
     }
     let linear = core::array::from_fn(|i| dot(weighted[i], free[i]));
     (hessian, linear)
-}
-
-fn controller() -> Mpc {
-    match Mpc::new(
-        &mpc_tuning::Q,
-        &mpc_tuning::R,
-        &[-mpc_tuning::U_MAX],
-        &[mpc_tuning::U_MAX],
-    ) {
-        Ok(mpc) => mpc,
-        Err(status) => panic!("MPC rejected its tuning: {:?}", status),
-    }
 }
 
 /// The generated solve. The estimate goes through `black_box` so that this wrapper's

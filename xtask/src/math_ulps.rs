@@ -5,8 +5,12 @@
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
+// `atan2`'s random pairs come from the crate tests' generator.
+#[path = "../../stateforge-math/tests/common/random.rs"]
+mod random;
 #[path = "../../stateforge-math/tests/common/ulp.rs"]
 mod ulp;
+use random::Random;
 pub use ulp::ulp_error;
 
 /// One function of one argument: its name, ours, the `f64` reference, and the inputs
@@ -161,18 +165,6 @@ fn exhaustive(f: &Unary) -> String {
         ));
     }
     line
-}
-
-/// A small deterministic generator (xorshift64*) for `atan2`'s random pairs.
-struct Random(u64);
-
-impl Random {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
 }
 
 /// `atan2` over a grid of 4096 x 4096 magnitudes spread over the whole range, in all four

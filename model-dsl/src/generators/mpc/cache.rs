@@ -63,14 +63,19 @@ impl Cache {
         }
     }
 
-    /// The fields of `Mpc` that keep the model, in the scalar type `ty`.
-    pub fn fields(&self, ty: &Ident) -> TokenStream {
-        let [key, hessian, weighted] = [
+    /// The lengths of the kept key, Hessian and weighted responses, as literals.
+    fn field_lengths(&self) -> [Literal; 3] {
+        [
             self.key.len(),
             self.hessian.len(),
             self.weighted_stored.len(),
         ]
-        .map(Literal::usize_unsuffixed);
+        .map(Literal::usize_unsuffixed)
+    }
+
+    /// The fields of `Mpc` that keep the model, in the scalar type `ty`.
+    pub fn fields(&self, ty: &Ident) -> TokenStream {
+        let [key, hessian, weighted] = self.field_lengths();
         quote! {
             model_key: [#ty; #key],
             model: PredictionModel,
@@ -83,12 +88,7 @@ impl Cache {
 
     /// The fields' values in `new`: nothing kept yet.
     pub fn initial(&self, zero: &TokenStream, ns: &Literal, nu: &Literal) -> TokenStream {
-        let [key, hessian, weighted] = [
-            self.key.len(),
-            self.hessian.len(),
-            self.weighted_stored.len(),
-        ]
-        .map(Literal::usize_unsuffixed);
+        let [key, hessian, weighted] = self.field_lengths();
         quote! {
             model_key: [#zero; #key],
             model: PredictionModel {
