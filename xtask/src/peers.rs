@@ -159,15 +159,7 @@ fn run_firmware(targets: &Path, lib: &Path, features: &str) -> Result<String, St
         .stderr(Stdio::inherit())
         .output()
         .map_err(|e| format!("cannot start the peers' firmware: {e}"))?;
-    let text = String::from_utf8_lossy(&output.stdout).into_owned();
-    if !output.status.success() || !text.lines().any(|l| l == "done") {
-        let tail: Vec<&str> = text.lines().rev().take(5).collect();
-        return Err(format!(
-            "the peers' firmware failed ({}); its last lines: {tail:?}",
-            output.status
-        ));
-    }
-    Ok(text)
+    peers_build::firmware_lines(&output, "the peers' firmware")
 }
 
 /// The `peer` and `peerspread` lines, by solver.

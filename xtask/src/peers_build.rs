@@ -207,3 +207,17 @@ pub fn defined_functions(lib: &Path) -> Result<Vec<String>, String> {
         })
         .collect())
 }
+
+/// The printed lines of a firmware run under QEMU, if it exited cleanly and printed `done`;
+/// else an error naming `what` with its last lines.
+pub fn firmware_lines(output: &std::process::Output, what: &str) -> Result<String, String> {
+    let text = String::from_utf8_lossy(&output.stdout).into_owned();
+    if !output.status.success() || !text.lines().any(|l| l == "done") {
+        let tail: Vec<&str> = text.lines().rev().take(5).collect();
+        return Err(format!(
+            "{what} failed ({}); its last lines: {tail:?}",
+            output.status
+        ));
+    }
+    Ok(text)
+}

@@ -160,15 +160,7 @@ pub fn run(elf: &Path) -> Result<String, String> {
         .stdin(Stdio::null())
         .output()
         .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
-    let text = String::from_utf8_lossy(&output.stdout).into_owned();
-    if !output.status.success() || !text.lines().any(|l| l == "done") {
-        let tail: Vec<&str> = text.lines().rev().take(5).collect();
-        return Err(format!(
-            "its firmware failed under QEMU ({}); its last lines: {tail:?}",
-            output.status
-        ));
-    }
-    Ok(text)
+    peers_build::firmware_lines(&output, "its firmware under QEMU")
 }
 
 /// The exact plans of TinyMPC's own fixed-model QP (`tinympc_reference.json`).
