@@ -42,7 +42,8 @@ stateforge::model! {
         // The filters and controller of the paper: Alg. 1 (EKF), Alg. 2 (DKF), Alg. 3 (LQR);
         // and the EKF with an innovation gate at the chi-square 99.9% quantile, which
         // rejects a measurement spike instead of being thrown off by it.
-        generate ekf(process_noise = diagonal), dkf(eta = 0.5, process_noise = diagonal),
+        generate ekf(process_noise = diagonal, max_us = 15000, mhz = 168),
+            dkf(eta = 0.5, process_noise = diagonal),
             lqr(horizon = 50, states = [x1, x2], input = u),
             ekf(process_noise = diagonal, gate = 10.83, name = GatedEkf);
         dynamics discrete {

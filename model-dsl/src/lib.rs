@@ -26,6 +26,7 @@ pub mod numerics;
 pub mod pipeline;
 pub mod scope;
 pub mod symbolic;
+pub mod timing;
 
 use proc_macro2::TokenStream;
 

@@ -4,14 +4,16 @@
 
 use crate::check::Checked;
 use crate::emit::model_fns::{
-    emit_function, model_functions, named_ops_item, nonzero_item, ops_item, ModelFunction,
+    cycles_item, emit_function, model_functions, named_ops_item, nonzero_item, ops_item,
+    ModelFunction,
 };
 use crate::emit::module_items::{constants, dimensions, index_module, op_count_struct};
 use crate::emit::names::ident;
 use crate::emit::{interop, status, substeps};
-use crate::generators::Lowering;
+use crate::generators::{Budget, Lowering};
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
+use crate::timing::CORTEX_M4F;
 use proc_macro2::TokenStream;
 use quote::quote;
 
@@ -43,8 +45,12 @@ pub fn emit_model_with(checked: &Checked, options: &Options) -> syn::Result<Toke
         mg: &mg,
         functions: &functions,
         designs: &designs,
+        budgets: &checked.budgets,
     };
-    let (primary_items, ops_items) = module.primary(primary);
+    let (primary_items, ops_items, over_budget) = module.primary(primary);
+    if let Some(error) = over_budget {
+        return Err(error);
+    }
     let secondary = others.iter().map(|&scalar| module.secondary(scalar));
     let docs = &model.docs;
     let vis = &model.vis;
@@ -91,12 +97,15 @@ struct Module<'a> {
     mg: &'a ModelGraph,
     functions: &'a [ModelFunction],
     designs: &'a [Box<dyn Lowering>],
+    /// Each design's cycle budget, if its `generate` item gives one.
+    budgets: &'a [Option<Budget>],
 }
 
 impl Module<'_> {
-    /// The items in the primary scalar type, at the module's top, and the `*_OPS`
-    /// constants that count their arithmetic.
-    fn primary(&self, scalar: Scalar) -> (TokenStream, Vec<TokenStream>) {
+    /// The items in the primary scalar type, at the module's top, the `*_OPS` (and, in
+    /// `f32`, `*_CYCLES`) constants that count their arithmetic, and the errors of the
+    /// calls over their budgets.
+    fn primary(&self, scalar: Scalar) -> (TokenStream, Vec<TokenStream>, Option<syn::Error>) {
         let (model, mg) = (self.model, self.mg);
         let mut ops_items = Vec::new();
         let mut fns = Vec::new();
@@ -111,14 +120,15 @@ impl Module<'_> {
         }
         let consts = constants(model, scalar);
         let status = (!self.designs.is_empty()).then(status::status_enum);
-        let generated = self.generated(scalar, &mut ops_items);
+        let mut over_budget = None;
+        let generated = self.generated(scalar, &mut ops_items, &mut over_budget);
         let tokens = quote! {
             #consts
             #(#fns)*
             #status
             #generated
         };
-        (tokens, ops_items)
+        (tokens, ops_items, over_budget)
     }
 
     /// The same items in another scalar type, in a module `in_f64` (say).
@@ -137,7 +147,7 @@ impl Module<'_> {
             .functions
             .iter()
             .map(|f| emit_function(model, mg, f, scalar).0);
-        let generated = self.generated(scalar, &mut Vec::new());
+        let generated = self.generated(scalar, &mut Vec::new(), &mut None);
         let status = (!self.designs.is_empty()).then(|| quote! { pub use super::Status; });
         quote! {
             #[doc = #doc]
@@ -160,13 +170,42 @@ impl Module<'_> {
         looped.then(|| substeps::looped_f(self.model, self.mg, scalar))
     }
 
-    /// Every generator's items in `scalar`; their costs go to `ops_items`.
-    fn generated(&self, scalar: Scalar, ops_items: &mut Vec<TokenStream>) -> TokenStream {
+    /// Every generator's items in `scalar`; their costs go to `ops_items`, and the
+    /// errors of calls over their budgets to `over_budget`.
+    fn generated(
+        &self,
+        scalar: Scalar,
+        ops_items: &mut Vec<TokenStream>,
+        over_budget: &mut Option<syn::Error>,
+    ) -> TokenStream {
         let mut tokens = TokenStream::new();
-        for design in self.designs {
+        for (design, budget) in self.designs.iter().zip(self.budgets) {
             let code = design.lower(self.model, self.mg, scalar);
             for cost in &code.costs {
                 ops_items.push(named_ops_item(&cost.constant, &cost.what, cost.ops));
+                // The estimate is of the microcontroller's code, in `f32`.
+                if scalar == Scalar::F32 {
+                    let target = &CORTEX_M4F;
+                    let estimate = target.estimate(&cost.ops);
+                    ops_items.push(cycles_item(&cost.constant, &cost.what, &estimate, target));
+                }
+            }
+            if let Some(budget) = budget {
+                let errors = match scalar {
+                    Scalar::F32 => code
+                        .costs
+                        .iter()
+                        .filter(|c| c.is_budgeted)
+                        .filter_map(|c| budget.check(c, &CORTEX_M4F))
+                        .collect(),
+                    Scalar::F64 => vec![budget.needs_f32()],
+                };
+                for error in errors {
+                    match over_budget {
+                        Some(all) => all.combine(error),
+                        None => *over_budget = Some(error),
+                    }
+                }
             }
             tokens.extend(code.tokens);
         }

@@ -5,6 +5,7 @@
 
 use crate::firmware::{Cost, Spread};
 use crate::program::Program;
+use crate::static_estimate;
 use crate::timing;
 use crate::trace::Traced;
 use std::collections::BTreeMap;
@@ -191,6 +192,12 @@ pub fn table(
         .collect();
     let spread = spread_lines(spreads, &cpi);
     if full {
+        // The static estimate assumes the build without FMA (a `vmla` per multiply-add).
+        let traced: Vec<(&str, &str, f64)> = rows
+            .iter()
+            .map(|r| (r.kernel.label, r.kernel.name, r.generated.cycles))
+            .collect();
+        static_estimate::check(&traced)?;
         Ok(format!("{}{spread}", render(build, &rows, program)))
     } else {
         Ok(format!(
@@ -239,6 +246,12 @@ fn spread_lines(spreads: &[Spread], cpi: &BTreeMap<&str, f64>) -> String {
                  MAX_ITERATIONS x iteration; loads, stores and branches not counted)\n",
                 once + iterations * iteration
             ));
+            out.push_str(&format!(
+                "  static estimate of the worst solve (MPC_SOLVE_WORST_CYCLES, every pass of \
+                 the active set run): {} cycles, against {:.0} for the run's worst\n",
+                blade::MPC_SOLVE_WORST_CYCLES,
+                cycles(spread.worst)
+            ));
         }
     }
     out
@@ -266,10 +279,10 @@ fn main_table(rows: &[Row]) -> String {
     let show = |v: Option<u32>| v.map_or("-".to_owned(), |v| v.to_string());
     let mut out = String::new();
     out.push_str(&format!(
-        "{:<28} {:>15} {:>15} {:>15}   {:>5} {:>6}   {:>9} {:>8}\n",
+        "{:<28} {:>15} {:>27} {:>15}   {:>5} {:>6}   {:>9} {:>8}\n",
         "",
         "instructions",
-        "cycles (est.)",
+        "cycles (est.) / static",
         "us at 168 MHz",
         "goal",
         "C peer",
@@ -277,8 +290,20 @@ fn main_table(rows: &[Row]) -> String {
         "peer/gen"
     ));
     out.push_str(&format!(
-        "{:<28} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7}   {:>5} {:>6}   {:>4} {:>4} {:>8}\n",
-        "kernel", "gen", "nalg", "gen", "nalg", "gen", "nalg", "", "", "ins", "cyc", "ins"
+        "{:<28} {:>7} {:>7} {:>7} {:>11} {:>7} {:>7} {:>7}   {:>5} {:>6}   {:>4} {:>4} {:>8}\n",
+        "kernel",
+        "gen",
+        "nalg",
+        "gen",
+        "static",
+        "nalg",
+        "gen",
+        "nalg",
+        "",
+        "",
+        "ins",
+        "cyc",
+        "ins"
     ));
     for row in rows {
         let (g, b) = (&row.generated, row.baseline.as_ref());
@@ -290,12 +315,20 @@ fn main_table(rows: &[Row]) -> String {
             format!("{:.2}", f64::from(p) / f64::from(g.instructions))
         });
         let baseline = |value: &dyn Fn(&Side) -> String| b.map_or("-".to_owned(), value);
+        // The compiler's static estimate (`*_CYCLES`), and how far it is from the trace.
+        let estimate = static_estimate::cycles(row.kernel.name).map_or("-".to_owned(), |s| {
+            format!(
+                "{s:.0} {:+.0}%",
+                100.0 * static_estimate::difference(s, g.cycles)
+            )
+        });
         out.push_str(&format!(
-            "{:<28} {:>7} {:>7} {:>7.0} {:>7} {:>7.2} {:>7}   {:>5} {:>6}   {:>4} {:>4} {:>8}{verdict}\n",
+            "{:<28} {:>7} {:>7} {:>7.0} {:>11} {:>7} {:>7.2} {:>7}   {:>5} {:>6}   {:>4} {:>4} {:>8}{verdict}\n",
             row.kernel.label,
             g.instructions,
             baseline(&|b| b.instructions.to_string()),
             g.cycles,
+            estimate,
             baseline(&|b| format!("{:.0}", b.cycles)),
             us(g.cycles),
             baseline(&|b| format!("{:.2}", us(b.cycles))),

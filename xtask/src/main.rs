@@ -29,6 +29,7 @@ mod peers_tinympc;
 mod program;
 mod scratch;
 mod setup;
+mod static_estimate;
 mod timing;
 mod trace;
 mod vendored;

@@ -4,8 +4,11 @@
 use super::names::generated_item;
 use crate::ast::{GenerateDecl, ModelDecl};
 use crate::diagnostics::Diagnostics;
-use crate::generators::{Args, Context, Generator, Kind, Requirement, REGISTRY};
+use crate::generators::{Args, Budget, Context, Generator, Kind, Requirement, REGISTRY};
 use crate::scope::Scope;
+
+/// A generator the model asks for, with its cycle budget if it gives one.
+type Requested = (Box<dyn Generator>, Option<Budget>);
 
 /// The generators the model asks for, with their options checked, in the order of
 /// [`REGISTRY`] (the order their code takes in the generated module) and, within one kind,
@@ -14,10 +17,10 @@ pub(super) fn check_generate(
     decl: &ModelDecl,
     scope: &Scope,
     diag: &mut Diagnostics,
-) -> Vec<Box<dyn Generator>> {
+) -> Vec<Requested> {
     let cx = Context::new(decl, scope);
     let mut seen = std::collections::HashSet::new();
-    let mut generators: Vec<(usize, Box<dyn Generator>)> = Vec::new();
+    let mut generators: Vec<(usize, Requested)> = Vec::new();
     for item in &decl.generate {
         let Some((rank, kind)) = lookup(item, diag) else {
             continue;
@@ -30,11 +33,12 @@ pub(super) fn check_generate(
             continue;
         }
         let mut args = Args::new(item, diag);
+        let budget = Budget::read(&mut args, diag);
         let generator = kind.options(item, &mut args, &cx, diag);
         args.report_unused(diag);
         if let Some(generator) = generator {
             check_type_names(kind, item, generator.as_ref(), diag);
-            generators.push((rank, generator));
+            generators.push((rank, (generator, budget)));
         }
     }
     // A stable sort: within one kind, the order written.

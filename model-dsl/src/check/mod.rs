@@ -28,6 +28,8 @@ pub struct Checked {
     pub model: Model,
     /// The generators, in the order their code appears in the generated module.
     pub generators: Vec<Box<dyn Generator>>,
+    /// Each generator's cycle budget, if it gives one (`max_cycles = ..`).
+    pub budgets: Vec<Option<crate::generators::Budget>>,
 }
 
 impl Checked {
@@ -97,7 +99,12 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Checked> {
         dynamics,
         locals,
     };
-    diag.finish(Checked { model, generators })
+    let (generators, budgets) = generators.into_iter().unzip();
+    diag.finish(Checked {
+        model,
+        generators,
+        budgets,
+    })
 }
 
 /// The declared symbols by kind, in order.

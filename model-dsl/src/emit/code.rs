@@ -123,6 +123,7 @@ pub fn guard_pivots(
     for (j, (&pivot, &reciprocal)) in pivots.iter().zip(reciprocals).enumerate() {
         let name = pivot_names(m, j, prefixes, suffix).0;
         let value = lowerer.bind(pivot, &name);
+        lowerer.hold_in_registers(&[reciprocal]);
         let reciprocal = var_idents(lowerer.graph(), &[reciprocal]).remove(0);
         lowerer.statement(guarded_reciprocal(&value, &reciprocal, on_failure, scalar));
         lowerer.count_extra(super::lower::OpCount {

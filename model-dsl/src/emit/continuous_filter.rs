@@ -443,6 +443,7 @@ fn lower(
     );
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
+    lowerer.count_extra(OpCount::stores(values.len()));
     let Lowered {
         statements,
         mut used_vars,
@@ -453,7 +454,9 @@ fn lower(
     let (loop_code, per_substep, total) = match substep_loop {
         Some(l) => {
             used_vars.extend(l.used_vars);
-            let total = ops.plus(l.per_substep.times(nodes.substeps));
+            let total = ops
+                .plus(l.per_substep.times(nodes.substeps))
+                .plus(OpCount::branches(nodes.substeps.div_ceil(2)));
             (l.code, l.per_substep, total)
         }
         // With one sub-step, unrolled, the step is that sub-step (and the update).

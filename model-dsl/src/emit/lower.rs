@@ -2,6 +2,7 @@
 //! inline expressions for the rest, and an operation count of what was emitted.
 
 use super::names::TempNamer;
+use super::registers::{RegisterFile, Step, FPU_REGISTERS};
 use crate::model::{Func, Scalar};
 use crate::symbolic::{Graph, Node, NodeId, VarId};
 use proc_macro2::{Literal, TokenStream};
@@ -18,7 +19,9 @@ pub const LAZY_READ_MAX_LEN: usize = 64;
 /// rustc's parser (and ours, when the code is formatted) recurses through.
 const MAX_INLINE_DEPTH: u32 = 24;
 
-/// Arithmetic a generated function performs, counted from the emitted code.
+/// Arithmetic a generated function performs, counted from the emitted code, and the
+/// memory traffic and branches it implies (for the static cycle estimate,
+/// [`crate::timing`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct OpCount {
     /// Additions, subtractions and negations.
@@ -31,39 +34,107 @@ pub struct OpCount {
     pub call: u32,
     /// Comparisons of piecewise terms.
     pub compare: u32,
+    /// The library calls by function, indexed by [`Callee`].
+    pub calls: [u32; Callee::COUNT],
+    /// Scalars read from memory: the fields and arguments the code reads, and values
+    /// reloaded after a spill ([`super::registers`]).
+    pub load: u32,
+    /// Literal constants loaded from the constant pool.
+    pub literal: u32,
+    /// Scalars written to memory: the fields the code writes, and spilled values.
+    pub store: u32,
+    /// Branches taken: a loop's iterations, an early return's test.
+    pub branch: u32,
+}
+
+/// A library function generated code calls, as [`OpCount::calls`] counts it: the
+/// model's functions in [`Func`]'s order, then `atan2`, then `sin_cos` (a sine and a
+/// cosine of one argument, one call).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Callee(pub usize);
+
+impl Callee {
+    /// `atan2(y, x)`.
+    pub const ATAN2: Callee = Callee(Func::ALL.len());
+    /// `sin_cos(x)`.
+    pub const SIN_COS: Callee = Callee(Func::ALL.len() + 1);
+    /// How many there are.
+    pub const COUNT: usize = Func::ALL.len() + 2;
+
+    /// A model function's.
+    pub fn of(f: Func) -> Callee {
+        Callee(f as usize)
+    }
+
+    /// The name generated code calls (`sin_cos`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Callee::ATAN2 => Func::ATAN2.name,
+            Callee::SIN_COS => "sin_cos",
+            Callee(i) => Func::ALL[i].name(),
+        }
+    }
 }
 
 impl OpCount {
+    /// Each count of `self` and `other` combined by `f`.
+    fn zip(self, other: OpCount, f: impl Fn(u32, u32) -> u32) -> OpCount {
+        let mut calls = self.calls;
+        for (c, o) in calls.iter_mut().zip(other.calls) {
+            *c = f(*c, o);
+        }
+        OpCount {
+            add: f(self.add, other.add),
+            mul: f(self.mul, other.mul),
+            div: f(self.div, other.div),
+            call: f(self.call, other.call),
+            compare: f(self.compare, other.compare),
+            calls,
+            load: f(self.load, other.load),
+            literal: f(self.literal, other.literal),
+            store: f(self.store, other.store),
+            branch: f(self.branch, other.branch),
+        }
+    }
+
     /// Both counts together.
     pub fn plus(self, other: OpCount) -> OpCount {
-        OpCount {
-            add: self.add + other.add,
-            mul: self.mul + other.mul,
-            div: self.div + other.div,
-            call: self.call + other.call,
-            compare: self.compare + other.compare,
-        }
+        self.zip(other, |a, b| a + b)
     }
 
     /// What `self` counts beyond `earlier`, a count taken before it.
     pub fn minus(self, earlier: OpCount) -> OpCount {
-        OpCount {
-            add: self.add - earlier.add,
-            mul: self.mul - earlier.mul,
-            div: self.div - earlier.div,
-            call: self.call - earlier.call,
-            compare: self.compare - earlier.compare,
-        }
+        self.zip(earlier, |a, b| a - b)
     }
 
     /// The count of `n` repetitions.
     pub fn times(self, n: u32) -> OpCount {
+        self.zip(OpCount::default(), |a, _| a * n)
+    }
+
+    /// The count of a loop of `trips` iterations of `self`: each iteration also tests
+    /// and branches back.
+    pub fn looped(self, trips: u32) -> OpCount {
         OpCount {
-            add: self.add * n,
-            mul: self.mul * n,
-            div: self.div * n,
-            call: self.call * n,
-            compare: self.compare * n,
+            branch: self.branch + 1,
+            ..self
+        }
+        .times(trips)
+    }
+
+    /// `n` branches taken (a loop's, say).
+    pub fn branches(n: u32) -> OpCount {
+        OpCount {
+            branch: n,
+            ..OpCount::default()
+        }
+    }
+
+    /// `n` scalars written to memory.
+    pub fn stores(n: usize) -> OpCount {
+        OpCount {
+            store: u32::try_from(n).unwrap_or(u32::MAX),
+            ..OpCount::default()
         }
     }
 }
@@ -106,6 +177,12 @@ pub struct Lowerer<'g> {
     reached: Vec<bool>,
     /// Variables that stand for a value computed here (see [`Lowerer::define`]).
     definitions: std::collections::HashMap<NodeId, NodeId>,
+    /// Uses of each node by the code emitted so far.
+    consumed: Vec<u32>,
+    /// The values in registers, for the memory traffic of the code.
+    registers: RegisterFile,
+    /// Variables whose values the code holds in registers, not in memory.
+    held: std::collections::HashSet<NodeId>,
 }
 
 impl<'g> Lowerer<'g> {
@@ -125,6 +202,9 @@ impl<'g> Lowerer<'g> {
             read_of: std::collections::HashMap::new(),
             reached: vec![false; graph.len()],
             definitions: std::collections::HashMap::new(),
+            consumed: vec![0; graph.len()],
+            registers: RegisterFile::new(FPU_REGISTERS),
+            held: std::collections::HashSet::new(),
         };
         lowerer.count_uses(all_roots);
         lowerer
@@ -242,6 +322,7 @@ impl<'g> Lowerer<'g> {
                 }
             }
         }
+        self.count_traffic(&order, roots);
         for id in order {
             if self.emitted[id.index()] {
                 // The cosine of a sine (or the reverse) computed with it.
@@ -276,6 +357,75 @@ impl<'g> Lowerer<'g> {
         roots.iter().map(|&r| self.render(r).0).collect()
     }
 
+    /// Declares that `vars` are values in registers, not read from memory: a loop's
+    /// carried values at the start of its body, or values the caller's own statements
+    /// compute (a guarded reciprocal). Where they do not all fit, the rest are loaded.
+    pub fn hold_in_registers(&mut self, vars: &[NodeId]) {
+        self.held.extend(vars.iter().copied());
+        self.registers.hold(vars);
+    }
+
+    /// Leaves `n` registers to values the caller's own code keeps live across this code
+    /// (a window being shifted): they are not the estimate's to use.
+    pub fn reserve_registers(&mut self, n: usize) {
+        self.registers.reserve(n);
+    }
+
+    /// Loads, before a loop, the variables and literals its body (computing `roots`)
+    /// reads and does not change, into the registers left free: a compiler hoists them
+    /// out of the loop when they fit. Those that do not fit are loaded where used.
+    pub fn hoist_leaves(&mut self, roots: &[NodeId]) {
+        let mut stack: Vec<NodeId> = roots.to_vec();
+        let mut seen = std::collections::HashSet::new();
+        let mut leaves = Vec::new();
+        while let Some(id) = stack.pop() {
+            if !seen.insert(id) || self.held.contains(&id) {
+                continue;
+            }
+            if self.graph.is_leaf(id) && !self.definitions.contains_key(&id) {
+                leaves.push(id);
+            } else if !self.emitted[id.index()] {
+                stack.extend(self.operands(id));
+            }
+        }
+        leaves.sort();
+        let room = self.registers.room();
+        for &leaf in leaves.iter().take(room) {
+            match self.graph.node(leaf) {
+                Node::Num(_) | Node::Named(_) => self.ops.literal += 1,
+                _ => self.ops.load += 1,
+            }
+        }
+        self.hold_in_registers(&leaves[..room.min(leaves.len())]);
+    }
+
+    /// Counts the loads, literals and stores of computing `order` and then `roots`
+    /// ([`RegisterFile`]).
+    fn count_traffic(&mut self, order: &[NodeId], roots: &[NodeId]) {
+        let steps: Vec<Step> = order
+            .iter()
+            .map(|&value| Step {
+                value,
+                operands: if self.graph.is_leaf(value) && !self.definitions.contains_key(&value) {
+                    Vec::new()
+                } else {
+                    self.operands(value)
+                },
+            })
+            .collect();
+        for operand in steps.iter().flat_map(|s| &s.operands).chain(roots) {
+            self.consumed[operand.index()] += 1;
+        }
+        let (consumed, uses) = (&self.consumed, &self.uses);
+        let live_after = |v: NodeId| consumed[v.index()] < uses[v.index()] || roots.contains(&v);
+        let (definitions, held) = (&self.definitions, &self.held);
+        let graph = self.graph;
+        let in_memory =
+            |v: NodeId| graph.is_leaf(v) && !definitions.contains_key(&v) && !held.contains(&v);
+        let traffic = self.registers.run(graph, &steps, &live_after, &in_memory);
+        self.ops = self.ops.plus(traffic);
+    }
+
     /// Computes a sine and the cosine of the same argument, both used by this function,
     /// with one call, `let (sin_x, cos_x) = stateforge_math::f32::sin_cos(x);` (one range
     /// reduction): true if `node` (`id`) was so emitted with its partner.
@@ -292,6 +442,10 @@ impl<'g> Lowerer<'g> {
             return false;
         }
         self.emitted[partner.index()] = true;
+        if let Node::Call(f, _) = node {
+            self.ops.calls[Callee::of(f).0] -= 1;
+        }
+        self.ops.calls[Callee::SIN_COS.0] += 1;
         let (sin, cos) = match node {
             Node::Call(Func::Sin, _) => (id, partner),
             _ => (partner, id),
@@ -395,7 +549,14 @@ impl Lowerer<'_> {
             Node::Neg(_) | Node::Add(..) | Node::Sub(..) => ops.add += 1,
             Node::Mul(..) => ops.mul += 1,
             Node::Div(..) => ops.div += 1,
-            Node::Call(..) | Node::Atan2(..) => ops.call += 1,
+            Node::Call(f, _) => {
+                ops.call += 1;
+                ops.calls[Callee::of(f).0] += 1;
+            }
+            Node::Atan2(..) => {
+                ops.call += 1;
+                ops.calls[Callee::ATAN2.0] += 1;
+            }
             Node::Select { .. } => ops.compare += 1,
         }
     }

@@ -11,6 +11,7 @@ pub mod lower;
 pub mod model_fns;
 pub mod module_items;
 pub mod names;
+pub mod registers;
 pub mod scopes;
 pub mod status;
 pub mod substeps;

@@ -280,6 +280,29 @@ pub fn named_ops_item(name: &str, what: &str, ops: OpCount) -> TokenStream {
     }
 }
 
+/// `pub const EKF_STEP_CYCLES: u32 = ..;`, the static estimate of a call of `what` on
+/// `target`, beside its `*_OPS` constant `ops_name`.
+pub fn cycles_item(
+    ops_name: &str,
+    what: &str,
+    estimate: &crate::timing::Estimate,
+    target: &crate::timing::Target,
+) -> TokenStream {
+    let base = ops_name.strip_suffix("_OPS").unwrap_or(ops_name);
+    let name = ident(&format!("{base}_CYCLES"));
+    let doc = format!(
+        " Estimated cycles of one call of `{what}` on a {} (zero wait states), from what its \
+         code does ([`{ops_name}`], its loads and stores): {}.",
+        target.description,
+        estimate.largest(usize::MAX)
+    );
+    let cycles = Literal::u32_unsuffixed(u32::try_from(estimate.cycles).unwrap_or(u32::MAX));
+    quote! {
+        #[doc = #doc]
+        pub const #name: u32 = #cycles;
+    }
+}
+
 /// `pub const JACOBIAN_F_WRT_X_NONZERO: [[bool; n]; m] = ..;` for a Jacobian.
 pub fn nonzero_item(function: &ModelFunction, mg: &ModelGraph) -> Option<TokenStream> {
     let Shape::Matrix { cols } = function.shape else {

@@ -77,6 +77,8 @@ pub fn lower_loop(
     for node in loop_invariant_operands(graph, &roots, &loop_vars) {
         lowerer.force_let(node);
     }
+    lowerer.hold_in_registers(&loop_vars);
+    lowerer.hoist_leaves(&roots);
     let before = lowerer.ops();
     let outside = lowerer.take_statements();
 
@@ -146,7 +148,8 @@ pub fn looped_f(
     let lowered = substep.lower(model, scalar);
     let ops = lowered
         .before
-        .plus(lowered.per_substep.times(substep.count));
+        .plus(lowered.per_substep.times(substep.count))
+        .plus(OpCount::branches(substep.count.div_ceil(2)));
     let f = substep.f_tokens(lowered.code, scalar);
     let count = proc_macro2::Literal::usize_unsuffixed(substep.count as usize);
     let pairs = proc_macro2::Literal::usize_unsuffixed(substep.count as usize / 2);

@@ -24,9 +24,11 @@
 //! 3. Add a compile-fail case under `tests/ui/` for each of its requirements, a snapshot
 //!    of a model that uses it, and tests against an independent reference.
 
+pub mod budget;
 pub mod options;
 pub mod unit;
 
+pub use budget::Budget;
 pub use options::{Args, Context};
 pub use unit::{Code, Cost, Description, Generator, Kind, Lowering, Requirement};
 

@@ -105,6 +105,9 @@ pub struct Cost {
     pub what: String,
     /// The operation counts.
     pub ops: OpCount,
+    /// Whether it is the call a budget (`max_cycles = ..`) bounds: a filter's step, a
+    /// controller's solve at its worst.
+    pub is_budgeted: bool,
 }
 
 impl Cost {
@@ -114,6 +117,15 @@ impl Cost {
             constant: constant.to_owned(),
             what: what.to_owned(),
             ops,
+            is_budgeted: false,
+        }
+    }
+
+    /// The same cost, as the one a budget bounds.
+    pub fn budgeted(self) -> Cost {
+        Cost {
+            is_budgeted: true,
+            ..self
         }
     }
 }

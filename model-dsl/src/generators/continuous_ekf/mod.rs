@@ -84,7 +84,8 @@ impl Lowering for ContinuousEkfSpec {
                     "CONTINUOUS_EKF_STEP_OPS",
                     "ContinuousEkf::step",
                     ct.step_ops,
-                ),
+                )
+                .budgeted(),
             ],
         }
     }

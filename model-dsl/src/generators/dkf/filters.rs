@@ -409,6 +409,7 @@ impl<'a> StepLowering<'a> {
         );
         let probe = lowerer.segment(&[probe]).remove(0);
         let values = lowerer.segment(&results);
+        lowerer.count_extra(OpCount::stores(values.len()));
         let Lowered {
             statements, ops, ..
         } = lowerer.finish();

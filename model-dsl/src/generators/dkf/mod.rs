@@ -105,7 +105,17 @@ impl Lowering for Designed {
                     "the window transform of Dkf::step",
                     dkf.transform_ops,
                 ),
-                Cost::new("DKF_FILTERS_OPS", "Dkf::step", dkf.filters_ops),
+                Cost::new(
+                    "DKF_FILTERS_OPS",
+                    "the two filters of Dkf::step",
+                    dkf.filters_ops,
+                ),
+                Cost::new(
+                    "DKF_STEP_OPS",
+                    "Dkf::step",
+                    dkf.transform_ops.plus(dkf.filters_ops),
+                )
+                .budgeted(),
             ],
         }
     }

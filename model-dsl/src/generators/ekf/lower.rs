@@ -618,7 +618,10 @@ fn lower(
     }
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
+    lowerer.count_extra(OpCount::stores(values.len()));
     let store_innovation = if kind.corrects_all() {
+        let m = nodes.innovation.len();
+        lowerer.count_extra(OpCount::stores(m + crate::symbolic::linalg::packed_len(m)));
         innovation_and_gate(&mut lowerer, nodes, model, kind)
     } else {
         TokenStream::new()

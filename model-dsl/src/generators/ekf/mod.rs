@@ -94,7 +94,12 @@ impl Lowering for EkfSpec {
         .into_iter()
         .map(|(method, ops)| {
             let constant = format!("{prefix}_{}_OPS", method.to_uppercase());
-            Cost::new(&constant, &format!("{}::{method}", self.type_name), ops)
+            let cost = Cost::new(&constant, &format!("{}::{method}", self.type_name), ops);
+            if method == "step" {
+                cost.budgeted()
+            } else {
+                cost
+            }
         })
         .collect();
         Code {

@@ -69,7 +69,7 @@ impl Lowering for HybridEkfSpec {
                     "one sub-step of HybridEkf::step",
                     hybrid.substep_ops,
                 ),
-                Cost::new("HYBRID_EKF_STEP_OPS", "HybridEkf::step", hybrid.step_ops),
+                Cost::new("HYBRID_EKF_STEP_OPS", "HybridEkf::step", hybrid.step_ops).budgeted(),
             ],
         }
     }

@@ -123,6 +123,9 @@ impl Recursion {
     /// (Alg. 3), both behind the checked pivots of `R + B'PB`.
     fn lower(&self, model: &Model, spec: &LqrSpec, scalar: Scalar) -> RecursionCode {
         let mut lowerer = self.hoisted(model, spec, scalar);
+        // P is carried from one iteration to the next in registers.
+        lowerer.hold_in_registers(&self.p_vars);
+        lowerer.hoist_leaves(&self.step.p_next);
         let before_loop = lowerer.ops();
         let outside = lowerer.take_statements();
         // The gain after the loop comes from a fork taken here, so it does not rely on
@@ -150,7 +153,7 @@ impl Recursion {
             used_vars: used_vars.union(&used_after).copied().collect(),
             used_after,
             ops: before_loop
-                .plus(per_step.times(spec.horizon))
+                .plus(per_step.looped(spec.horizon))
                 .plus(gain_ops),
         }
     }

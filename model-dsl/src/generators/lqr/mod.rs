@@ -63,7 +63,7 @@ impl Lowering for LqrSpec {
         let lqr = lower::emit_lqr(model, self, mg, scalar);
         Code {
             tokens: lqr.tokens,
-            costs: vec![Cost::new("LQR_SOLVE_OPS", "Lqr::solve", lqr.solve_ops)],
+            costs: vec![Cost::new("LQR_SOLVE_OPS", "Lqr::solve", lqr.solve_ops).budgeted()],
         }
     }
 }

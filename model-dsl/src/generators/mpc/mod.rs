@@ -155,6 +155,14 @@ impl Generator for MpcSpec {
 impl Lowering for MpcSpec {
     fn lower(&self, model: &Model, mg: &ModelGraph, scalar: Scalar) -> Code {
         let mpc = lower::emit_mpc(model, self, mg, scalar);
+        // The worst solve rebuilds the problem and runs every iteration (and the pass
+        // that finds the plan optimal).
+        let iterations = self.max_iterations.saturating_add(1);
+        let worst = mpc
+            .prediction_ops
+            .plus(mpc.riccati_ops)
+            .plus(mpc.condense_ops)
+            .plus(mpc.iteration_ops.looped(iterations));
         let costs = vec![
             Cost::new(
                 "MPC_PREDICTION_OPS",
@@ -176,6 +184,12 @@ impl Lowering for MpcSpec {
                 "one active-set iteration of Mpc::solve",
                 mpc.iteration_ops,
             ),
+            Cost::new(
+                "MPC_SOLVE_WORST_OPS",
+                "Mpc::solve at its worst: the problem rebuilt and every iteration run",
+                worst,
+            )
+            .budgeted(),
         ];
         Code {
             tokens: mpc.tokens,

@@ -40,7 +40,14 @@ pub fn emit_polynomial_kf(
     let fit_code = fit_branch(&avoid, &fit, &window.new, scalar);
     let fit_ops = fit_code.ops;
     let kf = recursive_step(model, spec, &window.measured, scalar);
-    let step_ops = kf.ops;
+    // The window shifts by one sample (its entries after the oldest are read, all are
+    // written) and its two counters are read and written.
+    let shift = OpCount {
+        load: u32::try_from(spec.window + 1).unwrap_or(u32::MAX),
+        store: u32::try_from(spec.window + 2).unwrap_or(u32::MAX),
+        ..OpCount::default()
+    };
+    let step_ops = kf.ops.plus(shift);
     let ty = ident(scalar.type_name());
     let [n_len, np_len, w_len] =
         [spec.order + 1, packed_len(spec.order + 1), spec.window].map(Literal::usize_unsuffixed);
@@ -348,6 +355,9 @@ fn recursive_step(
     roots.extend(&update.pivots);
     let namer = TempNamer::new(avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&g, scalar, namer, &roots);
+    // The window's entries after the oldest are read before the update and stored after
+    // it (the shift): they hold registers throughout.
+    lowerer.reserve_registers(spec.window - 1);
     lowerer.read_lazily(&quote! { self.x }, &x_vars);
     lowerer.read_lazily(&quote! { self.p }, &p_vars);
     for (&node, state) in update.x.iter().zip(&model.states) {

@@ -159,12 +159,14 @@ impl Lowering for PolynomialKfSpec {
                     "POLYNOMIAL_KF_STEP_OPS",
                     "PolynomialKf::step (recursive)",
                     kf.step_ops,
-                ),
+                )
+                .budgeted(),
                 Cost::new(
                     "POLYNOMIAL_KF_FIT_OPS",
                     "PolynomialKf::step (re-initialising)",
                     kf.fit_ops,
-                ),
+                )
+                .budgeted(),
             ],
         }
     }

@@ -249,7 +249,8 @@ fn lowered_step(model: &Model, regimes: &Regimes, gains: &Gains, scalar: Scalar)
         u_idents: var_idents(&g, &u),
         y_idents: var_idents(&g, &y),
         branches,
-        ops,
+        // The new estimate is stored.
+        ops: ops.plus(OpCount::stores(x.len())),
     }
 }
 

@@ -131,7 +131,8 @@ impl Lowering for Designed {
                 "SWITCHED_OBSERVER_STEP_OPS",
                 "the switched observers' step",
                 code.step_ops,
-            )],
+            )
+            .budgeted()],
         }
     }
 }

@@ -1,0 +1,227 @@
+//! The memory traffic a register file implies for straight-line code: which operands
+//! must be loaded (a variable from its array, a literal from the constant pool, a value
+//! spilled earlier) and which computed values must be spilled to the stack, when the code
+//! runs in the order the lowerer emits it with a given number of registers.
+//!
+//! A register allocator decides this on the target; the estimate follows the textbook
+//! optimum for straight-line code (Belady: evict the value whose next use is furthest
+//! away), which a good allocator approaches. It feeds the static cycle estimate
+//! ([`crate::timing`]): on a Cortex-M4F a load or a store costs as much as two additions.
+
+use super::lower::OpCount;
+use crate::symbolic::{Graph, Node, NodeId};
+use std::collections::{HashMap, HashSet};
+
+/// The FPU's registers of the Cortex-M4F: 32 single-precision (`s0` to `s31`).
+pub const FPU_REGISTERS: usize = 32;
+
+/// Values held in registers across the segments of one function.
+#[derive(Clone, Debug)]
+pub struct RegisterFile {
+    capacity: usize,
+    resident: Vec<NodeId>,
+    /// Computed values with a copy on the stack (evicting them again stores nothing).
+    spilled: HashSet<NodeId>,
+}
+
+/// One computation of a segment, in order: the value and its operands.
+pub struct Step {
+    /// The value computed.
+    pub value: NodeId,
+    /// Its operands.
+    pub operands: Vec<NodeId>,
+}
+
+impl RegisterFile {
+    /// An empty register file of `capacity` values.
+    pub fn new(capacity: usize) -> RegisterFile {
+        RegisterFile {
+            capacity: capacity.max(3),
+            resident: Vec::new(),
+            spilled: HashSet::new(),
+        }
+    }
+
+    /// Takes `values` into registers as far as they fit (a loop's carried values at the
+    /// start of its body); the others are loaded where they are first used.
+    pub fn hold(&mut self, values: &[NodeId]) {
+        for &v in values {
+            if self.resident.len() < self.capacity && !self.resident.contains(&v) {
+                self.resident.push(v);
+            }
+        }
+    }
+
+    /// Takes `n` registers away, for values live across the code that it does not see
+    /// (at least three stay: an operation's two operands and its result).
+    pub fn reserve(&mut self, n: usize) {
+        self.capacity = self.capacity.saturating_sub(n).max(3);
+    }
+
+    /// How many registers are free.
+    pub fn room(&self) -> usize {
+        self.capacity.saturating_sub(self.resident.len())
+    }
+
+    /// Runs `steps` and returns the loads, literals and stores they cost. `live_after`
+    /// says whether a value is used after the segment (by a later segment, or as the
+    /// segment's result); `in_memory` whether a leaf is read from memory (a variable
+    /// that a definition computes instead is a computed value).
+    pub fn run(
+        &mut self,
+        graph: &Graph,
+        steps: &[Step],
+        live_after: &dyn Fn(NodeId) -> bool,
+        in_memory: &dyn Fn(NodeId) -> bool,
+    ) -> OpCount {
+        let uses = use_positions(steps);
+        let mut traffic = OpCount::default();
+        for (position, step) in steps.iter().enumerate() {
+            if in_memory(step.value) {
+                // A leaf is loaded where it is used.
+                continue;
+            }
+            for &operand in &step.operands {
+                if self.resident.contains(&operand) {
+                    continue;
+                }
+                match graph.node(operand) {
+                    Node::Num(_) | Node::Named(_) => traffic.literal += 1,
+                    _ => traffic.load += 1,
+                }
+                self.make_room(position, &uses, live_after, in_memory, &mut traffic);
+                self.resident.push(operand);
+            }
+            // Operands used for the last time free their registers for the result.
+            let next = |v: NodeId| next_use(&uses, v, position);
+            self.resident
+                .retain(|&v| next(v).is_some() || live_after(v));
+            self.make_room(position, &uses, live_after, in_memory, &mut traffic);
+            self.resident.push(step.value);
+        }
+        traffic
+    }
+
+    /// Frees one register if all are taken, evicting the value used furthest ahead; a
+    /// computed value still needed is stored (once).
+    fn make_room(
+        &mut self,
+        position: usize,
+        uses: &HashMap<NodeId, Vec<usize>>,
+        live_after: &dyn Fn(NodeId) -> bool,
+        in_memory: &dyn Fn(NodeId) -> bool,
+        traffic: &mut OpCount,
+    ) {
+        if self.resident.len() < self.capacity {
+            return;
+        }
+        let distance = |v: NodeId| match next_use(uses, v, position) {
+            Some(p) => p,
+            None if live_after(v) => usize::MAX - 1,
+            None => usize::MAX,
+        };
+        let Some((index, &victim)) = self
+            .resident
+            .iter()
+            .enumerate()
+            .max_by_key(|&(_, &v)| distance(v))
+        else {
+            return;
+        };
+        self.resident.swap_remove(index);
+        let needed = distance(victim) != usize::MAX;
+        if needed && !in_memory(victim) && self.spilled.insert(victim) {
+            traffic.store += 1;
+        }
+    }
+}
+
+/// Where each value is used as an operand, in order.
+fn use_positions(steps: &[Step]) -> HashMap<NodeId, Vec<usize>> {
+    let mut uses: HashMap<NodeId, Vec<usize>> = HashMap::new();
+    for (position, step) in steps.iter().enumerate() {
+        for &operand in &step.operands {
+            uses.entry(operand).or_default().push(position);
+        }
+    }
+    uses
+}
+
+/// The first use of `v` after `position`.
+fn next_use(uses: &HashMap<NodeId, Vec<usize>>, v: NodeId, position: usize) -> Option<usize> {
+    let positions = uses.get(&v)?;
+    let after = positions.partition_point(|&p| p <= position);
+    positions.get(after).copied()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A sum of `n` variables, each read once: every variable is loaded once, and
+    /// nothing is spilled however few the registers.
+    #[test]
+    fn a_chain_loads_each_variable_once_and_spills_nothing() {
+        let mut g = Graph::new();
+        let vars: Vec<NodeId> = (0..40).map(|i| g.var(&format!("v{i}"))).collect();
+        let mut steps: Vec<Step> = vars
+            .iter()
+            .map(|&v| Step {
+                value: v,
+                operands: vec![],
+            })
+            .collect();
+        let mut sum = vars[0];
+        for &v in &vars[1..] {
+            let next = g.add(sum, v);
+            steps.push(Step {
+                value: next,
+                operands: vec![sum, v],
+            });
+            sum = next;
+        }
+        let leaf = |id: NodeId| g.is_leaf(id);
+        let traffic = RegisterFile::new(4).run(&g, &steps, &|v| v == sum, &leaf);
+        assert_eq!((traffic.load, traffic.store), (40, 0));
+    }
+
+    /// Forty products of `x`, all needed by the sum at the end, with 32 registers: about
+    /// eight are spilled and reloaded (and `x` itself may be reloaded once).
+    #[test]
+    fn values_beyond_the_registers_are_spilled_once_and_reloaded() {
+        let mut g = Graph::new();
+        let x = g.var("x");
+        let mut steps = vec![Step {
+            value: x,
+            operands: vec![],
+        }];
+        let products: Vec<NodeId> = (2..=41)
+            .map(|i| {
+                let c = g.num(f64::from(i));
+                let p = g.mul(c, x);
+                steps.push(Step {
+                    value: p,
+                    operands: vec![c, x],
+                });
+                p
+            })
+            .collect();
+        let mut sum = products[0];
+        for &p in &products[1..] {
+            let next = g.add(sum, p);
+            steps.push(Step {
+                value: next,
+                operands: vec![sum, p],
+            });
+            sum = next;
+        }
+        let leaf = |id: NodeId| g.is_leaf(id);
+        let traffic = RegisterFile::new(FPU_REGISTERS).run(&g, &steps, &|v| v == sum, &leaf);
+        assert_eq!(traffic.literal, 40);
+        assert!(
+            (8..=12).contains(&traffic.store)
+                && (1 + traffic.store..=2 + traffic.store).contains(&traffic.load),
+            "{traffic:?}"
+        );
+    }
+}
