@@ -423,7 +423,9 @@ impl<'g> Lowerer<'g> {
         let in_memory =
             |v: NodeId| graph.is_leaf(v) && !definitions.contains_key(&v) && !held.contains(&v);
         let traffic = self.registers.run(graph, &steps, &live_after, &in_memory);
-        self.ops = self.ops.plus(traffic);
+        self.ops.load += traffic.load;
+        self.ops.literal += traffic.literal;
+        self.ops.store += traffic.store;
     }
 
     /// Computes a sine and the cosine of the same argument, both used by this function,

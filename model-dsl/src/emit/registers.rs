@@ -8,7 +8,6 @@
 //! away), which a good allocator approaches. It feeds the static cycle estimate
 //! ([`crate::timing`]): on a Cortex-M4F a load or a store costs as much as two additions.
 
-use super::lower::OpCount;
 use crate::symbolic::{Graph, Node, NodeId};
 use std::collections::{HashMap, HashSet};
 
@@ -22,6 +21,17 @@ pub struct RegisterFile {
     resident: Vec<NodeId>,
     /// Computed values with a copy on the stack (evicting them again stores nothing).
     spilled: HashSet<NodeId>,
+}
+
+/// The memory traffic of a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Traffic {
+    /// Variables read from memory, and values reloaded after a spill.
+    pub load: u32,
+    /// Literals loaded from the constant pool.
+    pub literal: u32,
+    /// Values spilled.
+    pub store: u32,
 }
 
 /// One computation of a segment, in order: the value and its operands.
@@ -73,9 +83,9 @@ impl RegisterFile {
         steps: &[Step],
         live_after: &dyn Fn(NodeId) -> bool,
         in_memory: &dyn Fn(NodeId) -> bool,
-    ) -> OpCount {
+    ) -> Traffic {
         let uses = use_positions(steps);
-        let mut traffic = OpCount::default();
+        let mut traffic = Traffic::default();
         for (position, step) in steps.iter().enumerate() {
             if in_memory(step.value) {
                 // A leaf is loaded where it is used.
@@ -110,7 +120,7 @@ impl RegisterFile {
         uses: &HashMap<NodeId, Vec<usize>>,
         live_after: &dyn Fn(NodeId) -> bool,
         in_memory: &dyn Fn(NodeId) -> bool,
-        traffic: &mut OpCount,
+        traffic: &mut Traffic,
     ) {
         if self.resident.len() < self.capacity {
             return;
