@@ -81,12 +81,12 @@ pub const TARGETS: &[Target] = &[CORTEX_M4F];
 pub struct Estimate {
     /// Cycles per call.
     pub cycles: u64,
-    /// The contributions, largest first: what (`"74 multiplications"`) and cycles.
+    /// The contributions, largest first: what (`"72 multiply-adds"`) and cycles.
     pub parts: Vec<(String, u64)>,
 }
 
 impl Estimate {
-    /// The `n` largest contributions, as `74 multiplications 148 cycles, ..`.
+    /// The `n` largest contributions, as `72 multiply-adds 216 cycles, ..`.
     pub fn largest(&self, n: usize) -> String {
         let parts: Vec<String> = self
             .parts
@@ -128,8 +128,8 @@ impl Target {
                 self.compare,
             ),
             (
-                count(ops.load + ops.literal, "load", "loads"),
-                ops.load + ops.literal,
+                count(ops.load.saturating_add(ops.literal), "load", "loads"),
+                ops.load.saturating_add(ops.literal),
                 self.load,
             ),
             (count(ops.store, "store", "stores"), ops.store, self.store),

@@ -43,7 +43,7 @@ pub struct OpCount {
     pub literal: u32,
     /// Scalars written to memory: the fields the code writes, and spilled values.
     pub store: u32,
-    /// Branches taken: a loop's iterations, an early return's test.
+    /// Branches taken: a loop's iterations.
     pub branch: u32,
 }
 
@@ -99,7 +99,7 @@ impl OpCount {
 
     /// Both counts together.
     pub fn plus(self, other: OpCount) -> OpCount {
-        self.zip(other, |a, b| a + b)
+        self.zip(other, u32::saturating_add)
     }
 
     /// What `self` counts beyond `earlier`, a count taken before it.
@@ -109,7 +109,7 @@ impl OpCount {
 
     /// The count of `n` repetitions.
     pub fn times(self, n: u32) -> OpCount {
-        self.zip(OpCount::default(), |a, _| a * n)
+        self.zip(OpCount::default(), |a, _| a.saturating_mul(n))
     }
 
     /// The count of a loop of `trips` iterations of `self`: each iteration also tests
@@ -414,10 +414,12 @@ impl<'g> Lowerer<'g> {
             })
             .collect();
         for operand in steps.iter().flat_map(|s| &s.operands).chain(roots) {
-            self.consumed[operand.index()] += 1;
+            self.consumed[operand.index()] = self.consumed[operand.index()].saturating_add(1);
         }
         let (consumed, uses) = (&self.consumed, &self.uses);
-        let live_after = |v: NodeId| consumed[v.index()] < uses[v.index()] || roots.contains(&v);
+        // A set: a Jacobian's segment has thousands of roots, asked about at every step.
+        let root_set: std::collections::HashSet<NodeId> = roots.iter().copied().collect();
+        let live_after = |v: NodeId| consumed[v.index()] < uses[v.index()] || root_set.contains(&v);
         let (definitions, held) = (&self.definitions, &self.held);
         let graph = self.graph;
         let in_memory =

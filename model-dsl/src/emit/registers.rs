@@ -106,8 +106,11 @@ impl RegisterFile {
             let next = |v: NodeId| next_use(&uses, v, position);
             self.resident
                 .retain(|&v| next(v).is_some() || live_after(v));
-            self.make_room(position, &uses, live_after, in_memory, &mut traffic);
-            self.resident.push(step.value);
+            // A held value (a loop's carried value) may be in a register already.
+            if !self.resident.contains(&step.value) {
+                self.make_room(position, &uses, live_after, in_memory, &mut traffic);
+                self.resident.push(step.value);
+            }
         }
         traffic
     }
