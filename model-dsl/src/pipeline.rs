@@ -181,30 +181,30 @@ impl Module<'_> {
         let mut tokens = TokenStream::new();
         for (design, budget) in self.designs.iter().zip(self.budgets) {
             let code = design.lower(self.model, self.mg, scalar);
+            let mut errors = Vec::new();
             for cost in &code.costs {
                 ops_items.push(named_ops_item(&cost.constant, &cost.what, cost.ops));
                 // The estimate is of the microcontroller's code, in `f32`.
                 if scalar == Scalar::F32 {
-                    let target = &CORTEX_M4F;
-                    let estimate = target.estimate(&cost.ops);
-                    ops_items.push(cycles_item(&cost.constant, &cost.what, &estimate, target));
+                    let estimate = CORTEX_M4F.estimate(&cost.ops);
+                    ops_items.push(cycles_item(
+                        &cost.constant,
+                        &cost.what,
+                        &estimate,
+                        &CORTEX_M4F,
+                    ));
+                    let bounding = budget.as_ref().filter(|_| cost.is_budgeted);
+                    errors
+                        .extend(bounding.and_then(|b| b.check(&cost.what, &estimate, &CORTEX_M4F)));
                 }
             }
-            if let Some(budget) = budget {
-                let errors = match scalar {
-                    Scalar::F32 => code
-                        .costs
-                        .iter()
-                        .filter(|c| c.is_budgeted)
-                        .filter_map(|c| budget.check(c, &CORTEX_M4F))
-                        .collect(),
-                    Scalar::F64 => vec![budget.needs_f32()],
-                };
-                for error in errors {
-                    match over_budget {
-                        Some(all) => all.combine(error),
-                        None => *over_budget = Some(error),
-                    }
+            if let (Some(budget), Scalar::F64) = (budget, scalar) {
+                errors.push(budget.needs_f32());
+            }
+            for error in errors {
+                match over_budget {
+                    Some(all) => all.combine(error),
+                    None => *over_budget = Some(error),
                 }
             }
             tokens.extend(code.tokens);

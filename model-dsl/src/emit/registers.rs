@@ -171,6 +171,20 @@ fn next_use(uses: &HashMap<NodeId, Vec<usize>>, v: NodeId, position: usize) -> O
 mod tests {
     use super::*;
 
+    /// `terms` summed left to right, each addition appended to `steps`; the sum.
+    fn sum_in_order(g: &mut Graph, terms: &[NodeId], steps: &mut Vec<Step>) -> NodeId {
+        let mut sum = terms[0];
+        for &term in &terms[1..] {
+            let next = g.add(sum, term);
+            steps.push(Step {
+                value: next,
+                operands: vec![sum, term],
+            });
+            sum = next;
+        }
+        sum
+    }
+
     /// A sum of `n` variables, each read once: every variable is loaded once, and
     /// nothing is spilled however few the registers.
     #[test]
@@ -184,15 +198,7 @@ mod tests {
                 operands: vec![],
             })
             .collect();
-        let mut sum = vars[0];
-        for &v in &vars[1..] {
-            let next = g.add(sum, v);
-            steps.push(Step {
-                value: next,
-                operands: vec![sum, v],
-            });
-            sum = next;
-        }
+        let sum = sum_in_order(&mut g, &vars, &mut steps);
         let leaf = |id: NodeId| g.is_leaf(id);
         let traffic = RegisterFile::new(4).run(&g, &steps, &|v| v == sum, &leaf);
         assert_eq!((traffic.load, traffic.store), (40, 0));
@@ -219,15 +225,7 @@ mod tests {
                 p
             })
             .collect();
-        let mut sum = products[0];
-        for &p in &products[1..] {
-            let next = g.add(sum, p);
-            steps.push(Step {
-                value: next,
-                operands: vec![sum, p],
-            });
-            sum = next;
-        }
+        let sum = sum_in_order(&mut g, &products, &mut steps);
         let leaf = |id: NodeId| g.is_leaf(id);
         let traffic = RegisterFile::new(FPU_REGISTERS).run(&g, &steps, &|v| v == sum, &leaf);
         assert_eq!(traffic.literal, 40);

@@ -1,13 +1,12 @@
 //! The cycle budget every generator takes: `max_cycles = N`, or `max_us = T, mhz = F`
-//! (a time at a clock). When the static estimate of the generator's call ([`Cost::budgeted`],
+//! (a time at a clock). When the static estimate of the generator's call ([`super::Cost::budgeted`],
 //! for the MPC its worst case) exceeds it, the model does not compile: the error, under
 //! the option, gives the estimate and what costs most, so the user knows what to change.
 
 use super::options::Args;
-use super::unit::Cost;
 use crate::ast::ArgValue;
 use crate::diagnostics::Diagnostics;
-use crate::timing::Target;
+use crate::timing::{Estimate, Target};
 use proc_macro2::Span;
 
 /// The largest budget a model may give: a billion cycles (6 s at 168 MHz).
@@ -42,7 +41,7 @@ impl Budget {
                 );
                 None
             }
-            (Some(_), None, Some(Ok((_, span)))) => {
+            (_, None, Some(Ok((_, span)))) => {
                 diag.error(
                     span,
                     "`mhz` converts `max_us` to cycles: give `max_us` with it, or drop it",
@@ -63,13 +62,6 @@ impl Budget {
                 );
                 None
             }
-            (None, None, Some(Ok((_, span)))) => {
-                diag.error(
-                    span,
-                    "`mhz` converts `max_us` to cycles: give `max_us` with it, or drop it",
-                );
-                None
-            }
             _ => None,
         }
     }
@@ -83,9 +75,9 @@ impl Budget {
         )
     }
 
-    /// An error under the option if `cost`'s estimate on `target` exceeds the budget.
-    pub fn check(&self, cost: &Cost, target: &Target) -> Option<syn::Error> {
-        let estimate = target.estimate(&cost.ops);
+    /// An error under the option if `estimate`, of a call of `what` on `target`, exceeds
+    /// the budget.
+    pub fn check(&self, what: &str, estimate: &Estimate, target: &Target) -> Option<syn::Error> {
         (estimate.cycles > self.cycles).then(|| {
             syn::Error::new(
                 self.span,
@@ -94,7 +86,7 @@ impl Budget {
                      ({} cycles); what costs most: {}. Make the model cheaper there (fewer \
                      states or outputs, fewer library calls, a lighter option), or raise the \
                      budget",
-                    cost.what,
+                    what,
                     estimate.cycles,
                     target.description,
                     self.written,
