@@ -186,10 +186,13 @@ impl Module<'_> {
                 ops_items.push(named_ops_item(&cost.constant, &cost.what, cost.ops));
                 // The estimate is of the microcontroller's code, in `f32`.
                 if scalar == Scalar::F32 {
-                    let estimate = CORTEX_M4F.estimate(&cost.ops);
+                    let estimate = if cost.is_part {
+                        CORTEX_M4F.estimate_part(&cost.ops)
+                    } else {
+                        CORTEX_M4F.estimate(&cost.ops)
+                    };
                     ops_items.push(cycles_item(
-                        &cost.constant,
-                        &cost.what,
+                        (&cost.constant, &cost.what, cost.is_part),
                         &estimate,
                         &CORTEX_M4F,
                     ));

@@ -101,6 +101,16 @@ impl Estimate {
 impl Target {
     /// The estimate of one call of code that does `ops`.
     pub fn estimate(&self, ops: &OpCount) -> Estimate {
+        self.tally(ops, true)
+    }
+
+    /// The estimate of code that does `ops` inside a call (a sub-step, one iteration):
+    /// without the call's entry and return.
+    pub fn estimate_part(&self, ops: &OpCount) -> Estimate {
+        self.tally(ops, false)
+    }
+
+    fn tally(&self, ops: &OpCount, call: bool) -> Estimate {
         let count =
             |n: u32, one: &str, many: &str| format!("{n} {}", if n == 1 { one } else { many });
         // A product that feeds a sum is one multiply-add instruction.
@@ -138,7 +148,7 @@ impl Target {
                 ops.branch,
                 self.branch,
             ),
-            ("entry and return".to_owned(), 1, self.entry),
+            ("entry and return".to_owned(), u32::from(call), self.entry),
         ];
         for (i, &n) in ops.calls.iter().enumerate() {
             let name = Callee(i).name();

@@ -5,7 +5,9 @@
 //! Output: `mpc k <iterations> <u1..u10>` for every sample (the plan after solving at
 //! estimate `k`), then the `cost`/`stack` lines of `mpc_solve` (instructions per solve
 //! averaged over the run, no nalgebra baseline: printed as 0), and
-//! `spread mpc_solve <median> <worst> <most iterations>` over the run's solves.
+//! `spread mpc_solve <median> <worst> <most iterations>` over the run's solves, and
+//! `paths mpc_solve <solves> <model rebuilds> <problem rebuilds> <iterations>`: what the
+//! run's solves recomputed, in all, for the host to weigh the static estimates by.
 
 use crate::measure::{per_call, report, stack_depth, Clock};
 use core::hint::black_box;
@@ -81,6 +83,7 @@ pub fn costs(clock: &Clock) {
     });
     let mut each = [0_u32; SAMPLES];
     let mut most_iterations = 0;
+    let mut paths = Paths::default();
     for (slot, x) in each.iter_mut().zip(&xs) {
         let mut status = None;
         *slot = clock
@@ -88,6 +91,7 @@ pub fn costs(clock: &Clock) {
             .saturating_sub(empty);
         if let Some(status) = status {
             most_iterations = most_iterations.max(status.iterations);
+            paths.add(&status);
         }
     }
     each.sort_unstable();
@@ -102,4 +106,30 @@ pub fn costs(clock: &Clock) {
     });
     report("mpc_solve", (average, 0), (stack, 0));
     hprintln!("spread mpc_solve {} {} {}", median, worst, most_iterations);
+    hprintln!(
+        "paths mpc_solve {} {} {} {}",
+        paths.solves,
+        paths.model_rebuilds,
+        paths.problem_rebuilds,
+        paths.iterations
+    );
+}
+
+/// What a run's solves recomputed, in all: every solve runs its plan and iterations; some
+/// also rebuild the prediction model, or the terminal weight and the condensed Hessian.
+#[derive(Default)]
+struct Paths {
+    solves: usize,
+    model_rebuilds: usize,
+    problem_rebuilds: usize,
+    iterations: usize,
+}
+
+impl Paths {
+    fn add(&mut self, status: &MpcStatus) {
+        self.solves += 1;
+        self.model_rebuilds += usize::from(status.model_rebuilt);
+        self.problem_rebuilds += usize::from(status.problem_rebuilt);
+        self.iterations += status.iterations;
+    }
 }

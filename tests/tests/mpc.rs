@@ -211,6 +211,15 @@ fn the_model_is_kept_within_its_tolerance_and_rebuilt_beyond_it() {
     assert_eq!(blade::Mpc::MODEL_TOLERANCE, 1e-3);
     let x = estimate(2e-3, 0.1, 5.0);
     let mut settled = controller(100.0);
+    // The first solve builds everything; the next ones keep the model and step the
+    // terminal weight until it settles.
+    let first = settled.solve(&x, &[0.0]);
+    assert!(first.model_rebuilt && first.problem_rebuilt, "{first:?}");
+    let second = settled.solve(&x, &[0.0]);
+    assert!(
+        !second.model_rebuilt && second.problem_rebuilt,
+        "{second:?}"
+    );
     for _ in 0..300 {
         assert_eq!(settled.solve(&x, &[0.0]).status, Status::Ok);
     }
@@ -218,16 +227,22 @@ fn the_model_is_kept_within_its_tolerance_and_rebuilt_beyond_it() {
         let mut mpc = settled;
         let status = mpc.solve(&estimate(x[0], x[1], inv_m), &[0.0]);
         assert!(status.optimal, "{status:?}");
-        mpc
+        (mpc, status)
     };
-    let same = solve_at(5.0);
+    let (same, kept) = solve_at(5.0);
+    assert!(!kept.model_rebuilt && !kept.problem_rebuilt, "{kept:?}");
     // Within the tolerance the kept model (and terminal weight) serve: the same plan and
     // weight, bit for bit.
-    let near = solve_at(5.0 * (1.0 + 5e-4));
+    let (near, status) = solve_at(5.0 * (1.0 + 5e-4));
+    assert!(
+        !status.model_rebuilt && !status.problem_rebuilt,
+        "{status:?}"
+    );
     assert_eq!(near.plan(), same.plan());
     assert_eq!(near.terminal_weight(), same.terminal_weight());
     // Beyond it the model is rebuilt at the estimate, and the terminal weight moves.
-    let far = solve_at(5.0 * (1.0 + 2e-3));
+    let (far, status) = solve_at(5.0 * (1.0 + 2e-3));
+    assert!(status.model_rebuilt && status.problem_rebuilt, "{status:?}");
     assert_ne!(far.terminal_weight(), same.terminal_weight());
     let (a, b) = prediction(5.0 * (1.0 + 2e-3));
     let p_ref = reference::dare(&a, &b, &matrix(&Q), &matrix(&R));

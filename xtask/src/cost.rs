@@ -3,7 +3,7 @@
 //! code size and stack, generated code beside the nalgebra baseline, against the goals,
 //! the C peer and the paper.
 
-use crate::firmware::{Cost, Spread};
+use crate::firmware::{MpcPaths, Report, Spread};
 use crate::program::Program;
 use crate::static_estimate;
 use crate::timing;
@@ -118,7 +118,7 @@ const fn math_kernel(name: &'static str, label: &'static str) -> Kernel {
 
 /// The wrapper functions of every kernel the firmware measured, generated then
 /// baseline, for the trace.
-pub fn wrappers(costs: &[Cost], program: &Program) -> Vec<String> {
+pub fn wrappers(costs: &[crate::firmware::Cost], program: &Program) -> Vec<String> {
     costs
         .iter()
         .flat_map(|c| ["generated", "baseline"].map(|side| format!("{side}_{}", c.kernel)))
@@ -136,10 +136,14 @@ const TRACE_SLACK: f64 = 8.0;
 pub fn table(
     build: &str,
     full: bool,
-    (costs, spreads): (&[Cost], &[Spread]),
+    report: &Report,
     program: &Program,
     traced: &BTreeMap<String, Traced>,
 ) -> Result<String, String> {
+    let (costs, spreads) = (&report.costs, &report.spreads);
+    let paths = report
+        .mpc_paths
+        .ok_or("the firmware did not say what its MPC solves recomputed (`paths mpc_solve`)")?;
     let mut rows = Vec::new();
     for kernel in KERNELS {
         let Some(cost) = costs.iter().find(|c| c.kernel == kernel.name) else {
@@ -190,31 +194,26 @@ pub fn table(
             (r.kernel.name, g.cycles / f64::from(g.instructions.max(1)))
         })
         .collect();
-    let spread = spread_lines(spreads, &cpi);
+    let spread = spread_lines(spreads, &cpi, &paths);
     if full {
         // The static estimate assumes the build without FMA (a `vmla` per multiply-add).
         let traced: Vec<(&str, &str, f64)> = rows
             .iter()
             .map(|r| (r.kernel.label, r.kernel.name, r.generated.cycles))
             .collect();
-        static_estimate::check(&traced)?;
-        Ok(format!("{}{spread}", render(build, &rows, program)))
+        static_estimate::check(&traced, &paths)?;
+        Ok(format!("{}{spread}", render(build, &rows, program, &paths)))
     } else {
         Ok(format!(
             "The firmware {build}:\n{}{spread}",
-            main_table(&rows)
+            main_table(&rows, &paths)
         ))
     }
 }
 
-/// Floating-point operations (adds, muls, divs, library calls, comparisons) of `ops`.
-fn operations(ops: generated_demo::mass_spring_damper::OpCount) -> usize {
-    ops.add + ops.mul + ops.div + ops.call + ops.compare
-}
-
 /// The typical and worst calls of the kernels whose calls differ in cost, and for the MPC
-/// the operation count its generated constants bound a solve by.
-fn spread_lines(spreads: &[Spread], cpi: &BTreeMap<&str, f64>) -> String {
+/// what its solves recomputed and the static estimate of its worst solve.
+fn spread_lines(spreads: &[Spread], cpi: &BTreeMap<&str, f64>, paths: &MpcPaths) -> String {
     use generated_demo::mass_spring_damper as blade;
     let mut out = String::new();
     for spread in spreads {
@@ -235,20 +234,21 @@ fn spread_lines(spreads: &[Spread], cpi: &BTreeMap<&str, f64>) -> String {
             spread.iterations
         ));
         if spread.kernel == "mpc_solve" {
-            let once = operations(blade::MPC_PREDICTION_OPS)
-                + operations(blade::MPC_RICCATI_OPS)
-                + operations(blade::MPC_CONDENSE_OPS);
-            let iteration = operations(blade::MPC_ITERATION_OPS);
-            let iterations = blade::Mpc::MAX_ITERATIONS;
             out.push_str(&format!(
-                "  bound from the generated constants: {once} + {iterations} x {iteration} = {} \
-                 floating-point operations (prediction + Riccati + condensing + \
-                 MAX_ITERATIONS x iteration; loads, stores and branches not counted)\n",
-                once + iterations * iteration
+                "  its {} solves: {} rebuilt the prediction model, {} the terminal weight and \
+                 Hessian, {} active-set iterations in all; the static estimate at these \
+                 counts is {:.0} cycles per solve\n",
+                paths.solves,
+                paths.model_rebuilds,
+                paths.problem_rebuilds,
+                paths.iterations,
+                static_estimate::cycles("mpc_solve", paths).unwrap_or(f64::NAN),
             ));
             out.push_str(&format!(
-                "  static estimate of the worst solve (MPC_SOLVE_WORST_CYCLES, every pass of \
-                 the active set run): {} cycles, against {:.0} for the run's worst\n",
+                "  static estimate of the worst solve (MPC_SOLVE_WORST_CYCLES: everything \
+                 rebuilt, MAX_ITERATIONS = {} iterations): {} cycles, against {:.0} for the \
+                 run's worst\n",
+                blade::Mpc::MAX_ITERATIONS,
                 blade::MPC_SOLVE_WORST_CYCLES,
                 cycles(spread.worst)
             ));
@@ -274,7 +274,7 @@ struct Row<'k> {
 }
 
 /// The table of instructions, cycles and microseconds.
-fn main_table(rows: &[Row]) -> String {
+fn main_table(rows: &[Row], paths: &MpcPaths) -> String {
     let us = |cycles: f64| cycles / CLOCK_MHZ;
     let show = |v: Option<u32>| v.map_or("-".to_owned(), |v| v.to_string());
     let mut out = String::new();
@@ -316,12 +316,13 @@ fn main_table(rows: &[Row]) -> String {
         });
         let baseline = |value: &dyn Fn(&Side) -> String| b.map_or("-".to_owned(), value);
         // The compiler's static estimate (`*_CYCLES`), and how far it is from the trace.
-        let estimate = static_estimate::cycles(row.kernel.name).map_or("-".to_owned(), |s| {
-            format!(
-                "{s:.0} {:+.0}%",
-                100.0 * static_estimate::difference(s, g.cycles)
-            )
-        });
+        let estimate =
+            static_estimate::cycles(row.kernel.name, paths).map_or("-".to_owned(), |s| {
+                format!(
+                    "{s:.0} {:+.0}%",
+                    100.0 * static_estimate::difference(s, g.cycles)
+                )
+            });
         out.push_str(&format!(
             "{:<28} {:>7} {:>7} {:>7.0} {:>11} {:>7} {:>7.2} {:>7}   {:>5} {:>6}   {:>4} {:>4} {:>8}{verdict}\n",
             row.kernel.label,
@@ -342,7 +343,7 @@ fn main_table(rows: &[Row]) -> String {
     out
 }
 
-fn render(build: &str, rows: &[Row], program: &Program) -> String {
+fn render(build: &str, rows: &[Row], program: &Program, paths: &MpcPaths) -> String {
     let us = |cycles: f64| cycles / CLOCK_MHZ;
     let mut out = format!("The firmware {build}.\n");
     out.push_str(
@@ -352,7 +353,7 @@ fn render(build: &str, rows: &[Row], program: &Program) -> String {
          timings (zero wait states, taken branch 3 cycles: xtask/src/timing.rs); microseconds\n\
          at 168 MHz, the paper's STM32F407 clock. gen: generated code, nalg: nalgebra.\n\n",
     );
-    out.push_str(&main_table(rows));
+    out.push_str(&main_table(rows, paths));
     out.push_str(&format!(
         "\n{:<28} {:>9} {:>9}   {:>9} {:>9}   {:>10}\n",
         "kernel", "text gen", "text nalg", "stack gen", "stack nalg", "cyc/ins gen"

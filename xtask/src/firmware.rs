@@ -93,6 +93,19 @@ pub struct Spread {
     pub iterations: u32,
 }
 
+/// What a run's MPC solves recomputed, in all (`paths mpc_solve ..`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MpcPaths {
+    /// Solves.
+    pub solves: u32,
+    /// Solves that rebuilt the prediction model.
+    pub model_rebuilds: u32,
+    /// Solves that ran the Riccati steps and condensed the Hessian.
+    pub problem_rebuilds: u32,
+    /// Active-set iterations of all solves.
+    pub iterations: u32,
+}
+
 /// What the firmware reported.
 #[derive(Debug, Default)]
 pub struct Report {
@@ -113,6 +126,8 @@ pub struct Report {
     /// `spread <kernel> <median> <worst> <most iterations>`: per-call instructions over a
     /// run whose calls differ in cost.
     pub spreads: Vec<Spread>,
+    /// `paths mpc_solve <solves> <model rebuilds> <problem rebuilds> <iterations>`.
+    pub mpc_paths: Option<MpcPaths>,
     /// Of the multiply-adds compared with `libm::fmaf`: how many differed, of how many.
     pub fused: Option<(u32, u32)>,
     /// `math <function> <argument bits> <result bits>`: `stateforge_math::f32` on the
@@ -232,6 +247,19 @@ fn parse(text: &str) -> Result<Report, String> {
                     median: parse(median)?,
                     worst: parse(worst)?,
                     iterations: parse(iterations)?,
+                });
+            }
+            ["paths", "mpc_solve", counts @ ..] if counts.len() == 4 => {
+                let n: Vec<u32> = counts
+                    .iter()
+                    .map(|w| w.parse::<u32>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| format!("bad count in `{line}`"))?;
+                report.mpc_paths = Some(MpcPaths {
+                    solves: n[0],
+                    model_rebuilds: n[1],
+                    problem_rebuilds: n[2],
+                    iterations: n[3],
                 });
             }
             [tag @ ("continuous" | "hybrid" | "observer" | "polykf" | "mpc"), k, values @ ..] => {

@@ -349,11 +349,5 @@ fn cost_table(report: &firmware::Report, build: firmware::Build) -> Result<Strin
     let wrappers = cost::wrappers(&report.costs, &program);
     let traced = trace::run(&elf, &program, &wrappers)?;
     // The default build in full; the others, their main table.
-    cost::table(
-        build.name,
-        !build.fused,
-        (&report.costs, &report.spreads),
-        &program,
-        &traced,
-    )
+    cost::table(build.name, !build.fused, report, &program, &traced)
 }

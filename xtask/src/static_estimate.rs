@@ -3,16 +3,17 @@
 //! the estimate a budget (`max_cycles = ..`) is compared with stays close to what the
 //! core does.
 
+use crate::firmware::MpcPaths;
 use generated_demo::{cantilever, helicopter, mass_spring_damper, piecewise_beam, polynomial};
 
 /// The largest relative difference allowed between the static estimate and the trace.
 pub const TOLERANCE: f64 = 0.15;
 
-/// The static estimate of a call of the firmware's kernel `name`, if it has one. The
-/// MPC's calls differ by their iterations: its constant is a bound
-/// (`MPC_SOLVE_WORST_CYCLES`), compared in the spread line, not here.
-pub fn cycles(name: &str) -> Option<f64> {
-    let reinit_every = polynomial::PolynomialKf::REINIT_EVERY as f64;
+/// The static estimate of a call of the firmware's kernel `name`, if it has one, on
+/// average over the firmware's run. The MPC's solves differ by what they recompute:
+/// theirs is weighed by what the run's solves did (`paths`).
+pub fn cycles(name: &str, paths: &MpcPaths) -> Option<f64> {
+    let reinit_every = f64::from(polynomial::PolynomialKf::REINIT_EVERY as u32);
     let cycles = match name {
         "ekf_step" => cantilever::EKF_STEP_CYCLES,
         "dkf_step" => cantilever::DKF_STEP_CYCLES,
@@ -21,16 +22,33 @@ pub fn cycles(name: &str) -> Option<f64> {
         "continuous_ekf_step" => helicopter::CONTINUOUS_EKF_STEP_CYCLES,
         "hybrid_ekf_step" => mass_spring_damper::HYBRID_EKF_STEP_CYCLES,
         "switched_observer_step" => piecewise_beam::SWITCHED_OBSERVER_STEP_CYCLES,
-        // One re-initialisation every REINIT_EVERY steps, on top of the recursive step.
+        // One step in REINIT_EVERY re-initialises instead of recursing.
         "polynomial_kf_step" => {
-            return Some(
-                f64::from(polynomial::POLYNOMIAL_KF_STEP_CYCLES)
-                    + f64::from(polynomial::POLYNOMIAL_KF_FIT_CYCLES) / reinit_every,
-            )
+            let recursive = f64::from(polynomial::POLYNOMIAL_KF_STEP_CYCLES);
+            let fit = f64::from(polynomial::POLYNOMIAL_KF_FIT_CYCLES);
+            return Some((recursive * (reinit_every - 1.0) + fit) / reinit_every);
         }
+        "mpc_solve" => return mpc_solve(paths),
         _ => return None,
     };
     Some(f64::from(cycles))
+}
+
+/// The MPC's solves on average: every one's plan, the rebuilds where they happened, and
+/// the iterations run.
+fn mpc_solve(paths: &MpcPaths) -> Option<f64> {
+    use mass_spring_damper as blade;
+    if paths.solves == 0 {
+        return None;
+    }
+    let all = |count: u32, cycles: u32| f64::from(count) * f64::from(cycles);
+    let rebuilds = all(paths.model_rebuilds, blade::MPC_PREDICTION_CYCLES)
+        + all(
+            paths.problem_rebuilds,
+            blade::MPC_RICCATI_CYCLES + blade::MPC_CONDENSE_CYCLES,
+        );
+    let iterations = all(paths.iterations, blade::MPC_ITERATION_CYCLES);
+    Some(f64::from(blade::MPC_PLAN_CYCLES) + (rebuilds + iterations) / f64::from(paths.solves))
 }
 
 /// `(static - traced) / traced`.
@@ -39,12 +57,13 @@ pub fn difference(estimate: f64, traced: f64) -> f64 {
 }
 
 /// The kernels whose static estimate differs from the trace by more than [`TOLERANCE`],
-/// as an error naming each; `rows` are (label, kernel name, traced cycles per call).
-pub fn check(rows: &[(&str, &str, f64)]) -> Result<(), String> {
+/// as an error naming each; `rows` are (label, kernel name, traced cycles per call), and
+/// `paths` what the run's MPC solves recomputed.
+pub fn check(rows: &[(&str, &str, f64)], paths: &MpcPaths) -> Result<(), String> {
     let off: Vec<String> = rows
         .iter()
         .filter_map(|&(label, name, traced)| {
-            let estimate = cycles(name)?;
+            let estimate = cycles(name, paths)?;
             let d = difference(estimate, traced);
             (d.abs() > TOLERANCE).then(|| {
                 format!(

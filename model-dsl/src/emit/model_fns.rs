@@ -268,10 +268,30 @@ pub fn ops_item(function: &ModelFunction, ops: OpCount) -> TokenStream {
     named_ops_item(&ops_const(function.name).to_string(), function.name, ops)
 }
 
+/// `what` for a doc or a message: a single name (`f`) in a code span, or the paths in a
+/// phrase (`the two filters of Dkf::step`) each in one.
+pub fn code_spans(what: &str) -> String {
+    if !what.contains(char::is_whitespace) {
+        return format!("`{what}`");
+    }
+    let words: Vec<String> = what
+        .split(' ')
+        .map(|word| {
+            let path = word.trim_end_matches(|c: char| !c.is_alphanumeric() && c != '_');
+            if path.contains("::") {
+                format!("`{path}`{}", &word[path.len()..])
+            } else {
+                word.to_owned()
+            }
+        })
+        .collect();
+    words.join(" ")
+}
+
 /// `pub const NAME: OpCount = ..;` documenting what `what` computes.
 pub fn named_ops_item(name: &str, what: &str, ops: OpCount) -> TokenStream {
     let name = ident(name);
-    let doc = format!(" What `{what}` computes per call.");
+    let doc = format!(" What {} computes per call.", code_spans(what));
     let [add, mul, div, call, compare] = [ops.add, ops.mul, ops.div, ops.call, ops.compare]
         .map(|count| proc_macro2::Literal::usize_unsuffixed(count as usize));
     quote! {
@@ -280,19 +300,22 @@ pub fn named_ops_item(name: &str, what: &str, ops: OpCount) -> TokenStream {
     }
 }
 
-/// `pub const EKF_STEP_CYCLES: u32 = ..;`, the static estimate of a call of `what` on
-/// `target`, beside its `*_OPS` constant `ops_name`.
+/// `pub const EKF_STEP_CYCLES: u32 = ..;`, the static estimate of `what` on `target`, a
+/// call or (`is_part`) part of one, beside its `*_OPS` constant `ops_name`.
 pub fn cycles_item(
-    ops_name: &str,
-    what: &str,
+    (ops_name, what, is_part): (&str, &str, bool),
     estimate: &crate::timing::Estimate,
     target: &crate::timing::Target,
 ) -> TokenStream {
     let base = ops_name.strip_suffix("_OPS").unwrap_or(ops_name);
     let name = ident(&format!("{base}_CYCLES"));
+    let subject = match is_part {
+        true => format!("{} (part of a call: no entry and return)", code_spans(what)),
+        false => format!("one call of {}", code_spans(what)),
+    };
     let doc = format!(
-        " Estimated cycles of one call of `{what}` on a {} (zero wait states), from what its \
-         code does ([`{ops_name}`], its loads and stores): {}.",
+        " Estimated cycles of {subject} on a {} (zero wait states), from what its code does \
+         ([`{ops_name}`], its loads and stores): {}.",
         target.description,
         estimate.largest(usize::MAX)
     );
@@ -323,4 +346,31 @@ pub fn nonzero_item(function: &ModelFunction, mg: &ModelGraph) -> Option<TokenSt
         #[doc = #doc]
         pub const #name: [[bool; #cols]; #rows] = [#(#row_values),*];
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::code_spans;
+
+    #[test]
+    fn code_spans_mark_names_and_paths_only() {
+        assert_eq!(code_spans("f"), "`f`");
+        assert_eq!(code_spans("Ekf::step"), "`Ekf::step`");
+        assert_eq!(
+            code_spans("the two filters of Dkf::step"),
+            "the two filters of `Dkf::step`"
+        );
+        assert_eq!(
+            code_spans("Mpc::solve at its worst (every iteration run)"),
+            "`Mpc::solve` at its worst (every iteration run)"
+        );
+        assert_eq!(
+            code_spans("PolynomialKf::step (recursive)"),
+            "`PolynomialKf::step` (recursive)"
+        );
+        assert_eq!(
+            code_spans("one sub-step of HybridEkf::step,"),
+            "one sub-step of `HybridEkf::step`,"
+        );
+    }
 }

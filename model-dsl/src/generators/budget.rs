@@ -6,6 +6,7 @@
 use super::options::Args;
 use crate::ast::ArgValue;
 use crate::diagnostics::Diagnostics;
+use crate::emit::model_fns::code_spans;
 use crate::timing::{Estimate, Target};
 use proc_macro2::Span;
 
@@ -82,11 +83,11 @@ impl Budget {
             syn::Error::new(
                 self.span,
                 format!(
-                    "`{}` is estimated at {} cycles per call on a {}, over the budget `{}` \
+                    "{} is estimated at {} cycles per call on a {}, over the budget `{}` \
                      ({} cycles); what costs most: {}. Make the model cheaper there (fewer \
                      states or outputs, fewer library calls, a lighter option), or raise the \
                      budget",
-                    what,
+                    code_spans(what),
                     estimate.cycles,
                     target.description,
                     self.written,

@@ -108,6 +108,9 @@ pub struct Cost {
     /// Whether it is the call a budget (`max_cycles = ..`) bounds: a filter's step, a
     /// controller's solve at its worst.
     pub is_budgeted: bool,
+    /// Whether it counts part of a call (a sub-step, an iteration), whose estimate has no
+    /// entry and return of its own.
+    pub is_part: bool,
 }
 
 impl Cost {
@@ -118,6 +121,15 @@ impl Cost {
             what: what.to_owned(),
             ops,
             is_budgeted: false,
+            is_part: false,
+        }
+    }
+
+    /// The same cost, as part of a call.
+    pub fn part(self) -> Cost {
+        Cost {
+            is_part: true,
+            ..self
         }
     }
 

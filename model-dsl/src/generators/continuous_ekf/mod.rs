@@ -79,7 +79,8 @@ impl Lowering for ContinuousEkfSpec {
                     "CONTINUOUS_EKF_SUBSTEP_OPS",
                     "one sub-step of ContinuousEkf::step",
                     ct.substep_ops,
-                ),
+                )
+                .part(),
                 Cost::new(
                     "CONTINUOUS_EKF_STEP_OPS",
                     "ContinuousEkf::step",

@@ -104,12 +104,14 @@ impl Lowering for Designed {
                     "DKF_TRANSFORM_OPS",
                     "the window transform of Dkf::step",
                     dkf.transform_ops,
-                ),
+                )
+                .part(),
                 Cost::new(
                     "DKF_FILTERS_OPS",
                     "the two filters of Dkf::step",
                     dkf.filters_ops,
-                ),
+                )
+                .part(),
                 Cost::new(
                     "DKF_STEP_OPS",
                     "Dkf::step",

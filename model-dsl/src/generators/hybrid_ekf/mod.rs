@@ -68,7 +68,8 @@ impl Lowering for HybridEkfSpec {
                     "HYBRID_EKF_SUBSTEP_OPS",
                     "one sub-step of HybridEkf::step",
                     hybrid.substep_ops,
-                ),
+                )
+                .part(),
                 Cost::new("HYBRID_EKF_STEP_OPS", "HybridEkf::step", hybrid.step_ops).budgeted(),
             ],
         }

@@ -7,7 +7,7 @@
 //! it would be rebuilt bit for bit the same.
 
 use crate::emit::code::destructure;
-use crate::emit::lower::literal;
+use crate::emit::lower::{literal, OpCount};
 use crate::emit::names::ident;
 use crate::model::Scalar;
 use crate::symbolic::{Graph, ModelGraph, Node, NodeId, VarId};
@@ -127,6 +127,29 @@ impl Cache {
             let keep_model = self.model_kept #(&& (#close))*;
             let reuse = keep_model && self.terminal_weight_settled;
         }
+    }
+
+    /// What [`Cache::reuse_test`] does: per value of the key, the kept value read, two
+    /// differences, two products with the tolerance and the comparisons.
+    pub fn reuse_ops(&self) -> OpCount {
+        let key = self.key.len() as u32;
+        OpCount {
+            add: 2 * key,
+            mul: 2 * key,
+            compare: 3 * key,
+            load: key,
+            // MODEL_TOLERANCE
+            literal: u32::from(key > 0),
+            ..OpCount::default()
+        }
+    }
+
+    /// What [`Cache::store`] writes when the problem was rebuilt: the key, the model,
+    /// the Hessian and the weighted responses.
+    pub fn store_ops(&self, model_len: usize) -> OpCount {
+        OpCount::stores(
+            self.key.len() + model_len + self.hessian.len() + self.weighted_stored.len(),
+        )
     }
 
     /// The model's key and the model: the kept ones, or the values read now and the

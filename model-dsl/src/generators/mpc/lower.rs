@@ -35,8 +35,13 @@ pub struct MpcCode {
     pub prediction_ops: OpCount,
     /// All `RICCATI_ITERATIONS` steps towards the terminal weight and its gain.
     pub riccati_ops: OpCount,
-    /// The condensed problem, eqs. (42)-(44).
+    /// The condensed Hessian and weighted responses, eqs. (42)-(43), and storing what
+    /// the next solve may keep.
     pub condense_ops: OpCount,
+    /// What every solve runs besides the rebuilds and the iterations: the test of the
+    /// kept model, the estimate's reading, the linear term (eq. 44), the warm start with
+    /// its tail, the gradient at it and the commit.
+    pub plan_ops: OpCount,
     /// One active-set iteration.
     pub iteration_ops: OpCount,
 }
@@ -98,6 +103,7 @@ fn matrix_vars(g: &mut Graph, names: &[Vec<String>]) -> Matrix {
 /// The MPC of `model` in `scalar`.
 pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) -> MpcCode {
     let mut mg = mg.clone();
+    let (ns, nu) = (spec.states.len(), spec.inputs.len());
     let names = Names::new(model);
     let moves = MoveNames::new(model, spec, &names);
     let prediction = prediction_model(model, spec, &mut mg, &names, scalar);
@@ -115,7 +121,7 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         scalar,
     );
     let tail = dual_mode_tail(model, spec, &mut mg, (a, b), &moves, &names, scalar);
-    let qp = active_set_loop(&mut mg.graph, &moves, (&names, &tail), scalar);
+    let qp = active_set_loop(&mut mg.graph, &moves, (&names, &tail.code), scalar);
     let weighted: Vec<NodeId> = condensed
         .weighted
         .iter()
@@ -126,6 +132,13 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
     let cache = Cache::new(&mg, &prediction.used, &moves.hessian, &weighted, scalar);
 
     let (linear_code, qp_code) = (&linear.stage.code, &qp.code);
+    let plan_ops = cache
+        .reuse_ops()
+        .plus(read_estimate_ops(&mg, &linear.used))
+        .plus(linear.stage.ops)
+        .plus(qp.setup_ops)
+        .plus(tail.ops)
+        .plus(commit_ops(&moves, &terminal));
     let commit = commit(&moves, &terminal);
     let plan = quote! {
         #linear_code
@@ -159,7 +172,9 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         tokens,
         prediction_ops: prediction.stage.ops,
         riccati_ops: terminal.stage.ops,
-        condense_ops: lowered.ops.plus(linear.stage.ops),
+        // The kept prediction model is stored whole: `A` and `B`.
+        condense_ops: lowered.ops.plus(cache.store_ops(ns * (ns + nu))),
+        plan_ops,
         iteration_ops: qp.iteration_ops,
     }
 }
@@ -398,6 +413,20 @@ fn read_estimate(mg: &ModelGraph, used: &BTreeSet<VarId>, rejected: &TokenStream
         #unpack_x
         #unpack_u
         #check
+    }
+}
+
+/// What [`read_estimate`] does: a finiteness test per entry read (about two integer
+/// operations, counted as a comparison each).
+fn read_estimate_ops(mg: &ModelGraph, used: &BTreeSet<VarId>) -> OpCount {
+    let read =
+        mg.x.iter()
+            .chain(&mg.u)
+            .filter(|&&v| used.contains(&mg.var_id(v)))
+            .count() as u32;
+    OpCount {
+        compare: 2 * read,
+        ..OpCount::default()
     }
 }
 
@@ -663,7 +692,7 @@ fn terminal_weight(
         .map(|row| row.iter().map(|n| ident(n)).collect())
         .collect();
     let code = terminal_code(g, &recursion, &lowered, (&p_idents, &gain_idents), scalar);
-    let riccati = lowered.per_step.times(spec.riccati_iterations);
+    let riccati = lowered.per_step.looped(spec.riccati_iterations);
     let ops = lowered.before.plus(riccati).plus(lowered.gain_ops);
     Terminal {
         stage: Stage { code, ops },
@@ -747,6 +776,10 @@ impl RecursionCode {
         for &node in &recursion.invariant {
             lowerer.force_let(node);
         }
+        // P is carried from one step to the next in registers, with what the step reads
+        // and does not change where they fit.
+        lowerer.hold_in_registers(&recursion.p_vars);
+        lowerer.hoist_leaves(&recursion.body_roots);
         let before = lowerer.ops();
         let hoisted = lowerer.take_statements();
         // The gain after the loop comes from a fork taken here, so it does not rely on
@@ -981,7 +1014,7 @@ fn dual_mode_tail(
     moves: &MoveNames,
     names: &Names,
     scalar: Scalar,
-) -> TokenStream {
+) -> Stage {
     let (ns, nu) = (spec.states.len(), spec.inputs.len());
     let g = &mut mg.graph;
     let mut state: Matrix = spec
@@ -1008,10 +1041,28 @@ fn dual_mode_tail(
         .inputs
         .iter()
         .map(|&i| ident(&format!("{}_tail", model.inputs[i].name)));
-    quote! {
+    let code = quote! {
         // The new last move: the terminal feedback at the state the others lead to.
         #(#statements)*
         #(let #tail_names = #values;)*
+    };
+    Stage {
+        code,
+        ops: lowerer.ops(),
+    }
+}
+
+/// What [`commit`] does: each move back to an absolute input, clipped and tested for
+/// finiteness; the plan, the terminal weight and its gain stored.
+fn commit_ops(moves: &MoveNames, terminal: &Terminal) -> OpCount {
+    let moves_len = moves.absolute_names().len();
+    let m = moves_len as u32;
+    let terminal_len = terminal.p_idents.len() + terminal.gain_idents.iter().flatten().count();
+    OpCount {
+        add: m,
+        // the clip's two, the finiteness test's two
+        compare: 4 * m,
+        ..OpCount::stores(moves_len + terminal_len)
     }
 }
 
@@ -1049,6 +1100,8 @@ fn commit(moves: &MoveNames, terminal: &Terminal) -> TokenStream {
             optimal,
             iterations: steps,
             terminal_weight_converged,
+            model_rebuilt: !keep_model,
+            problem_rebuilt: !reuse,
         }
     }
 }
@@ -1196,6 +1249,15 @@ fn result_types(dims: &Dims) -> TokenStream {
             /// algebraic Riccati equation (eq. 35) of the current model, and without
             /// active bounds the first move is the infinite-horizon LQR's.
             pub terminal_weight_converged: bool,
+            /// Whether the prediction model was recomputed at this estimate (a value it
+            /// reads had moved by more than `MODEL_TOLERANCE`): `MPC_PREDICTION_CYCLES`
+            /// of this solve's estimated cost. `false` unless the status is [`Status::Ok`].
+            pub model_rebuilt: bool,
+            /// Whether the terminal weight's Riccati steps and the condensed Hessian ran
+            /// (the model was rebuilt, or its terminal weight had not settled):
+            /// `MPC_RICCATI_CYCLES` and `MPC_CONDENSE_CYCLES` of this solve's estimated
+            /// cost. `false` unless the status is [`Status::Ok`].
+            pub problem_rebuilt: bool,
         }
     }
 }

@@ -155,38 +155,51 @@ impl Generator for MpcSpec {
 impl Lowering for MpcSpec {
     fn lower(&self, model: &Model, mg: &ModelGraph, scalar: Scalar) -> Code {
         let mpc = lower::emit_mpc(model, self, mg, scalar);
-        // The worst solve rebuilds the problem and runs every iteration (and the pass
-        // that finds the plan optimal).
-        let iterations = self.max_iterations.saturating_add(1);
+        // Every solve runs its plan and its iterations (the loop's branch back with
+        // each); the worst also rebuilds the model and the problem and runs them all.
+        let iteration = mpc.iteration_ops.looped(1);
         let worst = mpc
-            .prediction_ops
+            .plan_ops
+            .plus(mpc.prediction_ops)
             .plus(mpc.riccati_ops)
             .plus(mpc.condense_ops)
-            .plus(mpc.iteration_ops.looped(iterations));
+            .plus(iteration.times(self.max_iterations));
         let costs = vec![
             Cost::new(
-                "MPC_PREDICTION_OPS",
-                "the prediction model of Mpc::solve (squarings at their bound)",
-                mpc.prediction_ops,
+                "MPC_PLAN_OPS",
+                "the plan of every Mpc::solve (all but its rebuilds and iterations)",
+                mpc.plan_ops,
             ),
+            Cost::new(
+                "MPC_PREDICTION_OPS",
+                "the prediction model of a Mpc::solve that rebuilds it (squarings at \
+                 their bound)",
+                mpc.prediction_ops,
+            )
+            .part(),
             Cost::new(
                 "MPC_RICCATI_OPS",
-                "the terminal weight's Riccati steps of Mpc::solve",
+                "the terminal weight's Riccati steps of a Mpc::solve that rebuilds the \
+                 problem",
                 mpc.riccati_ops,
-            ),
+            )
+            .part(),
             Cost::new(
                 "MPC_CONDENSE_OPS",
-                "the condensed problem of Mpc::solve",
+                "the condensed Hessian of a Mpc::solve that rebuilds the problem",
                 mpc.condense_ops,
-            ),
+            )
+            .part(),
             Cost::new(
                 "MPC_ITERATION_OPS",
                 "one active-set iteration of Mpc::solve",
-                mpc.iteration_ops,
-            ),
+                iteration,
+            )
+            .part(),
             Cost::new(
                 "MPC_SOLVE_WORST_OPS",
-                "Mpc::solve at its worst: the problem rebuilt and every iteration run",
+                "Mpc::solve at its worst (the model and problem rebuilt, every iteration \
+                 run)",
                 worst,
             )
             .budgeted(),

@@ -56,6 +56,8 @@ pub fn failure(status: TokenStream) -> TokenStream {
             optimal: false,
             iterations: 0,
             terminal_weight_converged: false,
+            model_rebuilt: false,
+            problem_rebuilt: false,
         };
     }
 }

@@ -205,6 +205,9 @@ pub struct QpCode {
     pub code: TokenStream,
     /// Arithmetic of one iteration.
     pub iteration_ops: OpCount,
+    /// What runs once per solve before the loop: the bounds, the warm start (without
+    /// its tail) and the gradient at it.
+    pub setup_ops: OpCount,
 }
 
 /// The loop, on the names of `moves`: `H` and `c` must be bound before it.
@@ -215,7 +218,7 @@ pub fn active_set_loop(
     scalar: Scalar,
 ) -> QpCode {
     let m = moves.len();
-    let (grad_statements, grad_values) = gradient(g, moves, names, scalar);
+    let (grad_statements, grad_values, grad_ops) = gradient(g, moves, names, scalar);
     let setup = bounds_and_warm_start(moves, tail);
     let release = release_check(moves, scalar);
     let newton = NewtonNames {
@@ -270,16 +273,38 @@ pub fn active_set_loop(
     QpCode {
         code,
         iteration_ops: step_ops.plus(extra).plus(update),
+        setup_ops: warm_start_ops(moves).plus(grad_ops),
     }
 }
 
-/// The gradient `H v + c` at the moves, lowered: its statements and its values.
+/// What [`bounds_and_warm_start`]'s own statements do: the fields read, the bounds as
+/// deviations, the shifted moves, their clipping and the bounds they touch, the release
+/// thresholds.
+fn warm_start_ops(moves: &MoveNames) -> OpCount {
+    let (m, nu) = (moves.len() as u32, moves.inputs.len() as u32);
+    let shifted = m.saturating_sub(nu);
+    OpCount {
+        // low, high; each shifted move's deviation; each threshold's `high - low`
+        add: 2 * nu + shifted + m,
+        mul: 2 * m,
+        // two for the clip and two for the bounds held, per move
+        compare: 4 * m,
+        // u_ref, u_min, u_max, the kept plan but its first step, the Hessian's diagonal
+        load: 3 * nu + shifted + m,
+        // RELEASE_TOLERANCE
+        literal: 1,
+        ..OpCount::default()
+    }
+}
+
+/// The gradient `H v + c` at the moves, lowered: its statements, its values and their
+/// cost.
 fn gradient(
     g: &mut Graph,
     moves: &MoveNames,
     names: &Names,
     scalar: Scalar,
-) -> (Vec<TokenStream>, Vec<TokenStream>) {
+) -> (Vec<TokenStream>, Vec<TokenStream>, OpCount) {
     let m = moves.len();
     let hessian_vars: Vec<_> = moves.hessian.iter().map(|n| g.var(n)).collect();
     let linear_vars: Vec<_> = moves.linear.iter().map(|n| g.var(n)).collect();
@@ -294,7 +319,7 @@ fn gradient(
         .collect();
     let mut lowerer = Lowerer::new(g, scalar, names.namer(), &gradient);
     let values = lowerer.segment(&gradient);
-    (lowerer.take_statements(), values)
+    (lowerer.take_statements(), values, lowerer.ops())
 }
 
 /// Bounds of the deviations from `u_ref`, and the warm start: the last plan shifted by

@@ -38,7 +38,6 @@ pub fn emit_polynomial_kf(
     let window = WindowNames::new(spec.window, &taken);
     let fit = design::window_fit(spec);
     let fit_code = fit_branch(&avoid, &fit, &window.new, scalar);
-    let fit_ops = fit_code.ops;
     let kf = recursive_step(model, spec, &window.measured, scalar);
     // The window shifts by one sample (its entries after the oldest are read, all are
     // written) and its two counters are read and written.
@@ -48,6 +47,13 @@ pub fn emit_polynomial_kf(
         ..OpCount::default()
     };
     let step_ops = kf.ops.plus(shift);
+    // The fit stores its state and the constant covariance, whose entries are literals.
+    let covariance_len = packed_len(spec.order + 1);
+    let stored = OpCount {
+        literal: u32::try_from(covariance_len).unwrap_or(u32::MAX),
+        ..OpCount::stores(spec.order + 1 + covariance_len)
+    };
+    let fit_ops = fit_code.ops.plus(stored).plus(shift);
     let ty = ident(scalar.type_name());
     let [n_len, np_len, w_len] =
         [spec.order + 1, packed_len(spec.order + 1), spec.window].map(Literal::usize_unsuffixed);
