@@ -17,4 +17,20 @@ stateforge::model! {
     }
 }
 
+stateforge::model! {
+    /// An MPC is bounded at its worst solve: everything rebuilt, every iteration run.
+    pub mod double_integrator {
+        scalar f32;
+        const TS = 0.1;
+        state x1, x2;
+        input u;
+        output y = x1;
+        dynamics discrete {
+            x1 = x1 + TS * x2 + 0.5 * TS * TS * u;
+            x2 = x2 + TS * u;
+        }
+        generate mpc(horizon = 6, states = [x1, x2], input = u, max_cycles = 1000);
+    }
+}
+
 fn main() {}
