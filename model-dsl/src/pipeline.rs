@@ -10,10 +10,10 @@ use crate::emit::model_fns::{
 use crate::emit::module_items::{constants, dimensions, index_module, op_count_struct};
 use crate::emit::names::ident;
 use crate::emit::{interop, status, substeps};
-use crate::generators::{Budget, Lowering};
+use crate::generators::{Budget, Cost, Lowering};
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
-use crate::timing::CORTEX_M4F;
+use crate::timing::{Estimate, CORTEX_M4F};
 use proc_macro2::TokenStream;
 use quote::quote;
 
@@ -181,26 +181,7 @@ impl Module<'_> {
         let mut tokens = TokenStream::new();
         for (design, budget) in self.designs.iter().zip(self.budgets) {
             let code = design.lower(self.model, self.mg, scalar);
-            let mut errors = Vec::new();
-            for cost in &code.costs {
-                ops_items.push(named_ops_item(&cost.constant, &cost.what, cost.ops));
-                // The estimate is of the microcontroller's code, in `f32`.
-                if scalar == Scalar::F32 {
-                    let estimate = if cost.is_part {
-                        CORTEX_M4F.estimate_part(&cost.ops)
-                    } else {
-                        CORTEX_M4F.estimate(&cost.ops)
-                    };
-                    ops_items.push(cycles_item(
-                        (&cost.constant, &cost.what, cost.is_part),
-                        &estimate,
-                        &CORTEX_M4F,
-                    ));
-                    let bounding = budget.as_ref().filter(|_| cost.is_budgeted);
-                    errors
-                        .extend(bounding.and_then(|b| b.check(&cost.what, &estimate, &CORTEX_M4F)));
-                }
-            }
+            let mut errors = cost_items(&code.costs, budget.as_ref(), scalar, ops_items);
             if let (Some(budget), Scalar::F64) = (budget, scalar) {
                 errors.push(budget.needs_f32());
             }
@@ -214,4 +195,44 @@ impl Module<'_> {
         }
         tokens
     }
+}
+
+/// The `*_OPS` items of a generator's costs and, in `f32` (the microcontroller's code),
+/// their `*_CYCLES` items; returns the errors of the calls over `budget`, each naming the
+/// generator's other costs as its parts.
+fn cost_items(
+    costs: &[Cost],
+    budget: Option<&Budget>,
+    scalar: Scalar,
+    items: &mut Vec<TokenStream>,
+) -> Vec<syn::Error> {
+    let estimates: Vec<Estimate> = costs
+        .iter()
+        .map(|cost| match cost.is_part {
+            true => CORTEX_M4F.estimate_part(&cost.ops),
+            false => CORTEX_M4F.estimate(&cost.ops),
+        })
+        .collect();
+    let parts: Vec<(&str, u64)> = costs
+        .iter()
+        .zip(&estimates)
+        .filter(|(cost, estimate)| !cost.is_budgeted && estimate.cycles > 0)
+        .map(|(cost, estimate)| (cost.what.as_str(), estimate.cycles))
+        .collect();
+    let mut errors = Vec::new();
+    for (cost, estimate) in costs.iter().zip(&estimates) {
+        items.push(named_ops_item(&cost.constant, &cost.what, cost.ops));
+        if scalar != Scalar::F32 {
+            continue;
+        }
+        items.push(cycles_item(
+            (&cost.constant, &cost.what, cost.is_part),
+            estimate,
+            &CORTEX_M4F,
+        ));
+        if let Some(budget) = budget.filter(|_| cost.is_budgeted) {
+            errors.extend(budget.check(&cost.what, estimate, &parts, &CORTEX_M4F));
+        }
+    }
+    errors
 }

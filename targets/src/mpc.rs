@@ -12,7 +12,7 @@
 use crate::measure::{per_call, report, stack_depth, Clock};
 use core::hint::black_box;
 use cortex_m_semihosting::{hprint, hprintln};
-use generated_demo::mass_spring_damper::{Mpc, MpcStatus, Status};
+use generated_demo::mass_spring_damper::{Mpc, MpcRebuild, MpcStatus, Status};
 use generated_demo::mpc_sequence::{mpc_tuning, BladeEstimates};
 
 /// Samples of the run (3 s: three impacts, the mass change at 1.5 s).
@@ -128,8 +128,13 @@ struct Paths {
 impl Paths {
     fn add(&mut self, status: &MpcStatus) {
         self.solves += 1;
-        self.model_rebuilds += usize::from(status.model_rebuilt);
-        self.problem_rebuilds += usize::from(status.problem_rebuilt);
+        let (model, problem) = match status.rebuilt {
+            MpcRebuild::Nothing => (0, 0),
+            MpcRebuild::Problem => (0, 1),
+            MpcRebuild::ModelAndProblem => (1, 1),
+        };
+        self.model_rebuilds += model;
+        self.problem_rebuilds += problem;
         self.iterations += status.iterations;
     }
 }

@@ -3,6 +3,7 @@
 //! unconstrained first move against the infinite-horizon LQR, and the plan against the
 //! box-constrained QP solved by Clarabel from the explicit prediction matrices.
 
+use blade::MpcRebuild;
 use generated_demo::mass_spring_damper::in_f64 as blade;
 use generated_demo::mass_spring_damper::Status;
 use nalgebra::{DMatrix, DVector};
@@ -214,12 +215,9 @@ fn the_model_is_kept_within_its_tolerance_and_rebuilt_beyond_it() {
     // The first solve builds everything; the next ones keep the model and step the
     // terminal weight until it settles.
     let first = settled.solve(&x, &[0.0]);
-    assert!(first.model_rebuilt && first.problem_rebuilt, "{first:?}");
+    assert_eq!(first.rebuilt, MpcRebuild::ModelAndProblem);
     let second = settled.solve(&x, &[0.0]);
-    assert!(
-        !second.model_rebuilt && second.problem_rebuilt,
-        "{second:?}"
-    );
+    assert_eq!(second.rebuilt, MpcRebuild::Problem);
     for _ in 0..300 {
         assert_eq!(settled.solve(&x, &[0.0]).status, Status::Ok);
     }
@@ -230,19 +228,16 @@ fn the_model_is_kept_within_its_tolerance_and_rebuilt_beyond_it() {
         (mpc, status)
     };
     let (same, kept) = solve_at(5.0);
-    assert!(!kept.model_rebuilt && !kept.problem_rebuilt, "{kept:?}");
+    assert_eq!(kept.rebuilt, MpcRebuild::Nothing);
     // Within the tolerance the kept model (and terminal weight) serve: the same plan and
     // weight, bit for bit.
     let (near, status) = solve_at(5.0 * (1.0 + 5e-4));
-    assert!(
-        !status.model_rebuilt && !status.problem_rebuilt,
-        "{status:?}"
-    );
+    assert_eq!(status.rebuilt, MpcRebuild::Nothing);
     assert_eq!(near.plan(), same.plan());
     assert_eq!(near.terminal_weight(), same.terminal_weight());
     // Beyond it the model is rebuilt at the estimate, and the terminal weight moves.
     let (far, status) = solve_at(5.0 * (1.0 + 2e-3));
-    assert!(status.model_rebuilt && status.problem_rebuilt, "{status:?}");
+    assert_eq!(status.rebuilt, MpcRebuild::ModelAndProblem);
     assert_ne!(far.terminal_weight(), same.terminal_weight());
     let (a, b) = prediction(5.0 * (1.0 + 2e-3));
     let p_ref = reference::dare(&a, &b, &matrix(&Q), &matrix(&R));

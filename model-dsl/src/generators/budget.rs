@@ -77,16 +77,31 @@ impl Budget {
     }
 
     /// An error under the option if `estimate`, of a call of `what` on `target`, exceeds
-    /// the budget.
-    pub fn check(&self, what: &str, estimate: &Estimate, target: &Target) -> Option<syn::Error> {
+    /// the budget; it names the largest kinds of work and the call's `parts` (each with
+    /// its estimated cycles), the stages the user can change.
+    pub fn check(
+        &self,
+        what: &str,
+        estimate: &Estimate,
+        parts: &[(&str, u64)],
+        target: &Target,
+    ) -> Option<syn::Error> {
+        let parts: Vec<String> = parts
+            .iter()
+            .map(|&(part, cycles)| format!("{} {cycles} cycles", code_spans(part)))
+            .collect();
+        let parts = match parts.is_empty() {
+            true => String::new(),
+            false => format!("; its parts: {}", parts.join(", ")),
+        };
         (estimate.cycles > self.cycles).then(|| {
             syn::Error::new(
                 self.span,
                 format!(
                     "{} is estimated at {} cycles per call on a {}, over the budget `{}` \
-                     ({} cycles); what costs most: {}. Make the model cheaper there (fewer \
-                     states or outputs, fewer library calls, a lighter option), or raise the \
-                     budget",
+                     ({} cycles); what costs most: {}{parts}. Make the model cheaper there \
+                     (fewer states or outputs, fewer library calls, a lighter option), or \
+                     raise the budget",
                     code_spans(what),
                     estimate.cycles,
                     target.description,

@@ -1100,8 +1100,13 @@ fn commit(moves: &MoveNames, terminal: &Terminal) -> TokenStream {
             optimal,
             iterations: steps,
             terminal_weight_converged,
-            model_rebuilt: !keep_model,
-            problem_rebuilt: !reuse,
+            rebuilt: if reuse {
+                MpcRebuild::Nothing
+            } else if keep_model {
+                MpcRebuild::Problem
+            } else {
+                MpcRebuild::ModelAndProblem
+            },
         }
     }
 }
@@ -1249,15 +1254,25 @@ fn result_types(dims: &Dims) -> TokenStream {
             /// algebraic Riccati equation (eq. 35) of the current model, and without
             /// active bounds the first move is the infinite-horizon LQR's.
             pub terminal_weight_converged: bool,
-            /// Whether the prediction model was recomputed at this estimate (a value it
-            /// reads had moved by more than `MODEL_TOLERANCE`): `MPC_PREDICTION_CYCLES`
-            /// of this solve's estimated cost. `false` unless the status is [`Status::Ok`].
-            pub model_rebuilt: bool,
-            /// Whether the terminal weight's Riccati steps and the condensed Hessian ran
-            /// (the model was rebuilt, or its terminal weight had not settled):
-            /// `MPC_RICCATI_CYCLES` and `MPC_CONDENSE_CYCLES` of this solve's estimated
-            /// cost. `false` unless the status is [`Status::Ok`].
-            pub problem_rebuilt: bool,
+            /// What the solve recomputed besides its plan, which decides its cost;
+            /// [`MpcRebuild::Nothing`] unless the status is [`Status::Ok`].
+            pub rebuilt: MpcRebuild,
+        }
+
+        /// What an [`Mpc::solve`] recomputed besides its plan (the linear term and the
+        /// active-set iterations, which every solve runs).
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub enum MpcRebuild {
+            /// The kept prediction model, terminal weight and condensed Hessian served.
+            Nothing,
+            /// The kept prediction model served; the terminal weight's Riccati steps and
+            /// the condensed Hessian ran (the weight had not settled): in an `f32` model,
+            /// `MPC_RICCATI_CYCLES + MPC_CONDENSE_CYCLES` of the solve's estimate.
+            Problem,
+            /// The prediction model was recomputed at the estimate (a value it reads had
+            /// moved by more than `MODEL_TOLERANCE`), then the Riccati steps and the
+            /// condensed Hessian: `MPC_PREDICTION_CYCLES` more.
+            ModelAndProblem,
         }
     }
 }

@@ -30,7 +30,7 @@ const DESCRIPTION: Description = Description {
     name: "mpc",
     usage: "`mpc(..)`",
     requirements: &[Requirement::Inputs, Requirement::CoefficientsAtGeneration],
-    items: &["Mpc", "MpcStatus", "PredictionModel"],
+    items: &["Mpc", "MpcStatus", "MpcRebuild", "PredictionModel"],
     type_name_option: None,
 };
 
@@ -165,28 +165,22 @@ impl Lowering for MpcSpec {
             .plus(mpc.condense_ops)
             .plus(iteration.times(self.max_iterations));
         let costs = vec![
-            Cost::new(
-                "MPC_PLAN_OPS",
-                "the plan of every Mpc::solve (all but its rebuilds and iterations)",
-                mpc.plan_ops,
-            ),
+            Cost::new("MPC_PLAN_OPS", "the plan of every Mpc::solve", mpc.plan_ops),
             Cost::new(
                 "MPC_PREDICTION_OPS",
-                "the prediction model of a Mpc::solve that rebuilds it (squarings at \
-                 their bound)",
+                "the prediction model of Mpc::solve (when rebuilt)",
                 mpc.prediction_ops,
             )
             .part(),
             Cost::new(
                 "MPC_RICCATI_OPS",
-                "the terminal weight's Riccati steps of a Mpc::solve that rebuilds the \
-                 problem",
+                "the Riccati steps of Mpc::solve (when rebuilt)",
                 mpc.riccati_ops,
             )
             .part(),
             Cost::new(
                 "MPC_CONDENSE_OPS",
-                "the condensed Hessian of a Mpc::solve that rebuilds the problem",
+                "the condensed Hessian of Mpc::solve (when rebuilt)",
                 mpc.condense_ops,
             )
             .part(),

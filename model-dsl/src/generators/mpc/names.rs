@@ -56,8 +56,7 @@ pub fn failure(status: TokenStream) -> TokenStream {
             optimal: false,
             iterations: 0,
             terminal_weight_converged: false,
-            model_rebuilt: false,
-            problem_rebuilt: false,
+            rebuilt: MpcRebuild::Nothing,
         };
     }
 }
