@@ -395,12 +395,9 @@ fn read_estimate(mg: &ModelGraph, used: &BTreeSet<VarId>, rejected: &TokenStream
     let g = &mg.graph;
     let unpack_x = crate::emit::code::destructure(g, quote! { *x }, &mg.x, used);
     let unpack_u = crate::emit::code::destructure(g, quote! { *u }, &mg.u, used);
-    let checked: Vec<Ident> =
-        mg.x.iter()
-            .chain(&mg.u)
-            .filter(|&&v| used.contains(&mg.var_id(v)))
-            .map(|&v| ident(&g.var_info(mg.var_id(v)).name))
-            .collect();
+    let checked: Vec<Ident> = entries_read(mg, used)
+        .map(|v| ident(&g.var_info(v).name))
+        .collect();
     let check = (!checked.is_empty()).then(|| {
         let finite = all_is_finite(&checked);
         quote! {
@@ -419,15 +416,21 @@ fn read_estimate(mg: &ModelGraph, used: &BTreeSet<VarId>, rejected: &TokenStream
 /// What [`read_estimate`] does: a finiteness test per entry read (about two integer
 /// operations, counted as a comparison each).
 fn read_estimate_ops(mg: &ModelGraph, used: &BTreeSet<VarId>) -> OpCount {
-    let read =
-        mg.x.iter()
-            .chain(&mg.u)
-            .filter(|&&v| used.contains(&mg.var_id(v)))
-            .count() as u32;
     OpCount {
-        compare: 2 * read,
+        compare: 2 * entries_read(mg, used).count() as u32,
         ..OpCount::default()
     }
+}
+
+/// The entries of `x` and `u` among `used`, the ones [`read_estimate`] reads and tests.
+fn entries_read<'a>(
+    mg: &'a ModelGraph,
+    used: &'a BTreeSet<VarId>,
+) -> impl Iterator<Item = VarId> + 'a {
+    mg.x.iter()
+        .chain(&mg.u)
+        .map(|&v| mg.var_id(v))
+        .filter(|v| used.contains(v))
 }
 
 /// `return Err(status);`, how the prediction model gives up.

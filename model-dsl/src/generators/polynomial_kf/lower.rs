@@ -56,7 +56,7 @@ pub fn emit_polynomial_kf(
     let fit_ops = fit_code.ops.plus(stored).plus(shift);
     let ty = ident(scalar.type_name());
     let [n_len, np_len, w_len] =
-        [spec.order + 1, packed_len(spec.order + 1), spec.window].map(Literal::usize_unsuffixed);
+        [spec.order + 1, covariance_len, spec.window].map(Literal::usize_unsuffixed);
     let constants = associated_constants(spec, &fit, scalar);
     let accessors = accessors(spec, scalar);
     let step = step_method(spec, &fit, &window, fit_code, kf, scalar);
