@@ -8,7 +8,9 @@
 //! Both integrate state and covariance together over one sample with the model's rule
 //! and number of sub-steps, the time running from the previous sample in steps of
 //! `dt / substeps`: classical RK4 on `P' = A P + P A' + S`, or for forward Euler the
-//! covariance of the Euler step, `(I + h A) P (I + h A)' + h S`.
+//! covariance of the Euler step, `(I + h A) P (I + h A)' + h S`. The continuous-time EKF
+//! then applies its measurement terms' exact flow, as the generated filter does; the
+//! equations it approximates are solved to a tight tolerance by [`ContinuousEkfEquation`].
 
 use nalgebra::{SMatrix, SVector};
 
@@ -146,7 +148,10 @@ impl<const N: usize, const M: usize, const U: usize> HybridEkf<'_, N, M, U> {
 }
 
 /// The continuous-time EKF (seed 004 eq. 5) with a prescribed degree of stability `alpha`
-/// (eq. 26; `alpha = 0` is the standard filter). `Q` and `R` are spectral densities.
+/// (eq. 26; `alpha = 0` is the standard filter), integrated as the generated filter does:
+/// split, the propagation without the measurement terms over the sample (the model's rule
+/// and sub-steps, as the hybrid EKF), then the measurement terms' exact flow over the
+/// sample `T`, the Joseph-form update with `R / T`. `Q` and `R` are spectral densities.
 pub struct ContinuousEkf<'m, const N: usize, const M: usize, const U: usize> {
     /// The model.
     pub model: &'m Model<N, M, U>,
@@ -165,15 +170,11 @@ impl<const N: usize, const M: usize, const U: usize> ContinuousEkf<'_, N, M, U> 
     pub fn step(&mut self, t_prev: f64, u: &[f64; U], y: &SVector<f64, M>) {
         let model = self.model;
         let (q, alpha) = (self.q, self.alpha);
-        let r_inv = self.r.try_inverse().expect("R invertible");
-        let rate = |t: f64, x: &SVector<f64, N>, p: &SMatrix<f64, N, N>| {
-            let f = (model.jacobian)(t, x, u) + SMatrix::<f64, N, N>::identity() * alpha;
-            let c = (model.jacobian_h)(t, x);
-            let gain = p * c.transpose() * r_inv;
-            let dx = (model.rate)(t, x, u) + gain * (y - (model.h)(t, x));
-            (dx, f, q - gain * c * p)
+        let rate = |t: f64, x: &SVector<f64, N>, _: &SMatrix<f64, N, N>| {
+            let a = (model.jacobian)(t, x, u) + SMatrix::<f64, N, N>::identity() * alpha;
+            ((model.rate)(t, x, u), a, q)
         };
-        self.estimate = integrate(
+        let predicted = integrate(
             model.rule,
             model.dt,
             model.substeps,
@@ -181,6 +182,115 @@ impl<const N: usize, const M: usize, const U: usize> ContinuousEkf<'_, N, M, U> 
             self.estimate,
             &rate,
         );
+        let mut update = HybridEkf {
+            model,
+            estimate: predicted,
+            q,
+            r: self.r / model.dt,
+        };
+        update.update(t_prev + model.dt, y);
+        self.estimate = update.estimate;
+    }
+}
+
+/// The continuous-time EKF's equations themselves (seed 004 eq. 5, with `alpha` eq. 26),
+/// `x' = f + K (y - h)`, `P' = A P + P A' + Q - K R K'`, `K = P H' R^-1`, `A = F + alpha I`,
+/// over each sample with `u` and `y` held, solved to a tight tolerance by the adaptive
+/// eighth-order Dormand-Prince method of the `ode_solvers` crate: what the split
+/// integration of [`ContinuousEkf`] approximates.
+pub struct ContinuousEkfEquation<'m, const N: usize, const M: usize, const U: usize> {
+    /// The model (its rule and sub-steps are not used).
+    pub model: &'m Model<N, M, U>,
+    /// Estimate and covariance.
+    pub estimate: Estimate<N>,
+    /// Process noise spectral density.
+    pub q: SMatrix<f64, N, N>,
+    /// Measurement noise spectral density.
+    pub r: SMatrix<f64, M, M>,
+    /// Prescribed degree of stability.
+    pub alpha: f64,
+    /// Relative and absolute tolerance of each step.
+    pub tolerance: f64,
+}
+
+/// The equations over one sample, as `ode_solvers` asks: `[x, P by rows]`.
+struct OverSample<'a, const N: usize, const M: usize, const U: usize> {
+    filter: &'a ContinuousEkfEquation<'a, N, M, U>,
+    t_prev: f64,
+    u: [f64; U],
+    y: SVector<f64, M>,
+    r_inv: SMatrix<f64, M, M>,
+}
+
+impl<const N: usize, const M: usize, const U: usize>
+    ode_solvers::System<f64, ode_solvers::DVector<f64>> for OverSample<'_, N, M, U>
+{
+    fn system(&self, tau: f64, z: &ode_solvers::DVector<f64>, dz: &mut ode_solvers::DVector<f64>) {
+        let model = self.filter.model;
+        let t = self.t_prev + tau;
+        let x = SVector::<f64, N>::from_fn(|i, _| z[i]);
+        let p = SMatrix::<f64, N, N>::from_fn(|i, j| z[N + N * i + j]);
+        let a =
+            (model.jacobian)(t, &x, &self.u) + SMatrix::<f64, N, N>::identity() * self.filter.alpha;
+        let c = (model.jacobian_h)(t, &x);
+        let gain = p * c.transpose() * self.r_inv;
+        let dx = (model.rate)(t, &x, &self.u) + gain * (self.y - (model.h)(t, &x));
+        let dp = a * p + p * a.transpose() + self.filter.q - gain * c * p;
+        for i in 0..N {
+            dz[i] = dx[i];
+            for j in 0..N {
+                // Symmetric by construction; averaged so rounding does not make it drift.
+                dz[N + N * i + j] = 0.5 * (dp[(i, j)] + dp[(j, i)]);
+            }
+        }
+    }
+}
+
+impl<const N: usize, const M: usize, const U: usize> ContinuousEkfEquation<'_, N, M, U> {
+    /// One sample from `t_prev` with `u` and `y` held; the solver's error if it fails.
+    pub fn step(&mut self, t_prev: f64, u: &[f64; U], y: &SVector<f64, M>) -> Result<(), String> {
+        let (x, p) = self.estimate;
+        let z = ode_solvers::DVector::from_iterator(
+            N + N * N,
+            x.iter()
+                .copied()
+                .chain((0..N * N).map(|k| p[(k / N, k % N)])),
+        );
+        let system = OverSample {
+            filter: self,
+            t_prev,
+            u: *u,
+            y: *y,
+            r_inv: self.r.try_inverse().ok_or("R is singular")?,
+        };
+        let dt = self.model.dt;
+        // Local time from 0: the solver's last step, to the end, is then not shortened
+        // to a rounding error of `t_prev`.
+        let mut solver = ode_solvers::Dop853::from_param(
+            system,
+            0.0,
+            dt,
+            dt,
+            z,
+            self.tolerance,
+            self.tolerance,
+            0.9,
+            0.0,
+            0.333,
+            6.0,
+            dt,
+            1e-12,
+            10_000_000,
+            // No stiffness test: the tolerance bounds the steps, however small.
+            u32::MAX,
+            ode_solvers::dop_shared::OutputType::Sparse,
+        );
+        solver.integrate().map_err(|e| format!("{e:?}"))?;
+        let end = solver.y_out().last().ok_or("no output")?;
+        let x = SVector::<f64, N>::from_fn(|i, _| end[i]);
+        let p = SMatrix::<f64, N, N>::from_fn(|i, j| end[N + N * i + j]);
+        self.estimate = (x, p);
+        Ok(())
     }
 }
 

@@ -82,9 +82,11 @@ fn continuous_ekf_noise_and_alpha_setters() {
         Status::RejectedInput
     );
     assert_eq!(filter, before);
-    // R must be positive definite: checked (never divided by) at the step.
+    // The step's update divides by `H P H' + R / T`, never by `R`: a perfect sensor (a zero
+    // variance) is used, a negative variance that makes the innovation variance negative is
+    // caught (never divided by) at the step.
     assert_eq!(
-        filter.set_measurement_noise(&[[0.0, 0.0], [0.0, 1.0]]),
+        filter.set_measurement_noise(&[[-1.0, 0.0], [0.0, 1.0]]),
         Status::Ok
     );
     assert_eq!(
@@ -93,6 +95,14 @@ fn continuous_ekf_noise_and_alpha_setters() {
     );
     assert_eq!(filter.set_measurement_noise(&r), Status::Ok);
     assert_eq!(filter, before);
+    let mut perfect = filter;
+    assert_eq!(
+        perfect.set_measurement_noise(&[[0.0, 0.0], [0.0, 1.0]]),
+        Status::Ok
+    );
+    assert_eq!(perfect.step(0.0, &[0.0; 2], &[0.01, 0.0]), Status::Ok);
+    // The perfect sensor's angle is the measurement, to rounding.
+    assert!((perfect.state()[0] - 0.01).abs() < 1e-15);
     assert_eq!(filter.set_alpha(0.0), Status::Ok);
     assert_eq!(filter.step(0.0, &[0.1; 2], &[0.01, 0.0]), Status::Ok);
     assert_eq!(

@@ -101,11 +101,12 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
 
     println!("\nHelicopter (TRMS) of Kulkarni and Purwar, \"Nonlinear experimental estimation and");
     println!("verification of a MIMO system through EKF\": continuous-time EKF (eq. 5, one RK4");
-    println!("step per 1 ms), multi-sine input, estimate from x0 = [0.05 0 -0.05 0 0 0], encoder");
+    println!("step per 1 ms, then the measurement terms' exact flow), multi-sine input, estimate");
     println!(
-        "noise sigma [{} {}] rad, the paper's Q, R, P0; RMS estimation errors (rad, rad/s):\n",
+        "from x0 = [0.05 0 -0.05 0 0 0], encoder noise sigma [{} {}] rad, the paper's Q, R, P0;",
         NOISE[0], NOISE[1]
     );
+    println!("RMS estimation errors (rad, rad/s):\n");
     println!(
         "{:<40} {:>9} {:>9} {:>9} {:>9}   {:>9} {:>9}",
         "observer", "E1rms", "E3rms", "psi'", "phi'", "E1 25-30", "E3 25-30"

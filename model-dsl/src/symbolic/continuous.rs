@@ -7,7 +7,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::graph::{Graph, Node, NodeId, VarId};
-use super::linalg::{matmul, packed_upper, symmetric_from_packed, transpose, Matrix};
+use super::linalg::{matmul, packed_upper, symmetric_from_packed, Matrix};
 use crate::model::Method;
 use std::collections::HashMap;
 
@@ -297,33 +297,6 @@ fn increment_then_diagonal(
         sum = g.add(sum, extra);
     }
     g.add(sum, last)
-}
-
-/// The measurement terms of the continuous-time EKF (Kulkarni and Purwar, eq. 5): the gain
-/// `K = P H' R^-1` and `rate - K (P H')'`, i.e. `rate - P H' R^-1 H P`, upper triangle.
-pub fn riccati_measurement_terms(
-    g: &mut Graph,
-    rate: &Matrix,
-    p: &Matrix,
-    h: &Matrix,
-    r_inv: &Matrix,
-) -> (Matrix, Matrix) {
-    let n = p.len();
-    let pht = matmul(g, p, &transpose(h));
-    let gain = matmul(g, &pht, r_inv);
-    let mut out = rate.clone();
-    for i in 0..n {
-        for j in i..n {
-            let mut v = rate[i][j];
-            for l in 0..pht.first().map_or(0, Vec::len) {
-                let term = g.mul(gain[i][l], pht[j][l]);
-                v = g.sub(v, term);
-            }
-            out[i][j] = v;
-            out[j][i] = v;
-        }
-    }
-    (gain, out)
 }
 
 /// A state vector `x` followed by the packed upper triangle of its covariance, as one

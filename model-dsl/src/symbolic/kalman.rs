@@ -1,7 +1,6 @@
 //! The Kalman filter's algebra on graph nodes, shared by every generated filter: the
 //! covariance prediction and the Joseph-form measurement update (Alg. 1 and 2), the EKF's
-//! prediction and correction with the model's `f`, `h` and their Jacobians, and the
-//! continuous-time filter's innovation feedback.
+//! prediction and correction with the model's `f`, `h` and their Jacobians.
 
 use super::continuous::AtPoint;
 use super::graph::{Graph, NodeId};
@@ -212,29 +211,6 @@ pub fn ekf_correct(
     let residual: Vec<NodeId> = y.iter().zip(&h).map(|(&y, &h)| graph.sub(y, h)).collect();
     let update = update(graph, x, p, &residual, &c, r, reciprocal);
     Correction { residual, update }
-}
-
-/// The continuous-time filter's state rate `rate + K (y - h)` (Kulkarni and Purwar, eq. 5, the
-/// Kalman-Bucy filter's innovation feedback), each row summed term by term.
-pub fn innovation_feedback(
-    g: &mut Graph,
-    rate: &[NodeId],
-    gain: &Matrix,
-    y: &[NodeId],
-    h: &[NodeId],
-) -> Vec<NodeId> {
-    rate.iter()
-        .zip(gain)
-        .map(|(&rate, gain_row)| {
-            let mut v = rate;
-            for ((&k, &yj), &hj) in gain_row.iter().zip(y).zip(h) {
-                let innovation = g.sub(yj, hj);
-                let term = g.mul(k, innovation);
-                v = g.add(v, term);
-            }
-            v
-        })
-        .collect()
 }
 
 #[cfg(test)]

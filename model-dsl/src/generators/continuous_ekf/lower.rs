@@ -138,8 +138,16 @@ fn type_doc(spec: &ContinuousEkfSpec) -> String {
         " Continuous-time extended Kalman filter of this model (Kulkarni and Purwar, \
          \"Nonlinear experimental estimation and verification of a MIMO system through \
          EKF\", eq. 5): `x' = f(x, u) + K (y - h(x))`, `K = P H' R^-1`, and {riccati}, \
-         `F = df/dx`, `H = dh/dx`, integrated over each sample with the model's rule and \
-         [`ContinuousEkf::SUBSTEPS`] sub-steps, input and measurement held. `Q` and `R` \
-         are spectral densities. The covariance is stored once, as a packed upper triangle."
+         `F = df/dx`, `H = dh/dx`, over each sample with input and measurement held. \
+         `Q` and `R` are spectral densities. The covariance is stored once, as a packed \
+         upper triangle.\n\n Integrated split, so that no gain makes it unstable: the \
+         equations without the measurement terms by the model's rule and \
+         [`ContinuousEkf::SUBSTEPS`] sub-steps, then the measurement terms alone by their \
+         exact flow over the sample `T`, `P = (P^-1 + T H' R^-1 H)^-1`: the Joseph-form \
+         update with the measurement noise `R / T`. A fixed explicit step of the whole \
+         equations diverges once `T` times the rate `P H' R^-1 H` leaves its stability \
+         region (a precise sensor and an uncertain start); the split's error is of the \
+         first order in `T` (the equations, with `y[k]` held from the previous sample, \
+         pull the estimate half a sample ahead of where the update uses `y[k]`)."
     )
 }
