@@ -134,18 +134,24 @@ impl<const N: usize, const M: usize, const U: usize> HybridEkf<'_, N, M, U> {
         );
     }
 
-    /// eqs. (24)-(26), Joseph form, with a matrix inverse.
-    pub fn update(&mut self, t: f64, y: &SVector<f64, M>) {
+    /// eqs. (24)-(26), Joseph form, with a matrix inverse. Returns the innovation and
+    /// its covariance.
+    pub fn update(&mut self, t: f64, y: &SVector<f64, M>) -> Innovation<M> {
         let (x, p) = self.estimate;
         let c = (self.model.jacobian_h)(t, &x);
         let s = c * p * c.transpose() + self.r;
         let gain = p * c.transpose() * s.try_inverse().expect("S invertible");
-        let x = x + gain * (y - (self.model.h)(t, &x));
+        let innovation = y - (self.model.h)(t, &x);
+        let x = x + gain * innovation;
         let i_kc = SMatrix::<f64, N, N>::identity() - gain * c;
         let p = i_kc * p * i_kc.transpose() + gain * self.r * gain.transpose();
         self.estimate = (x, p);
+        (innovation, s)
     }
 }
+
+/// A measurement's innovation `y - h(x)` and its covariance `S`.
+pub type Innovation<const M: usize> = (SVector<f64, M>, SMatrix<f64, M, M>);
 
 /// The continuous-time EKF (seed 004 eq. 5) with a prescribed degree of stability `alpha`
 /// (eq. 26; `alpha = 0` is the standard filter), integrated as the generated filter does:
@@ -166,8 +172,9 @@ pub struct ContinuousEkf<'m, const N: usize, const M: usize, const U: usize> {
 }
 
 impl<const N: usize, const M: usize, const U: usize> ContinuousEkf<'_, N, M, U> {
-    /// One sample from `t_prev` with `u` and `y` held.
-    pub fn step(&mut self, t_prev: f64, u: &[f64; U], y: &SVector<f64, M>) {
+    /// One sample from `t_prev` with `u` and `y` held; returns the update's innovation and
+    /// its covariance.
+    pub fn step(&mut self, t_prev: f64, u: &[f64; U], y: &SVector<f64, M>) -> Innovation<M> {
         let model = self.model;
         let (q, alpha) = (self.q, self.alpha);
         let rate = |t: f64, x: &SVector<f64, N>, _: &SMatrix<f64, N, N>| {
@@ -188,8 +195,9 @@ impl<const N: usize, const M: usize, const U: usize> ContinuousEkf<'_, N, M, U> 
             q,
             r: self.r / model.dt,
         };
-        update.update(t_prev + model.dt, y);
+        let innovation = update.update(t_prev + model.dt, y);
         self.estimate = update.estimate;
+        innovation
     }
 }
 

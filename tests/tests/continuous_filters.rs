@@ -614,13 +614,38 @@ fn looped_rk4_substeps_with_time_agree_with_the_references() {
             "hybrid, sample {k}"
         );
         hybrid_reference.predict(t_prev, &u);
-        hybrid_reference.update(t, &SVector::from(y));
+        let hybrid_innovation = hybrid_reference.update(t, &SVector::from(y));
         assert_eq!(
             ct.step(t_prev, &u, &y),
             Status::Ok,
             "continuous, sample {k}"
         );
-        ct_reference.step(t_prev, &u, &SVector::from(y));
+        let ct_innovation = ct_reference.step(t_prev, &u, &SVector::from(y));
+        for (what, (innovation, nis), (r, s)) in [
+            (
+                "hybrid",
+                (hybrid.innovation(), hybrid.normalised_innovation_squared()),
+                hybrid_innovation,
+            ),
+            (
+                "continuous",
+                (ct.innovation(), ct.normalised_innovation_squared()),
+                ct_innovation,
+            ),
+        ] {
+            let reference_nis = r[0] * r[0] / s[(0, 0)];
+            let scale = s[(0, 0)].sqrt();
+            assert!(
+                (innovation[0] - r[0]).abs() <= RTOL * scale,
+                "{what}, sample {k}: innovation {} against {}",
+                innovation[0],
+                r[0]
+            );
+            assert!(
+                (nis - reference_nis).abs() <= RTOL * reference_nis.max(1.0),
+                "{what}, sample {k}: NIS {nis} against {reference_nis}"
+            );
+        }
         for (what, generated, reference) in [
             (
                 "hybrid",
@@ -639,6 +664,38 @@ fn looped_rk4_substeps_with_time_agree_with_the_references() {
         }
     }
     println!("looped RK4 with time: x within {worst_x:.1e}, P within {worst_p:.1e}");
+}
+
+/// `reset` starts either continuous filter again from a new estimate, keeping its noise,
+/// and clears the innovation (a zero innovation of unit covariance: NIS 0); a non-finite
+/// entry is rejected with the filter unchanged.
+#[test]
+fn reset_starts_the_continuous_filters_again() {
+    use pendulum::{ContinuousEkf as Ct, HybridEkf as Hybrid, Status};
+    let p0 = to_array(&diagonal([0.1, 0.1, 0.1]));
+    let q = to_array(&diagonal([1e-4, 1e-3, 1e-3]));
+    let x0 = [0.3, 0.0, 0.5];
+    let mut hybrid = Hybrid::new(&x0, &p0, &q, &[[1e-3]]).unwrap();
+    let mut ct = Ct::new(&x0, &p0, &q, &[[1e-3]]).unwrap();
+    let (hybrid_new, ct_new) = (hybrid, ct);
+    assert_eq!(hybrid.step(0.0, &[0.5], &[0.4]), Status::Ok);
+    assert_eq!(ct.step(0.0, &[0.5], &[0.4]), Status::Ok);
+    assert!(hybrid.normalised_innovation_squared() > 0.0);
+    assert!(ct.normalised_innovation_squared() > 0.0);
+    let (hybrid_before, ct_before) = (hybrid, ct);
+    let mut bad = p0;
+    bad[1][2] = f64::NAN;
+    assert_eq!(hybrid.reset(&x0, &bad), Status::RejectedInput);
+    assert_eq!(
+        ct.reset(&[f64::INFINITY, 0.0, 0.5], &p0),
+        Status::RejectedInput
+    );
+    assert_eq!((hybrid, ct), (hybrid_before, ct_before));
+    assert_eq!(hybrid.reset(&x0, &p0), Status::Ok);
+    assert_eq!(ct.reset(&x0, &p0), Status::Ok);
+    assert_eq!((hybrid, ct), (hybrid_new, ct_new));
+    assert_eq!(hybrid.innovation(), [0.0]);
+    assert_eq!(ct.normalised_innovation_squared(), 0.0);
 }
 
 /// A NaN or infinite input or measurement is rejected and leaves either continuous filter

@@ -9,11 +9,14 @@
 //! the sample, which is the discrete update with `R / T` (see [`FilterMethod::Continuous`]).
 
 use crate::emit::arguments::Arguments;
-use crate::emit::code::{commit_or_non_finite, guard_pivots, pivot_names, var_idents, INNOVATION};
+use crate::emit::code::{
+    commit_or_non_finite_with, guard_pivots, pivot_names, var_idents, INNOVATION,
+};
 use crate::emit::filter::{
     finiteness_probe, model_names, name_estimate, time_param, unclaimed_name, FilterVars,
 };
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
+use crate::emit::measurement;
 use crate::emit::names::{ident, TempNamer};
 use crate::emit::substeps::{lower_loop, Carried, SubstepLoop, P_SUB, T_SUB, X_SUB};
 use crate::model::{Method, Model, Scalar};
@@ -277,6 +280,10 @@ struct MethodNodes {
     pivots: Vec<NodeId>,
     /// The pivots' reciprocals.
     reciprocals: Vec<NodeId>,
+    /// The innovation of an update (every output), else empty.
+    innovation: Vec<NodeId>,
+    /// Its covariance, packed.
+    innovation_covariance: Vec<NodeId>,
 }
 
 impl MethodNodes {
@@ -328,6 +335,8 @@ impl MethodNodes {
             loop_next: Vec::new(),
             pivots: Vec::new(),
             reciprocals: Vec::new(),
+            innovation: Vec::new(),
+            innovation_covariance: Vec::new(),
         };
         if kind.predicts() {
             nodes.propagate((rule, h), model.uses_time());
@@ -382,15 +391,17 @@ impl MethodNodes {
                 .collect();
         }
         let all: Vec<usize> = (0..m).collect();
-        let update = kalman::ekf_correct(
+        let correction = kalman::ekf_correct(
             &mut self.g,
             (self.t_measured, &self.x),
             &self.p,
             (&self.vars.y, &all),
             &r,
             |g, j| g.var(&pivot_names(m, j, INNOVATION, "").1),
-        )
-        .update;
+        );
+        let update = correction.update;
+        self.innovation = correction.residual;
+        self.innovation_covariance = packed_upper(&update.s);
         (self.x, self.p) = (update.x, update.p);
         (self.pivots, self.reciprocals) = (update.pivots, update.reciprocals);
     }
@@ -421,6 +432,8 @@ fn lower(
     all_roots.push(probe);
     all_roots.extend(&nodes.pivots);
     all_roots.extend(&nodes.loop_next);
+    all_roots.extend(&nodes.innovation);
+    all_roots.extend(&nodes.innovation_covariance);
     let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&nodes.g.graph, scalar, namer, &all_roots);
     read_noise_and_alpha(&mut lowerer, nodes);
@@ -441,16 +454,28 @@ fn lower(
         &quote! { return Status::NonPositiveInnovation; },
         scalar,
     );
+    measurement::name_innovation(&mut lowerer, model, &nodes.innovation);
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
     lowerer.count_extra(OpCount::stores(values.len()));
+    let store_innovation = if kind.updates() {
+        let kept = measurement::Kept {
+            innovation: &nodes.innovation,
+            covariance: &nodes.innovation_covariance,
+            nis: None,
+            step: kind.predicts(),
+        };
+        measurement::store_and_gate(&mut lowerer, model, &kept)
+    } else {
+        TokenStream::new()
+    };
     let Lowered {
         statements,
         mut used_vars,
         ops,
     } = lowerer.finish();
     let (x_values, p_values) = values.split_at(n);
-    let commit = commit_or_non_finite(&probe, x_values, p_values);
+    let commit = commit_or_non_finite_with(&probe, x_values, p_values, &store_innovation);
     let (loop_code, per_substep, total) = match substep_loop {
         Some(l) => {
             used_vars.extend(l.used_vars);

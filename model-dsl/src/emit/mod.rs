@@ -8,6 +8,7 @@ pub mod filter;
 pub mod interop;
 pub mod known;
 pub mod lower;
+pub mod measurement;
 pub mod model_fns;
 pub mod module_items;
 pub mod names;

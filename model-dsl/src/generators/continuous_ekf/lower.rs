@@ -10,6 +10,7 @@ use crate::emit::continuous_filter::{method, FilterMethod};
 use crate::emit::filter::{substeps_constant, FilterLayout};
 use crate::emit::known::KnownItems;
 use crate::emit::lower::{literal, OpCount};
+use crate::emit::measurement;
 use crate::emit::names::ident;
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
@@ -41,6 +42,9 @@ pub fn emit_continuous_ekf(
     let ty = ident(scalar.type_name());
     let layout = FilterLayout::new(model, diagonal, &ty);
     let fields = layout.fields();
+    let measurement_fields = measurement::fields(model, None, &ty);
+    let measurement_init = measurement::initial_values(model, None, scalar);
+    let measurement_methods = measurement::methods(model, &layout, None, scalar);
     let FilterLayout {
         accessors, setters, ..
     } = &layout;
@@ -62,7 +66,7 @@ pub fn emit_continuous_ekf(
             /// spectral densities `q` and `r` (symmetric: upper triangles are read).
         },
         &KnownItems::default(),
-        &quote! { #alpha_init },
+        &quote! { #measurement_init #alpha_init },
     );
     let alpha_items = spec.alpha.map(|alpha| alpha_items(alpha, scalar));
     let doc = type_doc(spec);
@@ -71,6 +75,7 @@ pub fn emit_continuous_ekf(
         #[derive(Clone, Copy, Debug, PartialEq)]
         pub struct ContinuousEkf {
             #fields
+            #measurement_fields
             #alpha_field
         }
 
@@ -78,6 +83,8 @@ pub fn emit_continuous_ekf(
             #substeps
 
             #constructor
+
+            #measurement_methods
 
             #accessors
 

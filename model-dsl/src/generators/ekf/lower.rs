@@ -9,15 +9,15 @@ use crate::emit::code::{
     commit_or_non_finite_with, guard_pivots, pivot_names, var_idents, INNOVATION,
 };
 use crate::emit::filter::{
-    finiteness_probe, model_names, name_estimate, packed_vars, time_param, unclaimed_name,
-    FilterLayout, FilterVars,
+    finiteness_probe, model_names, name_estimate, time_param, FilterLayout, FilterVars,
 };
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
+use crate::emit::measurement;
 use crate::emit::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
-use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed, Matrix};
-use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
+use crate::symbolic::linalg::{packed_upper, symmetric_from_packed, Matrix};
+use crate::symbolic::{ModelGraph, NodeId, VarId};
 use proc_macro2::TokenStream;
 use quote::quote;
 use std::collections::BTreeSet;
@@ -78,26 +78,18 @@ fn ekf_type(
 ) -> TokenStream {
     let FilterLayout {
         ty,
-        m_len,
-        mp,
         accessors,
         setters,
         ..
     } = layout;
-    let (gate_field, gate_init, mut gate_methods) = gate_items(spec.gate, ty, scalar);
-    if spec.gate.is_some() {
-        gate_methods.extend(keep_prediction_method(model, ty));
-    }
     let known = crate::emit::known::known_items(model, ty);
     let (known_field, known_methods) = (&known.field, &known.methods);
     let type_name = ident(&spec.type_name);
     let (type_doc, convention_doc) = type_doc(spec);
     let fields = layout.fields();
-    // Before any measurement: a zero innovation, of unit covariance.
-    let zero = crate::emit::lower::literal(0.0, scalar);
-    let identity = packed_identity(model.outputs.len(), scalar);
-    let constructor = constructor_tokens(spec, layout, (&zero, &identity), &gate_init, &known);
-    let innovation_methods = innovation_methods(model, layout, scalar, (&zero, &identity));
+    let measurement_fields = measurement::fields(model, spec.gate, ty);
+    let constructor = constructor_tokens(spec, layout, model, scalar, &known);
+    let measurement_methods = measurement::methods(model, layout, spec.gate, scalar);
     quote! {
         #[doc = #type_doc]
         ///
@@ -105,18 +97,14 @@ fn ekf_type(
         #[derive(Clone, Copy, Debug, PartialEq)]
         pub struct #type_name {
             #fields
-            innovation: [#ty; #m_len],
-            innovation_covariance: [#ty; #mp],
-            #gate_field
+            #measurement_fields
             #known_field
         }
 
         impl #type_name {
             #constructor
 
-            #innovation_methods
-
-            #gate_methods
+            #measurement_methods
 
             #accessors
 
@@ -129,13 +117,13 @@ fn ekf_type(
     }
 }
 
-/// `fn new`: the shared layout's constructor, with the innovation and its covariance
-/// before any measurement (`zero`, `identity`), the gate's default and the known constants.
+/// `fn new`: the shared layout's constructor, with the measurement stage's initial values
+/// and the known constants.
 fn constructor_tokens(
     spec: &EkfSpec,
     layout: &FilterLayout,
-    (zero, identity): (&TokenStream, &TokenStream),
-    gate_init: &TokenStream,
+    model: &Model,
+    scalar: Scalar,
     known: &crate::emit::known::KnownItems,
 ) -> TokenStream {
     let new_doc = if spec.diagonal_noise {
@@ -147,60 +135,12 @@ fn constructor_tokens(
          covariance `q` and the measurement noise covariance `r`. The matrices are \
          symmetric: only their upper triangles are read."
     };
-    let m_len = &layout.m_len;
     layout.constructor(
         &ident(&spec.type_name),
         &quote! { #[doc = #new_doc] },
         known,
-        &quote! {
-            innovation: [#zero; #m_len],
-            innovation_covariance: #identity,
-            #gate_init
-        },
+        &measurement::initial_values(model, spec.gate, scalar),
     )
-}
-
-/// `reset`, `innovation` and `normalised_innovation_squared`: starting again, and what
-/// the last measurement said.
-fn innovation_methods(
-    model: &Model,
-    layout: &FilterLayout,
-    scalar: Scalar,
-    (zero, identity): (&TokenStream, &TokenStream),
-) -> TokenStream {
-    let FilterLayout { ty, m_len, .. } = layout;
-    let mut arguments = Arguments::default();
-    let p0 = layout.initial_estimate(&mut arguments);
-    let reset = arguments.method(
-        &ident("reset"),
-        &quote! {
-            /// Starts the filter again from the estimate `x0` and covariance `p0` (only its
-            /// upper triangle is read), keeping the noise covariances: the way back after
-            /// a fault (a run of [`Status::NonFinite`] or of rejected outliers) or a
-            /// restart of the plant. The innovation is cleared. Rejects a non-finite entry
-            /// with [`Status::RejectedInput`], leaving the filter unchanged.
-        },
-        quote! {
-            self.x = *x0;
-            self.p = [#(#p0),*];
-            self.innovation = [#zero; #m_len];
-            self.innovation_covariance = #identity;
-            Status::Ok
-        },
-    );
-    let nis_method = nis_method(model, scalar);
-    quote! {
-        #reset
-
-        /// The innovation `y - h(x)` of the last measurement used or rejected: what
-        /// the measurement said that the prediction did not.
-        #[must_use]
-        pub fn innovation(&self) -> [#ty; #m_len] {
-            self.innovation
-        }
-
-        #nis_method
-    }
 }
 
 /// The filter type's documentation: what it is (with its gate), then the index convention.
@@ -223,113 +163,6 @@ fn type_doc(spec: &EkfSpec) -> (String, String) {
         spec.type_name
     );
     (what, convention)
-}
-
-/// `[1.0, 0.0, .., 1.0]`: the packed `m x m` identity, the innovation covariance before any
-/// measurement (with a zero innovation, a normalised square of 0).
-fn packed_identity(m: usize, scalar: Scalar) -> TokenStream {
-    let entries = (0..m).flat_map(|i| {
-        (i..m).map(move |j| crate::emit::lower::literal(if i == j { 1.0 } else { 0.0 }, scalar))
-    });
-    quote! { [#(#entries),*] }
-}
-
-/// `fn normalised_innovation_squared(&self)`: `r' S^-1 r` from the stored innovation `r`
-/// and its covariance `S`, through the same guarded `L D L'` inverse as the update. Computed
-/// when asked, so a step that does not gate pays only for storing `S`.
-fn nis_method(model: &Model, scalar: Scalar) -> TokenStream {
-    let m = model.outputs.len();
-    let mut graph = Graph::new();
-    let avoid = model_names(model);
-    let innovation: Vec<NodeId> = model
-        .outputs
-        .iter()
-        .map(|o| graph.var(&unclaimed_name(format!("{}_innovation", o.name), &avoid)))
-        .collect();
-    let s_vars = packed_vars(&mut graph, "s", m, &avoid);
-    let s = symmetric_from_packed(&s_vars, m);
-    let ldl = crate::symbolic::linalg::ldl_inverse(&mut graph, &s, |g, j| {
-        g.var(&pivot_names(m, j, INNOVATION, "").1)
-    });
-    let nis = kalman::normalised_innovation_squared(&mut graph, &innovation, &ldl.inverse);
-    let mut roots = ldl.pivots.clone();
-    roots.push(nis);
-    let namer = TempNamer::new(avoid.iter().map(String::as_str));
-    let mut lowerer = Lowerer::new(&graph, scalar, namer, &roots);
-    lowerer.read_lazily(&quote! { self.innovation }, &innovation);
-    lowerer.read_lazily(&quote! { self.innovation_covariance }, &s_vars);
-    let ty = ident(scalar.type_name());
-    // The stored covariance passed this test when its measurement was used: a failure here
-    // cannot happen, and would read as "inconsistent".
-    let on_failure = quote! { return #ty::INFINITY; };
-    guard_pivots(
-        &mut lowerer,
-        &ldl.pivots,
-        &ldl.reciprocals,
-        (INNOVATION, ""),
-        &on_failure,
-        scalar,
-    );
-    let value = lowerer.segment(&[nis]).remove(0);
-    let statements = lowerer.finish().statements;
-    quote! {
-        /// The normalised innovation squared `r' S^-1 r` of the last measurement used
-        /// or rejected (`r` its innovation, `S` the innovation covariance). While the
-        /// model and noise levels are right it is chi-square distributed with as many
-        /// degrees of freedom as measurements (mean `Y_LEN`); a run of large values says
-        /// the model, the tuning or the sensor is wrong. 0 before the first measurement.
-        #[must_use]
-        pub fn normalised_innovation_squared(&self) -> #ty {
-            #(#statements)*
-            #value
-        }
-    }
-}
-
-/// The innovation gate's field, its initial value and its methods, when it is asked for.
-fn gate_items(
-    gate: Option<f64>,
-    ty: &proc_macro2::Ident,
-    scalar: Scalar,
-) -> (TokenStream, TokenStream, TokenStream) {
-    let Some(gate) = gate else {
-        return Default::default();
-    };
-    let default = crate::emit::lower::literal(gate, scalar);
-    let zero = crate::emit::lower::literal(0.0, scalar);
-    let generated = if gate.is_finite() {
-        format!("{gate}")
-    } else {
-        "infinity (open)".to_owned()
-    };
-    let doc = format!(
-        " The innovation gate: a measurement whose normalised innovation squared exceeds it \
-         is rejected ([`Status::OutlierRejected`]). Generated as {generated}."
-    );
-    (
-        quote! { gate: #ty, },
-        quote! { gate: #default, },
-        quote! {
-            #[doc = #doc]
-            #[must_use]
-            pub fn innovation_gate(&self) -> #ty {
-                self.gate
-            }
-
-            /// Sets the innovation gate (a chi-square quantile for `Y_LEN` degrees of
-            /// freedom: 10.83 rejects one in a thousand consistent scalar measurements;
-            /// infinity opens it). Rejects a threshold that is not positive, leaving the
-            /// gate as it was.
-            pub fn set_innovation_gate(&mut self, threshold: #ty) -> Status {
-                if threshold > #zero {
-                    self.gate = threshold;
-                    Status::Ok
-                } else {
-                    Status::RejectedInput
-                }
-            }
-        },
-    )
 }
 
 /// Which of the EKF's methods to generate.
@@ -613,16 +446,18 @@ fn lower(
         &quote! { return Status::NonPositiveInnovation; },
         scalar,
     );
-    for (&r, o) in nodes.innovation.iter().zip(&model.outputs) {
-        lowerer.prefer_name(r, &format!("{}_innovation", o.name));
-    }
+    measurement::name_innovation(&mut lowerer, model, &nodes.innovation);
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
     lowerer.count_extra(OpCount::stores(values.len()));
     let store_innovation = if kind.corrects_all() {
-        let m = nodes.innovation.len();
-        lowerer.count_extra(OpCount::stores(m + crate::symbolic::linalg::packed_len(m)));
-        innovation_and_gate(&mut lowerer, nodes, model, kind)
+        let kept = measurement::Kept {
+            innovation: &nodes.innovation,
+            covariance: &nodes.innovation_covariance,
+            nis: nodes.nis,
+            step: kind == EkfMethod::Step,
+        };
+        measurement::store_and_gate(&mut lowerer, model, &kept)
     } else {
         TokenStream::new()
     };
@@ -635,47 +470,6 @@ fn lower(
     let commit = commit_or_non_finite_with(&probe, x_values, p_values, &store_innovation);
     let statements = crate::emit::scopes::scoped(statements, &commit);
     (quote! { #(#statements)* #commit }, used_vars, ops)
-}
-
-/// The innovation and its covariance, computed last, where they hold no register while
-/// the update runs, and stored with the estimate (the statements returned); with a gate,
-/// its test, just before the commit (an outlier costs a whole update, the usual sample
-/// nothing more).
-fn innovation_and_gate(
-    lowerer: &mut Lowerer,
-    nodes: &EkfNodes,
-    model: &Model,
-    kind: EkfMethod,
-) -> TokenStream {
-    let innovation_values = lowerer.segment(&nodes.innovation);
-    let covariance_values = lowerer.segment(&nodes.innovation_covariance);
-    let store_innovation = store_innovation_tokens(&innovation_values, &covariance_values);
-    let Some(nis) = nodes.nis else {
-        return store_innovation;
-    };
-    let nis = lowerer.bind(nis, "nis");
-    let keep_prediction = (kind == EkfMethod::Step).then(|| {
-        let args = prediction_arguments(model);
-        quote! {
-            self.keep_prediction(
-                #(#args,)* [#(#innovation_values),*], [#(#covariance_values),*],
-            )
-        }
-    });
-    let rejection = outlier_rejection(keep_prediction, &store_innovation);
-    // NaN is not within the gate: a measurement that gives it is rejected.
-    let within_gate = lowerer.fresh_name("within_gate");
-    lowerer.statement(quote! {
-        let #within_gate = #nis <= self.gate;
-        if !#within_gate {
-            #rejection
-        }
-    });
-    lowerer.count_extra(OpCount {
-        compare: 1,
-        ..Default::default()
-    });
-    store_innovation
 }
 
 /// The method's arguments: the times where the model reads `t` (the previous sample's
@@ -713,79 +507,6 @@ fn arguments(
         EkfMethod::Update | EkfMethod::Step => arguments.array("y", y, ty),
     }
     arguments
-}
-
-/// `self.innovation = [..]; self.innovation_covariance = [..];`
-fn store_innovation_tokens(innovation: &[TokenStream], covariance: &[TokenStream]) -> TokenStream {
-    quote! {
-        self.innovation = [#(#innovation),*];
-        self.innovation_covariance = [#(#covariance),*];
-    }
-}
-
-/// What a gated update does with an outlier: store its innovation and return
-/// `OutlierRejected`. A step keeps its prediction, as `predict` alone would have, through
-/// the cold, out-of-line `keep_prediction` (`keep_prediction`: its call), so the usual
-/// sample pays only for the test.
-fn outlier_rejection(
-    keep_prediction: Option<TokenStream>,
-    store_innovation: &TokenStream,
-) -> TokenStream {
-    match keep_prediction {
-        Some(call) => quote! { return #call; },
-        None => quote! {
-            #store_innovation
-            return Status::OutlierRejected;
-        },
-    }
-}
-
-/// The arguments a step passes on to `predict`: `t_prev` and `u_prev` where the model has
-/// them.
-fn prediction_arguments(model: &Model) -> Vec<TokenStream> {
-    let mut args = Vec::new();
-    if model.uses_time() {
-        args.push(quote! { t_prev });
-    }
-    if !model.inputs.is_empty() {
-        args.push(quote! { u_prev });
-    }
-    args
-}
-
-/// `fn keep_prediction`: a gated step's answer to an outlier.
-fn keep_prediction_method(model: &Model, ty: &proc_macro2::Ident) -> TokenStream {
-    let m = proc_macro2::Literal::usize_unsuffixed(model.outputs.len());
-    let mp = proc_macro2::Literal::usize_unsuffixed(packed_len(model.outputs.len()));
-    let mut params = Vec::new();
-    if model.uses_time() {
-        params.push(quote! { t_prev: #ty });
-    }
-    if !model.inputs.is_empty() {
-        let u = proc_macro2::Literal::usize_unsuffixed(model.inputs.len());
-        params.push(quote! { u_prev: &[#ty; #u] });
-    }
-    let args = prediction_arguments(model);
-    quote! {
-        /// A step's outlier: the prediction is kept, the measurement only recorded. Out of
-        /// line and cold, so the usual sample does not pay for it.
-        #[cold]
-        #[inline(never)]
-        fn keep_prediction(
-            &mut self,
-            #(#params,)*
-            innovation: [#ty; #m],
-            innovation_covariance: [#ty; #mp],
-        ) -> Status {
-            let predicted = self.predict(#(#args),*);
-            if predicted != Status::Ok {
-                return predicted;
-            }
-            self.innovation = innovation;
-            self.innovation_covariance = innovation_covariance;
-            Status::OutlierRejected
-        }
-    }
 }
 
 /// Names the new state and covariance entries after what they are: `x1_pred`, `p11_pred`.

@@ -8,6 +8,7 @@ use crate::emit::continuous_filter::{method, FilterMethod};
 use crate::emit::filter::{substeps_constant, FilterLayout};
 use crate::emit::known::KnownItems;
 use crate::emit::lower::OpCount;
+use crate::emit::measurement;
 use crate::emit::names::ident;
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
@@ -37,6 +38,8 @@ pub fn emit_hybrid_ekf(
     let (update, ..) = method(model, mg, scalar, FilterMethod::Update, diagonal);
     let layout = FilterLayout::new(model, diagonal, &ident(scalar.type_name()));
     let fields = layout.fields();
+    let measurement_fields = measurement::fields(model, None, &layout.ty);
+    let measurement_methods = measurement::methods(model, &layout, None, scalar);
     let FilterLayout {
         accessors, setters, ..
     } = &layout;
@@ -47,7 +50,11 @@ pub fn emit_hybrid_ekf(
             /// Integration sub-steps per sample, for state and covariance alike.
         },
     );
-    let constructor = constructor_tokens(&layout, diagonal);
+    let constructor = constructor_tokens(
+        &layout,
+        diagonal,
+        &measurement::initial_values(model, None, scalar),
+    );
     let tokens = quote! {
         /// Hybrid (continuous-discrete) extended Kalman filter of this model (Takacs,
         /// Poloni, Rohal-Ilkiv, "Adaptive predictive control of transient vibrations of
@@ -63,12 +70,15 @@ pub fn emit_hybrid_ekf(
         #[derive(Clone, Copy, Debug, PartialEq)]
         pub struct HybridEkf {
             #fields
+            #measurement_fields
         }
 
         impl HybridEkf {
             #substeps
 
             #constructor
+
+            #measurement_methods
 
             #accessors
 
@@ -90,7 +100,11 @@ pub fn emit_hybrid_ekf(
 
 /// `fn new`: the shared layout's constructor, `Q` a spectral density (the model has no
 /// `known` constants: the hybrid EKF asks for every coefficient at generation).
-fn constructor_tokens(layout: &FilterLayout, diagonal: bool) -> TokenStream {
+fn constructor_tokens(
+    layout: &FilterLayout,
+    diagonal: bool,
+    measurement_init: &TokenStream,
+) -> TokenStream {
     let q_words = if diagonal {
         "the process noise spectral densities `q` (a diagonal `Q`)"
     } else {
@@ -106,6 +120,6 @@ fn constructor_tokens(layout: &FilterLayout, diagonal: bool) -> TokenStream {
         &ident("HybridEkf"),
         &quote! { #[doc = #new_doc] },
         &KnownItems::default(),
-        &TokenStream::new(),
+        measurement_init,
     )
 }

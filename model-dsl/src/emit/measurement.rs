@@ -1,0 +1,343 @@
+//! The measurement stage every filter that corrects with all its outputs shares: the last
+//! innovation `r = y - h(x)` and its covariance `S`, stored with the estimate, and what a
+//! user reads of them (`innovation()`, `normalised_innovation_squared()`), `reset`, and
+//! the optional innovation gate with its rejection of an outlier. Written once for the
+//! EKF, the hybrid EKF and the continuous-time EKF.
+
+use crate::emit::arguments::Arguments;
+use crate::emit::code::{guard_pivots, pivot_names, INNOVATION};
+use crate::emit::filter::{model_names, packed_vars, unclaimed_name, FilterLayout};
+use crate::emit::lower::{Lowerer, OpCount};
+use crate::emit::names::{ident, TempNamer};
+use crate::model::{Model, Scalar};
+use crate::symbolic::kalman;
+use crate::symbolic::linalg::{packed_len, symmetric_from_packed};
+use crate::symbolic::{Graph, NodeId};
+use proc_macro2::TokenStream;
+use quote::quote;
+
+/// The fields a filter that measures adds to its layout's: the last innovation and its
+/// packed covariance, and the gate when it has one; each followed by a comma.
+pub fn fields(model: &Model, gate: Option<f64>, ty: &proc_macro2::Ident) -> TokenStream {
+    let m = model.outputs.len();
+    let (m_len, mp) = (
+        proc_macro2::Literal::usize_unsuffixed(m),
+        proc_macro2::Literal::usize_unsuffixed(packed_len(m)),
+    );
+    let gate_field = gate.map(|_| quote! { gate: #ty, });
+    quote! {
+        innovation: [#ty; #m_len],
+        innovation_covariance: [#ty; #mp],
+        #gate_field
+    }
+}
+
+/// The constructor's initial values of [`fields`]: before any measurement a zero
+/// innovation of unit covariance (a normalised square of 0), and the generated gate.
+pub fn initial_values(model: &Model, gate: Option<f64>, scalar: Scalar) -> TokenStream {
+    let m = model.outputs.len();
+    let zero = crate::emit::lower::literal(0.0, scalar);
+    let m_len = proc_macro2::Literal::usize_unsuffixed(m);
+    let identity = packed_identity(m, scalar);
+    let gate_init = gate.map(|gate| {
+        let value = crate::emit::lower::literal(gate, scalar);
+        quote! { gate: #value, }
+    });
+    quote! {
+        innovation: [#zero; #m_len],
+        innovation_covariance: #identity,
+        #gate_init
+    }
+}
+
+/// The methods of the stage: `reset`, `innovation`, `normalised_innovation_squared`, and
+/// with a gate its getter and setter and the step's cold answer to an outlier.
+pub fn methods(
+    model: &Model,
+    layout: &FilterLayout,
+    gate: Option<f64>,
+    scalar: Scalar,
+) -> TokenStream {
+    let zero = crate::emit::lower::literal(0.0, scalar);
+    let identity = packed_identity(model.outputs.len(), scalar);
+    let innovation = innovation_methods(model, layout, scalar, (&zero, &identity));
+    let gate_methods = gate.map(|gate| {
+        let accessors = gate_items(gate, &layout.ty, scalar);
+        let keep = keep_prediction_method(model, &layout.ty);
+        quote! { #accessors #keep }
+    });
+    quote! {
+        #innovation
+
+        #gate_methods
+    }
+}
+
+/// Names the innovation's entries `<output>_innovation`, before the update uses them.
+pub fn name_innovation(lowerer: &mut Lowerer, model: &Model, innovation: &[NodeId]) {
+    for (&r, o) in innovation.iter().zip(&model.outputs) {
+        lowerer.prefer_name(r, &format!("{}_innovation", o.name));
+    }
+}
+
+/// What a correction with every output keeps of its measurement: the innovation, its
+/// packed covariance and, with a gate, the normalised innovation squared it tests.
+pub struct Kept<'a> {
+    /// `y - h(x)`.
+    pub innovation: &'a [NodeId],
+    /// `S`, packed.
+    pub covariance: &'a [NodeId],
+    /// `r' S^-1 r`, computed at once only for the gate.
+    pub nis: Option<NodeId>,
+    /// Whether the method is a step (a prediction and the correction): with a gate, an
+    /// outlier keeps the prediction.
+    pub step: bool,
+}
+
+/// Lowers what `kept` stores, last, where it holds no register while the update runs, and
+/// returns its assignments for the commit; with a gate, its test just before the commit
+/// (an outlier costs a whole update, the usual sample nothing more). NaN is not within
+/// the gate: a measurement that gives it is rejected.
+pub fn store_and_gate(lowerer: &mut Lowerer, model: &Model, kept: &Kept<'_>) -> TokenStream {
+    let m = kept.innovation.len();
+    lowerer.count_extra(OpCount::stores(m + packed_len(m)));
+    let innovation_values = lowerer.segment(kept.innovation);
+    let covariance_values = lowerer.segment(kept.covariance);
+    let store = store_innovation_tokens(&innovation_values, &covariance_values);
+    let Some(nis) = kept.nis else {
+        return store;
+    };
+    let nis = lowerer.bind(nis, "nis");
+    let keep_prediction = kept.step.then(|| {
+        let args = prediction_arguments(model);
+        quote! {
+            self.keep_prediction(
+                #(#args,)* [#(#innovation_values),*], [#(#covariance_values),*],
+            )
+        }
+    });
+    let rejection = outlier_rejection(keep_prediction, &store);
+    let within_gate = lowerer.fresh_name("within_gate");
+    lowerer.statement(quote! {
+        let #within_gate = #nis <= self.gate;
+        if !#within_gate {
+            #rejection
+        }
+    });
+    lowerer.count_extra(OpCount {
+        compare: 1,
+        ..Default::default()
+    });
+    store
+}
+
+/// `reset`, `innovation` and `normalised_innovation_squared`: starting again, and what
+/// the last measurement said.
+fn innovation_methods(
+    model: &Model,
+    layout: &FilterLayout,
+    scalar: Scalar,
+    (zero, identity): (&TokenStream, &TokenStream),
+) -> TokenStream {
+    let FilterLayout { ty, m_len, .. } = layout;
+    let mut arguments = Arguments::default();
+    let p0 = layout.initial_estimate(&mut arguments);
+    let reset = arguments.method(
+        &ident("reset"),
+        &quote! {
+            /// Starts the filter again from the estimate `x0` and covariance `p0` (only its
+            /// upper triangle is read), keeping the noise covariances: the way back after
+            /// a fault (a run of [`Status::NonFinite`] or of rejected outliers) or a
+            /// restart of the plant. The innovation is cleared. Rejects a non-finite entry
+            /// with [`Status::RejectedInput`], leaving the filter unchanged.
+        },
+        quote! {
+            self.x = *x0;
+            self.p = [#(#p0),*];
+            self.innovation = [#zero; #m_len];
+            self.innovation_covariance = #identity;
+            Status::Ok
+        },
+    );
+    let nis_method = nis_method(model, scalar);
+    quote! {
+        #reset
+
+        /// The innovation `y - h(x)` of the last measurement used or rejected: what
+        /// the measurement said that the prediction did not.
+        #[must_use]
+        pub fn innovation(&self) -> [#ty; #m_len] {
+            self.innovation
+        }
+
+        #nis_method
+    }
+}
+
+/// `[1.0, 0.0, .., 1.0]`: the packed `m x m` identity, the innovation covariance before any
+/// measurement (with a zero innovation, a normalised square of 0).
+fn packed_identity(m: usize, scalar: Scalar) -> TokenStream {
+    let entries = (0..m).flat_map(|i| {
+        (i..m).map(move |j| crate::emit::lower::literal(if i == j { 1.0 } else { 0.0 }, scalar))
+    });
+    quote! { [#(#entries),*] }
+}
+
+/// `fn normalised_innovation_squared(&self)`: `r' S^-1 r` from the stored innovation `r`
+/// and its covariance `S`, through the same guarded `L D L'` inverse as the update. Computed
+/// when asked, so a step that does not gate pays only for storing `S`.
+fn nis_method(model: &Model, scalar: Scalar) -> TokenStream {
+    let m = model.outputs.len();
+    let mut graph = Graph::new();
+    let avoid = model_names(model);
+    let innovation: Vec<NodeId> = model
+        .outputs
+        .iter()
+        .map(|o| graph.var(&unclaimed_name(format!("{}_innovation", o.name), &avoid)))
+        .collect();
+    let s_vars = packed_vars(&mut graph, "s", m, &avoid);
+    let s = symmetric_from_packed(&s_vars, m);
+    let ldl = crate::symbolic::linalg::ldl_inverse(&mut graph, &s, |g, j| {
+        g.var(&pivot_names(m, j, INNOVATION, "").1)
+    });
+    let nis = kalman::normalised_innovation_squared(&mut graph, &innovation, &ldl.inverse);
+    let mut roots = ldl.pivots.clone();
+    roots.push(nis);
+    let namer = TempNamer::new(avoid.iter().map(String::as_str));
+    let mut lowerer = Lowerer::new(&graph, scalar, namer, &roots);
+    lowerer.read_lazily(&quote! { self.innovation }, &innovation);
+    lowerer.read_lazily(&quote! { self.innovation_covariance }, &s_vars);
+    let ty = ident(scalar.type_name());
+    // The stored covariance passed this test when its measurement was used: a failure here
+    // cannot happen, and would read as "inconsistent".
+    let on_failure = quote! { return #ty::INFINITY; };
+    guard_pivots(
+        &mut lowerer,
+        &ldl.pivots,
+        &ldl.reciprocals,
+        (INNOVATION, ""),
+        &on_failure,
+        scalar,
+    );
+    let value = lowerer.segment(&[nis]).remove(0);
+    let statements = lowerer.finish().statements;
+    quote! {
+        /// The normalised innovation squared `r' S^-1 r` of the last measurement used
+        /// or rejected (`r` its innovation, `S` the innovation covariance). While the
+        /// model and noise levels are right it is chi-square distributed with as many
+        /// degrees of freedom as measurements (mean `Y_LEN`); a run of large values says
+        /// the model, the tuning or the sensor is wrong. 0 before the first measurement.
+        #[must_use]
+        pub fn normalised_innovation_squared(&self) -> #ty {
+            #(#statements)*
+            #value
+        }
+    }
+}
+
+/// The innovation gate's getter and setter; `gate` is its generated value.
+fn gate_items(gate: f64, ty: &proc_macro2::Ident, scalar: Scalar) -> TokenStream {
+    let zero = crate::emit::lower::literal(0.0, scalar);
+    let generated = if gate.is_finite() {
+        format!("{gate}")
+    } else {
+        "infinity (open)".to_owned()
+    };
+    let doc = format!(
+        " The innovation gate: a measurement whose normalised innovation squared exceeds it \
+         is rejected ([`Status::OutlierRejected`]). Generated as {generated}."
+    );
+    quote! {
+        #[doc = #doc]
+        #[must_use]
+        pub fn innovation_gate(&self) -> #ty {
+            self.gate
+        }
+
+        /// Sets the innovation gate (a chi-square quantile for `Y_LEN` degrees of
+        /// freedom: 10.83 rejects one in a thousand consistent scalar measurements;
+        /// infinity opens it). Rejects a threshold that is not positive, leaving the
+        /// gate as it was.
+        pub fn set_innovation_gate(&mut self, threshold: #ty) -> Status {
+            if threshold > #zero {
+                self.gate = threshold;
+                Status::Ok
+            } else {
+                Status::RejectedInput
+            }
+        }
+    }
+}
+
+/// `self.innovation = [..]; self.innovation_covariance = [..];`
+fn store_innovation_tokens(innovation: &[TokenStream], covariance: &[TokenStream]) -> TokenStream {
+    quote! {
+        self.innovation = [#(#innovation),*];
+        self.innovation_covariance = [#(#covariance),*];
+    }
+}
+
+/// What a gated update does with an outlier: store its innovation and return
+/// `OutlierRejected`. A step keeps its prediction, as `predict` alone would have, through
+/// the cold, out-of-line `keep_prediction` (`keep_prediction`: its call), so the usual
+/// sample pays only for the test.
+fn outlier_rejection(
+    keep_prediction: Option<TokenStream>,
+    store_innovation: &TokenStream,
+) -> TokenStream {
+    match keep_prediction {
+        Some(call) => quote! { return #call; },
+        None => quote! {
+            #store_innovation
+            return Status::OutlierRejected;
+        },
+    }
+}
+
+/// The arguments a step passes on to `predict`: `t_prev` and `u_prev` where the model has
+/// them.
+fn prediction_arguments(model: &Model) -> Vec<TokenStream> {
+    let mut args = Vec::new();
+    if model.uses_time() {
+        args.push(quote! { t_prev });
+    }
+    if !model.inputs.is_empty() {
+        args.push(quote! { u_prev });
+    }
+    args
+}
+
+/// `fn keep_prediction`: a gated step's answer to an outlier.
+fn keep_prediction_method(model: &Model, ty: &proc_macro2::Ident) -> TokenStream {
+    let m = proc_macro2::Literal::usize_unsuffixed(model.outputs.len());
+    let mp = proc_macro2::Literal::usize_unsuffixed(packed_len(model.outputs.len()));
+    let mut params = Vec::new();
+    if model.uses_time() {
+        params.push(quote! { t_prev: #ty });
+    }
+    if !model.inputs.is_empty() {
+        let u = proc_macro2::Literal::usize_unsuffixed(model.inputs.len());
+        params.push(quote! { u_prev: &[#ty; #u] });
+    }
+    let args = prediction_arguments(model);
+    quote! {
+        /// A step's outlier: the prediction is kept, the measurement only recorded. Out of
+        /// line and cold, so the usual sample does not pay for it.
+        #[cold]
+        #[inline(never)]
+        fn keep_prediction(
+            &mut self,
+            #(#params,)*
+            innovation: [#ty; #m],
+            innovation_covariance: [#ty; #mp],
+        ) -> Status {
+            let predicted = self.predict(#(#args),*);
+            if predicted != Status::Ok {
+                return predicted;
+            }
+            self.innovation = innovation;
+            self.innovation_covariance = innovation_covariance;
+            Status::OutlierRejected
+        }
+    }
+}
