@@ -207,23 +207,15 @@ impl<const N: usize, const M: usize, const U: usize> ContinuousEkf<'_, N, M, U> 
 /// eighth-order Dormand-Prince method of the `ode_solvers` crate: what the split
 /// integration of [`ContinuousEkf`] approximates.
 pub struct ContinuousEkfEquation<'m, const N: usize, const M: usize, const U: usize> {
-    /// The model (its rule and sub-steps are not used).
-    pub model: &'m Model<N, M, U>,
-    /// Estimate and covariance.
-    pub estimate: Estimate<N>,
-    /// Process noise spectral density.
-    pub q: SMatrix<f64, N, N>,
-    /// Measurement noise spectral density.
-    pub r: SMatrix<f64, M, M>,
-    /// Prescribed degree of stability.
-    pub alpha: f64,
+    /// The filter's model (its rule and sub-steps are not used), estimate and tuning.
+    pub filter: ContinuousEkf<'m, N, M, U>,
     /// Relative and absolute tolerance of each step.
     pub tolerance: f64,
 }
 
 /// The equations over one sample, as `ode_solvers` asks: `[x, P by rows]`.
 struct OverSample<'a, const N: usize, const M: usize, const U: usize> {
-    filter: &'a ContinuousEkfEquation<'a, N, M, U>,
+    filter: &'a ContinuousEkf<'a, N, M, U>,
     t_prev: f64,
     u: [f64; U],
     y: SVector<f64, M>,
@@ -257,7 +249,7 @@ impl<const N: usize, const M: usize, const U: usize>
 impl<const N: usize, const M: usize, const U: usize> ContinuousEkfEquation<'_, N, M, U> {
     /// One sample from `t_prev` with `u` and `y` held; the solver's error if it fails.
     pub fn step(&mut self, t_prev: f64, u: &[f64; U], y: &SVector<f64, M>) -> Result<(), String> {
-        let (x, p) = self.estimate;
+        let (x, p) = self.filter.estimate;
         let z = ode_solvers::DVector::from_iterator(
             N + N * N,
             x.iter()
@@ -265,13 +257,13 @@ impl<const N: usize, const M: usize, const U: usize> ContinuousEkfEquation<'_, N
                 .chain((0..N * N).map(|k| p[(k / N, k % N)])),
         );
         let system = OverSample {
-            filter: self,
+            filter: &self.filter,
             t_prev,
             u: *u,
             y: *y,
-            r_inv: self.r.try_inverse().ok_or("R is singular")?,
+            r_inv: self.filter.r.try_inverse().ok_or("R is singular")?,
         };
-        let dt = self.model.dt;
+        let dt = self.filter.model.dt;
         // Local time from 0: the solver's last step, to the end, is then not shortened
         // to a rounding error of `t_prev`.
         let mut solver = ode_solvers::Dop853::from_param(
@@ -297,7 +289,7 @@ impl<const N: usize, const M: usize, const U: usize> ContinuousEkfEquation<'_, N
         let end = solver.y_out().last().ok_or("no output")?;
         let x = SVector::<f64, N>::from_fn(|i, _| end[i]);
         let p = SMatrix::<f64, N, N>::from_fn(|i, j| end[N + N * i + j]);
-        self.estimate = (x, p);
+        self.filter.estimate = (x, p);
         Ok(())
     }
 }

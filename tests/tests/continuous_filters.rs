@@ -750,11 +750,13 @@ fn continuous_ekf_against_its_equation(
     let mut generated = Generated::new(&x0, &to_array(&p0), &HELICOPTER_Q, &to_array(&r)).unwrap();
     assert_eq!(generated.set_alpha(alpha), Status::Ok);
     let mut equation = ContinuousEkfEquation {
-        model: &helicopter_model::MODEL,
-        estimate: (SVector::from(x0), p0),
-        q: diagonal(HELICOPTER_Q),
-        r,
-        alpha,
+        filter: ContinuousEkf {
+            model: &helicopter_model::MODEL,
+            estimate: (SVector::from(x0), p0),
+            q: diagonal(HELICOPTER_Q),
+            r,
+            alpha,
+        },
         tolerance: 1e-12,
     };
     let mut truth = [0.0; 6];
@@ -771,7 +773,7 @@ fn continuous_ekf_against_its_equation(
         assert_spd(&what, &generated.covariance());
         let x = generated.state();
         for (angle, index) in [0, 2].into_iter().enumerate() {
-            let d = (x[index] - equation.estimate.0[index]).abs();
+            let d = (x[index] - equation.filter.estimate.0[index]).abs();
             difference[angle] = difference[angle].max(d);
             rate[angle] = rate[angle].max(truth[index + 1].abs());
         }

@@ -303,6 +303,9 @@ impl MethodNodes {
         let (rule, h, substeps) = g
             .substep(model)
             .expect("the checker admits the hybrid EKF on continuous dynamics only");
+        let dt = g
+            .sample_time(model)
+            .expect("continuous dynamics state their sample time");
         let t_start = match kind {
             _ if !model.uses_time() => g.t,
             // `predict` evaluates the model from one time, the previous sample's.
@@ -312,12 +315,8 @@ impl MethodNodes {
             FilterMethod::Step | FilterMethod::Continuous { .. } => g.graph.var("t_prev"),
             FilterMethod::Update => g.t,
         };
-        let t_measured = (kind.predicts() && kind.updates() && model.uses_time()).then(|| {
-            let dt = g
-                .sample_time(model)
-                .expect("continuous dynamics state their sample time");
-            g.graph.add(t_start, dt)
-        });
+        let t_measured = (kind.predicts() && kind.updates() && model.uses_time())
+            .then(|| g.graph.add(t_start, dt));
         let t_sub = g.graph.var(T_SUB);
         let dynamics = Dynamics::new(&mut g, model, kind, &vars, t_sub, &avoid);
         let mut nodes = MethodNodes {
@@ -344,13 +343,7 @@ impl MethodNodes {
         if kind.updates() {
             // The continuous-time EKF's measurement terms over the sample `T` are the
             // update with `R / T` (see `FilterMethod::Continuous`).
-            let noise_duration = kind.is_continuous().then(|| {
-                nodes
-                    .g
-                    .sample_time(model)
-                    .expect("continuous dynamics state their sample time")
-            });
-            nodes.correct(m, noise_duration);
+            nodes.correct(m, kind.is_continuous().then_some(dt));
         }
         nodes
     }

@@ -35,19 +35,25 @@ pub fn fields(model: &Model, gate: Option<f64>, ty: &proc_macro2::Ident) -> Toke
 /// The constructor's initial values of [`fields`]: before any measurement a zero
 /// innovation of unit covariance (a normalised square of 0), and the generated gate.
 pub fn initial_values(model: &Model, gate: Option<f64>, scalar: Scalar) -> TokenStream {
-    let m = model.outputs.len();
-    let zero = crate::emit::lower::literal(0.0, scalar);
-    let m_len = proc_macro2::Literal::usize_unsuffixed(m);
-    let identity = packed_identity(m, scalar);
+    let (innovation, covariance) = cleared(model, scalar);
     let gate_init = gate.map(|gate| {
         let value = crate::emit::lower::literal(gate, scalar);
         quote! { gate: #value, }
     });
     quote! {
-        innovation: [#zero; #m_len],
-        innovation_covariance: #identity,
+        innovation: #innovation,
+        innovation_covariance: #covariance,
         #gate_init
     }
+}
+
+/// The innovation and its packed covariance before any measurement, and after `reset`: a
+/// zero innovation of unit covariance, whose normalised square is 0.
+fn cleared(model: &Model, scalar: Scalar) -> (TokenStream, TokenStream) {
+    let m = model.outputs.len();
+    let zero = crate::emit::lower::literal(0.0, scalar);
+    let m_len = proc_macro2::Literal::usize_unsuffixed(m);
+    (quote! { [#zero; #m_len] }, packed_identity(m, scalar))
 }
 
 /// The methods of the stage: `reset`, `innovation`, `normalised_innovation_squared`, and
@@ -58,9 +64,7 @@ pub fn methods(
     gate: Option<f64>,
     scalar: Scalar,
 ) -> TokenStream {
-    let zero = crate::emit::lower::literal(0.0, scalar);
-    let identity = packed_identity(model.outputs.len(), scalar);
-    let innovation = innovation_methods(model, layout, scalar, (&zero, &identity));
+    let innovation = innovation_methods(model, layout, scalar);
     let gate_methods = gate.map(|gate| {
         let accessors = gate_items(gate, &layout.ty, scalar);
         let keep = keep_prediction_method(model, &layout.ty);
@@ -133,13 +137,9 @@ pub fn store_and_gate(lowerer: &mut Lowerer, model: &Model, kept: &Kept<'_>) -> 
 
 /// `reset`, `innovation` and `normalised_innovation_squared`: starting again, and what
 /// the last measurement said.
-fn innovation_methods(
-    model: &Model,
-    layout: &FilterLayout,
-    scalar: Scalar,
-    (zero, identity): (&TokenStream, &TokenStream),
-) -> TokenStream {
+fn innovation_methods(model: &Model, layout: &FilterLayout, scalar: Scalar) -> TokenStream {
     let FilterLayout { ty, m_len, .. } = layout;
+    let (cleared_innovation, cleared_covariance) = cleared(model, scalar);
     let mut arguments = Arguments::default();
     let p0 = layout.initial_estimate(&mut arguments);
     let reset = arguments.method(
@@ -154,8 +154,8 @@ fn innovation_methods(
         quote! {
             self.x = *x0;
             self.p = [#(#p0),*];
-            self.innovation = [#zero; #m_len];
-            self.innovation_covariance = #identity;
+            self.innovation = #cleared_innovation;
+            self.innovation_covariance = #cleared_covariance;
             Status::Ok
         },
     );
