@@ -33,8 +33,9 @@ stateforge::model! {
             /// measured tip position y = q \[m\]
             y = q;
         // The hybrid EKF of sect. 3.2 with the paper's Euler integration at dt = T/500
-        // (sect. 4.1), the 500 sub-steps as a loop.
-        generate hybrid_ekf(process_noise = diagonal);
+        // (sect. 4.1), the 500 sub-steps as a loop; its innovation gate open until set at
+        // run time (`set_innovation_gate`).
+        generate hybrid_ekf(gate = off, process_noise = diagonal);
         dynamics continuous(euler, dt = TS, substeps = 500) {
             // eq. (19)
             der(q) = qd;

@@ -70,3 +70,24 @@ pub fn all_finite<const N: usize>(values: [f64; N]) -> bool {
 pub fn abs(x: f64) -> f64 {
     f64::from_bits(x.to_bits() & !(1 << 63))
 }
+
+/// Whether `m` is a covariance: symmetric to within rounding and positive semi-definite,
+/// tested by an `L D L'` factorisation in `f64`. Symmetric means
+/// `(m[i][j] - m[j][i])^2 <= eps m[i][i] m[j][j]`; semi-definite means that
+/// `M + delta diag(M)`, `delta = 2 n (n + 1) eps`, factorises with positive pivots: the
+/// shift forgives what rounding makes of a semi-definite matrix scaled to unit variances,
+/// and nothing of a negative variance or a correlation beyond 1 by more than that. Each
+/// tolerance is relative to the entries' own variances, so a variance of 1e8 beside one
+/// of 1e-6 is judged each on its own scale; a zero variance must have zero covariances. A filter tests every
+/// covariance it is given (initial, process and measurement noise) so; the entries must be
+/// finite (tested first).
+#[must_use]
+pub fn is_covariance<const N: usize>(m: &[[f64; N]; N]) -> bool {
+    crate::covariance::is_covariance(m)
+}
+
+/// Whether every variance of a diagonal covariance is non-negative (NaN is not).
+#[must_use]
+pub fn all_non_negative<const N: usize>(variances: &[f64; N]) -> bool {
+    crate::covariance::all_non_negative(variances)
+}

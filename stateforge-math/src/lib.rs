@@ -7,7 +7,7 @@
 //! functions compute in software `f64` there (about 1000 instructions a call).
 //! [`f64`](mod@f64) delegates to `libm`, so a crate using generated code depends on this
 //! crate alone, whatever its scalar. Both have `all_finite`, the test generated steps
-//! make of their arguments.
+//! make of their arguments, and `is_covariance`, the test of a covariance argument.
 //!
 //! # Accuracy (f32)
 //!
@@ -34,5 +34,6 @@
 
 #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
 mod arm;
+mod covariance;
 pub mod f32;
 pub mod f64;

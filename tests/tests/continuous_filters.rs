@@ -718,18 +718,14 @@ fn non_finite_inputs_leave_the_continuous_filters_unchanged() {
         assert_eq!((hybrid, ct), (hybrid_before, ct_before));
     }
     // A huge input overflows the integration, nothing changed: in both filters' steps the
-    // guard on the (now NaN) innovation variance stops it before the update divides, in
-    // `predict` the final check after the integration.
+    // guard on the (now NaN) innovation variance stops it before the update divides and
+    // says why (not finite, rather than not positive), in `predict` the final check after
+    // the integration.
     let (hybrid_before, ct_before) = (hybrid, ct);
-    assert_eq!(
-        hybrid.step(0.0, &[1e308], &[0.1]),
-        Status::NonPositiveInnovation
-    );
+    assert_eq!(hybrid.step(0.0, &[1e308], &[0.1]), Status::NonFinite);
     assert_eq!(hybrid.predict(0.0, &[1e308]), Status::NonFinite);
-    assert_eq!(
-        ct.step(0.0, &[1e308], &[0.1]),
-        Status::NonPositiveInnovation
-    );
+    assert_eq!(ct.step(0.0, &[1e308], &[0.1]), Status::NonFinite);
+    assert_eq!(ct.predict(0.0, &[1e308]), Status::NonFinite);
     assert_eq!((hybrid, ct), (hybrid_before, ct_before));
 }
 

@@ -3,7 +3,7 @@
 //! scalar types: any construct outside an allow-list fails the test. The loops allowed run
 //! over a constant range with no counter: the LQR's `for _ in 0..Self::HORIZON` and the
 //! integration sub-steps, `for _ in 0..Self::SUBSTEPS` or `0..F_SUBSTEPS`; the only method
-//! calls are `is_finite` and the generated type's own methods on `self`.
+//! calls are `is_finite`, `is_nan` and the generated type's own methods on `self`.
 
 use syn::visit::Visit;
 use tests::{demo_model_code, test_model_code, DEMO_MODELS, TEST_MODELS};
@@ -24,7 +24,7 @@ impl<'ast> Visit<'ast> for Findings {
                 let on_self = matches!(&*m.receiver, Expr::Path(p) if p.path.is_ident("self"));
                 match m.method.to_string().as_str() {
                     "unwrap" | "expect" => Some("unwrap/expect"),
-                    "is_finite" if m.args.is_empty() => None,
+                    "is_finite" | "is_nan" if m.args.is_empty() => None,
                     _ if on_self => None,
                     _ => Some("a method call"),
                 }

@@ -82,19 +82,25 @@ fn continuous_ekf_noise_and_alpha_setters() {
         Status::RejectedInput
     );
     assert_eq!(filter, before);
-    // The step's update divides by `H P H' + R / T`, never by `R`: a perfect sensor (a zero
-    // variance) is used, a negative variance that makes the innovation variance negative is
-    // caught (never divided by) at the step.
+    // A negative variance, or a correlation beyond 1, is not a covariance: rejected where it
+    // enters, the filter unchanged.
     assert_eq!(
         filter.set_measurement_noise(&[[-1.0, 0.0], [0.0, 1.0]]),
-        Status::Ok
+        Status::InvalidCovariance
     );
     assert_eq!(
-        filter.step(0.0, &[0.0; 2], &[0.0; 2]),
-        Status::NonPositiveInnovation
+        filter.set_measurement_noise(&[[1e-3, 2e-3], [2e-3, 1e-3]]),
+        Status::InvalidCovariance
     );
+    assert_eq!(
+        filter.set_process_noise(&[0.1, -1e-9, 0.1, 0.1, 0.1, 0.1]),
+        Status::InvalidCovariance
+    );
+    assert_eq!(filter, before);
     assert_eq!(filter.set_measurement_noise(&r), Status::Ok);
     assert_eq!(filter, before);
+    // The step's update divides by `H P H' + R / T`, never by `R`: a perfect sensor (a zero
+    // variance) is a covariance, and is used.
     let mut perfect = filter;
     assert_eq!(
         perfect.set_measurement_noise(&[[0.0, 0.0], [0.0, 1.0]]),

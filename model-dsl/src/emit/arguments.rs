@@ -1,6 +1,7 @@
 //! The arguments of a generated method or constructor: their parameters, the statements
-//! binding the entries the code reads, and the check that those entries are finite, made
-//! where the arguments enter, before anything is computed or stored.
+//! binding the entries the code reads, and the checks made where the arguments enter,
+//! before anything is computed or stored: every entry read finite, and every covariance a
+//! covariance (symmetric, positive semi-definite).
 
 use super::code::{all_is_finite, reject_non_finite, upper_triangle};
 use super::names::ident;
@@ -10,6 +11,11 @@ use quote::quote;
 /// What a constructor's `# Errors` section says of the check every constructor makes.
 pub const REJECTS_NON_FINITE: &str = " [`Status::RejectedInput`] if an entry it reads is not \
      finite (of a symmetric matrix, the upper triangle).";
+
+/// What a filter constructor's `# Errors` section says of its covariance arguments.
+pub const REJECTS_NON_COVARIANCE: &str = " [`Status::InvalidCovariance`] if a covariance \
+     argument is not symmetric and positive semi-definite (to within rounding; a diagonal \
+     one, if a variance is negative).";
 
 /// The arguments of a generated method or constructor, the statements unpacking them into
 /// the variables the code reads, and those variables, which it rejects unless finite.
@@ -23,6 +29,9 @@ pub struct Arguments {
     checked: Vec<Ident>,
     /// Their scalar type, `f32` or `f64` (the last one given).
     scalar_type: Option<Ident>,
+    /// The tests that the covariance arguments are covariances, made once they are known
+    /// finite.
+    covariances: Vec<TokenStream>,
 }
 
 impl Arguments {
@@ -62,8 +71,16 @@ impl Arguments {
         packed
     }
 
+    /// A covariance `name` (`n x n`): a [`Arguments::symmetric`] matrix, also tested
+    /// symmetric and positive semi-definite (`stateforge_math`'s `is_covariance`).
+    pub fn covariance(&mut self, name: &str, n: usize, ty: &Ident) -> Vec<Ident> {
+        let packed = self.symmetric(name, n, ty);
+        self.covariances.push(covariance_test(name, false, ty));
+        packed
+    }
+
     /// A process noise covariance `name` (`n x n`): its variances if `diagonal`
-    /// ([`Arguments::vector`]), else the symmetric matrix ([`Arguments::symmetric`]).
+    /// ([`Arguments::vector`], tested non-negative), else a [`Arguments::covariance`].
     pub fn process_noise(
         &mut self,
         name: &str,
@@ -72,9 +89,11 @@ impl Arguments {
         ty: &Ident,
     ) -> Vec<Ident> {
         if diagonal {
-            self.vector(name, n, ty)
+            let variances = self.vector(name, n, ty);
+            self.covariances.push(covariance_test(name, true, ty));
+            variances
         } else {
-            self.symmetric(name, n, ty)
+            self.covariance(name, n, ty)
         }
     }
 
@@ -95,13 +114,16 @@ impl Arguments {
             unpack,
             checked,
             scalar_type,
+            covariances,
         } = self;
         let check = scalar_type.map(|ty| reject_non_finite(&checked, &ty));
+        let covariance_check = reject_non_covariance(&covariances, false);
         quote! {
             #doc
             pub fn #name(&mut self, #(#params),*) -> Status {
                 #(#unpack)*
                 #check
+                #covariance_check
                 #body
             }
         }
@@ -117,6 +139,7 @@ impl Arguments {
             params,
             unpack,
             checked,
+            covariances,
             ..
         } = self;
         let check = (!checked.is_empty()).then(|| {
@@ -127,17 +150,54 @@ impl Arguments {
                 }
             }
         });
+        let covariance_check = reject_non_covariance(&covariances, true);
+        let covariance_errors = (!covariances.is_empty()).then(|| {
+            quote! {
+                ///
+                #[doc = #REJECTS_NON_COVARIANCE]
+            }
+        });
         quote! {
             #doc
             ///
             /// # Errors
             ///
             #[doc = #errors]
+            #covariance_errors
             pub fn new(#(#params),*) -> Result<Self, Status> {
                 #(#unpack)*
                 #check
+                #covariance_check
                 #body
             }
         }
     }
+}
+
+/// `stateforge_math::<ty>::is_covariance(name)`, or `all_non_negative(name)` of the
+/// variances of a `diagonal` covariance.
+pub fn covariance_test(name: &str, diagonal: bool, ty: &Ident) -> TokenStream {
+    let arg = ident(name);
+    if diagonal {
+        quote! { stateforge_math::#ty::all_non_negative(#arg) }
+    } else {
+        quote! { stateforge_math::#ty::is_covariance(#arg) }
+    }
+}
+
+/// `if !(test && ..) { return Status::InvalidCovariance; }` (`Err(..)` in a
+/// `constructor`), or nothing without a test.
+pub fn reject_non_covariance(tests: &[TokenStream], constructor: bool) -> Option<TokenStream> {
+    let status = if constructor {
+        quote! { Err(Status::InvalidCovariance) }
+    } else {
+        quote! { Status::InvalidCovariance }
+    };
+    (!tests.is_empty()).then(|| {
+        quote! {
+            if !(#(#tests)&&*) {
+                return #status;
+            }
+        }
+    })
 }

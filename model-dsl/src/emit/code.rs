@@ -108,15 +108,28 @@ pub fn guarded_reciprocal(
     }
 }
 
+/// What a filter does when a pivot of its innovation covariance fails the guard: returns
+/// `NonFinite` if it is NaN (an overflow within the step), else `NonPositiveInnovation`.
+/// Only the failing branch tests for NaN.
+pub fn innovation_pivot_failure(pivot: &TokenStream) -> TokenStream {
+    quote! {
+        return if #pivot.is_nan() {
+            Status::NonFinite
+        } else {
+            Status::NonPositiveInnovation
+        };
+    }
+}
+
 /// Binds each pivot of an `L D L'` solve under its name ([`pivot_names`] with `prefixes`
-/// and `suffix`), checks it is positive (running `on_failure` if not) and binds its
-/// reciprocal, counting the division and comparison.
+/// and `suffix`), checks it is positive (running `on_failure` of the pivot's value if
+/// not) and binds its reciprocal, counting the division and comparison.
 pub fn guard_pivots(
     lowerer: &mut super::lower::Lowerer,
     pivots: &[NodeId],
     reciprocals: &[NodeId],
     (prefixes, suffix): ((&str, &str), &str),
-    on_failure: &TokenStream,
+    on_failure: &dyn Fn(&TokenStream) -> TokenStream,
     scalar: Scalar,
 ) {
     let m = pivots.len();
@@ -125,7 +138,8 @@ pub fn guard_pivots(
         let value = lowerer.bind(pivot, &name);
         lowerer.hold_in_registers(&[reciprocal]);
         let reciprocal = var_idents(lowerer.graph(), &[reciprocal]).remove(0);
-        lowerer.statement(guarded_reciprocal(&value, &reciprocal, on_failure, scalar));
+        let failure = on_failure(&value);
+        lowerer.statement(guarded_reciprocal(&value, &reciprocal, &failure, scalar));
         lowerer.count_extra(super::lower::OpCount {
             div: 1,
             compare: 1,

@@ -10,7 +10,8 @@
 
 use crate::emit::arguments::Arguments;
 use crate::emit::code::{
-    commit_or_non_finite_with, guard_pivots, pivot_names, var_idents, INNOVATION,
+    commit_or_non_finite_with, guard_pivots, innovation_pivot_failure, pivot_names, var_idents,
+    INNOVATION,
 };
 use crate::emit::filter::{
     finiteness_probe, model_names, name_estimate, time_param, unclaimed_name, FilterVars,
@@ -58,6 +59,12 @@ pub enum FilterMethod {
         /// Whether the filter has the field `alpha`.
         alpha: bool,
     },
+    /// The continuous-time EKF's step without the measurement terms: its propagation alone,
+    /// for a sample without a measurement and for a gated step's outlier.
+    ContinuousPredict {
+        /// Whether the filter has the field `alpha`.
+        alpha: bool,
+    },
 }
 
 impl FilterMethod {
@@ -69,7 +76,19 @@ impl FilterMethod {
     /// Whether the method makes the discrete update at the sample (the continuous-time
     /// EKF's is the exact flow of its measurement terms).
     fn updates(self) -> bool {
-        self != FilterMethod::Predict
+        !matches!(
+            self,
+            FilterMethod::Predict | FilterMethod::ContinuousPredict { .. }
+        )
+    }
+
+    /// Whether the propagation has the prescribed degree of stability `alpha`.
+    fn has_alpha(self) -> bool {
+        matches!(
+            self,
+            FilterMethod::Continuous { alpha: true }
+                | FilterMethod::ContinuousPredict { alpha: true }
+        )
     }
 
     /// Whether it is the continuous-time EKF's step.
@@ -80,7 +99,7 @@ impl FilterMethod {
     /// What the method's documentation says of its times, for a model that reads `t`.
     fn time_doc(self) -> &'static str {
         match self {
-            FilterMethod::Predict => {
+            FilterMethod::Predict | FilterMethod::ContinuousPredict { .. } => {
                 " The integration starts at `t_prev`, the previous sample's time."
             }
             FilterMethod::Update => " `h` is evaluated at `t`, the measurement's time.",
@@ -127,8 +146,25 @@ impl FilterMethod {
                  measurement and a non-positive innovation variance (never divided by); \
                  leaves the filter unchanged unless it returns [`Status::Ok`].",
             ),
+            FilterMethod::ContinuousPredict { .. } => (
+                "predict",
+                " Integrates the estimate and the Riccati equation (eq. 5) over one sample \
+                 without the measurement terms, with the input `u_prev` held: the sample \
+                 without a measurement (a sensor dropout), and what a gated step keeps of an \
+                 outlier. Rejects a non-finite input; leaves the filter unchanged unless it \
+                 returns [`Status::Ok`].",
+            ),
         }
     }
+}
+
+/// The options of a filter that shape each of its methods.
+#[derive(Clone, Copy)]
+pub struct FilterOptions {
+    /// Whether the process noise is stored as its diagonal.
+    pub diagonal_noise: bool,
+    /// Whether the filter has an innovation gate, which its corrections pass.
+    pub gated: bool,
 }
 
 /// One method: the propagation between samples and/or the update at the sample, built
@@ -139,9 +175,9 @@ pub fn method(
     mg: &ModelGraph,
     scalar: Scalar,
     kind: FilterMethod,
-    diagonal_noise: bool,
+    options: FilterOptions,
 ) -> (TokenStream, OpCount, OpCount) {
-    let mut nodes = MethodNodes::build(model, mg, kind, diagonal_noise);
+    let mut nodes = MethodNodes::build(model, mg, kind, options);
     let lowered = lower(&mut nodes, model, scalar, kind);
     let ty = ident(scalar.type_name());
     let arguments = arguments(&nodes, model, kind, &lowered.used_vars, &ty);
@@ -196,7 +232,8 @@ impl Dynamics {
                 .collect(),
         );
         // A model symbol may be called `alpha`: the local must not shadow it.
-        let alpha = matches!(kind, FilterMethod::Continuous { alpha: true })
+        let alpha = kind
+            .has_alpha()
             .then(|| g.graph.var(&unclaimed_name(String::from("alpha"), avoid)));
         let two_alpha = alpha.map(|alpha| {
             let two = g.graph.num(2.0);
@@ -284,6 +321,8 @@ struct MethodNodes {
     innovation: Vec<NodeId>,
     /// Its covariance, packed.
     innovation_covariance: Vec<NodeId>,
+    /// The normalised innovation squared, which only the gate needs at once.
+    nis: Option<NodeId>,
 }
 
 impl MethodNodes {
@@ -292,14 +331,14 @@ impl MethodNodes {
         model: &Model,
         mg: &ModelGraph,
         kind: FilterMethod,
-        diagonal_noise: bool,
+        options: FilterOptions,
     ) -> MethodNodes {
         let mut g = mg.clone();
         let (n, m) = (model.state_len(), model.outputs.len());
         let mut avoid = model_names(model);
         avoid.extend([X_SUB, P_SUB, T_SUB, "t_prev"].map(String::from));
         let all: Vec<usize> = (0..m).collect();
-        let vars = FilterVars::declare(&mut g.graph, model, &all, diagonal_noise, &avoid);
+        let vars = FilterVars::declare(&mut g.graph, model, &all, options.diagonal_noise, &avoid);
         let (rule, h, substeps) = g
             .substep(model)
             .expect("the checker admits the hybrid EKF on continuous dynamics only");
@@ -309,7 +348,7 @@ impl MethodNodes {
         let t_start = match kind {
             _ if !model.uses_time() => g.t,
             // `predict` evaluates the model from one time, the previous sample's.
-            FilterMethod::Predict => g.name_time("t_prev"),
+            FilterMethod::Predict | FilterMethod::ContinuousPredict { .. } => g.name_time("t_prev"),
             // A step's update and the continuous-time EKF's running time are at other
             // times than the start: it is a variable of its own.
             FilterMethod::Step | FilterMethod::Continuous { .. } => g.graph.var("t_prev"),
@@ -336,6 +375,7 @@ impl MethodNodes {
             reciprocals: Vec::new(),
             innovation: Vec::new(),
             innovation_covariance: Vec::new(),
+            nis: None,
         };
         if kind.predicts() {
             nodes.propagate((rule, h), model.uses_time());
@@ -343,7 +383,7 @@ impl MethodNodes {
         if kind.updates() {
             // The continuous-time EKF's measurement terms over the sample `T` are the
             // update with `R / T` (see `FilterMethod::Continuous`).
-            nodes.correct(m, kind.is_continuous().then_some(dt));
+            nodes.correct(m, kind.is_continuous().then_some(dt), options.gated);
         }
         nodes
     }
@@ -373,8 +413,9 @@ impl MethodNodes {
     /// The Joseph-form update at the sample (Takacs et al., eqs. 24-26) with every one of the
     /// `m` outputs: the shared Kalman stage, with `h` and its Jacobian at the estimate (and
     /// at a step's measurement time). With `noise_duration` `T`, the measurement noise is
-    /// the density `R` over it, `R / T`.
-    fn correct(&mut self, m: usize, noise_duration: Option<NodeId>) {
+    /// the density `R` over it, `R / T`. With the gate (`gated`), the normalised innovation
+    /// squared too.
+    fn correct(&mut self, m: usize, noise_duration: Option<NodeId>, gated: bool) {
         let mut r = symmetric_from_packed(&self.vars.r, m);
         if let Some(duration) = noise_duration {
             let graph = &mut self.g.graph;
@@ -395,6 +436,7 @@ impl MethodNodes {
         let update = correction.update;
         self.innovation = correction.residual;
         self.innovation_covariance = packed_upper(&update.s);
+        self.nis = gated.then_some(update.nis);
         (self.x, self.p) = (update.x, update.p);
         (self.pivots, self.reciprocals) = (update.pivots, update.reciprocals);
     }
@@ -427,6 +469,7 @@ fn lower(
     all_roots.extend(&nodes.loop_next);
     all_roots.extend(&nodes.innovation);
     all_roots.extend(&nodes.innovation_covariance);
+    all_roots.extend(nodes.nis);
     let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&nodes.g.graph, scalar, namer, &all_roots);
     read_noise_and_alpha(&mut lowerer, nodes);
@@ -444,7 +487,7 @@ fn lower(
         &nodes.pivots,
         &nodes.reciprocals,
         (INNOVATION, ""),
-        &quote! { return Status::NonPositiveInnovation; },
+        &innovation_pivot_failure,
         scalar,
     );
     measurement::name_innovation(&mut lowerer, model, &nodes.innovation);
@@ -455,7 +498,7 @@ fn lower(
         let kept = measurement::Kept {
             innovation: &nodes.innovation,
             covariance: &nodes.innovation_covariance,
-            nis: None,
+            nis: nodes.nis,
             step: kind.predicts(),
         };
         measurement::store_and_gate(&mut lowerer, model, &kept)
@@ -559,7 +602,10 @@ fn arguments(
     let graph = &g.graph;
     let mut arguments = Arguments::default();
     if model.uses_time() {
-        if kind.predicts() {
+        if kind.predicts() && nodes.nis.is_some() {
+            // A gated step passes it on to `predict` when it rejects an outlier.
+            arguments.plain(quote! { t_prev: #ty });
+        } else if kind.predicts() {
             arguments.plain(time_param(graph, nodes.t_start, used_vars, ty, "t_prev"));
         } else {
             arguments.plain(time_param(graph, g.t, used_vars, ty, "t"));

@@ -90,11 +90,11 @@ impl FilterLayout {
     }
 
     /// The arguments `x0: &[S; n]` and `p0: &[[S; n]; n]` of an initial estimate (the
-    /// constructor's, `reset`'s), both checked; returns the packed upper triangle of `p0`
+    /// constructor's, `reset`'s), both checked (`p0` also a covariance); returns the packed upper triangle of `p0`
     /// as the method binds it (`x0` is stored as it is).
     pub fn initial_estimate(&self, arguments: &mut Arguments) -> Vec<Ident> {
         arguments.vector("x0", self.n, &self.ty);
-        arguments.symmetric("p0", self.n, &self.ty)
+        arguments.covariance("p0", self.n, &self.ty)
     }
 
     /// `fn new(x0, p0, q, r, known?) -> Result<Self, Status>`: the constructor,
@@ -112,7 +112,7 @@ impl FilterLayout {
         let mut arguments = Arguments::default();
         let p0 = self.initial_estimate(&mut arguments);
         let q = arguments.process_noise("q", self.n, self.diagonal, &self.ty);
-        let r = arguments.symmetric("r", self.m, &self.ty);
+        let r = arguments.covariance("r", self.m, &self.ty);
         let known_init = known.argument(&mut arguments);
         arguments.constructor(
             doc,

@@ -77,6 +77,17 @@ pub fn methods(
     }
 }
 
+/// What a filter type's documentation says of its gate: a sentence, or nothing without
+/// one.
+pub fn gate_doc(gate: Option<f64>) -> &'static str {
+    if gate.is_some() {
+        " A measurement whose normalised innovation squared exceeds the innovation gate is \
+         rejected as an outlier."
+    } else {
+        ""
+    }
+}
+
 /// Names the innovation's entries `<output>_innovation`, before the update uses them.
 pub fn name_innovation(lowerer: &mut Lowerer, model: &Model, innovation: &[NodeId]) {
     for (&r, o) in innovation.iter().zip(&model.outputs) {
@@ -145,11 +156,13 @@ fn innovation_methods(model: &Model, layout: &FilterLayout, scalar: Scalar) -> T
     let reset = arguments.method(
         &ident("reset"),
         &quote! {
-            /// Starts the filter again from the estimate `x0` and covariance `p0` (only its
-            /// upper triangle is read), keeping the noise covariances: the way back after
-            /// a fault (a run of [`Status::NonFinite`] or of rejected outliers) or a
-            /// restart of the plant. The innovation is cleared. Rejects a non-finite entry
-            /// with [`Status::RejectedInput`], leaving the filter unchanged.
+            /// Starts the filter again from the estimate `x0` and covariance `p0`, keeping
+            /// the noise covariances: the way back after a fault (a run of
+            /// [`Status::NonFinite`] or of rejected outliers) or a restart of the plant.
+            /// The innovation is cleared. Rejects a non-finite entry with
+            /// [`Status::RejectedInput`] and a `p0` that is not symmetric and positive
+            /// semi-definite with [`Status::InvalidCovariance`], leaving the filter
+            /// unchanged.
         },
         quote! {
             self.x = *x0;
@@ -216,7 +229,7 @@ fn nis_method(model: &Model, scalar: Scalar) -> TokenStream {
         &ldl.pivots,
         &ldl.reciprocals,
         (INNOVATION, ""),
-        &on_failure,
+        &|_| on_failure.clone(),
         scalar,
     );
     let value = lowerer.segment(&[nis]).remove(0);

@@ -16,6 +16,10 @@ pub fn status_enum() -> TokenStream {
             Ok,
             /// An input or measurement was NaN or infinite.
             RejectedInput,
+            /// A covariance argument (initial, process or measurement noise) was not a
+            /// covariance: not symmetric, or not positive semi-definite (a negative
+            /// variance, a correlation beyond 1). It was not used.
+            InvalidCovariance,
             /// The innovation covariance was not positive definite; it is never divided by.
             NonPositiveInnovation,
             /// The step would have produced a non-finite estimate or covariance.

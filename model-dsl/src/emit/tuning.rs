@@ -1,7 +1,8 @@
 //! Run-time tuning of the generated filters: setters for the process and measurement noise,
-//! which reject a non-finite entry and leave the filter unchanged, and the process noise
-//! argument they share with the constructors.
+//! which reject a non-finite entry or a matrix that is not a covariance and leave the
+//! filter unchanged, and the process noise argument they share with the constructors.
 
+use super::arguments::{covariance_test, reject_non_covariance};
 use super::code::{all_is_finite, pack_upper};
 use super::names::ident;
 use crate::symbolic::linalg::packed_len;
@@ -27,17 +28,19 @@ pub fn process_noise_setter(
 ) -> TokenStream {
     let (param, _, packed) = noise_argument("q", n, diagonal, ty);
     let len = if diagonal { n } else { packed_len(n) };
-    let body = setter(field, &packed, len);
+    let body = setter(field, &packed, len, &covariance_test("q", diagonal, ty));
     let doc = if diagonal {
         format!(
             " Replaces the process noise variances `{field}` (a diagonal matrix). Rejects a \
-             non-finite entry with [`Status::RejectedInput`], leaving the filter unchanged."
+             non-finite entry with [`Status::RejectedInput`] and a negative variance with \
+             [`Status::InvalidCovariance`], leaving the filter unchanged."
         )
     } else {
         format!(
-            " Replaces the process noise covariance `{field}` (symmetric: its upper triangle \
-             is read). Rejects a non-finite entry with [`Status::RejectedInput`], leaving \
-             the filter unchanged."
+            " Replaces the process noise covariance `{field}` (its upper triangle is read). \
+             Rejects a non-finite entry with [`Status::RejectedInput`], and a matrix that \
+             is not symmetric and positive semi-definite with \
+             [`Status::InvalidCovariance`], leaving the filter unchanged."
         )
     };
     let method = ident(method);
@@ -52,28 +55,37 @@ pub fn process_noise_setter(
 /// `fn set_measurement_noise(&mut self, r) -> Status` for the packed field `r` (`m x m`).
 pub fn measurement_noise_setter(m: usize, ty: &proc_macro2::Ident) -> TokenStream {
     let m_len = Literal::usize_unsuffixed(m);
-    let body = setter("r", &pack_upper("r", m), packed_len(m));
+    let body = setter(
+        "r",
+        &pack_upper("r", m),
+        packed_len(m),
+        &covariance_test("r", false, ty),
+    );
     quote! {
-        /// Replaces the measurement noise covariance `R` (symmetric: its upper triangle is
-        /// read). Rejects a non-finite entry with [`Status::RejectedInput`], leaving the
-        /// filter unchanged.
+        /// Replaces the measurement noise covariance `R` (its upper triangle is read).
+        /// Rejects a non-finite entry with [`Status::RejectedInput`], and a matrix that is
+        /// not symmetric and positive semi-definite with [`Status::InvalidCovariance`],
+        /// leaving the filter unchanged.
         pub fn set_measurement_noise(&mut self, r: &[[#ty; #m_len]; #m_len]) -> Status {
             #body
         }
     }
 }
 
-/// `let packed = ..; let [c0, ..] = packed; if !(c0.is_finite() && ..) { reject } self.field = packed;`
-fn setter(field: &str, packed: &TokenStream, len: usize) -> TokenStream {
+/// `let packed = ..; let [c0, ..] = packed; if !(c0.is_finite() && ..) { reject }`, then
+/// the `covariance` test, then `self.field = packed;`.
+fn setter(field: &str, packed: &TokenStream, len: usize, covariance: &TokenStream) -> TokenStream {
     let field = ident(field);
     let names: Vec<proc_macro2::Ident> = (0..len).map(|k| ident(&format!("c{k}"))).collect();
     let finite = all_is_finite(&names);
+    let covariance_check = reject_non_covariance(core::slice::from_ref(covariance), false);
     quote! {
         let packed = #packed;
         let [#(#names),*] = packed;
         if !(#finite) {
             return Status::RejectedInput;
         }
+        #covariance_check
         self.#field = packed;
         Status::Ok
     }

@@ -240,6 +240,26 @@ impl<'a> Args<'a> {
         }
     }
 
+    /// `gate = 10.83` (the threshold on the normalised innovation squared) or `gate = off`
+    /// (a gate that is open until set at run time); `None` without `gate`. Every filter
+    /// that measures takes it (the shared measurement stage gates).
+    pub fn gate(&mut self, diag: &mut Diagnostics) -> Option<f64> {
+        match self.take(&["gate"]).map(|a| &a.value) {
+            None => None,
+            Some(ArgValue::Number(v, _)) if *v > 0.0 && v.is_finite() => Some(*v),
+            Some(ArgValue::Name(n)) if n.text == "off" => Some(f64::INFINITY),
+            Some(other) => {
+                diag.error(
+                    other.span(),
+                    "`gate` is a threshold on the normalised innovation squared, a positive \
+                     number (a chi-square quantile: 10.83 rejects one in a thousand \
+                     consistent scalar measurements), or `off` to set it at run time",
+                );
+                None
+            }
+        }
+    }
+
     /// `process_noise = diagonal` or `full` (the default).
     pub fn process_noise(&mut self, diag: &mut Diagnostics) -> bool {
         match self.take(&["process_noise"]).map(|a| &a.value) {

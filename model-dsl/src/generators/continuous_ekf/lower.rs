@@ -6,7 +6,7 @@
 //! the paper's eq. 26): `F + alpha I` in place of `F` in the Riccati equation.
 
 use super::spec::ContinuousEkfSpec;
-use crate::emit::continuous_filter::{method, FilterMethod};
+use crate::emit::continuous_filter::{method, FilterMethod, FilterOptions};
 use crate::emit::filter::{substeps_constant, FilterLayout};
 use crate::emit::known::KnownItems;
 use crate::emit::lower::{literal, OpCount};
@@ -35,16 +35,21 @@ pub fn emit_continuous_ekf(
     scalar: Scalar,
 ) -> ContinuousEkfCode {
     let diagonal = spec.diagonal_noise;
-    let kind = FilterMethod::Continuous {
-        alpha: spec.alpha.is_some(),
+    let options = FilterOptions {
+        diagonal_noise: diagonal,
+        gated: spec.gate.is_some(),
     };
-    let (step, step_ops, substep_ops) = method(model, mg, scalar, kind, diagonal);
+    let alpha = spec.alpha.is_some();
+    let step_kind = FilterMethod::Continuous { alpha };
+    let (step, step_ops, substep_ops) = method(model, mg, scalar, step_kind, options);
+    let predict_kind = FilterMethod::ContinuousPredict { alpha };
+    let (predict, ..) = method(model, mg, scalar, predict_kind, options);
     let ty = ident(scalar.type_name());
     let layout = FilterLayout::new(model, diagonal, &ty);
     let fields = layout.fields();
-    let measurement_fields = measurement::fields(model, None, &ty);
-    let measurement_init = measurement::initial_values(model, None, scalar);
-    let measurement_methods = measurement::methods(model, &layout, None, scalar);
+    let measurement_fields = measurement::fields(model, spec.gate, &ty);
+    let measurement_init = measurement::initial_values(model, spec.gate, scalar);
+    let measurement_methods = measurement::methods(model, &layout, spec.gate, scalar);
     let FilterLayout {
         accessors, setters, ..
     } = &layout;
@@ -63,7 +68,8 @@ pub fn emit_continuous_ekf(
         &ident("ContinuousEkf"),
         &quote! {
             /// A filter from the initial estimate `x0` and covariance `p0` and the noise
-            /// spectral densities `q` and `r` (symmetric: upper triangles are read).
+            /// spectral densities `q` and `r` (covariances: checked symmetric, positive
+            /// semi-definite).
         },
         &KnownItems::default(),
         &quote! { #measurement_init #alpha_init },
@@ -93,6 +99,8 @@ pub fn emit_continuous_ekf(
             #setters
 
             #step
+
+            #predict
         }
     };
     ContinuousEkfCode {
@@ -155,6 +163,7 @@ fn type_doc(spec: &ContinuousEkfSpec) -> String {
          equations diverges once `T` times the rate `P H' R^-1 H` leaves its stability \
          region (a precise sensor and an uncertain start); the split's error is of the \
          first order in `T` (the equations, with `y[k]` held from the previous sample, \
-         pull the estimate half a sample ahead of where the update uses `y[k]`)."
+         pull the estimate half a sample ahead of where the update uses `y[k]`).{gate}",
+        gate = measurement::gate_doc(spec.gate)
     )
 }

@@ -1,6 +1,7 @@
 //! The continuous-time EKF of "Nonlinear experimental estimation and verification of a
 //! MIMO system through EKF" (Kulkarni and Purwar), with an optional prescribed degree of
-//! stability (Reif et al.): `continuous_ekf(alpha = 0.5, process_noise = diagonal)`.
+//! stability (Reif et al.) and innovation gate:
+//! `continuous_ekf(alpha = 0.5, gate = 13.8, process_noise = diagonal)`.
 
 pub mod lower;
 pub mod spec;
@@ -20,7 +21,7 @@ pub struct ContinuousEkf;
 /// What `continuous_ekf` is and what it requires of the model.
 const DESCRIPTION: Description = Description {
     name: "continuous_ekf",
-    usage: "`continuous_ekf(alpha = ..)`",
+    usage: "`continuous_ekf(alpha = .., gate = ..)`",
     requirements: &[
         Requirement::Outputs,
         Requirement::ContinuousDynamics,
@@ -55,6 +56,7 @@ impl Kind for ContinuousEkf {
         Some(Box::new(ContinuousEkfSpec {
             diagonal_noise: args.process_noise(diag),
             alpha: alpha.map(|(a, _)| a),
+            gate: args.gate(diag),
         }))
     }
 }

@@ -8,4 +8,7 @@ pub struct ContinuousEkfSpec {
     /// The default prescribed degree of stability `alpha >= 0` (Reif et al.), if the
     /// filter has one: `F` is replaced by `F + alpha I` in its Riccati equation.
     pub alpha: Option<f64>,
+    /// The innovation gate: a measurement whose normalised innovation squared (against
+    /// `H P H' + R / T`) exceeds it is rejected as an outlier (`None`: no gate).
+    pub gate: Option<f64>,
 }

@@ -5,7 +5,9 @@
 //! ([`crate::symbolic::kalman`]); each is lowered into its own method.
 
 use super::window::{self, WindowTransform};
-use crate::emit::code::{guard_pivots, pivot_names, var_idents, INNOVATION};
+use crate::emit::code::{
+    guard_pivots, innovation_pivot_failure, pivot_names, var_idents, INNOVATION,
+};
 use crate::emit::filter::{finiteness_probe, model_names, noise_vars, packed_vars};
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
@@ -404,7 +406,7 @@ impl<'a> StepLowering<'a> {
             &update.pivots,
             &update.reciprocals,
             (INNOVATION, suffix),
-            &quote! { return Status::NonPositiveInnovation; },
+            &innovation_pivot_failure,
             self.scalar,
         );
         let probe = lowerer.segment(&[probe]).remove(0);

@@ -182,11 +182,11 @@ impl DkfType {
         );
         let mut arguments = Arguments::default();
         let x0 = arguments.vector("x0", self.n, ty);
-        let p0 = arguments.symmetric("p0", self.n, ty);
+        let p0 = arguments.covariance("p0", self.n, ty);
         let q = arguments.process_noise("q", self.n, self.diagonal_noise, ty);
-        let pbar0 = arguments.symmetric("pbar0", self.n, ty);
+        let pbar0 = arguments.covariance("pbar0", self.n, ty);
         let qbar = arguments.process_noise("qbar", self.n, self.diagonal_noise, ty);
-        let r = arguments.symmetric("r", self.m, ty);
+        let r = arguments.covariance("r", self.m, ty);
         // The parameters come last in the state vector.
         let params = &x0[model.states.len()..];
         let new_doc = self.new_doc();
@@ -238,11 +238,12 @@ impl DkfType {
         if self.diagonal_noise {
             " A filter starting from `x0` for both stages, with the LKF's covariance `p0` and \
              process noise variances `q` (diagonal), the AKF's `pbar0` and `qbar`, and the \
-             measurement noise `r`. Symmetric matrices: only upper triangles are read."
+             measurement noise `r`. Each must be a covariance (checked symmetric, positive \
+             semi-definite)."
         } else {
             " A filter starting from `x0` for both stages, with the LKF's covariance `p0` and \
              process noise `q`, the AKF's `pbar0` and `qbar`, and the measurement noise `r`. \
-             Symmetric matrices: only upper triangles are read."
+             Each must be a covariance (checked symmetric, positive semi-definite)."
         }
     }
 

@@ -6,7 +6,8 @@
 use super::spec::EkfSpec;
 use crate::emit::arguments::Arguments;
 use crate::emit::code::{
-    commit_or_non_finite_with, guard_pivots, pivot_names, var_idents, INNOVATION,
+    commit_or_non_finite_with, guard_pivots, innovation_pivot_failure, pivot_names, var_idents,
+    INNOVATION,
 };
 use crate::emit::filter::{
     finiteness_probe, model_names, name_estimate, time_param, FilterLayout, FilterVars,
@@ -129,11 +130,11 @@ fn constructor_tokens(
     let new_doc = if spec.diagonal_noise {
         " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
          variances `q` (a diagonal covariance) and the measurement noise covariance `r`. The \
-         matrices are symmetric: only their upper triangles are read."
+         matrices must be covariances (symmetric, positive semi-definite): both are checked."
     } else {
         " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
-         covariance `q` and the measurement noise covariance `r`. The matrices are \
-         symmetric: only their upper triangles are read."
+         covariance `q` and the measurement noise covariance `r`. The matrices must \
+         be covariances (symmetric, positive semi-definite): both are checked."
     };
     layout.constructor(
         &ident(&spec.type_name),
@@ -145,12 +146,7 @@ fn constructor_tokens(
 
 /// The filter type's documentation: what it is (with its gate), then the index convention.
 fn type_doc(spec: &EkfSpec) -> (String, String) {
-    let gate = if spec.gate.is_some() {
-        " A measurement whose normalised innovation squared exceeds the innovation gate is \
-         rejected as an outlier."
-    } else {
-        ""
-    };
+    let gate = measurement::gate_doc(spec.gate);
     let what = format!(
         " Extended Kalman filter of this model (Algorithm 1 of the double Kalman filter paper, \
          which compares the EKF with the DKF on a vibrating cantilever beam): state estimate `x` (physical states, \
@@ -443,7 +439,7 @@ fn lower(
         &nodes.pivots,
         &nodes.reciprocals,
         (INNOVATION, ""),
-        &quote! { return Status::NonPositiveInnovation; },
+        &innovation_pivot_failure,
         scalar,
     );
     measurement::name_innovation(&mut lowerer, model, &nodes.innovation);

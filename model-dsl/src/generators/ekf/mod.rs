@@ -6,7 +6,7 @@ pub mod spec;
 
 use super::options::{Args, Context};
 use super::unit::{Code, Cost, Description, Generator, Kind, Lowering, Requirement};
-use crate::ast::{ArgValue, GenerateDecl};
+use crate::ast::GenerateDecl;
 use crate::diagnostics::Diagnostics;
 use crate::emit::names::screaming_snake;
 use crate::model::{Model, Scalar};
@@ -39,31 +39,12 @@ impl Kind for Ekf {
         diag: &mut Diagnostics,
     ) -> Option<Box<dyn Generator>> {
         let type_name = args.type_name("Ekf", diag);
-        let gate = gate(args, diag);
+        let gate = args.gate(diag);
         Some(Box::new(EkfSpec {
             type_name,
             gate,
             diagonal_noise: args.process_noise(diag),
         }))
-    }
-}
-
-/// `gate = 10.83` (the threshold on the normalised innovation squared) or `gate = off` (a
-/// gate that is open until set at run time); `None` without `gate`.
-fn gate(args: &mut Args, diag: &mut Diagnostics) -> Option<f64> {
-    match args.take(&["gate"]).map(|a| &a.value) {
-        None => None,
-        Some(ArgValue::Number(v, _)) if *v > 0.0 && v.is_finite() => Some(*v),
-        Some(ArgValue::Name(n)) if n.text == "off" => Some(f64::INFINITY),
-        Some(other) => {
-            diag.error(
-                other.span(),
-                "`gate` is a threshold on the normalised innovation squared, a positive \
-                 number (a chi-square quantile: 10.83 rejects one in a thousand \
-                 consistent scalar measurements), or `off` to set it at run time",
-            );
-            None
-        }
     }
 }
 

@@ -4,7 +4,7 @@
 //! update at each sample, assembled into the `HybridEkf` type.
 
 use super::spec::HybridEkfSpec;
-use crate::emit::continuous_filter::{method, FilterMethod};
+use crate::emit::continuous_filter::{method, FilterMethod, FilterOptions};
 use crate::emit::filter::{substeps_constant, FilterLayout};
 use crate::emit::known::KnownItems;
 use crate::emit::lower::OpCount;
@@ -33,13 +33,17 @@ pub fn emit_hybrid_ekf(
     scalar: Scalar,
 ) -> HybridEkfCode {
     let diagonal = spec.diagonal_noise;
-    let (step, step_ops, substep_ops) = method(model, mg, scalar, FilterMethod::Step, diagonal);
-    let (predict, ..) = method(model, mg, scalar, FilterMethod::Predict, diagonal);
-    let (update, ..) = method(model, mg, scalar, FilterMethod::Update, diagonal);
+    let options = FilterOptions {
+        diagonal_noise: diagonal,
+        gated: spec.gate.is_some(),
+    };
+    let (step, step_ops, substep_ops) = method(model, mg, scalar, FilterMethod::Step, options);
+    let (predict, ..) = method(model, mg, scalar, FilterMethod::Predict, options);
+    let (update, ..) = method(model, mg, scalar, FilterMethod::Update, options);
     let layout = FilterLayout::new(model, diagonal, &ident(scalar.type_name()));
     let fields = layout.fields();
-    let measurement_fields = measurement::fields(model, None, &layout.ty);
-    let measurement_methods = measurement::methods(model, &layout, None, scalar);
+    let measurement_fields = measurement::fields(model, spec.gate, &layout.ty);
+    let measurement_methods = measurement::methods(model, &layout, spec.gate, scalar);
     let FilterLayout {
         accessors, setters, ..
     } = &layout;
@@ -53,8 +57,12 @@ pub fn emit_hybrid_ekf(
     let constructor = constructor_tokens(
         &layout,
         diagonal,
-        &measurement::initial_values(model, None, scalar),
+        &measurement::initial_values(model, spec.gate, scalar),
     );
+    let gate_doc = spec.gate.map(|_| {
+        let doc = measurement::gate_doc(spec.gate);
+        quote! { #[doc = #doc] }
+    });
     let tokens = quote! {
         /// Hybrid (continuous-discrete) extended Kalman filter of this model (Takacs,
         /// Poloni, Rohal-Ilkiv, "Adaptive predictive control of transient vibrations of
@@ -63,6 +71,7 @@ pub fn emit_hybrid_ekf(
         /// (eq. 21), integrated together with the model's rule over [`HybridEkf::SUBSTEPS`]
         /// sub-steps; at each sample the Joseph-form update (eqs. 24-26). The covariance is
         /// stored once, as a packed upper triangle.
+        #gate_doc
         ///
         /// Index convention (all filters of this module): [`HybridEkf::step`] at sample `k`
         /// takes the input `u[k-1]` applied since the previous sample and the measurement
@@ -114,7 +123,7 @@ fn constructor_tokens(
         " A filter from the initial estimate `x0` and covariance `p0`, {q_words} and the \
          measurement noise covariance `r`. `Q` is a density (per second: a discrete \
          covariance divided by the sample time, the paper's `Q = Q~ / T`). The matrices \
-         are symmetric: only their upper triangles are read."
+         must be covariances (symmetric, positive semi-definite): both are checked."
     );
     layout.constructor(
         &ident("HybridEkf"),

@@ -1,6 +1,6 @@
 //! The hybrid (continuous-discrete) EKF of "Adaptive predictive control of transient
 //! vibrations of cantilevers with changing weight" (Takacs, Poloni and Rohal-Ilkiv):
-//! `hybrid_ekf(process_noise = diagonal)`.
+//! `hybrid_ekf(gate = 10.83, process_noise = diagonal)`.
 
 pub mod lower;
 pub mod spec;
@@ -20,7 +20,7 @@ pub struct HybridEkf;
 /// What `hybrid_ekf` is and what it requires of the model.
 const DESCRIPTION: Description = Description {
     name: "hybrid_ekf",
-    usage: "`hybrid_ekf`",
+    usage: "`hybrid_ekf(gate = ..)`",
     requirements: &[
         Requirement::Outputs,
         Requirement::ContinuousDynamics,
@@ -44,6 +44,7 @@ impl Kind for HybridEkf {
     ) -> Option<Box<dyn Generator>> {
         Some(Box::new(HybridEkfSpec {
             diagonal_noise: args.process_noise(diag),
+            gate: args.gate(diag),
         }))
     }
 }

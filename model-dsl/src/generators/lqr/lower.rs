@@ -192,7 +192,14 @@ impl Recursion {
     fn guard_weight(&self, lowerer: &mut Lowerer, scalar: Scalar) {
         let failure = quote! { return Status::NonPositiveControlWeight; };
         let (pivots, reciprocals) = (&self.step.pivots, &self.step.reciprocals);
-        guard_pivots(lowerer, pivots, reciprocals, (WEIGHT, ""), &failure, scalar);
+        guard_pivots(
+            lowerer,
+            pivots,
+            reciprocals,
+            (WEIGHT, ""),
+            &|_| failure.clone(),
+            scalar,
+        );
     }
 }
 
@@ -662,7 +669,7 @@ fn lower_steady_state(
         &step.pivots,
         &step.reciprocals,
         (GRAM, ""),
-        &quote! { return Err(Status::NonFinite); },
+        &|_| quote! { return Err(Status::NonFinite); },
         scalar,
     );
     let values = lowerer.segment(&step.input);

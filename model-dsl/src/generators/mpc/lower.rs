@@ -796,13 +796,20 @@ impl RecursionCode {
             pivots,
             reciprocals,
             guard,
-            &on_failure,
+            &|_| on_failure.clone(),
             scalar,
         );
         let p_next = lowerer.segment(&recursion.step.p_next);
         let body = lowerer.take_statements();
         let per_step = lowerer.ops().minus(before);
-        guard_pivots(&mut after, pivots, reciprocals, guard, &on_failure, scalar);
+        guard_pivots(
+            &mut after,
+            pivots,
+            reciprocals,
+            guard,
+            &|_| on_failure.clone(),
+            scalar,
+        );
         let gain_values = after.segment(&recursion.gain);
         let gain_statements = after.take_statements();
         let gain_ops = after.ops().minus(before);

@@ -7,7 +7,9 @@
 use super::design::{self, WindowFit};
 use super::spec::PolynomialKfSpec;
 use crate::emit::arguments::{Arguments, REJECTS_NON_FINITE};
-use crate::emit::code::{guard_pivots, pivot_names, unpack_symmetric, INNOVATION};
+use crate::emit::code::{
+    guard_pivots, innovation_pivot_failure, pivot_names, unpack_symmetric, INNOVATION,
+};
 use crate::emit::filter::{finiteness_probe, model_names, packed_vars};
 use crate::emit::lower::{literal, matrix_literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
@@ -157,11 +159,11 @@ fn accessors(spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStream {
     let unpack_p = unpack_symmetric("p", n);
     let mut arguments = Arguments::default();
     arguments.vector("x0", n, &ty);
-    let p0 = arguments.symmetric("p0", n, &ty);
+    let p0 = arguments.covariance("p0", n, &ty);
     let new = arguments.constructor(
         &quote! {
             /// A filter from the estimate `x0` (scaled as the state) and covariance `p0`
-            /// (only its upper triangle is read), with an empty window: it runs the
+            /// (checked symmetric, positive semi-definite), with an empty window: it runs the
             /// recursive filter from this prior until its first re-initialisation.
         },
         REJECTS_NON_FINITE,
@@ -374,7 +376,7 @@ fn recursive_step(
         &update.pivots,
         &update.reciprocals,
         (INNOVATION, ""),
-        &quote! { return Status::NonPositiveInnovation; },
+        &innovation_pivot_failure,
         scalar,
     );
     let probe = lowerer.segment(&[probe]).remove(0);

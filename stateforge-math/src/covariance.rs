@@ -1,0 +1,108 @@
+//! The test a generated filter makes of every covariance it is given (an initial
+//! covariance, a process or measurement noise): symmetric, and positive semi-definite by an
+//! `L D L'` factorisation, in the filter's own scalar. Written once, generic over `f32`
+//! and `f64`; [`crate::f32::is_covariance`] and [`crate::f64::is_covariance`] are its
+//! entry points.
+
+use core::ops::{Add, Div, Mul, Sub};
+
+/// The arithmetic the test needs of a scalar.
+pub(crate) trait Real:
+    Copy
+    + PartialOrd
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+{
+    /// `0`.
+    const ZERO: Self;
+    /// The distance from 1 to the next value up.
+    const EPSILON: Self;
+    /// `n` as a value of this type (exact for the sizes a filter has).
+    fn from_count(n: usize) -> Self;
+}
+
+impl Real for f32 {
+    const ZERO: Self = 0.0;
+    const EPSILON: Self = f32::EPSILON;
+    #[allow(clippy::cast_precision_loss)] // A matrix dimension, far below 2^24.
+    fn from_count(n: usize) -> Self {
+        n as f32
+    }
+}
+
+impl Real for f64 {
+    const ZERO: Self = 0.0;
+    const EPSILON: Self = f64::EPSILON;
+    #[allow(clippy::cast_precision_loss)] // A matrix dimension, far below 2^53.
+    fn from_count(n: usize) -> Self {
+        n as f64
+    }
+}
+
+/// Whether `m` is a covariance: non-negative diagonal, symmetric to within rounding
+/// (`(m[i][j] - m[j][i])^2 <= eps m[i][i] m[j][j]`), and positive semi-definite to within
+/// rounding. The entries must be finite (the caller has tested that); a NaN arising on
+/// the way fails.
+///
+/// "To within rounding" is the shift `M + delta diag(M)`, `delta = 2 n (n + 1) eps`, whose
+/// `L D L'` factorisation (without pivoting, on the upper triangle) must have positive
+/// pivots. Scaled to unit variances, `M` is a correlation matrix `C` and the shifted one
+/// is `C + delta I`: the shift forgives an indefiniteness of `delta`, which is what
+/// rounding `C` to the scalar (`n eps`) and factorising it (`n^2 eps`, Cholesky's backward
+/// error) can make of a semi-definite matrix, and nothing of a variance below zero or a
+/// correlation beyond 1 by more than that. Being relative to each entry's own variance,
+/// the test judges a variance of 1e8 beside one of 1e-6 each on its own scale. A zero
+/// variance (a state known exactly) has a zero pivot and must have zero covariances.
+#[allow(clippy::needless_range_loop)] // `L` is indexed by row and column, as written.
+pub(crate) fn is_covariance<T: Real, const N: usize>(m: &[[T; N]; N]) -> bool {
+    if !(0..N).all(|i| m[i][i] >= T::ZERO) || !is_symmetric(m) {
+        return false;
+    }
+    let n = T::from_count(N);
+    let delta = (n + n) * (n + T::from_count(1)) * T::EPSILON;
+    let mut l = [[T::ZERO; N]; N];
+    let mut d = [T::ZERO; N];
+    for j in 0..N {
+        let mut pivot = m[j][j] + delta * m[j][j];
+        for k in 0..j {
+            pivot = pivot - l[j][k] * l[j][k] * d[k];
+        }
+        let exactly_known = m[j][j] == T::ZERO && pivot == T::ZERO;
+        if !(pivot > T::ZERO || exactly_known) {
+            return false;
+        }
+        for i in j + 1..N {
+            let mut c = m[j][i];
+            for k in 0..j {
+                c = c - l[i][k] * l[j][k] * d[k];
+            }
+            if exactly_known {
+                if c != T::ZERO {
+                    return false;
+                }
+            } else {
+                l[i][j] = c / pivot;
+            }
+        }
+        d[j] = pivot;
+    }
+    true
+}
+
+/// Whether the lower triangle of `m` equals its upper one to within `sqrt(eps)` of the
+/// entries' variances.
+fn is_symmetric<T: Real, const N: usize>(m: &[[T; N]; N]) -> bool {
+    (0..N).all(|i| {
+        (i + 1..N).all(|j| {
+            let difference = m[i][j] - m[j][i];
+            difference * difference <= T::EPSILON * m[i][i] * m[j][j]
+        })
+    })
+}
+
+/// Whether every variance is non-negative (a diagonal covariance); NaN fails.
+pub(crate) fn all_non_negative<T: Real, const N: usize>(variances: &[T; N]) -> bool {
+    variances.iter().all(|&v| v >= T::ZERO)
+}

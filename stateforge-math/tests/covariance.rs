@@ -1,0 +1,125 @@
+//! `is_covariance` against nalgebra's symmetric eigenvalues: random symmetric matrices of
+//! every definiteness, semi-definite ones of every rank, and variances of very different
+//! scales side by side.
+
+use nalgebra::{DMatrix, SMatrix};
+
+/// A small deterministic generator (xorshift), so the cases are the same on every run.
+struct Cases(u64);
+
+impl Cases {
+    fn uniform(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+
+    fn matrix<const N: usize>(&mut self, cols: usize) -> SMatrix<f64, N, N> {
+        let a = DMatrix::from_fn(N, cols, |_, _| self.uniform());
+        SMatrix::<f64, N, N>::from_iterator((&a * a.transpose()).iter().copied())
+    }
+}
+
+fn array<const N: usize>(m: &SMatrix<f64, N, N>) -> [[f64; N]; N] {
+    core::array::from_fn(|i| core::array::from_fn(|j| m[(i, j)]))
+}
+
+fn smallest_eigenvalue(m: &SMatrix<f64, 4, 4>) -> f64 {
+    m.symmetric_eigenvalues().min()
+}
+
+#[test]
+fn positive_definite_and_semi_definite_matrices_are_covariances() {
+    let mut cases = Cases(0x9E37_79B9_7F4A_7C15);
+    for rank in 0..=5 {
+        for _ in 0..200 {
+            let m = cases.matrix::<5>(rank);
+            assert!(
+                stateforge_math::f64::is_covariance(&array(&m)),
+                "rank {rank}: {m}"
+            );
+            let single: [[f32; 5]; 5] = array(&m).map(|row| row.map(|v| v as f32));
+            assert!(
+                stateforge_math::f32::is_covariance(&single),
+                "rank {rank}: {m}"
+            );
+        }
+    }
+}
+
+#[test]
+fn indefinite_matrices_are_not_covariances() {
+    let mut cases = Cases(0xD1B5_4A32_D192_ED03);
+    let mut rejected = 0;
+    for _ in 0..2000 {
+        let mut m = cases.matrix::<4>(4);
+        let shift = 0.05 + cases.uniform().abs();
+        let smallest = smallest_eigenvalue(&m);
+        m -= SMatrix::<f64, 4, 4>::identity() * (smallest + shift);
+        assert!(smallest_eigenvalue(&m) < -0.04);
+        assert!(!stateforge_math::f64::is_covariance(&array(&m)), "{m}");
+        let single: [[f32; 4]; 4] = array(&m).map(|row| row.map(|v| v as f32));
+        assert!(!stateforge_math::f32::is_covariance(&single), "{m}");
+        rejected += 1;
+    }
+    assert_eq!(rejected, 2000);
+}
+
+#[test]
+fn variances_of_very_different_scales_are_judged_each_on_its_own() {
+    // A parameter's variance of 1e8 beside a state's of 1e-6: positive definite.
+    let spread = [[1e8, 0.0, 0.0], [0.0, 1e-6, 1e-7], [0.0, 1e-7, 1e-6]];
+    assert!(stateforge_math::f32::is_covariance(&spread));
+    assert!(stateforge_math::f64::is_covariance(
+        &spread.map(|r| r.map(f64::from))
+    ));
+    // The same small block with a correlation beyond 1: indefinite, although tiny beside
+    // the 1e8.
+    let indefinite = [[1e8, 0.0, 0.0], [0.0, 1e-6, 1e-5], [0.0, 1e-5, 1e-6]];
+    assert!(!stateforge_math::f32::is_covariance(&indefinite));
+    assert!(!stateforge_math::f64::is_covariance(
+        &indefinite.map(|r| r.map(f64::from))
+    ));
+}
+
+#[test]
+fn negative_variances_asymmetry_and_nan_are_rejected() {
+    assert!(!stateforge_math::f64::is_covariance(&[
+        [-1.0, 0.0],
+        [0.0, 1.0]
+    ]));
+    assert!(!stateforge_math::f64::is_covariance(&[
+        [1.0, 0.5],
+        [0.4, 1.0]
+    ]));
+    assert!(stateforge_math::f64::is_covariance(&[
+        [1.0, 0.5],
+        [0.5 + 1e-12, 1.0]
+    ]));
+    assert!(!stateforge_math::f32::is_covariance(&[
+        [1.0, f32::NAN],
+        [f32::NAN, 1.0]
+    ]));
+    // A zero variance with a non-zero covariance: a correlation beyond 1.
+    assert!(!stateforge_math::f64::is_covariance(&[
+        [0.0, 1e-3],
+        [1e-3, 1.0]
+    ]));
+    assert!(stateforge_math::f64::is_covariance(&[
+        [0.0, 0.0],
+        [0.0, 0.0]
+    ]));
+    // Perfectly correlated: semi-definite. A correlation of 1.001: indefinite.
+    assert!(stateforge_math::f32::is_covariance(&[
+        [4.0, 6.0],
+        [6.0, 9.0]
+    ]));
+    assert!(!stateforge_math::f32::is_covariance(&[
+        [4.0, 6.006],
+        [6.006, 9.0]
+    ]));
+    assert!(stateforge_math::f32::all_non_negative(&[0.0, 1.0, 1e-30]));
+    assert!(!stateforge_math::f32::all_non_negative(&[0.0, -1e-30]));
+    assert!(!stateforge_math::f64::all_non_negative(&[f64::NAN]));
+}

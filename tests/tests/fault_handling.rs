@@ -1,0 +1,219 @@
+//! The fault handling the filters share: the innovation gate of the hybrid and the
+//! continuous-time EKF (an outlier rejected, the prediction kept, the filter going on), and
+//! covariance arguments that are not covariances rejected where they enter, by every
+//! filter, leaving it unchanged.
+
+use generated_demo::{blade_identification, cantilever, helicopter, polynomial};
+use tests::tuning::{diag, p0, Q_DIAG, R, X0_CLOSE};
+
+/// The blade's identification prior of sect. 4.1 (`x0`, `P0`, `Q = Q~ / T`, `R`).
+mod blade {
+    pub const X0: [f64; 6] = [0.0, 0.0, 450.0, 0.1, 5e-4, 2.0];
+    pub const P0: [f64; 6] = [1e-5, 1.0, 1e4, 1e-2, 1e-6, 0.1];
+    pub const Q: [f64; 6] = [0.0, 1e-2, 1e3, 1e-3, 1e-9, 1.0];
+    pub const R: f64 = 1e-10;
+}
+
+/// A square matrix with `d` on its diagonal.
+fn diagonal<const N: usize, T: Copy + Default>(d: [T; N]) -> [[T; N]; N] {
+    core::array::from_fn(|i| core::array::from_fn(|j| if i == j { d[i] } else { T::default() }))
+}
+
+/// A measurement consistent with the filter: its own prediction of the output, which the
+/// gate passes whatever its threshold.
+macro_rules! consistent_measurement {
+    ($filter:expr, $($predict_args:expr),*) => {{
+        let mut predicted = $filter;
+        assert_eq!(predicted.predict($($predict_args),*), Status::Ok);
+        predicted.state()[0]
+    }};
+}
+
+#[test]
+fn gated_hybrid_ekf_rejects_an_outlier_keeps_the_prediction_and_goes_on() {
+    use blade_identification::{HybridEkf, Status};
+    let f32s = |v: [f64; 6]| v.map(|v| v as f32);
+    let mut filter = HybridEkf::new(
+        &f32s(blade::X0),
+        &diagonal(f32s(blade::P0)),
+        &f32s(blade::Q),
+        &[[blade::R as f32]],
+    )
+    .unwrap();
+    // Generated with `gate = off`: open until set.
+    assert_eq!(filter.innovation_gate(), f32::INFINITY);
+    assert_eq!(filter.set_innovation_gate(0.0), Status::RejectedInput);
+    assert_eq!(filter.set_innovation_gate(10.83), Status::Ok);
+    let u = |k: usize| [(k as f32 * 0.37).sin()];
+    for k in 0..20 {
+        let y = consistent_measurement!(filter, &u(k));
+        assert_eq!(filter.step(&u(k), &[y]), Status::Ok, "sample {k}");
+    }
+    // The fault: a measurement of 1e30 (and a spike of 30 sigma of the innovation,
+    // `S = P + R` at the prediction) is not used; the step keeps its prediction, and says
+    // what the measurement was.
+    let mut predicted = filter;
+    assert_eq!(predicted.predict(&u(20)), Status::Ok);
+    let spike = 30.0 * (predicted.covariance()[0][0] + blade::R as f32).sqrt();
+    for outlier in [1e30_f32, spike] {
+        let mut predicted = filter;
+        assert_eq!(predicted.predict(&u(20)), Status::Ok);
+        let y = predicted.state()[0] + outlier;
+        assert_eq!(filter.step(&u(20), &[y]), Status::OutlierRejected);
+        assert_eq!(filter.state(), predicted.state());
+        assert_eq!(filter.covariance(), predicted.covariance());
+        assert_eq!(filter.innovation(), [y - predicted.state()[0]]);
+        assert!(filter.normalised_innovation_squared() > 10.83);
+        filter = predicted;
+    }
+    for k in 21..40 {
+        let y = consistent_measurement!(filter, &u(k));
+        assert_eq!(filter.step(&u(k), &[y]), Status::Ok, "sample {k}");
+        assert!(filter.normalised_innovation_squared() <= 10.83);
+    }
+    // `update` rejects the outlier and leaves the estimate as it was.
+    let before = filter;
+    assert_eq!(filter.update(&[1e30]), Status::OutlierRejected);
+    assert_eq!(
+        (filter.state(), filter.covariance()),
+        (before.state(), before.covariance())
+    );
+}
+
+#[test]
+fn gated_continuous_ekf_rejects_an_outlier_keeps_the_prediction_and_goes_on() {
+    use helicopter::in_f64::{ContinuousEkf, Status, TS};
+    let x0 = [0.05, 0.0, -0.05, 0.0, 0.0, 0.0];
+    let q = [0.0099, 0.0022, 0.0894, 0.0017, 1.2678, 1.27];
+    let r = [[0.0007, 0.0], [0.0, 0.00193]];
+    let mut filter = ContinuousEkf::new(&x0, &diagonal([1.0; 6]), &q, &r).unwrap();
+    assert_eq!(filter.set_innovation_gate(13.82), Status::Ok);
+    let u = [0.1, 0.1];
+    let t = |k: usize| k as f64 * TS;
+    let consistent = |filter: &ContinuousEkf, k: usize| {
+        let mut predicted = *filter;
+        assert_eq!(predicted.predict(t(k), &u), Status::Ok);
+        let x = predicted.state();
+        [x[0], x[2]]
+    };
+    for k in 0..50 {
+        let y = consistent(&filter, k);
+        assert_eq!(filter.step(t(k), &u, &y), Status::Ok, "sample {k}");
+    }
+    // 30 sigma of the pitch's innovation, `S = P + R / T` at the prediction (the
+    // measurement noise over a sample is `R / T`).
+    let mut predicted = filter;
+    assert_eq!(predicted.predict(t(50), &u), Status::Ok);
+    let spike = 30.0 * (predicted.covariance()[0][0] + r[0][0] / TS).sqrt();
+    for outlier in [1e30, spike] {
+        let mut predicted = filter;
+        assert_eq!(predicted.predict(t(50), &u), Status::Ok);
+        let [y_psi, y_phi] = consistent(&filter, 50);
+        let y = [y_psi + outlier, y_phi];
+        assert_eq!(filter.step(t(50), &u, &y), Status::OutlierRejected);
+        assert_eq!(filter.state(), predicted.state());
+        assert_eq!(filter.covariance(), predicted.covariance());
+        assert_eq!(filter.innovation()[0], outlier);
+        assert!(filter.normalised_innovation_squared() > 13.82);
+        filter = predicted;
+    }
+    for k in 51..100 {
+        let y = consistent(&filter, k);
+        assert_eq!(filter.step(t(k), &u, &y), Status::Ok, "sample {k}");
+    }
+}
+
+/// Of each kind of covariance argument that is not one, rejected by every filter's
+/// constructor, `reset` and setters with `InvalidCovariance`, the filter unchanged; a
+/// semi-definite one (a state known exactly, perfectly correlated entries) accepted.
+#[test]
+fn covariances_that_are_not_covariances_are_rejected_where_they_enter() {
+    use cantilever::in_f64::{Dkf, Ekf, Status};
+    let mut indefinite = p0(2e4);
+    indefinite[0][1] = 1.0; // A correlation of 1 / sqrt(1e-4 * 1) = 100.
+    indefinite[1][0] = 1.0;
+    let mut asymmetric = p0(2e4);
+    asymmetric[2][3] = 1.0;
+    let negative = diag([1e-4, 1.0, -2e4, 1.0, 1.0]);
+    for bad in [indefinite, asymmetric, negative] {
+        assert_eq!(
+            Ekf::new(&X0_CLOSE, &bad, &Q_DIAG, &[[R]]),
+            Err(Status::InvalidCovariance)
+        );
+        assert_eq!(
+            Dkf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &bad, &Q_DIAG, &[[R]]),
+            Err(Status::InvalidCovariance)
+        );
+        let mut ekf = Ekf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]).unwrap();
+        let before = ekf;
+        assert_eq!(ekf.reset(&X0_CLOSE, &bad), Status::InvalidCovariance);
+        assert_eq!(ekf, before);
+    }
+    let mut ekf = Ekf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]).unwrap();
+    let before = ekf;
+    assert_eq!(
+        ekf.set_measurement_noise(&[[-R]]),
+        Status::InvalidCovariance
+    );
+    assert_eq!(
+        ekf.set_process_noise(&[0.0, 0.0, -1.0, 0.0, 0.0]),
+        Status::InvalidCovariance
+    );
+    assert_eq!(ekf, before);
+    // Semi-definite: the position known exactly, two parameters perfectly correlated.
+    let mut known = p0(2e4);
+    known[0][0] = 0.0;
+    (known[2][2], known[3][3], known[2][3], known[3][2]) = (4.0, 9.0, 6.0, 6.0);
+    assert_eq!(ekf.reset(&X0_CLOSE, &known), Status::Ok);
+
+    let blade_filter = || {
+        blade_identification::in_f64::HybridEkf::new(
+            &blade::X0,
+            &diagonal(blade::P0),
+            &blade::Q,
+            &[[blade::R]],
+        )
+    };
+    let mut hybrid = blade_filter().unwrap();
+    let before = hybrid;
+    let mut p = diagonal(blade::P0);
+    p[2][3] = 1e3; // 1e3 against sqrt(1e4 * 1e-2) = 10.
+    p[3][2] = 1e3;
+    assert_eq!(
+        hybrid.reset(&blade::X0, &p),
+        blade_identification::in_f64::Status::InvalidCovariance
+    );
+    assert_eq!(
+        hybrid.set_process_noise(&[0.0, -1e-2, 1e3, 1e-3, 1e-9, 1.0]),
+        blade_identification::in_f64::Status::InvalidCovariance
+    );
+    assert_eq!(hybrid, before);
+
+    let r = [[0.0007, 0.0], [0.0, 0.00193]];
+    let q = [0.0099, 0.0022, 0.0894, 0.0017, 1.2678, 1.27];
+    let x0 = [0.0; 6];
+    let mut p = diagonal([1.0; 6]);
+    p[4][5] = 1.5;
+    p[5][4] = 1.5;
+    assert_eq!(
+        helicopter::in_f64::ContinuousEkf::new(&x0, &p, &q, &r),
+        Err(helicopter::in_f64::Status::InvalidCovariance)
+    );
+    assert_eq!(
+        helicopter::in_f64::ContinuousEkf::new(
+            &x0,
+            &diagonal([1.0; 6]),
+            &q,
+            &[[1e-3, 1e-3], [1e-3, 1e-4]]
+        ),
+        Err(helicopter::in_f64::Status::InvalidCovariance)
+    );
+
+    let mut p = diagonal([1.0; 4]);
+    p[0][3] = -1.01;
+    p[3][0] = -1.01;
+    assert_eq!(
+        polynomial::in_f64::PolynomialKf::new(&[0.0; 4], &p),
+        Err(polynomial::in_f64::Status::InvalidCovariance)
+    );
+}
