@@ -53,13 +53,7 @@ pub fn emit_continuous_ekf(
     let FilterLayout {
         accessors, setters, ..
     } = &layout;
-    let substeps = substeps_constant(
-        model,
-        mg,
-        &quote! {
-            /// Integration sub-steps per sample, for state and Riccati equation alike.
-        },
-    );
+    let substeps = substeps_item(model, mg);
     let alpha_field = spec.alpha.map(|_| quote! { alpha: #ty, });
     let alpha_init = spec.alpha.map(|_| quote! { alpha: Self::ALPHA, });
     // The model has no `known` constants: the filter asks for every coefficient at
@@ -108,6 +102,17 @@ pub fn emit_continuous_ekf(
         substep_ops,
         step_ops,
     }
+}
+
+/// `SUBSTEPS`, the sub-steps of each sample's propagation.
+fn substeps_item(model: &Model, mg: &ModelGraph) -> TokenStream {
+    substeps_constant(
+        model,
+        mg,
+        &quote! {
+            /// Integration sub-steps per sample, for state and Riccati equation alike.
+        },
+    )
 }
 
 /// The prescribed degree of stability `alpha` (Reif et al.): its default, generated as
