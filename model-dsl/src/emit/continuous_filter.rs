@@ -442,6 +442,22 @@ impl MethodNodes {
     }
 }
 
+impl MethodNodes {
+    /// Every value the method lowers: the new estimate and covariance (`results`), the
+    /// finiteness `probe`, the pivots, the loop's next values, and what the measurement
+    /// stage keeps.
+    fn roots(&self, results: &[NodeId], probe: NodeId) -> Vec<NodeId> {
+        let mut roots = results.to_vec();
+        roots.push(probe);
+        roots.extend(&self.pivots);
+        roots.extend(&self.loop_next);
+        roots.extend(&self.innovation);
+        roots.extend(&self.innovation_covariance);
+        roots.extend(self.nis);
+        roots
+    }
+}
+
 /// A method lowered: its body (the sub-step loop, the statements, the commit), the
 /// variables it reads, and the arithmetic of all of it and of one sub-step.
 struct LoweredMethod {
@@ -463,13 +479,7 @@ fn lower(
     let probe = finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p);
     let p_packed = packed_upper(&nodes.p);
     let results: Vec<NodeId> = nodes.x.iter().chain(&p_packed).copied().collect();
-    let mut all_roots = results.clone();
-    all_roots.push(probe);
-    all_roots.extend(&nodes.pivots);
-    all_roots.extend(&nodes.loop_next);
-    all_roots.extend(&nodes.innovation);
-    all_roots.extend(&nodes.innovation_covariance);
-    all_roots.extend(nodes.nis);
+    let all_roots = nodes.roots(&results, probe);
     let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&nodes.g.graph, scalar, namer, &all_roots);
     read_noise_and_alpha(&mut lowerer, nodes);
