@@ -72,7 +72,7 @@ stateforge::model! {
             y_psi = psi,
             /// yaw angle encoder, z2 = x3 \[rad\]
             y_phi = phi;
-        generate ekf, continuous_ekf(alpha = 0.5, gate = off, process_noise = diagonal);
+        generate ekf(gate = off), continuous_ekf(alpha = 0.5, gate = off, process_noise = diagonal);
         // The paper runs a continuous-time EKF (eq. 5) whose state and Riccati
         // ODEs are integrated by Simulink integrators at the 1 ms sample time;
         // it names no explicit scheme and does not use forward Euler, so RK4 is

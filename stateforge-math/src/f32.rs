@@ -396,3 +396,31 @@ pub fn is_covariance<const N: usize>(m: &[[f32; N]; N]) -> bool {
 pub fn all_non_negative<const N: usize>(variances: &[f32; N]) -> bool {
     crate::covariance::all_non_negative(variances)
 }
+
+/// The divergence bound on a filter step's result: a step is applied only when the sum of
+/// its new estimate's entries and variances lies within plus or minus this (1e18), so that
+/// no result is committed whose squares would overflow `f32` (1e18 squared is 1e36, below
+/// `f32::MAX`, 3.4e38). The same in `f64`, so that a host check of an `f32` filter accepts
+/// what the target does.
+pub const DIVERGENCE_BOUND: f32 = 1e18;
+
+/// The divergence bound on a correction: a filter without an innovation gate rejects a
+/// measurement whose normalised innovation squared `r' S^-1 r` exceeds this (1e8, an
+/// innovation of 1e4 standard deviations), and a gate can be opened no further. It bounds
+/// the correction's change: `dx' P^-1 dx <= r' S^-1 r` for the Kalman gain.
+pub const DIVERGENCE_NIS: f32 = 1e8;
+
+/// Whether a filter step's probe (the sum of its new estimate's entries and variances) is
+/// within [`DIVERGENCE_BOUND`]: false for NaN and the infinities.
+#[must_use]
+#[inline(always)]
+pub fn within_divergence_bound(probe: f32) -> bool {
+    abs(probe) <= DIVERGENCE_BOUND
+}
+
+/// Whether a normalised innovation squared is within `gate` (false for NaN).
+#[must_use]
+#[inline(always)]
+pub fn within_gate(nis: f32, gate: f32) -> bool {
+    nis <= gate
+}

@@ -86,7 +86,16 @@ fn one_output_update_equals_a_dense_kalman_update() {
         .flat_map(|i| (0..6).map(move |j| p_new[(i, j)]))
         .collect();
     assert!(relative_difference(&ekf.covariance().concat(), &p_flat) < 1e-13);
-    // A partial update leaves the innovation of the last full update alone.
-    assert_eq!(ekf.innovation(), [0.0, 0.0]);
+    // A partial update stores its own innovation (zero for the other output) and its
+    // normalised square, `r^2 / S`.
+    let r = y_yaw - h(t, &x)[1];
+    assert_eq!(ekf.innovation()[0], 0.0);
+    assert!((ekf.innovation()[1] - r).abs() <= 1e-15 * r.abs());
+    let nis = ekf.normalised_innovation_squared();
+    assert!(
+        (nis - r * r / s).abs() <= 1e-12 * nis,
+        "{nis} against {}",
+        r * r / s
+    );
     assert_eq!(ekf.update_y_phi(t, f64::NAN), Status::RejectedInput);
 }

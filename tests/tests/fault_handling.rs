@@ -40,8 +40,16 @@ fn gated_hybrid_ekf_rejects_an_outlier_keeps_the_prediction_and_goes_on() {
         &[[blade::R as f32]],
     )
     .unwrap();
-    // Generated with `gate = off`: open until set.
-    assert_eq!(filter.innovation_gate(), f32::INFINITY);
+    // Generated with `gate = off`: open (to the divergence bound) until set.
+    assert_eq!(
+        filter.innovation_gate(),
+        stateforge_math::f32::DIVERGENCE_NIS
+    );
+    assert_eq!(filter.set_innovation_gate(f32::INFINITY), Status::Ok);
+    assert_eq!(
+        filter.innovation_gate(),
+        stateforge_math::f32::DIVERGENCE_NIS
+    );
     assert_eq!(filter.set_innovation_gate(0.0), Status::RejectedInput);
     assert_eq!(filter.set_innovation_gate(10.83), Status::Ok);
     let u = |k: usize| [(k as f32 * 0.37).sin()];
@@ -121,6 +129,46 @@ fn gated_continuous_ekf_rejects_an_outlier_keeps_the_prediction_and_goes_on() {
         let y = consistent(&filter, k);
         assert_eq!(filter.step(t(k), &u, &y), Status::Ok, "sample {k}");
     }
+}
+
+/// The case: a 5 rad outlier of the pitch, which the joint update rejects, must
+/// not move the angle through the per-output update either. Each output's update is gated
+/// on its own normalised innovation squared and stores its innovation.
+#[test]
+fn per_output_updates_are_gated_and_keep_their_innovation() {
+    use helicopter::in_f64::{h, Ekf, Status};
+    let p0 = diagonal([0.1; 6]);
+    let q = diagonal([1e-6, 1e-4, 1e-6, 1e-4, 1e-5, 1e-5]);
+    let r = diagonal([1e-4, 2e-4]);
+    let mut filter = Ekf::new(&[0.1, 0.0, -0.2, 0.0, 0.0, 0.0], &p0, &q, &r).unwrap();
+    assert_eq!(filter.set_innovation_gate(10.83), Status::Ok);
+    let t = 0.0;
+    assert_eq!(filter.predict(t, &[0.1, -0.2]), Status::Ok);
+    let before = filter;
+    let [psi, phi] = h(t, &filter.state());
+    assert_eq!(filter.update(t, &[psi + 5.0, phi]), Status::OutlierRejected);
+    assert_eq!(
+        (filter.state(), filter.covariance()),
+        (before.state(), before.covariance())
+    );
+    assert_eq!(filter.update_y_psi(t, psi + 5.0), Status::OutlierRejected);
+    assert_eq!(
+        (filter.state(), filter.covariance()),
+        (before.state(), before.covariance())
+    );
+    assert_eq!(filter.innovation(), [5.0, 0.0]);
+    let s = before.covariance()[0][0] + 1e-4;
+    let nis = filter.normalised_innovation_squared();
+    assert!(
+        (nis - 25.0 / s).abs() <= 1e-12 * nis,
+        "{nis} against {}",
+        25.0 / s
+    );
+    // The other output's consistent measurement is used, and its innovation stored.
+    assert_eq!(filter.update_y_phi(t, phi + 0.01), Status::Ok);
+    assert_eq!(filter.innovation()[0], 0.0);
+    assert!((filter.innovation()[1] - 0.01).abs() < 1e-12);
+    assert!(filter.state()[2] > before.state()[2]);
 }
 
 /// Of each kind of covariance argument that is not one, rejected by every filter's

@@ -97,6 +97,20 @@ impl Arguments {
         }
     }
 
+    /// A time `name: S`, checked finite when the code reads it (`read`; a NaN time would
+    /// only show as a non-finite estimate), else named `_name`.
+    pub fn time(&mut self, name: &str, read: bool, ty: &Ident) {
+        if read {
+            let arg = ident(name);
+            self.params.push(quote! { #arg: #ty });
+            self.checked.push(arg);
+            self.scalar_type = Some(ty.clone());
+        } else {
+            let arg = ident(&format!("_{name}"));
+            self.params.push(quote! { #arg: #ty });
+        }
+    }
+
     /// `name: S`, bound to `var` and checked finite.
     pub fn scalar(&mut self, name: &str, var: Ident, ty: &Ident) {
         let arg = ident(name);

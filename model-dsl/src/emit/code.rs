@@ -230,32 +230,70 @@ pub fn unpack_symmetric(field: &str, n: usize) -> TokenStream {
     }
 }
 
-/// The end of a filter step: if `probe` is not finite the filter is left as it was and
-/// `NonFinite` returned, else the new estimate and packed covariance are stored.
-pub fn commit_or_non_finite(
+/// The test a filter step's result passes before it is stored (the divergence bound):
+/// its probe, the sum of the new estimate's entries and variances (see
+/// `finiteness_probe`), within `stateforge_math`'s `DIVERGENCE_BOUND` (1e18), and each new
+/// variance in `variances` non-negative. A failure returns `NonFinite` when the probe is not
+/// finite, else `Diverged`: only the failing branch tells them apart. One test and branch
+/// each: joined by `&&`, the tests are combined into flags before one branch, which costs
+/// more on the target.
+pub fn reject_diverged(
     probe: &TokenStream,
-    x_values: &[TokenStream],
-    p_values: &[TokenStream],
+    variances: &[TokenStream],
+    scalar: Scalar,
 ) -> TokenStream {
-    commit_or_non_finite_with(probe, x_values, p_values, &TokenStream::new())
+    let ty = ident(scalar.type_name());
+    let zero = literal(0.0, scalar);
+    // A variance that lowered to a non-negative literal needs no test.
+    let literal_non_negative =
+        |v: &TokenStream| v.to_string().parse::<f64>().is_ok_and(|v| v >= 0.0);
+    let variance_tests = variances
+        .iter()
+        .filter(|v| !literal_non_negative(v))
+        .map(|v| {
+            quote! {
+                if #v < #zero {
+                    return Status::Diverged;
+                }
+            }
+        });
+    quote! {
+        if !stateforge_math::#ty::within_divergence_bound(#probe) {
+            return if (#probe).is_finite() {
+                Status::Diverged
+            } else {
+                Status::NonFinite
+            };
+        }
+        #(#variance_tests)*
+    }
 }
 
-/// [`commit_or_non_finite`], storing `also` (more assignments) with the estimate.
+/// The end of a filter step: unless the result passes [`reject_diverged`] the filter is
+/// left as it was, else the new estimate and packed covariance are stored, and `also` (more
+/// assignments) with them.
 pub fn commit_or_non_finite_with(
     probe: &TokenStream,
     x_values: &[TokenStream],
     p_values: &[TokenStream],
     also: &TokenStream,
+    scalar: Scalar,
 ) -> TokenStream {
+    let check = reject_diverged(probe, &packed_diagonal(p_values, x_values.len()), scalar);
     quote! {
-        if !(#probe).is_finite() {
-            return Status::NonFinite;
-        }
+        #check
         self.x = [#(#x_values),*];
         self.p = [#(#p_values),*];
         #also
         Status::Ok
     }
+}
+
+/// The diagonal of a packed (upper triangle, row by row) `n x n` matrix.
+pub fn packed_diagonal(packed: &[TokenStream], n: usize) -> Vec<TokenStream> {
+    (0..n)
+        .map(|i| packed[crate::symbolic::linalg::packed_index(n, i, i)].clone())
+        .collect()
 }
 
 /// Names in generated code for pivot `j` of a guarded `L D L'` solve of size `m` and for

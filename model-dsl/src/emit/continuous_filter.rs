@@ -14,7 +14,7 @@ use crate::emit::code::{
     INNOVATION,
 };
 use crate::emit::filter::{
-    finiteness_probe, model_names, name_estimate, time_param, unclaimed_name, FilterVars,
+    finiteness_probe, model_names, name_estimate, reads_time, unclaimed_name, FilterVars,
 };
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::measurement;
@@ -321,8 +321,11 @@ struct MethodNodes {
     innovation: Vec<NodeId>,
     /// Its covariance, packed.
     innovation_covariance: Vec<NodeId>,
-    /// The normalised innovation squared, which only the gate needs at once.
+    /// An update's normalised innovation squared, tested against the gate or the
+    /// divergence bound.
     nis: Option<NodeId>,
+    /// Whether the filter has an innovation gate.
+    gated: bool,
 }
 
 impl MethodNodes {
@@ -376,6 +379,7 @@ impl MethodNodes {
             innovation: Vec::new(),
             innovation_covariance: Vec::new(),
             nis: None,
+            gated: options.gated,
         };
         if kind.predicts() {
             nodes.propagate((rule, h), model.uses_time());
@@ -383,7 +387,7 @@ impl MethodNodes {
         if kind.updates() {
             // The continuous-time EKF's measurement terms over the sample `T` are the
             // update with `R / T` (see `FilterMethod::Continuous`).
-            nodes.correct(m, kind.is_continuous().then_some(dt), options.gated);
+            nodes.correct(m, kind.is_continuous().then_some(dt));
         }
         nodes
     }
@@ -414,8 +418,8 @@ impl MethodNodes {
     /// `m` outputs: the shared Kalman stage, with `h` and its Jacobian at the estimate (and
     /// at a step's measurement time). With `noise_duration` `T`, the measurement noise is
     /// the density `R` over it, `R / T`. With the gate (`gated`), the normalised innovation
-    /// squared too.
-    fn correct(&mut self, m: usize, noise_duration: Option<NodeId>, gated: bool) {
+    /// squared, tested against the gate or the divergence bound.
+    fn correct(&mut self, m: usize, noise_duration: Option<NodeId>) {
         let mut r = symmetric_from_packed(&self.vars.r, m);
         if let Some(duration) = noise_duration {
             let graph = &mut self.g.graph;
@@ -436,7 +440,7 @@ impl MethodNodes {
         let update = correction.update;
         self.innovation = correction.residual;
         self.innovation_covariance = packed_upper(&update.s);
-        self.nis = gated.then_some(update.nis);
+        self.nis = Some(update.nis);
         (self.x, self.p) = (update.x, update.p);
         (self.pivots, self.reciprocals) = (update.pivots, update.reciprocals);
     }
@@ -504,16 +508,18 @@ fn lower(
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
     lowerer.count_extra(OpCount::stores(values.len()));
-    let store_innovation = if kind.updates() {
-        let kept = measurement::Kept {
-            innovation: &nodes.innovation,
-            covariance: &nodes.innovation_covariance,
-            nis: nodes.nis,
-            step: kind.predicts(),
-        };
-        measurement::store_and_gate(&mut lowerer, model, &kept)
-    } else {
-        TokenStream::new()
+    let store_innovation = match nodes.nis {
+        Some(nis) => {
+            let kept = measurement::Kept {
+                innovation: &nodes.innovation,
+                covariance: &nodes.innovation_covariance,
+                nis,
+                gated: nodes.gated,
+                step: kind.predicts(),
+            };
+            measurement::store_and_gate(&mut lowerer, model, &kept)
+        }
+        None => TokenStream::new(),
     };
     let Lowered {
         statements,
@@ -521,7 +527,7 @@ fn lower(
         ops,
     } = lowerer.finish();
     let (x_values, p_values) = values.split_at(n);
-    let commit = commit_or_non_finite_with(&probe, x_values, p_values, &store_innovation);
+    let commit = commit_or_non_finite_with(&probe, x_values, p_values, &store_innovation, scalar);
     let (loop_code, per_substep, total) = match substep_loop {
         Some(l) => {
             used_vars.extend(l.used_vars);
@@ -612,13 +618,13 @@ fn arguments(
     let graph = &g.graph;
     let mut arguments = Arguments::default();
     if model.uses_time() {
-        if kind.predicts() && nodes.nis.is_some() {
+        if kind.predicts() {
             // A gated step passes it on to `predict` when it rejects an outlier.
-            arguments.plain(quote! { t_prev: #ty });
-        } else if kind.predicts() {
-            arguments.plain(time_param(graph, nodes.t_start, used_vars, ty, "t_prev"));
+            let passed_on = nodes.nis.is_some() && nodes.gated;
+            let read = passed_on || reads_time(graph, nodes.t_start, used_vars);
+            arguments.time("t_prev", read, ty);
         } else {
-            arguments.plain(time_param(graph, g.t, used_vars, ty, "t"));
+            arguments.time("t", reads_time(graph, g.t, used_vars), ty);
         }
     }
     if kind.predicts() && !g.u.is_empty() {

@@ -280,6 +280,11 @@ pub fn finiteness_probe(graph: &mut Graph, vector: &[NodeId], matrix: &Matrix) -
     sum
 }
 
+/// Whether the code reads the time variable `t`.
+pub fn reads_time(graph: &Graph, t: NodeId, used: &std::collections::BTreeSet<VarId>) -> bool {
+    matches!(graph.node(t), crate::symbolic::Node::Var(v) if used.contains(&v))
+}
+
 /// `t: f32` (named `name`), or `_t: f32` when the code does not read it.
 pub fn time_param(
     graph: &Graph,

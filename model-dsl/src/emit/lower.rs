@@ -515,6 +515,11 @@ impl<'g> Lowerer<'g> {
         self.graph
     }
 
+    /// The scalar type the code is lowered in.
+    pub fn scalar(&self) -> Scalar {
+        self.scalar
+    }
+
     /// Appends a statement of the caller's (a guard, a reciprocal).
     pub fn statement(&mut self, tokens: TokenStream) {
         self.statements.push(tokens);

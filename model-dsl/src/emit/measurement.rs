@@ -16,6 +16,10 @@ use crate::symbolic::{Graph, NodeId};
 use proc_macro2::TokenStream;
 use quote::quote;
 
+/// `stateforge_math`'s `DIVERGENCE_NIS`: the widest innovation gate, and the bound on the
+/// NIS of a filter without one.
+const DIVERGENCE_NIS: f64 = 1e8;
+
 /// The fields a filter that measures adds to its layout's: the last innovation and its
 /// packed covariance, and the gate when it has one; each followed by a comma.
 pub fn fields(model: &Model, gate: Option<f64>, ty: &proc_macro2::Ident) -> TokenStream {
@@ -37,7 +41,7 @@ pub fn fields(model: &Model, gate: Option<f64>, ty: &proc_macro2::Ident) -> Toke
 pub fn initial_values(model: &Model, gate: Option<f64>, scalar: Scalar) -> TokenStream {
     let (innovation, covariance) = cleared(model, scalar);
     let gate_init = gate.map(|gate| {
-        let value = crate::emit::lower::literal(gate, scalar);
+        let value = crate::emit::lower::literal(gate.min(DIVERGENCE_NIS), scalar);
         quote! { gate: #value, }
     });
     quote! {
@@ -95,50 +99,62 @@ pub fn name_innovation(lowerer: &mut Lowerer, model: &Model, innovation: &[NodeI
     }
 }
 
-/// What a correction with every output keeps of its measurement: the innovation, its
-/// packed covariance and, with a gate, the normalised innovation squared it tests.
+/// What a correction keeps of its measurement: the innovation, its packed covariance and
+/// the normalised innovation squared it tests.
 pub struct Kept<'a> {
-    /// `y - h(x)`.
+    /// `y - h(x)`, every output's (an update with one output alone stores zero for the
+    /// others).
     pub innovation: &'a [NodeId],
-    /// `S`, packed.
+    /// `S`, packed (for one output alone, unit variances and no correlation for the
+    /// others, so that the stored NIS is that output's).
     pub covariance: &'a [NodeId],
-    /// `r' S^-1 r`, computed at once only for the gate.
-    pub nis: Option<NodeId>,
+    /// `r' S^-1 r`.
+    pub nis: NodeId,
+    /// Whether the filter has an innovation gate: the NIS is tested against it, else
+    /// against the divergence bound, `DIVERGENCE_NIS`.
+    pub gated: bool,
     /// Whether the method is a step (a prediction and the correction): with a gate, an
     /// outlier keeps the prediction.
     pub step: bool,
 }
 
 /// Lowers what `kept` stores, last, where it holds no register while the update runs, and
-/// returns its assignments for the commit; with a gate, its test just before the commit
-/// (an outlier costs a whole update, the usual sample nothing more). NaN is not within
-/// the gate: a measurement that gives it is rejected.
+/// returns its assignments for the commit; and its test just before the commit (an outlier
+/// costs a whole update, the usual sample one comparison). With a gate, an outlier is
+/// rejected (`OutlierRejected`; a step keeps its prediction); without one, a NIS beyond
+/// the divergence bound returns `Diverged`, the filter unchanged. NaN is within neither: a
+/// measurement that gives it is rejected.
 pub fn store_and_gate(lowerer: &mut Lowerer, model: &Model, kept: &Kept<'_>) -> TokenStream {
     let m = kept.innovation.len();
     lowerer.count_extra(OpCount::stores(m + packed_len(m)));
     let innovation_values = lowerer.segment(kept.innovation);
     let covariance_values = lowerer.segment(kept.covariance);
     let store = store_innovation_tokens(&innovation_values, &covariance_values);
-    let Some(nis) = kept.nis else {
-        return store;
-    };
-    let nis = lowerer.bind(nis, "nis");
-    let keep_prediction = kept.step.then(|| {
-        let args = prediction_arguments(model);
+    let nis = lowerer.bind(kept.nis, "nis");
+    let ty = ident(lowerer.scalar().type_name());
+    let test = if kept.gated {
+        let keep_prediction = kept.step.then(|| {
+            let args = prediction_arguments(model);
+            quote! {
+                self.keep_prediction(
+                    #(#args,)* [#(#innovation_values),*], [#(#covariance_values),*],
+                )
+            }
+        });
+        let rejection = outlier_rejection(keep_prediction, &store);
         quote! {
-            self.keep_prediction(
-                #(#args,)* [#(#innovation_values),*], [#(#covariance_values),*],
-            )
+            if !stateforge_math::#ty::within_gate(#nis, self.gate) {
+                #rejection
+            }
         }
-    });
-    let rejection = outlier_rejection(keep_prediction, &store);
-    let within_gate = lowerer.fresh_name("within_gate");
-    lowerer.statement(quote! {
-        let #within_gate = #nis <= self.gate;
-        if !#within_gate {
-            #rejection
+    } else {
+        quote! {
+            if !stateforge_math::#ty::within_gate(#nis, stateforge_math::#ty::DIVERGENCE_NIS) {
+                return Status::Diverged;
+            }
         }
-    });
+    };
+    lowerer.statement(test);
     lowerer.count_extra(OpCount {
         compare: 1,
         ..Default::default()
@@ -251,14 +267,14 @@ fn nis_method(model: &Model, scalar: Scalar) -> TokenStream {
 /// The innovation gate's getter and setter; `gate` is its generated value.
 fn gate_items(gate: f64, ty: &proc_macro2::Ident, scalar: Scalar) -> TokenStream {
     let zero = crate::emit::lower::literal(0.0, scalar);
-    let generated = if gate.is_finite() {
+    let generated = if gate < DIVERGENCE_NIS {
         format!("{gate}")
     } else {
-        "infinity (open)".to_owned()
+        "open (at the divergence bound, 1e8)".to_owned()
     };
     let doc = format!(
         " The innovation gate: a measurement whose normalised innovation squared exceeds it \
-         is rejected ([`Status::OutlierRejected`]). Generated as {generated}."
+         is rejected ([`Status::OutlierRejected`]). Generated {generated}."
     );
     quote! {
         #[doc = #doc]
@@ -267,13 +283,19 @@ fn gate_items(gate: f64, ty: &proc_macro2::Ident, scalar: Scalar) -> TokenStream
             self.gate
         }
 
-        /// Sets the innovation gate (a chi-square quantile for `Y_LEN` degrees of
-        /// freedom: 10.83 rejects one in a thousand consistent scalar measurements;
-        /// infinity opens it). Rejects a threshold that is not positive, leaving the
-        /// gate as it was.
+        /// Sets the innovation gate (a chi-square quantile for the update's degrees of
+        /// freedom, as many as the measurements it takes: 10.83 rejects one in a thousand
+        /// consistent scalar measurements). The gate opens no further than the divergence
+        /// bound, `stateforge_math`'s `DIVERGENCE_NIS` (1e8): a larger threshold, infinity
+        /// included, sets that. Rejects a threshold that is not positive, leaving the gate
+        /// as it was.
         pub fn set_innovation_gate(&mut self, threshold: #ty) -> Status {
             if threshold > #zero {
-                self.gate = threshold;
+                self.gate = if threshold < stateforge_math::#ty::DIVERGENCE_NIS {
+                    threshold
+                } else {
+                    stateforge_math::#ty::DIVERGENCE_NIS
+                };
                 Status::Ok
             } else {
                 Status::RejectedInput

@@ -6,7 +6,8 @@
 
 use super::window::{self, WindowTransform};
 use crate::emit::code::{
-    guard_pivots, innovation_pivot_failure, pivot_names, var_idents, INNOVATION,
+    guard_pivots, innovation_pivot_failure, packed_diagonal, pivot_names, reject_diverged,
+    var_idents, INNOVATION,
 };
 use crate::emit::filter::{finiteness_probe, model_names, noise_vars, packed_vars};
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
@@ -418,13 +419,12 @@ impl<'a> StepLowering<'a> {
         let (x_values, p_values) = values.split_at(n);
         let name = ident(name);
         let doc = format!(" {doc}");
+        let check = reject_diverged(&probe, &packed_diagonal(p_values, n), self.scalar);
         let tokens = quote! {
             #[doc = #doc]
             fn #name(&mut self, #params) -> Status {
                 #(#statements)*
-                if !(#probe).is_finite() {
-                    return Status::NonFinite;
-                }
+                #check
                 self.#x_field = [#(#x_values),*];
                 self.#p_field = [#(#p_values),*];
                 Status::Ok

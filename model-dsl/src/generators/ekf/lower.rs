@@ -10,7 +10,7 @@ use crate::emit::code::{
     INNOVATION,
 };
 use crate::emit::filter::{
-    finiteness_probe, model_names, name_estimate, time_param, FilterLayout, FilterVars,
+    finiteness_probe, model_names, name_estimate, reads_time, FilterLayout, FilterVars,
 };
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::measurement;
@@ -185,13 +185,6 @@ impl EkfMethod {
         self != EkfMethod::Predict
     }
 
-    /// Whether the method corrects with every output at once: only such a correction
-    /// stores its innovation and passes the gate (a threshold for `Y_LEN` degrees of
-    /// freedom).
-    fn corrects_all(self) -> bool {
-        matches!(self, EkfMethod::Update | EkfMethod::Step)
-    }
-
     /// The outputs this method corrects with: one for a partial update, else all.
     fn outputs(self, m: usize) -> Vec<usize> {
         match self {
@@ -210,9 +203,12 @@ impl EkfMethod {
                      alone, for a sensor sampled at its own rate (Joseph form, its variance \
                      `R[{j}][{j}]`). With uncorrelated measurement noise (a diagonal `R`), \
                      updating with each output in turn equals [`{ty_name}::update`] with all of \
-                     them. Neither stores an innovation nor passes an innovation gate. Rejects a \
-                     non-finite measurement and a non-positive innovation variance; leaves the \
-                     filter unchanged unless it returns [`Status::Ok`].",
+                     them. Stores its innovation (zero, of unit variance, for the other outputs) \
+                     and passes the innovation gate, or the divergence bound, like \
+                     [`{ty_name}::update`]. Rejects a non-finite measurement and a non-positive \
+                     innovation variance; leaves the filter unchanged unless it returns \
+                     [`Status::Ok`] (or [`Status::OutlierRejected`], which records the \
+                     innovation).",
                     ty_name = spec.type_name
                 );
                 return (
@@ -309,12 +305,15 @@ struct EkfNodes {
     pivots: Vec<NodeId>,
     /// The pivots' reciprocals.
     reciprocals: Vec<NodeId>,
-    /// The innovation stored (a correction with every output), else empty.
+    /// The innovation a correction stores (every output's), else empty.
     innovation: Vec<NodeId>,
     /// Its covariance, packed.
     innovation_covariance: Vec<NodeId>,
-    /// The normalised innovation squared, which only the gate needs at once.
+    /// A correction's normalised innovation squared, tested against the gate or the
+    /// divergence bound.
     nis: Option<NodeId>,
+    /// Whether the filter has an innovation gate.
+    gated: bool,
 }
 
 impl EkfNodes {
@@ -345,25 +344,22 @@ impl EkfNodes {
             innovation: Vec::new(),
             innovation_covariance: Vec::new(),
             nis: None,
+            gated: spec.gate.is_some(),
         };
         if kind.predicts() {
             let q = &nodes.vars.q_matrix;
             (nodes.x, nodes.p) = kalman::ekf_predict(&mut nodes.g, &nodes.p, q, t_prev);
         }
         if kind.updates() {
-            nodes.correct(
-                model.outputs.len(),
-                &outputs,
-                kind.corrects_all() && spec.gate.is_some(),
-            );
+            nodes.correct(model.outputs.len(), &outputs);
         }
         nodes
     }
 
     /// The Joseph-form correction with `outputs` (of `m`), through the shared Kalman
-    /// stage; with every output, the innovation and its covariance to store, and with the
-    /// gate (`gated`) the normalised innovation squared.
-    fn correct(&mut self, m: usize, outputs: &[usize], gated: bool) {
+    /// stage, and what it stores: the innovation, its covariance and the normalised
+    /// innovation squared.
+    fn correct(&mut self, m: usize, outputs: &[usize]) {
         let r_all = symmetric_from_packed(&self.vars.r, m);
         let r: Matrix = outputs
             .iter()
@@ -381,15 +377,28 @@ impl EkfNodes {
         let update = correction.update;
         (self.x, self.p) = (update.x, update.p);
         (self.pivots, self.reciprocals) = (update.pivots, update.reciprocals);
-        // A partial update neither stores its innovation (the stored one is that of
-        // every output) nor passes the gate.
-        if mu == m {
+        let s = if mu == m {
             self.innovation = correction.residual;
-            self.innovation_covariance = packed_upper(&update.s);
-            // Only the gate needs it at once; otherwise `normalised_innovation_squared()`
-            // computes it from the stored innovation and its covariance when asked.
-            self.nis = gated.then_some(update.nis);
-        }
+            update.s
+        } else {
+            // One output alone: the others' entries a zero innovation of unit variance,
+            // uncorrelated, so that the stored NIS is this output's.
+            let (zero, one) = (self.g.graph.zero(), self.g.graph.one());
+            self.innovation = vec![zero; m];
+            let mut s = vec![vec![zero; m]; m];
+            for (i, row) in s.iter_mut().enumerate() {
+                row[i] = one;
+            }
+            for (a, &i) in outputs.iter().enumerate() {
+                self.innovation[i] = correction.residual[a];
+                for (b, &j) in outputs.iter().enumerate() {
+                    s[i][j] = update.s[a][b];
+                }
+            }
+            s
+        };
+        self.innovation_covariance = packed_upper(&s);
+        self.nis = Some(update.nis);
     }
 }
 
@@ -446,16 +455,18 @@ fn lower(
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
     lowerer.count_extra(OpCount::stores(values.len()));
-    let store_innovation = if kind.corrects_all() {
-        let kept = measurement::Kept {
-            innovation: &nodes.innovation,
-            covariance: &nodes.innovation_covariance,
-            nis: nodes.nis,
-            step: kind == EkfMethod::Step,
-        };
-        measurement::store_and_gate(&mut lowerer, model, &kept)
-    } else {
-        TokenStream::new()
+    let store_innovation = match nodes.nis {
+        Some(nis) => {
+            let kept = measurement::Kept {
+                innovation: &nodes.innovation,
+                covariance: &nodes.innovation_covariance,
+                nis,
+                gated: nodes.gated,
+                step: kind == EkfMethod::Step,
+            };
+            measurement::store_and_gate(&mut lowerer, model, &kept)
+        }
+        None => TokenStream::new(),
     };
     let Lowered {
         statements,
@@ -463,7 +474,7 @@ fn lower(
         ops,
     } = lowerer.finish();
     let (x_values, p_values) = values.split_at(model.state_len());
-    let commit = commit_or_non_finite_with(&probe, x_values, p_values, &store_innovation);
+    let commit = commit_or_non_finite_with(&probe, x_values, p_values, &store_innovation, scalar);
     let statements = crate::emit::scopes::scoped(statements, &commit);
     (quote! { #(#statements)* #commit }, used_vars, ops)
 }
@@ -484,14 +495,12 @@ fn arguments(
     let graph = &g.graph;
     let mut arguments = Arguments::default();
     if let Some(t_prev) = nodes.t_prev {
-        arguments.plain(if nodes.nis.is_some() {
-            quote! { t_prev: #ty }
-        } else {
-            time_param(graph, t_prev, used_vars, ty, "t_prev")
-        });
+        let passed_on = nodes.gated && kind == EkfMethod::Step;
+        let read = passed_on || reads_time(graph, t_prev, used_vars);
+        arguments.time("t_prev", read, ty);
     }
     if model.uses_time() && kind.updates() && nodes.t_measured.is_none() {
-        arguments.plain(time_param(graph, g.t, used_vars, ty, "t"));
+        arguments.time("t", reads_time(graph, g.t, used_vars), ty);
     }
     if kind.predicts() && !g.u.is_empty() {
         arguments.array("u_prev", var_idents(graph, &g.u), ty);

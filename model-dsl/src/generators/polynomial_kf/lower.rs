@@ -8,7 +8,8 @@ use super::design::{self, WindowFit};
 use super::spec::PolynomialKfSpec;
 use crate::emit::arguments::{Arguments, REJECTS_NON_FINITE};
 use crate::emit::code::{
-    guard_pivots, innovation_pivot_failure, pivot_names, unpack_symmetric, INNOVATION,
+    guard_pivots, innovation_pivot_failure, packed_diagonal, pivot_names, reject_diverged,
+    unpack_symmetric, INNOVATION,
 };
 use crate::emit::filter::{finiteness_probe, model_names, packed_vars};
 use crate::emit::lower::{literal, matrix_literal, Lowered, Lowerer, OpCount};
@@ -238,6 +239,7 @@ fn step_method(
         probe,
         ..
     } = kf;
+    let check = reject_diverged(&probe, &packed_diagonal(&p_values, x_values.len()), scalar);
     let step_doc = format!(
         " One sample: the window takes `y`; every {} samples, once the window holds its {} \
          samples, the estimate and covariance are re-initialised from the window fit, \
@@ -265,9 +267,7 @@ fn step_method(
                 return Status::Ok;
             }
             #(#statements)*
-            if !(#probe).is_finite() {
-                return Status::NonFinite;
-            }
+            #check
             self.x = [#(#x_values),*];
             self.p = [#(#p_values),*];
             self.window = [#(#new_idents),*];

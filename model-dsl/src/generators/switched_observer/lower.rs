@@ -5,7 +5,7 @@
 
 use super::design::{observer_step, Designs, Gains, Regimes, Switch};
 use crate::emit::arguments::{Arguments, REJECTS_NON_FINITE};
-use crate::emit::code::{reject_non_finite, var_idents};
+use crate::emit::code::{reject_diverged, reject_non_finite, var_idents};
 use crate::emit::filter::model_names;
 use crate::emit::lower::{literal, matrix_literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
@@ -272,6 +272,7 @@ fn step_method(model: &Model, switch: &Switch, step: &LoweredStep, scalar: Scala
         .state_names()
         .map(|s| ident(&format!("{s}_next")))
         .collect();
+    let commit_check = reject_diverged(&quote! { #(#next_idents)+* }, &[], scalar);
     quote! {
         /// One sample: `x = A_i x + B_i u + c_i + K_i (y - C x)` with the regime `i`
         /// chosen by [`in_regime_2`] from `y`. Rejects a non-finite `u` or `y`; leaves
@@ -284,9 +285,7 @@ fn step_method(model: &Model, switch: &Switch, step: &LoweredStep, scalar: Scala
             // `x` would shadow the array.
             let next = if #test { #regime2 } else { #regime1 };
             let [#(#next_idents),*] = next;
-            if !(#(#next_idents)+*).is_finite() {
-                return Status::NonFinite;
-            }
+            #commit_check
             self.x = next;
             Status::Ok
         }
