@@ -306,12 +306,14 @@ ekf_family!(
 macro_rules! other_subject {
     (
         $name:ident: $ty:ty, new = $new:expr, sample = $sample:expr,
-        snapshot = $snapshot:expr, states = $states:expr, variances = $variances:expr $(,)?
+        snapshot = $snapshot:expr, states = $states:expr, variances = $variances:expr,
+        reset = $reset:expr $(,)?
     ) => {
         #[derive(Clone)]
         struct $name {
             filter: $ty,
             sigma: Vec<f64>,
+            prior_variances: Vec<f64>,
         }
 
         impl $name {
@@ -321,6 +323,7 @@ macro_rules! other_subject {
                 $name {
                     filter: new(x0, p0, q, r),
                     sigma: r.iter().map(|r| r.sqrt()).collect(),
+                    prior_variances: p0.to_vec(),
                 }
             }
         }
@@ -345,11 +348,13 @@ macro_rules! other_subject {
             fn predicted(&self, _: &Sample) -> Option<Vec<f64>> {
                 None
             }
-            fn reset(&mut self, _: &[f64]) -> bool {
-                false
+            fn reset(&mut self, x0: &[f64]) -> bool {
+                let p0 = self.prior_variances.clone();
+                self.reset_with(x0, &p0)
             }
-            fn reset_with(&mut self, _: &[f64], _: &[f64]) -> bool {
-                false
+            fn reset_with(&mut self, x0: &[f64], p0: &[f64]) -> bool {
+                let reset: fn(&mut $ty, &[f64], &[f64]) -> bool = $reset;
+                reset(&mut self.filter, x0, p0)
             }
             fn gated(&self) -> bool {
                 false
@@ -412,6 +417,7 @@ macro_rules! dkf_family {
                 all.extend(diagonal_of(&f.akf_covariance()));
                 all
             },
+            reset = |_, _, _| false,
         );
     };
 }
@@ -439,6 +445,7 @@ macro_rules! polynomial_kf {
             },
             states = |f| to_f64(&f.state()),
             variances = |f| diagonal_of(&f.covariance()),
+            reset = |f, x0, p0| status_name(f.reset(&arr(x0), &diag(p0))) == "Ok",
         );
     };
 }
@@ -455,6 +462,7 @@ macro_rules! observer {
             snapshot = |f| to_f64(&f.state()),
             states = |f| to_f64(&f.state()),
             variances = |_| Vec::new(),
+            reset = |_, _, _| false,
         );
     };
 }

@@ -160,3 +160,50 @@ fn a_rejected_measurement_leaves_the_filter_unchanged() {
     assert_eq!(kf.step(f64::INFINITY), Status::RejectedInput);
     assert_eq!(kf, before);
 }
+
+/// The innovation and its normalised square of a recursive step against the reference's
+/// prediction: `r = y - (Phi x)[0]`, `NIS = r^2 / ((Phi S Phi' + f I)[0][0] + sigma^2)`; and
+/// `reset` starts again as `new` does.
+#[test]
+fn innovation_nis_and_reset_match_the_reference() {
+    use generated_demo::polynomial::in_f64::{FADE, SIGMA2};
+    let x0 = [0.5, 0.1, -0.02, 0.003];
+    let p0 = core::array::from_fn(|i| {
+        core::array::from_fn(|j| {
+            if i == j {
+                [1.0, 1e-2, 1e-4, 1e-6][i]
+            } else {
+                0.0
+            }
+        })
+    });
+    let mut kf = PolynomialKf::new(&x0, &p0).unwrap();
+    assert_eq!(
+        (kf.innovation(), kf.normalised_innovation_squared()),
+        (0.0, 0.0)
+    );
+    let x = DVector::from_row_slice(&x0);
+    let s = DMatrix::from_fn(N, N, |i, j| p0[i][j]);
+    let predicted = phi() * &x;
+    let s1 = phi() * s * phi().transpose() + DMatrix::identity(N, N) * FADE;
+    let y = 0.9;
+    assert_eq!(kf.step(y), Status::Ok);
+    let r = y - predicted[0];
+    let nis = r * r / (s1[(0, 0)] + SIGMA2);
+    assert!(
+        (kf.innovation() - r).abs() <= 1e-14,
+        "{} against {r}",
+        kf.innovation()
+    );
+    let got = kf.normalised_innovation_squared();
+    assert!((got - nis).abs() <= 1e-12 * nis, "{got} against {nis}");
+    // A measurement 1e5 standard deviations out is beyond the divergence bound.
+    let before = kf;
+    assert_eq!(
+        kf.step(y + 1e5 * (s1[(0, 0)] + SIGMA2).sqrt()),
+        Status::Diverged
+    );
+    assert_eq!(kf, before);
+    assert_eq!(kf.reset(&x0, &p0), Status::Ok);
+    assert_eq!(kf, PolynomialKf::new(&x0, &p0).unwrap());
+}

@@ -129,7 +129,8 @@ pub fn window_fit(spec: &PolynomialKfSpec) -> WindowFit {
 
 /// One recursive step as nodes: `x = Phi x`, `S1 = Phi S Phi' + f I` (eq. 5-6), then the
 /// Joseph-form update with `M = [1 0 .. 0]` and `sigma^2` (eq. 7-9; the Joseph form equals
-/// eq. 8 for the optimal gain and keeps `S` symmetric and positive in `f32`).
+/// eq. 8 for the optimal gain and keeps `S` symmetric and positive in `f32`). Returns the
+/// update and the innovation `y - x_pred[0]`.
 pub fn step(
     g: &mut Graph,
     spec: &PolynomialKfSpec,
@@ -137,7 +138,7 @@ pub fn step(
     p: &Matrix,
     measured: NodeId,
     reciprocal: impl FnMut(&mut Graph, usize) -> NodeId,
-) -> Update {
+) -> (Update, NodeId) {
     let n = spec.order + 1;
     let phi: Matrix = transition(spec.order)
         .iter()
@@ -155,6 +156,7 @@ pub fn step(
     let one = g.one();
     let m: Matrix = vec![(0..n).map(|j| if j == 0 { one } else { zero }).collect()];
     let r = vec![vec![g.num(spec.noise_variance)]];
-    let residual = vec![g.sub(measured, x_pred[0])];
-    kalman::update(g, &x_pred, &p_pred, &residual, &m, &r, reciprocal)
+    let residual = g.sub(measured, x_pred[0]);
+    let update = kalman::update(g, &x_pred, &p_pred, &[residual], &m, &r, reciprocal);
+    (update, residual)
 }

@@ -80,6 +80,8 @@ pub fn emit_polynomial_kf(
             window: [#ty; #w_len],
             filled: #ty,
             since: #ty,
+            innovation: #ty,
+            innovation_variance: #ty,
         }
 
         impl PolynomialKf {
@@ -147,7 +149,7 @@ fn accessors(spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStream {
     let n = spec.order + 1;
     let ty = ident(scalar.type_name());
     let [n_len, w_len] = [n, spec.window].map(Literal::usize_unsuffixed);
-    let zero = literal(0.0, scalar);
+    let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
     let x_idents: Vec<proc_macro2::Ident> = (0..n).map(|j| ident(&format!("x{j}"))).collect();
     let derivatives = x_idents.iter().zip(derivative_scales(spec)).map(|(x, s)| {
         if s == 1.0 {
@@ -175,11 +177,16 @@ fn accessors(spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStream {
                 window: [#zero; #w_len],
                 filled: #zero,
                 since: #zero,
+                innovation: #zero,
+                innovation_variance: #one,
             })
         },
     );
+    let reset = reset_method(n, scalar);
     quote! {
         #new
+
+        #reset
 
         /// The state estimate, scaled as eq. (2): `[z, T z', .., T^m/m! z^(m)]`.
         #[must_use]
@@ -199,6 +206,57 @@ fn accessors(spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStream {
         #[must_use]
         pub fn covariance(&self) -> [[#ty; #n_len]; #n_len] {
             #unpack_p
+        }
+    }
+}
+
+/// `reset`, and what the last recursive step measured: `innovation` and
+/// `normalised_innovation_squared`.
+fn reset_method(n: usize, scalar: Scalar) -> TokenStream {
+    let ty = ident(scalar.type_name());
+    let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
+    let mut arguments = Arguments::default();
+    arguments.vector("x0", n, &ty);
+    let p0 = arguments.covariance("p0", n, &ty);
+    let reset = arguments.method(
+        &ident("reset"),
+        &quote! {
+            /// Starts the filter again from the estimate `x0` and covariance `p0` with an
+            /// empty window, as `new` does: the way back after a fault (a run of
+            /// [`Status::Diverged`]) or a restart of the motion. Rejects a non-finite entry
+            /// with [`Status::RejectedInput`] and a `p0` that is not symmetric and positive
+            /// semi-definite with [`Status::InvalidCovariance`], leaving the filter
+            /// unchanged.
+        },
+        quote! {
+            *self = PolynomialKf {
+                x: *x0,
+                p: [#(#p0),*],
+                window: [#zero; Self::WINDOW],
+                filled: #zero,
+                since: #zero,
+                innovation: #zero,
+                innovation_variance: #one,
+            };
+            Status::Ok
+        },
+    );
+    quote! {
+        #reset
+
+        /// The innovation `y - z` of the last recursive step (the measurement less the
+        /// predicted position; a re-initialising step leaves it). 0 before the first.
+        #[must_use]
+        pub fn innovation(&self) -> #ty {
+            self.innovation
+        }
+
+        /// The normalised innovation squared `r^2 / s` of the last recursive step (`s` the
+        /// innovation variance `P11 + sigma^2`): chi-square with one degree of freedom
+        /// (mean 1) while the polynomial model and `sigma^2` are right. 0 before the first.
+        #[must_use]
+        pub fn normalised_innovation_squared(&self) -> #ty {
+            self.innovation * self.innovation / self.innovation_variance
         }
     }
 }
@@ -237,6 +295,7 @@ fn step_method(
         x_values,
         p_values,
         probe,
+        store_innovation,
         ..
     } = kf;
     let check = reject_diverged(&probe, &packed_diagonal(&p_values, x_values.len()), scalar);
@@ -273,6 +332,7 @@ fn step_method(
             self.window = [#(#new_idents),*];
             self.filled = filled;
             self.since = since;
+            #store_innovation
             Status::Ok
         }
     }
@@ -331,10 +391,13 @@ fn fit_branch(avoid: &[String], fit: &WindowFit, window: &[String], scalar: Scal
 
 /// The lowered recursive step.
 struct RecursiveCode {
+    /// Ending in the divergence bound's test of the normalised innovation squared.
     statements: Vec<TokenStream>,
     x_values: Vec<TokenStream>,
     p_values: Vec<TokenStream>,
     probe: TokenStream,
+    /// The innovation and its variance stored with the estimate.
+    store_innovation: TokenStream,
     ops: OpCount,
 }
 
@@ -352,15 +415,17 @@ fn recursive_step(
     let p_vars = packed_vars(&mut g, "p", n, &avoid);
     let measured = g.var(measured);
     let p = symmetric_from_packed(&p_vars, n);
-    let update = design::step(&mut g, spec, &x_vars, &p, measured, |g, j| {
+    let (update, residual) = design::step(&mut g, spec, &x_vars, &p, measured, |g, j| {
         g.var(&pivot_names(1, j, INNOVATION, "").1)
     });
+    let kept = [residual, update.s[0][0], update.nis];
     let probe = finiteness_probe(&mut g, &update.x, &update.p);
     let p_packed = packed_upper(&update.p);
     let results: Vec<NodeId> = update.x.iter().chain(&p_packed).copied().collect();
     let mut roots = results.clone();
     roots.push(probe);
     roots.extend(&update.pivots);
+    roots.extend(kept);
     let namer = TempNamer::new(avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&g, scalar, namer, &roots);
     // The window's entries after the oldest are read before the update and stored after
@@ -381,6 +446,7 @@ fn recursive_step(
     );
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
+    let store_innovation = store_and_bound(&mut lowerer, &kept);
     let Lowered {
         statements, ops, ..
     } = lowerer.finish();
@@ -390,7 +456,32 @@ fn recursive_step(
         x_values: x_values.to_vec(),
         p_values: p_values.to_vec(),
         probe,
+        store_innovation,
         ops,
+    }
+}
+
+/// The innovation, its variance and its normalised square (`kept`): the square tested
+/// against the divergence bound, `DIVERGENCE_NIS` (a measurement 1e4 standard deviations
+/// out returns `Diverged`, the filter and its window unchanged), and the assignments that
+/// store the other two with the estimate.
+fn store_and_bound(lowerer: &mut Lowerer, kept: &[NodeId; 3]) -> TokenStream {
+    let ty = ident(lowerer.scalar().type_name());
+    let values = lowerer.segment(&kept[..2]);
+    let nis = lowerer.bind(kept[2], "nis");
+    lowerer.statement(quote! {
+        if !stateforge_math::#ty::within_gate(#nis, stateforge_math::#ty::DIVERGENCE_NIS) {
+            return Status::Diverged;
+        }
+    });
+    lowerer.count_extra(OpCount {
+        compare: 1,
+        ..OpCount::stores(2)
+    });
+    let (innovation, variance) = (&values[0], &values[1]);
+    quote! {
+        self.innovation = #innovation;
+        self.innovation_variance = #variance;
     }
 }
 
