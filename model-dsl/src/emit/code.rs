@@ -269,6 +269,16 @@ pub fn reject_diverged(
     }
 }
 
+/// What [`reject_diverged`] costs a step of `n` states: a comparison and branch for the
+/// probe and for each variance.
+pub fn divergence_test_ops(n: usize) -> crate::emit::lower::OpCount {
+    let n = u32::try_from(n).unwrap_or(u32::MAX);
+    crate::emit::lower::OpCount {
+        compare: n.saturating_add(1),
+        ..Default::default()
+    }
+}
+
 /// The end of a filter step: unless the result passes [`reject_diverged`] the filter is
 /// left as it was, else the new estimate and packed covariance are stored, and `also` (more
 /// assignments) with them.

@@ -508,6 +508,7 @@ fn lower(
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
     lowerer.count_extra(OpCount::stores(values.len()));
+    lowerer.count_extra(crate::emit::code::divergence_test_ops(n));
     let store_innovation = match nodes.nis {
         Some(nis) => {
             let kept = measurement::Kept {

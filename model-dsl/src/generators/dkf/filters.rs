@@ -413,6 +413,7 @@ impl<'a> StepLowering<'a> {
         let probe = lowerer.segment(&[probe]).remove(0);
         let values = lowerer.segment(&results);
         lowerer.count_extra(OpCount::stores(values.len()));
+        lowerer.count_extra(crate::emit::code::divergence_test_ops(n));
         let Lowered {
             statements, ops, ..
         } = lowerer.finish();

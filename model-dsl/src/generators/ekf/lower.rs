@@ -455,6 +455,7 @@ fn lower(
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
     lowerer.count_extra(OpCount::stores(values.len()));
+    lowerer.count_extra(crate::emit::code::divergence_test_ops(model.state_len()));
     let store_innovation = match nodes.nis {
         Some(nis) => {
             let kept = measurement::Kept {

@@ -446,6 +446,7 @@ fn recursive_step(
     );
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
+    lowerer.count_extra(crate::emit::code::divergence_test_ops(n));
     let store_innovation = store_and_bound(&mut lowerer, &kept);
     let Lowered {
         statements, ops, ..
