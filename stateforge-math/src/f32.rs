@@ -398,10 +398,11 @@ pub fn all_non_negative<const N: usize>(variances: &[f32; N]) -> bool {
 }
 
 /// The divergence bound on a filter step's result: a step is applied only when the sum of
-/// its new estimate's entries and variances lies within plus or minus this (1e18), so that
-/// no result is committed whose squares would overflow `f32` (1e18 squared is 1e36, below
-/// `f32::MAX`, 3.4e38). The same in `f64`, so that a host check of an `f32` filter accepts
-/// what the target does.
+/// its new estimate's entries and variances lies within plus or minus this (1e18), far
+/// below where `f32` arithmetic overflows (1e18 squared is 1e36; `f32::MAX` is 3.4e38).
+/// One test of a sum, it bounds a diverging estimate, not each entry: entries of opposite
+/// signs can cancel in it. The same in `f64`, so that a host check of an `f32` filter
+/// accepts what the target does.
 pub const DIVERGENCE_BOUND: f32 = 1e18;
 
 /// The divergence bound on a correction: a filter without an innovation gate rejects a

@@ -29,6 +29,48 @@ macro_rules! consistent_measurement {
     }};
 }
 
+/// An ungated EKF refuses a measurement beyond the divergence bound on its normalised
+/// innovation squared (1e8) with `Diverged`, the filter unchanged, in `step` and `update`
+/// alike, while one just inside the bound is used: the bound, not the probe on the result,
+/// decides (the measurement of 1e4 standard deviations moves the estimate by far less than
+/// 1e18).
+#[test]
+fn an_ungated_ekf_refuses_a_measurement_beyond_the_divergence_bound() {
+    use cantilever::in_f64::{Ekf, Status};
+    let mut filter = Ekf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]).unwrap();
+    let u = [0.1];
+    for _ in 0..10 {
+        let y = consistent_measurement!(filter, &u);
+        assert_eq!(filter.step(&u, &[y]), Status::Ok);
+    }
+    let mut predicted = filter;
+    assert_eq!(predicted.predict(&u), Status::Ok);
+    let sigma = (predicted.covariance()[0][0] + R).sqrt();
+    let y = predicted.state()[0];
+    for (standard_deviations, expected) in [(1.01e4, Status::Diverged), (0.99e4, Status::Ok)] {
+        let outlier = y + standard_deviations * sigma;
+        let mut stepped = filter;
+        assert_eq!(
+            stepped.step(&u, &[outlier]),
+            expected,
+            "{standard_deviations}"
+        );
+        let mut updated = predicted;
+        assert_eq!(
+            updated.update(&[outlier]),
+            expected,
+            "{standard_deviations}"
+        );
+        if expected == Status::Diverged {
+            assert_eq!(stepped, filter);
+            assert_eq!(updated, predicted);
+        } else {
+            let moved = (updated.state()[0] - y).abs();
+            assert!(moved > 1.0 && moved < 1e18, "{moved}");
+        }
+    }
+}
+
 #[test]
 fn gated_hybrid_ekf_rejects_an_outlier_keeps_the_prediction_and_goes_on() {
     use blade_identification::{HybridEkf, Status};

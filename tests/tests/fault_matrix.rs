@@ -714,7 +714,7 @@ fn data<F: Clone>(
 macro_rules! output_of {
     ($filter:expr, $m:expr $(, $t:expr)?) => {{
         let mut probe = $filter.clone();
-        let _ = probe.update($($t,)? &[0.0; $m]);
+        assert_eq!(status_name(probe.update($($t,)? &[0.0; $m])), "Ok");
         probe.innovation().iter().map(|r| -r).collect::<Vec<f64>>()
     }};
 }

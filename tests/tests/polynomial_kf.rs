@@ -207,3 +207,24 @@ fn innovation_nis_and_reset_match_the_reference() {
     assert_eq!(kf.reset(&x0, &p0), Status::Ok);
     assert_eq!(kf, PolynomialKf::new(&x0, &p0).unwrap());
 }
+
+/// A wild value on a re-initialising sample is refused like any other (the recursive step
+/// runs first and its bound decides), so it never enters the window the fit reads.
+#[test]
+fn a_wild_value_on_a_re_initialising_sample_is_refused() {
+    let mut kf = PolynomialKf::new(&[0.0; N], &[[0.0; N]; N]).unwrap();
+    let every = PolynomialKf::REINIT_EVERY;
+    for k in 0..every - 1 {
+        assert_eq!(kf.step(signal(k)), Status::Ok);
+    }
+    let before = kf;
+    assert_eq!(kf.step(1e30), Status::Diverged);
+    assert_eq!(kf, before);
+    // The good sample re-initialises from the window as it would have.
+    let mut reference = before;
+    assert_eq!(kf.step(signal(every - 1)), Status::Ok);
+    assert_eq!(reference.step(signal(every - 1)), Status::Ok);
+    assert_eq!(kf, reference);
+    let fitted = kf.state();
+    assert!(fitted.iter().all(|v| v.abs() < 10.0), "{fitted:?}");
+}

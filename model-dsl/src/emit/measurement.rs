@@ -174,7 +174,8 @@ fn innovation_methods(model: &Model, layout: &FilterLayout, scalar: Scalar) -> T
         &quote! {
             /// Starts the filter again from the estimate `x0` and covariance `p0`, keeping
             /// the noise covariances: the way back after a fault (a run of
-            /// [`Status::NonFinite`] or of rejected outliers) or a restart of the plant.
+            /// [`Status::Diverged`], [`Status::NonFinite`] or rejected outliers) or a
+            /// restart of the plant.
             /// The innovation is cleared. Rejects a non-finite entry with
             /// [`Status::RejectedInput`] and a `p0` that is not symmetric and positive
             /// semi-definite with [`Status::InvalidCovariance`], leaving the filter
@@ -283,9 +284,11 @@ fn gate_items(gate: f64, ty: &proc_macro2::Ident, scalar: Scalar) -> TokenStream
             self.gate
         }
 
-        /// Sets the innovation gate (a chi-square quantile for the update's degrees of
-        /// freedom, as many as the measurements it takes: 10.83 rejects one in a thousand
-        /// consistent scalar measurements). The gate opens no further than the divergence
+        /// Sets the innovation gate (a chi-square quantile for `Y_LEN` degrees of freedom:
+        /// 10.83 rejects one in a thousand consistent scalar measurements). One gate
+        /// serves every update: an update with fewer outputs (`update_<output>`, one) is
+        /// judged by the same threshold, so it rejects less often than its own quantile
+        /// would. The gate opens no further than the divergence
         /// bound, `stateforge_math`'s `DIVERGENCE_NIS` (1e8): a larger threshold, infinity
         /// included, sets that. Rejects a threshold that is not positive, leaving the gate
         /// as it was.

@@ -28,7 +28,7 @@ pub fn status_enum() -> TokenStream {
             /// 1e18 in magnitude, or a variance turned negative (`stateforge_math`'s
             /// `DIVERGENCE_BOUND`); or, in a filter without an innovation gate, the
             /// measurement's normalised innovation squared exceeded 1e8 (`DIVERGENCE_NIS`),
-            /// a change of the estimate by up to 1e4 standard deviations. Nothing was
+            /// a change of the estimate by up to 1e4 standard deviations, or was NaN. Nothing was
             /// applied: a filter that keeps returning it needs a `reset`.
             Diverged,
             /// The Riccati recursion met a non-positive `R + B' P B`; it is never divided by.

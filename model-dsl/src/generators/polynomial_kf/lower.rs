@@ -244,14 +244,14 @@ fn reset_method(n: usize, scalar: Scalar) -> TokenStream {
     quote! {
         #reset
 
-        /// The innovation `y - z` of the last recursive step (the measurement less the
-        /// predicted position; a re-initialising step leaves it). 0 before the first.
+        /// The innovation `y - z` of the last step (the measurement less the predicted
+        /// position). 0 before the first.
         #[must_use]
         pub fn innovation(&self) -> #ty {
             self.innovation
         }
 
-        /// The normalised innovation squared `r^2 / s` of the last recursive step (`s` the
+        /// The normalised innovation squared `r^2 / s` of the last step (`s` the
         /// innovation variance `P11 + sigma^2`): chi-square with one degree of freedom
         /// (mean 1) while the polynomial model and `sigma^2` are right. 0 before the first.
         #[must_use]
@@ -300,10 +300,12 @@ fn step_method(
     } = kf;
     let check = reject_diverged(&probe, &packed_diagonal(&p_values, x_values.len()), scalar);
     let step_doc = format!(
-        " One sample: the window takes `y`; every {} samples, once the window holds its {} \
-         samples, the estimate and covariance are re-initialised from the window fit, \
-         otherwise the recursive filter runs (eq. 5-9). Rejects a non-finite `y`; leaves \
-         the filter unchanged unless it returns [`Status::Ok`].",
+        " One sample: the recursive filter runs (eq. 5-9) and the window takes `y`; every {} \
+         samples, once the window holds its {} samples, the estimate and covariance are \
+         re-initialised from the window fit instead. Rejects a non-finite `y`, and a `y` \
+         whose normalised innovation squared exceeds 1e8 with [`Status::Diverged`] (so it \
+         never enters the window); leaves the filter unchanged unless it returns \
+         [`Status::Ok`].",
         spec.reinit_every, spec.window
     );
     quote! {
@@ -316,6 +318,10 @@ fn step_method(
             let [#(#old_pattern),*] = self.window;
             let filled = if self.filled < #window_f { self.filled + #one } else { self.filled };
             let since = self.since + #one;
+            // The recursive step first, on a re-initialising sample too: its divergence
+            // bound decides whether `y` may enter the window at all.
+            #(#statements)*
+            #check
             if since >= #reinit_f && filled >= #window_f {
                 #(#fit_statements)*
                 self.x = [#(#fit_x),*];
@@ -323,10 +329,9 @@ fn step_method(
                 self.window = [#(#new_idents),*];
                 self.filled = filled;
                 self.since = #zero;
+                #store_innovation
                 return Status::Ok;
             }
-            #(#statements)*
-            #check
             self.x = [#(#x_values),*];
             self.p = [#(#p_values),*];
             self.window = [#(#new_idents),*];
