@@ -289,6 +289,19 @@ const HELICOPTER_Q: [f64; 6] = [0.0099, 0.0022, 0.0894, 0.0017, 1.2678, 1.2700];
 const HELICOPTER_R: [f64; 2] = [0.0007, 0.00193];
 const HELICOPTER_P0: [f64; 6] = [1.05, 0.05, 1.0, 1.0, 1.0, 1.0];
 
+/// Sample `k` (from 1) of the helicopter's run: the previous sample's time, the
+/// multi-sine input since then, and the encoders' reading of `truth` (advanced by one
+/// sample of the discrete model) with a wobble of `noise` rad.
+fn helicopter_sample(k: usize, truth: &mut [f64; 6], noise: f64) -> (f64, [f64; 2], [f64; 2]) {
+    use helicopter::in_f64::{f, h, TS};
+    let t_prev = (k - 1) as f64 * TS;
+    let u = multi_sine(t_prev);
+    *truth = f(t_prev, truth, &u);
+    let clean = h(t_prev + TS, truth);
+    let y = [clean[0] + wobble(k, noise), clean[1] + wobble(k + 7, noise)];
+    (t_prev, u, y)
+}
+
 /// The paper's multi-sine input (sect. 6.1), on both rotors.
 fn multi_sine(t: f64) -> [f64; 2] {
     let u = 0.2 * (0.4 * t).sin() + 0.4 * (0.6 * t).sin() + 0.05 * (0.8 * t).sin();
@@ -297,7 +310,7 @@ fn multi_sine(t: f64) -> [f64; 2] {
 
 #[test]
 fn continuous_ekf_agrees_with_a_dense_reference() {
-    use helicopter::in_f64::{f, h, ContinuousEkf as Generated, Status, TS};
+    use helicopter::in_f64::{ContinuousEkf as Generated, Status};
     for alpha in [0.0, Generated::ALPHA] {
         let p0 = diagonal(HELICOPTER_P0);
         let x0 = [0.05, 0.0, -0.05, 0.0, 0.0, 0.0];
@@ -314,11 +327,7 @@ fn continuous_ekf_agrees_with_a_dense_reference() {
         let mut truth = [0.0; 6];
         let (mut worst_x, mut worst_p) = (0.0_f64, 0.0_f64);
         for k in 1..=2000 {
-            let t_prev = (k - 1) as f64 * TS;
-            let u = multi_sine(t_prev);
-            truth = f(t_prev, &truth, &u);
-            let clean = h(t_prev + TS, &truth);
-            let y = [clean[0] + wobble(k, 1e-3), clean[1] + wobble(k + 7, 1e-3)];
+            let (t_prev, u, y) = helicopter_sample(k, &mut truth, 1e-3);
             assert_eq!(generated.step(t_prev, &u, &y), Status::Ok, "sample {k}");
             reference.step(t_prev, &u, &SVector::from(y));
             let (dx, dp) = compare(
@@ -740,7 +749,7 @@ fn continuous_ekf_against_its_equation(
     r: SMatrix<f64, 2, 2>,
     alpha: f64,
 ) -> ([f64; 2], [f64; 2]) {
-    use helicopter::in_f64::{f, h, ContinuousEkf as Generated, Status, TS};
+    use helicopter::in_f64::{ContinuousEkf as Generated, Status};
     use tests::continuous_reference::ContinuousEkfEquation;
     let x0 = [0.05, 0.0, -0.05, 0.0, 0.0, 0.0];
     let mut generated = Generated::new(&x0, &to_array(&p0), &HELICOPTER_Q, &to_array(&r)).unwrap();
@@ -758,11 +767,7 @@ fn continuous_ekf_against_its_equation(
     let mut truth = [0.0; 6];
     let (mut difference, mut rate) = ([0.0_f64; 2], [0.0_f64; 2]);
     for k in 1..=2000 {
-        let t_prev = (k - 1) as f64 * TS;
-        let u = multi_sine(t_prev);
-        truth = f(t_prev, &truth, &u);
-        let clean = h(t_prev + TS, &truth);
-        let y = [clean[0] + wobble(k, 1e-4), clean[1] + wobble(k + 7, 1e-4)];
+        let (t_prev, u, y) = helicopter_sample(k, &mut truth, 1e-4);
         let what = format!("P0 {:e}, R {:e}, sample {k}", p0[(0, 0)], r[(0, 0)]);
         assert_eq!(generated.step(t_prev, &u, &y), Status::Ok, "{what}");
         equation.step(t_prev, &u, &SVector::from(y)).unwrap();
