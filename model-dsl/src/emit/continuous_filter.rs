@@ -509,19 +509,14 @@ fn lower(
     let values = lowerer.segment(&results);
     lowerer.count_extra(OpCount::stores(values.len()));
     lowerer.count_extra(crate::emit::code::divergence_test_ops(n));
-    let store_innovation = match nodes.nis {
-        Some(nis) => {
-            let kept = measurement::Kept {
-                innovation: &nodes.innovation,
-                covariance: &nodes.innovation_covariance,
-                nis,
-                gated: nodes.gated,
-                step: kind.predicts(),
-            };
-            measurement::store_and_gate(&mut lowerer, model, &kept)
-        }
-        None => TokenStream::new(),
+    let kept = measurement::Kept {
+        innovation: &nodes.innovation,
+        covariance: &nodes.innovation_covariance,
+        nis: nodes.nis,
+        gated: nodes.gated,
+        step: kind.predicts(),
     };
+    let store_innovation = measurement::store_and_gate(&mut lowerer, model, &kept);
     let Lowered {
         statements,
         mut used_vars,

@@ -108,8 +108,9 @@ pub struct Kept<'a> {
     /// `S`, packed (for one output alone, unit variances and no correlation for the
     /// others, so that the stored NIS is that output's).
     pub covariance: &'a [NodeId],
-    /// `r' S^-1 r`.
-    pub nis: NodeId,
+    /// `r' S^-1 r`; `None` in a method that does not correct (a prediction), which keeps
+    /// nothing.
+    pub nis: Option<NodeId>,
     /// Whether the filter has an innovation gate: the NIS is tested against it, else
     /// against the divergence bound, `DIVERGENCE_NIS`.
     pub gated: bool,
@@ -123,14 +124,17 @@ pub struct Kept<'a> {
 /// costs a whole update, the usual sample one comparison). With a gate, an outlier is
 /// rejected (`OutlierRejected`; a step keeps its prediction); without one, a NIS beyond
 /// the divergence bound returns `Diverged`, the filter unchanged. NaN is within neither: a
-/// measurement that gives it is rejected.
+/// measurement that gives it is rejected. Nothing for a method that does not correct.
 pub fn store_and_gate(lowerer: &mut Lowerer, model: &Model, kept: &Kept<'_>) -> TokenStream {
+    let Some(nis) = kept.nis else {
+        return TokenStream::new();
+    };
     let m = kept.innovation.len();
     lowerer.count_extra(OpCount::stores(m + packed_len(m)));
     let innovation_values = lowerer.segment(kept.innovation);
     let covariance_values = lowerer.segment(kept.covariance);
     let store = store_innovation_tokens(&innovation_values, &covariance_values);
-    let nis = lowerer.bind(kept.nis, "nis");
+    let nis = lowerer.bind(nis, "nis");
     let ty = ident(lowerer.scalar().type_name());
     let test = if kept.gated {
         let keep_prediction = kept.step.then(|| {

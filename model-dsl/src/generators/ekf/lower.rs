@@ -456,19 +456,14 @@ fn lower(
     let values = lowerer.segment(&results);
     lowerer.count_extra(OpCount::stores(values.len()));
     lowerer.count_extra(crate::emit::code::divergence_test_ops(model.state_len()));
-    let store_innovation = match nodes.nis {
-        Some(nis) => {
-            let kept = measurement::Kept {
-                innovation: &nodes.innovation,
-                covariance: &nodes.innovation_covariance,
-                nis,
-                gated: nodes.gated,
-                step: kind == EkfMethod::Step,
-            };
-            measurement::store_and_gate(&mut lowerer, model, &kept)
-        }
-        None => TokenStream::new(),
+    let kept = measurement::Kept {
+        innovation: &nodes.innovation,
+        covariance: &nodes.innovation_covariance,
+        nis: nodes.nis,
+        gated: nodes.gated,
+        step: kind == EkfMethod::Step,
     };
+    let store_innovation = measurement::store_and_gate(&mut lowerer, model, &kept);
     let Lowered {
         statements,
         used_vars,
