@@ -293,8 +293,7 @@ pub fn time_param(
     ty: &proc_macro2::Ident,
     name: &str,
 ) -> TokenStream {
-    let reads = matches!(graph.node(t), crate::symbolic::Node::Var(v) if used.contains(&v));
-    let name = if reads {
+    let name = if reads_time(graph, t, used) {
         ident(name)
     } else {
         ident(&format!("_{name}"))
