@@ -41,9 +41,10 @@ stateforge::model! {
         // (eqs. 3c-3e): params get no equation, they are random-walk states.
         // The filters and controller of the paper: Alg. 1 (EKF), Alg. 2 (DKF), Alg. 3 (LQR);
         // and the EKF with an innovation gate at the chi-square 99.9% quantile, which
-        // rejects a measurement spike instead of being thrown off by it.
+        // rejects a measurement spike instead of being thrown off by it. The DKF's gate is
+        // open (at the divergence bound) until an application sets it.
         generate ekf(process_noise = diagonal, max_us = 15000, mhz = 168),
-            dkf(eta = 0.5, process_noise = diagonal),
+            dkf(eta = 0.5, process_noise = diagonal, gate = off),
             lqr(horizon = 50, states = [x1, x2], input = u),
             ekf(process_noise = diagonal, gate = 10.83, name = GatedEkf);
         dynamics discrete {

@@ -475,6 +475,16 @@ pub struct Dkf {
     pub window: WindowTransform,
     /// The window transform used by the last applied (or innovation-failed) step.
     pub last: Option<LtvModel>,
+    /// The LKF's last innovation `y - h(x_pred)` and its variance `C P_pred C' + R`.
+    pub innovation: (f64, f64),
+    /// The AKF's.
+    pub akf_innovation: (f64, f64),
+}
+
+/// The innovation of `y` at the prediction `x`, `p` and its variance `C P C' + R`.
+fn innovation(x: &State, p: &Mat5, y: f64, r: &Mat1) -> (f64, f64) {
+    let c = jacobian_h_x();
+    (y - h(x), (c * p * c.transpose())[(0, 0)] + r[(0, 0)])
 }
 
 impl Dkf {
@@ -492,6 +502,8 @@ impl Dkf {
             eta,
             window: WindowTransform::new(&x0),
             last: None,
+            innovation: (0.0, 1.0),
+            akf_innovation: (0.0, 1.0),
         }
     }
 
@@ -526,12 +538,14 @@ impl Dkf {
         let xbar_pred = model.f * self.xbar + model.g * u_prev;
         let pbar_pred = model.f * self.pbar * model.f.transpose() + self.qbar;
         let akf = joseph_update(&xbar_pred, &pbar_pred, y, &self.r);
+        self.akf_innovation = innovation(&xbar_pred, &pbar_pred, y, &self.r);
 
         // (c) LKF about the AKF estimate at k-1.   // eqs. (18a), (18b), (17a)-(17c)
         let a = jacobian_f_x(&xbar_prev, u_prev);
         let x_pred = f(&xbar_prev, u_prev) + a * (self.x - xbar_prev);
         let p_pred = a * self.p * a.transpose() + self.q;
         let lkf = joseph_update(&x_pred, &p_pred, y, &self.r);
+        self.innovation = innovation(&x_pred, &p_pred, y, &self.r);
 
         // (d) the window records the sample whatever the outcome.
         self.window.push(u_prev, y);

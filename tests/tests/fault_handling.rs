@@ -71,6 +71,72 @@ fn an_ungated_ekf_refuses_a_measurement_beyond_the_divergence_bound() {
     }
 }
 
+/// The DKF's gate judges each filter by its own NIS: with the gate at 100 (ten standard
+/// deviations: a run of consistent samples passes it), a spike of 100 standard deviations
+/// of the wider of the two filters' predictions is rejected by both, each keeping its prediction (what `predict` gives, the window emptied),
+/// the innovations recorded; the window then refills and the filter goes on. `reset`
+/// gives the filter that `new` builds, keeping the gate; `predict` rejects a NaN input.
+#[test]
+fn a_gated_dkf_keeps_both_predictions_empties_its_window_and_resets() {
+    use cantilever::in_f64::{Dkf, Status, WindowStatus};
+    let new = || Dkf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]).unwrap();
+    let mut filter = new();
+    assert_eq!(filter.set_innovation_gate(100.0), Status::Ok);
+    let samples = tests::cantilever_sim::run(400, 1e-4, 3);
+    for k in 1..300 {
+        let status = filter.step(&[samples[k - 1].u], &[samples[k].y]);
+        assert!(status.is_ok(), "step {k}: {status:?}");
+    }
+    let (k, u) = (300, [samples[299].u]);
+    let mut predicted = filter;
+    assert!(predicted.predict(&u).is_ok());
+    assert_eq!(
+        predicted.predict(&[f64::NAN]).lkf,
+        Status::RejectedInput,
+        "a NaN input"
+    );
+    let widest = predicted.covariance()[0][0].max(predicted.akf_covariance()[0][0]);
+    let spike = samples[k].y + 100.0 * (widest + R).sqrt();
+    let status = filter.step(&u, &[spike]);
+    assert_eq!(
+        (status.lkf, status.akf),
+        (Status::OutlierRejected, Status::OutlierRejected)
+    );
+    assert_eq!(
+        (filter.state(), filter.covariance()),
+        (predicted.state(), predicted.covariance())
+    );
+    assert_eq!(
+        (filter.akf_state(), filter.akf_covariance()),
+        (predicted.akf_state(), predicted.akf_covariance())
+    );
+    for nis in [
+        filter.normalised_innovation_squared(),
+        filter.akf_normalised_innovation_squared(),
+    ] {
+        assert!(nis > 100.0, "{nis}");
+    }
+    assert!((filter.innovation()[0] - (spike - predicted.state()[0])).abs() < 1e-9);
+    let next = filter.step(&[samples[k].u], &[samples[k + 1].y]);
+    assert!(next.is_ok(), "{next:?}");
+    assert_eq!(next.window, WindowStatus::Filling, "the window refills");
+    for k in k + 2..samples.len() {
+        let status = filter.step(&[samples[k - 1].u], &[samples[k].y]);
+        assert!(status.is_ok(), "step {k}: {status:?}");
+    }
+    assert_eq!(filter.reset(&X0_CLOSE, &p0(2e4), &p0(2e4)), Status::Ok);
+    let mut fresh = new();
+    assert_eq!(fresh.set_innovation_gate(100.0), Status::Ok);
+    assert_eq!(filter, fresh);
+    let mut negative = p0(2e4);
+    negative[1][1] = -1.0;
+    assert_eq!(
+        filter.reset(&X0_CLOSE, &p0(2e4), &negative),
+        Status::InvalidCovariance
+    );
+    assert_eq!(filter, fresh);
+}
+
 #[test]
 fn gated_hybrid_ekf_rejects_an_outlier_keeps_the_prediction_and_goes_on() {
     use blade_identification::{HybridEkf, Status};

@@ -302,28 +302,36 @@ ekf_family!(
     density = helicopter::in_f64::TS
 );
 
-/// A filter outside the EKF family: how to read, step and build it.
+/// A filter outside the EKF family: how to read, step and build it, and where it has them,
+/// how to set its gate (`set_gate`: whether it took the threshold) and how to predict a
+/// sample without its measurement (`predict`: whether it did).
 macro_rules! other_subject {
     (
         $name:ident: $ty:ty, new = $new:expr, sample = $sample:expr,
         snapshot = $snapshot:expr, states = $states:expr, variances = $variances:expr,
-        reset = $reset:expr $(,)?
+        reset = $reset:expr $(, set_gate = $set_gate:expr, predict = $predict:expr)? $(,)?
     ) => {
         #[derive(Clone)]
         struct $name {
             filter: $ty,
             sigma: Vec<f64>,
             prior_variances: Vec<f64>,
+            gated: bool,
         }
 
         impl $name {
             fn new(x0: &[f64], p0: &[f64], q: &[f64], r: &[f64], gate: Option<f64>) -> Self {
-                assert!(gate.is_none(), "a filter without a gate");
                 let new: fn(&[f64], &[f64], &[f64], &[f64]) -> $ty = $new;
+                let mut filter = new(x0, p0, q, r);
+                let set_gate: fn(&mut $ty, f64) -> bool = other_subject!(@or $($set_gate)?);
+                if let Some(g) = gate {
+                    assert!(set_gate(&mut filter, g), "the gate of {}", stringify!($name));
+                }
                 $name {
-                    filter: new(x0, p0, q, r),
+                    filter,
                     sigma: r.iter().map(|r| r.sqrt()).collect(),
                     prior_variances: p0.to_vec(),
+                    gated: gate.is_some(),
                 }
             }
         }
@@ -345,8 +353,10 @@ macro_rules! other_subject {
                 let sample: fn(&mut $ty, &Sample) -> Vec<String> = $sample;
                 sample(&mut self.filter, s)
             }
-            fn predicted(&self, _: &Sample) -> Option<Vec<f64>> {
-                None
+            fn predicted(&self, s: &Sample) -> Option<Vec<f64>> {
+                let predict: fn(&mut $ty, &Sample) -> bool = other_subject!(@or $($predict)?);
+                let mut predicted = self.clone();
+                predict(&mut predicted.filter, s).then(|| predicted.snapshot())
             }
             fn reset(&mut self, x0: &[f64]) -> bool {
                 let p0 = self.prior_variances.clone();
@@ -357,7 +367,7 @@ macro_rules! other_subject {
                 reset(&mut self.filter, x0, p0)
             }
             fn gated(&self) -> bool {
-                false
+                self.gated
             }
             fn sigma(&self) -> Vec<f64> {
                 self.sigma.clone()
@@ -367,6 +377,8 @@ macro_rules! other_subject {
             }
         }
     };
+    (@or $given:expr) => { $given };
+    (@or) => { |_, _| false };
 }
 
 /// Entries of a matrix as `f64`, row by row.
@@ -382,14 +394,15 @@ fn diagonal_of<S: Scalar, const N: usize>(m: &[[S; N]; N]) -> Vec<f64> {
     (0..N).map(|i| m[i][i].to()).collect()
 }
 
-/// The DKF of `$module` in `f32` and `f64` (`q`: its process noises' shape): both filter
-/// stages are judged, the LKF's (the DKF's estimate) and the AKF's.
+/// The DKF of `$module` in `f32` and `f64` (`q`: its process noises' shape; `gate`: whether
+/// it has one to set): both filter stages are judged, the LKF's (the DKF's estimate) and the
+/// AKF's.
 macro_rules! dkf_family {
-    ($n32:ident, $n64:ident, $module:ident, q = $q:tt) => {
-        dkf_family!(@one $n32, $module::Dkf, $q);
-        dkf_family!(@one $n64, $module::in_f64::Dkf, $q);
+    ($n32:ident, $n64:ident, $module:ident, q = $q:tt, gate = $gate:tt) => {
+        dkf_family!(@one $n32, $module::Dkf, f32, $q, $gate);
+        dkf_family!(@one $n64, $module::in_f64::Dkf, f64, $q, $gate);
     };
-    (@one $name:ident, $path:path, $q:tt) => {
+    (@one $name:ident, $path:path, $s:ty, $q:tt, $gate:tt) => {
         other_subject!(
             $name: $path,
             new = |x0, p0, q, r| {
@@ -417,19 +430,38 @@ macro_rules! dkf_family {
                 all.extend(diagonal_of(&f.akf_covariance()));
                 all
             },
-            reset = |_, _, _| false,
+            reset = |f, x0, p0| {
+                status_name(f.reset(&arr(x0), &diag(p0), &diag(p0))) == "Ok"
+            },
+            set_gate = dkf_family!(@gate $gate, $s),
+            predict = |f, s| f.predict(&arr(&s.u)).is_ok(),
         );
     };
+    (@gate true, $s:ty) => { |f, g| status_name(f.set_innovation_gate(g as $s)) == "Ok" };
+    (@gate false, $s:ty) => { |_, _| false };
 }
 
-dkf_family!(CantileverDkf32, CantileverDkf64, cantilever, q = vector);
+dkf_family!(
+    CantileverDkf32,
+    CantileverDkf64,
+    cantilever,
+    q = vector,
+    gate = true
+);
 dkf_family!(
     TwoActuatorsDkf32,
     TwoActuatorsDkf64,
     beam_two_actuators,
-    q = matrix
+    q = matrix,
+    gate = false
 );
-dkf_family!(DuffingDkf32, DuffingDkf64, duffing_beam, q = matrix);
+dkf_family!(
+    DuffingDkf32,
+    DuffingDkf64,
+    duffing_beam,
+    q = matrix,
+    gate = false
+);
 
 /// The polynomial Kalman filter and the switched observers, in `f32` and `f64`.
 macro_rules! polynomial_kf {
@@ -784,7 +816,9 @@ fn cantilever_filters() {
         (x0, p0, q),
         gate = Some(10.83),
         CantileverGated32,
-        CantileverGated64
+        CantileverGated64,
+        CantileverDkf32,
+        CantileverDkf64
     );
     report(&failures);
 }

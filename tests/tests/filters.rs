@@ -102,10 +102,48 @@ fn dkf_agrees_with_the_reference_over_2000_steps() {
         );
         assert_agree("DKF x", k, &dkf.state(), reference.x.as_slice());
         assert_agree("DKF P", k, &flat(&dkf.covariance()), &flat_na(&reference.p));
+        assert_innovation_agrees("LKF", k, y, &dkf_lkf(&dkf), reference.innovation);
+        assert_innovation_agrees("AKF", k, y, &dkf_akf(&dkf), reference.akf_innovation);
     }
     assert!(
         solved > 1900,
         "the PRBS excites the windows: {solved} solved"
+    );
+}
+
+/// The LKF's innovation and NIS.
+fn dkf_lkf(dkf: &Dkf) -> (f64, f64) {
+    (dkf.innovation()[0], dkf.normalised_innovation_squared())
+}
+
+/// The AKF's.
+fn dkf_akf(dkf: &Dkf) -> (f64, f64) {
+    (
+        dkf.akf_innovation()[0],
+        dkf.akf_normalised_innovation_squared(),
+    )
+}
+
+/// A filter's innovation `r = y - h(x)` and NIS `r^2 / s` agree with the reference's `r`
+/// and `s`. `r` is a difference of numbers of `y`'s size, so it is compared at that scale,
+/// and the NIS with the error that gives it, `2 |r| dr / s`.
+fn assert_innovation_agrees(
+    what: &str,
+    k: usize,
+    y: f64,
+    (r, nis): &(f64, f64),
+    (r_ref, s_ref): (f64, f64),
+) {
+    let scale = y.abs().max(r_ref.abs());
+    assert!(
+        (r - r_ref).abs() <= RTOL * scale,
+        "{what} innovation at step {k}: generated {r:e}, reference {r_ref:e}"
+    );
+    let nis_ref = r_ref * r_ref / s_ref;
+    let tolerance = RTOL * (nis_ref + 2.0 * r_ref.abs() * scale / s_ref);
+    assert!(
+        (nis - nis_ref).abs() <= tolerance,
+        "{what} NIS at step {k}: generated {nis:e}, reference {nis_ref:e}"
     );
 }
 

@@ -333,3 +333,21 @@ pub fn pivot_names(
 
 /// The pivot names of an innovation covariance (`innovation_variance` / `inv_s`).
 pub const INNOVATION: (&str, &str) = ("innovation_variance", "inv_s");
+
+/// `text` as `#[doc]` attributes of at most 80 characters each, broken between words, so
+/// that a documentation sentence built at generation time reads like written `///` lines.
+pub fn doc_attributes(text: &str) -> TokenStream {
+    let mut lines: Vec<String> = Vec::new();
+    let mut line = String::new();
+    for word in text.split_whitespace() {
+        if !line.is_empty() && line.len() + 1 + word.len() > 80 {
+            lines.push(std::mem::take(&mut line));
+        }
+        line.push(' ');
+        line.push_str(word);
+    }
+    if !line.is_empty() {
+        lines.push(line);
+    }
+    quote! { #(#[doc = #lines])* }
+}

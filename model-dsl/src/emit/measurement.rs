@@ -2,7 +2,8 @@
 //! innovation `r = y - h(x)` and its covariance `S`, stored with the estimate, and what a
 //! user reads of them (`innovation()`, `normalised_innovation_squared()`), `reset`, and
 //! the optional innovation gate with its rejection of an outlier. Written once for the
-//! EKF, the hybrid EKF and the continuous-time EKF.
+//! EKF, the hybrid EKF, the continuous-time EKF and the DKF's two filters (whose AKF keeps
+//! its own, under the prefix `akf_`).
 
 use crate::emit::arguments::Arguments;
 use crate::emit::code::{guard_pivots, pivot_names, INNOVATION};
@@ -23,31 +24,72 @@ const DIVERGENCE_NIS: f64 = 1e8;
 /// The fields a filter that measures adds to its layout's: the last innovation and its
 /// packed covariance, and the gate when it has one; each followed by a comma.
 pub fn fields(model: &Model, gate: Option<f64>, ty: &proc_macro2::Ident) -> TokenStream {
+    let innovation = innovation_fields(model, "", ty);
+    let gate_field = gate_field(gate, ty);
+    quote! { #innovation #gate_field }
+}
+
+/// `{prefix}innovation` and `{prefix}innovation_covariance` (packed), each followed by a
+/// comma: the last measurement's innovation as one filter of the type saw it.
+pub fn innovation_fields(model: &Model, prefix: &str, ty: &proc_macro2::Ident) -> TokenStream {
     let m = model.outputs.len();
     let (m_len, mp) = (
         proc_macro2::Literal::usize_unsuffixed(m),
         proc_macro2::Literal::usize_unsuffixed(packed_len(m)),
     );
-    let gate_field = gate.map(|_| quote! { gate: #ty, });
+    let (innovation, covariance) = field_names(prefix);
     quote! {
-        innovation: [#ty; #m_len],
-        innovation_covariance: [#ty; #mp],
-        #gate_field
+        #innovation: [#ty; #m_len],
+        #covariance: [#ty; #mp],
     }
+}
+
+/// `gate: S,`, or nothing without a gate.
+pub fn gate_field(gate: Option<f64>, ty: &proc_macro2::Ident) -> Option<TokenStream> {
+    gate.map(|_| quote! { gate: #ty, })
+}
+
+/// The names of the fields that hold a filter's innovation and its packed covariance.
+fn field_names(prefix: &str) -> (proc_macro2::Ident, proc_macro2::Ident) {
+    (
+        ident(&format!("{prefix}innovation")),
+        ident(&format!("{prefix}innovation_covariance")),
+    )
 }
 
 /// The constructor's initial values of [`fields`]: before any measurement a zero
 /// innovation of unit covariance (a normalised square of 0), and the generated gate.
 pub fn initial_values(model: &Model, gate: Option<f64>, scalar: Scalar) -> TokenStream {
-    let (innovation, covariance) = cleared(model, scalar);
-    let gate_init = gate.map(|gate| {
+    let innovation = cleared_values(model, "", scalar);
+    let gate_init = gate_initial_value(gate, scalar);
+    quote! { #innovation #gate_init }
+}
+
+/// `gate: <generated>,` (opened no further than the divergence bound), or nothing.
+pub fn gate_initial_value(gate: Option<f64>, scalar: Scalar) -> Option<TokenStream> {
+    gate.map(|gate| {
         let value = crate::emit::lower::literal(gate.min(DIVERGENCE_NIS), scalar);
         quote! { gate: #value, }
-    });
+    })
+}
+
+/// The initial values of [`innovation_fields`], each followed by a comma.
+pub fn cleared_values(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream {
+    let (innovation, covariance) = cleared(model, scalar);
+    let (innovation_field, covariance_field) = field_names(prefix);
     quote! {
-        innovation: #innovation,
-        innovation_covariance: #covariance,
-        #gate_init
+        #innovation_field: #innovation,
+        #covariance_field: #covariance,
+    }
+}
+
+/// `self.{prefix}innovation = ..; ..`: clears the innovation as `reset` does.
+pub fn clear_innovation(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream {
+    let (innovation, covariance) = cleared(model, scalar);
+    let (innovation_field, covariance_field) = field_names(prefix);
+    quote! {
+        self.#innovation_field = #innovation;
+        self.#covariance_field = #covariance;
     }
 }
 
@@ -68,13 +110,17 @@ pub fn methods(
     gate: Option<f64>,
     scalar: Scalar,
 ) -> TokenStream {
-    let innovation = innovation_methods(model, layout, scalar);
+    let reset = reset_method(model, layout, scalar);
+    let innovation = accessors(model, "", scalar);
     let gate_methods = gate.map(|gate| {
         let accessors = gate_items(gate, &layout.ty, scalar);
-        let keep = keep_prediction_method(model, &layout.ty);
+        let keeper = prediction_keeper(model, &layout.ty);
+        let keep = keep_prediction_method(model, &keeper, "", &layout.ty);
         quote! { #accessors #keep }
     });
     quote! {
+        #reset
+
         #innovation
 
         #gate_methods
@@ -102,6 +148,8 @@ pub fn name_innovation(lowerer: &mut Lowerer, model: &Model, innovation: &[NodeI
 /// What a correction keeps of its measurement: the innovation, its packed covariance and
 /// the normalised innovation squared it tests.
 pub struct Kept<'a> {
+    /// The prefix of the fields it is stored in (`akf_` for the DKF's AKF, else empty).
+    pub prefix: &'a str,
     /// `y - h(x)`, every output's (an update with one output alone stores zero for the
     /// others).
     pub innovation: &'a [NodeId],
@@ -114,9 +162,10 @@ pub struct Kept<'a> {
     /// Whether the filter has an innovation gate: the NIS is tested against it, else
     /// against the divergence bound, `DIVERGENCE_NIS`.
     pub gated: bool,
-    /// Whether the method is a step (a prediction and the correction): with a gate, an
-    /// outlier keeps the prediction.
-    pub step: bool,
+    /// In a step (a prediction and the correction), the cold method that keeps the
+    /// prediction when the gate rejects an outlier, and the arguments before the innovation
+    /// it is passed; `None` in an update, which keeps the estimate it had.
+    pub keep_prediction: Option<(proc_macro2::Ident, Vec<TokenStream>)>,
 }
 
 /// Lowers what `kept` stores, last, where it holds no register while the update runs, and
@@ -125,7 +174,7 @@ pub struct Kept<'a> {
 /// rejected (`OutlierRejected`; a step keeps its prediction); without one, a NIS beyond
 /// the divergence bound returns `Diverged`, the filter unchanged. NaN is within neither: a
 /// measurement that gives it is rejected. Nothing for a method that does not correct.
-pub fn store_and_gate(lowerer: &mut Lowerer, model: &Model, kept: &Kept<'_>) -> TokenStream {
+pub fn store_and_gate(lowerer: &mut Lowerer, kept: &Kept<'_>) -> TokenStream {
     let Some(nis) = kept.nis else {
         return TokenStream::new();
     };
@@ -133,14 +182,13 @@ pub fn store_and_gate(lowerer: &mut Lowerer, model: &Model, kept: &Kept<'_>) -> 
     lowerer.count_extra(OpCount::stores(m + packed_len(m)));
     let innovation_values = lowerer.segment(kept.innovation);
     let covariance_values = lowerer.segment(kept.covariance);
-    let store = store_innovation_tokens(&innovation_values, &covariance_values);
+    let store = store_innovation_tokens(kept.prefix, &innovation_values, &covariance_values);
     let nis = lowerer.bind(nis, "nis");
     let ty = ident(lowerer.scalar().type_name());
     let test = if kept.gated {
-        let keep_prediction = kept.step.then(|| {
-            let args = prediction_arguments(model);
+        let keep_prediction = kept.keep_prediction.as_ref().map(|(method, args)| {
             quote! {
-                self.keep_prediction(
+                self.#method(
                     #(#args,)* [#(#innovation_values),*], [#(#covariance_values),*],
                 )
             }
@@ -166,14 +214,12 @@ pub fn store_and_gate(lowerer: &mut Lowerer, model: &Model, kept: &Kept<'_>) -> 
     store
 }
 
-/// `reset`, `innovation` and `normalised_innovation_squared`: starting again, and what
-/// the last measurement said.
-fn innovation_methods(model: &Model, layout: &FilterLayout, scalar: Scalar) -> TokenStream {
-    let FilterLayout { ty, m_len, .. } = layout;
-    let (cleared_innovation, cleared_covariance) = cleared(model, scalar);
+/// `reset(x0, p0)`: starting again, the innovation cleared.
+fn reset_method(model: &Model, layout: &FilterLayout, scalar: Scalar) -> TokenStream {
+    let clear = clear_innovation(model, "", scalar);
     let mut arguments = Arguments::default();
     let p0 = layout.initial_estimate(&mut arguments);
-    let reset = arguments.method(
+    arguments.method(
         &ident("reset"),
         &quote! {
             /// Starts the filter again from the estimate `x0` and covariance `p0`, keeping
@@ -188,23 +234,41 @@ fn innovation_methods(model: &Model, layout: &FilterLayout, scalar: Scalar) -> T
         quote! {
             self.x = *x0;
             self.p = [#(#p0),*];
-            self.innovation = #cleared_innovation;
-            self.innovation_covariance = #cleared_covariance;
+            #clear
             Status::Ok
         },
-    );
-    let nis_method = nis_method(model, scalar);
-    quote! {
-        #reset
+    )
+}
 
-        /// The innovation `y - h(x)` of the last measurement used or rejected: what
-        /// the measurement said that the prediction did not.
+/// `{prefix}innovation` and `{prefix}normalised_innovation_squared`: what the last
+/// measurement said to the filter whose fields carry `prefix`.
+pub fn accessors(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream {
+    let ty = ident(scalar.type_name());
+    let m_len = proc_macro2::Literal::usize_unsuffixed(model.outputs.len());
+    let (field, _) = field_names(prefix);
+    let of = filter_phrase(prefix);
+    let doc = format!(
+        " The innovation `y - h(x)` of the last measurement used or rejected{of}: what the \
+         measurement said that the prediction did not."
+    );
+    let doc = crate::emit::code::doc_attributes(&doc);
+    let nis_method = nis_method(model, prefix, scalar);
+    quote! {
+        #doc
         #[must_use]
-        pub fn innovation(&self) -> [#ty; #m_len] {
-            self.innovation
+        pub fn #field(&self) -> [#ty; #m_len] {
+            self.#field
         }
 
         #nis_method
+    }
+}
+
+/// Which filter a documentation sentence speaks of: ` by the AKF` for the prefix `akf_`.
+fn filter_phrase(prefix: &str) -> String {
+    match prefix.strip_suffix('_') {
+        Some(filter) => format!(" by the {}", filter.to_uppercase()),
+        None => String::new(),
     }
 }
 
@@ -220,7 +284,7 @@ fn packed_identity(m: usize, scalar: Scalar) -> TokenStream {
 /// `fn normalised_innovation_squared(&self)`: `r' S^-1 r` from the stored innovation `r`
 /// and its covariance `S`, through the same guarded `L D L'` inverse as the update. Computed
 /// when asked, so a step that does not gate pays only for storing `S`.
-fn nis_method(model: &Model, scalar: Scalar) -> TokenStream {
+fn nis_method(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream {
     let m = model.outputs.len();
     let mut graph = Graph::new();
     let avoid = model_names(model);
@@ -239,8 +303,9 @@ fn nis_method(model: &Model, scalar: Scalar) -> TokenStream {
     roots.push(nis);
     let namer = TempNamer::new(avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&graph, scalar, namer, &roots);
-    lowerer.read_lazily(&quote! { self.innovation }, &innovation);
-    lowerer.read_lazily(&quote! { self.innovation_covariance }, &s_vars);
+    let (innovation_field, covariance_field) = field_names(prefix);
+    lowerer.read_lazily(&quote! { self.#innovation_field }, &innovation);
+    lowerer.read_lazily(&quote! { self.#covariance_field }, &s_vars);
     let ty = ident(scalar.type_name());
     // The stored covariance passed this test when its measurement was used: a failure here
     // cannot happen, and would read as "inconsistent".
@@ -255,14 +320,20 @@ fn nis_method(model: &Model, scalar: Scalar) -> TokenStream {
     );
     let value = lowerer.segment(&[nis]).remove(0);
     let statements = lowerer.finish().statements;
+    let doc = format!(
+        " The normalised innovation squared `r' S^-1 r` of the last measurement used \
+         or rejected{} (`r` its innovation, `S` the innovation covariance). While the \
+         model and noise levels are right it is chi-square distributed with as many \
+         degrees of freedom as measurements (mean `Y_LEN`); a run of large values says \
+         the model, the tuning or the sensor is wrong. 0 before the first measurement.",
+        filter_phrase(prefix)
+    );
+    let doc = crate::emit::code::doc_attributes(&doc);
+    let name = ident(&format!("{prefix}normalised_innovation_squared"));
     quote! {
-        /// The normalised innovation squared `r' S^-1 r` of the last measurement used
-        /// or rejected (`r` its innovation, `S` the innovation covariance). While the
-        /// model and noise levels are right it is chi-square distributed with as many
-        /// degrees of freedom as measurements (mean `Y_LEN`); a run of large values says
-        /// the model, the tuning or the sensor is wrong. 0 before the first measurement.
+        #doc
         #[must_use]
-        pub fn normalised_innovation_squared(&self) -> #ty {
+        pub fn #name(&self) -> #ty {
             #(#statements)*
             #value
         }
@@ -270,7 +341,7 @@ fn nis_method(model: &Model, scalar: Scalar) -> TokenStream {
 }
 
 /// The innovation gate's getter and setter; `gate` is its generated value.
-fn gate_items(gate: f64, ty: &proc_macro2::Ident, scalar: Scalar) -> TokenStream {
+pub fn gate_items(gate: f64, ty: &proc_macro2::Ident, scalar: Scalar) -> TokenStream {
     let zero = crate::emit::lower::literal(0.0, scalar);
     let generated = if gate < DIVERGENCE_NIS {
         format!("{gate}")
@@ -311,11 +382,16 @@ fn gate_items(gate: f64, ty: &proc_macro2::Ident, scalar: Scalar) -> TokenStream
     }
 }
 
-/// `self.innovation = [..]; self.innovation_covariance = [..];`
-fn store_innovation_tokens(innovation: &[TokenStream], covariance: &[TokenStream]) -> TokenStream {
+/// `self.innovation = [..]; self.innovation_covariance = [..];` (with `prefix`).
+fn store_innovation_tokens(
+    prefix: &str,
+    innovation: &[TokenStream],
+    covariance: &[TokenStream],
+) -> TokenStream {
+    let (innovation_field, covariance_field) = field_names(prefix);
     quote! {
-        self.innovation = [#(#innovation),*];
-        self.innovation_covariance = [#(#covariance),*];
+        self.#innovation_field = [#(#innovation),*];
+        self.#covariance_field = [#(#covariance),*];
     }
 }
 
@@ -336,6 +412,12 @@ fn outlier_rejection(
     }
 }
 
+/// The EKF family's call of its keeper: `keep_prediction` and the arguments a step
+/// passes on to `predict`, for [`Kept::keep_prediction`].
+pub fn keep_prediction_call(model: &Model) -> (proc_macro2::Ident, Vec<TokenStream>) {
+    (ident("keep_prediction"), prediction_arguments(model))
+}
+
 /// The arguments a step passes on to `predict`: `t_prev` and `u_prev` where the model has
 /// them.
 fn prediction_arguments(model: &Model) -> Vec<TokenStream> {
@@ -349,10 +431,19 @@ fn prediction_arguments(model: &Model) -> Vec<TokenStream> {
     args
 }
 
-/// `fn keep_prediction`: a gated step's answer to an outlier.
-fn keep_prediction_method(model: &Model, ty: &proc_macro2::Ident) -> TokenStream {
-    let m = proc_macro2::Literal::usize_unsuffixed(model.outputs.len());
-    let mp = proc_macro2::Literal::usize_unsuffixed(packed_len(model.outputs.len()));
+/// A step's cold answer to an outlier: the method's name, its parameters before the
+/// innovation, and the call of the prediction it keeps.
+pub struct PredictionKeeper {
+    /// `keep_prediction`, or `lkf_keep_prediction` for one of the DKF's filters.
+    pub name: proc_macro2::Ident,
+    /// `t_prev: S`, `u_prev: &[S; U_LEN]`, as the prediction takes them.
+    pub params: Vec<TokenStream>,
+    /// `self.predict(t_prev, u_prev)`: a call that returns a `Status`.
+    pub predict: TokenStream,
+}
+
+/// The EKF family's keeper: `keep_prediction`, which calls `predict`.
+fn prediction_keeper(model: &Model, ty: &proc_macro2::Ident) -> PredictionKeeper {
     let mut params = Vec::new();
     if model.uses_time() {
         params.push(quote! { t_prev: #ty });
@@ -361,24 +452,47 @@ fn keep_prediction_method(model: &Model, ty: &proc_macro2::Ident) -> TokenStream
         let u = proc_macro2::Literal::usize_unsuffixed(model.inputs.len());
         params.push(quote! { u_prev: &[#ty; #u] });
     }
-    let args = prediction_arguments(model);
+    let (name, args) = keep_prediction_call(model);
+    PredictionKeeper {
+        name,
+        params,
+        predict: quote! { self.predict(#(#args),*) },
+    }
+}
+
+/// The keeper's method: a gated step's answer to an outlier, storing the innovation in
+/// the fields of `prefix`.
+pub fn keep_prediction_method(
+    model: &Model,
+    keeper: &PredictionKeeper,
+    prefix: &str,
+    ty: &proc_macro2::Ident,
+) -> TokenStream {
+    let m = proc_macro2::Literal::usize_unsuffixed(model.outputs.len());
+    let mp = proc_macro2::Literal::usize_unsuffixed(packed_len(model.outputs.len()));
+    let PredictionKeeper {
+        name,
+        params,
+        predict,
+    } = keeper;
+    let (innovation_field, covariance_field) = field_names(prefix);
     quote! {
         /// A step's outlier: the prediction is kept, the measurement only recorded. Out of
         /// line and cold, so the usual sample does not pay for it.
         #[cold]
         #[inline(never)]
-        fn keep_prediction(
+        fn #name(
             &mut self,
             #(#params,)*
             innovation: [#ty; #m],
             innovation_covariance: [#ty; #mp],
         ) -> Status {
-            let predicted = self.predict(#(#args),*);
+            let predicted = #predict;
             if predicted != Status::Ok {
                 return predicted;
             }
-            self.innovation = innovation;
-            self.innovation_covariance = innovation_covariance;
+            self.#innovation_field = innovation;
+            self.#covariance_field = innovation_covariance;
             Status::OutlierRejected
         }
     }

@@ -4,6 +4,7 @@
 //! predict their covariance and take the Joseph-form update through the shared stage
 //! ([`crate::symbolic::kalman`]); each is lowered into its own method.
 
+use super::spec::DkfSpec;
 use super::window::{self, WindowTransform};
 use crate::emit::code::{
     guard_pivots, innovation_pivot_failure, packed_diagonal, pivot_names, reject_diverged,
@@ -11,6 +12,7 @@ use crate::emit::code::{
 };
 use crate::emit::filter::{finiteness_probe, model_names, noise_vars, packed_vars};
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
+use crate::emit::measurement;
 use crate::emit::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
@@ -20,19 +22,31 @@ use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
 
-/// The DKF's step (Alg. 2) after the transform: its body, the two stage methods, and
-/// what the stages compute.
+/// The DKF's filters after the transform, as [`step_fn`] lowers them.
+pub struct FilterCode {
+    /// The body of `step`.
+    pub step: TokenStream,
+    /// The body of `predict`.
+    pub predict: TokenStream,
+    /// The stage methods: each filter's step and prediction alone, and with a gate the
+    /// cold keepers that call the predictions.
+    pub methods: TokenStream,
+    /// What the two filters' steps compute.
+    pub ops: OpCount,
+}
+
+/// The DKF's step (Alg. 2) and prediction after the transform.
 pub fn step_fn(
     model: &Model,
     mg: &mut ModelGraph,
     wt: &WindowTransform,
     scalar: Scalar,
-    diagonal_noise: bool,
-) -> (TokenStream, TokenStream, OpCount) {
+    spec: &DkfSpec,
+) -> FilterCode {
     let g = mg;
     let mut avoid = model_names(model);
     avoid.extend(["phi", "window", "excitation"].map(String::from));
-    let vars = FilterVars::new(model, &mut g.graph, &avoid, diagonal_noise);
+    let vars = FilterVars::new(model, &mut g.graph, &avoid, spec.diagonal_noise);
     let x_vars: Vec<VarId> = g.x.iter().map(|&x| g.var_id(x)).collect();
     let c = g.jacobian_h_wrt_x();
     let a = g.jacobian_f_wrt_x();
@@ -59,9 +73,20 @@ pub fn step_fn(
         vars: &vars,
         avoid: &avoid,
         scalar,
+        gate: spec.gate,
     };
     let (lkf_method, lkf_ops) = step.stage_method(step.lkf_stage(lkf));
-    let (akf_method, akf_ops) = step.stage_method(step.akf_stage(wt, akf, akf_definitions));
+    let akf_stage = step.akf_stage(wt, akf, akf_definitions.clone());
+    let (akf_method, akf_ops) = step.stage_method(akf_stage);
+    let lkf_prediction = step.lkf_stage(Corrected::prediction(x_pred, p_pred));
+    let (lkf_predict, _) = step.stage_method(lkf_prediction);
+    let akf_prediction = step.akf_stage(
+        wt,
+        Corrected::prediction(xbar_pred, pbar_pred),
+        akf_definitions,
+    );
+    let (akf_predict, _) = step.stage_method(akf_prediction);
+    let keepers = spec.gate.map(|_| step.keepers());
     let methods = quote! {
         /// A missing sample breaks the window's sequence: empties the window (it refills)
         /// and rejects the sample, leaving both filters as they were.
@@ -77,8 +102,54 @@ pub fn step_fn(
         #lkf_method
 
         #akf_method
+
+        #lkf_predict
+
+        #akf_predict
+
+        #keepers
     };
-    (step.body(), methods, akf_ops.plus(lkf_ops))
+    FilterCode {
+        step: step.body(true),
+        predict: step.body(false),
+        methods,
+        ops: akf_ops.plus(lkf_ops),
+    }
+}
+
+/// What a filter stage computes: its new estimate and covariance, the pivots its update
+/// guards, and what it keeps of the measurement (none for a prediction alone).
+struct Corrected {
+    x: Vec<NodeId>,
+    p: Matrix,
+    pivots: Vec<NodeId>,
+    reciprocals: Vec<NodeId>,
+    /// The innovation, its packed covariance and its normalised square.
+    measured: Option<(Vec<NodeId>, Vec<NodeId>, NodeId)>,
+}
+
+impl Corrected {
+    /// A correction through the shared Kalman stage, with its innovation `residual`.
+    fn update(update: kalman::Update, residual: Vec<NodeId>) -> Corrected {
+        Corrected {
+            measured: Some((residual, packed_upper(&update.s), update.nis)),
+            x: update.x,
+            p: update.p,
+            pivots: update.pivots,
+            reciprocals: update.reciprocals,
+        }
+    }
+
+    /// A prediction alone: what a gated stage keeps when it rejects an outlier.
+    fn prediction(x: Vec<NodeId>, p: Matrix) -> Corrected {
+        Corrected {
+            x,
+            p,
+            pivots: Vec::new(),
+            reciprocals: Vec::new(),
+            measured: None,
+        }
+    }
 }
 
 /// The variables of the two filters' state and tuning: the AKF's estimate, covariance
@@ -195,7 +266,7 @@ impl Linearised<'_> {
 
     /// The measurement update of the prediction `x`, `p` with `y`, `h` and `C` taken at
     /// `x` (the shared Joseph-form update); `suffix` names its pivots apart.
-    fn correct(&self, graph: &mut Graph, x: &[NodeId], p: &Matrix, suffix: &str) -> kalman::Update {
+    fn correct(&self, graph: &mut Graph, x: &[NodeId], p: &Matrix, suffix: &str) -> Corrected {
         let residual: Vec<NodeId> = self
             .y
             .iter()
@@ -211,9 +282,10 @@ impl Linearised<'_> {
             .map(|row| row.iter().map(|&e| self.at(graph, e, x)).collect())
             .collect();
         let m = self.y.len();
-        kalman::update(graph, x, p, &residual, &c_at, self.r, |g, j| {
+        let update = kalman::update(graph, x, p, &residual, &c_at, self.r, |g, j| {
             g.var(&pivot_names(m, j, INNOVATION, suffix).1)
-        })
+        });
+        Corrected::update(update, residual)
     }
 
     /// The LKF's prediction: `f` linearised about the AKF's previous estimate `xbar` with
@@ -257,16 +329,18 @@ impl Linearised<'_> {
 /// where it first needs it and commits its own estimate and covariance, so the two stages
 /// never hold their results at once.
 struct Stage<'a> {
-    /// Method name (`akf_step`, `lkf_step`).
-    name: &'static str,
+    /// Method name (`akf_step`, `lkf_step`; `akf_predict`, `lkf_predict`).
+    name: String,
     /// Its documentation.
-    doc: &'static str,
-    /// Extra parameters before `u_prev` and `y` (the AKF's `phi`).
+    doc: String,
+    /// Its parameters: the AKF's `phi`, `u_prev`, and `y` for a correction.
     params: TokenStream,
     /// Arrays read lazily, with the variables they hold.
     reads: Vec<(TokenStream, &'a [NodeId])>,
-    /// The stage's measurement update.
-    update: kalman::Update,
+    /// What the stage computes.
+    corrected: Corrected,
+    /// The filter: `lkf` or `akf`, which prefixes its methods.
+    filter: &'static str,
     /// Suffix of its pivot names (`_bar` for the AKF).
     suffix: &'static str,
     /// Fields it stores into: estimate, packed covariance.
@@ -275,6 +349,9 @@ struct Stage<'a> {
     result_names: Vec<String>,
     /// Variables the stage computes before use, with their values.
     definitions: Vec<(NodeId, NodeId)>,
+    /// The arguments its prediction takes (`phi`, `u_prev`), which a gated step passes on
+    /// to its keeper.
+    prediction_args: Vec<TokenStream>,
 }
 
 /// What the step's lowering shares: the model, its graph with both filters' updates, the
@@ -285,6 +362,7 @@ struct StepLowering<'a> {
     vars: &'a FilterVars,
     avoid: &'a [String],
     scalar: Scalar,
+    gate: Option<f64>,
 }
 
 impl<'a> StepLowering<'a> {
@@ -295,29 +373,48 @@ impl<'a> StepLowering<'a> {
         (!self.g.u.is_empty()).then(|| quote! { u_prev: &[#ty; #u_len], })
     }
 
-    /// `y: &[S; Y_LEN]`.
-    fn y_param(&self) -> TokenStream {
+    /// `y: &[S; Y_LEN]` for a correction; nothing for a prediction alone.
+    fn y_param(&self, corrected: &Corrected) -> Option<TokenStream> {
         let ty = ident(self.scalar.type_name());
         let y_len = Literal::usize_unsuffixed(self.model.outputs.len());
-        quote! { y: &[#ty; #y_len] }
+        corrected
+            .measured
+            .is_some()
+            .then(|| quote! { y: &[#ty; #y_len] })
     }
 
-    /// The names of a stage's new estimate's entries (`x1_new`, `x1_bar_new`).
-    fn result_names(&self, suffix: &str) -> Vec<String> {
+    /// `u_prev` where the model has inputs.
+    fn u_arg(&self) -> Vec<TokenStream> {
+        if self.g.u.is_empty() {
+            Vec::new()
+        } else {
+            vec![quote! { u_prev }]
+        }
+    }
+
+    /// The names of a stage's new estimate's entries (`x1_new`, `x1_bar_new`; `_pred`
+    /// for a prediction alone).
+    fn result_names(&self, suffix: &str, corrected: &Corrected) -> Vec<String> {
+        let end = if corrected.measured.is_some() {
+            "new"
+        } else {
+            "pred"
+        };
         self.model
             .state_names()
-            .map(|s| format!("{s}{suffix}_new"))
+            .map(|s| format!("{s}{suffix}_{end}"))
             .collect()
     }
 
-    /// The LKF's method, `lkf_step`.
-    fn lkf_stage(&self, update: kalman::Update) -> Stage<'a> {
+    /// The LKF's method, `lkf_step` (or `lkf_predict`).
+    fn lkf_stage(&self, corrected: Corrected) -> Stage<'a> {
         let (g, vars) = (self.g, self.vars);
-        let (u_param, y_param) = (self.u_param(), self.y_param());
+        let (u_param, y_param) = (self.u_param(), self.y_param(&corrected));
+        let doc = "The LKF (Algorithm 2 of the double Kalman filter paper): `f` linearised about the AKF's estimate of the \
+                   previous sample with the input `u[k-1]`";
         Stage {
-            name: "lkf_step",
-            doc: "The LKF (Algorithm 2 of the double Kalman filter paper): `f` linearised about the AKF's estimate of the previous \
-                  sample with the input `u[k-1]`, then corrected with `y[k]` (Joseph form).",
+            name: stage_name("lkf", &corrected),
+            doc: stage_doc(doc, &corrected),
             params: quote! { #u_param #y_param },
             reads: vec![
                 (quote! { self.xbar }, &vars.xbar[..]),
@@ -328,29 +425,34 @@ impl<'a> StepLowering<'a> {
                 (quote! { *u_prev }, &g.u[..]),
                 (quote! { *y }, &vars.y[..]),
             ],
-            update,
+            result_names: self.result_names("", &corrected),
+            corrected,
+            filter: "lkf",
             suffix: "",
             fields: (quote! { x }, quote! { p }),
-            result_names: self.result_names(""),
             definitions: Vec::new(),
+            prediction_args: self.u_arg(),
         }
     }
 
-    /// The AKF's method, `akf_step`, which reads the transform's `phi`.
+    /// The AKF's method, `akf_step` (or `akf_predict`), which reads the transform's `phi`.
     fn akf_stage(
         &self,
         wt: &'a WindowTransform,
-        update: kalman::Update,
+        corrected: Corrected,
         definitions: Vec<(NodeId, NodeId)>,
     ) -> Stage<'a> {
         let (g, vars) = (self.g, self.vars);
         let ty = ident(self.scalar.type_name());
         let n_len = Literal::usize_unsuffixed(self.model.state_len());
-        let (u_param, y_param) = (self.u_param(), self.y_param());
+        let (u_param, y_param) = (self.u_param(), self.y_param(&corrected));
+        let doc = "The AKF (Algorithm 2 of the double Kalman filter paper): a linear Kalman filter on the transformed \
+                   model at `phi`";
+        let mut prediction_args = vec![quote! { phi }];
+        prediction_args.extend(self.u_arg());
         Stage {
-            name: "akf_step",
-            doc: "The AKF (Algorithm 2 of the double Kalman filter paper): a linear Kalman filter on the transformed model at `phi`, \
-                  then corrected with `y[k]` (Joseph form).",
+            name: stage_name("akf", &corrected),
+            doc: stage_doc(doc, &corrected),
             params: quote! { phi: &[#ty; #n_len], #u_param #y_param },
             reads: vec![
                 (quote! { *phi }, &wt.phi[..]),
@@ -361,85 +463,157 @@ impl<'a> StepLowering<'a> {
                 (quote! { *u_prev }, &g.u[..]),
                 (quote! { *y }, &vars.y[..]),
             ],
-            update,
+            result_names: self.result_names("_bar", &corrected),
+            corrected,
+            filter: "akf",
             suffix: "_bar",
             fields: (quote! { xbar }, quote! { pbar }),
-            result_names: self.result_names("_bar"),
             definitions,
+            prediction_args,
         }
     }
 
-    /// A filter stage lowered into its own method: the update's pivots guarded, then the
-    /// new estimate and covariance stored if their finiteness probe passes.
+    /// The cold methods a gated step calls on an outlier, `lkf_keep_prediction` and
+    /// `akf_keep_prediction`: each runs its filter's prediction alone and records the
+    /// innovation in its own fields (`akf_innovation` for the AKF).
+    fn keepers(&self) -> TokenStream {
+        let ty = ident(self.scalar.type_name());
+        let n_len = Literal::usize_unsuffixed(self.model.state_len());
+        let u_len = Literal::usize_unsuffixed(self.model.inputs.len());
+        let u_param: Vec<TokenStream> = (!self.g.u.is_empty())
+            .then(|| quote! { u_prev: &[#ty; #u_len] })
+            .into_iter()
+            .collect();
+        let u_arg = self.u_arg();
+        let lkf = measurement::PredictionKeeper {
+            name: ident("lkf_keep_prediction"),
+            params: u_param.clone(),
+            predict: quote! { self.lkf_predict(#(#u_arg),*) },
+        };
+        let mut akf_params = vec![quote! { phi: &[#ty; #n_len] }];
+        akf_params.extend(u_param);
+        let akf = measurement::PredictionKeeper {
+            name: ident("akf_keep_prediction"),
+            params: akf_params,
+            predict: quote! { self.akf_predict(phi, #(#u_arg),*) },
+        };
+        let lkf = measurement::keep_prediction_method(self.model, &lkf, "", &ty);
+        let akf = measurement::keep_prediction_method(self.model, &akf, "akf_", &ty);
+        quote! { #lkf #akf }
+    }
+
+    /// A filter stage lowered into its own method: the update's pivots guarded, the
+    /// innovation's test (the gate or the divergence bound), then the new estimate and
+    /// covariance stored, with the innovation, if they pass [`reject_diverged`].
     fn stage_method(&self, stage: Stage) -> (TokenStream, OpCount) {
-        let Stage {
-            name,
-            doc,
-            params,
-            reads,
-            update,
-            suffix,
-            fields: (x_field, p_field),
-            result_names,
-            definitions,
-        } = stage;
-        let n = update.x.len();
+        let n = stage.corrected.x.len();
         let mut graph = self.g.graph.clone();
-        let probe = finiteness_probe(&mut graph, &update.x, &update.p);
-        let p_new = packed_upper(&update.p);
-        let results: Vec<NodeId> = update.x.iter().chain(&p_new).copied().collect();
+        let corrected = &stage.corrected;
+        let probe = finiteness_probe(&mut graph, &corrected.x, &corrected.p);
+        let p_new = packed_upper(&corrected.p);
+        let results: Vec<NodeId> = corrected.x.iter().chain(&p_new).copied().collect();
         let mut all_roots = results.clone();
         all_roots.push(probe);
-        all_roots.extend(&update.pivots);
+        all_roots.extend(&corrected.pivots);
+        if let Some((innovation, covariance, nis)) = &corrected.measured {
+            all_roots.extend(innovation.iter().chain(covariance));
+            all_roots.push(*nis);
+        }
         let namer = TempNamer::new(self.avoid.iter().map(String::as_str));
         let mut lowerer = Lowerer::new(&graph, self.scalar, namer, &all_roots);
-        for (source, vars) in &reads {
-            lowerer.read_lazily(source, vars);
-        }
-        for (var, value) in definitions {
-            lowerer.define(var, value);
-        }
-        for (&node, result) in update.x.iter().zip(&result_names) {
-            lowerer.prefer_name(node, result);
-        }
-        guard_pivots(
-            &mut lowerer,
-            &update.pivots,
-            &update.reciprocals,
-            (INNOVATION, suffix),
-            &innovation_pivot_failure,
-            self.scalar,
-        );
+        self.prepare(&mut lowerer, &stage);
         let probe = lowerer.segment(&[probe]).remove(0);
         let values = lowerer.segment(&results);
         lowerer.count_extra(OpCount::stores(values.len()));
         lowerer.count_extra(crate::emit::code::divergence_test_ops(n));
+        let store_innovation = self.store_and_gate(&mut lowerer, &stage);
         let Lowered {
             statements, ops, ..
         } = lowerer.finish();
         let (x_values, p_values) = values.split_at(n);
-        let name = ident(name);
-        let doc = format!(" {doc}");
+        let Stage {
+            name,
+            doc,
+            params,
+            fields: (x_field, p_field),
+            ..
+        } = stage;
+        let name = ident(&name);
+        let doc = crate::emit::code::doc_attributes(&doc);
         let check = reject_diverged(&probe, &packed_diagonal(p_values, n), self.scalar);
         let tokens = quote! {
-            #[doc = #doc]
+            #doc
             fn #name(&mut self, #params) -> Status {
                 #(#statements)*
                 #check
                 self.#x_field = [#(#x_values),*];
                 self.#p_field = [#(#p_values),*];
+                #store_innovation
                 Status::Ok
             }
         };
         (tokens, ops)
     }
 
-    /// The body of `step`: rejects a non-finite input or measurement, runs the LKF, the
-    /// transform, the AKF, and pushes the sample into the window.
-    fn body(&self) -> TokenStream {
+    /// Before the stage's arithmetic: its lazy reads and definitions, its results' names,
+    /// its pivots' guards and its innovation's names.
+    fn prepare(&self, lowerer: &mut Lowerer, stage: &Stage) {
+        for (source, vars) in &stage.reads {
+            lowerer.read_lazily(source, vars);
+        }
+        for &(var, value) in &stage.definitions {
+            lowerer.define(var, value);
+        }
+        for (&node, result) in stage.corrected.x.iter().zip(&stage.result_names) {
+            lowerer.prefer_name(node, result);
+        }
+        guard_pivots(
+            lowerer,
+            &stage.corrected.pivots,
+            &stage.corrected.reciprocals,
+            (INNOVATION, stage.suffix),
+            &innovation_pivot_failure,
+            self.scalar,
+        );
+        if let Some((innovation, ..)) = &stage.corrected.measured {
+            for (&r, o) in innovation.iter().zip(&self.model.outputs) {
+                lowerer.prefer_name(r, &format!("{}_innovation{}", o.name, stage.suffix));
+            }
+        }
+    }
+
+    /// The shared measurement stage's test of a correcting stage's innovation, and the
+    /// assignments that store it; nothing for a prediction alone.
+    fn store_and_gate(&self, lowerer: &mut Lowerer, stage: &Stage) -> TokenStream {
+        let Some((innovation, covariance, nis)) = &stage.corrected.measured else {
+            return TokenStream::new();
+        };
+        let prefix = if stage.filter == "akf" { "akf_" } else { "" };
+        let kept = measurement::Kept {
+            prefix,
+            innovation,
+            covariance,
+            nis: Some(*nis),
+            gated: self.gate.is_some(),
+            keep_prediction: Some((
+                ident(&format!("{}_keep_prediction", stage.filter)),
+                stage.prediction_args.clone(),
+            )),
+        };
+        measurement::store_and_gate(lowerer, &kept)
+    }
+
+    /// The body of `step` (`corrects`) or of `predict`: rejects a non-finite input or
+    /// measurement, runs the LKF, the transform and the AKF; a step pushes the sample into
+    /// the window unless a filter refused it, a prediction (no measurement) empties it.
+    fn body(&self, corrects: bool) -> TokenStream {
         let g = self.g;
         let u_idents = var_idents(&g.graph, &g.u);
-        let y_idents = var_idents(&g.graph, &self.vars.y);
+        let y_idents = if corrects {
+            var_idents(&g.graph, &self.vars.y)
+        } else {
+            Vec::new()
+        };
         let checked: Vec<Ident> = u_idents.iter().chain(&y_idents).cloned().collect();
         // One test and branch per value: joined by `&&`, the tests are combined into flags
         // before one branch, which costs more on the target.
@@ -451,23 +625,72 @@ impl<'a> StepLowering<'a> {
             }
         });
         let unpack_u = (!g.u.is_empty()).then(|| quote! { let [#(#u_idents),*] = *u_prev; });
+        let unpack_y = corrects.then(|| quote! { let [#(#y_idents),*] = *y; });
         let u_arg = (!g.u.is_empty()).then(|| quote! { u_prev, });
+        let (lkf, akf, window) = if corrects {
+            (
+                quote! { self.lkf_step(#u_arg y) },
+                quote! { self.akf_step(&phi, #u_arg y) },
+                quote! {
+                    // A measurement either filter refused (an outlier, or a result beyond
+                    // the divergence bound) stays out of the window: it empties, as for a
+                    // missing sample, and refills.
+                    if matches!(lkf, Status::OutlierRejected | Status::Diverged)
+                        || matches!(akf, Status::OutlierRejected | Status::Diverged)
+                    {
+                        self.filled = [false; WINDOW_OUTPUTS];
+                    } else {
+                        self.push(#u_arg y);
+                    }
+                },
+            )
+        } else {
+            (
+                quote! { self.lkf_predict(#u_arg) },
+                quote! { self.akf_predict(&phi, #u_arg) },
+                quote! {
+                    // Without its measurement the sample breaks the window's sequence.
+                    self.filled = [false; WINDOW_OUTPUTS];
+                },
+            )
+        };
         quote! {
             #unpack_u
-            let [#(#y_idents),*] = *y;
+            #unpack_y
             #(#reject_non_finite)*
             // The LKF linearises about the AKF's estimate of the previous sample: it runs
             // first, and before the transform, so that `phi` is not held across it.
-            let lkf = self.lkf_step(#u_arg y);
+            let lkf = #lkf;
             let (phi, window, [det_sq, column_norms], parameters) = self.transform(#u_arg);
             // The window's findings stand whatever the filters do with this sample.
             self.window_det_sq = det_sq;
             self.window_column_norms = column_norms;
             self.phi_params = parameters;
-            let akf = self.akf_step(&phi, #u_arg y);
-            self.push(#u_arg y);
+            let akf = #akf;
+            #window
             DkfStatus { window, akf, lkf }
         }
+    }
+}
+
+/// `lkf_step` for a correction, `lkf_predict` for a prediction alone.
+fn stage_name(filter: &str, corrected: &Corrected) -> String {
+    if corrected.measured.is_some() {
+        format!("{filter}_step")
+    } else {
+        format!("{filter}_predict")
+    }
+}
+
+/// A stage's documentation from the sentence that says what its filter predicts with.
+fn stage_doc(prediction: &str, corrected: &Corrected) -> String {
+    if corrected.measured.is_some() {
+        format!(" {prediction}, then corrected with `y[k]` (Joseph form).")
+    } else {
+        format!(
+            " {prediction}, without a correction: what a gated step keeps when it rejects an \
+             outlier."
+        )
     }
 }
 

@@ -13,6 +13,7 @@ use crate::emit::arguments::{Arguments, REJECTS_NON_FINITE};
 use crate::emit::code::{destructure, unpack_symmetric, var_idents};
 use crate::emit::filter::{model_names, noise_argument};
 use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
+use crate::emit::measurement;
 use crate::emit::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::packed_len;
@@ -40,16 +41,19 @@ pub fn emit_dkf(
 ) -> DkfCode {
     let mut g = g.clone();
     let (transform, transform_ops) = transform_fn(model, &g, wt, scalar);
-    let (step, stages, filters_ops) = step_fn(model, &mut g, wt, scalar, spec.diagonal_noise);
+    let filters = step_fn(model, &mut g, wt, scalar, spec);
     let push = push_fn(model, &g, wt, scalar);
     let ltv = ltv_fn(model, &g, wt, scalar);
     let dkf = DkfType::new(model, spec, wt, scalar);
-    let declaration = dkf.declaration(wt);
+    let declaration = dkf.declaration(model, wt);
     let constructor = dkf.constructor_tokens(model);
     let estimates = dkf.estimate_accessors();
+    let measurement = dkf.measurement_methods(model);
     let window_accessors = dkf.window_accessors(model);
     let setters = dkf.setter_tokens();
-    let step = dkf.step_method(model, &step);
+    let step = dkf.step_method(model, &filters.step);
+    let predict = dkf.predict_method(model, &filters.predict);
+    let (stages, filters_ops) = (filters.methods, filters.ops);
     let status_types = status_types();
     let window_constants = dkf.window_constants();
     let tokens = quote! {
@@ -58,9 +62,11 @@ pub fn emit_dkf(
         impl Dkf {
             #constructor
             #estimates
+            #measurement
             #window_accessors
             #setters
             #step
+            #predict
             #stages
             #transform
             #push
@@ -92,6 +98,8 @@ struct DkfType {
     /// Inputs.
     nu: usize,
     diagonal_noise: bool,
+    /// The innovation gate, if any.
+    gate: Option<f64>,
     /// Outputs the window holds, the latest included.
     window_outputs: usize,
     /// Past inputs the window holds.
@@ -108,6 +116,7 @@ impl DkfType {
             np: model.params.len(),
             nu: model.inputs.len(),
             diagonal_noise: spec.diagonal_noise,
+            gate: spec.gate,
             window_outputs: wt.output_delays + 1,
             window_inputs: wt.input_delays,
         }
@@ -120,7 +129,7 @@ impl DkfType {
 
     /// The documented `struct Dkf`: the window's history and last solved parameters, and
     /// each filter's estimate, covariance and noise.
-    fn declaration(&self, wt: &WindowTransform) -> TokenStream {
+    fn declaration(&self, model: &Model, wt: &WindowTransform) -> TokenStream {
         let ty = &self.ty;
         let lit = Literal::usize_unsuffixed;
         let (n_len, p_len) = (lit(self.n), lit(self.np));
@@ -131,6 +140,12 @@ impl DkfType {
         let (_, q_field, _) = self.noise("q");
         let (_, qbar_field, _) = self.noise("qbar");
         let derivation: Vec<String> = wt.description.iter().map(|l| format!(" - {l}")).collect();
+        let innovations = [
+            measurement::innovation_fields(model, "", ty),
+            measurement::innovation_fields(model, "akf_", ty),
+        ];
+        let gate_field = measurement::gate_field(self.gate, ty);
+        let gate_doc = measurement::gate_doc(self.gate);
         quote! {
             /// Double Kalman filter (Alg. 2) of this model.
             ///
@@ -143,6 +158,8 @@ impl DkfType {
             /// taken about the AKF's own estimate. A window whose excitation is below the
             /// threshold keeps the last solved parameters (Case 1); an input that is zero over
             /// the window freezes the parameters it multiplies (Case 2).
+            /// Each filter keeps the innovation of the last measurement.
+            #[doc = #gate_doc]
             #[derive(Clone, Copy, Debug, PartialEq)]
             pub struct Dkf {
                 outputs: [#ty; #outputs_len],
@@ -159,6 +176,8 @@ impl DkfType {
                 p: [#ty; #nn],
                 q: #q_field,
                 r: [#ty; #mm],
+                #(#innovations)*
+                #gate_field
             }
         }
     }
@@ -190,6 +209,11 @@ impl DkfType {
         // The parameters come last in the state vector.
         let params = &x0[model.states.len()..];
         let new_doc = self.new_doc();
+        let innovations = [
+            measurement::cleared_values(model, "", self.scalar),
+            measurement::cleared_values(model, "akf_", self.scalar),
+        ];
+        let gate = measurement::gate_initial_value(self.gate, self.scalar);
         let new = arguments.constructor(
             &quote! { #[doc = #new_doc] },
             REJECTS_NON_FINITE,
@@ -210,6 +234,8 @@ impl DkfType {
                     p: [#(#p0),*],
                     q: [#(#q),*],
                     r: [#(#r),*],
+                    #(#innovations)*
+                    #gate
                 })
             },
         );
@@ -279,6 +305,64 @@ impl DkfType {
             pub fn akf_covariance(&self) -> [[#ty; #n_len]; #n_len] {
                 #unpack_pbar
             }
+        }
+    }
+
+    /// `reset`, each filter's innovation and NIS, and the gate's getter and setter when
+    /// there is one.
+    fn measurement_methods(&self, model: &Model) -> TokenStream {
+        let ty = &self.ty;
+        let zero = literal(0.0, self.scalar);
+        let outputs_len = Literal::usize_unsuffixed(self.m * self.window_outputs);
+        let inputs_len = Literal::usize_unsuffixed(self.nu * self.window_inputs);
+        let mut arguments = Arguments::default();
+        let x0 = arguments.vector("x0", self.n, ty);
+        let p0 = arguments.covariance("p0", self.n, ty);
+        let pbar0 = arguments.covariance("pbar0", self.n, ty);
+        let params = &x0[model.states.len()..];
+        let clear = [
+            measurement::clear_innovation(model, "", self.scalar),
+            measurement::clear_innovation(model, "akf_", self.scalar),
+        ];
+        let reset = arguments.method(
+            &ident("reset"),
+            &quote! {
+                /// Starts both filters again from the estimate `x0`, the LKF with the
+                /// covariance `p0` and the AKF with `pbar0`, keeping the noise covariances
+                /// and the excitation threshold: the way back after a fault (a run of
+                /// [`Status::Diverged`], [`Status::NonFinite`] or rejected outliers) or a
+                /// restart of the plant. The window is emptied (it refills), the
+                /// parameters are those of `x0`, and the innovations are cleared. Rejects
+                /// a non-finite entry with [`Status::RejectedInput`] and a covariance that
+                /// is not symmetric and positive semi-definite with
+                /// [`Status::InvalidCovariance`], leaving the filter unchanged.
+            },
+            quote! {
+                self.x = *x0;
+                self.p = [#(#p0),*];
+                self.xbar = *x0;
+                self.pbar = [#(#pbar0),*];
+                self.outputs = [#zero; #outputs_len];
+                self.inputs = [#zero; #inputs_len];
+                self.filled = [false; WINDOW_OUTPUTS];
+                self.phi_params = [#(#params),*];
+                self.window_det_sq = #zero;
+                self.window_column_norms = #zero;
+                #(#clear)*
+                Status::Ok
+            },
+        );
+        let accessors = [
+            measurement::accessors(model, "", self.scalar),
+            measurement::accessors(model, "akf_", self.scalar),
+        ];
+        let gate = self
+            .gate
+            .map(|gate| measurement::gate_items(gate, ty, self.scalar));
+        quote! {
+            #reset
+            #(#accessors)*
+            #gate
         }
     }
 
@@ -355,7 +439,9 @@ impl DkfType {
             " One sample (Algorithm 2 of the double Kalman filter paper): runs the LKF linearised about the AKF's previous estimate \
              with the input `u[k-1]`, builds `F`, `G`, `d` from the window ending at the \
              previous sample and the same input, runs the AKF on them, each filter corrected \
-             with `y[k]`; then pushes `y[k]` and `u[k-1]` into the window. Cost: \
+             with `y[k]`; then pushes `y[k]` and `u[k-1]` into the window. A measurement \
+             either filter refuses (beyond its innovation gate, or its divergence bound) \
+             does not enter the window, which is emptied and refills. Cost: \
              [`DKF_TRANSFORM_OPS`] plus [`DKF_FILTERS_OPS`]{}.",
             if model.scalars.first() == Some(&self.scalar) {
                 ""
@@ -366,6 +452,23 @@ impl DkfType {
         quote! {
             #[doc = #step_doc]
             pub fn step(&mut self, #u_param y: &[#ty; #m_len]) -> DkfStatus {
+                #body
+            }
+        }
+    }
+
+    /// The documented `predict`, around `body` (from [`step_fn`]).
+    fn predict_method(&self, model: &Model, body: &TokenStream) -> TokenStream {
+        let ty = &self.ty;
+        let u_len = Literal::usize_unsuffixed(self.nu);
+        let u_param = (!model.inputs.is_empty()).then(|| quote! { u_prev: &[#ty; #u_len] });
+        quote! {
+            /// A sample without its measurement (a slower sensor's, or one known bad):
+            /// both filters predict as [`Dkf::step`] does, the AKF on the window ending at
+            /// the previous sample, and neither is corrected. The window is emptied (it
+            /// refills): the sample is missing from its sequence. Rejects a non-finite
+            /// input with [`Status::RejectedInput`], leaving both filters as they were.
+            pub fn predict(&mut self, #u_param) -> DkfStatus {
                 #body
             }
         }

@@ -1,6 +1,6 @@
 //! The double Kalman filter: the window transform derived from the model (an LTV model
 //! whose coefficients a window of samples determines) and its two Kalman filters (AKF and
-//! LKF): `dkf(eta = 0.5, process_noise = diagonal)`.
+//! LKF): `dkf(eta = 0.5, gate = 10.83, process_noise = diagonal)`.
 
 pub mod filters;
 pub mod lower;
@@ -24,7 +24,7 @@ pub struct Dkf;
 /// What `dkf` is and what it requires of the model.
 const DESCRIPTION: Description = Description {
     name: "dkf",
-    usage: "`dkf(eta = ..)`",
+    usage: "`dkf(eta = .., gate = ..)`",
     requirements: &[
         Requirement::Outputs,
         Requirement::UnrolledStep,
@@ -54,12 +54,14 @@ impl Kind for Dkf {
         diag: &mut Diagnostics,
     ) -> Option<Box<dyn Generator>> {
         let (eta, eta_span) = args.number("eta", 0.5, diag);
+        let gate = args.gate(diag);
         let diagonal_noise = args.process_noise(diag);
         if !(0.0..=1.0).contains(&eta) {
             diag.error(eta_span, "`eta` weights a split: it lies in 0..=1");
         }
         Some(Box::new(DkfSpec {
             eta,
+            gate,
             diagonal_noise,
             span: item.name.span,
         }))

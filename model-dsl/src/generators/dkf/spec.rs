@@ -5,6 +5,9 @@
 pub struct DkfSpec {
     /// Weight of the split of each state-parameter product, eq. (12).
     pub eta: f64,
+    /// The innovation gate both filters test their normalised innovation squared
+    /// against (`gate = ..`), if any.
+    pub gate: Option<f64>,
     /// Whether both process noise covariances (AKF's and LKF's) are diagonal.
     pub diagonal_noise: bool,
     /// Where `dkf` was written, for errors of the window transform.

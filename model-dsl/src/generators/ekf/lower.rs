@@ -457,13 +457,15 @@ fn lower(
     lowerer.count_extra(OpCount::stores(values.len()));
     lowerer.count_extra(crate::emit::code::divergence_test_ops(model.state_len()));
     let kept = measurement::Kept {
+        prefix: "",
         innovation: &nodes.innovation,
         covariance: &nodes.innovation_covariance,
         nis: nodes.nis,
         gated: nodes.gated,
-        step: kind == EkfMethod::Step,
+        keep_prediction: (kind == EkfMethod::Step)
+            .then(|| measurement::keep_prediction_call(model)),
     };
-    let store_innovation = measurement::store_and_gate(&mut lowerer, model, &kept);
+    let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
     let Lowered {
         statements,
         used_vars,
