@@ -494,7 +494,7 @@ macro_rules! observer {
             snapshot = |f| to_f64(&f.state()),
             states = |f| to_f64(&f.state()),
             variances = |_| Vec::new(),
-            reset = |_, _, _| false,
+            reset = |f, x0, _| status_name(f.reset(&arr(x0))) == "Ok",
         );
     };
 }

@@ -180,7 +180,7 @@ fn innovation_nis_and_reset_match_the_reference() {
     let mut kf = PolynomialKf::new(&x0, &p0).unwrap();
     assert_eq!(
         (kf.innovation(), kf.normalised_innovation_squared()),
-        (0.0, 0.0)
+        ([0.0], 0.0)
     );
     let x = DVector::from_row_slice(&x0);
     let s = DMatrix::from_fn(N, N, |i, j| p0[i][j]);
@@ -191,8 +191,8 @@ fn innovation_nis_and_reset_match_the_reference() {
     let r = y - predicted[0];
     let nis = r * r / (s1[(0, 0)] + SIGMA2);
     assert!(
-        (kf.innovation() - r).abs() <= 1e-14,
-        "{} against {r}",
+        (kf.innovation()[0] - r).abs() <= 1e-14,
+        "{:?} against {r}",
         kf.innovation()
     );
     let got = kf.normalised_innovation_squared();
@@ -227,4 +227,60 @@ fn a_wild_value_on_a_re_initialising_sample_is_refused() {
     assert_eq!(kf, reference);
     let fitted = kf.state();
     assert!(fitted.iter().all(|v| v.abs() < 10.0), "{fitted:?}");
+}
+
+stateforge::model! {
+    /// The demo's polynomial model of order 1 (a position and its scaled velocity), with a
+    /// gated polynomial Kalman filter.
+    mod gated {
+        scalar f64;
+        state z0, z1;
+        output y = z0;
+        generate polynomial_kf(order = 1, dt = 0.01, fading = 1e-9, noise_variance = 1e-4,
+            reinit_every = 20, window = 5, gate = 10.83);
+        dynamics discrete {
+            z0 = z0 + z1;
+            z1 = z1;
+        }
+    }
+}
+
+/// A gated polynomial Kalman filter rejects a spike of 30 standard deviations: the
+/// prediction is kept (what `predict` gives), the innovation recorded, and the window
+/// emptied, so the outlier never reaches the fit: the re-initialisation due at sample 19
+/// waits until the window holds 5 samples after the spike again. `reset` keeps the gate.
+#[test]
+fn a_gated_polynomial_kf_keeps_its_prediction_and_empties_its_window() {
+    use gated::{PolynomialKf, Status};
+    let ramp = |k: usize| 0.1 + 0.002 * k as f64;
+    let prior = [[1e-2, 0.0], [0.0, 1e-4]];
+    let mut kf = PolynomialKf::new(&[0.1, 0.0], &prior).unwrap();
+    assert_eq!(kf.innovation_gate(), 10.83);
+    for k in 0..17 {
+        assert_eq!(kf.step(ramp(k)), Status::Ok, "sample {k}");
+    }
+    let mut predicted = kf;
+    assert_eq!(predicted.predict(), Status::Ok);
+    let spike = ramp(17) + 30.0 * 1e-2;
+    assert_eq!(kf.step(spike), Status::OutlierRejected);
+    assert_eq!(
+        (kf.state(), kf.covariance()),
+        (predicted.state(), predicted.covariance())
+    );
+    assert!((kf.innovation()[0] - (spike - predicted.state()[0])).abs() < 1e-12);
+    assert!(kf.normalised_innovation_squared() > 10.83);
+    for k in 18..22 {
+        assert_eq!(kf.step(ramp(k)), Status::Ok, "sample {k}");
+        assert_ne!(kf.covariance(), PolynomialKf::FIT_COVARIANCE, "sample {k}");
+    }
+    // The fifth sample after the spike fills the window with the ramp: the fit is exact.
+    assert_eq!(kf.step(ramp(22)), Status::Ok);
+    assert_eq!(kf.covariance(), PolynomialKf::FIT_COVARIANCE);
+    let fitted = kf.state();
+    assert!(
+        (fitted[0] - ramp(22)).abs() < 1e-9 && (fitted[1] - 0.002).abs() < 1e-9,
+        "{fitted:?}"
+    );
+    assert_eq!(kf.reset(&[0.1, 0.0], &prior), Status::Ok);
+    assert_eq!(kf, PolynomialKf::new(&[0.1, 0.0], &prior).unwrap());
 }

@@ -137,8 +137,17 @@ fn generated_observers_match_a_dense_nalgebra_simulation() {
             let regime = usize::from(y[1] > 0.0);
             switches += usize::from((regime == 1) != last);
             last = regime == 1;
+            let mut innovations = Vec::new();
             for (d, k_gain) in dense.iter_mut().zip(&designs) {
                 let innovation = DVector::from_row_slice(&y) - &reg.c * &*d;
+                // A difference of the measurement and of the estimate's output: compared
+                // at the larger of their scales, as the estimate is at its own.
+                let scale = (&reg.c * &*d)
+                    .amax()
+                    .max(y[0].abs())
+                    .max(y[1].abs())
+                    .max(1e-6);
+                innovations.push((innovation.clone(), scale));
                 *d = &reg.a[regime] * &*d
                     + &reg.b[regime] * u
                     + &reg.offset[regime]
@@ -147,6 +156,11 @@ fn generated_observers_match_a_dense_nalgebra_simulation() {
             assert_eq!(led.step(&[u], &y), beam::Status::Ok);
             assert_eq!(skf.step(&[u], &y), beam::Status::Ok);
             assert_eq!(cgo.step(&[u], &y), beam::Status::Ok);
+            let generated = [led.innovation(), skf.innovation(), cgo.innovation()];
+            for (generated, (expected, scale)) in generated.iter().zip(&innovations) {
+                let diff = (DVector::from_row_slice(generated) - expected).amax() / scale;
+                assert!(diff < 1e-9, "{freq} Hz, step {k}: innovation {diff:e}");
+            }
             for (generated, d) in [led.state(), skf.state(), cgo.state()].iter().zip(&dense) {
                 let diff = (DVector::from_row_slice(generated) - d).amax() / d.amax().max(1e-6);
                 worst = worst.max(diff);
@@ -156,6 +170,12 @@ fn generated_observers_match_a_dense_nalgebra_simulation() {
         }
         assert!(switches > 50, "the run switches regimes ({switches})");
         println!("{freq} Hz: largest relative difference {worst:e}, {switches} switches");
+        // `reset` is the observer `new` builds; a NaN start is refused.
+        let fresh = beam::LinearErrorObserver::new(&x0).unwrap();
+        assert_eq!(led.reset(&[f64::NAN; N]), beam::Status::RejectedInput);
+        assert_ne!(led, fresh);
+        assert_eq!(led.reset(&x0), beam::Status::Ok);
+        assert_eq!(led, fresh);
     }
 }
 

@@ -442,8 +442,9 @@ pub struct PredictionKeeper {
     pub predict: TokenStream,
 }
 
-/// The EKF family's keeper: `keep_prediction`, which calls `predict`.
-fn prediction_keeper(model: &Model, ty: &proc_macro2::Ident) -> PredictionKeeper {
+/// The EKF family's keeper (and the polynomial Kalman filter's): `keep_prediction`, which
+/// calls `predict` with the arguments of [`keep_prediction_call`].
+pub fn prediction_keeper(model: &Model, ty: &proc_macro2::Ident) -> PredictionKeeper {
     let mut params = Vec::new();
     if model.uses_time() {
         params.push(quote! { t_prev: #ty });

@@ -127,18 +127,13 @@ pub fn window_fit(spec: &PolynomialKfSpec) -> WindowFit {
     WindowFit { gain, covariance }
 }
 
-/// One recursive step as nodes: `x = Phi x`, `S1 = Phi S Phi' + f I` (eq. 5-6), then the
-/// Joseph-form update with `M = [1 0 .. 0]` and `sigma^2` (eq. 7-9; the Joseph form equals
-/// eq. 8 for the optimal gain and keeps `S` symmetric and positive in `f32`). Returns the
-/// update and the innovation `y - x_pred[0]`.
-pub fn step(
+/// The prediction as nodes: `x = Phi x`, `S1 = Phi S Phi' + f I` (eq. 5-6).
+pub fn predict(
     g: &mut Graph,
     spec: &PolynomialKfSpec,
     x: &[NodeId],
     p: &Matrix,
-    measured: NodeId,
-    reciprocal: impl FnMut(&mut Graph, usize) -> NodeId,
-) -> (Update, NodeId) {
+) -> (Vec<NodeId>, Matrix) {
     let n = spec.order + 1;
     let phi: Matrix = transition(spec.order)
         .iter()
@@ -153,6 +148,24 @@ pub fn step(
         .iter()
         .map(|row| crate::symbolic::linalg::dot(g, row, x))
         .collect();
+    (x_pred, p_pred)
+}
+
+/// One recursive step as nodes: the prediction ([`predict`]), then the Joseph-form update
+/// with `M = [1 0 .. 0]` and `sigma^2` (eq. 7-9; the Joseph form equals eq. 8 for the
+/// optimal gain and keeps `S` symmetric and positive in `f32`). Returns the update and the
+/// innovation `y - x_pred[0]`.
+pub fn step(
+    g: &mut Graph,
+    spec: &PolynomialKfSpec,
+    x: &[NodeId],
+    p: &Matrix,
+    measured: NodeId,
+    reciprocal: impl FnMut(&mut Graph, usize) -> NodeId,
+) -> (Update, NodeId) {
+    let n = spec.order + 1;
+    let (x_pred, p_pred) = predict(g, spec, x, p);
+    let zero = g.zero();
     let one = g.one();
     let m: Matrix = vec![(0..n).map(|j| if j == 0 { one } else { zero }).collect()];
     let r = vec![vec![g.num(spec.noise_variance)]];

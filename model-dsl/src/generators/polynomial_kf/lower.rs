@@ -13,6 +13,7 @@ use crate::emit::code::{
 };
 use crate::emit::filter::{finiteness_probe, model_names, packed_vars};
 use crate::emit::lower::{literal, matrix_literal, Lowered, Lowerer, OpCount};
+use crate::emit::measurement;
 use crate::emit::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed};
@@ -61,8 +62,11 @@ pub fn emit_polynomial_kf(
     let [n_len, np_len, w_len] =
         [spec.order + 1, covariance_len, spec.window].map(Literal::usize_unsuffixed);
     let constants = associated_constants(spec, &fit, scalar);
-    let accessors = accessors(spec, scalar);
+    let accessors = accessors(model, spec, scalar);
     let step = step_method(spec, &fit, &window, fit_code, kf, scalar);
+    let predict = predict_method(model, spec, scalar);
+    let measurement_fields = measurement::fields(model, spec.gate, &ty);
+    let gate_doc = measurement::gate_doc(spec.gate);
     let tokens = quote! {
         /// Polynomial Kalman filter (Shults, Brubaker and Lee, "A fast algorithm for control
         /// and estimation using a polynomial state-space structure"): the state
@@ -73,6 +77,7 @@ pub fn emit_polynomial_kf(
         /// least-squares polynomial through the last `WINDOW` samples, `x = FIT_GAIN y`
         /// (a constant matrix computed when the code was generated), with the fit's
         /// covariance `FIT_COVARIANCE = sigma^2 FIT_GAIN FIT_GAIN'`.
+        #[doc = #gate_doc]
         #[derive(Clone, Copy, Debug, PartialEq)]
         pub struct PolynomialKf {
             x: [#ty; #n_len],
@@ -80,14 +85,14 @@ pub fn emit_polynomial_kf(
             window: [#ty; #w_len],
             filled: #ty,
             since: #ty,
-            innovation: #ty,
-            innovation_variance: #ty,
+            #measurement_fields
         }
 
         impl PolynomialKf {
             #constants
             #accessors
             #step
+            #predict
         }
     };
     PolynomialKfCode {
@@ -145,11 +150,12 @@ fn associated_constants(spec: &PolynomialKfSpec, fit: &WindowFit, scalar: Scalar
 }
 
 /// `new`, `state`, `derivatives` and `covariance`.
-fn accessors(spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStream {
+fn accessors(model: &Model, spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStream {
     let n = spec.order + 1;
     let ty = ident(scalar.type_name());
     let [n_len, w_len] = [n, spec.window].map(Literal::usize_unsuffixed);
-    let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
+    let zero = literal(0.0, scalar);
+    let measurement_init = measurement::initial_values(model, spec.gate, scalar);
     let x_idents: Vec<proc_macro2::Ident> = (0..n).map(|j| ident(&format!("x{j}"))).collect();
     let derivatives = x_idents.iter().zip(derivative_scales(spec)).map(|(x, s)| {
         if s == 1.0 {
@@ -177,12 +183,11 @@ fn accessors(spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStream {
                 window: [#zero; #w_len],
                 filled: #zero,
                 since: #zero,
-                innovation: #zero,
-                innovation_variance: #one,
+                #measurement_init
             })
         },
     );
-    let reset = reset_method(n, scalar);
+    let reset = reset_method(model, spec, scalar);
     quote! {
         #new
 
@@ -210,53 +215,99 @@ fn accessors(spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStream {
     }
 }
 
-/// `reset`, and what the last recursive step measured: `innovation` and
-/// `normalised_innovation_squared`.
-fn reset_method(n: usize, scalar: Scalar) -> TokenStream {
+/// `reset`, what the last recursive step measured (the shared measurement stage's
+/// `innovation` and `normalised_innovation_squared`), and with a gate its getter, setter
+/// and the cold keeper of a rejected sample's prediction.
+fn reset_method(model: &Model, spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStream {
+    let n = spec.order + 1;
     let ty = ident(scalar.type_name());
-    let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
+    let zero = literal(0.0, scalar);
     let mut arguments = Arguments::default();
     arguments.vector("x0", n, &ty);
     let p0 = arguments.covariance("p0", n, &ty);
+    let clear = measurement::clear_innovation(model, "", scalar);
     let reset = arguments.method(
         &ident("reset"),
         &quote! {
             /// Starts the filter again from the estimate `x0` and covariance `p0` with an
-            /// empty window, as `new` does: the way back after a fault (a run of
-            /// [`Status::Diverged`]) or a restart of the motion. Rejects a non-finite entry
-            /// with [`Status::RejectedInput`] and a `p0` that is not symmetric and positive
-            /// semi-definite with [`Status::InvalidCovariance`], leaving the filter
-            /// unchanged.
+            /// empty window, as `new` does, keeping the gate: the way back after a fault
+            /// (a run of [`Status::Diverged`] or rejected outliers) or a restart of the
+            /// motion. Rejects a non-finite entry with [`Status::RejectedInput`] and a `p0`
+            /// that is not symmetric and positive semi-definite with
+            /// [`Status::InvalidCovariance`], leaving the filter unchanged.
         },
         quote! {
-            *self = PolynomialKf {
-                x: *x0,
-                p: [#(#p0),*],
-                window: [#zero; Self::WINDOW],
-                filled: #zero,
-                since: #zero,
-                innovation: #zero,
-                innovation_variance: #one,
-            };
+            self.x = *x0;
+            self.p = [#(#p0),*];
+            self.window = [#zero; Self::WINDOW];
+            self.filled = #zero;
+            self.since = #zero;
+            #clear
             Status::Ok
         },
     );
+    let innovation = measurement::accessors(model, "", scalar);
+    let gate = spec.gate.map(|gate| {
+        let items = measurement::gate_items(gate, &ty, scalar);
+        let keeper = measurement::prediction_keeper(model, &ty);
+        let keep = measurement::keep_prediction_method(model, &keeper, "", &ty);
+        quote! { #items #keep }
+    });
     quote! {
         #reset
 
-        /// The innovation `y - z` of the last step (the measurement less the predicted
-        /// position). 0 before the first.
-        #[must_use]
-        pub fn innovation(&self) -> #ty {
-            self.innovation
-        }
+        #innovation
 
-        /// The normalised innovation squared `r^2 / s` of the last step (`s` the
-        /// innovation variance `P11 + sigma^2`): chi-square with one degree of freedom
-        /// (mean 1) while the polynomial model and `sigma^2` are right. 0 before the first.
-        #[must_use]
-        pub fn normalised_innovation_squared(&self) -> #ty {
-            self.innovation * self.innovation / self.innovation_variance
+        #gate
+    }
+}
+
+/// `predict`: a sample without its measurement, `x = Phi x`, `S1 = Phi S Phi' + f I`
+/// (eq. 5-6), and the window emptied (the sample is missing from its sequence). What a
+/// gated step keeps of an outlier.
+fn predict_method(model: &Model, spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStream {
+    let n = spec.order + 1;
+    let avoid = model_names(model);
+    let mut g = Graph::new();
+    let x_vars: Vec<NodeId> = model.states.iter().map(|s| g.var(&s.name)).collect();
+    let p_vars = packed_vars(&mut g, "p", n, &avoid);
+    let p = symmetric_from_packed(&p_vars, n);
+    let (x_pred, p_pred) = design::predict(&mut g, spec, &x_vars, &p);
+    let probe = finiteness_probe(&mut g, &x_pred, &p_pred);
+    let results: Vec<NodeId> = x_pred
+        .iter()
+        .chain(&packed_upper(&p_pred))
+        .copied()
+        .collect();
+    let mut roots = results.clone();
+    roots.push(probe);
+    let namer = TempNamer::new(avoid.iter().map(String::as_str));
+    let mut lowerer = Lowerer::new(&g, scalar, namer, &roots);
+    lowerer.read_lazily(&quote! { self.x }, &x_vars);
+    lowerer.read_lazily(&quote! { self.p }, &p_vars);
+    for (&node, state) in x_pred.iter().zip(&model.states) {
+        lowerer.prefer_name(node, &format!("{}_pred", state.name));
+    }
+    let probe = lowerer.segment(&[probe]).remove(0);
+    let values = lowerer.segment(&results);
+    let statements = lowerer.finish().statements;
+    let (x_values, p_values) = values.split_at(n);
+    let check = reject_diverged(&probe, &packed_diagonal(p_values, n), scalar);
+    let (zero, one) = (literal(0.0, scalar), literal(1.0, scalar));
+    quote! {
+        /// A sample without its measurement (eq. 5-6): the estimate and covariance
+        /// predicted, the window emptied (a missing sample breaks its sequence; it
+        /// refills before the next re-initialisation). What a gated step keeps when it
+        /// rejects an outlier. Leaves the filter unchanged unless it returns
+        /// [`Status::Ok`].
+        pub fn predict(&mut self) -> Status {
+            #(#statements)*
+            #check
+            self.x = [#(#x_values),*];
+            self.p = [#(#p_values),*];
+            self.filled = #zero;
+            self.since += #one;
+            Status::Ok
         }
     }
 }
@@ -299,15 +350,7 @@ fn step_method(
         ..
     } = kf;
     let check = reject_diverged(&probe, &packed_diagonal(&p_values, x_values.len()), scalar);
-    let step_doc = format!(
-        " One sample: the recursive filter runs (eq. 5-9) and the window takes `y`; every {} \
-         samples, once the window holds its {} samples, the estimate and covariance are \
-         re-initialised from the window fit instead. Rejects a non-finite `y`, and a `y` \
-         whose normalised innovation squared exceeds 1e8 with [`Status::Diverged`] (so it \
-         never enters the window); leaves the filter unchanged unless it returns \
-         [`Status::Ok`].",
-        spec.reinit_every, spec.window
-    );
+    let step_doc = step_doc(spec);
     quote! {
         #[doc = #step_doc]
         pub fn step(&mut self, y: #ty) -> Status {
@@ -341,6 +384,26 @@ fn step_method(
             Status::Ok
         }
     }
+}
+
+/// `step`'s documentation: the re-initialisation, and what it does with an outlier.
+fn step_doc(spec: &PolynomialKfSpec) -> String {
+    format!(
+        " One sample: the recursive filter runs (eq. 5-9) and the window takes `y`; every {} \
+         samples, once the window holds its {} samples, the estimate and covariance are \
+         re-initialised from the window fit instead. Rejects a non-finite `y`; {} \
+         Leaves the filter unchanged unless it returns [`Status::Ok`].",
+        spec.reinit_every,
+        spec.window,
+        if spec.gate.is_some() {
+            "a `y` whose normalised innovation squared exceeds the gate is rejected \
+             ([`Status::OutlierRejected`]): the prediction is kept, as [`Self::predict`] \
+             gives it, and the window emptied, so the outlier never enters it."
+        } else {
+            "a `y` whose normalised innovation squared exceeds 1e8 returns \
+             [`Status::Diverged`], so it never enters the window."
+        }
+    )
 }
 
 /// `j! / T^j`, the factor from the scaled state to the `j`-th derivative.
@@ -452,7 +515,15 @@ fn recursive_step(
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
     lowerer.count_extra(crate::emit::code::divergence_test_ops(n));
-    let store_innovation = store_and_bound(&mut lowerer, &kept);
+    let kept = measurement::Kept {
+        prefix: "",
+        innovation: &kept[..1],
+        covariance: &kept[1..2],
+        nis: Some(kept[2]),
+        gated: spec.gate.is_some(),
+        keep_prediction: Some(measurement::keep_prediction_call(model)),
+    };
+    let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
     let Lowered {
         statements, ops, ..
     } = lowerer.finish();
@@ -464,30 +535,6 @@ fn recursive_step(
         probe,
         store_innovation,
         ops,
-    }
-}
-
-/// The innovation, its variance and its normalised square (`kept`): the square tested
-/// against the divergence bound, `DIVERGENCE_NIS` (a measurement 1e4 standard deviations
-/// out returns `Diverged`, the filter and its window unchanged), and the assignments that
-/// store the other two with the estimate.
-fn store_and_bound(lowerer: &mut Lowerer, kept: &[NodeId; 3]) -> TokenStream {
-    let ty = ident(lowerer.scalar().type_name());
-    let values = lowerer.segment(&kept[..2]);
-    let nis = lowerer.bind(kept[2], "nis");
-    lowerer.statement(quote! {
-        if !stateforge_math::#ty::within_gate(#nis, stateforge_math::#ty::DIVERGENCE_NIS) {
-            return Status::Diverged;
-        }
-    });
-    lowerer.count_extra(OpCount {
-        compare: 1,
-        ..OpCount::stores(2)
-    });
-    let (innovation, variance) = (&values[0], &values[1]);
-    quote! {
-        self.innovation = #innovation;
-        self.innovation_variance = #variance;
     }
 }
 

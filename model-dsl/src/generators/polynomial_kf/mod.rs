@@ -68,6 +68,7 @@ impl Kind for PolynomialKf {
             "window",
         ]
         .map(|name| get(name, diag));
+        let gate = args.gate(diag);
         let mut ok = true;
         let order = whole(order, "`order`", (0.0, 8.0), &mut ok, diag);
         let reinit_every = whole(reinit_every, "`reinit_every`", (1.0, 1e6), &mut ok, diag);
@@ -94,6 +95,7 @@ impl Kind for PolynomialKf {
             noise_variance: noise_variance?,
             reinit_every: u32::try_from(reinit_every?).ok()?,
             window,
+            gate,
             span,
         };
         ok.then(|| Box::new(spec) as Box<dyn Generator>)

@@ -17,6 +17,8 @@ pub struct PolynomialKfSpec {
     pub reinit_every: u32,
     /// Samples in the least-squares window.
     pub window: usize,
+    /// The innovation gate (`gate = ..`), if any.
+    pub gate: Option<f64>,
     /// Where `polynomial_kf` was written, for errors about the model.
     pub span: Span,
 }

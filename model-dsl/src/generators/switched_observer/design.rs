@@ -420,6 +420,19 @@ fn certified(regimes: &Regimes, k: [Mat; 2], what: &str) -> Result<Gains, String
     Ok(Gains { k, f, radius })
 }
 
+/// The innovation the observer corrects with, `y - C x`, as nodes (zeros of `C` skipped).
+pub fn innovation(g: &mut Graph, regimes: &Regimes, x: &[NodeId], y: &[NodeId]) -> Vec<NodeId> {
+    y.iter()
+        .enumerate()
+        .map(|(row, &measured)| {
+            let coefficients: Vec<NodeId> =
+                (0..x.len()).map(|j| g.num(regimes.c[(row, j)])).collect();
+            let output = crate::symbolic::linalg::dot(g, &coefficients, x);
+            g.sub(measured, output)
+        })
+        .collect()
+}
+
 /// The observer's prediction in each regime as nodes:
 /// `x[k+1] = F_i x + B_i u + K_i y + c_i` with the literals of the design (zeros skipped).
 pub fn observer_step(

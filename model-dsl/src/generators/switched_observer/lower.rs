@@ -3,7 +3,7 @@
 //! `x[k+1] = F_i x[k] + B_i u[k] + c_i + K_i y[k]` with `F_i = A_i - K_i C` computed at
 //! generation time and the regime `i` read from the measurement.
 
-use super::design::{observer_step, Designs, Gains, Regimes, Switch};
+use super::design::{innovation, observer_step, Designs, Gains, Regimes, Switch};
 use crate::emit::arguments::{Arguments, REJECTS_NON_FINITE};
 use crate::emit::code::{reject_diverged, reject_non_finite, var_idents};
 use crate::emit::filter::model_names;
@@ -219,6 +219,8 @@ struct LoweredStep {
     y_idents: Vec<Ident>,
     /// Regime 1's and regime 2's prediction: statements, then the new estimate.
     branches: Vec<TokenStream>,
+    /// The innovation `y - C x`: statements, then its entries.
+    innovation: TokenStream,
     /// The dearer branch's arithmetic.
     ops: OpCount,
 }
@@ -236,6 +238,8 @@ fn lowered_step(model: &Model, regimes: &Regimes, gains: &Gains, scalar: Scalar)
         .map(|o| g.var(&format!("{}_measured", o.name)))
         .collect();
     let next = observer_step(&mut g, regimes, gains, &x, &u, &y);
+    let residual = innovation(&mut g, regimes, &x, &y);
+    let (innovation, innovation_ops) = lower_innovation(model, &g, &avoid, &x, &residual, scalar);
     let mut ops = OpCount::default();
     let branches = next
         .iter()
@@ -249,9 +253,32 @@ fn lowered_step(model: &Model, regimes: &Regimes, gains: &Gains, scalar: Scalar)
         u_idents: var_idents(&g, &u),
         y_idents: var_idents(&g, &y),
         branches,
-        // The new estimate is stored.
-        ops: ops.plus(OpCount::stores(x.len())),
+        innovation,
+        // The new estimate and the innovation are stored.
+        ops: ops
+            .plus(innovation_ops)
+            .plus(OpCount::stores(x.len() + y.len())),
     }
+}
+
+/// The innovation's statements and entries (`<output>_innovation`), reading `self.x`.
+fn lower_innovation(
+    model: &Model,
+    g: &Graph,
+    avoid: &[String],
+    x: &[NodeId],
+    residual: &[NodeId],
+    scalar: Scalar,
+) -> (TokenStream, OpCount) {
+    let namer = TempNamer::new(avoid.iter().map(String::as_str));
+    let mut lowerer = Lowerer::new(g, scalar, namer, residual);
+    lowerer.read_lazily(&quote! { self.x }, x);
+    crate::emit::measurement::name_innovation(&mut lowerer, model, residual);
+    let exprs = lowerer.segment(residual);
+    let Lowered {
+        statements, ops, ..
+    } = lowerer.finish();
+    (quote! { #(#statements)* [#(#exprs),*] }, ops)
 }
 
 /// `step(u, y)`: checks the arguments, picks the regime from `y` and commits the
@@ -263,6 +290,7 @@ fn step_method(model: &Model, switch: &Switch, step: &LoweredStep, scalar: Scala
         u_idents, y_idents, ..
     } = step;
     let (regime1, regime2) = (&step.branches[0], &step.branches[1]);
+    let innovation = &step.innovation;
     let checked: Vec<_> = u_idents.iter().chain(y_idents).cloned().collect();
     let check = reject_non_finite(&checked, &ty);
     let unpack_u = (!u_idents.is_empty()).then(|| quote! { let [#(#u_idents),*] = *u; });
@@ -275,21 +303,57 @@ fn step_method(model: &Model, switch: &Switch, step: &LoweredStep, scalar: Scala
     let commit_check = reject_diverged(&quote! { #(#next_idents)+* }, &[], scalar);
     quote! {
         /// One sample: `x = A_i x + B_i u + c_i + K_i (y - C x)` with the regime `i`
-        /// chosen by [`in_regime_2`] from `y`. Rejects a non-finite `u` or `y`; leaves
-        /// the observer unchanged unless it returns [`Status::Ok`].
+        /// chosen by [`in_regime_2`] from `y`, keeping the innovation `y - C x`. Rejects a
+        /// non-finite `u` or `y`; leaves the observer unchanged unless it returns
+        /// [`Status::Ok`].
         pub fn step(&mut self, #u_param y: &[#ty; #m_len]) -> Status {
             #unpack_u
             let [#(#y_idents),*] = *y;
             #check
             // `next`, not `x_next`: the entries are `<state>_next`, and a state named
             // `x` would shadow the array.
+            let innovation = { #innovation };
             let next = if #test { #regime2 } else { #regime1 };
             let [#(#next_idents),*] = next;
             #commit_check
             self.x = next;
+            self.innovation = innovation;
             Status::Ok
         }
     }
+}
+
+/// `new(x0)` and `reset(x0)`: an observer starting from `x0`, the innovation zero.
+fn new_and_reset(model: &Model, type_name: &Ident, scalar: Scalar) -> (TokenStream, TokenStream) {
+    let ty = ident(scalar.type_name());
+    let m_len = Literal::usize_unsuffixed(model.outputs.len());
+    let zero = literal(0.0, scalar);
+    let mut arguments = Arguments::default();
+    arguments.vector("x0", model.state_len(), &ty);
+    let zeros = quote! { [#zero; #m_len] };
+    let new = arguments.constructor(
+        &quote! {
+            /// An observer starting from the estimate `x0`.
+        },
+        REJECTS_NON_FINITE,
+        quote! { Ok(#type_name { x: *x0, innovation: #zeros }) },
+    );
+    let mut arguments = Arguments::default();
+    arguments.vector("x0", model.state_len(), &ty);
+    let reset = arguments.method(
+        &ident("reset"),
+        &quote! {
+            /// Starts the observer again from the estimate `x0`, the innovation cleared:
+            /// the way back after a fault or a restart of the plant. Rejects a non-finite
+            /// entry with [`Status::RejectedInput`], leaving the observer unchanged.
+        },
+        quote! {
+            self.x = *x0;
+            self.innovation = #zeros;
+            Status::Ok
+        },
+    );
+    (new, reset)
 }
 
 /// One observer type with its gains: the struct, `GAINS`, `new`, `state` and `step`.
@@ -310,15 +374,7 @@ fn observer_type(
         quote! { [#(#items),*] }
     };
     let type_name = ident(name);
-    let mut arguments = Arguments::default();
-    arguments.vector("x0", model.state_len(), &ty);
-    let new = arguments.constructor(
-        &quote! {
-            /// An observer starting from the estimate `x0`.
-        },
-        REJECTS_NON_FINITE,
-        quote! { Ok(#type_name { x: *x0 }) },
-    );
+    let (new, reset) = new_and_reset(model, &type_name, scalar);
     let radius_doc = format!(
         " Largest pole modulus of `A_i - K_i C`: regime 1 {:.6}, regime 2 {:.6} (certified \
          below 1 when the code was generated).",
@@ -334,6 +390,7 @@ fn observer_type(
         #[derive(Clone, Copy, Debug, PartialEq)]
         pub struct #type_name {
             x: [#ty; #n_len],
+            innovation: [#ty; #m_len],
         }
 
         impl #type_name {
@@ -342,10 +399,20 @@ fn observer_type(
 
             #new
 
+            #reset
+
             /// The estimate of the state at the next sample.
             #[must_use]
             pub fn state(&self) -> [#ty; #n_len] {
                 self.x
+            }
+
+            /// The innovation `y - C x` of the last measurement used, at the estimate it
+            /// corrected: what the measurement said that the prediction did not (an
+            /// observer has no covariance to normalise it by). Zero before the first step.
+            #[must_use]
+            pub fn innovation(&self) -> [#ty; #m_len] {
+                self.innovation
             }
 
             #step
