@@ -4,6 +4,8 @@
 //! filter, leaving it unchanged.
 
 use generated_demo::{blade_identification, cantilever, helicopter, polynomial};
+use nalgebra::SMatrix;
+use tests::reference::{self, State};
 use tests::tuning::{diag, p0, Q_DIAG, R, X0_CLOSE};
 
 /// The blade's identification prior of sect. 4.1 (`x0`, `P0`, `Q = Q~ / T`, `R`).
@@ -90,6 +92,27 @@ fn a_gated_dkf_keeps_both_predictions_empties_its_window_and_resets() {
     let (k, u) = (300, [samples[299].u]);
     let mut predicted = filter;
     assert!(predicted.predict(&u).is_ok());
+    // The LKF's prediction against the reference's equations: `f` linearised about the
+    // AKF's previous estimate, `x = f(xbar) + A (x - xbar)`, `P = A P A' + Q`.
+    let (xbar, x) = (State::from(filter.akf_state()), State::from(filter.state()));
+    let a = reference::jacobian_f_x(&xbar, u[0]);
+    let x_pred = reference::f(&xbar, u[0]) + a * (x - xbar);
+    let p = SMatrix::<f64, 5, 5>::from_fn(|i, j| filter.covariance()[i][j]);
+    let p_pred = a * p * a.transpose() + SMatrix::<f64, 5, 5>::from_diagonal(&State::from(Q_DIAG));
+    for i in 0..5 {
+        let scale = x_pred.amax();
+        assert!(
+            (predicted.state()[i] - x_pred[i]).abs() <= 1e-9 * scale,
+            "x{i}"
+        );
+        for j in 0..5 {
+            let scale = p_pred[(i, i)].max(p_pred[(j, j)]).max(1e-300);
+            assert!(
+                (predicted.covariance()[i][j] - p_pred[(i, j)]).abs() <= 1e-9 * scale,
+                "P{i}{j}"
+            );
+        }
+    }
     assert_eq!(
         predicted.predict(&[f64::NAN]).lkf,
         Status::RejectedInput,
@@ -117,6 +140,7 @@ fn a_gated_dkf_keeps_both_predictions_empties_its_window_and_resets() {
         assert!(nis > 100.0, "{nis}");
     }
     assert!((filter.innovation()[0] - (spike - predicted.state()[0])).abs() < 1e-9);
+    assert!((filter.akf_innovation()[0] - (spike - predicted.akf_state()[0])).abs() < 1e-9);
     let next = filter.step(&[samples[k].u], &[samples[k + 1].y]);
     assert!(next.is_ok(), "{next:?}");
     assert_eq!(next.window, WindowStatus::Filling, "the window refills");

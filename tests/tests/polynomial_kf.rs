@@ -261,6 +261,21 @@ fn a_gated_polynomial_kf_keeps_its_prediction_and_empties_its_window() {
     }
     let mut predicted = kf;
     assert_eq!(predicted.predict(), Status::Ok);
+    // The prediction of eq. (5-6), `x = Phi x`, `S1 = Phi S Phi' + f I`, with `Phi(1)` of
+    // order 1.
+    let phi = nalgebra::Matrix2::new(1.0, 1.0, 0.0, 1.0);
+    let x = nalgebra::Vector2::from(kf.state());
+    let s = nalgebra::Matrix2::from_fn(|i, j| kf.covariance()[i][j]);
+    let (x_pred, s1) = (
+        phi * x,
+        phi * s * phi.transpose() + nalgebra::Matrix2::identity() * 1e-9,
+    );
+    for i in 0..2 {
+        assert!((predicted.state()[i] - x_pred[i]).abs() <= 1e-12, "x{i}");
+        for j in 0..2 {
+            assert!((predicted.covariance()[i][j] - s1[(i, j)]).abs() <= 1e-12 * s1.amax());
+        }
+    }
     let spike = ramp(17) + 30.0 * 1e-2;
     assert_eq!(kf.step(spike), Status::OutlierRejected);
     assert_eq!(
@@ -283,4 +298,18 @@ fn a_gated_polynomial_kf_keeps_its_prediction_and_empties_its_window() {
     );
     assert_eq!(kf.reset(&[0.1, 0.0], &prior), Status::Ok);
     assert_eq!(kf, PolynomialKf::new(&[0.1, 0.0], &prior).unwrap());
+    // A rejected sample counts towards the period: after a spike at sample 5 (the window
+    // full again by sample 10) the re-initialisation is still the 20th sample's.
+    for k in 0..19 {
+        let expected = if k == 5 {
+            Status::OutlierRejected
+        } else {
+            Status::Ok
+        };
+        let y = if k == 5 { ramp(k) + 1.0 } else { ramp(k) };
+        assert_eq!(kf.step(y), expected, "sample {k}");
+        assert_ne!(kf.covariance(), PolynomialKf::FIT_COVARIANCE, "sample {k}");
+    }
+    assert_eq!(kf.step(ramp(19)), Status::Ok);
+    assert_eq!(kf.covariance(), PolynomialKf::FIT_COVARIANCE);
 }

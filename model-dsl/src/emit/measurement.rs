@@ -138,6 +138,12 @@ pub fn gate_doc(gate: Option<f64>) -> &'static str {
     }
 }
 
+/// [`gate_doc`] as a `#[doc]` attribute, or nothing without a gate.
+pub fn gate_doc_attribute(gate: Option<f64>) -> Option<TokenStream> {
+    let doc = gate_doc(gate);
+    gate.map(|_| quote! { #[doc = #doc] })
+}
+
 /// Names the innovation's entries `<output>_innovation`, before the update uses them.
 pub fn name_innovation(lowerer: &mut Lowerer, model: &Model, innovation: &[NodeId]) {
     for (&r, o) in innovation.iter().zip(&model.outputs) {
@@ -361,9 +367,9 @@ pub fn gate_items(gate: f64, ty: &proc_macro2::Ident, scalar: Scalar) -> TokenSt
 
         /// Sets the innovation gate (a chi-square quantile for `Y_LEN` degrees of freedom:
         /// 10.83 rejects one in a thousand consistent scalar measurements). One gate
-        /// serves every update: an update with fewer outputs (`update_<output>`, one) is
-        /// judged by the same threshold, so it rejects less often than its own quantile
-        /// would. The gate opens no further than the divergence
+        /// serves every update of the filter: where it has updates with fewer outputs (the
+        /// EKF's `update_<output>`), they are judged by the same threshold, so they reject
+        /// less often than their own quantile would. The gate opens no further than the divergence
         /// bound, `stateforge_math`'s `DIVERGENCE_NIS` (1e8): a larger threshold, infinity
         /// included, sets that. Rejects a threshold that is not positive, leaving the gate
         /// as it was.

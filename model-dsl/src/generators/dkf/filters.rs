@@ -339,8 +339,8 @@ struct Stage<'a> {
     reads: Vec<(TokenStream, &'a [NodeId])>,
     /// What the stage computes.
     corrected: Corrected,
-    /// The filter: `lkf` or `akf`, which prefixes its methods.
-    filter: &'static str,
+    /// The filter, which names its methods and innovation fields.
+    filter: Filter,
     /// Suffix of its pivot names (`_bar` for the AKF).
     suffix: &'static str,
     /// Fields it stores into: estimate, packed covariance.
@@ -413,7 +413,7 @@ impl<'a> StepLowering<'a> {
         let doc = "The LKF (Algorithm 2 of the double Kalman filter paper): `f` linearised about the AKF's estimate of the \
                    previous sample with the input `u[k-1]`";
         Stage {
-            name: stage_name("lkf", &corrected),
+            name: stage_name(Filter::Lkf, &corrected),
             doc: stage_doc(doc, &corrected),
             params: quote! { #u_param #y_param },
             reads: vec![
@@ -427,7 +427,7 @@ impl<'a> StepLowering<'a> {
             ],
             result_names: self.result_names("", &corrected),
             corrected,
-            filter: "lkf",
+            filter: Filter::Lkf,
             suffix: "",
             fields: (quote! { x }, quote! { p }),
             definitions: Vec::new(),
@@ -451,7 +451,7 @@ impl<'a> StepLowering<'a> {
         let mut prediction_args = vec![quote! { phi }];
         prediction_args.extend(self.u_arg());
         Stage {
-            name: stage_name("akf", &corrected),
+            name: stage_name(Filter::Akf, &corrected),
             doc: stage_doc(doc, &corrected),
             params: quote! { phi: &[#ty; #n_len], #u_param #y_param },
             reads: vec![
@@ -465,7 +465,7 @@ impl<'a> StepLowering<'a> {
             ],
             result_names: self.result_names("_bar", &corrected),
             corrected,
-            filter: "akf",
+            filter: Filter::Akf,
             suffix: "_bar",
             fields: (quote! { xbar }, quote! { pbar }),
             definitions,
@@ -486,19 +486,19 @@ impl<'a> StepLowering<'a> {
             .collect();
         let u_arg = self.u_arg();
         let lkf = measurement::PredictionKeeper {
-            name: ident("lkf_keep_prediction"),
+            name: Filter::Lkf.keeper(),
             params: u_param.clone(),
             predict: quote! { self.lkf_predict(#(#u_arg),*) },
         };
         let mut akf_params = vec![quote! { phi: &[#ty; #n_len] }];
         akf_params.extend(u_param);
         let akf = measurement::PredictionKeeper {
-            name: ident("akf_keep_prediction"),
+            name: Filter::Akf.keeper(),
             params: akf_params,
             predict: quote! { self.akf_predict(phi, #(#u_arg),*) },
         };
-        let lkf = measurement::keep_prediction_method(self.model, &lkf, "", &ty);
-        let akf = measurement::keep_prediction_method(self.model, &akf, "akf_", &ty);
+        let lkf = measurement::keep_prediction_method(self.model, &lkf, Filter::Lkf.prefix(), &ty);
+        let akf = measurement::keep_prediction_method(self.model, &akf, Filter::Akf.prefix(), &ty);
         quote! { #lkf #akf }
     }
 
@@ -526,7 +526,7 @@ impl<'a> StepLowering<'a> {
         let values = lowerer.segment(&results);
         lowerer.count_extra(OpCount::stores(values.len()));
         lowerer.count_extra(crate::emit::code::divergence_test_ops(n));
-        let store_innovation = self.store_and_gate(&mut lowerer, &stage);
+        let store_innovation = self.innovation_test(&mut lowerer, &stage);
         let Lowered {
             statements, ops, ..
         } = lowerer.finish();
@@ -584,21 +584,17 @@ impl<'a> StepLowering<'a> {
 
     /// The shared measurement stage's test of a correcting stage's innovation, and the
     /// assignments that store it; nothing for a prediction alone.
-    fn store_and_gate(&self, lowerer: &mut Lowerer, stage: &Stage) -> TokenStream {
+    fn innovation_test(&self, lowerer: &mut Lowerer, stage: &Stage) -> TokenStream {
         let Some((innovation, covariance, nis)) = &stage.corrected.measured else {
             return TokenStream::new();
         };
-        let prefix = if stage.filter == "akf" { "akf_" } else { "" };
         let kept = measurement::Kept {
-            prefix,
+            prefix: stage.filter.prefix(),
             innovation,
             covariance,
             nis: Some(*nis),
             gated: self.gate.is_some(),
-            keep_prediction: Some((
-                ident(&format!("{}_keep_prediction", stage.filter)),
-                stage.prediction_args.clone(),
-            )),
+            keep_prediction: Some((stage.filter.keeper(), stage.prediction_args.clone())),
         };
         measurement::store_and_gate(lowerer, &kept)
     }
@@ -673,8 +669,42 @@ impl<'a> StepLowering<'a> {
     }
 }
 
+/// The DKF's two filters.
+#[derive(Clone, Copy)]
+pub enum Filter {
+    /// The Kalman filter linearised about the AKF's estimate: the DKF's estimate.
+    Lkf,
+    /// The linear Kalman filter on the window transform's model.
+    Akf,
+}
+
+impl Filter {
+    /// `lkf`, `akf`: what the filter's methods start with.
+    fn name(self) -> &'static str {
+        match self {
+            Filter::Lkf => "lkf",
+            Filter::Akf => "akf",
+        }
+    }
+
+    /// What its innovation fields and accessors start with: nothing for the LKF, whose
+    /// are the DKF's, `akf_` for the AKF.
+    pub fn prefix(self) -> &'static str {
+        match self {
+            Filter::Lkf => "",
+            Filter::Akf => "akf_",
+        }
+    }
+
+    /// Its cold keeper of a prediction, `lkf_keep_prediction`.
+    fn keeper(self) -> Ident {
+        ident(&format!("{}_keep_prediction", self.name()))
+    }
+}
+
 /// `lkf_step` for a correction, `lkf_predict` for a prediction alone.
-fn stage_name(filter: &str, corrected: &Corrected) -> String {
+fn stage_name(filter: Filter, corrected: &Corrected) -> String {
+    let filter = filter.name();
     if corrected.measured.is_some() {
         format!("{filter}_step")
     } else {

@@ -5,7 +5,7 @@
 //! This file assembles the generated `Dkf` type; the transform's method is lowered in
 //! [`super::transform`], the two filters' in [`super::filters`].
 
-use super::filters::step_fn;
+use super::filters::{step_fn, Filter};
 use super::spec::DkfSpec;
 use super::transform::transform_fn;
 use super::window::WindowTransform;
@@ -141,11 +141,11 @@ impl DkfType {
         let (_, qbar_field, _) = self.noise("qbar");
         let derivation: Vec<String> = wt.description.iter().map(|l| format!(" - {l}")).collect();
         let innovations = [
-            measurement::innovation_fields(model, "", ty),
-            measurement::innovation_fields(model, "akf_", ty),
+            measurement::innovation_fields(model, Filter::Lkf.prefix(), ty),
+            measurement::innovation_fields(model, Filter::Akf.prefix(), ty),
         ];
         let gate_field = measurement::gate_field(self.gate, ty);
-        let gate_doc = measurement::gate_doc(self.gate);
+        let gate_doc = measurement::gate_doc_attribute(self.gate);
         quote! {
             /// Double Kalman filter (Alg. 2) of this model.
             ///
@@ -159,7 +159,7 @@ impl DkfType {
             /// threshold keeps the last solved parameters (Case 1); an input that is zero over
             /// the window freezes the parameters it multiplies (Case 2).
             /// Each filter keeps the innovation of the last measurement.
-            #[doc = #gate_doc]
+            #gate_doc
             #[derive(Clone, Copy, Debug, PartialEq)]
             pub struct Dkf {
                 outputs: [#ty; #outputs_len],
@@ -210,8 +210,8 @@ impl DkfType {
         let params = &x0[model.states.len()..];
         let new_doc = self.new_doc();
         let innovations = [
-            measurement::cleared_values(model, "", self.scalar),
-            measurement::cleared_values(model, "akf_", self.scalar),
+            measurement::cleared_values(model, Filter::Lkf.prefix(), self.scalar),
+            measurement::cleared_values(model, Filter::Akf.prefix(), self.scalar),
         ];
         let gate = measurement::gate_initial_value(self.gate, self.scalar);
         let new = arguments.constructor(
@@ -321,15 +321,15 @@ impl DkfType {
         let pbar0 = arguments.covariance("pbar0", self.n, ty);
         let params = &x0[model.states.len()..];
         let clear = [
-            measurement::clear_innovation(model, "", self.scalar),
-            measurement::clear_innovation(model, "akf_", self.scalar),
+            measurement::clear_innovation(model, Filter::Lkf.prefix(), self.scalar),
+            measurement::clear_innovation(model, Filter::Akf.prefix(), self.scalar),
         ];
         let reset = arguments.method(
             &ident("reset"),
             &quote! {
                 /// Starts both filters again from the estimate `x0`, the LKF with the
-                /// covariance `p0` and the AKF with `pbar0`, keeping the noise covariances
-                /// and the excitation threshold: the way back after a fault (a run of
+                /// covariance `p0` and the AKF with `pbar0`, keeping the noise covariances,
+                /// the gate and the excitation threshold: the way back after a fault (a run of
                 /// [`Status::Diverged`], [`Status::NonFinite`] or rejected outliers) or a
                 /// restart of the plant. The window is emptied (it refills), the
                 /// parameters are those of `x0`, and the innovations are cleared. Rejects
@@ -353,8 +353,8 @@ impl DkfType {
             },
         );
         let accessors = [
-            measurement::accessors(model, "", self.scalar),
-            measurement::accessors(model, "akf_", self.scalar),
+            measurement::accessors(model, Filter::Lkf.prefix(), self.scalar),
+            measurement::accessors(model, Filter::Akf.prefix(), self.scalar),
         ];
         let gate = self
             .gate
@@ -509,12 +509,14 @@ fn status_types() -> TokenStream {
 
         /// Outcome of [`Dkf::step`]: the window's, and each filter stage's.
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-        #[must_use = "a filter stage that did not return `Status::Ok` left its estimate unchanged"]
+        #[must_use = "a filter stage that did not return `Status::Ok` did not take the measurement"]
         pub struct DkfStatus {
             /// What the window transform did.
             pub window: WindowStatus,
-            /// What the AKF did; on anything but [`Status::Ok`] its estimate and covariance
-            /// are unchanged.
+            /// What the AKF did: on [`Status::OutlierRejected`] it kept its prediction, on
+            /// anything else but [`Status::Ok`] its estimate and covariance are unchanged.
+            /// Each filter judges the measurement by its own innovation covariance, so one
+            /// may take a measurement the other rejects.
             pub akf: Status,
             /// What the LKF (the DKF's estimate) did; likewise.
             pub lkf: Status,

@@ -59,10 +59,7 @@ pub fn emit_hybrid_ekf(
         diagonal,
         &measurement::initial_values(model, spec.gate, scalar),
     );
-    let gate_doc = spec.gate.map(|_| {
-        let doc = measurement::gate_doc(spec.gate);
-        quote! { #[doc = #doc] }
-    });
+    let gate_doc = measurement::gate_doc_attribute(spec.gate);
     let tokens = quote! {
         /// Hybrid (continuous-discrete) extended Kalman filter of this model (Takacs,
         /// Poloni, Rohal-Ilkiv, "Adaptive predictive control of transient vibrations of

@@ -66,7 +66,7 @@ pub fn emit_polynomial_kf(
     let step = step_method(spec, &fit, &window, fit_code, kf, scalar);
     let predict = predict_method(model, spec, scalar);
     let measurement_fields = measurement::fields(model, spec.gate, &ty);
-    let gate_doc = measurement::gate_doc(spec.gate);
+    let gate_doc = measurement::gate_doc_attribute(spec.gate);
     let tokens = quote! {
         /// Polynomial Kalman filter (Shults, Brubaker and Lee, "A fast algorithm for control
         /// and estimation using a polynomial state-space structure"): the state
@@ -77,7 +77,7 @@ pub fn emit_polynomial_kf(
         /// least-squares polynomial through the last `WINDOW` samples, `x = FIT_GAIN y`
         /// (a constant matrix computed when the code was generated), with the fit's
         /// covariance `FIT_COVARIANCE = sigma^2 FIT_GAIN FIT_GAIN'`.
-        #[doc = #gate_doc]
+        #gate_doc
         #[derive(Clone, Copy, Debug, PartialEq)]
         pub struct PolynomialKf {
             x: [#ty; #n_len],
@@ -230,8 +230,8 @@ fn reset_method(model: &Model, spec: &PolynomialKfSpec, scalar: Scalar) -> Token
         &ident("reset"),
         &quote! {
             /// Starts the filter again from the estimate `x0` and covariance `p0` with an
-            /// empty window, as `new` does, keeping the gate: the way back after a fault
-            /// (a run of [`Status::Diverged`] or rejected outliers) or a restart of the
+            /// empty window, as `new` does (a gate, where there is one, is kept): the way
+            /// back after a fault (a run of [`Status::Diverged`]) or a restart of the
             /// motion. Rejects a non-finite entry with [`Status::RejectedInput`] and a `p0`
             /// that is not symmetric and positive semi-definite with
             /// [`Status::InvalidCovariance`], leaving the filter unchanged.
@@ -392,7 +392,7 @@ fn step_doc(spec: &PolynomialKfSpec) -> String {
         " One sample: the recursive filter runs (eq. 5-9) and the window takes `y`; every {} \
          samples, once the window holds its {} samples, the estimate and covariance are \
          re-initialised from the window fit instead. Rejects a non-finite `y`; {} \
-         Leaves the filter unchanged unless it returns [`Status::Ok`].",
+         Otherwise leaves the filter unchanged unless it returns [`Status::Ok`].",
         spec.reinit_every,
         spec.window,
         if spec.gate.is_some() {
