@@ -631,8 +631,10 @@ impl<'a> StepLowering<'a> {
                     // A measurement either filter refused (an outlier, or a result beyond
                     // the divergence bound) stays out of the window: it empties, as for a
                     // missing sample, and refills.
-                    if matches!(lkf, Status::OutlierRejected | Status::Diverged)
-                        || matches!(akf, Status::OutlierRejected | Status::Diverged)
+                    if lkf == Status::OutlierRejected
+                        || lkf == Status::Diverged
+                        || akf == Status::OutlierRejected
+                        || akf == Status::Diverged
                     {
                         self.filled = [false; WINDOW_OUTPUTS];
                     } else {
