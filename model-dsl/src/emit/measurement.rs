@@ -112,12 +112,7 @@ pub fn methods(
 ) -> TokenStream {
     let reset = reset_method(model, layout, scalar);
     let innovation = accessors(model, "", scalar);
-    let gate_methods = gate.map(|gate| {
-        let accessors = gate_items(gate, &layout.ty, scalar);
-        let keeper = prediction_keeper(model, &layout.ty);
-        let keep = keep_prediction_method(model, &keeper, "", &layout.ty);
-        quote! { #accessors #keep }
-    });
+    let gate_methods = gate_methods(model, gate, scalar);
     quote! {
         #reset
 
@@ -125,6 +120,18 @@ pub fn methods(
 
         #gate_methods
     }
+}
+
+/// With a gate, its getter and setter and the cold `keep_prediction` of a step that
+/// calls `predict` (the EKF family's, the polynomial Kalman filter's); nothing without one.
+pub fn gate_methods(model: &Model, gate: Option<f64>, scalar: Scalar) -> Option<TokenStream> {
+    let ty = ident(scalar.type_name());
+    gate.map(|gate| {
+        let accessors = gate_items(gate, &ty, scalar);
+        let keeper = prediction_keeper(model, &ty);
+        let keep = keep_prediction_method(model, &keeper, "", &ty);
+        quote! { #accessors #keep }
+    })
 }
 
 /// What a filter type's documentation says of its gate: a sentence, or nothing without
@@ -144,10 +151,11 @@ pub fn gate_doc_attribute(gate: Option<f64>) -> Option<TokenStream> {
     gate.map(|_| quote! { #[doc = #doc] })
 }
 
-/// Names the innovation's entries `<output>_innovation`, before the update uses them.
-pub fn name_innovation(lowerer: &mut Lowerer, model: &Model, innovation: &[NodeId]) {
+/// Names the innovation's entries `<output>_innovation{suffix}` (`_bar` for the DKF's
+/// AKF), before the update uses them.
+pub fn name_innovation(lowerer: &mut Lowerer, model: &Model, innovation: &[NodeId], suffix: &str) {
     for (&r, o) in innovation.iter().zip(&model.outputs) {
-        lowerer.prefer_name(r, &format!("{}_innovation", o.name));
+        lowerer.prefer_name(r, &format!("{}_innovation{suffix}", o.name));
     }
 }
 
@@ -450,7 +458,7 @@ pub struct PredictionKeeper {
 
 /// The EKF family's keeper (and the polynomial Kalman filter's): `keep_prediction`, which
 /// calls `predict` with the arguments of [`keep_prediction_call`].
-pub fn prediction_keeper(model: &Model, ty: &proc_macro2::Ident) -> PredictionKeeper {
+fn prediction_keeper(model: &Model, ty: &proc_macro2::Ident) -> PredictionKeeper {
     let mut params = Vec::new();
     if model.uses_time() {
         params.push(quote! { t_prev: #ty });

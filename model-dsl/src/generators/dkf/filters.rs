@@ -366,11 +366,14 @@ struct StepLowering<'a> {
 }
 
 impl<'a> StepLowering<'a> {
-    /// `u_prev: &[S; U_LEN],`, or nothing for a model without inputs.
-    fn u_param(&self) -> Option<TokenStream> {
+    /// `[u_prev: &[S; U_LEN]]`, or nothing for a model without inputs.
+    fn u_param(&self) -> Vec<TokenStream> {
         let ty = ident(self.scalar.type_name());
         let u_len = Literal::usize_unsuffixed(self.model.inputs.len());
-        (!self.g.u.is_empty()).then(|| quote! { u_prev: &[#ty; #u_len], })
+        (!self.g.u.is_empty())
+            .then(|| quote! { u_prev: &[#ty; #u_len] })
+            .into_iter()
+            .collect()
     }
 
     /// `y: &[S; Y_LEN]` for a correction; nothing for a prediction alone.
@@ -415,7 +418,7 @@ impl<'a> StepLowering<'a> {
         Stage {
             name: stage_name(Filter::Lkf, &corrected),
             doc: stage_doc(doc, &corrected),
-            params: quote! { #u_param #y_param },
+            params: quote! { #(#u_param,)* #y_param },
             reads: vec![
                 (quote! { self.xbar }, &vars.xbar[..]),
                 (quote! { self.x }, &g.x[..]),
@@ -453,7 +456,7 @@ impl<'a> StepLowering<'a> {
         Stage {
             name: stage_name(Filter::Akf, &corrected),
             doc: stage_doc(doc, &corrected),
-            params: quote! { phi: &[#ty; #n_len], #u_param #y_param },
+            params: quote! { phi: &[#ty; #n_len], #(#u_param,)* #y_param },
             reads: vec![
                 (quote! { *phi }, &wt.phi[..]),
                 (quote! { self.xbar }, &vars.xbar[..]),
@@ -479,11 +482,7 @@ impl<'a> StepLowering<'a> {
     fn keepers(&self) -> TokenStream {
         let ty = ident(self.scalar.type_name());
         let n_len = Literal::usize_unsuffixed(self.model.state_len());
-        let u_len = Literal::usize_unsuffixed(self.model.inputs.len());
-        let u_param: Vec<TokenStream> = (!self.g.u.is_empty())
-            .then(|| quote! { u_prev: &[#ty; #u_len] })
-            .into_iter()
-            .collect();
+        let u_param = self.u_param();
         let u_arg = self.u_arg();
         let lkf = measurement::PredictionKeeper {
             name: Filter::Lkf.keeper(),
@@ -576,9 +575,7 @@ impl<'a> StepLowering<'a> {
             self.scalar,
         );
         if let Some((innovation, ..)) = &stage.corrected.measured {
-            for (&r, o) in innovation.iter().zip(&self.model.outputs) {
-                lowerer.prefer_name(r, &format!("{}_innovation{}", o.name, stage.suffix));
-            }
+            measurement::name_innovation(lowerer, self.model, innovation, stage.suffix);
         }
     }
 

@@ -451,7 +451,7 @@ fn lower(
         &innovation_pivot_failure,
         scalar,
     );
-    measurement::name_innovation(&mut lowerer, model, &nodes.innovation);
+    measurement::name_innovation(&mut lowerer, model, &nodes.innovation, "");
     let probe = lowerer.segment(&[probe]).remove(0);
     let values = lowerer.segment(&results);
     lowerer.count_extra(OpCount::stores(values.len()));

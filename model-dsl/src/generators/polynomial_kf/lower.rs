@@ -247,12 +247,7 @@ fn reset_method(model: &Model, spec: &PolynomialKfSpec, scalar: Scalar) -> Token
         },
     );
     let innovation = measurement::accessors(model, "", scalar);
-    let gate = spec.gate.map(|gate| {
-        let items = measurement::gate_items(gate, &ty, scalar);
-        let keeper = measurement::prediction_keeper(model, &ty);
-        let keep = measurement::keep_prediction_method(model, &keeper, "", &ty);
-        quote! { #items #keep }
-    });
+    let gate = measurement::gate_methods(model, spec.gate, scalar);
     quote! {
         #reset
 

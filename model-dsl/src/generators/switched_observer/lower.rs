@@ -187,18 +187,20 @@ fn cmp_tokens(cmp: crate::ast::Comparison) -> TokenStream {
     }
 }
 
-/// One regime's prediction: its statements and the new estimate, reading `self.x` where
-/// first used.
-fn lower_branch(
+/// Values of `x` lowered: their statements and the values, reading `self.x` where first
+/// used; `name` prefers names before the lowering (the innovation's).
+fn lower_values(
     g: &Graph,
     avoid: &[String],
     x: &[NodeId],
     values: &[NodeId],
     scalar: Scalar,
+    name: impl FnOnce(&mut Lowerer),
 ) -> (TokenStream, OpCount) {
     let namer = TempNamer::new(avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(g, scalar, namer, values);
     lowerer.read_lazily(&quote! { self.x }, x);
+    name(&mut lowerer);
     let exprs = lowerer.segment(values);
     let Lowered {
         statements, ops, ..
@@ -239,12 +241,14 @@ fn lowered_step(model: &Model, regimes: &Regimes, gains: &Gains, scalar: Scalar)
         .collect();
     let next = observer_step(&mut g, regimes, gains, &x, &u, &y);
     let residual = innovation(&mut g, regimes, &x, &y);
-    let (innovation, innovation_ops) = lower_innovation(model, &g, &avoid, &x, &residual, scalar);
+    let (innovation, innovation_ops) = lower_values(&g, &avoid, &x, &residual, scalar, |l| {
+        crate::emit::measurement::name_innovation(l, model, &residual, "");
+    });
     let mut ops = OpCount::default();
     let branches = next
         .iter()
         .map(|values| {
-            let (tokens, branch_ops) = lower_branch(&g, &avoid, &x, values, scalar);
+            let (tokens, branch_ops) = lower_values(&g, &avoid, &x, values, scalar, |_| {});
             ops = costlier(ops, branch_ops);
             tokens
         })
@@ -259,26 +263,6 @@ fn lowered_step(model: &Model, regimes: &Regimes, gains: &Gains, scalar: Scalar)
             .plus(innovation_ops)
             .plus(OpCount::stores(x.len() + y.len())),
     }
-}
-
-/// The innovation's statements and entries (`<output>_innovation`), reading `self.x`.
-fn lower_innovation(
-    model: &Model,
-    g: &Graph,
-    avoid: &[String],
-    x: &[NodeId],
-    residual: &[NodeId],
-    scalar: Scalar,
-) -> (TokenStream, OpCount) {
-    let namer = TempNamer::new(avoid.iter().map(String::as_str));
-    let mut lowerer = Lowerer::new(g, scalar, namer, residual);
-    lowerer.read_lazily(&quote! { self.x }, x);
-    crate::emit::measurement::name_innovation(&mut lowerer, model, residual);
-    let exprs = lowerer.segment(residual);
-    let Lowered {
-        statements, ops, ..
-    } = lowerer.finish();
-    (quote! { #(#statements)* [#(#exprs),*] }, ops)
 }
 
 /// `step(u, y)`: checks the arguments, picks the regime from `y` and commits the
