@@ -39,3 +39,4 @@ include!("../models/piecewise_beam.rs");
 include!("../models/helicopter.rs");
 include!("../models/beam_two_actuators.rs");
 include!("../models/duffing_beam.rs");
+include!("../models/cantilever_long_window.rs");

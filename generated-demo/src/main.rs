@@ -28,9 +28,8 @@
 mod experiment;
 
 use experiment::excitation::Prbs;
-use experiment::metrics::{mean, rms};
-use experiment::noise::GaussianNoise;
-use experiment::plant::{saturate, Kick, MassChange, Physical, Plant, PlantConfig, PlantKind};
+use experiment::metrics::rms;
+use experiment::plant::{saturate, Kick, MassChange, Physical, Plant, PlantConfig};
 use experiment::report::{self, Line, Trace};
 use experiment::tuning::{p0, Q_DIAG, R, X0_CLOSE, X0_WRONG};
 use experiment::TS;
@@ -92,7 +91,8 @@ fn main() -> Result<(), Box<dyn Error>> {
     )?;
     plot_estimates(&estimation, &out.join("wn.svg"))?;
 
-    sensitivity();
+    experiment::sensitivity::table();
+    experiment::sensitivity::monte_carlo();
 
     let closed = closed_loop_runs();
     println!("\nAdaptive LQR closed loop (N = 50, Q = I, R = {LQR_R}, |u| <= {U_MAX} V):");
@@ -177,76 +177,6 @@ fn estimation_runs() -> Trace {
         }
     }
     trace
-}
-
-/// How the estimates depend on the measurement noise and on how the beam is sampled: the
-/// window differentiates y twice, so the DKF is sensitive to noise (simulating-the-paper.md).
-fn sensitivity() {
-    println!("\nSensitivity, close guess: mean wn from poles over 2-15 s (truth 20 rad/s)");
-    println!("{:<36} {:>17} {:>17} {:>17}", "plant", "EKF", "AKF", "DKF");
-    let cases = [
-        ("Euler, sigma 1e-4 mm", PlantKind::Euler, 1e-4),
-        ("Euler, sigma 1e-3 mm", PlantKind::Euler, 1e-3),
-        ("Euler, sigma 1e-2 mm", PlantKind::Euler, 1e-2),
-        ("Euler, sigma 0.03 mm = sqrt(R)", PlantKind::Euler, 0.03),
-        (
-            "exactly sampled (ZOH), sigma 1e-4 mm",
-            PlantKind::ExactZoh,
-            1e-4,
-        ),
-    ];
-    for (name, kind, sigma) in cases {
-        let mut plant = Plant::new(PlantConfig {
-            kind,
-            noise: GaussianNoise::new(sigma, 11),
-            ..PlantConfig::default()
-        });
-        let mut ekf = Ekf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &[[R]]).expect(FINITE_TUNING);
-        let mut dkf =
-            Dkf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]).expect(FINITE_TUNING);
-        let mut prbs = Prbs::paper();
-        let mut trace = Trace::new();
-        let mut u_prev = 0.0;
-        for _ in 0..=(15.0 / TS).round() as usize {
-            let y = plant.output();
-            trace.begin(plant.time());
-            let _ = ekf.step(&[u_prev], &[y]);
-            let _ = dkf.step(&[u_prev], &[y]);
-            trace.set_estimate("EKF", &ekf.state());
-            trace.set_estimate("AKF", &dkf.akf_state());
-            trace.set_estimate("DKF", &dkf.state());
-            u_prev = prbs.next().unwrap_or(0.0);
-            plant.step(u_prev);
-        }
-        let mut row = format!("{name:<36}");
-        for label in ["EKF", "AKF", "DKF"] {
-            trace.add_readout(label);
-            let wn = trace.column(&format!("{label} wn")).unwrap_or(&[]);
-            let value = match report::divergence_time(&trace, label) {
-                Some(_) => "diverged".to_owned(),
-                None => {
-                    // Samples whose estimate has no oscillatory mode have no wn.
-                    let defined: Vec<f64> = wn
-                        .iter()
-                        .map(|&v| if v.is_finite() { 1.0 } else { 0.0 })
-                        .collect();
-                    let share = mean(trace.time(), &defined, 2.0, 15.0);
-                    let finite: Vec<f64> = wn
-                        .iter()
-                        .map(|&v| if v.is_finite() { v } else { 0.0 })
-                        .collect();
-                    let average = mean(trace.time(), &finite, 2.0, 15.0) / share;
-                    if share < 0.999 {
-                        format!("{average:.2} ({:.0}% no wn)", 100.0 * (1.0 - share))
-                    } else {
-                        format!("{average:.2}")
-                    }
-                }
-            };
-            row.push_str(&format!(" {value:>17}"));
-        }
-        println!("{row}");
-    }
 }
 
 /// Open loop, EKF-LQR and DKF-LQR on the same beam, noise and stinger hits.

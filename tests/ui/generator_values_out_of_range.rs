@@ -9,7 +9,7 @@ stateforge::model! {
         dynamics discrete {
             x1 = a * x1 + u;
         }
-        generate dkf(eta = 1.5), lqr(horizon = 0, states = [x1], input = u);
+        generate dkf(eta = 1.5, window = 2.5), lqr(horizon = 0, states = [x1], input = u);
     }
 }
 

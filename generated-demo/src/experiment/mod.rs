@@ -18,6 +18,7 @@ pub mod plant;
 pub mod ppf;
 pub mod readout;
 pub mod report;
+pub mod sensitivity;
 pub mod switched_beam;
 pub mod trms;
 pub mod tuning;

@@ -1,6 +1,6 @@
 //! The double Kalman filter: the window transform derived from the model (an LTV model
 //! whose coefficients a window of samples determines) and its two Kalman filters (AKF and
-//! LKF): `dkf(eta = 0.5, gate = 10.83, process_noise = diagonal)`.
+//! LKF): `dkf(eta = 0.5, gate = 10.83, process_noise = diagonal, window = 40)`.
 
 pub mod filters;
 pub mod lower;
@@ -24,7 +24,7 @@ pub struct Dkf;
 /// What `dkf` is and what it requires of the model.
 const DESCRIPTION: Description = Description {
     name: "dkf",
-    usage: "`dkf(eta = .., gate = ..)`",
+    usage: "`dkf(eta = .., gate = .., window = ..)`",
     requirements: &[
         Requirement::Outputs,
         Requirement::UnrolledStep,
@@ -59,22 +59,57 @@ impl Kind for Dkf {
         if !(0.0..=1.0).contains(&eta) {
             diag.error(eta_span, "`eta` weights a split: it lies in 0..=1");
         }
+        let window = window_option(args, diag);
         Some(Box::new(DkfSpec {
             eta,
             gate,
             diagonal_noise,
+            window,
             span: item.name.span,
         }))
     }
 }
 
+/// `window = N`, the output samples the window holds: a whole number up to
+/// [`window::MAX_WINDOW`] (the unrolled least-squares sums grow with it).
+fn window_option(args: &mut Args, diag: &mut Diagnostics) -> Option<(usize, proc_macro2::Span)> {
+    let (value, span) = args.optional_number("window", diag)?;
+    let max = window::MAX_WINDOW;
+    if value.fract() != 0.0 || !(1.0..=max as f64).contains(&value) {
+        diag.error(
+            span,
+            format!(
+                "`window` is the number of output samples the window holds, a whole number \
+                 up to {max}"
+            ),
+        );
+        return None;
+    }
+    Some((value as usize, span))
+}
+
 impl Generator for DkfSpec {
     /// The window transform, derived once for every scalar type; a model outside its
-    /// class is one error under `dkf`.
+    /// class is one error under `dkf`, a window shorter than its minimum one under the
+    /// window's length.
     fn design(&self, model: &Model, mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
         let mut graph = mg.clone();
-        let transform = window::derive(model, &mut graph, self.eta)
+        let samples = self.window.map(|(samples, _)| samples);
+        let transform = window::derive(model, &mut graph, self.eta, samples)
             .map_err(|reason| syn::Error::new(self.span, format!("`dkf`: {reason}")))?;
+        if let Some((samples, span)) = self.window {
+            let minimum = transform.minimum_window;
+            if samples < minimum {
+                return Err(syn::Error::new(
+                    span,
+                    format!(
+                        "`dkf`: the window transform of this model needs at least {minimum} \
+                         output samples: write `window = {minimum}` or more, or leave \
+                         `window` out for the minimum"
+                    ),
+                ));
+            }
+        }
         Ok(Box::new(Designed {
             spec: self.clone(),
             graph,

@@ -10,6 +10,9 @@ pub struct DkfSpec {
     pub gate: Option<f64>,
     /// Whether both process noise covariances (AKF's and LKF's) are diagonal.
     pub diagonal_noise: bool,
+    /// The output samples the window holds (`window = ..`) and where it was written, if
+    /// given: longer than the minimum, the parameter system is solved by least squares.
+    pub window: Option<(usize, proc_macro2::Span)>,
     /// Where `dkf` was written, for errors of the window transform.
     pub span: proc_macro2::Span,
 }

@@ -1,5 +1,6 @@
 //! The window transform's generated method (eqs. 8-12): the window's parameter system
-//! solved by Cramer's rule (eq. 9) when its excitation passes the threshold (else Case 1
+//! solved by Cramer's rule (eq. 9; a longer window's by least squares, Cramer's rule on
+//! its normal equations) when its excitation passes the threshold (else Case 1
 //! keeps the last solved parameters), the reduced systems of Case 2 when inputs were zero
 //! over the window, and the states reconstructed at the window's end.
 
@@ -98,20 +99,27 @@ struct WindowSolve {
 
 impl WindowSolve {
     /// Solves the full system, then each reduction (the variable `inv_det` standing for
-    /// the reciprocal of whichever determinant the taken branch divides by).
+    /// the reciprocal of whichever determinant the taken branch divides by). A square
+    /// reduction takes the system's first rows; a least-squares one every row.
     fn new(graph: &mut Graph, wt: &WindowTransform, np: usize) -> WindowSolve {
         let (mut full, numerators) = Solve::cramer(graph, &wt.matrix, &wt.rhs, Vec::new());
         full.free = (0..np).collect();
+        let least_squares = wt.matrix.len() > np;
         let mut reduced: Vec<(Solve, Vec<NodeId>)> = frozen_subsets(wt, np)
             .into_iter()
             .map(|frozen| {
                 let free: Vec<usize> = (0..np).filter(|p| !frozen.contains(p)).collect();
-                let matrix: Matrix = wt.matrix[..free.len()]
+                let rows = if least_squares {
+                    wt.matrix.len()
+                } else {
+                    free.len()
+                };
+                let matrix: Matrix = wt.matrix[..rows]
                     .iter()
                     .map(|row| free.iter().map(|&p| row[p]).collect())
                     .collect();
                 let (mut solve, numerators) =
-                    Solve::cramer(graph, &matrix, &wt.rhs[..free.len()], frozen);
+                    Solve::cramer(graph, &matrix, &wt.rhs[..rows], frozen);
                 solve.free = free;
                 (solve, numerators)
             })
@@ -141,16 +149,32 @@ impl WindowSolve {
 
 impl Solve {
     /// The determinant, its square and the column norms' product of `matrix`, with the
-    /// numerators of Cramer's rule (the solution is filled in once `inv_det` exists).
+    /// numerators of Cramer's rule (the solution is filled in once `inv_det` exists). An
+    /// over-determined `matrix` (`A`, more rows than columns) is solved by least squares
+    /// through its normal equations `A' A theta = A' b`: then the determinant is that of
+    /// `A' A`, which is also its "square" (for a square `A`, `det(A' A) = det(A)^2`), and
+    /// the column norms' product is that of `A` (the diagonal of `A' A`), so the excitation
+    /// measure `det / prod` is the same ratio in `0..=1`, generalised.
     fn cramer(
         graph: &mut Graph,
         matrix: &Matrix,
         rhs: &[NodeId],
         frozen: Vec<usize>,
     ) -> (Solve, Vec<NodeId>) {
-        let (det, numerators) = cramer(graph, matrix, rhs);
-        let norms = column_norms_product(graph, matrix);
-        let det_sq = graph.mul(det, det);
+        let square = matrix.len() <= matrix.first().map_or(0, Vec::len);
+        let (det, det_sq, norms, numerators) = if square {
+            let (det, numerators) = cramer(graph, matrix, rhs);
+            let norms = column_norms_product(graph, matrix);
+            (det, graph.mul(det, det), norms, numerators)
+        } else {
+            let (normal, normal_rhs) = normal_equations(graph, matrix, rhs);
+            let (det, numerators) = cramer(graph, &normal, &normal_rhs);
+            let mut norms = graph.one();
+            for (p, row) in normal.iter().enumerate() {
+                norms = graph.mul(norms, row[p]);
+            }
+            (det, det, norms, numerators)
+        };
         let solve = Solve {
             frozen,
             free: Vec::new(),
@@ -161,6 +185,41 @@ impl Solve {
         };
         (solve, numerators)
     }
+}
+
+/// The normal equations of the least-squares problem `A theta ~ b`: `A' A` (symmetric,
+/// each entry built once) and `A' b`, sums over the equations whose terms are not
+/// structurally zero.
+fn normal_equations(graph: &mut Graph, a: &Matrix, b: &[NodeId]) -> (Matrix, Vec<NodeId>) {
+    let np = a.first().map_or(0, Vec::len);
+    let mut normal: Matrix = vec![Vec::with_capacity(np); np];
+    for p in 0..np {
+        for q in 0..np {
+            let entry = if q < p {
+                normal[q][p]
+            } else {
+                sum_of_products(graph, a.iter().map(|row| (row[p], row[q])))
+            };
+            normal[p].push(entry);
+        }
+    }
+    let normal_rhs = (0..np)
+        .map(|p| sum_of_products(graph, a.iter().zip(b).map(|(row, &rhs)| (row[p], rhs))))
+        .collect();
+    (normal, normal_rhs)
+}
+
+/// `sum x y` over `pairs`, skipping the structurally zero terms.
+fn sum_of_products(graph: &mut Graph, pairs: impl Iterator<Item = (NodeId, NodeId)>) -> NodeId {
+    let mut sum = graph.zero();
+    for (x, y) in pairs {
+        if graph.is_zero(x) || graph.is_zero(y) {
+            continue;
+        }
+        let term = graph.mul(x, y);
+        sum = graph.add(sum, term);
+    }
+    sum
 }
 
 /// Each of `values` times `factor`.

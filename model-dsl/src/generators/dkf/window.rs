@@ -16,6 +16,11 @@
 //! 4. States known only with a lag are propagated to the window's end with the model
 //!    and the solved parameters (the paper's `phi2`).
 //!
+//! A window longer than the minimum (`dkf(window = N)`) takes every parameter row at
+//! every sample the window reaches, an over-determined system solved by least squares
+//! (its normal equations, see [`super::transform`]): the window's noise is averaged over
+//! the equations instead of amplified by the fewest samples that determine the parameters.
+//!
 //! A model outside this class gets a compile error naming the term that breaks it.
 
 use super::ltv;
@@ -29,6 +34,10 @@ use std::collections::{BTreeSet, HashMap};
 
 /// Most parameters the unrolled window solve supports (Cramer's rule grows as `P!`).
 pub const MAX_PARAMS: usize = 5;
+
+/// Most output samples a window holds (`window = ..`): the least-squares sums are
+/// unrolled, so the transform's code grows with the window.
+pub const MAX_WINDOW: usize = 200;
 
 /// How a physical state is known from the window.
 #[derive(Clone, Debug)]
@@ -84,12 +93,20 @@ pub struct WindowTransform {
     pub output_delays: usize,
     /// Number of past inputs before the window's end the transform reads.
     pub input_delays: usize,
+    /// The fewest output samples that determine the parameters (the paper's window).
+    pub minimum_window: usize,
     /// A plain-words account of the derivation, for the generated documentation.
     pub description: Vec<String>,
 }
 
-/// Derives the window transform of `model`, or says why the model is outside the class.
-pub fn derive(model: &Model, mg: &mut ModelGraph, eta: f64) -> Result<WindowTransform, String> {
+/// Derives the window transform of `model` over `window` output samples (the minimum if
+/// `None` or shorter), or says why the model is outside the class.
+pub fn derive(
+    model: &Model,
+    mg: &mut ModelGraph,
+    eta: f64,
+    window: Option<usize>,
+) -> Result<WindowTransform, String> {
     check_class(model)?;
     let n = model.states.len();
     let np = model.params.len();
@@ -109,12 +126,25 @@ pub fn derive(model: &Model, mg: &mut ModelGraph, eta: f64) -> Result<WindowTran
 
     // Window variables, then the values of states at past samples.
     // Values at delay `d` read outputs at delays up to `d`; propagation reads up to the lag.
-    let output_delays = equations
+    let minimal_delays = equations
         .iter()
         .map(|e| e.delay)
         .max()
         .unwrap_or(0)
         .max(lag.iter().copied().max().unwrap_or(0));
+    let (equations, output_delays) = match window {
+        Some(samples) if samples > minimal_delays + 1 => {
+            let equations = every_equation(&rows, samples - 1);
+            steps.description.push(format!(
+                "The window is longer than the {} samples that determine the parameters: its \
+                 {} equations are solved by least squares.",
+                minimal_delays + 1,
+                equations.len()
+            ));
+            (equations, samples - 1)
+        }
+        _ => (equations, minimal_delays),
+    };
     let mut window = Window::new(model, mg, output_delays, &known, &lag);
     let (matrix, rhs) = steps.parameter_system(mg, &mut window, &rows, &equations);
     let input_delays = window.input_delays_used(mg, &matrix, &rhs);
@@ -145,8 +175,22 @@ pub fn derive(model: &Model, mg: &mut ModelGraph, eta: f64) -> Result<WindowTran
         d,
         output_delays,
         input_delays,
+        minimum_window: minimal_delays + 1,
         description: steps.description,
     })
+}
+
+/// Every row at every sample a window reaching `deepest` samples back gives it, the most
+/// recent first: the over-determined system of a window longer than the minimum.
+fn every_equation(rows: &[ParamRow], deepest: usize) -> Vec<Equation> {
+    (1..=deepest)
+        .flat_map(|delay| {
+            rows.iter()
+                .enumerate()
+                .filter(move |(_, row)| row.min_delay <= delay)
+                .map(move |(row, _)| Equation { row, delay })
+        })
+        .collect()
 }
 
 /// Whether `model` is in the transform's class as a whole: time-invariant, with between one
@@ -421,7 +465,8 @@ impl Derivation<'_> {
     }
 
     /// The parameter system over the window variables (eq. 8): per chosen equation, its
-    /// coefficients at its sample, and the state's next value less the row's rest.
+    /// coefficients at its sample, and the state's next value less the row's rest. Each
+    /// equation of a square system is described; a least-squares one is described whole.
     fn parameter_system(
         &mut self,
         mg: &mut ModelGraph,
@@ -442,6 +487,9 @@ impl Derivation<'_> {
             let next = window.state(mg, row.state, e.delay - 1);
             rhs.push(mg.graph.sub(next, rest));
             matrix.push(coefficients);
+            if equations.len() > self.param_vars.len() {
+                continue;
+            }
             self.description.push(format!(
                 "Equation {}: the step of `{}` from sample k-{} to k-{} (eq. 8).",
                 matrix.len(),

@@ -1,0 +1,146 @@
+//! The DKF's window longer than the minimum (`dkf(window = 40)`, `cantilever_long_window`):
+//! its least-squares parameters agree with an independent dense solve (nalgebra's SVD) of
+//! the paper's eq. (8) at every sample of the window, on random windows, in `f64` and
+//! `f32`; a non-finite sample empties the whole window, which refills before it is solved.
+//! (Its noise-free exactness is in `window_transform.rs`.)
+
+use generated_demo::cantilever_long_window as in_f32;
+use generated_demo::cantilever_long_window::in_f64::{self, TS};
+use generated_demo::cantilever_long_window::WINDOW_OUTPUTS;
+use nalgebra::{DMatrix, DVector};
+
+/// Uniform numbers in `-1..1`, reproducible (SplitMix64).
+struct Uniform(u64);
+
+impl Uniform {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        2.0 * ((z >> 11) as f64 / (1u64 << 53) as f64) - 1.0
+    }
+}
+
+/// A random window: outputs `y[0..WINDOW_OUTPUTS]` (oldest first) and the inputs before
+/// each of them, `u[j]` applied from sample `j` to `j + 1`.
+fn random_window(seed: u64) -> (Vec<f64>, Vec<f64>) {
+    let mut uniform = Uniform(seed);
+    let y = (0..WINDOW_OUTPUTS).map(|_| uniform.next()).collect();
+    let u = (0..WINDOW_OUTPUTS)
+        .map(|_| 100.0 * uniform.next())
+        .collect();
+    (y, u)
+}
+
+/// The paper's eq. (8) at every sample the window reaches, written from the restatement
+/// (dkf-equations.md): with `dy[j] = (y[j] - y[j-1]) / TS`,
+/// `(dy[j] - dy[j-1]) / TS = y[j-2] x3 + dy[j-1] x4 + u[j-2] x5`, solved by SVD.
+fn reference_parameters(y: &[f64], u: &[f64]) -> [f64; 3] {
+    let dy = |j: usize| (y[j] - y[j - 1]) / TS;
+    let rows: Vec<usize> = (2..y.len()).collect();
+    let a = DMatrix::from_fn(rows.len(), 3, |e, p| {
+        let j = rows[e];
+        [y[j - 2], dy(j - 1), u[j - 2]][p]
+    });
+    let b = DVector::from_fn(rows.len(), |e, _| {
+        let j = rows[e];
+        (dy(j) - dy(j - 1)) / TS
+    });
+    let theta = a
+        .svd(true, true)
+        .solve(&b, 1e-300)
+        .expect("the SVD has both factors");
+    [theta[0], theta[1], theta[2]]
+}
+
+/// A measurement noise so large that no sample is refused, so the window holds exactly
+/// the data it is given.
+const R_WIDE: f64 = 1e12;
+
+macro_rules! window_parameters {
+    ($module:ident, $ty:ty, $y:expr, $u:expr) => {{
+        let (y, u): (&[f64], &[f64]) = ($y, $u);
+        let identity: [[$ty; 5]; 5] =
+            std::array::from_fn(|i| std::array::from_fn(|j| if i == j { 1.0 } else { 0.0 }));
+        let x0: [$ty; 5] = [0.0, 0.0, -400.0, -1.0, 0.5];
+        let mut dkf = $module::Dkf::new(
+            &x0,
+            &identity,
+            &[0.0; 5],
+            &identity,
+            &[0.0; 5],
+            &[[R_WIDE as $ty]],
+        )
+        .unwrap();
+        for j in 0..y.len() {
+            let u_prev = if j == 0 { 0.0 } else { u[j - 1] };
+            let status = dkf.step(&[u_prev as $ty], &[y[j] as $ty]);
+            assert!(status.is_ok(), "sample {j}: {status:?}");
+        }
+        let (phi, window) = dkf.window_estimate(&[u[y.len() - 1] as $ty]);
+        assert_eq!(window, $module::WindowStatus::Solved);
+        [phi[2] as f64, phi[3] as f64, phi[4] as f64]
+    }};
+}
+
+/// Entry-wise agreement at the parameters' scale (they differ by orders of magnitude).
+fn assert_agree(what: &str, got: [f64; 3], want: [f64; 3], rtol: f64) {
+    for (p, (g, w)) in got.iter().zip(want).enumerate() {
+        assert!(
+            (g - w).abs() <= rtol * w.abs().max(1e-12),
+            "{what}, parameter {p}: {g:e} vs {w:e}"
+        );
+    }
+}
+
+#[test]
+fn least_squares_window_agrees_with_a_dense_svd_solve() {
+    assert_eq!(WINDOW_OUTPUTS, 40);
+    for seed in 0..50 {
+        let (y, u) = random_window(seed);
+        let want = reference_parameters(&y, &u);
+        let got = window_parameters!(in_f64, f64, &y, &u);
+        assert_agree(&format!("f64, window {seed}"), got, want, 1e-9);
+        // In f32 the normal equations square the system's condition number, so the bound
+        // is single precision's times that (the largest error over these windows: 4e-5).
+        let got = window_parameters!(in_f32, f32, &y, &u);
+        assert_agree(&format!("f32, window {seed}"), got, want, 2e-4);
+    }
+}
+
+#[test]
+fn a_rejected_sample_empties_the_whole_window() {
+    let (y, u) = random_window(7);
+    let identity: [[f64; 5]; 5] =
+        std::array::from_fn(|i| std::array::from_fn(|j| if i == j { 1.0 } else { 0.0 }));
+    let mut dkf = in_f64::Dkf::new(
+        &[0.0, 0.0, -400.0, -1.0, 0.5],
+        &identity,
+        &[0.0; 5],
+        &identity,
+        &[0.0; 5],
+        &[[R_WIDE]],
+    )
+    .unwrap();
+    let feed = |dkf: &mut in_f64::Dkf, j: usize| {
+        let u_prev = if j == 0 { 0.0 } else { u[j - 1] };
+        dkf.step(&[u_prev], &[y[j]])
+    };
+    for j in 0..WINDOW_OUTPUTS {
+        assert!(feed(&mut dkf, j).is_ok());
+    }
+    assert_eq!(dkf.window_estimate(&[0.0]).1, in_f64::WindowStatus::Solved);
+    let status = dkf.step(&[1.0], &[f64::NAN]);
+    assert_eq!(status.lkf, in_f64::Status::RejectedInput);
+    // The window refills: each step's transform reads the window as it stood before the
+    // step's measurement, so all WINDOW_OUTPUTS steps find it filling; once they are in,
+    // it is solved again.
+    for j in 0..WINDOW_OUTPUTS {
+        assert_eq!(dkf.window_estimate(&[0.0]).1, in_f64::WindowStatus::Filling);
+        let status = feed(&mut dkf, j);
+        assert_eq!(status.window, in_f64::WindowStatus::Filling, "sample {j}");
+    }
+    assert_eq!(dkf.window_estimate(&[0.0]).1, in_f64::WindowStatus::Solved);
+}
