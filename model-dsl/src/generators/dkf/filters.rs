@@ -46,7 +46,14 @@ pub fn step_fn(
     let g = mg;
     let mut avoid = model_names(model);
     avoid.extend(["phi", "window", "excitation"].map(String::from));
-    let vars = FilterVars::new(model, &mut g.graph, &avoid, spec.diagonal_noise);
+    let least_squares = wt.least_squares();
+    let vars = FilterVars::new(
+        model,
+        &mut g.graph,
+        &avoid,
+        spec.diagonal_noise,
+        least_squares,
+    );
     let x_vars: Vec<VarId> = g.x.iter().map(|&x| g.var_id(x)).collect();
     let c = g.jacobian_h_wrt_x();
     let a = g.jacobian_f_wrt_x();
@@ -74,6 +81,7 @@ pub fn step_fn(
         avoid: &avoid,
         scalar,
         gate: spec.gate,
+        least_squares,
     };
     let (lkf_method, lkf_ops) = step.stage_method(step.lkf_stage(lkf));
     let akf_stage = step.akf_stage(wt, akf, akf_definitions.clone());
@@ -87,7 +95,19 @@ pub fn step_fn(
     );
     let (akf_predict, _) = step.stage_method(akf_prediction);
     let keepers = spec.gate.map(|_| step.keepers());
-    let methods = quote! {
+    let stages = [lkf_method, akf_method, lkf_predict, akf_predict];
+    FilterCode {
+        step: step.body(true),
+        predict: step.body(false),
+        methods: stage_methods(stages, keepers),
+        ops: akf_ops.plus(lkf_ops),
+    }
+}
+
+/// The DKF's private methods: `reject_sample`, the stages' and the gate's keepers.
+fn stage_methods(stages: [TokenStream; 4], keepers: Option<TokenStream>) -> TokenStream {
+    let [lkf_method, akf_method, lkf_predict, akf_predict] = stages;
+    quote! {
         /// A missing sample breaks the window's sequence: empties the window (it refills)
         /// and rejects the sample, leaving both filters as they were.
         fn reject_sample(&mut self) -> DkfStatus {
@@ -108,12 +128,6 @@ pub fn step_fn(
         #akf_predict
 
         #keepers
-    };
-    FilterCode {
-        step: step.body(true),
-        predict: step.body(false),
-        methods,
-        ops: akf_ops.plus(lkf_ops),
     }
 }
 
@@ -163,6 +177,9 @@ struct FilterVars {
     p_vars: Vec<NodeId>,
     q_vars: Vec<NodeId>,
     r_vars: Vec<NodeId>,
+    /// The least-squares window's packed parameter covariance (empty for the minimum
+    /// window).
+    window_covariance: Vec<NodeId>,
     pbar: Matrix,
     qbar: Matrix,
     p: Matrix,
@@ -172,7 +189,13 @@ struct FilterVars {
 
 impl FilterVars {
     /// Declares the variables, named apart from `avoid`.
-    fn new(model: &Model, graph: &mut Graph, avoid: &[String], diagonal_noise: bool) -> Self {
+    fn new(
+        model: &Model,
+        graph: &mut Graph,
+        avoid: &[String],
+        diagonal_noise: bool,
+        least_squares: bool,
+    ) -> Self {
         let n = model.state_len();
         let m = model.outputs.len();
         let xbar: Vec<NodeId> = model
@@ -189,7 +212,13 @@ impl FilterVars {
         let p_vars = packed_vars(graph, "p", n, avoid);
         let (q_vars, q) = noise_vars(graph, "q", n, diagonal_noise, avoid);
         let r_vars = packed_vars(graph, "r", m, avoid);
+        let window_covariance = if least_squares {
+            packed_vars(graph, "phi_cov", model.params.len(), avoid)
+        } else {
+            Vec::new()
+        };
         FilterVars {
+            window_covariance,
             pbar: symmetric_from_packed(&pbar_vars, n),
             p: symmetric_from_packed(&p_vars, n),
             r: symmetric_from_packed(&r_vars, m),
@@ -232,8 +261,70 @@ fn akf_prediction(
             sum
         })
         .collect();
-    let pbar_pred = kalman::predict_covariance(graph, &f, &vars.pbar, &vars.qbar);
+    let qbar = with_window_uncertainty(graph, wt, vars, u);
+    let pbar_pred = kalman::predict_covariance(graph, &f, &vars.pbar, &qbar);
     (xbar_pred, pbar_pred, definitions)
+}
+
+/// The AKF's process noise with a least-squares window's uncertainty carried in:
+/// `Qbar + J C J'`, with `C` the window's parameter covariance and `J` the derivative of
+/// the transformed model's prediction `F xbar + G u + d` (eq. 12) with respect to the
+/// window's parameters, the reconstructed states held (first order in the parameters'
+/// error). `Qbar` itself for the minimum window.
+fn with_window_uncertainty(
+    graph: &mut Graph,
+    wt: &WindowTransform,
+    vars: &FilterVars,
+    u: &[NodeId],
+) -> Matrix {
+    if vars.window_covariance.is_empty() {
+        return vars.qbar.clone();
+    }
+    let n = vars.xbar.len();
+    let np = wt.phi_params.len();
+    let covariance = symmetric_from_packed(&vars.window_covariance, np);
+    let prediction: Vec<NodeId> = (0..n)
+        .map(|i| {
+            let mut sum = wt.d[i];
+            for (&f, &x) in wt.f[i].iter().zip(&vars.xbar) {
+                let term = graph.mul(f, x);
+                sum = graph.add(sum, term);
+            }
+            for (&g, &u) in wt.g.get(i).into_iter().flatten().zip(u) {
+                let term = graph.mul(g, u);
+                sum = graph.add(sum, term);
+            }
+            sum
+        })
+        .collect();
+    let jacobian: Matrix = prediction
+        .iter()
+        .map(|&row| {
+            wt.phi[n - np..]
+                .iter()
+                .map(|&phi| match graph.node(phi) {
+                    crate::symbolic::Node::Var(v) => {
+                        crate::symbolic::diff::Differentiator::new(v).diff(graph, row)
+                    }
+                    _ => graph.zero(),
+                })
+                .collect()
+        })
+        .collect();
+    let jc = matmul(graph, &jacobian, &covariance);
+    let mut qbar = vars.qbar.clone();
+    for i in 0..n {
+        for j in 0..n {
+            for q in 0..np {
+                if graph.is_zero(jc[i][q]) || graph.is_zero(jacobian[j][q]) {
+                    continue;
+                }
+                let term = graph.mul(jc[i][q], jacobian[j][q]);
+                qbar[i][j] = graph.add(qbar[i][j], term);
+            }
+        }
+    }
+    qbar
 }
 
 /// The model's step and measurement as the filters linearise them: `f` and its Jacobian
@@ -363,6 +454,8 @@ struct StepLowering<'a> {
     avoid: &'a [String],
     scalar: Scalar,
     gate: Option<f64>,
+    /// Whether the window is solved by least squares, with a parameter covariance.
+    least_squares: bool,
 }
 
 impl<'a> StepLowering<'a> {
@@ -462,6 +555,7 @@ impl<'a> StepLowering<'a> {
                 (quote! { self.xbar }, &vars.xbar[..]),
                 (quote! { self.pbar }, &vars.pbar_vars[..]),
                 (quote! { self.qbar }, &vars.qbar_vars[..]),
+                (quote! { self.phi_covariance }, &vars.window_covariance[..]),
                 (quote! { self.r }, &vars.r_vars[..]),
                 (quote! { *u_prev }, &g.u[..]),
                 (quote! { *y }, &vars.y[..]),
@@ -620,6 +714,10 @@ impl<'a> StepLowering<'a> {
         let unpack_u = (!g.u.is_empty()).then(|| quote! { let [#(#u_idents),*] = *u_prev; });
         let unpack_y = corrects.then(|| quote! { let [#(#y_idents),*] = *y; });
         let u_arg = (!g.u.is_empty()).then(|| quote! { u_prev, });
+        let covariance = self.least_squares.then(|| quote! { , covariance });
+        let store_covariance = self
+            .least_squares
+            .then(|| quote! { self.phi_covariance = covariance; });
         let (lkf, akf, window) = if corrects {
             (
                 quote! { self.lkf_step(#u_arg y) },
@@ -656,11 +754,12 @@ impl<'a> StepLowering<'a> {
             // The LKF linearises about the AKF's estimate of the previous sample: it runs
             // first, and before the transform, so that `phi` is not held across it.
             let lkf = #lkf;
-            let (phi, window, [det_sq, column_norms], parameters) = self.transform(#u_arg);
+            let (phi, window, [det_sq, column_norms], parameters #covariance) = self.transform(#u_arg);
             // The window's findings stand whatever the filters do with this sample.
             self.window_det_sq = det_sq;
             self.window_column_norms = column_norms;
             self.phi_params = parameters;
+            #store_covariance
             let akf = #akf;
             #window
             DkfStatus { window, akf, lkf }

@@ -44,7 +44,8 @@ pub fn emit_dkf(
     let filters = step_fn(model, &mut g, wt, scalar, spec);
     let push = push_fn(model, &g, wt, scalar);
     let ltv = ltv_fn(model, &g, wt, scalar);
-    let dkf = DkfType::new(model, spec, wt, scalar);
+    let noise_gain = super::window_noise::noise_gain_at_zero(&mut g.graph, wt);
+    let dkf = DkfType::new(model, spec, wt, scalar, noise_gain);
     let declaration = dkf.declaration(model, wt);
     let constructor = dkf.constructor_tokens(model);
     let estimates = dkf.estimate_accessors();
@@ -104,10 +105,20 @@ struct DkfType {
     window_outputs: usize,
     /// Past inputs the window holds.
     window_inputs: usize,
+    /// Whether the window is solved by least squares, with a parameter covariance.
+    least_squares: bool,
+    /// The noise gain of the window's equations at zero parameters, if a number.
+    noise_gain: Option<f64>,
 }
 
 impl DkfType {
-    fn new(model: &Model, spec: &DkfSpec, wt: &WindowTransform, scalar: Scalar) -> DkfType {
+    fn new(
+        model: &Model,
+        spec: &DkfSpec,
+        wt: &WindowTransform,
+        scalar: Scalar,
+        noise_gain: Option<f64>,
+    ) -> DkfType {
         DkfType {
             scalar,
             ty: ident(scalar.type_name()),
@@ -119,7 +130,20 @@ impl DkfType {
             gate: spec.gate,
             window_outputs: wt.output_delays + 1,
             window_inputs: wt.input_delays,
+            least_squares: wt.least_squares(),
+            noise_gain,
         }
+    }
+
+    /// The packed parameter covariance's field type and initial value (zero: the
+    /// parameters of `x0` are taken as exact until a window is solved), for a
+    /// least-squares window; nothing otherwise.
+    fn covariance_field(&self) -> Option<(TokenStream, TokenStream)> {
+        let ty = &self.ty;
+        let zero = literal(0.0, self.scalar);
+        let len = Literal::usize_unsuffixed(self.np * (self.np + 1) / 2);
+        self.least_squares
+            .then(|| (quote! { [#ty; #len] }, quote! { [#zero; #len] }))
     }
 
     /// The constructor argument, field type and stored value of the process noise `name`.
@@ -146,6 +170,9 @@ impl DkfType {
         ];
         let gate_field = measurement::gate_field(self.gate, ty);
         let gate_doc = measurement::gate_doc_attribute(self.gate);
+        let covariance_field = self
+            .covariance_field()
+            .map(|(ty, _)| quote! { phi_covariance: #ty, });
         quote! {
             /// Double Kalman filter (Alg. 2) of this model.
             ///
@@ -166,6 +193,7 @@ impl DkfType {
                 inputs: [#ty; #inputs_len],
                 filled: [bool; #window_outputs_lit],
                 phi_params: [#ty; #p_len],
+                #covariance_field
                 window_det_sq: #ty,
                 window_column_norms: #ty,
                 min_excitation_sq: #ty,
@@ -214,6 +242,9 @@ impl DkfType {
             measurement::cleared_values(model, Filter::Akf.prefix(), self.scalar),
         ];
         let gate = measurement::gate_initial_value(self.gate, self.scalar);
+        let covariance_value = self
+            .covariance_field()
+            .map(|(_, zero)| quote! { phi_covariance: #zero, });
         let new = arguments.constructor(
             &quote! { #[doc = #new_doc] },
             REJECTS_NON_FINITE,
@@ -223,6 +254,7 @@ impl DkfType {
                     inputs: [#zero; #inputs_len],
                     filled: [false; #window_outputs_lit],
                     phi_params: [#(#params),*],
+                    #covariance_value
                     window_det_sq: #zero,
                     window_column_norms: #zero,
                     min_excitation_sq: Self::DEFAULT_MIN_EXCITATION
@@ -324,6 +356,9 @@ impl DkfType {
             measurement::clear_innovation(model, Filter::Lkf.prefix(), self.scalar),
             measurement::clear_innovation(model, Filter::Akf.prefix(), self.scalar),
         ];
+        let covariance_reset = self
+            .covariance_field()
+            .map(|(_, zero)| quote! { self.phi_covariance = #zero; });
         let reset = arguments.method(
             &ident("reset"),
             &quote! {
@@ -346,6 +381,7 @@ impl DkfType {
                 self.inputs = [#zero; #inputs_len];
                 self.filled = [false; WINDOW_OUTPUTS];
                 self.phi_params = [#(#params),*];
+                #covariance_reset
                 self.window_det_sq = #zero;
                 self.window_column_norms = #zero;
                 #(#clear)*
@@ -377,6 +413,27 @@ impl DkfType {
         let has_u = !model.inputs.is_empty();
         let u_param_plain = has_u.then(|| quote! { u: &[#ty; #u_len] });
         let u_arg_plain = has_u.then(|| quote! { u });
+        let covariance_accessor = self.least_squares.then(|| {
+            let unpack = crate::emit::code::unpack_symmetric("phi_covariance", self.np);
+            quote! {
+                /// The covariance `C` of the parameters the last solved window gave (zero
+                /// until one is): the measurement noise `r` carried to first order through
+                /// the window's finite differences and its least-squares solve,
+                /// `C = M^-1 (sum_s r w_s w_s') M^-1` with `M = A' A` and `w_s` the normal
+                /// equations' sensitivity to output sample `s` (neighbouring equations
+                /// share samples, and this keeps their correlation). The AKF adds `J C J'`
+                /// to its process noise, `J` the derivative of its model's prediction with
+                /// respect to the parameters. Its diagonal's square roots are the
+                /// parameters' standard deviations, for small noise (at larger noise a
+                /// noisy regressor's parameter scatters more than first order says): a
+                /// simulated run of the nominal excitation with them chooses the window's
+                /// length and the sample time.
+                #[must_use]
+                pub fn window_parameter_covariance(&self) -> [[#ty; #p_len]; #p_len] {
+                    #unpack
+                }
+            }
+        });
         quote! {
             /// The parameters the last well-excited window gave (or those of `x0`).
             #[must_use]
@@ -396,6 +453,8 @@ impl DkfType {
                     #zero
                 }
             }
+
+            #covariance_accessor
 
             /// What the window holds now says of the state: `phi` (states, then
             /// parameters) reconstructed from the window that ends at the latest
@@ -478,11 +537,30 @@ impl DkfType {
     fn window_constants(&self) -> TokenStream {
         let window_outputs_lit = Literal::usize_unsuffixed(self.window_outputs);
         let window_inputs_lit = Literal::usize_unsuffixed(self.window_inputs);
+        let ty = &self.ty;
+        let noise_gain = self
+            .noise_gain
+            .filter(|gain| self.least_squares && gain.is_finite())
+            .map(|gain| {
+                let value = literal(gain, self.scalar);
+                quote! {
+                    /// A design aid of the least-squares window: the standard deviation of one
+                    /// equation's error (eq. 8, in the scale the model's step writes it) per
+                    /// unit standard deviation of the measurement noise, from the window's
+                    /// finite differences alone (at zero parameters): how much the
+                    /// differences amplify noise, which a shorter sample time raises. What
+                    /// that makes of the parameters depends on the excitation and the
+                    /// window's length: [`Dkf::window_parameter_covariance`] gives it for each
+                    /// window of a simulated run of the nominal excitation.
+                    pub const WINDOW_NOISE_GAIN: #ty = #value;
+                }
+            });
         quote! {
             /// Outputs the DKF's window holds, the latest included.
             pub const WINDOW_OUTPUTS: usize = #window_outputs_lit;
             /// Past inputs the DKF's window holds.
             pub const WINDOW_INPUTS: usize = #window_inputs_lit;
+            #noise_gain
         }
     }
 }

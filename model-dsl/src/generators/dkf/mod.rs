@@ -8,6 +8,7 @@ pub mod ltv;
 pub mod spec;
 pub mod transform;
 pub mod window;
+pub mod window_noise;
 
 use super::options::{Args, Context};
 use super::unit::{Code, Cost, Description, Generator, Kind, Lowering, Requirement};
@@ -37,6 +38,7 @@ const DESCRIPTION: Description = Description {
         "ltv_model",
         "WINDOW_OUTPUTS",
         "WINDOW_INPUTS",
+        "WINDOW_NOISE_GAIN",
     ],
     type_name_option: None,
 };

@@ -5,11 +5,14 @@
 //! over the window, and the states reconstructed at the window's end.
 
 use super::window::{column_norms_product, cramer, WindowTransform};
+use super::window_noise;
 use crate::emit::code::{destructure, var_idents};
 use crate::emit::filter::model_names;
+use crate::emit::filter::packed_vars;
 use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
+use crate::symbolic::linalg::packed_index;
 use crate::symbolic::linalg::Matrix;
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::{Ident, Literal, TokenStream};
@@ -24,8 +27,8 @@ pub fn transform_fn(
     scalar: Scalar,
 ) -> (TokenStream, OpCount) {
     let mut g = mg.clone();
-    let solve = WindowSolve::new(&mut g.graph, wt, model.params.len());
     let avoid = model_names(model);
+    let solve = WindowSolve::new(&mut g.graph, wt, model.params.len(), &avoid);
     let namer = TempNamer::new(avoid.iter().map(String::as_str));
     let mut base = Lowerer::new(&g.graph, scalar, namer, &solve.roots(wt));
     let det = base.bind(solve.full.det, "det");
@@ -59,7 +62,28 @@ pub fn transform_fn(
         .collect();
     let phi_states = base.segment(&wt.phi_states);
     let tail = base.take_statements();
-    let Lowered { used_vars, ops, .. } = base.finish();
+    // A least-squares window's parameter covariance, computed only for a solved window.
+    let covariance = solve.covariance.as_ref().map(|(r_vars, covariance)| {
+        let mut fork = base.clone();
+        let values = fork.segment(covariance);
+        let body = fork.take_statements();
+        let Lowered { used_vars, ops, .. } = fork.finish();
+        let code = CovarianceCode {
+            r_vars: r_vars.clone(),
+            body,
+            values,
+        };
+        (code, used_vars, ops)
+    });
+    let Lowered {
+        mut used_vars,
+        mut ops,
+        ..
+    } = base.finish();
+    if let Some((_, covariance_vars, covariance_ops)) = &covariance {
+        used_vars.extend(covariance_vars);
+        ops = *covariance_ops;
+    }
     let code = TransformCode {
         head,
         excitation: [det, det_sq, column_norms],
@@ -70,6 +94,7 @@ pub fn transform_fn(
         case2_branches,
         tail,
         phi_states,
+        covariance: covariance.map(|(code, ..)| code),
     };
     let tokens = code.method(model, &g, wt, used_vars, scalar);
     // The costliest path: the common code plus the full solve's branch.
@@ -89,19 +114,24 @@ struct Solve {
     norms: NodeId,
     /// The free parameters, `numerator * inv_det`.
     solution: Vec<NodeId>,
+    /// The normal matrix `A' A` of a least-squares system.
+    normal: Option<Matrix>,
 }
 
-/// The window's full parameter system and its Case 2 reductions, largest first.
+/// The window's full parameter system and its Case 2 reductions, largest first; for a
+/// least-squares window, the full solve's parameter covariance (packed) and the
+/// measurement noise variables it reads.
 struct WindowSolve {
     full: Solve,
     reduced: Vec<Solve>,
+    covariance: Option<(Vec<NodeId>, Vec<NodeId>)>,
 }
 
 impl WindowSolve {
     /// Solves the full system, then each reduction (the variable `inv_det` standing for
     /// the reciprocal of whichever determinant the taken branch divides by). A square
     /// reduction takes the system's first rows; a least-squares one every row.
-    fn new(graph: &mut Graph, wt: &WindowTransform, np: usize) -> WindowSolve {
+    fn new(graph: &mut Graph, wt: &WindowTransform, np: usize, avoid: &[String]) -> WindowSolve {
         let (mut full, numerators) = Solve::cramer(graph, &wt.matrix, &wt.rhs, Vec::new());
         full.free = (0..np).collect();
         let least_squares = wt.matrix.len() > np;
@@ -129,9 +159,14 @@ impl WindowSolve {
         for (solve, numerators) in &mut reduced {
             solve.solution = times(graph, numerators, inv_det);
         }
+        let covariance = full
+            .normal
+            .as_ref()
+            .map(|normal| full_covariance(graph, wt, normal, full.det, avoid));
         WindowSolve {
             full,
             reduced: reduced.into_iter().map(|(solve, _)| solve).collect(),
+            covariance,
         }
     }
 
@@ -141,6 +176,9 @@ impl WindowSolve {
         for solve in std::iter::once(&self.full).chain(&self.reduced) {
             roots.extend([solve.det, solve.det_sq, solve.norms]);
             roots.extend(&solve.solution);
+        }
+        if let Some((_, covariance)) = &self.covariance {
+            roots.extend(covariance);
         }
         roots.extend(&wt.phi_states);
         roots
@@ -162,10 +200,10 @@ impl Solve {
         frozen: Vec<usize>,
     ) -> (Solve, Vec<NodeId>) {
         let square = matrix.len() <= matrix.first().map_or(0, Vec::len);
-        let (det, det_sq, norms, numerators) = if square {
+        let (det, det_sq, norms, numerators, normal) = if square {
             let (det, numerators) = cramer(graph, matrix, rhs);
             let norms = column_norms_product(graph, matrix);
-            (det, graph.mul(det, det), norms, numerators)
+            (det, graph.mul(det, det), norms, numerators, None)
         } else {
             let (normal, normal_rhs) = normal_equations(graph, matrix, rhs);
             let (det, numerators) = cramer(graph, &normal, &normal_rhs);
@@ -173,7 +211,7 @@ impl Solve {
             for (p, row) in normal.iter().enumerate() {
                 norms = graph.mul(norms, row[p]);
             }
-            (det, det, norms, numerators)
+            (det, det, norms, numerators, Some(normal))
         };
         let solve = Solve {
             frozen,
@@ -182,6 +220,7 @@ impl Solve {
             det_sq,
             norms,
             solution: Vec::new(),
+            normal,
         };
         (solve, numerators)
     }
@@ -220,6 +259,23 @@ fn sum_of_products(graph: &mut Graph, pairs: impl Iterator<Item = (NodeId, NodeI
         sum = graph.add(sum, term);
     }
     sum
+}
+
+/// The full least-squares solve's parameter covariance ([`window_noise`]) over the solved
+/// parameters' variables and the measurement noise's variances: those variables, and the
+/// packed covariance.
+fn full_covariance(
+    graph: &mut Graph,
+    wt: &WindowTransform,
+    normal: &Matrix,
+    det: NodeId,
+    avoid: &[String],
+) -> (Vec<NodeId>, Vec<NodeId>) {
+    let m = wt.outputs.len();
+    let r_vars = packed_vars(graph, "r", m, avoid);
+    let r_diagonal: Vec<NodeId> = (0..m).map(|i| r_vars[packed_index(m, i, i)]).collect();
+    let covariance = window_noise::parameter_covariance(graph, wt, normal, det, &r_diagonal);
+    (r_vars, covariance)
 }
 
 /// Each of `values` times `factor`.
@@ -302,6 +358,16 @@ struct TransformCode {
     /// The propagation of the states to the window's end.
     tail: Vec<TokenStream>,
     phi_states: Vec<TokenStream>,
+    /// A least-squares window's parameter covariance.
+    covariance: Option<CovarianceCode>,
+}
+
+/// The lowered parameter covariance of a least-squares window ([`window_noise`]): the
+/// measurement noise variables it reads, its statements and its packed entries.
+struct CovarianceCode {
+    r_vars: Vec<NodeId>,
+    body: Vec<TokenStream>,
+    values: Vec<TokenStream>,
 }
 
 impl TransformCode {
@@ -315,12 +381,13 @@ impl TransformCode {
         used_vars: std::collections::BTreeSet<VarId>,
         scalar: Scalar,
     ) -> TokenStream {
-        let (u_param, unpack) = window_reads(g, wt, used_vars, scalar);
+        let (u_param, unpack) = window_reads(g, wt, &used_vars, scalar);
         let ty = ident(scalar.type_name());
         let zero = literal(0.0, scalar);
         let n = Literal::usize_unsuffixed(model.state_len());
         let np_len = Literal::usize_unsuffixed(model.params.len());
         let solve = self.solve(scalar);
+        let covariance = self.covariance.as_ref().map(|c| c.tokens(g, &used_vars));
         let Self {
             tail,
             phi_states,
@@ -328,16 +395,31 @@ impl TransformCode {
             excitation: [_, det_sq_e, norms_e],
             ..
         } = self;
+        let packed_len =
+            Literal::usize_unsuffixed(model.params.len() * (model.params.len() + 1) / 2);
+        let covariance_type = covariance
+            .is_some()
+            .then(|| quote! { , [#ty; #packed_len] });
+        let covariance_kept = covariance
+            .is_some()
+            .then(|| quote! { , self.phi_covariance });
+        let covariance_doc = covariance.is_some().then(|| {
+            quote! {
+                /// Last, the least-squares parameters' covariance (packed): the solved
+                /// window's, else the last solved.
+            }
+        });
         quote! {
             /// The window transform: the reconstructed `phi` (states, then parameters), the
             /// window's status, the squared determinant and product of squared column norms
             /// of its parameter system (whose ratio is the squared excitation measure), and
             /// the parameters to keep: those solved, else the last solved (eqs. 8-12).
+            #covariance_doc
             #[allow(clippy::type_complexity)]
-            fn transform(&self, #u_param) -> ([#ty; #n], WindowStatus, [#ty; 2], [#ty; #np_len]) {
+            fn transform(&self, #u_param) -> ([#ty; #n], WindowStatus, [#ty; 2], [#ty; #np_len] #covariance_type) {
                 let [.., full] = self.filled;
                 if !full {
-                    return (self.xbar, WindowStatus::Filling, [#zero, #zero], self.phi_params);
+                    return (self.xbar, WindowStatus::Filling, [#zero, #zero], self.phi_params #covariance_kept);
                 }
                 #unpack
                 #solve
@@ -347,6 +429,7 @@ impl TransformCode {
                     window,
                     [#det_sq_e, #norms_e],
                     [#(#phi_params),*],
+                    #covariance
                 )
             }
         }
@@ -384,15 +467,34 @@ impl TransformCode {
     }
 }
 
+impl CovarianceCode {
+    /// The covariance's entries if the window was solved, else the last (eq. in
+    /// [`window_noise`]), reading the measurement noise's variances.
+    fn tokens(&self, g: &ModelGraph, used: &std::collections::BTreeSet<VarId>) -> TokenStream {
+        let Self { body, values, .. } = self;
+        let unpack_r = destructure(&g.graph, quote! { self.r }, &self.r_vars, used);
+        quote! {
+            if window == WindowStatus::Solved {
+                #unpack_r
+                #(#body)*
+                [#(#values),*]
+            } else {
+                self.phi_covariance
+            }
+        }
+    }
+}
+
 /// The transform's input parameter and the `let` patterns unpacking the window variables
 /// and the input it reads; the Case 2 branches read window variables too, so every window
 /// variable is unpacked.
 fn window_reads(
     g: &ModelGraph,
     wt: &WindowTransform,
-    mut used: std::collections::BTreeSet<VarId>,
+    used: &std::collections::BTreeSet<VarId>,
     scalar: Scalar,
 ) -> (Option<TokenStream>, TokenStream) {
+    let mut used = used.clone();
     for node in wt
         .outputs
         .iter()

@@ -95,6 +95,9 @@ pub struct WindowTransform {
     pub input_delays: usize,
     /// The fewest output samples that determine the parameters (the paper's window).
     pub minimum_window: usize,
+    /// Per parameter row, its most recent equation (an index into `matrix`): whose noise
+    /// gain stands for every equation of that row in the parameters' covariance.
+    pub newest_equations: Vec<usize>,
     /// A plain-words account of the derivation, for the generated documentation.
     pub description: Vec<String>,
 }
@@ -176,8 +179,25 @@ pub fn derive(
         output_delays,
         input_delays,
         minimum_window: minimal_delays + 1,
+        newest_equations: newest_equations(&equations),
         description: steps.description,
     })
+}
+
+impl WindowTransform {
+    /// Whether the window is longer than the minimum: its system has more equations than
+    /// parameters and is solved by least squares.
+    pub fn least_squares(&self) -> bool {
+        self.matrix.len() > self.phi_params.len()
+    }
+}
+
+/// The index of each row's first (most recent) equation.
+fn newest_equations(equations: &[Equation]) -> Vec<usize> {
+    let mut seen = BTreeSet::new();
+    (0..equations.len())
+        .filter(|&e| seen.insert(equations[e].row))
+        .collect()
 }
 
 /// Every row at every sample a window reaching `deepest` samples back gives it, the most
@@ -790,7 +810,7 @@ pub fn cramer(graph: &mut Graph, matrix: &Matrix, rhs: &[NodeId]) -> (NodeId, Ve
 }
 
 /// Laplace expansion along the first of `rows`.
-fn determinant(graph: &mut Graph, m: &Matrix, rows: &[usize], cols: &[usize]) -> NodeId {
+pub fn determinant(graph: &mut Graph, m: &Matrix, rows: &[usize], cols: &[usize]) -> NodeId {
     match rows.len() {
         0 => graph.one(),
         1 => m[rows[0]][cols[0]],
