@@ -33,6 +33,7 @@ use core::hint::black_box;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use generated_demo::cantilever::{Dkf, Ekf, Lqr, Status};
+use generated_demo::cantilever_long_window::Dkf as LongWindowDkf;
 use lines::estimate_line;
 use matrix::diag;
 use measure::{report, stack_depth, Clock};
@@ -86,6 +87,7 @@ fn main() -> ! {
     mpc::plans();
     math::values();
     costs(&clock);
+    long_window_cost(&clock);
     continuous::costs(&clock);
     observers::costs(&clock);
     mpc::costs(&clock);
@@ -151,6 +153,11 @@ fn generated_loop(filter: &mut Dkf, controller: &mut Lqr, u_prev: f32, y: f32) -
     let estimate = filter.state();
     let _: Status = controller.solve(&estimate, &[u_prev]);
     controller.control(&estimate)[0]
+}
+
+#[inline(never)]
+fn generated_dkf_long_window_step(filter: &mut LongWindowDkf, u_prev: f32, y: f32) -> bool {
+    filter.step(&[u_prev], &[y]).is_ok()
 }
 
 #[inline(never)]
@@ -275,6 +282,20 @@ fn costs(clock: &Clock) {
         }),
     );
     report("loop", loop_costs, loop_stacks);
+}
+
+/// The DKF whose window holds 40 samples, solved by least squares with its parameters'
+/// covariance carried into the AKF (`cantilever_long_window`): no nalgebra baseline.
+fn long_window_cost(clock: &Clock) {
+    let step = |f: &mut LongWindowDkf, u: f32, y: f32| {
+        black_box(generated_dkf_long_window_step(f, u, y));
+    };
+    let start = LongWindowDkf::new(&X0_CLOSE, &diag(P0_CLOSE), &Q, &diag(P0_CLOSE), &Q, &[[R]])
+        .expect("the DKF's tuning is finite");
+    let mut generated = warmed(start, step);
+    let costs = (per_call(clock, |u, y| step(&mut generated, u, y)), 0);
+    let stacks = (stack_depth(|| step(&mut generated, 1.0, 0.1)), 0);
+    report("dkf_long_window_step", costs, stacks);
 }
 
 /// Compares `a * b + c` as this build compiles it with the correctly rounded `libm::fmaf`

@@ -13,7 +13,7 @@ pub mod scale;
 pub mod tuning;
 
 /// Names of the demo models, as their files in `generated-demo/models/` are named.
-pub const DEMO_MODELS: [&str; 8] = [
+pub const DEMO_MODELS: [&str; 9] = [
     "cantilever",
     "mass_spring_damper",
     "polynomial",
@@ -22,6 +22,7 @@ pub const DEMO_MODELS: [&str; 8] = [
     "beam_two_actuators",
     "duffing_beam",
     "blade_identification",
+    "cantilever_long_window",
 ];
 
 /// Names of the test models in `tests/models/` (`model! { .. }` invocations that exercise

@@ -46,6 +46,13 @@ const KERNELS: &[Kernel] = &[
         paper_ms: Some(11.67),
     },
     Kernel {
+        name: "dkf_long_window_step",
+        label: "DKF step, window 40 (LS)",
+        goal: None,
+        c_peer: None,
+        paper_ms: None,
+    },
+    Kernel {
         name: "lqr_solve",
         label: "LQR solve (N = 50)",
         goal: Some(1300),

@@ -4,7 +4,9 @@
 //! core does.
 
 use crate::firmware::MpcPaths;
-use generated_demo::{cantilever, helicopter, mass_spring_damper, piecewise_beam, polynomial};
+use generated_demo::{
+    cantilever, cantilever_long_window, helicopter, mass_spring_damper, piecewise_beam, polynomial,
+};
 
 /// The largest relative difference allowed between the static estimate and the trace.
 pub const TOLERANCE: f64 = 0.15;
@@ -17,6 +19,7 @@ pub fn cycles(name: &str, paths: &MpcPaths) -> Option<f64> {
     let cycles = match name {
         "ekf_step" => cantilever::EKF_STEP_CYCLES,
         "dkf_step" => cantilever::DKF_STEP_CYCLES,
+        "dkf_long_window_step" => cantilever_long_window::DKF_STEP_CYCLES,
         "lqr_solve" => cantilever::LQR_SOLVE_CYCLES,
         "loop" => cantilever::DKF_STEP_CYCLES + cantilever::LQR_SOLVE_CYCLES,
         "continuous_ekf_step" => helicopter::CONTINUOUS_EKF_STEP_CYCLES,
