@@ -248,22 +248,32 @@ fn akf_prediction(
     let mut definitions = Vec::new();
     let f = entry_vars(graph, &wt.f, "f", avoid, &mut definitions);
     let g_matrix = entry_vars(graph, &wt.g, "g", avoid, &mut definitions);
-    let xbar_col: Matrix = vars.xbar.iter().map(|&v| vec![v]).collect();
+    let xbar_pred = transformed_prediction(graph, (&f, &g_matrix, &wt.d), &vars.xbar, u);
+    let qbar = with_window_uncertainty(graph, wt, vars, u);
+    let pbar_pred = kalman::predict_covariance(graph, &f, &vars.pbar, &qbar);
+    (xbar_pred, pbar_pred, definitions)
+}
+
+/// The transformed model's prediction `F x + G u + d` (eq. 12).
+fn transformed_prediction(
+    graph: &mut Graph,
+    (f, g, d): (&Matrix, &Matrix, &[NodeId]),
+    x: &[NodeId],
+    u: &[NodeId],
+) -> Vec<NodeId> {
+    let x_col: Matrix = x.iter().map(|&v| vec![v]).collect();
     let u_col: Matrix = u.iter().map(|&v| vec![v]).collect();
-    let fx = matmul(graph, &f, &xbar_col);
-    let gu = matmul(graph, &g_matrix, &u_col);
-    let xbar_pred: Vec<NodeId> = (0..vars.xbar.len())
+    let fx = matmul(graph, f, &x_col);
+    let gu = matmul(graph, g, &u_col);
+    (0..x.len())
         .map(|i| {
-            let mut sum = graph.add(fx[i][0], wt.d[i]);
+            let mut sum = graph.add(fx[i][0], d[i]);
             if let Some(row) = gu.get(i).filter(|row| !row.is_empty()) {
                 sum = graph.add(sum, row[0]);
             }
             sum
         })
-        .collect();
-    let qbar = with_window_uncertainty(graph, wt, vars, u);
-    let pbar_pred = kalman::predict_covariance(graph, &f, &vars.pbar, &qbar);
-    (xbar_pred, pbar_pred, definitions)
+        .collect()
 }
 
 /// The AKF's process noise with a least-squares window's uncertainty carried in:
@@ -283,20 +293,7 @@ fn with_window_uncertainty(
     let n = vars.xbar.len();
     let np = wt.phi_params.len();
     let covariance = symmetric_from_packed(&vars.window_covariance, np);
-    let prediction: Vec<NodeId> = (0..n)
-        .map(|i| {
-            let mut sum = wt.d[i];
-            for (&f, &x) in wt.f[i].iter().zip(&vars.xbar) {
-                let term = graph.mul(f, x);
-                sum = graph.add(sum, term);
-            }
-            for (&g, &u) in wt.g.get(i).into_iter().flatten().zip(u) {
-                let term = graph.mul(g, u);
-                sum = graph.add(sum, term);
-            }
-            sum
-        })
-        .collect();
+    let prediction = transformed_prediction(graph, (&wt.f, &wt.g, &wt.d), &vars.xbar, u);
     let jacobian: Matrix = prediction
         .iter()
         .map(|&row| {
@@ -311,20 +308,7 @@ fn with_window_uncertainty(
                 .collect()
         })
         .collect();
-    let jc = matmul(graph, &jacobian, &covariance);
-    let mut qbar = vars.qbar.clone();
-    for i in 0..n {
-        for j in 0..n {
-            for q in 0..np {
-                if graph.is_zero(jc[i][q]) || graph.is_zero(jacobian[j][q]) {
-                    continue;
-                }
-                let term = graph.mul(jc[i][q], jacobian[j][q]);
-                qbar[i][j] = graph.add(qbar[i][j], term);
-            }
-        }
-    }
-    qbar
+    kalman::predict_covariance(graph, &jacobian, &covariance, &vars.qbar)
 }
 
 /// The model's step and measurement as the filters linearise them: `f` and its Jacobian

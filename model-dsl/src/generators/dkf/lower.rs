@@ -44,7 +44,11 @@ pub fn emit_dkf(
     let filters = step_fn(model, &mut g, wt, scalar, spec);
     let push = push_fn(model, &g, wt, scalar);
     let ltv = ltv_fn(model, &g, wt, scalar);
-    let noise_gain = super::window_noise::noise_gain_at_zero(&mut g.graph, wt);
+    // The design aid of a least-squares window only.
+    let noise_gain = wt
+        .least_squares()
+        .then(|| super::window_noise::noise_gain_at_zero(&mut g.graph, wt))
+        .flatten();
     let dkf = DkfType::new(model, spec, wt, scalar, noise_gain);
     let declaration = dkf.declaration(model, wt);
     let constructor = dkf.constructor_tokens(model);
@@ -107,7 +111,8 @@ struct DkfType {
     window_inputs: usize,
     /// Whether the window is solved by least squares, with a parameter covariance.
     least_squares: bool,
-    /// The noise gain of the window's equations at zero parameters, if a number.
+    /// A least-squares window's noise gain of its equations at zero parameters, if a
+    /// number.
     noise_gain: Option<f64>,
 }
 
@@ -538,23 +543,20 @@ impl DkfType {
         let window_outputs_lit = Literal::usize_unsuffixed(self.window_outputs);
         let window_inputs_lit = Literal::usize_unsuffixed(self.window_inputs);
         let ty = &self.ty;
-        let noise_gain = self
-            .noise_gain
-            .filter(|gain| self.least_squares && gain.is_finite())
-            .map(|gain| {
-                let value = literal(gain, self.scalar);
-                quote! {
-                    /// A design aid of the least-squares window: the standard deviation of one
-                    /// equation's error (eq. 8, in the scale the model's step writes it) per
-                    /// unit standard deviation of the measurement noise, from the window's
-                    /// finite differences alone (at zero parameters): how much the
-                    /// differences amplify noise, which a shorter sample time raises. What
-                    /// that makes of the parameters depends on the excitation and the
-                    /// window's length: [`Dkf::window_parameter_covariance`] gives it for each
-                    /// window of a simulated run of the nominal excitation.
-                    pub const WINDOW_NOISE_GAIN: #ty = #value;
-                }
-            });
+        let noise_gain = self.noise_gain.filter(|gain| gain.is_finite()).map(|gain| {
+            let value = literal(gain, self.scalar);
+            quote! {
+                /// A design aid of the least-squares window: the standard deviation of one
+                /// equation's error (eq. 8, in the scale the model's step writes it) per
+                /// unit standard deviation of the measurement noise, from the window's
+                /// finite differences alone (at zero parameters): how much the
+                /// differences amplify noise, which a shorter sample time raises. What
+                /// that makes of the parameters depends on the excitation and the
+                /// window's length: [`Dkf::window_parameter_covariance`] gives it for each
+                /// window of a simulated run of the nominal excitation.
+                pub const WINDOW_NOISE_GAIN: #ty = #value;
+            }
+        });
         quote! {
             /// Outputs the DKF's window holds, the latest included.
             pub const WINDOW_OUTPUTS: usize = #window_outputs_lit;

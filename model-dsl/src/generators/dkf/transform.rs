@@ -7,13 +7,11 @@
 use super::window::{column_norms_product, cramer, WindowTransform};
 use super::window_noise;
 use crate::emit::code::{destructure, var_idents};
-use crate::emit::filter::model_names;
-use crate::emit::filter::packed_vars;
+use crate::emit::filter::{model_names, packed_vars};
 use crate::emit::lower::{literal, Lowered, Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
-use crate::symbolic::linalg::packed_index;
-use crate::symbolic::linalg::Matrix;
+use crate::symbolic::linalg::{packed_index, Matrix};
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;

@@ -64,10 +64,10 @@ fn noise_filling(graph: &mut Graph, wt: &WindowTransform, r_diagonal: &[NodeId])
     let mut filling = vec![vec![zero; np]; np];
     for (outputs, &r) in wt.outputs.iter().zip(r_diagonal) {
         for &y in outputs {
-            let var = var_of(graph, y);
+            let mut d = Differentiator::new(var_of(graph, y));
             let mut w = vec![zero; np];
             for (row, &error) in wt.matrix.iter().zip(&errors) {
-                let gain = Differentiator::new(var).diff(graph, error);
+                let gain = d.diff(graph, error);
                 if graph.is_zero(gain) {
                     continue;
                 }
