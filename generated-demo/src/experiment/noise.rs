@@ -15,6 +15,17 @@ fn mix(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// The SplitMix64 stream of `seed` at position `j`.
+fn stream(seed: u64, j: u64) -> u64 {
+    mix(mix(seed ^ GAMMA).wrapping_add(GAMMA.wrapping_mul(j + 1)))
+}
+
+/// A uniform number in `0..1` (53 bits), position `j` of the stream named by `seed`: the
+/// same on every call, like the noise.
+pub fn uniform(seed: u64, j: u64) -> f64 {
+    (stream(seed, j) >> 11) as f64 / (1u64 << 53) as f64
+}
+
 /// White Gaussian noise with standard deviation `sigma`, indexed by sample number.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GaussianNoise {
@@ -36,9 +47,7 @@ impl GaussianNoise {
             return 0.0;
         }
         // SplitMix64 stream of this seed at positions 2k and 2k + 1.
-        let base = mix(self.seed ^ GAMMA);
-        let h1 = mix(base.wrapping_add(GAMMA.wrapping_mul(2 * k + 1)));
-        let h2 = mix(base.wrapping_add(GAMMA.wrapping_mul(2 * k + 2)));
+        let (h1, h2) = (stream(self.seed, 2 * k), stream(self.seed, 2 * k + 1));
         // 53-bit uniforms; u1 in (0, 1] so ln(u1) is finite.
         let scale = 1.0 / (1u64 << 53) as f64;
         let u1 = ((h1 >> 11) + 1) as f64 * scale;
