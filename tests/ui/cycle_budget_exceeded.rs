@@ -18,7 +18,8 @@ stateforge::model! {
 }
 
 stateforge::model! {
-    /// An MPC is bounded at its worst solve: everything rebuilt, every iteration run.
+    /// An MPC bounds its iterations within its budget, which must leave room for one
+    /// after rebuilding everything.
     pub mod double_integrator {
         scalar f32;
         const TS = 0.1;

@@ -251,11 +251,12 @@ fn spread_lines(spreads: &[Spread], cpi: &BTreeMap<&str, f64>, paths: &MpcPaths)
                 paths.iterations,
                 static_estimate::cycles("mpc_solve", paths).unwrap_or(f64::NAN),
             ));
+            let [kept, problem, model] = blade::Mpc::ITERATIONS_WITHIN_BUDGET;
             out.push_str(&format!(
-                "  static estimate of the worst solve (MPC_SOLVE_WORST_CYCLES: everything \
-                 rebuilt, MAX_ITERATIONS = {} iterations): {} cycles, against {:.0} for the \
-                 run's worst\n",
-                blade::Mpc::MAX_ITERATIONS,
+                "  static estimate of the worst solve (MPC_SOLVE_WORST_CYCLES: the costliest \
+                 kind of solve with the iterations its cycle budget allows, {kept} / {problem} / \
+                 {model} after rebuilding nothing / the problem / the model and problem): {} \
+                 cycles, against {:.0} for the run's worst\n",
                 blade::MPC_SOLVE_WORST_CYCLES,
                 cycles(spread.worst)
             ));

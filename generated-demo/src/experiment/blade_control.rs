@@ -245,9 +245,12 @@ fn relative_table(runs: &[Run]) -> String {
 }
 
 fn mpc_statistics(stats: &MpcStats) -> String {
+    let [kept, problem, model] = Mpc::ITERATIONS_WITHIN_BUDGET;
     format!(
-        "\nMPC over the run: {} solves, {} failed; active-set iterations worst {} (bound {}), \
-         mean {:.2};\n{:.2} % optimal, terminal weight converged in {:.2} %.\n",
+        "\nMPC over the run: {} solves, {} failed; active-set iterations worst {} (bound {}; \
+         within the cycle budget {kept} / {problem} / {model} after rebuilding nothing / the \
+         problem / the model), mean {:.2};\n{:.2} % optimal (the others stopped at the \
+         budget's bound), terminal weight converged in {:.2} %.\n",
         stats.solves,
         stats.failures,
         stats.worst_iterations,

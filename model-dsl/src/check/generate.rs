@@ -34,6 +34,7 @@ pub(super) fn check_generate(
         }
         let mut args = Args::new(item, diag);
         let budget = Budget::read(&mut args, diag);
+        let cx = cx.with_budget(budget.as_ref().map(|b| (b.cycles, b.span)));
         let generator = kind.options(item, &mut args, &cx, diag);
         args.report_unused(diag);
         if let Some(generator) = generator {

@@ -14,12 +14,29 @@ pub struct Context<'a> {
     /// The model as written.
     pub decl: &'a ModelDecl,
     scope: &'a Scope,
+    /// The cycle budget of the `generate` item whose options are read, if it gives one
+    /// (`max_cycles = ..`), with where it was given: a generator whose work varies from
+    /// call to call may bound it at run time to stay within.
+    pub cycle_budget: Option<(u64, Span)>,
 }
 
 impl<'a> Context<'a> {
     /// The context of the model `decl` whose names are `scope`.
     pub(crate) fn new(decl: &'a ModelDecl, scope: &'a Scope) -> Context<'a> {
-        Context { decl, scope }
+        Context {
+            decl,
+            scope,
+            cycle_budget: None,
+        }
+    }
+
+    /// The same context for a `generate` item with the cycle budget `cycle_budget`.
+    pub(crate) fn with_budget(&self, cycle_budget: Option<(u64, Span)>) -> Context<'a> {
+        Context {
+            decl: self.decl,
+            scope: self.scope,
+            cycle_budget,
+        }
     }
 
     /// The value of the model constant `name`, if it names one.

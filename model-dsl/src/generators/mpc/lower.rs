@@ -13,8 +13,11 @@ use super::predictive::{
 use super::qp::{active_set_loop, MoveNames};
 use super::spec::MpcDiscretisation;
 use super::spec::MpcSpec;
+use super::work_bound::SolveOps;
 use crate::emit::arguments::Arguments;
-use crate::emit::code::{all_is_finite, guard_pivots, pivot_names, unpack_symmetric, var_idents};
+use crate::emit::code::{
+    all_is_finite, doc_attributes, guard_pivots, pivot_names, unpack_symmetric, var_idents,
+};
 use crate::emit::filter::{packed_vars, time_param};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
@@ -31,19 +34,14 @@ use std::collections::BTreeSet;
 pub struct MpcCode {
     /// The `Mpc` and `MpcStatus` types and their methods.
     pub tokens: TokenStream,
-    /// The prediction model at the estimate, with the hold's squarings at their bound.
-    pub prediction_ops: OpCount,
-    /// All `RICCATI_ITERATIONS` steps towards the terminal weight and its gain.
-    pub riccati_ops: OpCount,
-    /// The condensed Hessian and weighted responses, eqs. (42)-(43), and storing what
-    /// the next solve may keep.
-    pub condense_ops: OpCount,
-    /// What every solve runs besides the rebuilds and the iterations: the test of the
-    /// kept model, the estimate's reading, the linear term (eq. 44), the warm start with
-    /// its tail, the gradient at it and the commit.
-    pub plan_ops: OpCount,
-    /// One active-set iteration.
-    pub iteration_ops: OpCount,
+    /// The arithmetic of its solve's parts: the prediction model with the hold's squarings
+    /// at their bound; all `RICCATI_ITERATIONS` steps towards the terminal weight and its
+    /// gain; the condensed Hessian and weighted responses, eqs. (42)-(43), with storing
+    /// what the next solve may keep; the plan, what every solve runs besides the rebuilds
+    /// and the iterations (the test of the kept model, the estimate's reading, the linear
+    /// term of eq. 44, the warm start with its tail, the gradient at it and the commit);
+    /// and one active-set iteration with the loop's branch back.
+    pub ops: SolveOps,
 }
 
 /// Code that computes some values under given names, and what it costs.
@@ -121,14 +119,14 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         scalar,
     );
     let tail = dual_mode_tail(model, spec, &mut mg, (a, b), &moves, &names, scalar);
-    let qp = active_set_loop(&mut mg.graph, &moves, (&names, &tail.code), scalar);
-    let weighted: Vec<NodeId> = condensed
-        .weighted
-        .iter()
-        .flatten()
-        .flatten()
-        .copied()
-        .collect();
+    let (last_pass, allowed) = last_pass(spec);
+    let qp = active_set_loop(
+        &mut mg.graph,
+        &moves,
+        (&names, &tail.code, &last_pass),
+        scalar,
+    );
+    let weighted = condensed.weighted_vars();
     let cache = Cache::new(&mg, &prediction.used, &moves.hessian, &weighted, scalar);
 
     let (linear_code, qp_code) = (&linear.stage.code, &qp.code);
@@ -142,6 +140,7 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
     let commit = commit(&moves, &terminal);
     let plan = quote! {
         #linear_code
+        #allowed
         #qp_code
         #commit
     };
@@ -168,14 +167,38 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         scalar,
         prediction.holds,
     );
-    MpcCode {
-        tokens,
-        prediction_ops: prediction.stage.ops,
-        riccati_ops: terminal.stage.ops,
+    let ops = SolveOps {
+        plan: plan_ops,
+        prediction: prediction.stage.ops,
+        riccati: terminal.stage.ops,
         // The kept prediction model is stored whole: `A` and `B`.
-        condense_ops: lowered.ops.plus(cache.store_ops(ns * (ns + nu))),
-        plan_ops,
-        iteration_ops: qp.iteration_ops,
+        condense: lowered.ops.plus(cache.store_ops(ns * (ns + nu))),
+        iteration: qp.iteration_ops.looped(1),
+    };
+    MpcCode { tokens, ops }
+}
+
+/// The condition that ends the active-set loop before a pass's step, and the statement
+/// it needs: after `MAX_ITERATIONS` steps (`pass == Self::PASSES`) without a cycle budget;
+/// within one, after the iterations `ITERATIONS_WITHIN_BUDGET` allows the kind of solve
+/// this one is (what it rebuilt).
+fn last_pass(spec: &MpcSpec) -> (TokenStream, TokenStream) {
+    match spec.iterations_within_budget {
+        None => (quote! { pass == Self::PASSES }, TokenStream::new()),
+        Some(_) => (
+            quote! { pass > allowed_iterations },
+            quote! {
+                // The iterations within the cycle budget after what this solve rebuilt.
+                let [kept, problem, model_and_problem] = Self::ITERATIONS_WITHIN_BUDGET;
+                let allowed_iterations = if reuse {
+                    kept
+                } else if keep_model {
+                    problem
+                } else {
+                    model_and_problem
+                };
+            },
+        ),
     }
 }
 
@@ -938,6 +961,11 @@ fn condense_model(
 }
 
 impl CondensedNodes {
+    /// The variables that name the weighted responses, every entry of every step.
+    fn weighted_vars(&self) -> Vec<NodeId> {
+        self.weighted.iter().flatten().flatten().copied().collect()
+    }
+
     /// The code that binds `H` and the weighted responses by name.
     fn lower(&self, g: &Graph, moves: &MoveNames, names: &Names, scalar: Scalar) -> Stage {
         let mut roots = self.hessian.clone();
@@ -1184,7 +1212,7 @@ fn type_tokens(
     holds: bool,
 ) -> TokenStream {
     let dims = Dims::new(spec, scalar);
-    let results = result_types(&dims);
+    let results = result_types(&dims, spec.iterations_within_budget.is_some());
     let doc = mpc_doc(model, spec, holds);
     let constants = constants(spec, &dims, scalar, holds);
     let constructor = constructor(spec, (moves, cache), &dims, scalar);
@@ -1233,10 +1261,19 @@ fn type_tokens(
 
 /// `PredictionModel`, which `prediction_model` returns, and `MpcStatus`, which `solve`
 /// returns.
-fn result_types(dims: &Dims) -> TokenStream {
+fn result_types(dims: &Dims, budgeted: bool) -> TokenStream {
     let Dims {
         ty, ns_len, nu_len, ..
     } = dims;
+    let bound = match budgeted {
+        false => "`MAX_ITERATIONS` ran out",
+        true => "the iterations its cycle budget allows (`ITERATIONS_WITHIN_BUDGET`) ran out",
+    };
+    let optimal_doc = doc_attributes(&format!(
+        "Whether the plan is the problem's minimiser (no bound held has a negative \
+         multiplier). If not, {bound}: the plan is the last iterate, within the bounds and \
+         no costlier than the shifted last plan."
+    ));
     quote! {
         /// The MPC's prediction model `x+ = A x + B u` (eq. 30) of the regulated states.
         #[derive(Clone, Copy, Debug, PartialEq)]
@@ -1253,9 +1290,7 @@ fn result_types(dims: &Dims) -> TokenStream {
         pub struct MpcStatus {
             /// [`Status::Ok`] when the new plan was stored; otherwise nothing changed.
             pub status: Status,
-            /// Whether the plan is the problem's minimiser (no bound held has a negative
-            /// multiplier). If not, `MAX_ITERATIONS` ran out: the plan is the last iterate,
-            /// within the bounds and no costlier than the shifted last plan.
+            #optimal_doc
             pub optimal: bool,
             /// Active-set iterations (Newton steps on the free moves) used.
             pub iterations: usize,
@@ -1330,6 +1365,22 @@ fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenS
         scalar,
     );
     let model_tolerance = literal(spec.model_tolerance, scalar);
+    let within_budget = spec.iterations_within_budget.map(|limits| {
+        let limits = limits.map(|n| Literal::usize_unsuffixed(n as usize));
+        let budget = spec.cycle_budget.map_or(0, |(cycles, _)| cycles);
+        let doc = doc_attributes(&format!(
+            "Active-set iterations a solve may take within the cycle budget of {budget} \
+             cycles (the static estimate of the solve, `f32` on a Cortex-M4F, stays within \
+             it), by what it rebuilt ([`MpcRebuild`]): nothing, the terminal \
+             weight and Hessian, the model as well. A solve that reaches its bound stops \
+             with `optimal = false` and the best feasible plan found, from which the next \
+             solve is warm-started."
+        ));
+        quote! {
+            #doc
+            pub const ITERATIONS_WITHIN_BUDGET: [usize; 3] = [#(#limits),*];
+        }
+    });
     let squarings = holds.then(|| {
         let max = Literal::usize_unsuffixed(MAX_SQUARINGS as usize);
         quote! {
@@ -1359,6 +1410,7 @@ fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenS
         /// active set.
         pub const RELEASE_TOLERANCE: #ty = #tolerance;
         #squarings
+        #within_budget
     }
 }
 

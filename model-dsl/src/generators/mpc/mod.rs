@@ -12,6 +12,7 @@ pub mod newton;
 pub mod predictive;
 pub mod qp;
 pub mod spec;
+pub mod work_bound;
 
 use super::options::{regulated, Args, Context};
 use super::unit::{looped, Code, Cost, Description, Generator, Kind, Lowering, Requirement};
@@ -19,8 +20,10 @@ use crate::ast::{ArgValue, DynamicsKind, GenerateDecl, ModelDecl};
 use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar, UNROLLED_SUBSTEPS_MAX};
 use crate::symbolic::ModelGraph;
+use crate::timing::CORTEX_M4F;
 pub use spec::{MpcDiscretisation, MpcSpec, MPC_UNKNOWNS_MAX};
 use std::any::Any;
+use work_bound::iterations_within;
 
 /// The `mpc` generator.
 pub struct Mpc;
@@ -73,6 +76,8 @@ impl Kind for Mpc {
             max_iterations,
             riccati_iterations,
             model_tolerance,
+            cycle_budget: cx.cycle_budget,
+            iterations_within_budget: None,
         }))
     }
 }
@@ -143,8 +148,16 @@ fn discretisation(decl: &ModelDecl, args: &mut Args, diag: &mut Diagnostics) -> 
 }
 
 impl Generator for MpcSpec {
-    fn design(&self, _model: &Model, _mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
-        Ok(Box::new(self.clone()))
+    fn design(&self, model: &Model, mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
+        let mut spec = self.clone();
+        if let Some(budget) = self.cycle_budget {
+            // The bound is of the microcontroller's `f32` code; the `f64` code takes the
+            // same iterations, so the host runs what the target does.
+            let ops = lower::emit_mpc(model, self, mg, Scalar::F32).ops;
+            let limits = iterations_within(&ops, self.max_iterations, budget, &CORTEX_M4F)?;
+            spec.iterations_within_budget = Some(limits);
+        }
+        Ok(Box::new(spec))
     }
 
     fn as_any(&self) -> &dyn Any {
@@ -155,48 +168,48 @@ impl Generator for MpcSpec {
 impl Lowering for MpcSpec {
     fn lower(&self, model: &Model, mg: &ModelGraph, scalar: Scalar) -> Code {
         let mpc = lower::emit_mpc(model, self, mg, scalar);
-        // Every solve runs its plan and its iterations (the loop's branch back with
-        // each); the worst also rebuilds the model and the problem and runs them all.
-        let iteration = mpc.iteration_ops.looped(1);
-        let worst = mpc
-            .plan_ops
-            .plus(mpc.prediction_ops)
-            .plus(mpc.riccati_ops)
-            .plus(mpc.condense_ops)
-            .plus(iteration.times(self.max_iterations));
+        let ops = mpc.ops;
+        // Every solve runs its plan and its iterations; without a budget the worst
+        // rebuilds the model and the problem and runs them all, within one the costliest
+        // kind of solve at its bound.
+        let limits = self
+            .iterations_within_budget
+            .unwrap_or([self.max_iterations; 3]);
+        let worst = ops.worst(limits);
+        let worst_what = match self.iterations_within_budget {
+            None => "Mpc::solve at its worst (the model and problem rebuilt, every iteration run)",
+            Some(_) => {
+                "Mpc::solve at its worst (the costliest kind of solve, with the iterations \
+                 `ITERATIONS_WITHIN_BUDGET` allows it)"
+            }
+        };
         let costs = vec![
-            Cost::new("MPC_PLAN_OPS", "the plan of every Mpc::solve", mpc.plan_ops),
+            Cost::new("MPC_PLAN_OPS", "the plan of every Mpc::solve", ops.plan),
             Cost::new(
                 "MPC_PREDICTION_OPS",
                 "the prediction model of Mpc::solve (when rebuilt)",
-                mpc.prediction_ops,
+                ops.prediction,
             )
             .part(),
             Cost::new(
                 "MPC_RICCATI_OPS",
                 "the Riccati steps of Mpc::solve (when rebuilt)",
-                mpc.riccati_ops,
+                ops.riccati,
             )
             .part(),
             Cost::new(
                 "MPC_CONDENSE_OPS",
                 "the condensed Hessian of Mpc::solve (when rebuilt)",
-                mpc.condense_ops,
+                ops.condense,
             )
             .part(),
             Cost::new(
                 "MPC_ITERATION_OPS",
                 "one active-set iteration of Mpc::solve",
-                iteration,
+                ops.iteration,
             )
             .part(),
-            Cost::new(
-                "MPC_SOLVE_WORST_OPS",
-                "Mpc::solve at its worst (the model and problem rebuilt, every iteration \
-                 run)",
-                worst,
-            )
-            .budgeted(),
+            Cost::new("MPC_SOLVE_WORST_OPS", worst_what, worst).budgeted(),
         ];
         Code {
             tokens: mpc.tokens,

@@ -210,11 +210,13 @@ pub struct QpCode {
     pub setup_ops: OpCount,
 }
 
-/// The loop, on the names of `moves`: `H` and `c` must be bound before it.
+/// The loop, on the names of `moves`: `H` and `c` must be bound before it. `last_pass`,
+/// a condition on the loop's `pass`, ends it before the step of that pass: at the latest
+/// `pass == Self::PASSES`, after `MAX_ITERATIONS` steps.
 pub fn active_set_loop(
     g: &mut Graph,
     moves: &MoveNames,
-    (names, tail): (&Names, &TokenStream),
+    (names, tail, last_pass): (&Names, &TokenStream, &TokenStream),
     scalar: Scalar,
 ) -> QpCode {
     let m = moves.len();
@@ -245,7 +247,7 @@ pub fn active_set_loop(
             if full_step {
                 #release
             }
-            if pass == Self::PASSES {
+            if #last_pass {
                 break;
             }
             steps = pass;

@@ -1,5 +1,7 @@
 //! The MPC's options, as checked.
 
+use proc_macro2::Span;
+
 /// How the MPC obtains its discrete prediction model at the estimate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MpcDiscretisation {
@@ -28,6 +30,12 @@ pub struct MpcSpec {
     /// Relative change of the values the prediction model reads under which a solve
     /// keeps the last one's model, terminal weight and condensed Hessian.
     pub model_tolerance: f64,
+    /// The cycle budget (`max_cycles = ..`) and where it was given: it bounds each
+    /// solve's iterations at run time ([`super::work_bound`]).
+    pub cycle_budget: Option<(u64, Span)>,
+    /// The iterations a solve may take within the budget, by what it rebuilt (nothing,
+    /// the problem, the model and the problem); set by the design when there is a budget.
+    pub iterations_within_budget: Option<[u32; 3]>,
 }
 
 /// The largest condensed problem (horizon times inputs unknowns) the MPC unrolls: its
