@@ -1,9 +1,10 @@
 //! What building a large model costs: an integrator chain of 20 to 100 states with an EKF,
 //! declared with `model!` in a scratch crate and built in a debug build (the one a user
 //! iterates with), without incremental compilation. Prints, per size, the generated
-//! code's size, the build's wall time and the build's peak memory (the largest resident
-//! set of cargo, rustc and the macro). A benchmark, not a test: the numbers depend on the
-//! machine.
+//! code's size, the time `stateforge-codegen` takes to lay it out with its default
+//! formatter (prettyplease, then rustfmt), the build's wall time and the build's peak
+//! memory (the largest resident set of cargo, rustc and the macro). A benchmark, not a
+//! test: the numbers depend on the machine.
 //!
 //! ```text
 //! cargo run --release -p tests --example build_scale [-- 20 40 60 100]
@@ -63,20 +64,30 @@ fn run(sizes: &[usize]) -> Result<(), String> {
     // Build the dependencies (and the macro) first, so each measured build is the model's.
     write_model(&dir, 2)?;
     measure(&dir)?;
-    println!("states  generated code   build (debug)   peak memory");
+    println!("states  generated code   formatted (rustfmt)   build (debug)   peak memory");
     for &n in sizes {
         write_model(&dir, n)?;
         let tokens = stateforge_compiler::expand_macro_source(&integrator_chain(n, true))
             .map_err(|e| format!("{n} states: {e}"))?;
         let code_bytes = tokens.to_string().len();
+        let formatting = format_seconds(tokens).map_err(|e| format!("{n} states: {e}"))?;
         let (seconds, peak_kib) = measure(&dir)?;
         println!(
-            "{n:>6}  {:>10.1} MB   {seconds:>11.1} s   {:>8.2} GB",
+            "{n:>6}  {:>10.1} MB   {formatting:>17.1} s   {seconds:>11.1} s   {:>8.2} GB",
             code_bytes as f64 / 1e6,
             peak_kib as f64 / (1024.0 * 1024.0)
         );
     }
     Ok(())
+}
+
+/// Seconds `stateforge-codegen`'s default layout of `tokens` takes: prettyplease, then
+/// rustfmt (`RUSTFMT`, else `rustfmt` on the path).
+fn format_seconds(tokens: proc_macro2::TokenStream) -> Result<f64, String> {
+    let start = Instant::now();
+    let code = stateforge_cli::format(tokens).map_err(|e| e.to_string())?;
+    stateforge_cli::rustfmt(&code).map_err(|e| e.to_string())?;
+    Ok(start.elapsed().as_secs_f64())
 }
 
 fn write_model(dir: &Path, n: usize) -> Result<(), String> {

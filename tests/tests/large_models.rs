@@ -1,25 +1,34 @@
 //! Large models generate code whose size grows with the covariance's entries, not faster,
 //! and whose shape rustc compiles without deep recursion: expressions nest shallowly and
 //! no block holds thousands of `let`s (each opens a scope nested in the last, which
-//! rustc's debug information walks recursively). `cargo run --release -p tests --example
+//! rustc's debug information walks recursively). Parenthesised subexpressions nest
+//! shallowly too: rustfmt's time grows exponentially with that nesting (a 20-deep sum
+//! took it over two minutes), and `stateforge-codegen` formats with rustfmt. `cargo run --release -p tests --example
 //! build_scale` measures what building such models costs.
 
 use syn::visit::Visit;
 use tests::scale::integrator_chain;
 
-/// The deepest expression nesting and the most statements in one block.
+/// The deepest expression nesting, the deepest nesting of parentheses, and the most
+/// statements in one block.
 #[derive(Default)]
 struct Shape {
     depth: usize,
     deepest: usize,
+    parens: usize,
+    deepest_parens: usize,
     longest_block: usize,
 }
 
 impl<'ast> Visit<'ast> for Shape {
     fn visit_expr(&mut self, e: &'ast syn::Expr) {
+        let paren = matches!(e, syn::Expr::Paren(_));
         self.depth += 1;
+        self.parens += usize::from(paren);
         self.deepest = self.deepest.max(self.depth);
+        self.deepest_parens = self.deepest_parens.max(self.parens);
         syn::visit::visit_expr(self, e);
+        self.parens -= usize::from(paren);
         self.depth -= 1;
     }
 
@@ -48,6 +57,16 @@ fn a_100_state_ekf_is_shallow_and_its_size_grows_with_the_covariance() {
         shape.deepest <= 64,
         "expressions nest {} deep",
         shape.deepest
+    );
+    // Balanced trees nest logarithmically: the constructor's finiteness test of the 5050
+    // covariance entries, halved 8 times, nests 10 parentheses deep, the step's probe of
+    // 200 terms summed pairwise 8. Summed one term after the other, the probe nested 24
+    // (the lowering names a part past 24 operations), and rustfmt did not finish the
+    // code of a 10-state chain in two minutes.
+    assert!(
+        shape.deepest_parens <= 12,
+        "parentheses nest {} deep",
+        shape.deepest_parens
     );
     assert!(
         shape.longest_block <= stateforge_compiler::emit::scopes::BLOCK_LEN + 8,

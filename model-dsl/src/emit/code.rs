@@ -260,9 +260,14 @@ pub fn reject_diverged(
                 }
             }
         });
+    // The probe is bound to a name (or a literal); anything else is parenthesised.
+    let receiver = match syn::parse2::<syn::Ident>(probe.clone()) {
+        Ok(name) => quote! { #name },
+        Err(_) => quote! { (#probe) },
+    };
     quote! {
         if !stateforge_math::#ty::within_divergence_bound(#probe) {
-            return if (#probe).is_finite() {
+            return if #receiver.is_finite() {
                 Status::Diverged
             } else {
                 Status::NonFinite

@@ -505,7 +505,7 @@ fn lower(
         scalar,
     );
     measurement::name_innovation(&mut lowerer, model, &nodes.innovation, "");
-    let probe = lowerer.segment(&[probe]).remove(0);
+    let probe = lowerer.bind(probe, "divergence_probe");
     let values = lowerer.segment(&results);
     lowerer.count_extra(OpCount::stores(values.len()));
     lowerer.count_extra(crate::emit::code::divergence_test_ops(n));

@@ -599,7 +599,7 @@ impl<'a> StepLowering<'a> {
         let namer = TempNamer::new(self.avoid.iter().map(String::as_str));
         let mut lowerer = Lowerer::new(&graph, self.scalar, namer, &all_roots);
         self.prepare(&mut lowerer, &stage);
-        let probe = lowerer.segment(&[probe]).remove(0);
+        let probe = lowerer.bind(probe, "divergence_probe");
         let values = lowerer.segment(&results);
         lowerer.count_extra(OpCount::stores(values.len()));
         lowerer.count_extra(crate::emit::code::divergence_test_ops(n));

@@ -283,7 +283,7 @@ fn predict_method(model: &Model, spec: &PolynomialKfSpec, scalar: Scalar) -> Tok
     for (&node, state) in x_pred.iter().zip(&model.states) {
         lowerer.prefer_name(node, &format!("{}_pred", state.name));
     }
-    let probe = lowerer.segment(&[probe]).remove(0);
+    let probe = lowerer.bind(probe, "divergence_probe");
     let values = lowerer.segment(&results);
     let statements = lowerer.finish().statements;
     let (x_values, p_values) = values.split_at(n);
@@ -507,7 +507,7 @@ fn recursive_step(
         &innovation_pivot_failure,
         scalar,
     );
-    let probe = lowerer.segment(&[probe]).remove(0);
+    let probe = lowerer.bind(probe, "divergence_probe");
     let values = lowerer.segment(&results);
     lowerer.count_extra(crate::emit::code::divergence_test_ops(n));
     let kept = measurement::Kept {
