@@ -3,8 +3,9 @@
 //! no block holds thousands of `let`s (each opens a scope nested in the last, which
 //! rustc's debug information walks recursively). Parenthesised subexpressions nest
 //! shallowly too: rustfmt's time grows exponentially with that nesting (a 20-deep sum
-//! took it over two minutes), and `stateforge-codegen` formats with rustfmt. `cargo run --release -p tests --example
-//! build_scale` measures what building such models costs.
+//! took it over two minutes), and `stateforge-codegen` formats with rustfmt.
+//! `cargo run --release -p tests --example build_scale` measures what building such models
+//! costs.
 
 use syn::visit::Visit;
 use tests::scale::integrator_chain;

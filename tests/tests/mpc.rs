@@ -307,21 +307,19 @@ fn every_solve_of_the_blade_run_is_the_qp_its_model_and_weight_define() {
         let expected = reference::box_qp(&h, &c, &[-limit; 10], &[limit; 10]);
         let plan = DVector::from_iterator(10, mpc.plan().iter().map(|u| u[0]));
         assert!(plan.iter().all(|u| u.abs() <= limit), "{k}: {plan}");
-        last_cut = !status.optimal;
-        if status.optimal {
-            worst = worst.max((&plan - &expected).amax());
-            continue;
-        }
         let kind = match status.rebuilt {
             demo::MpcRebuild::Nothing => 0,
             demo::MpcRebuild::Problem => 1,
             demo::MpcRebuild::ModelAndProblem => 2,
         };
-        assert_eq!(
-            status.iterations,
-            demo::Mpc::ITERATIONS_WITHIN_BUDGET[kind],
-            "{k}"
-        );
+        let bound = demo::Mpc::ITERATIONS_WITHIN_BUDGET[kind];
+        assert!(status.iterations <= bound, "{k}: {status:?}");
+        last_cut = !status.optimal;
+        if status.optimal {
+            worst = worst.max((&plan - &expected).amax());
+            continue;
+        }
+        assert_eq!(status.iterations, bound, "{k}");
         let cost = |v: &DVector<f64>| (v.transpose() * &h * v)[0] / 2.0 + c.dot(v);
         let gap = (cost(&plan) - cost(&expected)) / cost(&expected).abs();
         assert!(
@@ -337,6 +335,25 @@ fn every_solve_of_the_blade_run_is_the_qp_its_model_and_weight_define() {
          {worst_gap:.1e} above the minimum"
     );
     assert!(worst < 1e-6, "{worst:e} V");
+    // The budget is chosen to cut only the rare solve that rebuilds its model and then
+    // needs a third iteration; what it cuts stays close to the minimum.
+    assert!(cut.len() <= 3, "{} of 300 solves cut short", cut.len());
+    assert!(
+        worst_gap < 1e-3,
+        "a cut plan costs {worst_gap:e} above the minimum"
+    );
+}
+
+#[test]
+fn the_test_blade_is_the_demo_blade_without_its_budget() {
+    for inv_m in [2.0, 5.0, 50.0] {
+        let x = estimate(1e-3, 0.1, inv_m);
+        let ours = blade::Mpc::prediction_model(&x, &[0.0]).expect("finite");
+        let demo = demo::Mpc::prediction_model(&x, &[0.0]).expect("finite");
+        assert_eq!((ours.a, ours.b), (demo.a, demo.b), "1/m = {inv_m}");
+    }
+    assert_eq!(blade::Mpc::MODEL_TOLERANCE, demo::Mpc::MODEL_TOLERANCE);
+    assert_eq!(blade::Mpc::MAX_ITERATIONS, demo::Mpc::MAX_ITERATIONS);
 }
 
 #[test]

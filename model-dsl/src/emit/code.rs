@@ -260,7 +260,7 @@ pub fn reject_diverged(
                 }
             }
         });
-    // The probe is bound to a name (or a literal); anything else is parenthesised.
+    // The probe is bound to a name; anything else (a literal) is parenthesised.
     let receiver = match syn::parse2::<syn::Ident>(probe.clone()) {
         Ok(name) => quote! { #name },
         Err(_) => quote! { (#probe) },

@@ -152,6 +152,7 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         used: &linear.used,
         cache: &cache,
         terminal: &terminal,
+        budgeted: spec.iterations_within_budget.is_some(),
     };
     let solve = solve_method(model, &mg, &solve, (rebuild, plan), scalar);
     let methods = quote! {
@@ -248,6 +249,8 @@ struct SolveParts<'a> {
     used: &'a BTreeSet<VarId>,
     cache: &'a Cache,
     terminal: &'a Terminal,
+    /// Whether a cycle budget bounds the iterations (`ITERATIONS_WITHIN_BUDGET`).
+    budgeted: bool,
 }
 
 /// `fn solve`: the kept model, or the prediction model and `rebuild` (the terminal
@@ -289,14 +292,22 @@ fn solve_method(
     });
     let kept = Cache::kept();
     let unpack = parts.cache.unpack();
+    let bound = match parts.budgeted {
+        false => "`MAX_ITERATIONS` active-set iterations",
+        true => {
+            "the active-set iterations that `ITERATIONS_WITHIN_BUDGET` allows after what it rebuilt"
+        }
+    };
+    let doc = doc_attributes(&format!(
+        "Recomputes the plan for the estimate `x`: the prediction model at `x` (and the \
+         operating input `u`), kept from the last solve while the values it reads stay \
+         within `MODEL_TOLERANCE` of those it was built at; unless the terminal weight had \
+         converged on that kept model, `RICCATI_ITERATIONS` Riccati steps from the last \
+         terminal weight and the condensed Hessian (eqs. 42-43); then the linear term (eq. \
+         44) at `x` and at most {bound}, from the last plan shifted by one move. Leaves the controller unchanged unless the status is [`Status::Ok`]."
+    ));
     quote! {
-        /// Recomputes the plan for the estimate `x`: the prediction model at `x` (and
-        /// the operating input `u`), kept from the last solve while the values it reads
-        /// stay within `MODEL_TOLERANCE` of those it was built at; unless the terminal
-        /// weight had converged on that kept model, `RICCATI_ITERATIONS` Riccati steps
-        /// from the last terminal weight and the condensed Hessian (eqs. 42-43); then the
-        /// linear term (eq. 44) at `x` and at most `MAX_ITERATIONS` active-set iterations
-        /// from the last plan, shifted by one move. Leaves the controller unchanged unless the status is [`Status::Ok`].
+        #doc
         pub fn solve(&mut self, #time x: &[#ty; #n], u: &[#ty; #m]) -> MpcStatus {
             #reuse_test
             let (model_key, model, (terminal_weight, terminal_gain, terminal_weight_converged, terminal_weight_settled), hessian, weighted) = if reuse {

@@ -152,7 +152,7 @@ impl Generator for MpcSpec {
         let mut spec = self.clone();
         if let Some(budget) = self.cycle_budget {
             // The bound is of the microcontroller's `f32` code; the `f64` code takes the
-            // same iterations, so the host runs what the target does.
+            // same bounds, so a host run is limited as the target's is.
             let ops = lower::emit_mpc(model, self, mg, Scalar::F32).ops;
             let limits = iterations_within(&ops, self.max_iterations, budget, &CORTEX_M4F)?;
             spec.iterations_within_budget = Some(limits);
@@ -175,7 +175,7 @@ impl Lowering for MpcSpec {
         let limits = self
             .iterations_within_budget
             .unwrap_or([self.max_iterations; 3]);
-        let worst = ops.worst(limits);
+        let worst = ops.worst(limits, &CORTEX_M4F);
         let worst_what = match self.iterations_within_budget {
             None => "Mpc::solve at its worst (the model and problem rebuilt, every iteration run)",
             Some(_) => {
