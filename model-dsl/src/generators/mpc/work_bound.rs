@@ -5,8 +5,8 @@
 //! kind of solve may take as many iterations as keep its static estimate within the
 //! budget; a solve that reaches its bound stops with `optimal = false` and the best
 //! feasible plan found, which the primal active-set method guarantees (its iterates stay
-//! within the bounds and never raise the cost), and the next solve, warm-started from
-//! that plan, goes on from there.
+//! within the bounds and never raise the cost); the next solve is warm-started from that
+//! plan, shifted by one move.
 
 use crate::emit::lower::OpCount;
 use crate::timing::Target;
