@@ -41,3 +41,4 @@ include!("../models/helicopter.rs");
 include!("../models/beam_two_actuators.rs");
 include!("../models/duffing_beam.rs");
 include!("../models/cantilever_long_window.rs");
+include!("../models/navigation.rs");

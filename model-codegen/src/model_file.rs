@@ -38,8 +38,8 @@ use serde::de::{Deserializer, IgnoredAny, MapAccess, SeqAccess, Unexpected, Visi
 use serde::Deserialize;
 use stateforge_compiler::ast::{
     ArgValue, BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg,
-    GenerateDecl, ModelDecl, Name, OutputDecl, Statement, SurfaceExpr, SurfaceKind, SymbolDecl,
-    SymbolKind,
+    GenerateDecl, ModelDecl, Name, OutputDecl, SensorDecl, Statement, SurfaceExpr, SurfaceKind,
+    SymbolDecl, SymbolKind,
 };
 use stateforge_compiler::diagnostics::Diagnostics;
 use std::fmt;
@@ -68,6 +68,9 @@ struct ModelFile {
     known: Vec<Symbol>,
     #[serde(default, rename = "output")]
     outputs: Vec<Entry>,
+    /// `[[sensor]] name = "gnss", outputs = ["gnss_pn", "gnss_pe"]`.
+    #[serde(default, rename = "sensor")]
+    sensors: Vec<Sensor>,
     dynamics: Option<Dynamics>,
     /// `ekf = true`, `dkf = { eta = 0.5 }`, `lqr = { horizon = 50, states = ["x1"], input = "u" }`.
     generate: Option<InFileOrder<Spanned<Generator>>>,
@@ -135,6 +138,16 @@ impl<'de> Deserialize<'de> for OneOrMany {
 #[serde(deny_unknown_fields)]
 struct Symbol {
     name: Spanned<String>,
+    #[serde(default)]
+    doc: String,
+}
+
+/// Outputs measured together by one sensor, listed by name.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Sensor {
+    name: Spanned<String>,
+    outputs: Vec<Spanned<String>>,
     #[serde(default)]
     doc: String,
 }
@@ -517,6 +530,15 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
             ),
         })
         .collect();
+    let sensors = file
+        .sensors
+        .iter()
+        .map(|s| SensorDecl {
+            docs: docs(&s.doc),
+            name: name(&s.name),
+            outputs: s.outputs.iter().map(name).collect(),
+        })
+        .collect();
     let dynamics = file
         .dynamics
         .iter()
@@ -579,6 +601,7 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
         constants,
         symbols,
         outputs,
+        sensors,
         dynamics,
         generate: generate_items(file.generate.as_ref(), source, &places, &mut diag),
     };

@@ -33,6 +33,8 @@ pub struct ModelDecl {
     pub symbols: Vec<SymbolDecl>,
     /// Measured outputs in declaration order.
     pub outputs: Vec<OutputDecl>,
+    /// Sensors: named groups of outputs measured together, in declaration order.
+    pub sensors: Vec<SensorDecl>,
     /// Dynamics blocks; a valid model has exactly one.
     pub dynamics: Vec<DynamicsDecl>,
     /// What to generate besides the model functions: `generate ekf, dkf(eta = 0.5);`.
@@ -128,6 +130,18 @@ pub struct OutputDecl {
     pub name: Name,
     /// What is measured.
     pub expr: SurfaceExpr,
+}
+
+/// `sensor gnss = [gnss_pn, gnss_pe];`: outputs sampled together by one sensor, which a
+/// filter corrects with in one update of their own (`update_gnss`).
+#[derive(Clone, Debug)]
+pub struct SensorDecl {
+    /// Doc comment lines.
+    pub docs: Vec<String>,
+    /// The sensor's name.
+    pub name: Name,
+    /// The outputs it measures, as written.
+    pub outputs: Vec<Name>,
 }
 
 /// How a dynamics block relates the next state to the current one.

@@ -27,6 +27,9 @@ pub struct Model {
     pub known: Vec<Symbol>,
     /// Outputs `y = h(x, u)`.
     pub outputs: Vec<Output>,
+    /// Sensors: disjoint groups of outputs measured together, each corrected with in an
+    /// update of its own.
+    pub sensors: Vec<Sensor>,
     /// The dynamics of the physical states.
     pub dynamics: Dynamics,
     /// Named intermediates of the dynamics block, referenced by [`Expr::Local`].
@@ -81,6 +84,19 @@ pub struct Output {
     pub name: String,
     /// The measurement.
     pub expr: Expr,
+}
+
+/// Outputs sampled together by one sensor (a GNSS receiver's position and velocity, a
+/// magnetometer's three axes).
+#[derive(Clone, Debug)]
+pub struct Sensor {
+    /// Doc comment lines.
+    pub docs: Vec<String>,
+    /// Name as declared: the EKF's `update_<name>`.
+    pub name: String,
+    /// Indices of its outputs in [`Model::outputs`], in the order written: the order of
+    /// the measurement its update takes.
+    pub outputs: Vec<usize>,
 }
 
 /// A named intermediate of the dynamics block.

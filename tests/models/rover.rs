@@ -1,7 +1,8 @@
 stateforge::model! {
     /// A planar rover (test model of the language's functions): position, heading and
     /// speed with an unknown drag, a steering input saturated at its stop and a throttle
-    /// that only pushes; the bearing and the range of a beacon at the origin are measured.
+    /// that only pushes; the bearing and the range of a beacon at the origin are measured,
+    /// together, by one sensor.
     pub mod rover {
         scalar f32, f64;
         /// Sample time [s].
@@ -20,6 +21,8 @@ stateforge::model! {
             bearing = atan2(py, px),
             /// range of the rover from the beacon [m]
             range = sqrt(px * px + py * py);
+        /// the beacon's direction finder, which measures both at once
+        sensor beacon = [bearing, range];
         dynamics discrete {
             let delta = clamp(steer, -STEER_MAX, STEER_MAX);
             let push = throttle.max(0.0);

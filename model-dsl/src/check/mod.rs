@@ -7,6 +7,7 @@ mod dynamics;
 mod expr;
 mod generate;
 mod names;
+mod sensors;
 
 use crate::ast::{ModelDecl, SymbolKind};
 use crate::diagnostics::Diagnostics;
@@ -20,6 +21,7 @@ use names::{
     check_case_collisions, check_identifier, check_name_allowed, declare, duplicate_error,
 };
 use proc_macro2::Span;
+use sensors::check_sensors;
 
 /// A checked model and the generators it asks for, with their options checked.
 #[derive(Debug)]
@@ -52,6 +54,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Checked> {
     let constants = check_constants(decl, &mut scope, &mut diag);
     let symbols = check_symbols(decl, &mut scope, &mut diag);
     let outputs = check_outputs(decl, &scope, &mut diag);
+    let sensors = check_sensors(decl, &mut diag);
     let mut locals = Vec::new();
     let dynamics = match decl.dynamics.as_slice() {
         [] => {
@@ -96,6 +99,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Checked> {
         inputs: symbols.inputs,
         known: symbols.known,
         outputs,
+        sensors,
         dynamics,
         locals,
     };

@@ -515,6 +515,7 @@ fn lower(
         covariance: &nodes.innovation_covariance,
         nis: nodes.nis,
         gated: nodes.gated,
+        gate_prefix: "",
         keep_prediction: (kind.predicts()).then(|| measurement::keep_prediction_call(model)),
     };
     let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);

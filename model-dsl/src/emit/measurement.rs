@@ -32,7 +32,11 @@ pub fn fields(model: &Model, gate: Option<f64>, ty: &proc_macro2::Ident) -> Toke
 /// `{prefix}innovation` and `{prefix}innovation_covariance` (packed), each followed by a
 /// comma: the last measurement's innovation as one filter of the type saw it.
 pub fn innovation_fields(model: &Model, prefix: &str, ty: &proc_macro2::Ident) -> TokenStream {
-    let m = model.outputs.len();
+    innovation_fields_of(model.outputs.len(), prefix, ty)
+}
+
+/// [`innovation_fields`] for `m` outputs (a sensor's).
+pub fn innovation_fields_of(m: usize, prefix: &str, ty: &proc_macro2::Ident) -> TokenStream {
     let (m_len, mp) = (
         proc_macro2::Literal::usize_unsuffixed(m),
         proc_macro2::Literal::usize_unsuffixed(packed_len(m)),
@@ -68,14 +72,24 @@ pub fn initial_values(model: &Model, gate: Option<f64>, scalar: Scalar) -> Token
 /// `gate: <generated>,` (opened no further than the divergence bound), or nothing.
 pub fn gate_initial_value(gate: Option<f64>, scalar: Scalar) -> Option<TokenStream> {
     gate.map(|gate| {
-        let value = crate::emit::lower::literal(gate.min(DIVERGENCE_NIS), scalar);
+        let value = crate::emit::lower::literal(opened_at_most(gate), scalar);
         quote! { gate: #value, }
     })
 }
 
+/// A generated gate as it is stored: opened no further than the divergence bound.
+pub fn opened_at_most(gate: f64) -> f64 {
+    gate.min(DIVERGENCE_NIS)
+}
+
 /// The initial values of [`innovation_fields`], each followed by a comma.
 pub fn cleared_values(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream {
-    let (innovation, covariance) = cleared(model, scalar);
+    cleared_values_of(model.outputs.len(), prefix, scalar)
+}
+
+/// [`cleared_values`] for `m` outputs (a sensor's).
+pub fn cleared_values_of(m: usize, prefix: &str, scalar: Scalar) -> TokenStream {
+    let (innovation, covariance) = cleared(m, scalar);
     let (innovation_field, covariance_field) = field_names(prefix);
     quote! {
         #innovation_field: #innovation,
@@ -85,7 +99,12 @@ pub fn cleared_values(model: &Model, prefix: &str, scalar: Scalar) -> TokenStrea
 
 /// `self.{prefix}innovation = ..; ..`: clears the innovation as `reset` does.
 pub fn clear_innovation(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream {
-    let (innovation, covariance) = cleared(model, scalar);
+    clear_innovation_of(model.outputs.len(), prefix, scalar)
+}
+
+/// [`clear_innovation`] for `m` outputs (a sensor's).
+pub fn clear_innovation_of(m: usize, prefix: &str, scalar: Scalar) -> TokenStream {
+    let (innovation, covariance) = cleared(m, scalar);
     let (innovation_field, covariance_field) = field_names(prefix);
     quote! {
         self.#innovation_field = #innovation;
@@ -95,22 +114,23 @@ pub fn clear_innovation(model: &Model, prefix: &str, scalar: Scalar) -> TokenStr
 
 /// The innovation and its packed covariance before any measurement, and after `reset`: a
 /// zero innovation of unit covariance, whose normalised square is 0.
-fn cleared(model: &Model, scalar: Scalar) -> (TokenStream, TokenStream) {
-    let m = model.outputs.len();
+fn cleared(m: usize, scalar: Scalar) -> (TokenStream, TokenStream) {
     let zero = crate::emit::lower::literal(0.0, scalar);
     let m_len = proc_macro2::Literal::usize_unsuffixed(m);
     (quote! { [#zero; #m_len] }, packed_identity(m, scalar))
 }
 
-/// The methods of the stage: `reset`, `innovation`, `normalised_innovation_squared`, and
-/// with a gate its getter and setter and the step's cold answer to an outlier.
+/// The methods of the stage: `reset` (which also runs `also_cleared`, the clearing of
+/// other stored innovations: the EKF's sensors'), `innovation`,
+/// `normalised_innovation_squared`, and with a gate its getter and setter and the step's
+/// cold answer to an outlier.
 pub fn methods(
     model: &Model,
     layout: &FilterLayout,
-    gate: Option<f64>,
+    (gate, also_cleared): (Option<f64>, &TokenStream),
     scalar: Scalar,
 ) -> TokenStream {
-    let reset = reset_method(model, layout, scalar);
+    let reset = reset_method(model, layout, also_cleared, scalar);
     let innovation = accessors(model, "", scalar);
     let gate_methods = gate_methods(model, gate, scalar);
     quote! {
@@ -127,7 +147,7 @@ pub fn methods(
 pub fn gate_methods(model: &Model, gate: Option<f64>, scalar: Scalar) -> Option<TokenStream> {
     let ty = ident(scalar.type_name());
     gate.map(|gate| {
-        let accessors = gate_items(gate, &ty, scalar);
+        let accessors = gate_items(gate, scalar);
         let keeper = prediction_keeper(model, &ty);
         let keep = keep_prediction_method(model, &keeper, "", &ty);
         quote! { #accessors #keep }
@@ -154,8 +174,21 @@ pub fn gate_doc_attribute(gate: Option<f64>) -> Option<TokenStream> {
 /// Names the innovation's entries `<output>_innovation{suffix}` (`_bar` for the DKF's
 /// AKF), before the update uses them.
 pub fn name_innovation(lowerer: &mut Lowerer, model: &Model, innovation: &[NodeId], suffix: &str) {
-    for (&r, o) in innovation.iter().zip(&model.outputs) {
-        lowerer.prefer_name(r, &format!("{}_innovation{suffix}", o.name));
+    let all: Vec<usize> = (0..model.outputs.len()).collect();
+    name_innovation_of(lowerer, model, &all, innovation, suffix);
+}
+
+/// [`name_innovation`] for the innovation of `outputs` alone (a sensor's).
+pub fn name_innovation_of(
+    lowerer: &mut Lowerer,
+    model: &Model,
+    outputs: &[usize],
+    innovation: &[NodeId],
+    suffix: &str,
+) {
+    for (&r, &i) in innovation.iter().zip(outputs) {
+        let name = &model.outputs[i].name;
+        lowerer.prefer_name(r, &format!("{name}_innovation{suffix}"));
     }
 }
 
@@ -176,6 +209,9 @@ pub struct Kept<'a> {
     /// Whether the filter has an innovation gate: the NIS is tested against it, else
     /// against the divergence bound, `DIVERGENCE_NIS`.
     pub gated: bool,
+    /// The prefix of the gate's field: empty for the filter's `gate`, `gnss_` for a
+    /// sensor's own `gnss_gate`.
+    pub gate_prefix: &'a str,
     /// In a step (a prediction and the correction), the cold method that keeps the
     /// prediction when the gate rejects an outlier, and the arguments before the innovation
     /// it is passed; `None` in an update, which keeps the estimate it had.
@@ -208,8 +244,9 @@ pub fn store_and_gate(lowerer: &mut Lowerer, kept: &Kept<'_>) -> TokenStream {
             }
         });
         let rejection = outlier_rejection(keep_prediction, &store);
+        let gate = ident(&format!("{}gate", kept.gate_prefix));
         quote! {
-            if !stateforge_math::#ty::within_gate(#nis, self.gate) {
+            if !stateforge_math::#ty::within_gate(#nis, self.#gate) {
                 #rejection
             }
         }
@@ -229,7 +266,12 @@ pub fn store_and_gate(lowerer: &mut Lowerer, kept: &Kept<'_>) -> TokenStream {
 }
 
 /// `reset(x0, p0)`: starting again, the innovation cleared.
-fn reset_method(model: &Model, layout: &FilterLayout, scalar: Scalar) -> TokenStream {
+fn reset_method(
+    model: &Model,
+    layout: &FilterLayout,
+    also_cleared: &TokenStream,
+    scalar: Scalar,
+) -> TokenStream {
     let clear = clear_innovation(model, "", scalar);
     let mut arguments = Arguments::default();
     let p0 = layout.initial_estimate(&mut arguments);
@@ -249,6 +291,7 @@ fn reset_method(model: &Model, layout: &FilterLayout, scalar: Scalar) -> TokenSt
             self.x = *x0;
             self.p = [#(#p0),*];
             #clear
+            #also_cleared
             Status::Ok
         },
     )
@@ -257,16 +300,42 @@ fn reset_method(model: &Model, layout: &FilterLayout, scalar: Scalar) -> TokenSt
 /// `{prefix}innovation` and `{prefix}normalised_innovation_squared`: what the last
 /// measurement said to the filter whose fields carry `prefix`.
 pub fn accessors(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream {
+    let all: Vec<usize> = (0..model.outputs.len()).collect();
+    let measured = Measured {
+        outputs: &all,
+        prefix,
+        of: &filter_phrase(prefix),
+        len_doc: "`Y_LEN`",
+    };
+    accessors_of(model, &measured, scalar)
+}
+
+/// Whose innovation a set of fields holds: a filter's, of every output, or a sensor's, of
+/// its own.
+pub struct Measured<'a> {
+    /// The outputs, in the order the innovation stores them.
+    pub outputs: &'a [usize],
+    /// The prefix of the fields and accessors (`akf_`, `gnss_`), or empty.
+    pub prefix: &'a str,
+    /// Whose measurement the documentation speaks of (` by the AKF`, ` of the sensor
+    /// `gnss``), or empty.
+    pub of: &'a str,
+    /// How many outputs, as the documentation says it (`` `Y_LEN` ``, `6`).
+    pub len_doc: &'a str,
+}
+
+/// [`accessors`] of the outputs and fields `measured` gives.
+pub fn accessors_of(model: &Model, measured: &Measured<'_>, scalar: Scalar) -> TokenStream {
     let ty = ident(scalar.type_name());
-    let m_len = proc_macro2::Literal::usize_unsuffixed(model.outputs.len());
-    let (field, _) = field_names(prefix);
-    let of = filter_phrase(prefix);
+    let m_len = proc_macro2::Literal::usize_unsuffixed(measured.outputs.len());
+    let (field, _) = field_names(measured.prefix);
+    let of = measured.of;
     let doc = format!(
         " The innovation `y - h(x)` of the last measurement used or rejected{of}: what the \
          measurement said that the prediction did not."
     );
     let doc = crate::emit::code::doc_attributes(&doc);
-    let nis_method = nis_method(model, prefix, scalar);
+    let nis_method = nis_method(model, measured, scalar);
     quote! {
         #doc
         #[must_use]
@@ -298,14 +367,17 @@ fn packed_identity(m: usize, scalar: Scalar) -> TokenStream {
 /// `fn normalised_innovation_squared(&self)`: `r' S^-1 r` from the stored innovation `r`
 /// and its covariance `S`, through the same guarded `L D L'` inverse as the update. Computed
 /// when asked, so a step that does not gate pays only for storing `S`.
-fn nis_method(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream {
-    let m = model.outputs.len();
+fn nis_method(model: &Model, measured: &Measured<'_>, scalar: Scalar) -> TokenStream {
+    let (m, prefix) = (measured.outputs.len(), measured.prefix);
     let mut graph = Graph::new();
     let avoid = model_names(model);
-    let innovation: Vec<NodeId> = model
+    let innovation: Vec<NodeId> = measured
         .outputs
         .iter()
-        .map(|o| graph.var(&unclaimed_name(format!("{}_innovation", o.name), &avoid)))
+        .map(|&i| {
+            let name = format!("{}_innovation", model.outputs[i].name);
+            graph.var(&unclaimed_name(name, &avoid))
+        })
         .collect();
     let s_vars = packed_vars(&mut graph, "s", m, &avoid);
     let s = symmetric_from_packed(&s_vars, m);
@@ -338,9 +410,9 @@ fn nis_method(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream {
         " The normalised innovation squared `r' S^-1 r` of the last measurement used \
          or rejected{} (`r` its innovation, `S` the innovation covariance). While the \
          model and noise levels are right it is chi-square distributed with as many \
-         degrees of freedom as measurements (mean `Y_LEN`); a run of large values says \
+         degrees of freedom as measurements (mean {}); a run of large values says \
          the model, the tuning or the sensor is wrong. 0 before the first measurement.",
-        filter_phrase(prefix)
+        measured.of, measured.len_doc
     );
     let doc = crate::emit::code::doc_attributes(&doc);
     let name = ident(&format!("{prefix}normalised_innovation_squared"));
@@ -355,7 +427,20 @@ fn nis_method(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream {
 }
 
 /// The innovation gate's getter and setter; `gate` is its generated value.
-pub fn gate_items(gate: f64, ty: &proc_macro2::Ident, scalar: Scalar) -> TokenStream {
+pub fn gate_items(gate: f64, scalar: Scalar) -> TokenStream {
+    let setter_doc = " Sets the innovation gate (a chi-square quantile for `Y_LEN` degrees \
+        of freedom: 10.83 rejects one in a thousand consistent scalar measurements). One gate \
+        serves every update of the filter but a sensor's: where it has updates with fewer \
+        outputs (the EKF's `update_<output>`), they are judged by the same threshold, so they \
+        reject less often than their own quantile would.";
+    gate_items_of(gate, "", setter_doc, scalar)
+}
+
+/// The getter and setter of the gate in the field `{prefix}gate`:
+/// `{prefix}innovation_gate` and `set_{prefix}innovation_gate`, whose documentation begins
+/// with `setter_doc`.
+pub fn gate_items_of(gate: f64, prefix: &str, setter_doc: &str, scalar: Scalar) -> TokenStream {
+    let ty = ident(scalar.type_name());
     let zero = crate::emit::lower::literal(0.0, scalar);
     let generated = if gate < DIVERGENCE_NIS {
         format!("{gate}")
@@ -366,24 +451,25 @@ pub fn gate_items(gate: f64, ty: &proc_macro2::Ident, scalar: Scalar) -> TokenSt
         " The innovation gate: a measurement whose normalised innovation squared exceeds it \
          is rejected ([`Status::OutlierRejected`]). Generated {generated}."
     );
+    let setter_doc = crate::emit::code::doc_attributes(&format!(
+        "{setter_doc} The gate opens no further than the divergence bound, \
+         `stateforge_math`'s `DIVERGENCE_NIS` (1e8): a larger threshold, infinity included, \
+         sets that. Rejects a threshold that is not positive, leaving the gate as it was."
+    ));
+    let field = ident(&format!("{prefix}gate"));
+    let getter = ident(&format!("{prefix}innovation_gate"));
+    let setter = ident(&format!("set_{prefix}innovation_gate"));
     quote! {
         #[doc = #doc]
         #[must_use]
-        pub fn innovation_gate(&self) -> #ty {
-            self.gate
+        pub fn #getter(&self) -> #ty {
+            self.#field
         }
 
-        /// Sets the innovation gate (a chi-square quantile for `Y_LEN` degrees of freedom:
-        /// 10.83 rejects one in a thousand consistent scalar measurements). One gate
-        /// serves every update of the filter: where it has updates with fewer outputs (the
-        /// EKF's `update_<output>`), they are judged by the same threshold, so they reject
-        /// less often than their own quantile would. The gate opens no further than the divergence
-        /// bound, `stateforge_math`'s `DIVERGENCE_NIS` (1e8): a larger threshold, infinity
-        /// included, sets that. Rejects a threshold that is not positive, leaving the gate
-        /// as it was.
-        pub fn set_innovation_gate(&mut self, threshold: #ty) -> Status {
+        #setter_doc
+        pub fn #setter(&mut self, threshold: #ty) -> Status {
             if threshold > #zero {
-                self.gate = if threshold < stateforge_math::#ty::DIVERGENCE_NIS {
+                self.#field = if threshold < stateforge_math::#ty::DIVERGENCE_NIS {
                     threshold
                 } else {
                     stateforge_math::#ty::DIVERGENCE_NIS

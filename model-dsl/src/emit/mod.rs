@@ -14,6 +14,7 @@ pub mod module_items;
 pub mod names;
 pub mod registers;
 pub mod scopes;
+pub mod sensors;
 pub mod status;
 pub mod substeps;
 pub mod tuning;

@@ -6,6 +6,7 @@
 //!                     | 'const' IDENT '=' expr ';'
 //!                     | ('state' | 'param' | 'input' | 'known') (doc* IDENT),+ ';'
 //!                     | 'output' (doc* IDENT '=' expr),+ ';'
+//!                     | 'sensor' IDENT '=' '[' IDENT,+ ']' ';'
 //!                     | 'dynamics' ('discrete' | 'continuous' ['(' method [',' 'dt' '=' expr] [',' 'substeps' '=' INT] ')'])
 //!                       '{' (('let' IDENT | IDENT | 'der' '(' IDENT ')') '=' expr ';')* '}'
 //!                     | 'generate' (IDENT ['(' (IDENT '=' (number | IDENT | '[' IDENT,* ']' | '[' number,* ']')),* ')']),+ ';' )
@@ -16,8 +17,8 @@
 
 use crate::ast::{
     ArgValue, BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg,
-    GenerateDecl, ModelDecl, Name, OutputDecl, Statement, SurfaceExpr, SurfaceKind, SymbolDecl,
-    SymbolKind,
+    GenerateDecl, ModelDecl, Name, OutputDecl, SensorDecl, Statement, SurfaceExpr, SurfaceKind,
+    SymbolDecl, SymbolKind,
 };
 use crate::diagnostics::Diagnostics;
 use proc_macro2::{Span, TokenStream};
@@ -33,6 +34,7 @@ mod kw {
     syn::custom_keyword!(input);
     syn::custom_keyword!(known);
     syn::custom_keyword!(output);
+    syn::custom_keyword!(sensor);
     syn::custom_keyword!(dynamics);
     syn::custom_keyword!(discrete);
     syn::custom_keyword!(continuous);
@@ -76,6 +78,7 @@ fn parse_decl(input: ParseStream, diag: &mut Diagnostics) -> syn::Result<ModelDe
         constants: Vec::new(),
         symbols: Vec::new(),
         outputs: Vec::new(),
+        sensors: Vec::new(),
         dynamics: Vec::new(),
         generate: Vec::new(),
     };
@@ -103,6 +106,9 @@ fn parse_item(input: ParseStream, decl: &mut ModelDecl, diag: &mut Diagnostics) 
     } else if look.peek(kw::output) {
         let outputs = parse_outputs(input, &docs, diag)?;
         decl.outputs.extend(outputs);
+    } else if look.peek(kw::sensor) {
+        let sensor = parse_sensor(input, docs)?;
+        decl.sensors.push(sensor);
     } else if look.peek(kw::dynamics) {
         let dynamics = parse_dynamics(input, diag)?;
         decl.dynamics.push(dynamics);
@@ -209,6 +215,22 @@ fn parse_outputs(
         }
     });
     Ok(outputs.collect())
+}
+
+/// `sensor gnss = [gnss_pn, gnss_pe];`: outputs measured together, by name.
+fn parse_sensor(input: ParseStream, docs: Vec<String>) -> syn::Result<SensorDecl> {
+    input.parse::<kw::sensor>()?;
+    let sensor = name(&input.parse::<Ident>()?);
+    input.parse::<Token![=]>()?;
+    let content;
+    syn::bracketed!(content in input);
+    let outputs = content.parse_terminated(Ident::parse, Token![,])?;
+    input.parse::<Token![;]>()?;
+    Ok(SensorDecl {
+        docs,
+        name: sensor,
+        outputs: outputs.iter().map(name).collect(),
+    })
 }
 
 /// `dynamics discrete { .. }` or `dynamics continuous(..) { .. }`.

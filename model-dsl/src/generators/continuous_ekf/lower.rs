@@ -49,7 +49,8 @@ pub fn emit_continuous_ekf(
     let fields = layout.fields();
     let measurement_fields = measurement::fields(model, spec.gate, &ty);
     let measurement_init = measurement::initial_values(model, spec.gate, scalar);
-    let measurement_methods = measurement::methods(model, &layout, spec.gate, scalar);
+    let measurement_methods =
+        measurement::methods(model, &layout, (spec.gate, &TokenStream::new()), scalar);
     let FilterLayout {
         accessors, setters, ..
     } = &layout;

@@ -669,6 +669,7 @@ impl<'a> StepLowering<'a> {
             covariance,
             nis: Some(*nis),
             gated: self.gate.is_some(),
+            gate_prefix: "",
             keep_prediction: Some((stage.filter.keeper(), stage.prediction_args.clone())),
         };
         measurement::store_and_gate(lowerer, &kept)

@@ -399,7 +399,7 @@ impl DkfType {
         ];
         let gate = self
             .gate
-            .map(|gate| measurement::gate_items(gate, ty, self.scalar));
+            .map(|gate| measurement::gate_items(gate, self.scalar));
         quote! {
             #reset
             #(#accessors)*

@@ -15,6 +15,7 @@ use crate::emit::filter::{
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::measurement;
 use crate::emit::names::{ident, TempNamer};
+use crate::emit::sensors;
 use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
 use crate::symbolic::linalg::{packed_upper, symmetric_from_packed, Matrix};
@@ -33,6 +34,8 @@ pub struct EkfCode {
     pub update_ops: OpCount,
     /// Arithmetic of `step`.
     pub step_ops: OpCount,
+    /// Arithmetic of each sensor's update, with the method's name (`update_gnss`).
+    pub sensor_update_ops: Vec<(String, OpCount)>,
 }
 
 /// The EKF of `model` in `scalar`.
@@ -40,14 +43,17 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
     let (predict, predict_ops) = method(model, mg, scalar, EkfMethod::Predict, spec);
     let (update, update_ops) = method(model, mg, scalar, EkfMethod::Update, spec);
     let (step, step_ops) = method(model, mg, scalar, EkfMethod::Step, spec);
-    // Several outputs: an update per output as well, for sensors at different rates.
-    let partial_updates: Vec<TokenStream> = if model.outputs.len() > 1 {
-        (0..model.outputs.len())
-            .map(|j| method(model, mg, scalar, EkfMethod::UpdateOutput(j), spec).0)
-            .collect()
-    } else {
-        Vec::new()
-    };
+    let mut sensor_update_ops = Vec::new();
+    let partial_updates: Vec<TokenStream> = partial_updates(model)
+        .into_iter()
+        .map(|kind| {
+            let (tokens, ops) = method(model, mg, scalar, kind, spec);
+            if let Some(sensor) = kind.sensor(model) {
+                sensor_update_ops.push((format!("update_{}", sensor.name), ops));
+            }
+            tokens
+        })
+        .collect();
     let ty = ident(scalar.type_name());
     let layout = FilterLayout::new(model, spec.diagonal_noise, &ty);
     let methods = quote! {
@@ -64,7 +70,20 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
         predict_ops,
         update_ops,
         step_ops,
+        sensor_update_ops,
     }
+}
+
+/// The updates with some of the outputs, for sensors sampled at different rates: one per
+/// declared sensor, with its outputs, and, in a model of several outputs, one per output
+/// that no sensor measures.
+fn partial_updates(model: &Model) -> Vec<EkfMethod> {
+    let sensors = (0..model.sensors.len()).map(EkfMethod::UpdateSensor);
+    let in_sensor = |j: &usize| model.sensors.iter().any(|s| s.outputs.contains(j));
+    let alone = (0..model.outputs.len())
+        .filter(|j| model.outputs.len() > 1 && !in_sensor(j))
+        .map(EkfMethod::UpdateOutput);
+    sensors.chain(alone).collect()
 }
 
 /// The filter's type: the struct (estimate, covariance, noise, the last innovation and
@@ -89,8 +108,12 @@ fn ekf_type(
     let (type_doc, convention_doc) = type_doc(spec);
     let fields = layout.fields();
     let measurement_fields = measurement::fields(model, spec.gate, ty);
+    let sensor_fields = sensors::fields(model, spec.gate, ty);
     let constructor = constructor_tokens(spec, layout, model, scalar, &known);
-    let measurement_methods = measurement::methods(model, layout, spec.gate, scalar);
+    let clear_sensors = sensors::clear(model, scalar);
+    let measurement_methods =
+        measurement::methods(model, layout, (spec.gate, &clear_sensors), scalar);
+    let sensor_methods = sensors::methods(model, spec.gate, scalar);
     quote! {
         #[doc = #type_doc]
         ///
@@ -99,6 +122,7 @@ fn ekf_type(
         pub struct #type_name {
             #fields
             #measurement_fields
+            #sensor_fields
             #known_field
         }
 
@@ -106,6 +130,8 @@ fn ekf_type(
             #constructor
 
             #measurement_methods
+
+            #sensor_methods
 
             #accessors
 
@@ -136,11 +162,13 @@ fn constructor_tokens(
          covariance `q` and the measurement noise covariance `r`. The matrices must \
          be covariances (symmetric, positive semi-definite): both are checked."
     };
+    let measurement = measurement::initial_values(model, spec.gate, scalar);
+    let sensors = sensors::initial_values(model, spec.gate, scalar);
     layout.constructor(
         &ident(&spec.type_name),
         &quote! { #[doc = #new_doc] },
         known,
-        &measurement::initial_values(model, spec.gate, scalar),
+        &quote! { #measurement #sensors },
     )
 }
 
@@ -172,6 +200,9 @@ enum EkfMethod {
     Step,
     /// The correction with one output alone (a sensor of its own rate).
     UpdateOutput(usize),
+    /// The correction with a declared sensor's outputs (`Model::sensors[s]`), storing its
+    /// innovation in the sensor's own fields and judging it by the sensor's own gate.
+    UpdateSensor(usize),
 }
 
 impl EkfMethod {
@@ -185,17 +216,34 @@ impl EkfMethod {
         self != EkfMethod::Predict
     }
 
-    /// The outputs this method corrects with: one for a partial update, else all.
-    fn outputs(self, m: usize) -> Vec<usize> {
+    /// The outputs this method corrects with: one or a sensor's for a partial update,
+    /// else all.
+    fn outputs(self, model: &Model) -> Vec<usize> {
         match self {
             EkfMethod::UpdateOutput(j) => vec![j],
-            _ => (0..m).collect(),
+            EkfMethod::UpdateSensor(s) => model.sensors[s].outputs.clone(),
+            _ => (0..model.outputs.len()).collect(),
+        }
+    }
+
+    /// The sensor whose own fields and gate the method uses, if it is a sensor's update.
+    fn sensor(self, model: &Model) -> Option<&crate::model::Sensor> {
+        match self {
+            EkfMethod::UpdateSensor(s) => Some(&model.sensors[s]),
+            _ => None,
         }
     }
 
     /// The method's name and documentation.
     fn name_and_doc(self, model: &Model, spec: &EkfSpec) -> (proc_macro2::Ident, String) {
         let (name, doc) = match self {
+            EkfMethod::UpdateSensor(s) => {
+                let sensor = &model.sensors[s];
+                return (
+                    ident(&format!("update_{}", sensor.name)),
+                    sensor_update_doc(model, sensor, spec) + self.time_doc(model),
+                );
+            }
             EkfMethod::UpdateOutput(j) => {
                 let output = &model.outputs[j].name;
                 let doc = format!(
@@ -247,7 +295,7 @@ impl EkfMethod {
         }
         match self {
             EkfMethod::Predict => " `f` is evaluated at `t_prev`, the previous sample's time.",
-            EkfMethod::Update | EkfMethod::UpdateOutput(_) => {
+            EkfMethod::Update | EkfMethod::UpdateOutput(_) | EkfMethod::UpdateSensor(_) => {
                 " `h` is evaluated at `t`, the measurement's time."
             }
             EkfMethod::Step if model.dynamics.discretisation.is_continuous() => {
@@ -260,6 +308,43 @@ impl EkfMethod {
             }
         }
     }
+}
+
+/// What `update_<sensor>` says of itself: the sensor's own documentation, then what the
+/// update does.
+fn sensor_update_doc(model: &Model, sensor: &crate::model::Sensor, spec: &EkfSpec) -> String {
+    let outputs: Vec<String> = sensor
+        .outputs
+        .iter()
+        .map(|&i| format!("`{}`", model.outputs[i].name))
+        .collect();
+    let own: String = sensor.docs.iter().map(|line| format!("{line}\n")).collect();
+    let name = &sensor.name;
+    let gate = if spec.gate.is_some() {
+        format!(
+            "its own innovation gate ([`{}::{name}_innovation_gate`])",
+            spec.type_name
+        )
+    } else {
+        "the divergence bound, `DIVERGENCE_NIS`".to_owned()
+    };
+    format!(
+        "{own}\n Corrects the estimate with the sensor `{name}`'s measurement `y` (of {}, in \
+         that order; Joseph \
+         form, one `L D L'` solve of its innovation covariance, `R` restricted to its \
+         outputs). Stores its innovation in the sensor's own fields \
+         ([`{ty}::{name}_innovation`], [`{ty}::{name}_normalised_innovation_squared`]) and \
+         tests its normalised square against {gate}. Rejects a non-finite measurement and an innovation covariance that is \
+         not positive definite (never divided by); leaves the filter unchanged unless it \
+         returns [`Status::Ok`] (or [`Status::OutlierRejected`], which records the \
+         innovation). With measurement noise uncorrelated between sensors, updating with \
+         each sensor in turn equals [`{ty}::update`] with all of them where `h` is linear; \
+         a nonlinear sensor's update linearises `h` at the estimate it is given, so update \
+         with it before the others to match the joint update, after them to use their \
+         corrections.",
+        outputs.join(", "),
+        ty = spec.type_name
+    )
 }
 
 /// One EKF method (Alg. 1): the prediction and/or the correction, built symbolically so
@@ -276,8 +361,10 @@ fn method(
     let ty = ident(scalar.type_name());
     let arguments = arguments(&nodes, model, kind, &used_vars, &ty);
     let (name, doc) = kind.name_and_doc(model, spec);
+    // A line per attribute: a sensor's own documentation comes before what the update does.
+    let doc = doc.lines();
     (
-        arguments.method(&name, &quote! { #[doc = #doc] }, body),
+        arguments.method(&name, &quote! { #(#[doc = #doc])* }, body),
         ops,
     )
 }
@@ -321,7 +408,7 @@ impl EkfNodes {
     /// and/or corrects (Joseph form) as `kind` asks.
     fn build(model: &Model, mg: &ModelGraph, kind: EkfMethod, spec: &EkfSpec) -> EkfNodes {
         let mut g = mg.clone();
-        let outputs = kind.outputs(model.outputs.len());
+        let outputs = kind.outputs(model);
         let avoid = model_names(model);
         let vars = FilterVars::declare(&mut g.graph, model, &outputs, spec.diagonal_noise, &avoid);
         let t_prev = (kind.predicts() && model.uses_time()).then(|| match kind {
@@ -351,15 +438,15 @@ impl EkfNodes {
             (nodes.x, nodes.p) = kalman::ekf_predict(&mut nodes.g, &nodes.p, q, t_prev);
         }
         if kind.updates() {
-            nodes.correct(model.outputs.len(), &outputs);
+            nodes.correct(model.outputs.len(), &outputs, kind.sensor(model).is_some());
         }
         nodes
     }
 
     /// The Joseph-form correction with `outputs` (of `m`), through the shared Kalman
     /// stage, and what it stores: the innovation, its covariance and the normalised
-    /// innovation squared.
-    fn correct(&mut self, m: usize, outputs: &[usize]) {
+    /// innovation squared; a sensor's (`own_fields`) in fields of their own size.
+    fn correct(&mut self, m: usize, outputs: &[usize], own_fields: bool) {
         let r_all = symmetric_from_packed(&self.vars.r, m);
         let r: Matrix = outputs
             .iter()
@@ -377,7 +464,7 @@ impl EkfNodes {
         let update = correction.update;
         (self.x, self.p) = (update.x, update.p);
         (self.pivots, self.reciprocals) = (update.pivots, update.reciprocals);
-        let s = if mu == m {
+        let s = if mu == m || own_fields {
             self.innovation = correction.residual;
             update.s
         } else {
@@ -451,17 +538,24 @@ fn lower(
         &innovation_pivot_failure,
         scalar,
     );
-    measurement::name_innovation(&mut lowerer, model, &nodes.innovation, "");
+    let sensor = kind.sensor(model);
+    let stored = match sensor {
+        Some(sensor) => sensor.outputs.clone(),
+        None => (0..model.outputs.len()).collect(),
+    };
+    measurement::name_innovation_of(&mut lowerer, model, &stored, &nodes.innovation, "");
     let probe = lowerer.bind(probe, "divergence_probe");
     let values = lowerer.segment(&results);
     lowerer.count_extra(OpCount::stores(values.len()));
     lowerer.count_extra(crate::emit::code::divergence_test_ops(model.state_len()));
+    let prefix = sensor.map(sensors::prefix).unwrap_or_default();
     let kept = measurement::Kept {
-        prefix: "",
+        prefix: &prefix,
         innovation: &nodes.innovation,
         covariance: &nodes.innovation_covariance,
         nis: nodes.nis,
         gated: nodes.gated,
+        gate_prefix: &prefix,
         keep_prediction: (kind == EkfMethod::Step)
             .then(|| measurement::keep_prediction_call(model)),
     };
@@ -507,7 +601,9 @@ fn arguments(
     match kind {
         EkfMethod::Predict => {}
         EkfMethod::UpdateOutput(_) => arguments.scalar("y", y[0].clone(), ty),
-        EkfMethod::Update | EkfMethod::Step => arguments.array("y", y, ty),
+        EkfMethod::Update | EkfMethod::Step | EkfMethod::UpdateSensor(_) => {
+            arguments.array("y", y, ty);
+        }
     }
     arguments
 }

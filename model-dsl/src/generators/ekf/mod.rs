@@ -67,22 +67,25 @@ impl Lowering for EkfSpec {
         let ekf = lower::emit_ekf(model, self, mg, scalar);
         // `Ekf` gives `EKF_STEP_OPS`, `GatedEkf` `GATED_EKF_STEP_OPS`.
         let prefix = screaming_snake(&self.type_name);
-        let costs = [
-            ("predict", ekf.predict_ops),
-            ("update", ekf.update_ops),
-            ("step", ekf.step_ops),
-        ]
-        .into_iter()
-        .map(|(method, ops)| {
-            let constant = format!("{prefix}_{}_OPS", method.to_uppercase());
-            let cost = Cost::new(&constant, &format!("{}::{method}", self.type_name), ops);
-            if method == "step" {
-                cost.budgeted()
-            } else {
-                cost
-            }
-        })
-        .collect();
+        let methods = [
+            ("predict".to_owned(), ekf.predict_ops),
+            ("update".to_owned(), ekf.update_ops),
+            ("step".to_owned(), ekf.step_ops),
+        ];
+        // A sensor's update as well: `EKF_UPDATE_GNSS_OPS`.
+        let costs = methods
+            .into_iter()
+            .chain(ekf.sensor_update_ops)
+            .map(|(method, ops)| {
+                let constant = format!("{prefix}_{}_OPS", method.to_uppercase());
+                let cost = Cost::new(&constant, &format!("{}::{method}", self.type_name), ops);
+                if method == "step" {
+                    cost.budgeted()
+                } else {
+                    cost
+                }
+            })
+            .collect();
         Code {
             tokens: ekf.tokens,
             costs,

@@ -43,7 +43,8 @@ pub fn emit_hybrid_ekf(
     let layout = FilterLayout::new(model, diagonal, &ident(scalar.type_name()));
     let fields = layout.fields();
     let measurement_fields = measurement::fields(model, spec.gate, &layout.ty);
-    let measurement_methods = measurement::methods(model, &layout, spec.gate, scalar);
+    let measurement_methods =
+        measurement::methods(model, &layout, (spec.gate, &TokenStream::new()), scalar);
     let FilterLayout {
         accessors, setters, ..
     } = &layout;

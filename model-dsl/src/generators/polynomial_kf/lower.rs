@@ -516,6 +516,7 @@ fn recursive_step(
         covariance: &kept[1..2],
         nis: Some(kept[2]),
         gated: spec.gate.is_some(),
+        gate_prefix: "",
         keep_prediction: Some(measurement::keep_prediction_call(model)),
     };
     let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
