@@ -1,6 +1,7 @@
 //! The systems of the five papers in `shared/seeds`, declared once with `model!`, two
 //! variants of the cantilever that exercise the window transform on other structures, and
-//! the cantilever with a least-squares DKF window (`cantilever_long_window`).
+//! the cantilever with a least-squares DKF window (`cantilever_long_window`), and a 24-state
+//! strapdown navigation model with GNSS and magnetometer sensors (`navigation`).
 //! The library is `no_std` and builds for `thumbv7em-none-eabihf` as well as the host.
 //! Each model's source lives in `models/`, where the snapshot and Jacobian tests read it.
 

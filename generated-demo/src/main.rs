@@ -113,6 +113,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     experiment::blade::run(out)?;
     experiment::blade_control::run(out)?;
     experiment::trms::run(out)?;
+    experiment::flight::run(out)?;
 
     print_generated_costs();
     experiment::switched_beam::experiment(out)?;
@@ -125,7 +126,9 @@ fn main() -> Result<(), Box<dyn Error>> {
          out/helicopter_surge.csv, out/helicopter_pitch.svg, out/helicopter_surge.svg, \
          out/beam_20hz.csv, out/beam_35hz.csv, out/beam_velocity.svg, \
          out/switching_example.csv, out/switching_example.svg, out/hub_estimates.csv, \
-         out/hub_velocity.svg in {:.2} s.",
+         out/hub_velocity.svg, out/navigation.csv, out/navigation_yaw.svg, \
+         out/navigation_position.svg, out/navigation_velocity.svg, \
+         out/navigation_gyro_bias.svg in {:.2} s.",
         started.elapsed().as_secs_f64()
     );
     Ok(())

@@ -10,6 +10,8 @@ pub mod blade_control;
 pub mod blade_plant;
 pub mod controllers;
 pub mod excitation;
+pub mod flight;
+pub mod flight_truth;
 pub mod hub_polynomial;
 pub mod metrics;
 pub mod noise;

@@ -1,0 +1,301 @@
+//! The simulated flight of the navigation experiment: a multirotor's true attitude,
+//! velocity and position as smooth functions of time (on the ground, take-off, a
+//! 5 m/s cruise with two turns and a climb, hover), and what its sensors read: the IMU's
+//! delta angle and delta velocity over each 4 ms sample (integrated from the truth at
+//! 1 kHz, with constant biases and white noise), the GNSS fix and the magnetometer.
+//! Independent of the filter's model: the truth's attitude increments are exact relative
+//! rotations, its delta velocity an integral of the specific force, not the model's
+//! first-order steps.
+
+use super::noise::GaussianNoise;
+
+/// IMU sample time \[s\], the model's.
+pub const DT: f64 = generated_demo::navigation::in_f64::DT;
+/// Gravity \[m/s^2\], down, the model's.
+const GRAVITY: f64 = generated_demo::navigation::in_f64::GRAVITY;
+/// Truth integration steps per IMU sample (1 kHz).
+const SUBSTEPS: usize = 4;
+/// The flight's length \[s\].
+pub const END: f64 = 90.0;
+/// The GNSS outage \[s\]: no fix from 50 to 60 s, in the second turn.
+pub const GNSS_OUTAGE: (f64, f64) = (50.0, 60.0);
+/// Heading at start \[rad\].
+const HEADING0: f64 = 0.5;
+/// The earth magnetic field \[gauss\], NED (a mid-latitude field, 65 degrees dip).
+pub const EARTH_FIELD: [f64; 3] = [0.21, 0.01, 0.45];
+/// The magnetometer's body bias \[gauss\] (hard iron).
+pub const BODY_FIELD_BIAS: [f64; 3] = [0.02, -0.015, 0.03];
+/// Gyro bias \[rad/s\] and accelerometer bias \[m/s^2\], body axes.
+pub const GYRO_BIAS: [f64; 3] = [0.003, -0.004, 0.002];
+/// Accelerometer bias \[m/s^2\].
+pub const ACCEL_BIAS: [f64; 3] = [0.08, -0.06, 0.12];
+/// Gyro white noise \[rad/s\] and accelerometer white noise \[m/s^2\] per IMU sample.
+pub const GYRO_NOISE: f64 = 0.015;
+/// Accelerometer white noise \[m/s^2\] per sample.
+pub const ACCEL_NOISE: f64 = 0.35;
+/// GNSS noise: NED velocity \[m/s\], then NED position \[m\].
+pub const GNSS_NOISE: [f64; 6] = [0.15, 0.15, 0.2, 0.5, 0.5, 0.8];
+/// Magnetometer noise \[gauss\].
+pub const MAG_NOISE: f64 = 0.005;
+
+/// `0` before `a`, `1` after `b`, a smooth (cubic) step between.
+fn smoothstep(t: f64, a: f64, b: f64) -> f64 {
+    let s = ((t - a) / (b - a)).clamp(0.0, 1.0);
+    s * s * (3.0 - 2.0 * s)
+}
+
+/// Yaw rate \[rad/s\]: a left turn at 20-32 s, a right turn at 48-62 s.
+fn yaw_rate(t: f64) -> f64 {
+    0.25 * (smoothstep(t, 20.0, 22.0) - smoothstep(t, 30.0, 32.0))
+        - 0.2 * (smoothstep(t, 48.0, 50.0) - smoothstep(t, 60.0, 62.0))
+}
+
+/// The integral of [`smoothstep`] from 0 to `t` (`a > 0`): `(b - a)(s^3 - s^4 / 2)`
+/// on the ramp, then the area of a unit step.
+fn smoothstep_integral(t: f64, a: f64, b: f64) -> f64 {
+    let s = ((t - a) / (b - a)).clamp(0.0, 1.0);
+    (b - a) * (s * s * s - 0.5 * s * s * s * s) + (t - b).max(0.0)
+}
+
+/// Heading \[rad\]: the integral of [`yaw_rate`].
+fn heading(t: f64) -> f64 {
+    let left = smoothstep_integral(t, 20.0, 22.0) - smoothstep_integral(t, 30.0, 32.0);
+    let right = smoothstep_integral(t, 48.0, 50.0) - smoothstep_integral(t, 60.0, 62.0);
+    HEADING0 + 0.25 * left - 0.2 * right
+}
+
+/// Horizontal speed \[m/s\] along the heading: 5 m/s from 15 to 75 s.
+fn speed(t: f64) -> f64 {
+    5.0 * (smoothstep(t, 13.0, 17.0) - smoothstep(t, 73.0, 78.0))
+}
+
+/// Down velocity \[m/s\]: take-off at 10 s (climb 8 m), a 5 m climb at 38 s.
+fn down_velocity(t: f64) -> f64 {
+    let take_off = smoothstep(t, 10.0, 11.0) - smoothstep(t, 14.0, 15.0);
+    let climb = smoothstep(t, 38.0, 39.0) - smoothstep(t, 43.0, 44.0);
+    -2.0 * take_off - 1.0 * climb
+}
+
+/// NED velocity \[m/s\].
+pub fn velocity(t: f64) -> [f64; 3] {
+    let (v, psi) = (speed(t), heading(t));
+    [v * psi.cos(), v * psi.sin(), down_velocity(t)]
+}
+
+/// NED acceleration \[m/s^2\], by a central difference of [`velocity`].
+fn acceleration(t: f64) -> [f64; 3] {
+    let h = 1e-4;
+    let (a, b) = (velocity(t + h), velocity(t - h));
+    std::array::from_fn(|i| (a[i] - b[i]) / (2.0 * h))
+}
+
+/// Roll, pitch, yaw \[rad\]: banked into the turns, pitched against the acceleration, as a
+/// multirotor tilts its thrust.
+fn euler(t: f64) -> [f64; 3] {
+    let along = {
+        let h = 1e-3;
+        (speed(t + h) - speed(t - h)) / (2.0 * h)
+    };
+    let roll = (speed(t) * yaw_rate(t) / GRAVITY).atan();
+    let pitch = -(along / GRAVITY).atan() - 0.05 * speed(t) / 5.0;
+    [roll, pitch, heading(t)]
+}
+
+/// The body-to-NED attitude quaternion `[w, x, y, z]` of roll, pitch, yaw (ZYX).
+pub fn attitude(t: f64) -> [f64; 4] {
+    let [roll, pitch, yaw] = euler(t).map(|a| 0.5 * a);
+    let (cr, sr, cp, sp, cy, sy) = (
+        roll.cos(),
+        roll.sin(),
+        pitch.cos(),
+        pitch.sin(),
+        yaw.cos(),
+        yaw.sin(),
+    );
+    [
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    ]
+}
+
+/// The quaternion product `a b`.
+pub fn quaternion_product(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
+    [
+        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
+    ]
+}
+
+/// The conjugate (the inverse of a unit quaternion).
+pub fn conjugate(q: [f64; 4]) -> [f64; 4] {
+    [q[0], -q[1], -q[2], -q[3]]
+}
+
+/// The rotation vector \[rad\] of a unit quaternion (its sign chosen for the short way).
+pub fn rotation_vector(q: [f64; 4]) -> [f64; 3] {
+    let q = if q[0] < 0.0 { q.map(|v| -v) } else { q };
+    let s = (q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+    let scale = if s < 1e-12 {
+        2.0
+    } else {
+        2.0 * s.atan2(q[0]) / s
+    };
+    [q[1] * scale, q[2] * scale, q[3] * scale]
+}
+
+/// `v` rotated from the body to NED by `q`, or back with `transpose`.
+pub fn rotate(q: [f64; 4], v: [f64; 3], transpose: bool) -> [f64; 3] {
+    let [w, x, y, z] = q;
+    let r = [
+        [
+            w * w + x * x - y * y - z * z,
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            w * w - x * x + y * y - z * z,
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            w * w - x * x - y * y + z * z,
+        ],
+    ];
+    std::array::from_fn(|i| {
+        (0..3)
+            .map(|j| if transpose { r[j][i] } else { r[i][j] } * v[j])
+            .sum()
+    })
+}
+
+/// The true state at an IMU sample, in the model's order (the wind is zero).
+#[derive(Clone, Copy, Debug)]
+pub struct Truth {
+    /// Time \[s\].
+    pub t: f64,
+    /// The 24 states: quaternion, NED velocity and position, the IMU biases per sample,
+    /// the earth field, the body field bias, the wind.
+    pub x: [f64; 24],
+}
+
+/// What the sensors read over one IMU sample ending at `truth.t`.
+#[derive(Clone, Copy, Debug)]
+pub struct Readings {
+    /// IMU delta angle \[rad\] and delta velocity \[m/s\] over the sample.
+    pub imu: [f64; 6],
+    /// The GNSS fix (NED velocity, position) when one arrives (5 Hz, not in the outage).
+    pub gnss: Option<[f64; 6]>,
+    /// The magnetometer (50 Hz).
+    pub magnetometer: Option<[f64; 3]>,
+}
+
+/// The flight, sample by sample: the truth and the sensors.
+pub struct Flight {
+    position: [f64; 3],
+    sample: u64,
+    noise: [GaussianNoise; 6],
+    gnss_noise: [GaussianNoise; 6],
+    mag_noise: [GaussianNoise; 3],
+}
+
+impl Flight {
+    /// The flight at its start, on the ground at the origin.
+    pub fn new() -> Self {
+        Flight {
+            position: [0.0; 3],
+            sample: 0,
+            noise: std::array::from_fn(|i| {
+                let sigma = if i < 3 { GYRO_NOISE } else { ACCEL_NOISE };
+                GaussianNoise::new(sigma * DT, 700 + i as u64)
+            }),
+            gnss_noise: std::array::from_fn(|i| GaussianNoise::new(GNSS_NOISE[i], 710 + i as u64)),
+            mag_noise: std::array::from_fn(|i| GaussianNoise::new(MAG_NOISE, 720 + i as u64)),
+        }
+    }
+
+    /// The true state at time `t` (the position as integrated so far).
+    fn truth_at(&self, t: f64) -> Truth {
+        let mut x = [0.0; 24];
+        x[..4].copy_from_slice(&attitude(t));
+        x[4..7].copy_from_slice(&velocity(t));
+        x[7..10].copy_from_slice(&self.position);
+        for i in 0..3 {
+            x[10 + i] = GYRO_BIAS[i] * DT;
+            x[13 + i] = ACCEL_BIAS[i] * DT;
+            x[16 + i] = EARTH_FIELD[i];
+            x[19 + i] = BODY_FIELD_BIAS[i];
+        }
+        Truth { t, x }
+    }
+
+    /// Advances one IMU sample: the truth at its end and what the sensors read.
+    pub fn advance(&mut self) -> (Truth, Readings) {
+        let t0 = self.sample as f64 * DT;
+        let h = DT / SUBSTEPS as f64;
+        let mut delta_velocity = [0.0; 3];
+        for s in 0..SUBSTEPS {
+            let (a, b) = (t0 + s as f64 * h, t0 + (s + 1) as f64 * h);
+            let (va, vb) = (velocity(a), velocity(b));
+            let (fa, fb) = (self.specific_force(a), self.specific_force(b));
+            for i in 0..3 {
+                self.position[i] += 0.5 * h * (va[i] + vb[i]);
+                delta_velocity[i] += 0.5 * h * (fa[i] + fb[i]);
+            }
+        }
+        self.sample += 1;
+        let k = self.sample;
+        let t1 = k as f64 * DT;
+        let turn = quaternion_product(conjugate(attitude(t0)), attitude(t1));
+        let angle = rotation_vector(turn);
+        let imu: [f64; 6] = std::array::from_fn(|i| {
+            let (clean, bias) = if i < 3 {
+                (angle[i], GYRO_BIAS[i])
+            } else {
+                (delta_velocity[i - 3], ACCEL_BIAS[i - 3])
+            };
+            clean + bias * DT + self.noise[i].sample(k)
+        });
+        let truth = self.truth_at(t1);
+        let readings = Readings {
+            imu,
+            gnss: self.gnss(&truth, k),
+            magnetometer: self.magnetometer(&truth, k),
+        };
+        (truth, readings)
+    }
+
+    /// The accelerometer's clean reading \[m/s^2\]: the specific force in the body.
+    fn specific_force(&self, t: f64) -> [f64; 3] {
+        let a = acceleration(t);
+        rotate(attitude(t), [a[0], a[1], a[2] - GRAVITY], true)
+    }
+
+    /// A GNSS fix every 50th sample (5 Hz), none in the outage.
+    fn gnss(&self, truth: &Truth, k: u64) -> Option<[f64; 6]> {
+        let out = (GNSS_OUTAGE.0..GNSS_OUTAGE.1).contains(&truth.t);
+        (k.is_multiple_of(50) && !out)
+            .then(|| std::array::from_fn(|i| truth.x[4 + i] + self.gnss_noise[i].sample(k)))
+    }
+
+    /// A magnetometer sample every 5th sample (50 Hz): the earth field in the body plus
+    /// the bias.
+    fn magnetometer(&self, truth: &Truth, k: u64) -> Option<[f64; 3]> {
+        k.is_multiple_of(5).then(|| {
+            let q: [f64; 4] = std::array::from_fn(|i| truth.x[i]);
+            let body = rotate(q, EARTH_FIELD, true);
+            std::array::from_fn(|i| body[i] + BODY_FIELD_BIAS[i] + self.mag_noise[i].sample(k))
+        })
+    }
+}
+
+impl Default for Flight {
+    fn default() -> Self {
+        Self::new()
+    }
+}
