@@ -239,7 +239,7 @@ pub fn store_and_gate(lowerer: &mut Lowerer, kept: &Kept<'_>) -> TokenStream {
         let keep_prediction = kept.keep_prediction.as_ref().map(|(method, args)| {
             quote! {
                 self.#method(
-                    #(#args,)* [#(#innovation_values),*], [#(#covariance_values),*],
+                    #(#args,)* &[#(#innovation_values),*], &[#(#covariance_values),*],
                 )
             }
         });
@@ -532,7 +532,8 @@ fn prediction_arguments(model: &Model) -> Vec<TokenStream> {
 }
 
 /// A step's cold answer to an outlier: the method's name, its parameters before the
-/// innovation, and the call of the prediction it keeps.
+/// innovation (which it takes by reference: a 9-output filter's `f64` covariance is 360
+/// bytes), and the call of the prediction it keeps.
 pub struct PredictionKeeper {
     /// `keep_prediction`, or `lkf_keep_prediction` for one of the DKF's filters.
     pub name: proc_macro2::Ident,
@@ -585,15 +586,15 @@ pub fn keep_prediction_method(
         fn #name(
             &mut self,
             #(#params,)*
-            innovation: [#ty; #m],
-            innovation_covariance: [#ty; #mp],
+            innovation: &[#ty; #m],
+            innovation_covariance: &[#ty; #mp],
         ) -> Status {
             let predicted = #predict;
             if predicted != Status::Ok {
                 return predicted;
             }
-            self.#innovation_field = innovation;
-            self.#covariance_field = innovation_covariance;
+            self.#innovation_field = *innovation;
+            self.#covariance_field = *innovation_covariance;
             Status::OutlierRejected
         }
     }
