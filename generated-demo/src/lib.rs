@@ -3,13 +3,19 @@
 //! the cantilever with a least-squares DKF window (`cantilever_long_window`), and a 24-state
 //! strapdown navigation model with GNSS and magnetometer sensors (`navigation`).
 //! The library is `no_std` and builds for `thumbv7em-none-eabihf` as well as the host.
+//! Beside the models: the deterministic sequences the firmware and the host both filter
+//! (`sequence` and its siblings), and the navigation model's simulated flight (`flight`)
+//! with its seeded noise (`noise`), which the main job flies and the firmware's build
+//! script embeds.
 //! Each model's source lives in `models/`, where the snapshot and Jacobian tests read it.
 
 #![no_std]
 #![forbid(unsafe_code)]
 
 pub mod continuous_sequence;
+pub mod flight;
 pub mod mpc_sequence;
+pub mod noise;
 pub mod observer_sequences;
 pub mod sequence;
 

@@ -18,8 +18,8 @@ use super::blade_plant::{
 };
 use super::diag;
 use super::metrics::mean;
-use super::noise::GaussianNoise;
 use super::report::{self, Line, Trace};
+use generated_demo::noise::GaussianNoise;
 use generated_demo::{blade_identification as ident, mass_spring_damper as control};
 use std::error::Error;
 use std::path::Path;

@@ -11,10 +11,10 @@ use super::blade::control_ekf;
 use super::blade_plant::{mass, plant_step, END, HIT_FORCE, IDENTIFICATION_END, NOISE_SIGMA};
 use super::controllers::{nominal_lq_gain, Controller, Kind, MpcStats, U_MAX};
 use super::metrics::{mean, rms};
-use super::noise::GaussianNoise;
 use super::ppf::PpfTuning;
 use super::report::{self, Line, Trace};
 use generated_demo::mass_spring_damper::in_f64::{Mpc, Status, TS};
+use generated_demo::noise::GaussianNoise;
 use std::error::Error;
 use std::path::Path;
 

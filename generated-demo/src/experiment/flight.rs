@@ -1,23 +1,19 @@
 //! The navigation experiment: the generated 24-state EKF (`generated-demo/models/navigation.rs`)
-//! on a simulated multirotor flight ([`super::flight_truth`]): the IMU at 250 Hz
+//! on a simulated multirotor flight ([`generated_demo::flight`]): the IMU at 250 Hz
 //! (`predict`), the magnetometer at 50 Hz (`update_magnetometer`), the GNSS at 5 Hz
 //! (`update_gnss`) with a 10 s outage. Errors of attitude, velocity, position and IMU
 //! biases against the truth, with the filter's own 3-sigma bounds, and each sensor's
 //! normalised innovation squared, for the `f32` filter (what the MCU runs) and the `f64`
 //! one.
 
-use super::flight_truth::{
-    conjugate, quaternion_product, rotation_vector, Flight, Truth, ACCEL_BIAS, ACCEL_NOISE, DT,
-    END, GNSS_NOISE, GNSS_OUTAGE, GYRO_NOISE, MAG_NOISE,
-};
 use super::report::{self, Line, Trace};
+use generated_demo::flight::{
+    conjugate, initial_estimate, quaternion_product, rotation_vector, tuning, Flight, Truth,
+    ACCEL_BIAS, DT, END, GNSS_OUTAGE, GYRO_BIAS, MAGNETOMETER_GATE,
+};
 use generated_demo::navigation;
 use std::error::Error;
 use std::path::Path;
-
-/// The magnetometer's gate: the chi-square 99.9 % quantile for 3 degrees of freedom (the
-/// model's `gate = 22.46` is the GNSS's, for 6).
-const MAGNETOMETER_GATE: f64 = 16.27;
 
 /// What the experiment reports of a quantity: its name, how to read its error and
 /// standard deviation from a sample, and its unit's scale.
@@ -89,46 +85,6 @@ fn errors(x: &[f64; 24], p: &[[f64; 24]; 24], truth: &Truth) -> ([f64; 15], [f64
         sigma[slot] = p[state][state].max(0.0).sqrt();
     }
     (error, sigma)
-}
-
-/// The initial estimate: level (as the vehicle stands), its heading from the first
-/// magnetometer sample (the bias unknown), at rest at the origin, a nominal earth field.
-fn initial_estimate(magnetometer: [f64; 3]) -> [f64; 24] {
-    let yaw = (-magnetometer[1]).atan2(magnetometer[0]);
-    let mut x = [0.0; 24];
-    x[0] = (0.5 * yaw).cos();
-    x[3] = (0.5 * yaw).sin();
-    x[16] = 0.2;
-    x[18] = 0.4;
-    x
-}
-
-/// The tuning: `P0`, `Q` per IMU sample (the IMU noise; slow random walks for the biases and
-/// fields), `R` (the sensors' noise).
-fn tuning() -> ([f64; 24], [f64; 24], [f64; 9]) {
-    let mut p0 = [0.0; 24];
-    let mut q = [0.0; 24];
-    let groups: [(std::ops::Range<usize>, f64, f64); 7] = [
-        (0..4, 0.05, 0.5 * GYRO_NOISE * DT),
-        (4..7, 0.5, ACCEL_NOISE * DT),
-        (7..10, 1.0, 0.0),
-        (10..13, 0.01 * DT, 1e-8),
-        (13..16, 0.2 * DT, 3e-7),
-        (16..22, 0.05, 3e-5),
-        (22..24, 0.1, 1e-4),
-    ];
-    for (range, initial_sigma, noise_sigma) in groups {
-        for i in range {
-            p0[i] = initial_sigma * initial_sigma;
-            q[i] = noise_sigma * noise_sigma;
-        }
-    }
-    let mut r = [0.0; 9];
-    for (i, sigma) in GNSS_NOISE.iter().enumerate() {
-        r[i] = sigma * sigma;
-    }
-    r[6..].fill(MAG_NOISE * MAG_NOISE);
-    (p0, q, r)
 }
 
 /// What a filter did with a sample.
@@ -371,7 +327,7 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
     );
     println!(
         "GNSS outage {:.0}-{:.0} s. IMU 250 Hz (gyro bias {:?} rad/s, accelerometer bias {:?} m/s^2),",
-        GNSS_OUTAGE.0, GNSS_OUTAGE.1, super::flight_truth::GYRO_BIAS, ACCEL_BIAS
+        GNSS_OUTAGE.0, GNSS_OUTAGE.1, GYRO_BIAS, ACCEL_BIAS
     );
     println!("magnetometer 50 Hz (update_magnetometer), GNSS 5 Hz (update_gnss); errors against the truth at 10 Hz,");
     println!("sigma from the filter's covariance. The quaternion is not normalised: its norm drifts (the");

@@ -12,8 +12,8 @@
 //! configurations are generated here, each its own `model!`, since the design is fixed
 //! when the code is generated.
 
-use super::noise::GaussianNoise;
 use super::report::{self, Line, Trace};
+use generated_demo::noise::GaussianNoise;
 use std::error::Error;
 use std::path::Path;
 

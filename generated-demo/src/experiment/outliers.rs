@@ -5,13 +5,13 @@
 //! recovering through `reset` after a run of failed steps.
 
 use super::excitation::Prbs;
-use super::noise::GaussianNoise;
 use super::plant::{Plant, PlantConfig};
 use super::readout;
 use super::report::{self, Line, Trace};
 use super::tuning::{p0, Q_DIAG, R, X0_CLOSE};
 use super::TS;
 use generated_demo::cantilever::{Ekf, GatedEkf, Status};
+use generated_demo::noise::GaussianNoise;
 use std::error::Error;
 use std::path::Path;
 

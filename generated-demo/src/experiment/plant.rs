@@ -22,9 +22,9 @@
 //! added to x2 at the first sample at or after its time); the kick bypasses u, so the
 //! filters see it only through y, as an unknown disturbance.
 
-use super::noise::GaussianNoise;
 use super::TS;
 use generated_demo::cantilever::in_f64;
+use generated_demo::noise::GaussianNoise;
 
 /// Physical parameters of the beam's first mode (units mm, V, s).
 #[derive(Clone, Copy, Debug, PartialEq)]

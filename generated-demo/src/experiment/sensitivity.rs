@@ -13,13 +13,13 @@
 
 use super::excitation::Prbs;
 use super::metrics::mean;
-use super::noise::{uniform, GaussianNoise};
 use super::plant::{Plant, PlantConfig, PlantKind};
 use super::report::{self, Trace};
 use super::tuning::{p0, Q_DIAG, R, X0_CLOSE, X0_WRONG};
 use super::TS;
 use generated_demo::cantilever::in_f64::{Dkf, Ekf};
 use generated_demo::cantilever_long_window::in_f64::Dkf as LongWindowDkf;
+use generated_demo::noise::{uniform, GaussianNoise};
 
 /// Why the filters' constructors cannot fail here.
 const FINITE_TUNING: &str = "the tuning is finite";

@@ -11,8 +11,8 @@
 //! initial state, as in sect. 5.2), and the errors are measured over the last two response
 //! periods, as the report's Tables 5.1-6.2: `SSE = 1/T int e^2 dt` and `|e|max`.
 
-use super::noise::GaussianNoise;
 use super::report::{self, Line, Trace};
+use generated_demo::noise::GaussianNoise;
 use generated_demo::piecewise_beam::in_f64 as beam;
 use std::error::Error;
 use std::path::Path;

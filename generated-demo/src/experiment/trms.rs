@@ -7,9 +7,9 @@
 //! the motors' supply at 25 s (sect. 6.2), which the filters do not see.
 
 use super::metrics::rms;
-use super::noise::GaussianNoise;
 use super::report::{self, Line, Trace};
 use generated_demo::helicopter::in_f64::{f, h, ContinuousEkf, Status, TS};
+use generated_demo::noise::GaussianNoise;
 use std::error::Error;
 use std::path::Path;
 

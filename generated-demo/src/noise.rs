@@ -4,6 +4,10 @@
 //! stateful generator: the noise on sample k depends only on (seed, k), so it does not
 //! change when a caller reads the output twice or skips a step, and it needs no
 //! dependency whose stream could change between crate versions.
+//!
+//! In the `no_std` library so that the firmware's build script embeds the same sensor
+//! noise as the host's experiments use (`flight`); its logarithm, square root and cosine
+//! are `libm`'s.
 
 /// SplitMix64's increment (the golden ratio in 64-bit fixed point).
 const GAMMA: u64 = 0x9E37_79B9_7F4A_7C15;
@@ -52,7 +56,7 @@ impl GaussianNoise {
         let scale = 1.0 / (1u64 << 53) as f64;
         let u1 = ((h1 >> 11) + 1) as f64 * scale;
         let u2 = (h2 >> 11) as f64 * scale;
-        self.sigma * (-2.0 * u1.ln()).sqrt() * (2.0 * core::f64::consts::PI * u2).cos()
+        self.sigma * libm::sqrt(-2.0 * libm::log(u1)) * libm::cos(2.0 * core::f64::consts::PI * u2)
     }
 }
 

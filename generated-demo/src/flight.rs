@@ -5,14 +5,19 @@
 //! 1 kHz, with constant biases and white noise), the GNSS fix and the magnetometer.
 //! Independent of the filter's model: the truth's attitude increments are exact relative
 //! rotations, its delta velocity an integral of the specific force, not the model's
-//! first-order steps.
+//! first-order steps. The filter's initial estimate and tuning are here too
+//! ([`initial_estimate`], [`tuning`]).
+//!
+//! In the `no_std` library, its functions of `f64` from `libm`, so that the host's
+//! navigation experiment and the firmware's build script (which embeds a few seconds of
+//! these readings for the Cortex-M4F) fly the same flight.
 
-use super::noise::GaussianNoise;
+use crate::noise::GaussianNoise;
 
 /// IMU sample time \[s\], the model's.
-pub const DT: f64 = generated_demo::navigation::in_f64::DT;
+pub const DT: f64 = crate::navigation::in_f64::DT;
 /// Gravity \[m/s^2\], down, the model's.
-const GRAVITY: f64 = generated_demo::navigation::in_f64::GRAVITY;
+const GRAVITY: f64 = crate::navigation::in_f64::GRAVITY;
 /// Truth integration steps per IMU sample (1 kHz).
 const SUBSTEPS: usize = 4;
 /// The flight's length \[s\].
@@ -79,14 +84,14 @@ fn down_velocity(t: f64) -> f64 {
 /// NED velocity \[m/s\].
 pub fn velocity(t: f64) -> [f64; 3] {
     let (v, psi) = (speed(t), heading(t));
-    [v * psi.cos(), v * psi.sin(), down_velocity(t)]
+    [v * libm::cos(psi), v * libm::sin(psi), down_velocity(t)]
 }
 
 /// NED acceleration \[m/s^2\], by a central difference of [`velocity`].
 fn acceleration(t: f64) -> [f64; 3] {
     let h = 1e-4;
     let (a, b) = (velocity(t + h), velocity(t - h));
-    std::array::from_fn(|i| (a[i] - b[i]) / (2.0 * h))
+    core::array::from_fn(|i| (a[i] - b[i]) / (2.0 * h))
 }
 
 /// Roll, pitch, yaw \[rad\]: banked into the turns, pitched against the acceleration, as a
@@ -96,8 +101,8 @@ fn euler(t: f64) -> [f64; 3] {
         let h = 1e-3;
         (speed(t + h) - speed(t - h)) / (2.0 * h)
     };
-    let roll = (speed(t) * yaw_rate(t) / GRAVITY).atan();
-    let pitch = -(along / GRAVITY).atan() - 0.05 * speed(t) / 5.0;
+    let roll = libm::atan(speed(t) * yaw_rate(t) / GRAVITY);
+    let pitch = -libm::atan(along / GRAVITY) - 0.05 * speed(t) / 5.0;
     [roll, pitch, heading(t)]
 }
 
@@ -105,12 +110,12 @@ fn euler(t: f64) -> [f64; 3] {
 pub fn attitude(t: f64) -> [f64; 4] {
     let [roll, pitch, yaw] = euler(t).map(|a| 0.5 * a);
     let (cr, sr, cp, sp, cy, sy) = (
-        roll.cos(),
-        roll.sin(),
-        pitch.cos(),
-        pitch.sin(),
-        yaw.cos(),
-        yaw.sin(),
+        libm::cos(roll),
+        libm::sin(roll),
+        libm::cos(pitch),
+        libm::sin(pitch),
+        libm::cos(yaw),
+        libm::sin(yaw),
     );
     [
         cr * cp * cy + sr * sp * sy,
@@ -138,11 +143,11 @@ pub fn conjugate(q: [f64; 4]) -> [f64; 4] {
 /// The rotation vector \[rad\] of a unit quaternion (its sign chosen for the short way).
 pub fn rotation_vector(q: [f64; 4]) -> [f64; 3] {
     let q = if q[0] < 0.0 { q.map(|v| -v) } else { q };
-    let s = (q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+    let s = libm::sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
     let scale = if s < 1e-12 {
         2.0
     } else {
-        2.0 * s.atan2(q[0]) / s
+        2.0 * libm::atan2(s, q[0]) / s
     };
     [q[1] * scale, q[2] * scale, q[3] * scale]
 }
@@ -167,7 +172,7 @@ pub fn rotate(q: [f64; 4], v: [f64; 3], transpose: bool) -> [f64; 3] {
             w * w - x * x - y * y + z * z,
         ],
     ];
-    std::array::from_fn(|i| {
+    core::array::from_fn(|i| {
         (0..3)
             .map(|j| if transpose { r[j][i] } else { r[i][j] } * v[j])
             .sum()
@@ -210,12 +215,12 @@ impl Flight {
         Flight {
             position: [0.0; 3],
             sample: 0,
-            noise: std::array::from_fn(|i| {
+            noise: core::array::from_fn(|i| {
                 let sigma = if i < 3 { GYRO_NOISE } else { ACCEL_NOISE };
                 GaussianNoise::new(sigma * DT, 700 + i as u64)
             }),
-            gnss_noise: std::array::from_fn(|i| GaussianNoise::new(GNSS_NOISE[i], 710 + i as u64)),
-            mag_noise: std::array::from_fn(|i| GaussianNoise::new(MAG_NOISE, 720 + i as u64)),
+            gnss_noise: core::array::from_fn(|i| GaussianNoise::new(GNSS_NOISE[i], 710 + i as u64)),
+            mag_noise: core::array::from_fn(|i| GaussianNoise::new(MAG_NOISE, 720 + i as u64)),
         }
     }
 
@@ -253,7 +258,7 @@ impl Flight {
         let t1 = k as f64 * DT;
         let turn = quaternion_product(conjugate(attitude(t0)), attitude(t1));
         let angle = rotation_vector(turn);
-        let imu: [f64; 6] = std::array::from_fn(|i| {
+        let imu: [f64; 6] = core::array::from_fn(|i| {
             let (clean, bias) = if i < 3 {
                 (angle[i], GYRO_BIAS[i])
             } else {
@@ -280,16 +285,16 @@ impl Flight {
     fn gnss(&self, truth: &Truth, k: u64) -> Option<[f64; 6]> {
         let out = (GNSS_OUTAGE.0..GNSS_OUTAGE.1).contains(&truth.t);
         (k.is_multiple_of(50) && !out)
-            .then(|| std::array::from_fn(|i| truth.x[4 + i] + self.gnss_noise[i].sample(k)))
+            .then(|| core::array::from_fn(|i| truth.x[4 + i] + self.gnss_noise[i].sample(k)))
     }
 
     /// A magnetometer sample every 5th sample (50 Hz): the earth field in the body plus
     /// the bias.
     fn magnetometer(&self, truth: &Truth, k: u64) -> Option<[f64; 3]> {
         k.is_multiple_of(5).then(|| {
-            let q: [f64; 4] = std::array::from_fn(|i| truth.x[i]);
+            let q: [f64; 4] = core::array::from_fn(|i| truth.x[i]);
             let body = rotate(q, EARTH_FIELD, true);
-            std::array::from_fn(|i| body[i] + BODY_FIELD_BIAS[i] + self.mag_noise[i].sample(k))
+            core::array::from_fn(|i| body[i] + BODY_FIELD_BIAS[i] + self.mag_noise[i].sample(k))
         })
     }
 }
@@ -298,4 +303,51 @@ impl Default for Flight {
     fn default() -> Self {
         Self::new()
     }
+}
+
+/// The magnetometer's gate: the chi-square 99.9 % quantile for 3 degrees of freedom (the
+/// model's `gate = 22.46` is the GNSS's, for 6).
+pub const MAGNETOMETER_GATE: f64 = 16.27;
+
+/// The initial estimate: level (as the vehicle stands), its heading from the first
+/// magnetometer sample (the bias unknown), at rest at the origin, a nominal earth field.
+#[must_use]
+pub fn initial_estimate(magnetometer: [f64; 3]) -> [f64; 24] {
+    let yaw = libm::atan2(-magnetometer[1], magnetometer[0]);
+    let mut x = [0.0; 24];
+    x[0] = libm::cos(0.5 * yaw);
+    x[3] = libm::sin(0.5 * yaw);
+    x[16] = 0.2;
+    x[18] = 0.4;
+    x
+}
+
+/// The tuning: the diagonals of `P0` and of `Q` per IMU sample (the IMU noise; slow
+/// random walks for the biases and fields), and of `R` (the sensors' noise, GNSS then
+/// magnetometer).
+#[must_use]
+pub fn tuning() -> ([f64; 24], [f64; 24], [f64; 9]) {
+    let mut p0 = [0.0; 24];
+    let mut q = [0.0; 24];
+    let groups: [(core::ops::Range<usize>, f64, f64); 7] = [
+        (0..4, 0.05, 0.5 * GYRO_NOISE * DT),
+        (4..7, 0.5, ACCEL_NOISE * DT),
+        (7..10, 1.0, 0.0),
+        (10..13, 0.01 * DT, 1e-8),
+        (13..16, 0.2 * DT, 3e-7),
+        (16..22, 0.05, 3e-5),
+        (22..24, 0.1, 1e-4),
+    ];
+    for (range, initial_sigma, noise_sigma) in groups {
+        for i in range {
+            p0[i] = initial_sigma * initial_sigma;
+            q[i] = noise_sigma * noise_sigma;
+        }
+    }
+    let mut r = [0.0; 9];
+    for (i, sigma) in GNSS_NOISE.iter().enumerate() {
+        r[i] = sigma * sigma;
+    }
+    r[6..].fill(MAG_NOISE * MAG_NOISE);
+    (p0, q, r)
 }
