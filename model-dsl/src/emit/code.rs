@@ -242,6 +242,16 @@ pub fn reject_diverged(
     variances: &[TokenStream],
     scalar: Scalar,
 ) -> TokenStream {
+    let tests = divergence_tests(probe, variances, scalar);
+    quote! { #(#tests)* }
+}
+
+/// [`reject_diverged`]'s tests, one statement each (the probe's first).
+pub fn divergence_tests(
+    probe: &TokenStream,
+    variances: &[TokenStream],
+    scalar: Scalar,
+) -> Vec<TokenStream> {
     let ty = ident(scalar.type_name());
     let zero = literal(0.0, scalar);
     // A variance that lowered to a non-negative literal needs no test.
@@ -265,7 +275,7 @@ pub fn reject_diverged(
         Ok(name) => quote! { #name },
         Err(_) => quote! { (#probe) },
     };
-    quote! {
+    let probe_test = quote! {
         if !stateforge_math::#ty::within_divergence_bound(#probe) {
             return if #receiver.is_finite() {
                 Status::Diverged
@@ -273,8 +283,8 @@ pub fn reject_diverged(
                 Status::NonFinite
             };
         }
-        #(#variance_tests)*
-    }
+    };
+    std::iter::once(probe_test).chain(variance_tests).collect()
 }
 
 /// What [`reject_diverged`] costs a step of `n` states: a comparison and branch for the

@@ -25,7 +25,9 @@ use crate::symbolic::continuous::{
     covariance_rate, euler_covariance_step, euler_state_step, integrate_substep, join, split,
     AtPoint,
 };
-use crate::symbolic::linalg::{packed_len, packed_upper, symmetric_from_packed, Matrix};
+use crate::symbolic::linalg::{
+    packed_len, packed_upper, symmetric_from_packed, Coefficients, Matrix,
+};
 use crate::symbolic::{kalman, Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::TokenStream;
 use quote::quote;
@@ -326,6 +328,8 @@ struct MethodNodes {
     nis: Option<NodeId>,
     /// Whether the filter has an innovation gate.
     gated: bool,
+    /// The measurement Jacobian's entries bound to variables, each computed once.
+    coefficients: Coefficients,
 }
 
 impl MethodNodes {
@@ -361,6 +365,7 @@ impl MethodNodes {
             .then(|| g.graph.add(t_start, dt));
         let t_sub = g.graph.var(T_SUB);
         let dynamics = Dynamics::new(&mut g, model, kind, &vars, t_sub, &avoid);
+        let coefficients = Coefficients::new(&avoid);
         let mut nodes = MethodNodes {
             x: g.x.clone(),
             p: symmetric_from_packed(&vars.p, n),
@@ -380,6 +385,7 @@ impl MethodNodes {
             innovation_covariance: Vec::new(),
             nis: None,
             gated: options.gated,
+            coefficients,
         };
         if kind.predicts() {
             nodes.propagate((rule, h), model.uses_time());
@@ -435,7 +441,9 @@ impl MethodNodes {
             &self.p,
             (&self.vars.y, &all),
             &r,
-            |g, j| g.var(&pivot_names(m, j, INNOVATION, "").1),
+            (&mut self.coefficients, |g: &mut Graph, j| {
+                g.var(&pivot_names(m, j, INNOVATION, "").1)
+            }),
         );
         let update = correction.update;
         self.innovation = correction.residual;
@@ -486,6 +494,9 @@ fn lower(
     let all_roots = nodes.roots(&results, probe);
     let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&nodes.g.graph, scalar, namer, &all_roots);
+    for &(var, value) in &nodes.coefficients.definitions {
+        lowerer.define(var, value);
+    }
     read_noise_and_alpha(&mut lowerer, nodes);
     let substep_loop = if nodes.looped {
         Some(substep_loop(&mut lowerer, nodes, model.uses_time()))

@@ -201,6 +201,24 @@ impl FilterVars {
     }
 }
 
+impl FilterVars {
+    /// The variables that hold variances, never negative: the covariance's diagonal
+    /// (`n x n`) and the process noise's.
+    pub fn variances(&self, n: usize) -> Vec<NodeId> {
+        let diagonal = |packed: &[NodeId]| -> Vec<NodeId> {
+            (0..n)
+                .map(|i| packed[crate::symbolic::linalg::packed_index(n, i, i)])
+                .collect()
+        };
+        let q = if self.q.len() == n {
+            self.q.clone()
+        } else {
+            diagonal(&self.q)
+        };
+        diagonal(&self.p).into_iter().chain(q).collect()
+    }
+}
+
 /// Names the new state entries after what they are and the method that computes them
 /// (`suffix`): `x1_pred`, `x1_new`.
 pub fn name_estimate(lowerer: &mut Lowerer, model: &Model, x: &[NodeId], suffix: &str) {

@@ -295,13 +295,80 @@ impl<'g> Lowerer<'g> {
         }
     }
 
+    /// Reads each of `vars` where it is first used with the statement `read(name)`
+    /// (`let p13 = *p13_slot;`, through a reference the caller binds): one short
+    /// statement per variable, whatever the length of the array they live in.
+    pub fn read_each(
+        &mut self,
+        vars: &[NodeId],
+        read: impl Fn(&proc_macro2::Ident) -> TokenStream,
+    ) {
+        for &var in vars {
+            if let Node::Var(v) = self.graph.node(var) {
+                let name = super::names::ident(&self.graph.var_info(v).name);
+                self.reads.push(Some(read(&name)));
+                self.read_of.insert(var, self.reads.len() - 1);
+            }
+        }
+    }
+
     /// Emits the `let`s `roots` need and returns an expression for each root.
     ///
     /// Values are scheduled depth-first from each root in turn, so each is computed just
     /// before its first use, as careful hand-written code would: live ranges stay short,
     /// and so does the register pressure on the target (spills cost loads and stores).
     pub fn segment(&mut self, roots: &[NodeId]) -> Vec<TokenStream> {
+        let (order, _) = self.schedule(roots);
+        self.count_traffic(&order, roots);
+        for id in order {
+            self.emit_node(id);
+        }
+        roots.iter().map(|&r| self.render(r).0).collect()
+    }
+
+    /// Emits each value of `writes` in turn and stores it in place, as careful code
+    /// updating an array in place does: `(root, old, place)` computes `root`, then
+    /// `place = root;`, where `old` is the variable standing for the value `place` held.
+    /// The old value is read first (see [`Lowerer::read_each`]) if code still to come
+    /// needs it and has not read it yet; a value equal to its old one stores nothing.
+    /// Storing each value once computed keeps it live for a moment, where one store of
+    /// every value at the end keeps them all live (a covariance of 300 entries, spilled).
+    pub fn segment_in_place(&mut self, writes: &[(NodeId, NodeId, TokenStream)]) {
+        let roots: Vec<NodeId> = writes
+            .iter()
+            .filter(|(root, old, _)| root != old)
+            .map(|&(root, _, _)| root)
+            .collect();
+        let (order, ends) = self.schedule(&roots);
+        self.count_traffic(&order, &roots);
+        let mut next = 0;
+        let changed = writes.iter().filter(|(root, old, _)| root != old);
+        for ((root, old, place), end) in changed.zip(ends) {
+            for &id in &order[next..end] {
+                self.emit_node(id);
+            }
+            next = end;
+            self.read_pending(&[*old]);
+            let value = self.render(*root).0;
+            self.statements.push(quote! { #place = #value; });
+        }
+    }
+
+    /// Reads now each of `vars` that code still to come uses and that was not read yet:
+    /// before the place it is read from is overwritten.
+    pub fn read_pending(&mut self, vars: &[NodeId]) {
+        for &var in vars {
+            if self.uses[var.index()] > 0 && !self.emitted[var.index()] {
+                self.emit_node(var);
+            }
+        }
+    }
+
+    /// The order `roots` are computed in (depth-first from each in turn, skipping what
+    /// was emitted before), and where in it each root's own computation ends.
+    fn schedule(&self, roots: &[NodeId]) -> (Vec<NodeId>, Vec<usize>) {
         let mut order = Vec::new();
+        let mut ends = Vec::with_capacity(roots.len());
         let mut visited = vec![false; self.graph.len()];
         for &root in roots {
             let mut stack = vec![(root, false)];
@@ -321,40 +388,48 @@ impl<'g> Lowerer<'g> {
                     }
                 }
             }
+            ends.push(order.len());
         }
-        self.count_traffic(&order, roots);
-        for id in order {
-            if self.emitted[id.index()] {
-                // The cosine of a sine (or the reverse) computed with it.
-                continue;
-            }
-            self.emitted[id.index()] = true;
-            let node = self.graph.node(id);
-            self.count(node);
-            if self.sin_cos(id, node) {
-                continue;
-            }
-            if let Some(&value) = self.definitions.get(&id) {
+        (order, ends)
+    }
+
+    /// Emits one scheduled node: its read, definition or `let`, as its uses ask.
+    fn emit_node(&mut self, id: NodeId) {
+        if self.emitted[id.index()] {
+            // The cosine of a sine (or the reverse) computed with it.
+            return;
+        }
+        self.emitted[id.index()] = true;
+        let node = self.graph.node(id);
+        self.count(node);
+        if self.sin_cos(id, node) {
+            return;
+        }
+        if let Some(&value) = self.definitions.get(&id) {
+            let value = self.render(value).0;
+            // A value that has a name of its own already (the model computes it too) is
+            // read under that name: `let a22 = c1_plus_ts_x4;` would only copy it.
+            if let Ok(name) = syn::parse2::<syn::Ident>(value.clone()) {
+                self.namer.alias(id, &name.to_string());
+            } else {
                 let name = self.render(id).0;
-                let value = self.render(value).0;
-                self.statements.push(quote! { let #name = #value; });
-            } else if let Node::Var(v) = node {
-                self.used_vars.insert(v);
-                let read = self.read_of.get(&id).and_then(|&i| self.reads[i].take());
-                self.statements.extend(read);
-            }
-            let shared = self.uses[id.index()] > 1 || self.graph.name_hint(id).is_some();
-            let depth = self.inline_depth_of(node);
-            let needs_let = !self.graph.is_leaf(id)
-                && (shared || matches!(node, Node::Select { .. }) || depth > MAX_INLINE_DEPTH);
-            self.inline_depth[id.index()] = if needs_let { 0 } else { depth };
-            if needs_let {
-                let (value, _) = self.render_node(node);
-                let name = self.namer.assign(self.graph, id);
                 self.statements.push(quote! { let #name = #value; });
             }
+        } else if let Node::Var(v) = node {
+            self.used_vars.insert(v);
+            let read = self.read_of.get(&id).and_then(|&i| self.reads[i].take());
+            self.statements.extend(read);
         }
-        roots.iter().map(|&r| self.render(r).0).collect()
+        let shared = self.uses[id.index()] > 1 || self.graph.name_hint(id).is_some();
+        let depth = self.inline_depth_of(node);
+        let needs_let = !self.graph.is_leaf(id)
+            && (shared || matches!(node, Node::Select { .. }) || depth > MAX_INLINE_DEPTH);
+        self.inline_depth[id.index()] = if needs_let { 0 } else { depth };
+        if needs_let {
+            let (value, _) = self.render_node(node);
+            let name = self.namer.assign(self.graph, id);
+            self.statements.push(quote! { let #name = #value; });
+        }
     }
 
     /// Declares that `vars` are values in registers, not read from memory: a loop's

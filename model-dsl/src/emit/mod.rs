@@ -5,6 +5,7 @@ pub mod arguments;
 pub mod code;
 pub mod continuous_filter;
 pub mod filter;
+pub mod in_place;
 pub mod interop;
 pub mod known;
 pub mod lower;

@@ -124,6 +124,11 @@ impl TempNamer {
         ident(&name)
     }
 
+    /// Gives `id` the name `name` another value already has: the two are one value.
+    pub fn alias(&mut self, id: NodeId, name: &str) {
+        self.assigned.insert(id, name.to_owned());
+    }
+
     /// Names a value the emitter binds itself (not a graph node): `base`, made unique.
     pub fn fresh(&mut self, base: &str) -> Ident {
         let name = self.unique(base);

@@ -4,8 +4,11 @@
 
 use super::continuous::AtPoint;
 use super::graph::{Graph, NodeId};
-use super::linalg::{add, dot, ldl_inverse, matmul, sandwich_symmetric, transpose, Matrix};
+use super::linalg::{
+    add, dot, ldl_factor, matmul, sandwich_symmetric, transpose, Coefficients, Matrix,
+};
 use super::model_graph::ModelGraph;
+use crate::model::Func;
 
 /// `A P A' + Q`, upper triangle computed once.
 pub fn predict_covariance(g: &mut Graph, a: &Matrix, p: &Matrix, q: &Matrix) -> Matrix {
@@ -81,9 +84,23 @@ pub fn normalised_innovation_squared(
 }
 
 /// The update of estimate `x`, covariance `p` with innovation `residual = y - h(x)`,
-/// measurement Jacobian `c` and noise `r`: `K = P C' S^-1` with `S = C P C' + R` inverted
-/// through guarded pivots (`reciprocal(graph, j)` declares the variable for `1 / d_j`),
-/// and the Joseph form `P = (I - K C) P (I - K C)' + K R K'`.
+/// measurement Jacobian `c` and noise `r`, through the factorisation of the innovation
+/// covariance `S = C P C' + R = L D L'` (guarded pivots: `reciprocal(graph, j)` declares
+/// the variable for `t_j = 1 / d_j`), in the Joseph form.
+///
+/// With `U = P C'` and `Z = U L^-T` (each row of `U` forward-substituted through `L`),
+/// `S^-1 = L^-T D^-1 L^-1` gives the gain `K = Z T L^-1`, `T = diag(t_j)`, the estimate
+/// `x + Z T e` with `e = L^-1 r`, and the normalised innovation squared `sum_j t_j e_j^2`.
+/// The Joseph form of that gain, `(I - K C) P (I - K C)' + K R K'`, expands to
+/// `P - Z (2 T - T D T) Z'` where `L^-1 S L^-T = D`: per measurement `j`, the weight
+/// `w_j = t_j (2 - d_j t_j)` and one multiply-add per entry of the triangle, as updating
+/// with the factor's measurements one at a time does, in one pass. The reciprocals'
+/// rounding reaches the weights at the second order (`w_j - 1 / d_j = -d_j (t_j - 1 /
+/// d_j)^2`), as a gain's error reaches the Joseph form; `L`'s, through `L^-1 S L^-T - D`,
+/// at the first, as every other rounding of the update does. One measurement: `L` is
+/// empty, `Z = U`, `d = S`, and the form is the Joseph form of its gain exactly.
+/// A large update (over [`SMALL_UPDATE`] values in `Z`) writes `Z W Z'` as `Y Y'` with
+/// `Y = Z W^1/2`, `m` square roots (the FPU's `vsqrt`) for half the values kept.
 pub fn update(
     g: &mut Graph,
     x: &[NodeId],
@@ -94,50 +111,53 @@ pub fn update(
     reciprocal: impl FnMut(&mut Graph, usize) -> NodeId,
 ) -> Update {
     let n = x.len();
+    let m = residual.len();
     // P C' is shared by S, the gain and the covariance update.
     let pct = matmul(g, p, &transpose(c));
     let cpct = matmul(g, c, &pct);
     let s = add(g, &cpct, r);
-    let ldl = ldl_inverse(g, &s, reciprocal);
-    let innovation: Matrix = residual.iter().map(|&e| vec![e]).collect();
-    let nis = normalised_innovation_squared(g, residual, &ldl.inverse);
-    // K r as U (T r): the measurements' `T r` first, shared with the NIS, then one
-    // product per state and measurement.
-    let weighted = matmul(g, &ldl.inverse, &innovation);
-    let correction = matmul(g, &pct, &weighted);
+    let factor = ldl_factor(g, &s, reciprocal);
+    let t = factor.reciprocals.clone();
+    let e = factor.forward_substitute(g, residual);
+    let scaled: Vec<NodeId> = e.iter().zip(&t).map(|(&ej, &tj)| g.mul(ej, tj)).collect();
+    let nis = dot(g, &e, &scaled);
+    let z: Matrix = pct
+        .iter()
+        .map(|u_i| factor.forward_substitute(g, u_i))
+        .collect();
     let x_new = x
         .iter()
-        .zip(&correction)
-        .map(|(&xi, dx)| g.add(xi, dx[0]))
-        .collect();
-    // Joseph form, (I - K C) P (I - K C)' + K R K'. The gain is K = U T with U = P C'
-    // and T the computed inverse of S (whatever its rounding), so the form expands
-    // exactly to P - U (2 T - T S T) U': one product per entry of the triangle, where the
-    // expansion P - K U' - (U - K S) K' takes two. With T = S^-1 exactly it is
-    // P - U S^-1 U'; the difference 2 T - T S T - S^-1 = -(T - S^-1) S (T - S^-1) is of the
-    // second order in T's error, as the Joseph form's is in the gain's.
-    let two = g.num(2.0);
-    let st = matmul(g, &s, &ldl.inverse);
-    let m = residual.len();
-    let twice_minus_st: Matrix = (0..m)
-        .map(|i| {
-            (0..m)
-                .map(|j| {
-                    let diagonal = if i == j { two } else { g.zero() };
-                    g.sub(diagonal, st[i][j])
-                })
-                .collect()
+        .zip(&z)
+        .map(|(&xi, z_i)| {
+            let correction = dot(g, z_i, &scaled);
+            g.add(xi, correction)
         })
         .collect();
-    let weight = matmul(g, &ldl.inverse, &twice_minus_st);
-    let v = matmul(g, &pct, &weight);
+    let two = g.num(2.0);
+    let weights: Vec<NodeId> = (0..m)
+        .map(|j| {
+            let dt = g.mul(factor.pivots[j], t[j]);
+            let twice_minus = g.sub(two, dt);
+            g.mul(t[j], twice_minus)
+        })
+        .collect();
+    let (left, right) = if n * m > SMALL_UPDATE {
+        // `Z W Z' = Y Y'` with `Y = Z W^1/2` (each `w_j > 0` where the pivot is): one
+        // matrix of `n m` values where `Z` and `Z W` are two, which is what a large
+        // update's code keeps in memory between its tests and its stores.
+        let roots: Vec<NodeId> = weights.iter().map(|&w| g.call(Func::Sqrt, w)).collect();
+        let y = scale_columns(g, &z, &roots);
+        (y.clone(), y)
+    } else {
+        (scale_columns(g, &z, &weights), z)
+    };
     let zero = g.zero();
     let mut p_new = vec![vec![zero; n]; n];
     for i in 0..n {
         for j in i..n {
             let mut v_ij = p[i][j];
             for l in 0..m {
-                let term = g.mul(v[i][l], pct[j][l]);
+                let term = g.mul(left[i][l], right[j][l]);
                 v_ij = g.sub(v_ij, term);
             }
             p_new[i][j] = v_ij;
@@ -147,22 +167,35 @@ pub fn update(
     Update {
         x: x_new,
         p: p_new,
-        pivots: ldl.pivots,
-        reciprocals: ldl.reciprocals,
+        pivots: factor.pivots,
+        reciprocals: factor.reciprocals,
         s,
         nis,
     }
 }
 
+/// The most values (`n m`, states times measurements) an update keeps as `Z` and `Z W`
+/// both; beyond, it keeps `Z W^1/2` alone (see [`update`]).
+const SMALL_UPDATE: usize = 16;
+
+/// `m` with each column `l` multiplied by `scales[l]`.
+fn scale_columns(g: &mut Graph, m: &Matrix, scales: &[NodeId]) -> Matrix {
+    m.iter()
+        .map(|row| row.iter().zip(scales).map(|(&v, &s)| g.mul(v, s)).collect())
+        .collect()
+}
+
 /// The EKF's prediction (Alg. 1): `x = f(x, u)` and `P = A P A' + Q` with `A = df/dx` at
 /// the estimate; with `t_prev`, both evaluated at that time (a step predicts from the
-/// previous sample's time, and corrects at the measurement's).
+/// previous sample's time, and corrects at the measurement's). `A`'s computed entries are
+/// bound to variables (`a21`) in `coefficients`. Returns `f`, the new `P` and `A`.
 pub fn ekf_predict(
     mg: &mut ModelGraph,
     p: &Matrix,
     q: &Matrix,
     t_prev: Option<NodeId>,
-) -> (Vec<NodeId>, Matrix) {
+    coefficients: &mut Coefficients,
+) -> (Vec<NodeId>, Matrix, Matrix) {
     let mut a = mg.jacobian_f_wrt_x();
     let mut f = mg.f.clone();
     if let Some(t_prev) = t_prev {
@@ -170,8 +203,9 @@ pub fn ekf_predict(
         f = at_prev.eval(&mut mg.graph, &[t_prev], &f);
         a = at_prev.eval_matrix(&mut mg.graph, &[t_prev], &a);
     }
+    let a = coefficients.bind(&mut mg.graph, &a, "a");
     let p = predict_covariance_by_sparse_rows(&mut mg.graph, &a, p, q);
-    (f, p)
+    (f, p, a)
 }
 
 /// A measurement update with the model's `h`, and the innovation it used.
@@ -186,14 +220,15 @@ pub struct Correction {
 /// with the measurement `y` of the model's outputs `outputs` and their noise covariance
 /// `r`: `h` and its Jacobian `C = dh/dx` evaluated at `x` (and at the measurement's time
 /// `t`, if given; else at the variable `t`), the innovation `y - h(x)`, and the
-/// Joseph-form [`update`] (`reciprocal` declares the pivots' reciprocals).
+/// Joseph-form [`update`] (`reciprocal` declares the pivots' reciprocals). `C`'s computed
+/// entries are bound to variables (`c11`) in `coefficients`.
 pub fn ekf_correct(
     mg: &mut ModelGraph,
     (t, x): (Option<NodeId>, &[NodeId]),
     p: &Matrix,
     (y, outputs): (&[NodeId], &[usize]),
     r: &Matrix,
-    reciprocal: impl FnMut(&mut Graph, usize) -> NodeId,
+    (coefficients, reciprocal): (&mut Coefficients, impl FnMut(&mut Graph, usize) -> NodeId),
 ) -> Correction {
     let mut vars: Vec<_> = mg.x.iter().map(|&v| mg.var_id(v)).collect();
     let mut point = x.to_vec();
@@ -205,6 +240,7 @@ pub fn ekf_correct(
     let c = mg.jacobian_h_wrt_x();
     let c: Matrix = outputs.iter().map(|&i| c[i].clone()).collect();
     let c = at.eval_matrix(&mut mg.graph, &point, &c);
+    let c = coefficients.bind(&mut mg.graph, &c, "c");
     let h: Vec<NodeId> = outputs.iter().map(|&i| mg.h[i]).collect();
     let h = at.eval(&mut mg.graph, &point, &h);
     let graph = &mut mg.graph;
@@ -216,6 +252,139 @@ pub fn ekf_correct(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `x + K r` and `(I - K C) P (I - K C)' + K R K'` with `K = P C' S^-1`, by plain
+    /// arithmetic (`S^-1` by Gauss-Jordan elimination).
+    // Index loops mirror the formula's subscripts.
+    #[allow(clippy::needless_range_loop)]
+    fn dense_joseph(
+        x: &[f64],
+        p: &[Vec<f64>],
+        c: &[Vec<f64>],
+        r: &[Vec<f64>],
+        residual: &[f64],
+    ) -> (Vec<f64>, Vec<Vec<f64>>) {
+        let (n, m) = (x.len(), c.len());
+        let u: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                (0..m)
+                    .map(|a| (0..n).map(|k| p[i][k] * c[a][k]).sum())
+                    .collect()
+            })
+            .collect();
+        let mut s: Vec<Vec<f64>> = (0..m)
+            .map(|a| {
+                (0..m)
+                    .map(|b| (0..n).map(|k| c[a][k] * u[k][b]).sum::<f64>() + r[a][b])
+                    .collect()
+            })
+            .collect();
+        let mut inverse: Vec<Vec<f64>> = (0..m)
+            .map(|a| (0..m).map(|b| f64::from(u8::from(a == b))).collect())
+            .collect();
+        for col in 0..m {
+            let pivot = s[col][col];
+            for b in 0..m {
+                s[col][b] /= pivot;
+                inverse[col][b] /= pivot;
+            }
+            for row in (0..m).filter(|&row| row != col) {
+                let factor = s[row][col];
+                for b in 0..m {
+                    s[row][b] -= factor * s[col][b];
+                    inverse[row][b] -= factor * inverse[col][b];
+                }
+            }
+        }
+        let k: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                (0..m)
+                    .map(|b| (0..m).map(|a| u[i][a] * inverse[a][b]).sum())
+                    .collect()
+            })
+            .collect();
+        let x_new = (0..n)
+            .map(|i| x[i] + (0..m).map(|a| k[i][a] * residual[a]).sum::<f64>())
+            .collect();
+        let a = |i: usize, j: usize| {
+            f64::from(u8::from(i == j)) - (0..m).map(|b| k[i][b] * c[b][j]).sum::<f64>()
+        };
+        let p_new = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| {
+                        let mut v = 0.0;
+                        for l in 0..n {
+                            for q in 0..n {
+                                v += a(i, l) * p[l][q] * a(j, q);
+                            }
+                        }
+                        for b in 0..m {
+                            for e in 0..m {
+                                v += k[i][b] * r[b][e] * k[j][e];
+                            }
+                        }
+                        v
+                    })
+                    .collect()
+            })
+            .collect();
+        (x_new, p_new)
+    }
+
+    /// With several measurements, the update through `S`'s factorisation is the Kalman
+    /// update in the Joseph form, whether it keeps `Z` and `Z W` (4 states, 3 outputs) or
+    /// `Z W^1/2` alone (7 states).
+    #[test]
+    fn a_factored_update_is_the_joseph_form_of_the_kalman_gain() {
+        for n in [4, 7] {
+            let m = 3;
+            let mut g = Graph::new();
+            let value = |i: usize, j: usize| {
+                let d = if i == j { 2.0 + i as f64 } else { 0.0 };
+                d + 0.3 / (1.0 + (i + j) as f64)
+            };
+            let pm: Vec<Vec<f64>> = (0..n)
+                .map(|i| (0..n).map(|j| value(i, j)).collect())
+                .collect();
+            let cm: Vec<Vec<f64>> = (0..m)
+                .map(|a| (0..n).map(|k| ((a * 7 + k * 3) % 5) as f64 - 1.5).collect())
+                .collect();
+            let rm: Vec<Vec<f64>> = (0..m)
+                .map(|a| (0..m).map(|b| if a == b { 0.5 } else { 0.1 }).collect())
+                .collect();
+            let (xm, residual) = (
+                (0..n).map(|i| i as f64).collect::<Vec<_>>(),
+                [0.4, -1.1, 0.7],
+            );
+            let lift = |g: &mut Graph, m: &[Vec<f64>]| -> Matrix {
+                m.iter()
+                    .map(|row| row.iter().map(|&v| g.num(v)).collect())
+                    .collect()
+            };
+            let (p, c, r) = (lift(&mut g, &pm), lift(&mut g, &cm), lift(&mut g, &rm));
+            let x: Vec<NodeId> = xm.iter().map(|&v| g.num(v)).collect();
+            let res: Vec<NodeId> = residual.iter().map(|&v| g.num(v)).collect();
+            let update = update(&mut g, &x, &p, &res, &c, &r, |g, j| g.var(&format!("t{j}")));
+            let mut t: Vec<f64> = Vec::new();
+            for &pivot in &update.pivots {
+                let known = t.clone();
+                t.push(1.0 / g.eval(pivot, &move |v| known[v.0 as usize]));
+            }
+            let at = |id: NodeId| g.eval(id, &|v| t[v.0 as usize]);
+            let (x_want, p_want) = dense_joseph(&xm, &pm, &cm, &rm, &residual);
+            for i in 0..n {
+                assert!((at(update.x[i]) - x_want[i]).abs() < 1e-12, "x{i}, n = {n}");
+                for j in 0..n {
+                    let (got, want) = (at(update.p[i][j]), p_want[i][j]);
+                    assert!(
+                        (got - want).abs() < 1e-12,
+                        "P{i}{j}, n = {n}: {got} vs {want}"
+                    );
+                }
+            }
+        }
+    }
 
     /// The update's covariance is the Joseph form `(I - K C) P (I - K C)' + K R K'` with
     /// the gain `K = P C' t` it uses, also when `t` is not exactly `1 / S`.

@@ -38,10 +38,16 @@ pub fn packed_upper(m: &Matrix) -> Vec<NodeId> {
         .collect()
 }
 
-/// `sum_k a_k b_k`
+/// `sum_k a_k b_k`, the terms with a factor of one first: the sum starts from such a term
+/// (the identity's part of `A P`, `P_ij` in `(I + ..) P`) and adds each product to it, one
+/// multiply-add each, where a product first would be a multiplication and the term one
+/// more addition.
 pub fn dot(g: &mut Graph, a: &[NodeId], b: &[NodeId]) -> NodeId {
+    let pairs: Vec<(NodeId, NodeId)> = a.iter().copied().zip(b.iter().copied()).collect();
+    let unit = |g: &Graph, &(x, y): &(NodeId, NodeId)| g.is_one(x) || g.is_one(y);
+    let (units, products): (Vec<_>, Vec<_>) = pairs.iter().partition(|pair| unit(g, pair));
     let mut sum = g.zero();
-    for (&x, &y) in a.iter().zip(b) {
+    for (x, y) in units.into_iter().chain(products) {
         let term = g.mul(x, y);
         sum = g.add(sum, term);
     }
@@ -103,6 +109,109 @@ pub fn sandwich_symmetric(g: &mut Graph, a: &Matrix, m: &Matrix, b: &Matrix) -> 
     out
 }
 
+/// Matrix entries bound to variables of their own, for a stage that uses each entry many
+/// times (`A P A'`, `P C'`): built on the entries themselves, the simplifier moves their
+/// literal factors out of every product (`0.5 (da_x p12)`) and multiplies by them again
+/// each time; on a variable, each product is one multiply-add. An entry whose value is
+/// another entry's, or its negation (`-0.5 da_x` beside `0.5 da_x`), shares that entry's
+/// variable, so a product with it is one multiply-subtract. Leaves (literals, named
+/// constants, variables) and their negations stay as they are.
+#[derive(Default)]
+pub struct Coefficients {
+    /// Names the variables must not take (the model's own).
+    avoid: Vec<String>,
+    /// Each variable with the value the code computes for it once.
+    pub definitions: Vec<(NodeId, NodeId)>,
+    /// The variable standing for each magnitude bound so far (see [`signed_magnitude`]),
+    /// and whether the variable holds its negation.
+    bound: std::collections::HashMap<NodeId, (NodeId, bool)>,
+}
+
+impl Coefficients {
+    /// A binder whose variables avoid the names in `avoid`.
+    pub fn new(avoid: &[String]) -> Coefficients {
+        Coefficients {
+            avoid: avoid.to_vec(),
+            ..Coefficients::default()
+        }
+    }
+
+    /// `matrix` with each computed entry replaced by a variable `{prefix}{row}{column}`
+    /// (1-based; `{prefix}_{row}_{column}` where a dimension reaches 10), or by the
+    /// variable of an equal or opposite entry bound before.
+    pub fn bind(&mut self, g: &mut Graph, matrix: &Matrix, prefix: &str) -> Matrix {
+        let wide = matrix.len() >= 10 || matrix.first().is_some_and(|row| row.len() >= 10);
+        let mut out = matrix.clone();
+        for (i, row) in matrix.iter().enumerate() {
+            for (j, &value) in row.iter().enumerate() {
+                let name = if wide {
+                    format!("{prefix}_{}_{}", i + 1, j + 1)
+                } else {
+                    format!("{prefix}{}{}", i + 1, j + 1)
+                };
+                out[i][j] = self.entry(g, value, name);
+            }
+        }
+        out
+    }
+
+    /// The variable for `value` (or `value` itself, a leaf or a leaf's negation).
+    fn entry(&mut self, g: &mut Graph, value: NodeId, mut name: String) -> NodeId {
+        let (negative, magnitude) = signed_magnitude(g, value);
+        if g.is_leaf(magnitude) {
+            return value;
+        }
+        if let Some(&(var, var_negative)) = self.bound.get(&magnitude) {
+            return if var_negative == negative {
+                var
+            } else {
+                g.neg(var)
+            };
+        }
+        while self.avoid.contains(&name) {
+            name.push('_');
+        }
+        let var = g.var(&name);
+        self.definitions.push((var, value));
+        self.bound.insert(magnitude, (var, negative));
+        var
+    }
+}
+
+/// `value` as a sign (`true`: negative) and a magnitude that an equal or opposite value
+/// shares: a negation stripped, and a difference, alone or as a factor, written `a - b`
+/// with `a` the earlier node, so that `0.5 (b - a)` and `-(0.5 (a - b))` meet.
+fn signed_magnitude(g: &mut Graph, value: NodeId) -> (bool, NodeId) {
+    use super::graph::Node;
+    let (negative, v) = match g.node(value) {
+        Node::Neg(inner) => (true, inner),
+        _ => (false, value),
+    };
+    // `a - b` with `b` the earlier node, as `-(b - a)`.
+    let reversed = |g: &Graph, id: NodeId| match g.node(id) {
+        Node::Sub(a, b) if b < a => Some((b, a)),
+        _ => None,
+    };
+    match g.node(v) {
+        Node::Sub(..) => match reversed(g, v) {
+            Some((a, b)) => (!negative, g.sub(a, b)),
+            None => (negative, v),
+        },
+        Node::Mul(x, y) => {
+            if let Some((a, b)) = reversed(g, y) {
+                let difference = g.sub(a, b);
+                (!negative, g.mul(x, difference))
+            } else if let Some((a, b)) = reversed(g, x) {
+                let difference = g.sub(a, b);
+                (!negative, g.mul(difference, y))
+            } else {
+                (negative, v)
+            }
+        }
+        _ => (negative, v),
+    }
+}
+
 /// The identity of size `n`.
 pub fn identity(g: &mut Graph, n: usize) -> Matrix {
     let (zero, one) = (g.zero(), g.one());
@@ -124,13 +233,35 @@ pub struct LdlInverse {
 
 /// The unrolled factorisation `S = L D L'` of a symmetric matrix, `L` unit lower
 /// triangular, written in terms of the reciprocal variables of the pivots.
-struct LdlFactor {
-    l: Matrix,
-    pivots: Vec<NodeId>,
-    reciprocals: Vec<NodeId>,
+pub struct LdlFactor {
+    /// `L`, unit lower triangular (its diagonal and upper triangle are not used).
+    pub l: Matrix,
+    /// The pivots `d_j` in order, to be checked positive before their reciprocals are
+    /// bound (as for [`LdlInverse`]).
+    pub pivots: Vec<NodeId>,
+    /// Variables standing for `1 / d_j`.
+    pub reciprocals: Vec<NodeId>,
 }
 
-fn ldl_factor(
+impl LdlFactor {
+    /// `L^-1 b`: the forward substitution `w_i = b_i - sum_{k < i} L_ik w_k`.
+    pub fn forward_substitute(&self, g: &mut Graph, b: &[NodeId]) -> Vec<NodeId> {
+        let mut w: Vec<NodeId> = Vec::with_capacity(b.len());
+        for (i, &bi) in b.iter().enumerate() {
+            let mut v = bi;
+            for (k, &wk) in w.iter().enumerate() {
+                let term = g.mul(self.l[i][k], wk);
+                v = g.sub(v, term);
+            }
+            w.push(v);
+        }
+        w
+    }
+}
+
+/// Builds the unrolled factorisation `S = L D L'` of the symmetric `s`; `reciprocal(j)`
+/// declares the variable that will hold `1 / d_j`, which later pivots and `L` use.
+pub fn ldl_factor(
     g: &mut Graph,
     s: &Matrix,
     mut reciprocal: impl FnMut(&mut Graph, usize) -> NodeId,
@@ -188,20 +319,13 @@ pub fn ldl_solve(
     reciprocal: impl FnMut(&mut Graph, usize) -> NodeId,
 ) -> LdlSolve {
     let m = s.len();
+    let factor = ldl_factor(g, s, reciprocal);
+    let w = factor.forward_substitute(g, b);
     let LdlFactor {
         l,
         pivots,
         reciprocals,
-    } = ldl_factor(g, s, reciprocal);
-    let mut w: Vec<NodeId> = Vec::with_capacity(m);
-    for i in 0..m {
-        let mut v = b[i];
-        for k in 0..i {
-            let term = g.mul(l[i][k], w[k]);
-            v = g.sub(v, term);
-        }
-        w.push(v);
-    }
+    } = factor;
     let scaled: Vec<NodeId> = w
         .iter()
         .zip(&reciprocals)

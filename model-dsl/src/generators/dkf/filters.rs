@@ -16,7 +16,7 @@ use crate::emit::measurement;
 use crate::emit::names::{ident, TempNamer};
 use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
-use crate::symbolic::linalg::{matmul, packed_upper, symmetric_from_packed, Matrix};
+use crate::symbolic::linalg::{matmul, packed_upper, symmetric_from_packed, Coefficients, Matrix};
 use crate::symbolic::substitute;
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::{Ident, Literal, TokenStream};
@@ -245,13 +245,13 @@ fn akf_prediction(
     u: &[NodeId],
     avoid: &[String],
 ) -> (Vec<NodeId>, Matrix, Vec<(NodeId, NodeId)>) {
-    let mut definitions = Vec::new();
-    let f = entry_vars(graph, &wt.f, "f", avoid, &mut definitions);
-    let g_matrix = entry_vars(graph, &wt.g, "g", avoid, &mut definitions);
+    let mut coefficients = Coefficients::new(avoid);
+    let f = coefficients.bind(graph, &wt.f, "f");
+    let g_matrix = coefficients.bind(graph, &wt.g, "g");
     let xbar_pred = transformed_prediction(graph, (&f, &g_matrix, &wt.d), &vars.xbar, u);
     let qbar = with_window_uncertainty(graph, wt, vars, u);
     let pbar_pred = kalman::predict_covariance(graph, &f, &vars.pbar, &qbar);
-    (xbar_pred, pbar_pred, definitions)
+    (xbar_pred, pbar_pred, coefficients.definitions)
 }
 
 /// The transformed model's prediction `F x + G u + d` (eq. 12).
@@ -805,42 +805,4 @@ fn stage_doc(prediction: &str, corrected: &Corrected) -> String {
              outlier."
         )
     }
-}
-
-/// `matrix` with each computed entry (not a literal, constant or variable) replaced by a
-/// variable `{prefix}{row}{column}` (1-based), recorded in `definitions` with its value.
-fn entry_vars(
-    graph: &mut Graph,
-    matrix: &Matrix,
-    prefix: &str,
-    avoid: &[String],
-    definitions: &mut Vec<(NodeId, NodeId)>,
-) -> Matrix {
-    let wide = matrix.len() >= 10 || matrix.first().is_some_and(|row| row.len() >= 10);
-    let mut entry = |graph: &mut Graph, i: usize, j: usize, value: NodeId| {
-        if graph.is_leaf(value) {
-            return value;
-        }
-        let mut name = if wide {
-            format!("{prefix}_{}_{}", i + 1, j + 1)
-        } else {
-            format!("{prefix}{}{}", i + 1, j + 1)
-        };
-        while avoid.contains(&name) {
-            name.push('_');
-        }
-        let var = graph.var(&name);
-        definitions.push((var, value));
-        var
-    };
-    matrix
-        .iter()
-        .enumerate()
-        .map(|(i, row)| {
-            row.iter()
-                .enumerate()
-                .map(|(j, &value)| entry(graph, i, j, value))
-                .collect()
-        })
-        .collect()
 }

@@ -6,19 +6,19 @@
 use super::spec::EkfSpec;
 use crate::emit::arguments::Arguments;
 use crate::emit::code::{
-    commit_or_non_finite_with, guard_pivots, innovation_pivot_failure, pivot_names, var_idents,
-    INNOVATION,
+    guard_pivots, innovation_pivot_failure, pivot_names, var_idents, INNOVATION,
 };
 use crate::emit::filter::{
     finiteness_probe, model_names, name_estimate, reads_time, FilterLayout, FilterVars,
 };
+use crate::emit::in_place::{self, CovarianceSlots};
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::measurement;
 use crate::emit::names::{ident, TempNamer};
 use crate::emit::sensors;
 use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
-use crate::symbolic::linalg::{packed_upper, symmetric_from_packed, Matrix};
+use crate::symbolic::linalg::{packed_upper, symmetric_from_packed, Coefficients, Matrix};
 use crate::symbolic::{ModelGraph, NodeId, VarId};
 use proc_macro2::TokenStream;
 use quote::quote;
@@ -401,6 +401,11 @@ struct EkfNodes {
     nis: Option<NodeId>,
     /// Whether the filter has an innovation gate.
     gated: bool,
+    /// The Jacobians' entries bound to variables, each computed once.
+    coefficients: Coefficients,
+    /// The order the new covariance's entries are computed and stored in (positions in
+    /// the packed triangle).
+    order: Vec<usize>,
 }
 
 impl EkfNodes {
@@ -418,6 +423,7 @@ impl EkfNodes {
             _ => g.name_time("t_prev"),
         });
         let t_measured = measurement_time(model, &mut g, kind, t_prev);
+        let coefficients = Coefficients::new(&avoid);
         let mut nodes = EkfNodes {
             x: g.x.clone(),
             p: symmetric_from_packed(&vars.p, model.state_len()),
@@ -432,13 +438,19 @@ impl EkfNodes {
             innovation_covariance: Vec::new(),
             nis: None,
             gated: spec.gate.is_some(),
+            coefficients,
+            order: Vec::new(),
         };
         if kind.predicts() {
             let q = &nodes.vars.q_matrix;
-            (nodes.x, nodes.p) = kalman::ekf_predict(&mut nodes.g, &nodes.p, q, t_prev);
+            let coefficients = &mut nodes.coefficients;
+            let (x, p, a) = kalman::ekf_predict(&mut nodes.g, &nodes.p, q, t_prev, coefficients);
+            (nodes.x, nodes.p) = (x, p);
+            nodes.order = in_place::prediction_order(&nodes.g.graph, &a);
         }
         if kind.updates() {
             nodes.correct(model.outputs.len(), &outputs, kind.sensor(model).is_some());
+            nodes.order = in_place::update_order(model.state_len(), outputs.len());
         }
         nodes
     }
@@ -459,7 +471,10 @@ impl EkfNodes {
             &self.p,
             (&self.vars.y, outputs),
             &r,
-            |g, j| g.var(&pivot_names(mu, j, INNOVATION, "").1),
+            (
+                &mut self.coefficients,
+                |g: &mut crate::symbolic::Graph, j| g.var(&pivot_names(mu, j, INNOVATION, "").1),
+            ),
         );
         let update = correction.update;
         (self.x, self.p) = (update.x, update.p);
@@ -513,8 +528,7 @@ fn lower(
 ) -> (TokenStream, BTreeSet<VarId>, OpCount) {
     let probe = finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p);
     let p_packed = packed_upper(&nodes.p);
-    let results: Vec<NodeId> = nodes.x.iter().chain(&p_packed).copied().collect();
-    let mut all_roots = results.clone();
+    let mut all_roots: Vec<NodeId> = nodes.x.iter().chain(&p_packed).copied().collect();
     all_roots.push(probe);
     all_roots.extend(&nodes.pivots);
     all_roots.extend(&nodes.innovation);
@@ -524,10 +538,13 @@ fn lower(
     let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
     lowerer.read_lazily(&quote! { self.x }, &g.x);
-    lowerer.read_lazily(&quote! { self.p }, &vars.p);
+    let slots = CovarianceSlots::read(&mut lowerer, &vars.p, &nodes.avoid);
     lowerer.read_lazily(&quote! { self.q }, &vars.q);
     lowerer.read_lazily(&quote! { self.r }, &vars.r);
     lowerer.read_lazily(&quote! { self.known }, &g.known);
+    for &(var, value) in &nodes.coefficients.definitions {
+        lowerer.define(var, value);
+    }
     let suffix = if kind.updates() { "new" } else { "pred" };
     name_results(&mut lowerer, model, &nodes.x, &vars.p, &p_packed, suffix);
     guard_pivots(
@@ -545,9 +562,6 @@ fn lower(
     };
     measurement::name_innovation_of(&mut lowerer, model, &stored, &nodes.innovation, "");
     let probe = lowerer.bind(probe, "divergence_probe");
-    let values = lowerer.segment(&results);
-    lowerer.count_extra(OpCount::stores(values.len()));
-    lowerer.count_extra(crate::emit::code::divergence_test_ops(model.state_len()));
     let prefix = sensor.map(sensors::prefix).unwrap_or_default();
     let kept = measurement::Kept {
         prefix: &prefix,
@@ -560,15 +574,24 @@ fn lower(
             .then(|| measurement::keep_prediction_call(model)),
     };
     let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
+    let written = in_place::commit(
+        &mut lowerer,
+        &probe,
+        (&nodes.x, &g.x),
+        (&p_packed, &slots, &nodes.order),
+        (&nodes.vars.variances(model.state_len()), scalar),
+    );
+    lowerer.count_extra(OpCount::stores(model.state_len() + written.len()));
+    lowerer.count_extra(crate::emit::code::divergence_test_ops(model.state_len()));
     let Lowered {
-        statements,
+        mut statements,
         used_vars,
         ops,
     } = lowerer.finish();
-    let (x_values, p_values) = values.split_at(model.state_len());
-    let commit = commit_or_non_finite_with(&probe, x_values, p_values, &store_innovation, scalar);
-    let statements = crate::emit::scopes::scoped(statements, &commit);
-    (quote! { #(#statements)* #commit }, used_vars, ops)
+    statements.insert(0, slots.binding(&g.graph, &used_vars, &written));
+    let tail = quote! { #store_innovation Status::Ok };
+    let statements = crate::emit::scopes::scoped(statements, &tail);
+    (quote! { #(#statements)* #tail }, used_vars, ops)
 }
 
 /// The method's arguments: the times where the model reads `t` (the previous sample's

@@ -1,0 +1,248 @@
+//! The commit of a filter step's new estimate and covariance in place: the step computes
+//! what its tests need (the new estimate, the new variances, the divergence probe), tests
+//! them, and only then computes the covariance's other entries, storing each in its place
+//! in `self.p` as soon as it is computed.
+//!
+//! A step that computed every entry before storing any would hold all of them at once: a
+//! 24-state covariance has 300 entries, which the target's 32 floating-point registers
+//! hold by spilling each to the stack and loading it back for the store. Stored as they
+//! are computed, each is live for a moment. The step still leaves the filter unchanged
+//! unless it returns `Status::Ok`: every test comes before the first store, and the tests
+//! are the ones the step made before (the probe of the estimate and variances; the
+//! off-diagonal entries are not tested, as they were not).
+//!
+//! The covariance is read and written through references to its entries, bound once,
+//! `let [p11_slot, p12_slot, ..] = &mut self.p;`: an entry is read where it is first used,
+//! `let p12 = *p12_slot;`, and written in place, `*p12_slot = p12_new;`, after its old
+//! value was read if code still to come needs it. An entry whose new value is its old one
+//! (a parameter's covariance in a prediction) is not written at all.
+
+use super::code::divergence_tests;
+use super::filter::unclaimed_name;
+use super::lower::Lowerer;
+use super::names::ident;
+use crate::model::Scalar;
+use crate::symbolic::linalg::{packed_index, packed_len};
+use crate::symbolic::{NodeId, VarId};
+use proc_macro2::{Ident, TokenStream};
+use quote::quote;
+use std::collections::BTreeSet;
+
+/// The references a method reads and writes the packed covariance through.
+pub struct CovarianceSlots {
+    /// The variables standing for the entries' values when the method starts.
+    vars: Vec<NodeId>,
+    /// The reference to each entry, `p12_slot`.
+    names: Vec<Ident>,
+}
+
+impl CovarianceSlots {
+    /// Has `lowerer` read each of the covariance's variables `vars` (packed, in the
+    /// order of `self.p`) through its reference where it is first used; the references'
+    /// names avoid `avoid`.
+    pub fn read(lowerer: &mut Lowerer, vars: &[NodeId], avoid: &[String]) -> CovarianceSlots {
+        let graph = lowerer.graph();
+        let names: Vec<Ident> = vars
+            .iter()
+            .map(|&var| {
+                let name = match graph.node(var) {
+                    crate::symbolic::Node::Var(v) => graph.var_info(v).name.clone(),
+                    _ => String::from("p"),
+                };
+                ident(&unclaimed_name(format!("{name}_slot"), avoid))
+            })
+            .collect();
+        let slot_of: std::collections::HashMap<String, Ident> = vars
+            .iter()
+            .zip(&names)
+            .filter_map(|(&var, slot)| match graph.node(var) {
+                crate::symbolic::Node::Var(v) => {
+                    Some((graph.var_info(v).name.clone(), slot.clone()))
+                }
+                _ => None,
+            })
+            .collect();
+        lowerer.read_each(vars, |name| {
+            let slot = &slot_of[&name.to_string()];
+            quote! { let #name = *#slot; }
+        });
+        CovarianceSlots {
+            vars: vars.to_vec(),
+            names,
+        }
+    }
+
+    /// `let [p11_slot, p12_slot, ..] = &mut self.p;`, naming `_` the entries the method
+    /// neither reads (`used`) nor writes (`written`, positions in `self.p`).
+    pub fn binding(
+        &self,
+        graph: &crate::symbolic::Graph,
+        used: &BTreeSet<VarId>,
+        written: &BTreeSet<usize>,
+    ) -> TokenStream {
+        let names = self
+            .vars
+            .iter()
+            .zip(&self.names)
+            .enumerate()
+            .map(|(k, (&var, name))| {
+                let read =
+                    matches!(graph.node(var), crate::symbolic::Node::Var(v) if used.contains(&v));
+                if read || written.contains(&k) {
+                    quote! { #name }
+                } else {
+                    quote! { _ }
+                }
+            });
+        quote! { let [#(#names),*] = &mut self.p; }
+    }
+}
+
+/// The new estimate `x` (over the estimate's variables `x_vars`, read from `self.x`) and
+/// the new packed covariance `p` of a step whose divergence probe is `probe` (bound to a
+/// name): tests the probe and the new variances, then stores the estimate, the variances
+/// and the covariance's other entries in place, in the order `order` (positions in
+/// `self.p`; see [`prediction_order`] and [`update_order`]). A new variance that is a sum
+/// of `known_variances` (the old covariance's and the process noise's, never negative)
+/// is not tested: a sum of non-negative numbers is not negative. Returns the positions of
+/// `self.p` written.
+pub fn commit(
+    lowerer: &mut Lowerer,
+    probe: &TokenStream,
+    (x, x_vars): (&[NodeId], &[NodeId]),
+    (p, slots, order): (&[NodeId], &CovarianceSlots, &[usize]),
+    (known_variances, scalar): (&[NodeId], Scalar),
+) -> BTreeSet<usize> {
+    let n = x.len();
+    let diagonal: Vec<usize> = (0..n).map(|i| packed_index(n, i, i)).collect();
+    let variances: Vec<NodeId> = diagonal.iter().map(|&k| p[k]).collect();
+    let rendered = lowerer.segment(&variances);
+    let graph = lowerer.graph();
+    let tested: Vec<TokenStream> = variances
+        .iter()
+        .zip(rendered)
+        .filter(|&(&v, _)| !sum_of(graph, v, known_variances))
+        .map(|(_, tokens)| tokens)
+        .collect();
+    for test in divergence_tests(probe, &tested, scalar) {
+        lowerer.statement(test);
+    }
+    let x_values = lowerer.segment(x);
+    lowerer.read_pending(x_vars);
+    lowerer.statement(quote! { self.x = [#(#x_values),*]; });
+    let off_diagonal = order.iter().copied().filter(|k| !diagonal.contains(k));
+    let order: Vec<usize> = diagonal.iter().copied().chain(off_diagonal).collect();
+    let writes: Vec<(NodeId, NodeId, TokenStream)> = order
+        .iter()
+        .map(|&k| {
+            let slot = &slots.names[k];
+            (p[k], slots.vars[k], quote! { *#slot })
+        })
+        .collect();
+    lowerer.segment_in_place(&writes);
+    order
+        .into_iter()
+        .filter(|&k| p[k] != slots.vars[k])
+        .collect()
+}
+
+/// Whether `value` is one of `terms` or a sum of them: a sum of non-negative numbers, which
+/// floating-point addition keeps non-negative.
+fn sum_of(graph: &crate::symbolic::Graph, value: NodeId, terms: &[NodeId]) -> bool {
+    match graph.node(value) {
+        crate::symbolic::Node::Add(a, b) => sum_of(graph, a, terms) && sum_of(graph, b, terms),
+        _ => terms.contains(&value),
+    }
+}
+
+/// The order a measurement update with `m` measurements computes the packed upper
+/// triangle of an `n x n` covariance in: blocks of a few rows and columns, so that the
+/// entries computed together share their rows' and their columns' operands (`Y_i` and
+/// `Y_j` of `P - Y Y'`, `m` values each), which stay in registers between their uses.
+/// The block is as large as two of its rows' and two of its columns' operands and its
+/// entries fit the target's 32 registers: 2 for `m` from 4, 3 for 2 or 3, 4 for one.
+pub fn update_order(n: usize, m: usize) -> Vec<usize> {
+    let tile = match m {
+        0 | 1 => 4,
+        2 | 3 => 3,
+        _ => 2,
+    };
+    tiled_upper(n, tile)
+}
+
+/// The order a prediction `A P A' + Q` computes the packed upper triangle of its
+/// covariance in: the rows of `A` that mix several states (the others are a state's own,
+/// `x_i = x_i + ..`, and leave its covariance with the like as it was) in groups of
+/// rows with mostly the same structural non-zeros (an attitude quaternion's four rows, a
+/// velocity's three), each group column by column, so that the entries of a column share
+/// the covariance entries they read and the group's coefficients stay in registers;
+/// then the entries between two mixing rows, in blocks.
+pub fn prediction_order(
+    graph: &crate::symbolic::Graph,
+    a: &crate::symbolic::linalg::Matrix,
+) -> Vec<usize> {
+    let n = a.len();
+    let support: Vec<BTreeSet<usize>> = a
+        .iter()
+        .map(|row| (0..n).filter(|&k| !graph.is_zero(row[k])).collect())
+        .collect();
+    let mixing: Vec<bool> = (0..n)
+        .map(|i| support[i].iter().any(|&k| k != i) || !graph.is_one(a[i][i]))
+        .collect();
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for i in (0..n).filter(|&i| mixing[i]) {
+        let joins = groups.last().is_some_and(|group| {
+            let last = *group.last().unwrap_or(&i);
+            let shared = support[i].intersection(&support[last]).count();
+            group.len() < MAX_GROUP && 2 * shared >= support[i].len()
+        });
+        if joins {
+            if let Some(group) = groups.last_mut() {
+                group.push(i);
+            }
+        } else {
+            groups.push(vec![i]);
+        }
+    }
+    let mut order = Vec::new();
+    let mut placed = vec![false; packed_len(n)];
+    let mut place = |order: &mut Vec<usize>, i: usize, j: usize| {
+        let k = packed_index(n, i, j);
+        if !std::mem::replace(&mut placed[k], true) {
+            order.push(k);
+        }
+    };
+    for group in &groups {
+        for j in (0..n).filter(|&j| !mixing[j]) {
+            for &i in group {
+                place(&mut order, i, j);
+            }
+        }
+    }
+    for k in tiled_upper(n, 2) {
+        if !placed[k] {
+            order.push(k);
+        }
+    }
+    order
+}
+
+/// The most rows of `A` [`prediction_order`] groups: their coefficients and the entries
+/// of a column they read share the registers.
+const MAX_GROUP: usize = 4;
+
+/// The positions of the packed upper triangle of an `n x n` matrix, block by block:
+/// `tile` rows at a time, and within them `tile` columns at a time.
+fn tiled_upper(n: usize, tile: usize) -> Vec<usize> {
+    let mut order = Vec::with_capacity(packed_len(n));
+    for rows in (0..n).step_by(tile) {
+        for columns in (rows..n).step_by(tile) {
+            for i in rows..(rows + tile).min(n) {
+                for j in columns.max(i)..(columns + tile).min(n) {
+                    order.push(packed_index(n, i, j));
+                }
+            }
+        }
+    }
+    order
+}
