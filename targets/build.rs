@@ -1,6 +1,7 @@
 //! Puts `memory.x` where the linker finds it, and embeds the measured sequence the host
 //! also uses (`generated_demo::sequence`) as a constant, so target and host filter
-//! exactly the same data.
+//! exactly the same data; likewise the observers' sequences and the first seconds of the
+//! navigation flight (`generated_demo::flight`).
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -26,6 +27,7 @@ fn main() {
     code.push_str("];\n");
     std::fs::write(out.join("sequence.rs"), code).expect("OUT_DIR is writable");
     observer_sequences(&out);
+    navigation(&out);
     peers();
 }
 
@@ -73,4 +75,76 @@ pub fn observer_sequences(out: &std::path::Path) {
     }
     code.push_str("];\n");
     std::fs::write(out.join("observer_sequences.rs"), code).expect("OUT_DIR is writable");
+}
+
+/// IMU samples of the embedded navigation flight (4 s at 250 Hz: 200 magnetometer samples,
+/// 20 GNSS fixes).
+const NAVIGATION_SAMPLES: usize = 1000;
+
+/// Writes `values` as a Rust array literal of `f32` (`{:?}`: every `f32` read back exactly).
+fn f32_array(values: impl IntoIterator<Item = f64>) -> String {
+    let items: Vec<String> = values
+        .into_iter()
+        .map(|v| format!("{:?}", v as f32))
+        .collect();
+    format!("[{}]", items.join(", "))
+}
+
+/// Embeds the navigation flight as the host's experiment flies it
+/// (`generated_demo::flight`): the filter's initial estimate (from the first magnetometer
+/// sample) and tuning, then the next IMU samples, and the magnetometer and GNSS readings
+/// with the index of the IMU sample they follow, all as `f32`.
+fn navigation(out: &std::path::Path) {
+    use generated_demo::flight::{initial_estimate, tuning, Flight};
+    let mut flight = Flight::new();
+    let first_magnetometer = loop {
+        if let Some(m) = flight.advance().1.magnetometer {
+            break m;
+        }
+    };
+    let (p0, q, r) = tuning();
+    let mut code = String::new();
+    let _ = writeln!(
+        code,
+        "/// The initial estimate (`flight::initial_estimate`).\n\
+         pub const X0: [f32; 24] = {};\n\
+         /// The diagonals of `P0`, `Q` and `R` (`flight::tuning`).\n\
+         pub const P0: [f32; 24] = {};\n\
+         pub const Q: [f32; 24] = {};\n\
+         pub const R: [f32; 9] = {};",
+        f32_array(initial_estimate(first_magnetometer)),
+        f32_array(p0),
+        f32_array(q),
+        f32_array(r),
+    );
+    let (mut imu, mut magnetometer, mut gnss) = (String::new(), Vec::new(), Vec::new());
+    for k in 0..NAVIGATION_SAMPLES {
+        let readings = flight.advance().1;
+        let _ = writeln!(imu, "    {},", f32_array(readings.imu));
+        if let Some(m) = readings.magnetometer {
+            magnetometer.push(format!("    ({k}, {}),", f32_array(m)));
+        }
+        if let Some(g) = readings.gnss {
+            gnss.push(format!("    ({k}, {}),", f32_array(g)));
+        }
+    }
+    // Statics, not constants: the IMU samples are 24 KB.
+    let _ = writeln!(
+        code,
+        "/// IMU samples, magnetometer readings and GNSS fixes.\n\
+         pub const SAMPLES: usize = {NAVIGATION_SAMPLES};\n\
+         pub const MAGNETOMETER_READINGS: usize = {};\n\
+         pub const GNSS_FIXES: usize = {};\n\
+         /// IMU delta angles and delta velocities, one per sample.\n\
+         pub static IMU: [[f32; 6]; SAMPLES] = [\n{imu}];\n\
+         /// Magnetometer readings, after the IMU sample of the index given.\n\
+         pub static MAGNETOMETER: [(usize, [f32; 3]); MAGNETOMETER_READINGS] = [\n{}\n];\n\
+         /// GNSS fixes (NED velocity, position), after the IMU sample of the index given.\n\
+         pub static GNSS: [(usize, [f32; 6]); GNSS_FIXES] = [\n{}\n];",
+        magnetometer.len(),
+        gnss.len(),
+        magnetometer.join("\n"),
+        gnss.join("\n"),
+    );
+    std::fs::write(out.join("navigation_flight.rs"), code).expect("OUT_DIR is writable");
 }

@@ -1,6 +1,7 @@
 //! Firmware for an emulated Cortex-M4F (QEMU `mps2-an386`): runs the adaptive loop of the
 //! cantilever paper in `f32` on the embedded measured sequence, then measures what the
-//! generated code and a plain nalgebra baseline cost per call in the same image.
+//! generated code and a plain nalgebra baseline cost per call in the same image (and the
+//! 24-state navigation EKF over the first seconds of the navigation flight: `navigation`).
 //!
 //! Output (semihosting), read by `cargo xtask`:
 //! - `estimate k <EKF x1..x5> <DKF x1..x5> <DKF-from-wrong-guess x1..x5> <K1 K2> <u>`
@@ -24,6 +25,7 @@ mod math;
 mod matrix;
 mod measure;
 mod mpc;
+mod navigation;
 mod observers;
 mod observers_baseline;
 #[cfg(feature = "peers")]
@@ -91,6 +93,7 @@ fn main() -> ! {
     continuous::costs(&clock);
     observers::costs(&clock);
     mpc::costs(&clock);
+    navigation::costs(&clock);
     math::costs(&clock);
     fused_multiply_add();
     hprintln!("done");

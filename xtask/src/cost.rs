@@ -102,6 +102,29 @@ const KERNELS: &[Kernel] = &[
         c_peer: None,
         paper_ms: None,
     },
+    // The 24-state navigation EKF over the first 4 s of the navigation flight (issue 19;
+    // its SymForce peer is in the peers' table).
+    Kernel {
+        name: "navigation_predict",
+        label: "navigation predict (24)",
+        goal: None,
+        c_peer: None,
+        paper_ms: None,
+    },
+    Kernel {
+        name: "navigation_update_gnss",
+        label: "navigation GNSS update (6)",
+        goal: None,
+        c_peer: None,
+        paper_ms: None,
+    },
+    Kernel {
+        name: "navigation_update_magnetometer",
+        label: "navigation mag update (3)",
+        goal: None,
+        c_peer: None,
+        paper_ms: None,
+    },
     // stateforge_math::f32, with libm's f32 function in the baseline column.
     math_kernel("sin_cos_f32", "sin_cos f32 (nalg: libm)"),
     math_kernel("tan_f32", "tan f32 (nalg: libm)"),
