@@ -30,6 +30,8 @@ mod observers;
 mod observers_baseline;
 #[cfg(feature = "peers")]
 mod peers;
+#[cfg(feature = "symforce")]
+mod peers_navigation;
 
 use core::hint::black_box;
 use cortex_m_rt::entry;
@@ -76,10 +78,12 @@ fn main() -> ! {
         panic!("peripherals taken twice");
     };
     let clock = Clock::start(peripherals.SYST);
-    // The embedded-QP peers' build runs them and the generated MPC only.
+    // The peers' build runs them and the generated MPC (and navigation EKF) only.
     #[cfg(feature = "peers")]
     {
         peers::run(&clock);
+        #[cfg(feature = "symforce")]
+        peers_navigation::run(&clock);
         hprintln!("done");
         debug::exit(debug::EXIT_SUCCESS);
     }

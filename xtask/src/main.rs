@@ -25,6 +25,7 @@ mod msrv;
 mod peers;
 mod peers_build;
 mod peers_problem;
+mod peers_symforce;
 mod peers_tinympc;
 mod program;
 mod scratch;
@@ -81,8 +82,9 @@ enum Task {
     Cost,
     /// Benchmark: the blade's MPC QP solved by embedded-QP peers (OSQP's and TinyMPC's
     /// generated C/C++, built with arm-none-eabi-gcc) on the same emulated Cortex-M4F, beside
-    /// the generated MPC (part of `cost`; installs the peers' Python packages and the ARM
-    /// compiler into `target/peers` when missing).
+    /// the generated MPC; and SymForce's navigation EKF beside the generated one (part of
+    /// `cost`; installs the peers' Python packages into `target/peers`, the ARM compiler and
+    /// Eigen's headers when missing).
     Peers,
     /// Vendor every demo model with `stateforge-codegen` into a user crate and check it
     /// with rustfmt, `-D warnings` and clippy (part of `test`).

@@ -9,7 +9,8 @@
 //! instructions per solve (SysTick under -icount), estimated cycles (the traced calls'
 //! cycles per instruction), code size, and the largest difference of each peer's plan from
 //! the generated MPC's in the same run. A peer that cannot be built is reported with its
-//! error.
+//! error. The same firmware runs SymForce's navigation EKF beside the generated one, and
+//! a second table reports it (`peers_symforce`).
 
 use crate::peers_build::{self, PACKAGES};
 use crate::program::Program;
@@ -41,7 +42,8 @@ struct Solver {
     spread: Option<[f64; 4]>,
 }
 
-/// Builds what it can, runs the peers' firmware, and returns the rows.
+/// Builds what it can, runs the peers' firmware, and returns the tables: the QP peers',
+/// then SymForce's beside the navigation EKF (`peers_symforce`).
 pub fn report() -> Result<String, String> {
     let root = workspace_root();
     let dir = root.join("target/peers");
@@ -52,73 +54,134 @@ pub fn report() -> Result<String, String> {
         .map_err(|e| format!("{}: {e}", problem_path.display()))?;
     let gcc = peers_build::arm_gcc()?;
     let python = peers_build::python(&dir)?;
-    let versions: Vec<String> = PACKAGES
-        .iter()
-        .map(|(name, _)| {
-            let v = peers_build::package_version(&python, name).unwrap_or_else(|e| e);
-            format!("{name} {v}")
-        })
-        .collect();
+    let versions = |names: &[&str]| -> String {
+        let named: Vec<String> = PACKAGES
+            .iter()
+            .filter(|(name, _)| names.contains(name))
+            .map(|(name, _)| {
+                let v = peers_build::package_version(&python, name).unwrap_or_else(|e| e);
+                format!("{name} {v}")
+            })
+            .collect();
+        format!("{}; {gcc}", named.join(", "))
+    };
     let osqp = build_osqp(&root, &python, &problem_path, &dir)?;
-    peers_build::archive(&dir, &osqp)?;
-    let text = run_firmware(&root.join(TARGETS), &dir, "peers")?;
+    let mut symforce = crate::peers_symforce::build(&root, &python, &dir);
+    let text = build_and_run(&root, &dir, &osqp, &mut symforce)?;
     let mut solvers = parse(&text)?;
     if !solvers.contains_key("mpc") || !solvers.contains_key("osqp") {
         return Err("the peers' firmware printed no plans of the MPC or OSQP".into());
     }
-    let elf = root.join(TARGETS).join(ELF);
-    let mut program = Program::read(&elf)?;
-    // OSQP dispatches to its linear-system solver through function pointers, which the
-    // disassembly's call graph does not follow: its wrapper can reach every function of
-    // the library.
-    if let Some(wrapper) = program.function("peers_osqp_solve") {
-        let library = peers_build::defined_functions(&dir.join("libpeers.a"))?;
-        let linked: Vec<String> = library
-            .into_iter()
-            .filter(|f| program.functions.contains_key(f))
-            .collect();
-        program.add_calls(&wrapper, linked);
-    }
-    let wrappers: Vec<String> = ["mpc", "osqp"]
-        .iter()
-        .filter_map(|n| program.function(&format!("peers_{n}_solve")))
-        .collect();
-    println!("xtask: the peers' firmware again, traced instruction by instruction");
-    let traced = crate::trace::run(&elf, &program, &wrappers)?;
+    let (program, traced) = trace(&root, &osqp, symforce.is_ok())?;
     let mut rows = vec![
         row("mpc", &solvers, None, &program, &traced)?,
         row("osqp", &solvers, None, &program, &traced)?,
     ];
     // TinyMPC in its own C++ firmware (peers_tinympc.rs); a failure is its row's text.
-    let tinympc =
-        crate::peers_tinympc::build(&root, &python, &problem_path, &dir).and_then(|elf| {
-            let text = crate::peers_tinympc::run(&elf)?;
-            solvers.extend(parse(&text)?);
-            let program = Program::read(&elf)?;
-            let wrapper = vec!["peers_tinympc_solve".to_owned()];
-            println!("xtask: TinyMPC's firmware again, traced instruction by instruction");
-            let traced = crate::trace::run(&elf, &program, &wrapper)?;
-            let own = crate::peers_tinympc::reference(&dir)?;
-            row("tinympc", &solvers, Some(&own), &program, &traced)
-        });
-    match tinympc {
-        Ok(line) => rows.push(line),
-        Err(e) => rows.push(format!("{:<22} cannot run here: {e}\n", "TinyMPC (solve)")),
-    }
+    rows.push(
+        tinympc(&root, &python, &problem_path, &dir, &mut solvers)
+            .unwrap_or_else(|e| format!("{:<22} cannot run here: {e}\n", "TinyMPC (solve)")),
+    );
     let mut out = format!(
         "Embedded-QP peers on the blade's MPC QP, same Cortex-M4F, same 300 steps \
-         ({}; {gcc}, {}):\n",
-        versions.join(", "),
+         ({}, {}):\n",
+        versions(&["osqp", "tinympc"]),
         peers_build::CFLAGS.join(" ")
     );
     out.push_str(&header());
     out.push_str(&rows.concat());
     out.push_str(NOTE);
     out.push_str(&format!(
-        "  {OSQP_TERMS}.\n  {}.\n",
+        "  {OSQP_TERMS}.\n  {}.\n\n",
         crate::peers_tinympc::TERMS
     ));
+    out.push_str(&crate::peers_symforce::report(
+        &symforce,
+        &text,
+        &program,
+        &traced,
+        &versions(&["symforce"]),
+    ));
     Ok(out)
+}
+
+/// Archives the peers' objects into `libpeers.a` and runs the firmware with them: with
+/// SymForce's when they were built (feature `symforce`); if that firmware cannot be built
+/// or run, SymForce's error becomes that, and the firmware runs without it.
+fn build_and_run(
+    root: &Path,
+    dir: &Path,
+    osqp: &[PathBuf],
+    symforce: &mut Result<Vec<PathBuf>, String>,
+) -> Result<String, String> {
+    let targets = root.join(TARGETS);
+    if let Ok(objects) = symforce.as_ref() {
+        let all: Vec<PathBuf> = osqp.iter().chain(objects).cloned().collect();
+        peers_build::archive(dir, &all)?;
+        match run_firmware(&targets, dir, "peers,symforce") {
+            Ok(text) => return Ok(text),
+            Err(e) => *symforce = Err(format!("the firmware with SymForce's code: {e}")),
+        }
+    }
+    if let Err(e) = symforce.as_ref() {
+        println!("xtask: SymForce's peer cannot run here: {e}");
+    }
+    peers_build::archive(dir, osqp)?;
+    run_firmware(&targets, dir, "peers")
+}
+
+/// The peers' firmware image and its traced run: the QP solvers' calls, and the
+/// navigation kernels' when SymForce ran beside them.
+fn trace(
+    root: &Path,
+    osqp: &[PathBuf],
+    symforce: bool,
+) -> Result<(Program, BTreeMap<String, crate::trace::Traced>), String> {
+    let elf = root.join(TARGETS).join(ELF);
+    let mut program = Program::read(&elf)?;
+    // OSQP dispatches to its linear-system solver through function pointers, which the
+    // disassembly's call graph does not follow: its wrapper can reach every function of
+    // OSQP's objects.
+    if let Some(wrapper) = program.function("peers_osqp_solve") {
+        let mut linked = Vec::new();
+        for object in osqp {
+            linked.extend(
+                peers_build::defined_functions(object)?
+                    .into_iter()
+                    .filter(|f| program.functions.contains_key(f)),
+            );
+        }
+        program.add_calls(&wrapper, linked);
+    }
+    let mut wrappers: Vec<String> = ["mpc", "osqp"]
+        .iter()
+        .filter_map(|n| program.function(&format!("peers_{n}_solve")))
+        .collect();
+    if symforce {
+        wrappers.extend(crate::peers_symforce::wrappers(&program));
+    }
+    println!("xtask: the peers' firmware again, traced instruction by instruction");
+    let traced = crate::trace::run(&elf, &program, &wrappers)?;
+    Ok((program, traced))
+}
+
+/// TinyMPC's row: its own firmware built, run and traced.
+fn tinympc(
+    root: &Path,
+    python: &Path,
+    problem: &Path,
+    dir: &Path,
+    solvers: &mut BTreeMap<String, Solver>,
+) -> Result<String, String> {
+    let elf = crate::peers_tinympc::build(root, python, problem, dir)?;
+    let text = crate::peers_tinympc::run(&elf)?;
+    solvers.extend(parse(&text)?);
+    let program = Program::read(&elf)?;
+    let wrapper = vec!["peers_tinympc_solve".to_owned()];
+    println!("xtask: TinyMPC's firmware again, traced instruction by instruction");
+    let traced = crate::trace::run(&elf, &program, &wrapper)?;
+    let own = crate::peers_tinympc::reference(dir)?;
+    row("tinympc", solvers, Some(&own), &program, &traced)
 }
 
 /// OSQP's solver generated (`peers/osqp_codegen.py`) and compiled with the glue.

@@ -10,7 +10,11 @@ use std::process::Command;
 
 /// The peers' Python packages, pinned: their code generators' interfaces change between
 /// versions.
-pub const PACKAGES: [(&str, &str); 2] = [("osqp", "1.1.3"), ("tinympc", "0.0.8")];
+pub const PACKAGES: [(&str, &str); 3] = [
+    ("osqp", "1.1.3"),
+    ("tinympc", "0.0.8"),
+    ("symforce", "0.12.0"),
+];
 
 /// The compiler's options for the Cortex-M4F, as the issue states them (single-precision
 /// FPU, hard-float ABI), plus Thumb code, a section per function (so the linker keeps only
@@ -191,7 +195,7 @@ pub fn sources(dir: &Path, extension: &str) -> Result<Vec<PathBuf>, String> {
     Ok(found)
 }
 
-/// The functions a static library defines (`arm-none-eabi-nm`).
+/// The functions a static library or an object defines (`arm-none-eabi-nm`).
 pub fn defined_functions(lib: &Path) -> Result<Vec<String>, String> {
     let out = Command::new("arm-none-eabi-nm")
         .args(["--defined-only", "--demangle"])

@@ -1,5 +1,6 @@
 //! What the checks need on the machine, installed or reported clearly.
 
+use std::path::Path;
 use std::process::Command;
 
 /// Installs a rustup target if it is missing.
@@ -39,8 +40,29 @@ pub fn debian_commands(needed: &[(&str, &str)]) -> Result<(), String> {
             .join(", "),
         packages.join(" ")
     );
+    apt_install(&packages, &hint, || {
+        missing.iter().all(|(cmd, _)| exists(cmd))
+    })
+}
+
+/// Makes sure `file` exists (a library's header), installing the Debian `package` that
+/// provides it with apt-get if not; `what` says who needs it.
+pub fn debian_file(file: &Path, package: &str, what: &str) -> Result<(), String> {
+    if file.exists() {
+        return Ok(());
+    }
+    let hint = format!(
+        "{what} needs {} (`apt-get install {package}`)",
+        file.display()
+    );
+    apt_install(&[package], &hint, || file.exists())
+}
+
+/// `apt-get update` and `apt-get install packages`; `hint` as the error if apt-get is
+/// missing or fails, or if `installed` is still false after it.
+fn apt_install(packages: &[&str], hint: &str, installed: impl Fn() -> bool) -> Result<(), String> {
     if !exists("apt-get") {
-        return Err(hint);
+        return Err(hint.to_owned());
     }
     println!("xtask: installing {}", packages.join(" "));
     let update = crate::command::run("`apt-get update`", Command::new("apt-get").arg("update"));
@@ -49,12 +71,12 @@ pub fn debian_commands(needed: &[(&str, &str)]) -> Result<(), String> {
             "`apt-get install`",
             Command::new("apt-get")
                 .args(["install", "-y"])
-                .args(&packages),
+                .args(packages),
         )
     });
     match install {
-        Ok(()) if missing.iter().all(|(cmd, _)| exists(cmd)) => Ok(()),
-        _ => Err(hint),
+        Ok(()) if installed() => Ok(()),
+        _ => Err(hint.to_owned()),
     }
 }
 
