@@ -297,6 +297,24 @@ pub fn finiteness_probe(graph: &mut Graph, vector: &[NodeId], matrix: &Matrix) -
     pairwise_sum(graph, &terms)
 }
 
+/// [`finiteness_probe`] with each entry of the vector beside its variance (`x1`, `p11`,
+/// `x2`, ..), the order the code computes them in: a measurement update's estimate and
+/// variance of a state share their operands (its row of the gain), which then need not be
+/// kept for long.
+pub fn interleaved_finiteness_probe(
+    graph: &mut Graph,
+    vector: &[NodeId],
+    matrix: &Matrix,
+) -> NodeId {
+    let diagonal = (0..matrix.len()).map(|i| matrix[i][i]);
+    let terms: Vec<NodeId> = vector
+        .iter()
+        .zip(diagonal)
+        .flat_map(|(&v, d)| [v, d])
+        .collect();
+    pairwise_sum(graph, &terms)
+}
+
 /// `terms` summed as a balanced tree: each half, then their sum (zero for none).
 fn pairwise_sum(graph: &mut Graph, terms: &[NodeId]) -> NodeId {
     match terms {

@@ -98,21 +98,31 @@ impl CovarianceSlots {
     }
 }
 
-/// The new estimate `x` (over the estimate's variables `x_vars`, read from `self.x`) and
-/// the new packed covariance `p` of a step whose divergence probe is `probe` (bound to a
-/// name): tests the probe and the new variances, then stores the estimate, the variances
-/// and the covariance's other entries in place, in the order `order` (positions in
-/// `self.p`; see [`prediction_order`] and [`update_order`]). A new variance that is a sum
-/// of `known_variances` (the old covariance's and the process noise's, never negative)
-/// is not tested: a sum of non-negative numbers is not negative. Returns the positions of
-/// `self.p` written.
-pub fn commit(
-    lowerer: &mut Lowerer,
-    probe: &TokenStream,
-    (x, x_vars): (&[NodeId], &[NodeId]),
-    (p, slots, order): (&[NodeId], &CovarianceSlots, &[usize]),
-    (known_variances, scalar): (&[NodeId], Scalar),
-) -> BTreeSet<usize> {
+/// What a step commits in place: its new estimate and covariance, and what it tests first.
+pub struct Commit<'a> {
+    /// The divergence probe of the new estimate and variances, bound to a name.
+    pub probe: &'a TokenStream,
+    /// The new estimate.
+    pub x: &'a [NodeId],
+    /// The estimate's variables, read from `self.x`.
+    pub x_vars: &'a [NodeId],
+    /// The new covariance, packed.
+    pub p: &'a [NodeId],
+    /// The references the covariance is read and written through.
+    pub slots: &'a CovarianceSlots,
+    /// The order its entries are computed and stored in (positions in `self.p`; see
+    /// [`prediction_order`] and [`update_order`]).
+    pub order: &'a [usize],
+    /// The variables that hold variances (the old covariance's, the process noise's).
+    pub known_variances: &'a [NodeId],
+}
+
+/// Tests the probe and the new variances, then stores the estimate, the variances and the
+/// covariance's other entries in place, in their order.
+/// A new variance that is a sum of known variances (never negative) is not tested: a sum
+/// of non-negative numbers is not negative. Returns the positions of `self.p` written.
+pub fn commit(lowerer: &mut Lowerer, commit: &Commit<'_>, scalar: Scalar) -> BTreeSet<usize> {
+    let (x, p, slots) = (commit.x, commit.p, commit.slots);
     let n = x.len();
     let diagonal: Vec<usize> = (0..n).map(|i| packed_index(n, i, i)).collect();
     let variances: Vec<NodeId> = diagonal.iter().map(|&k| p[k]).collect();
@@ -121,16 +131,20 @@ pub fn commit(
     let tested: Vec<TokenStream> = variances
         .iter()
         .zip(rendered)
-        .filter(|&(&v, _)| !sum_of(graph, v, known_variances))
+        .filter(|&(&v, _)| !sum_of(graph, v, commit.known_variances))
         .map(|(_, tokens)| tokens)
         .collect();
-    for test in divergence_tests(probe, &tested, scalar) {
+    for test in divergence_tests(commit.probe, &tested, scalar) {
         lowerer.statement(test);
     }
     let x_values = lowerer.segment(x);
-    lowerer.read_pending(x_vars);
+    lowerer.read_pending(commit.x_vars);
     lowerer.statement(quote! { self.x = [#(#x_values),*]; });
-    let off_diagonal = order.iter().copied().filter(|k| !diagonal.contains(k));
+    let off_diagonal = commit
+        .order
+        .iter()
+        .copied()
+        .filter(|k| !diagonal.contains(k));
     let order: Vec<usize> = diagonal.iter().copied().chain(off_diagonal).collect();
     let writes: Vec<(NodeId, NodeId, TokenStream)> = order
         .iter()
@@ -159,14 +173,10 @@ fn sum_of(graph: &crate::symbolic::Graph, value: NodeId, terms: &[NodeId]) -> bo
 /// triangle of an `n x n` covariance in: blocks of a few rows and columns, so that the
 /// entries computed together share their rows' and their columns' operands (`Y_i` and
 /// `Y_j` of `P - Y Y'`, `m` values each), which stay in registers between their uses.
-/// The block is as large as two of its rows' and two of its columns' operands and its
-/// entries fit the target's 32 registers: 2 for `m` from 4, 3 for 2 or 3, 4 for one.
+/// Blocks of 4 rows and columns for up to 3 measurements, of 2 from 4 (measured on the
+/// navigation model's updates: its magnetometer's 3 and its GNSS receiver's 6).
 pub fn update_order(n: usize, m: usize) -> Vec<usize> {
-    let tile = match m {
-        0 | 1 => 4,
-        2 | 3 => 3,
-        _ => 2,
-    };
+    let tile = if m <= 3 { 4 } else { 2 };
     tiled_upper(n, tile)
 }
 

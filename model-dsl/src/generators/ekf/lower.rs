@@ -9,7 +9,8 @@ use crate::emit::code::{
     guard_pivots, innovation_pivot_failure, pivot_names, var_idents, INNOVATION,
 };
 use crate::emit::filter::{
-    finiteness_probe, model_names, name_estimate, reads_time, FilterLayout, FilterVars,
+    finiteness_probe, interleaved_finiteness_probe, model_names, name_estimate, reads_time,
+    FilterLayout, FilterVars,
 };
 use crate::emit::in_place::{self, CovarianceSlots};
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
@@ -526,7 +527,11 @@ fn lower(
     scalar: Scalar,
     kind: EkfMethod,
 ) -> (TokenStream, BTreeSet<VarId>, OpCount) {
-    let probe = finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p);
+    let probe = if kind.updates() {
+        interleaved_finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p)
+    } else {
+        finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p)
+    };
     let p_packed = packed_upper(&nodes.p);
     let mut all_roots: Vec<NodeId> = nodes.x.iter().chain(&p_packed).copied().collect();
     all_roots.push(probe);
@@ -574,13 +579,17 @@ fn lower(
             .then(|| measurement::keep_prediction_call(model)),
     };
     let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
-    let written = in_place::commit(
-        &mut lowerer,
-        &probe,
-        (&nodes.x, &g.x),
-        (&p_packed, &slots, &nodes.order),
-        (&nodes.vars.variances(model.state_len()), scalar),
-    );
+    let variances = nodes.vars.variances(model.state_len());
+    let commit = in_place::Commit {
+        probe: &probe,
+        x: &nodes.x,
+        x_vars: &g.x,
+        p: &p_packed,
+        slots: &slots,
+        order: &nodes.order,
+        known_variances: &variances,
+    };
+    let written = in_place::commit(&mut lowerer, &commit, scalar);
     lowerer.count_extra(OpCount::stores(model.state_len() + written.len()));
     lowerer.count_extra(crate::emit::code::divergence_test_ops(model.state_len()));
     let Lowered {
