@@ -36,9 +36,9 @@ pub const TERMS: &str = "Both sides from the same estimate at every call: before
      call of ours, SymForce is handed our filter's state and covariance (the packed \
      upper triangle, read through Ekf::covariance), the same IMU sample or measurement, \
      Q's diagonal or the sensor's part of R's (R is diagonal). Ours: the generated f32 \
-     navigation::Ekf (predict; update_gnss and update_magnetometer: one joint Joseph-form \
-     update of the sensor's outputs with an L D L' solve, the innovation gates 22.46 and \
-     16.27, non-finite and divergence checks, the NIS stored). SymForce: x_new = f(x, u), \
+     navigation::Ekf's predict, update_gnss and update_magnetometer as generated (each \
+     update a joint update of the sensor's outputs, gated at 22.46 and 16.27, with its \
+     input and divergence checks, its innovation and NIS stored). SymForce: x_new = f(x, u), \
      P_new = A P A' + diag(q) on the packed triangle; each sensor fused as sequential \
      scalar updates linearised at the prior (PX4 EKF2's scheme), no gate and no checks; \
      generated C++ templates for float, called through extern \"C\" wrappers with \
