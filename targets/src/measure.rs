@@ -32,6 +32,22 @@ impl Clock {
         let end = SYST::get_current();
         (start.wrapping_sub(end) & 0x00FF_FFFF) * INSTRUCTIONS_PER_TICK
     }
+
+    /// Waits for the counter's next tick, then runs about `j % 40` more instructions
+    /// (`2 (j % 40 / 2)` in a delay loop, and a `nop` when it is odd): the reading that
+    /// follows starts at a point of its tick set by `j` alone, whatever ran before, so that
+    /// over 40 consecutive `j` the 40-instruction steps of single readings average out
+    /// instead of rounding every call the same way.
+    #[inline(never)]
+    pub fn dither(&self, j: usize) {
+        let now = SYST::get_current();
+        while SYST::get_current() == now {}
+        let phase = (j % 40) as u32;
+        cortex_m::asm::delay(phase / 2);
+        if phase % 2 == 1 {
+            cortex_m::asm::nop();
+        }
+    }
 }
 
 /// Bytes of stack below the caller's stack pointer that `work` used.
@@ -76,10 +92,6 @@ pub fn traced<R>(work: impl FnOnce() -> R) -> R {
     trace_end();
     result
 }
-
-/// Does nothing: the empty call [`Calls::measure`] reads.
-#[inline(never)]
-fn no_work() {}
 
 /// Marks the start of measured calls for `cargo xtask`'s instruction trace, which
 /// follows each kernel call between the two markers to estimate its cycles.
@@ -126,23 +138,11 @@ pub fn report(kernel: &str, instructions: (u32, u32), stack: (usize, usize)) {
     cortex_m_semihosting::hprintln!("stack {} {} {}", kernel, stack.0, stack.1);
 }
 
-/// Executes about `j % 40` more instructions (`2 (j % 40 / 2)` in a delay loop, and a
-/// `nop` when it is odd): a call read after `dither(j)` starts at another point of a
-/// SysTick tick for each of 40 consecutive `j`, so that the 40-instruction steps of single
-/// readings average out over many calls instead of rounding each the same way.
-#[inline(never)]
-pub fn dither(j: usize) {
-    let phase = (j % 40) as u32;
-    cortex_m::asm::delay(phase / 2);
-    if phase % 2 == 1 {
-        cortex_m::asm::nop();
-    }
-}
-
 /// The instructions of `N` single calls of one kernel, each read around its own call
 /// (to within a tick, 40 instructions), for their median and worst; and their mean,
-/// accurate to a few instructions: before each call the same empty call is read, both
-/// after the same [`dither`], and the empty calls' mean is subtracted.
+/// accurate to a few instructions: each reading starts at a point of its tick set by
+/// [`Clock::dither`], and an empty reading (the reads' own instruction), made the same
+/// way before each call, is subtracted.
 pub struct Calls<const N: usize> {
     each: [u32; N],
     count: usize,
@@ -166,20 +166,15 @@ impl<const N: usize> Calls<N> {
     /// between them inside the read span.
     #[inline(never)]
     pub fn measure<R>(&mut self, clock: &Clock, work: impl FnOnce() -> R) -> R {
-        use core::hint::black_box;
         if self.count == N {
             return work();
         }
         // Consecutive calls take phases 21 apart: any 40 of them take every phase, and
         // fewer spread over the tick.
         let j = 21 * self.count;
-        // The empty call: a call through a pointer the compiler cannot see, so that it is
-        // made (a direct call of a function without effects is removed), and made as the
-        // kernel's is, with nothing else in the read span.
-        let empty: fn() = black_box(no_work);
-        dither(j);
-        self.empty += clock.instructions(empty);
-        dither(j);
+        clock.dither(j);
+        self.empty += clock.instructions(|| {});
+        clock.dither(j);
         let mut result = None;
         self.each[self.count] = clock.instructions(|| result = Some(work()));
         self.count += 1;
@@ -189,20 +184,20 @@ impl<const N: usize> Calls<N> {
         result
     }
 
-    /// The mean empty call, subtracted from each reading.
+    /// The mean empty reading, subtracted from each reading.
     #[cfg(feature = "symforce")]
     fn empty_mean(&self) -> u32 {
         (self.empty + self.count as u32 / 2) / (self.count.max(1) as u32)
     }
 
-    /// Mean instructions per call, the empty call's subtracted.
+    /// Mean instructions per call, the empty reading's subtracted.
     pub fn mean(&self) -> u32 {
         let total: u32 = self.each[..self.count].iter().sum();
         let calls = self.count.max(1) as u32;
         (total.saturating_sub(self.empty) + calls / 2) / calls
     }
 
-    /// Median and worst single call, each less the mean empty call (within 40).
+    /// Median and worst single call, each less the mean empty reading (within 40).
     #[cfg(feature = "symforce")]
     pub fn median_worst(&mut self) -> (u32, u32) {
         let empty = self.empty_mean();
