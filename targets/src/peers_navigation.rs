@@ -17,7 +17,9 @@
 //! Output, per kernel (`predict`, `update_gnss`, `update_magnetometer`):
 //! `navpeer <side> <kernel> <median> <worst> <mean> <calls>` for `ours` and `symforce`
 //! (instructions per call), `navstack <side> <kernel> <bytes>`, and
-//! `navdiff <kernel> <compared> <skipped> <state> <covariance>`.
+//! `navdiff <kernel> <compared> <skipped> <state> <covariance> <state's call>
+//! <covariance's call>` (the largest differences, and the calls of the flight where they
+//! were).
 
 use crate::measure::{stack_depth, traced, Calls, Clock};
 use crate::navigation::{
@@ -29,8 +31,9 @@ use core::hint::black_box;
 use cortex_m_semihosting::hprintln;
 use generated_demo::navigation::{Ekf, Status};
 
-/// States, and entries of the covariance's packed upper triangle.
-const STATES: usize = 24;
+/// States (the glue's, which `peers/symforce_codegen.py` checks against the model's), and
+/// entries of the covariance's packed upper triangle.
+const STATES: usize = generated_demo::navigation::X_LEN;
 const PACKED: usize = STATES * (STATES + 1) / 2;
 
 /// An array as the glue takes it: 16-byte aligned, the alignment Eigen gives its
