@@ -285,7 +285,7 @@ fn rows(
         "{label:<24} {:<9} {ours_row} {:>15} {:>9} {:>9} {:>8}\n{:<24} {:<9} {symforce_row}\n",
         "ours",
         format!(
-            "{median:.2}/{worst:.2}{}",
+            "{median:.3}/{worst:.3}{}",
             verdict(median <= RATIO_GOAL && worst <= RATIO_GOAL)
         ),
         format!(

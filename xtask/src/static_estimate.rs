@@ -63,22 +63,12 @@ pub fn difference(estimate: f64, traced: f64) -> f64 {
     (estimate - traced) / traced.max(1.0)
 }
 
-/// Kernels whose estimate the table shows but [`check`] does not hold to [`TOLERANCE`]:
-/// the navigation EKF's (issue 19 added their rows; the model sets no cycle budget, and
-/// its GNSS update's estimate was 16 % under the trace when they were added).
-const SHOWN_ONLY: [&str; 3] = [
-    "navigation_predict",
-    "navigation_update_gnss",
-    "navigation_update_magnetometer",
-];
-
 /// The kernels whose static estimate differs from the trace by more than [`TOLERANCE`],
 /// as an error naming each; `rows` are (label, kernel name, traced cycles per call), and
 /// `paths` what the run's MPC solves recomputed.
 pub fn check(rows: &[(&str, &str, f64)], paths: &MpcPaths) -> Result<(), String> {
     let off: Vec<String> = rows
         .iter()
-        .filter(|&&(_, name, _)| !SHOWN_ONLY.contains(&name))
         .filter_map(|&(label, name, traced)| {
             let estimate = cycles(name, paths)?;
             let d = difference(estimate, traced);
