@@ -21,6 +21,8 @@ pub(crate) trait Real:
     const EPSILON: Self;
     /// `n` as a value of this type (exact for the sizes a filter has).
     fn from_count(n: usize) -> Self;
+    /// Whether the value is neither infinite nor NaN.
+    fn finite(self) -> bool;
 }
 
 impl Real for f32 {
@@ -30,6 +32,9 @@ impl Real for f32 {
     fn from_count(n: usize) -> Self {
         n as f32
     }
+    fn finite(self) -> bool {
+        self.is_finite()
+    }
 }
 
 impl Real for f64 {
@@ -38,6 +43,9 @@ impl Real for f64 {
     #[allow(clippy::cast_precision_loss)] // A matrix dimension, far below 2^53.
     fn from_count(n: usize) -> Self {
         n as f64
+    }
+    fn finite(self) -> bool {
+        self.is_finite()
     }
 }
 
@@ -105,4 +113,56 @@ fn is_symmetric<T: Real, const N: usize>(m: &[[T; N]; N]) -> bool {
 /// Whether every variance is non-negative (a diagonal covariance); NaN fails.
 pub(crate) fn all_non_negative<T: Real, const N: usize>(variances: &[T; N]) -> bool {
     variances.iter().all(|&v| v >= T::ZERO)
+}
+
+/// Whether every entry of `m`'s upper triangle (diagonal included) is finite: the entries
+/// a filter reads of a symmetric matrix argument. A loop, so that a constructor checking a
+/// 100-state covariance's 5050 entries is a few instructions of code, not one test each.
+pub(crate) fn upper_triangle_finite<T: Real, const N: usize>(m: &[[T; N]; N]) -> bool {
+    m.iter()
+        .enumerate()
+        .all(|(i, row)| row.iter().skip(i).all(|&v| v.finite()))
+}
+
+/// The upper triangle of `m` row by row, `L = N (N + 1) / 2` entries: how a filter stores
+/// a symmetric matrix. A loop, so that storing a 100-state covariance is a few
+/// instructions of code, not 5050 moves.
+pub(crate) fn pack_upper<T: Real, const N: usize, const L: usize>(m: &[[T; N]; N]) -> [T; L] {
+    const {
+        assert!(
+            L == N * (N + 1) / 2,
+            "L is the length of the packed triangle"
+        )
+    };
+    let mut packed = [T::ZERO; L];
+    let upper = m.iter().enumerate().flat_map(|(i, row)| row.iter().skip(i));
+    for (slot, &value) in packed.iter_mut().zip(upper) {
+        *slot = value;
+    }
+    packed
+}
+
+/// The symmetric matrix whose upper triangle, row by row, is `packed` (see
+/// [`pack_upper`]).
+pub(crate) fn unpack_symmetric<T: Real, const N: usize, const L: usize>(
+    packed: &[T; L],
+) -> [[T; N]; N] {
+    const {
+        assert!(
+            L == N * (N + 1) / 2,
+            "L is the length of the packed triangle"
+        )
+    };
+    let mut m = [[T::ZERO; N]; N];
+    let mut entries = packed.iter();
+    // The matrix is indexed by row and column; the lower triangle mirrors the upper.
+    #[allow(clippy::needless_range_loop)]
+    for i in 0..N {
+        for j in i..N {
+            let value = entries.next().copied().unwrap_or(T::ZERO);
+            m[i][j] = value;
+            m[j][i] = value;
+        }
+    }
+    m
 }

@@ -86,6 +86,26 @@ pub fn is_covariance<const N: usize>(m: &[[f64; N]; N]) -> bool {
     crate::covariance::is_covariance(m)
 }
 
+/// Whether every entry of the upper triangle of `m` (diagonal included) is finite: what a
+/// generated filter reads of a symmetric matrix argument, tested by a loop.
+#[must_use]
+pub fn upper_triangle_finite<const N: usize>(m: &[[f64; N]; N]) -> bool {
+    crate::covariance::upper_triangle_finite(m)
+}
+
+/// The upper triangle of the symmetric `m`, row by row (`L = N (N + 1) / 2` entries, checked
+/// when the code is compiled): how a generated filter stores a covariance.
+#[must_use]
+pub fn pack_upper<const N: usize, const L: usize>(m: &[[f64; N]; N]) -> [f64; L] {
+    crate::covariance::pack_upper(m)
+}
+
+/// The symmetric matrix whose upper triangle, row by row, is `packed` (see [`pack_upper`]).
+#[must_use]
+pub fn unpack_symmetric<const N: usize, const L: usize>(packed: &[f64; L]) -> [[f64; N]; N] {
+    crate::covariance::unpack_symmetric(packed)
+}
+
 /// Whether every variance of a diagonal covariance is non-negative (NaN is not).
 #[must_use]
 pub fn all_non_negative<const N: usize>(variances: &[f64; N]) -> bool {

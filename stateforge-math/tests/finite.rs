@@ -90,3 +90,33 @@ fn f64_all_finite_agrees_with_is_finite_on_every_pair() {
     }
     assert!(stateforge_math::f64::all_finite([f64::MIN; 32]));
 }
+
+/// `upper_triangle_finite` reads the upper triangle and the diagonal, nothing else: every
+/// kind of value at every place of a 3 x 3 matrix.
+#[test]
+fn upper_triangle_finite_tests_the_upper_triangle_only() {
+    for value in f32_cases() {
+        for (i, j) in (0..3).flat_map(|i| (0..3).map(move |j| (i, j))) {
+            let mut m = [[1.0_f32; 3]; 3];
+            m[i][j] = value;
+            let expected = i > j || value.is_finite();
+            assert_eq!(
+                stateforge_math::f32::upper_triangle_finite(&m),
+                expected,
+                "{value:?} at ({i}, {j})"
+            );
+        }
+    }
+    for value in f64_cases() {
+        for (i, j) in (0..3).flat_map(|i| (0..3).map(move |j| (i, j))) {
+            let mut m = [[1.0_f64; 3]; 3];
+            m[i][j] = value;
+            let expected = i > j || value.is_finite();
+            assert_eq!(
+                stateforge_math::f64::upper_triangle_finite(&m),
+                expected,
+                "{value:?} at ({i}, {j})"
+            );
+        }
+    }
+}

@@ -3,7 +3,7 @@
 //! before anything is computed or stored: every entry read finite, and every covariance a
 //! covariance (symmetric, positive semi-definite).
 
-use super::code::{all_is_finite, reject_non_finite, upper_triangle};
+use super::code::{all_finite, reject_non_finite, upper_triangle};
 use super::names::ident;
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
@@ -27,6 +27,8 @@ pub struct Arguments {
     unpack: Vec<TokenStream>,
     /// The variables checked finite before anything is computed.
     checked: Vec<Ident>,
+    /// The symmetric matrix arguments' finiteness tests, one library loop each.
+    matrices_finite: Vec<TokenStream>,
     /// Their scalar type, `f32` or `f64` (the last one given).
     scalar_type: Option<Ident>,
     /// The tests that the covariance arguments are covariances, made once they are known
@@ -66,32 +68,47 @@ impl Arguments {
         let (pattern, packed) = upper_triangle(name, n);
         self.params.push(quote! { #arg: &[[#ty; #len]; #len] });
         self.unpack.push(quote! { let #pattern = *#arg; });
-        self.checked.extend(packed.iter().cloned());
+        // A loop: a test of each of a 100-state covariance's 5050 entries would be
+        // 5050 branches, a chain LLVM's jump threading recursed through until rustc's
+        // stack overflowed.
+        self.matrices_finite
+            .push(quote! { stateforge_math::#ty::upper_triangle_finite(#arg) });
         self.scalar_type = Some(ty.clone());
         packed
     }
 
-    /// A covariance `name` (`n x n`): a [`Arguments::symmetric`] matrix, also tested
-    /// symmetric and positive semi-definite (`stateforge_math`'s `is_covariance`).
-    pub fn covariance(&mut self, name: &str, n: usize, ty: &Ident) -> Vec<Ident> {
-        let packed = self.symmetric(name, n, ty);
+    /// A covariance `name: &[[S; n]; n]`: its upper triangle tested finite, then the
+    /// matrix tested symmetric and positive semi-definite (`stateforge_math`'s
+    /// `is_covariance`), both by library loops. Returns its upper triangle packed row by
+    /// row, as an expression (`stateforge_math::f32::pack_upper(p0)`), so that a
+    /// 100-state covariance is a few instructions to check and store, not 5050 of each
+    /// (rustc's release build of that code took minutes).
+    pub fn covariance(&mut self, name: &str, n: usize, ty: &Ident) -> TokenStream {
+        let arg = ident(name);
+        let len = Literal::usize_unsuffixed(n);
+        self.params.push(quote! { #arg: &[[#ty; #len]; #len] });
+        self.matrices_finite
+            .push(quote! { stateforge_math::#ty::upper_triangle_finite(#arg) });
         self.covariances.push(covariance_test(name, false, ty));
-        packed
+        self.scalar_type = Some(ty.clone());
+        quote! { stateforge_math::#ty::pack_upper(#arg) }
     }
 
     /// A process noise covariance `name` (`n x n`): its variances if `diagonal`
-    /// ([`Arguments::vector`], tested non-negative), else a [`Arguments::covariance`].
+    /// ([`Arguments::vector`], tested non-negative; the array itself), else a
+    /// [`Arguments::covariance`]. Returns the value stored, as an expression.
     pub fn process_noise(
         &mut self,
         name: &str,
         n: usize,
         diagonal: bool,
         ty: &Ident,
-    ) -> Vec<Ident> {
+    ) -> TokenStream {
         if diagonal {
-            let variances = self.vector(name, n, ty);
+            self.vector(name, n, ty);
             self.covariances.push(covariance_test(name, true, ty));
-            variances
+            let arg = ident(name);
+            quote! { *#arg }
         } else {
             self.covariance(name, n, ty)
         }
@@ -127,10 +144,11 @@ impl Arguments {
             params,
             unpack,
             checked,
+            matrices_finite,
             scalar_type,
             covariances,
         } = self;
-        let check = scalar_type.map(|ty| reject_non_finite(&checked, &ty));
+        let check = scalar_type.map(|ty| reject_non_finite(&checked, &matrices_finite, &ty));
         let covariance_check = reject_non_covariance(&covariances, false);
         quote! {
             #doc
@@ -153,16 +171,17 @@ impl Arguments {
             params,
             unpack,
             checked,
+            matrices_finite,
+            scalar_type,
             covariances,
-            ..
         } = self;
-        let check = (!checked.is_empty()).then(|| {
-            let finite = all_is_finite(&checked);
-            quote! {
-                if !(#finite) {
+        let check = scalar_type.and_then(|ty| {
+            let finite = all_finite(&checked, &matrices_finite, &ty)?;
+            Some(quote! {
+                if !#finite {
                     return Err(Status::RejectedInput);
                 }
-            }
+            })
         });
         let covariance_check = reject_non_covariance(&covariances, true);
         let covariance_errors = (!covariances.is_empty()).then(|| {

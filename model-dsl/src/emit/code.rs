@@ -43,19 +43,40 @@ pub fn var_idents(graph: &Graph, vars: &[NodeId]) -> Vec<proc_macro2::Ident> {
 /// `if !stateforge_math::f32::all_finite([a, b]) { return Status::RejectedInput; }`, or
 /// nothing when there is nothing to check: the guard of a method's arguments (a step's
 /// inputs and measurements, each sample), tested in floating point (see `all_finite`
-/// there: cheaper than `is_finite` on each).
+/// there: cheaper than `is_finite` on each), with the tests `matrices` (of matrix
+/// arguments, `upper_triangle_finite(p0)`).
 pub fn reject_non_finite(
     names: &[proc_macro2::Ident],
+    matrices: &[TokenStream],
     scalar_type: &proc_macro2::Ident,
 ) -> TokenStream {
-    if names.is_empty() {
+    let Some(finite) = all_finite(names, matrices, scalar_type) else {
         return TokenStream::new();
-    }
-    let finite = all_finite_in_float(names, scalar_type);
+    };
     quote! {
         if !#finite {
             return Status::RejectedInput;
         }
+    }
+}
+
+/// The test that `names` and the matrices of the tests `matrices` are all finite
+/// (`(all_finite([a, b]) && upper_triangle_finite(p0))`), or `None` when there is nothing
+/// to test.
+pub fn all_finite(
+    names: &[proc_macro2::Ident],
+    matrices: &[TokenStream],
+    scalar_type: &proc_macro2::Ident,
+) -> Option<TokenStream> {
+    let tests: Vec<TokenStream> = (!names.is_empty())
+        .then(|| all_finite_in_float(names, scalar_type))
+        .into_iter()
+        .chain(matrices.iter().cloned())
+        .collect();
+    match tests.as_slice() {
+        [] => None,
+        [one] => Some(one.clone()),
+        _ => Some(quote! { (#(#tests)&&*) }),
     }
 }
 
@@ -157,15 +178,11 @@ pub fn packed_names(prefix: &str, n: usize, taken: &dyn Fn(&str) -> bool) -> Vec
         .collect()
 }
 
-/// `{ let [[a, b], [_, c]] = *name; [a, b, c] }`: the packed upper triangle of the
-/// symmetric matrix argument `name` (its lower triangle is not read).
-pub fn pack_upper(name: &str, size: usize) -> TokenStream {
+/// `stateforge_math::f32::pack_upper(name)`: the packed upper triangle of the symmetric
+/// matrix argument `name` (its lower triangle is not read), by a library loop.
+pub fn pack_upper(name: &str, ty: &proc_macro2::Ident) -> TokenStream {
     let arg = ident(name);
-    let (pattern, packed) = upper_triangle(name, size);
-    quote! {{
-        let #pattern = *#arg;
-        [#(#packed),*]
-    }}
+    quote! { stateforge_math::#ty::pack_upper(#arg) }
 }
 
 /// `[[a, b], [_, c]]`: the pattern that binds the upper triangle of the `size x size`
@@ -198,7 +215,7 @@ pub fn upper_triangle(name: &str, size: usize) -> (TokenStream, Vec<proc_macro2:
 /// hold its estimate.
 pub fn estimate_accessors(n: usize, ty: &proc_macro2::Ident) -> TokenStream {
     let n_len = proc_macro2::Literal::usize_unsuffixed(n);
-    let unpack_p = unpack_symmetric("p", n);
+    let unpack_p = unpack_symmetric("p", ty);
     quote! {
         /// The state estimate: physical states, then parameters.
         #[must_use]
@@ -214,20 +231,11 @@ pub fn estimate_accessors(n: usize, ty: &proc_macro2::Ident) -> TokenStream {
     }
 }
 
-/// The full symmetric matrix of the packed field `self.<field>` (`n x n`).
-pub fn unpack_symmetric(field: &str, n: usize) -> TokenStream {
+/// The full symmetric matrix of the packed field `self.<field>` (`stateforge_math`'s
+/// `unpack_symmetric`, a loop).
+pub fn unpack_symmetric(field: &str, ty: &proc_macro2::Ident) -> TokenStream {
     let field = ident(field);
-    let names: Vec<proc_macro2::Ident> = (0..crate::symbolic::linalg::packed_len(n))
-        .map(|k| ident(&format!("c{k}")))
-        .collect();
-    let rows = (0..n).map(|i| {
-        let entries = (0..n).map(|j| names[crate::symbolic::linalg::packed_index(n, i, j)].clone());
-        quote! { [#(#entries),*] }
-    });
-    quote! {
-        let [#(#names),*] = self.#field;
-        [#(#rows),*]
-    }
+    quote! { stateforge_math::#ty::unpack_symmetric(&self.#field) }
 }
 
 /// The test a filter step's result passes before it is stored (the divergence bound):

@@ -90,9 +90,9 @@ impl FilterLayout {
     }
 
     /// The arguments `x0: &[S; n]` and `p0: &[[S; n]; n]` of an initial estimate (the
-    /// constructor's, `reset`'s), both checked (`p0` also a covariance); returns the packed upper triangle of `p0`
-    /// as the method binds it (`x0` is stored as it is).
-    pub fn initial_estimate(&self, arguments: &mut Arguments) -> Vec<Ident> {
+    /// constructor's, `reset`'s), both checked (`p0` also a covariance); returns the packed
+    /// upper triangle of `p0`, as an expression (`x0` is stored as it is).
+    pub fn initial_estimate(&self, arguments: &mut Arguments) -> TokenStream {
         arguments.vector("x0", self.n, &self.ty);
         arguments.covariance("p0", self.n, &self.ty)
     }
@@ -120,9 +120,9 @@ impl FilterLayout {
             quote! {
                 Ok(#type_name {
                     x: *x0,
-                    p: [#(#p0),*],
-                    q: [#(#q),*],
-                    r: [#(#r),*],
+                    p: #p0,
+                    q: #q,
+                    r: #r,
                     #extra_init
                     #known_init
                 })

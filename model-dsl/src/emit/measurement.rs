@@ -289,7 +289,7 @@ fn reset_method(
         },
         quote! {
             self.x = *x0;
-            self.p = [#(#p0),*];
+            self.p = #p0;
             #clear
             #also_cleared
             Status::Ok

@@ -3,7 +3,7 @@
 //! filter unchanged, and the process noise argument they share with the constructors.
 
 use super::arguments::{covariance_test, reject_non_covariance};
-use super::code::{all_is_finite, pack_upper};
+use super::code::pack_upper;
 use super::names::ident;
 use crate::symbolic::linalg::packed_len;
 use proc_macro2::{Literal, TokenStream};
@@ -27,8 +27,12 @@ pub fn process_noise_setter(
     ty: &proc_macro2::Ident,
 ) -> TokenStream {
     let (param, _, packed) = noise_argument("q", n, diagonal, ty);
-    let len = if diagonal { n } else { packed_len(n) };
-    let body = setter(field, &packed, len, &covariance_test("q", diagonal, ty));
+    let finite = if diagonal {
+        quote! { stateforge_math::#ty::all_finite(*q) }
+    } else {
+        quote! { stateforge_math::#ty::upper_triangle_finite(q) }
+    };
+    let body = setter(field, &packed, &finite, &covariance_test("q", diagonal, ty));
     let doc = if diagonal {
         format!(
             " Replaces the process noise variances `{field}` (a diagonal matrix). Rejects a \
@@ -57,8 +61,8 @@ pub fn measurement_noise_setter(m: usize, ty: &proc_macro2::Ident) -> TokenStrea
     let m_len = Literal::usize_unsuffixed(m);
     let body = setter(
         "r",
-        &pack_upper("r", m),
-        packed_len(m),
+        &pack_upper("r", ty),
+        &quote! { stateforge_math::#ty::upper_triangle_finite(r) },
         &covariance_test("r", false, ty),
     );
     quote! {
@@ -72,21 +76,23 @@ pub fn measurement_noise_setter(m: usize, ty: &proc_macro2::Ident) -> TokenStrea
     }
 }
 
-/// `let packed = ..; let [c0, ..] = packed; if !(c0.is_finite() && ..) { reject }`, then
-/// the `covariance` test, then `self.field = packed;`.
-fn setter(field: &str, packed: &TokenStream, len: usize, covariance: &TokenStream) -> TokenStream {
+/// `if !<finite> { reject }`, then the `covariance` test, then `self.field = <packed>;`:
+/// the argument's entries are tested finite (`finite`, a library call, whatever the
+/// matrix's size) before it is tested a covariance.
+fn setter(
+    field: &str,
+    packed: &TokenStream,
+    finite: &TokenStream,
+    covariance: &TokenStream,
+) -> TokenStream {
     let field = ident(field);
-    let names: Vec<proc_macro2::Ident> = (0..len).map(|k| ident(&format!("c{k}"))).collect();
-    let finite = all_is_finite(&names);
     let covariance_check = reject_non_covariance(core::slice::from_ref(covariance), false);
     quote! {
-        let packed = #packed;
-        let [#(#names),*] = packed;
-        if !(#finite) {
+        if !#finite {
             return Status::RejectedInput;
         }
         #covariance_check
-        self.#field = packed;
+        self.#field = #packed;
         Status::Ok
     }
 }
@@ -112,7 +118,7 @@ pub fn noise_argument(
         (
             quote! { #arg: &[[#ty; #n_len]; #n_len] },
             quote! { [#ty; #packed] },
-            pack_upper(name, n),
+            pack_upper(name, ty),
         )
     }
 }

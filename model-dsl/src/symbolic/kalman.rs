@@ -336,6 +336,8 @@ mod tests {
     /// update in the Joseph form, whether it keeps `Z` and `Z W` (4 states, 3 outputs) or
     /// `Z W^1/2` alone (7 states).
     #[test]
+    // Index loops mirror the formula's subscripts.
+    #[allow(clippy::needless_range_loop)]
     fn a_factored_update_is_the_joseph_form_of_the_kalman_gain() {
         for n in [4, 7] {
             let m = 3;

@@ -265,12 +265,12 @@ impl DkfType {
                     min_excitation_sq: Self::DEFAULT_MIN_EXCITATION
                         * Self::DEFAULT_MIN_EXCITATION,
                     xbar: *x0,
-                    pbar: [#(#pbar0),*],
-                    qbar: [#(#qbar),*],
+                    pbar: #pbar0,
+                    qbar: #qbar,
                     x: *x0,
-                    p: [#(#p0),*],
-                    q: [#(#q),*],
-                    r: [#(#r),*],
+                    p: #p0,
+                    q: #q,
+                    r: #r,
                     #(#innovations)*
                     #gate
                 })
@@ -314,10 +314,7 @@ impl DkfType {
     fn estimate_accessors(&self) -> TokenStream {
         let ty = &self.ty;
         let n_len = Literal::usize_unsuffixed(self.n);
-        let (unpack_p, unpack_pbar) = (
-            unpack_symmetric("p", self.n),
-            unpack_symmetric("pbar", self.n),
-        );
+        let (unpack_p, unpack_pbar) = (unpack_symmetric("p", ty), unpack_symmetric("pbar", ty));
         quote! {
             /// The DKF's estimate (the LKF's): physical states, then parameters.
             #[must_use]
@@ -379,9 +376,9 @@ impl DkfType {
             },
             quote! {
                 self.x = *x0;
-                self.p = [#(#p0),*];
+                self.p = #p0;
                 self.xbar = *x0;
-                self.pbar = [#(#pbar0),*];
+                self.pbar = #pbar0;
                 self.outputs = [#zero; #outputs_len];
                 self.inputs = [#zero; #inputs_len];
                 self.filled = [false; WINDOW_OUTPUTS];
@@ -419,7 +416,7 @@ impl DkfType {
         let u_param_plain = has_u.then(|| quote! { u: &[#ty; #u_len] });
         let u_arg_plain = has_u.then(|| quote! { u });
         let covariance_accessor = self.least_squares.then(|| {
-            let unpack = crate::emit::code::unpack_symmetric("phi_covariance", self.np);
+            let unpack = crate::emit::code::unpack_symmetric("phi_covariance", &self.ty);
             quote! {
                 /// The covariance `C` of the parameters the last solved window gave (zero
                 /// until one is): the measurement noise `r` carried to first order through

@@ -301,7 +301,7 @@ impl SolveArguments {
         let x_idents = used_idents(graph, &g.x, used);
         let u_idents = used_idents(graph, &g.u, used);
         let checked: Vec<_> = x_idents.iter().chain(&u_idents).cloned().collect();
-        let check = reject_non_finite(&checked, &ty);
+        let check = reject_non_finite(&checked, &[], &ty);
         let time = model.uses_time().then(|| {
             let t = time_param(graph, g.t, used, &ty, "t");
             quote! { #t, }

@@ -1229,7 +1229,7 @@ fn type_tokens(
     let constructor = constructor(spec, (moves, cache), &dims, scalar);
     let kept = cache.fields(&dims.ty);
     let set_reference = set_reference(model, spec, moves, &dims);
-    let accessors = accessors(spec, &dims);
+    let accessors = accessors(&dims);
     let Dims {
         ty,
         ns_len,
@@ -1507,7 +1507,7 @@ fn set_reference(model: &Model, spec: &MpcSpec, moves: &MoveNames, dims: &Dims) 
 }
 
 /// `control`, `plan`, `terminal_weight` and `terminal_gain`.
-fn accessors(spec: &MpcSpec, dims: &Dims) -> TokenStream {
+fn accessors(dims: &Dims) -> TokenStream {
     let Dims {
         ty,
         ns_len,
@@ -1515,7 +1515,7 @@ fn accessors(spec: &MpcSpec, dims: &Dims) -> TokenStream {
         horizon,
         ..
     } = dims;
-    let terminal_weight = unpack_symmetric("terminal_weight", spec.states.len());
+    let terminal_weight = unpack_symmetric("terminal_weight", ty);
     quote! {
         /// The first move of the last plan: the input to apply now.
         #[must_use]

@@ -165,7 +165,7 @@ fn accessors(model: &Model, spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStr
             quote! { #s * #x }
         }
     });
-    let unpack_p = unpack_symmetric("p", n);
+    let unpack_p = unpack_symmetric("p", &ty);
     let mut arguments = Arguments::default();
     arguments.vector("x0", n, &ty);
     let p0 = arguments.covariance("p0", n, &ty);
@@ -179,7 +179,7 @@ fn accessors(model: &Model, spec: &PolynomialKfSpec, scalar: Scalar) -> TokenStr
         quote! {
             Ok(PolynomialKf {
                 x: *x0,
-                p: [#(#p0),*],
+                p: #p0,
                 window: [#zero; #w_len],
                 filled: #zero,
                 since: #zero,
@@ -238,7 +238,7 @@ fn reset_method(model: &Model, spec: &PolynomialKfSpec, scalar: Scalar) -> Token
         },
         quote! {
             self.x = *x0;
-            self.p = [#(#p0),*];
+            self.p = #p0;
             self.window = [#zero; Self::WINDOW];
             self.filled = #zero;
             self.since = #zero;

@@ -276,7 +276,7 @@ fn step_method(model: &Model, switch: &Switch, step: &LoweredStep, scalar: Scala
     let (regime1, regime2) = (&step.branches[0], &step.branches[1]);
     let innovation = &step.innovation;
     let checked: Vec<_> = u_idents.iter().chain(y_idents).cloned().collect();
-    let check = reject_non_finite(&checked, &ty);
+    let check = reject_non_finite(&checked, &[], &ty);
     let unpack_u = (!u_idents.is_empty()).then(|| quote! { let [#(#u_idents),*] = *u; });
     let u_param = (!u_idents.is_empty()).then(|| quote! { u: &[#ty; #p_len], });
     let test = switch_test(switch, y_idents, scalar);
