@@ -141,29 +141,19 @@ pub fn update(
             g.mul(t[j], twice_minus)
         })
         .collect();
-    let (left, right) = if n * m > SMALL_UPDATE {
+    let p_new = if n * m > SMALL_UPDATE {
         // `Z W Z' = Y Y'` with `Y = Z W^1/2` (each `w_j > 0` where the pivot is): one
         // matrix of `n m` values where `Z` and `Z W` are two, which is what a large
         // update's code keeps in memory between its tests and its stores.
         let roots: Vec<NodeId> = weights.iter().map(|&w| g.call(Func::Sqrt, w)).collect();
         let y = scale_columns(g, &z, &roots);
-        (y.clone(), y)
+        let mut p_new = subtract_products(g, p, &y, &y);
+        measured_states_in_place(g, &mut p_new, c, (&factor, &y));
+        p_new
     } else {
-        (scale_columns(g, &z, &weights), z)
+        let weighted = scale_columns(g, &z, &weights);
+        subtract_products(g, p, &weighted, &z)
     };
-    let zero = g.zero();
-    let mut p_new = vec![vec![zero; n]; n];
-    for i in 0..n {
-        for j in i..n {
-            let mut v_ij = p[i][j];
-            for l in 0..m {
-                let term = g.mul(left[i][l], right[j][l]);
-                v_ij = g.sub(v_ij, term);
-            }
-            p_new[i][j] = v_ij;
-            p_new[j][i] = v_ij;
-        }
-    }
     Update {
         x: x_new,
         p: p_new,
@@ -171,6 +161,78 @@ pub fn update(
         reciprocals: factor.reciprocals,
         s,
         nis,
+    }
+}
+
+/// `P - A B'` (symmetric), upper triangle computed once.
+fn subtract_products(g: &mut Graph, p: &Matrix, a: &Matrix, b: &Matrix) -> Matrix {
+    let n = p.len();
+    let zero = g.zero();
+    let mut p_new = vec![vec![zero; n]; n];
+    for i in 0..n {
+        for j in i..n {
+            let mut v_ij = p[i][j];
+            for (&a_il, &b_jl) in a[i].iter().zip(&b[j]) {
+                let term = g.mul(a_il, b_jl);
+                v_ij = g.sub(v_ij, term);
+            }
+            p_new[i][j] = v_ij;
+            p_new[j][i] = v_ij;
+        }
+    }
+    p_new
+}
+
+/// The covariance of a state the update measures directly (a row `a` of `C` that is the
+/// unit vector `e_s`: a GNSS fix of a position), `P - Y Y'` where `Y = Z W^1/2`, written
+/// `Y G_a'` instead: `P_is = (L z_i)_a` and `z_i = W^-1/2 y_i`, so
+/// `P_new_is = sum_l y_il G_al` with `G_al = L_al w_l^-1/2 - y_sl` (`L_aa = 1`, `L_al = 0`
+/// for `l > a`), `m^2` values computed once. The code then keeps `Y` alone between its
+/// tests and its stores, not `Y` and the covariance's column `s` it read to make `Z`.
+/// `w_l^-1/2` is taken as `d_l^1/2`: with `e = 1 - d_l t_l` (the reciprocal's rounding),
+/// `w_l d_l = 1 - e^2`, so the entry is the same to the second order in `e` (1e-14 in
+/// `f32`), and no division is needed. The variance `P_ss` keeps its form, which the
+/// step's tests read.
+fn measured_states_in_place(
+    g: &mut Graph,
+    p_new: &mut Matrix,
+    c: &Matrix,
+    (factor, y): (&super::linalg::LdlFactor, &Matrix),
+) {
+    let m = factor.pivots.len();
+    let measured: Vec<(usize, usize)> = c
+        .iter()
+        .enumerate()
+        .filter_map(|(a, row)| {
+            let ones: Vec<usize> = (0..row.len()).filter(|&k| g.is_one(row[k])).collect();
+            let zeros = row.iter().filter(|&&v| g.is_zero(v)).count();
+            (ones.len() == 1 && zeros + 1 == row.len()).then(|| (a, ones[0]))
+        })
+        .collect();
+    if measured.is_empty() {
+        return;
+    }
+    let roots: Vec<NodeId> = factor
+        .pivots
+        .iter()
+        .map(|&d| g.call(Func::Sqrt, d))
+        .collect();
+    for (a, s) in measured {
+        let gain: Vec<NodeId> = (0..m)
+            .map(|l| {
+                let l_al = match l.cmp(&a) {
+                    std::cmp::Ordering::Less => g.mul(factor.l[a][l], roots[l]),
+                    std::cmp::Ordering::Equal => roots[l],
+                    std::cmp::Ordering::Greater => g.zero(),
+                };
+                g.sub(l_al, y[s][l])
+            })
+            .collect();
+        for (i, y_i) in y.iter().enumerate().filter(|&(i, _)| i != s) {
+            let entry = dot(g, y_i, &gain);
+            p_new[i][s] = entry;
+            p_new[s][i] = entry;
+        }
     }
 }
 
@@ -334,7 +396,8 @@ mod tests {
 
     /// With several measurements, the update through `S`'s factorisation is the Kalman
     /// update in the Joseph form, whether it keeps `Z` and `Z W` (4 states, 3 outputs) or
-    /// `Z W^1/2` alone (7 states).
+    /// `Z W^1/2` alone (7 states, where the covariance of the directly measured states is
+    /// written through `G`).
     #[test]
     // Index loops mirror the formula's subscripts.
     #[allow(clippy::needless_range_loop)]
@@ -349,8 +412,18 @@ mod tests {
             let pm: Vec<Vec<f64>> = (0..n)
                 .map(|i| (0..n).map(|j| value(i, j)).collect())
                 .collect();
+            // Two outputs measure a state directly (`e_1`, `e_3`; see
+            // `measured_states_in_place`), one a combination.
             let cm: Vec<Vec<f64>> = (0..m)
-                .map(|a| (0..n).map(|k| ((a * 7 + k * 3) % 5) as f64 - 1.5).collect())
+                .map(|a| {
+                    (0..n)
+                        .map(|k| match a {
+                            0 => f64::from(u8::from(k == 1)),
+                            1 => ((a * 7 + k * 3) % 5) as f64 - 1.5,
+                            _ => f64::from(u8::from(k == 3)),
+                        })
+                        .collect()
+                })
                 .collect();
             let rm: Vec<Vec<f64>> = (0..m)
                 .map(|a| (0..m).map(|b| if a == b { 0.5 } else { 0.1 }).collect())
