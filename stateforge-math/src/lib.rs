@@ -37,3 +37,16 @@ mod arm;
 mod covariance;
 pub mod f32;
 pub mod f64;
+
+/// `value` unchanged, opaque to the optimiser (`core::hint::black_box`): what is read
+/// through a reference it returns is not known to be what is read through another
+/// reference to the same memory. A large generated filter step reads its covariance
+/// through it for the tests it makes before storing anything, and through the field
+/// itself for the stores: the compiler then loads each entry again where the stores need
+/// it, instead of keeping every entry the tests read until its store (hundreds of values,
+/// spilled to the stack). It affects the code's speed only, never its result.
+#[inline(always)]
+#[must_use]
+pub fn opaque<T>(value: T) -> T {
+    core::hint::black_box(value)
+}

@@ -595,9 +595,25 @@ impl<'g> Lowerer<'g> {
         self.scalar
     }
 
-    /// Appends a statement of the caller's (a guard, a reciprocal).
-    pub fn statement(&mut self, tokens: TokenStream) {
+    /// Appends a statement of the caller's (a guard, a reciprocal); returns its index
+    /// among the statements [`Lowerer::finish`] hands over.
+    pub fn statement(&mut self, tokens: TokenStream) -> usize {
         self.statements.push(tokens);
+        self.statements.len() - 1
+    }
+
+    /// Whether the code emitted so far computes `node` (for a variable: reads it).
+    pub fn is_emitted(&self, node: NodeId) -> bool {
+        self.emitted[node.index()]
+    }
+
+    /// Reads each of `vars` again where code still to come first uses it, with the
+    /// statement `read(name)`: the value read before is not used past this point.
+    pub fn reread(&mut self, vars: &[NodeId], read: impl Fn(&proc_macro2::Ident) -> TokenStream) {
+        for &var in vars {
+            self.emitted[var.index()] = false;
+        }
+        self.read_each(vars, read);
     }
 
     /// Counts operations the caller's own statements perform.

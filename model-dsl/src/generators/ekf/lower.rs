@@ -543,7 +543,9 @@ fn lower(
     let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
     lowerer.read_lazily(&quote! { self.x }, &g.x);
-    let slots = CovarianceSlots::read(&mut lowerer, &vars.p, &nodes.avoid);
+    // A covariance the registers hold is read once (see `Commit::reread`).
+    let reread = kind.updates() && vars.p.len() > crate::emit::registers::FPU_REGISTERS;
+    let slots = CovarianceSlots::read(&mut lowerer, &vars.p, &nodes.avoid, reread);
     lowerer.read_lazily(&quote! { self.q }, &vars.q);
     lowerer.read_lazily(&quote! { self.r }, &vars.r);
     lowerer.read_lazily(&quote! { self.known }, &g.known);
@@ -588,16 +590,25 @@ fn lower(
         slots: &slots,
         order: &nodes.order,
         known_variances: &variances,
+        reread,
     };
-    let written = in_place::commit(&mut lowerer, &commit, scalar);
-    lowerer.count_extra(OpCount::stores(model.state_len() + written.len()));
+    let committed = in_place::commit(&mut lowerer, &commit, scalar);
+    lowerer.count_extra(OpCount::stores(model.state_len() + committed.written.len()));
     lowerer.count_extra(crate::emit::code::divergence_test_ops(model.state_len()));
+    let read_by_stores = slots.read_so_far(&lowerer);
     let Lowered {
         mut statements,
         used_vars,
         ops,
     } = lowerer.finish();
-    statements.insert(0, slots.binding(&g.graph, &used_vars, &written));
+    let stores_binding = slots.binding(&read_by_stores, &committed.written);
+    match committed.binding_statement {
+        Some(at) => {
+            statements[at] = stores_binding;
+            statements.insert(0, slots.inputs_binding(&committed.read_by_tests));
+        }
+        None => statements.insert(0, stores_binding),
+    }
     let tail = quote! { #store_innovation Status::Ok };
     let statements = crate::emit::scopes::scoped(statements, &tail);
     (quote! { #(#statements)* #tail }, used_vars, ops)
