@@ -27,9 +27,9 @@
 //! 460 instructions of 4510 (stores to and loads from a stack frame past the 1 KB a load
 //! instruction reaches, each with an address computed for it).
 
-use super::code::divergence_tests;
+use super::code::{divergence_test_ops, divergence_tests};
 use super::filter::unclaimed_name;
-use super::lower::Lowerer;
+use super::lower::{Lowered, Lowerer, OpCount};
 use super::names::ident;
 use crate::model::Scalar;
 use crate::symbolic::linalg::{packed_index, packed_len};
@@ -224,14 +224,34 @@ pub fn commit(lowerer: &mut Lowerer, commit: &Commit<'_>, scalar: Scalar) -> Com
         })
         .collect();
     lowerer.segment_in_place(&writes);
+    let written: BTreeSet<usize> = order
+        .into_iter()
+        .filter(|&k| p[k] != slots.vars[k])
+        .collect();
+    lowerer.count_extra(OpCount::stores(n + written.len()));
+    lowerer.count_extra(divergence_test_ops(n));
     Committed {
         read_by_tests,
         binding_statement,
-        written: order
-            .into_iter()
-            .filter(|&k| p[k] != slots.vars[k])
-            .collect(),
+        written,
     }
+}
+
+/// `lowerer`'s statements, with the references to the covariance bound where [`commit`]
+/// left them to bind: the entries neither read nor written through a reference named `_`.
+pub fn finish(lowerer: Lowerer, slots: &CovarianceSlots, committed: &Committed) -> Lowered {
+    let read_by_stores = slots.read_so_far(&lowerer);
+    let mut lowered = lowerer.finish();
+    let stores_binding = slots.binding(&read_by_stores, &committed.written);
+    match committed.binding_statement {
+        Some(at) => {
+            lowered.statements[at] = stores_binding;
+            let inputs = slots.inputs_binding(&committed.read_by_tests);
+            lowered.statements.insert(0, inputs);
+        }
+        None => lowered.statements.insert(0, stores_binding),
+    }
+    lowered
 }
 
 /// Whether `value` is one of `terms` or a sum of them: a sum of non-negative numbers, which

@@ -593,22 +593,11 @@ fn lower(
         reread,
     };
     let committed = in_place::commit(&mut lowerer, &commit, scalar);
-    lowerer.count_extra(OpCount::stores(model.state_len() + committed.written.len()));
-    lowerer.count_extra(crate::emit::code::divergence_test_ops(model.state_len()));
-    let read_by_stores = slots.read_so_far(&lowerer);
     let Lowered {
-        mut statements,
+        statements,
         used_vars,
         ops,
-    } = lowerer.finish();
-    let stores_binding = slots.binding(&read_by_stores, &committed.written);
-    match committed.binding_statement {
-        Some(at) => {
-            statements[at] = stores_binding;
-            statements.insert(0, slots.inputs_binding(&committed.read_by_tests));
-        }
-        None => statements.insert(0, stores_binding),
-    }
+    } = in_place::finish(lowerer, &slots, &committed);
     let tail = quote! { #store_innovation Status::Ok };
     let statements = crate::emit::scopes::scoped(statements, &tail);
     (quote! { #(#statements)* #tail }, used_vars, ops)
