@@ -99,7 +99,7 @@ pub fn normalised_innovation_squared(
 /// d_j)^2`), as a gain's error reaches the Joseph form; `L`'s, through `L^-1 S L^-T - D`,
 /// at the first, as every other rounding of the update does. One measurement: `L` is
 /// empty, `Z = U`, `d = S`, and the form is the Joseph form of its gain exactly.
-/// A large update (over [`SMALL_UPDATE`] values in `Z`) writes `Z W Z'` as `Y Y'` with
+/// A large update (over `SMALL_UPDATE` values in `Z`) writes `Z W Z'` as `Y Y'` with
 /// `Y = Z W^1/2`, `m` square roots (the FPU's `vsqrt`) for half the values kept.
 pub fn update(
     g: &mut Graph,
