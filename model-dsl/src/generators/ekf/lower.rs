@@ -544,7 +544,7 @@ fn lower(
     let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
     lowerer.read_lazily(&quote! { self.x }, &g.x);
     // A covariance the registers hold is read once (see `Commit::reread`).
-    let reread = kind.updates() && vars.p.len() > crate::emit::registers::FPU_REGISTERS;
+    let reread = vars.p.len() > crate::emit::registers::FPU_REGISTERS;
     let slots = CovarianceSlots::read(&mut lowerer, &vars.p, &nodes.avoid, reread);
     lowerer.read_lazily(&quote! { self.q }, &vars.q);
     lowerer.read_lazily(&quote! { self.r }, &vars.r);
