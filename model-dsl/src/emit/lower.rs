@@ -341,6 +341,13 @@ impl<'g> Lowerer<'g> {
             .collect();
         let (order, ends) = self.schedule(&roots);
         self.count_traffic(&order, &roots);
+        // Where in `order` each value is last an operand.
+        let mut last_operand = std::collections::HashMap::new();
+        for (position, &id) in order.iter().enumerate() {
+            for operand in self.operands(id) {
+                last_operand.insert(operand, position);
+            }
+        }
         let mut next = 0;
         let changed = writes.iter().filter(|(root, old, _)| root != old);
         for ((root, old, place), end) in changed.zip(ends) {
@@ -348,7 +355,13 @@ impl<'g> Lowerer<'g> {
                 self.emit_node(id);
             }
             next = end;
-            self.read_pending(&[*old]);
+            // Still to come: a value of this run after `end`, or code after the run (a
+            // use the run's traffic did not consume).
+            let needed = last_operand.get(old).is_some_and(|&last| last >= end)
+                || self.consumed[old.index()] < self.uses[old.index()];
+            if needed {
+                self.read_pending(&[*old]);
+            }
             let value = self.render(*root).0;
             self.statements.push(quote! { #place = #value; });
         }

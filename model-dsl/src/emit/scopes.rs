@@ -39,7 +39,7 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
     while end > 0 {
         if defined[end - 1].len() > WIDE_STATEMENT {
             blocks.push(statements[end - 1].clone());
-            read_names(statements[end - 1].clone(), &mut read_later);
+            live_before(&statements[end - 1], &defined[end - 1], &mut read_later);
             end -= 1;
             continue;
         }
@@ -48,24 +48,59 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
             .rev()
             .find(|&i| defined[i].len() > WIDE_STATEMENT)
             .map_or(floor, |wide| wide + 1);
-        let exported: Vec<&Ident> = defined[start..end]
+        // A name bound twice in the block (a covariance entry read again after the
+        // tests) is handed on once, as its last binding.
+        let mut seen = HashSet::new();
+        let mut exported: Vec<&Ident> = defined[start..end]
             .iter()
-            .flatten()
+            .rev()
+            .flat_map(|names| names.iter().rev())
             .filter(|name| read_later.contains(&name.to_string()))
+            .filter(|name| seen.insert(name.to_string()))
             .collect();
+        exported.reverse();
         let body = &statements[start..end];
         blocks.push(match exported.as_slice() {
             [] => quote! { { #(#body)* } },
             [one] => quote! { let #one = { #(#body)* #one }; },
             many => quote! { let [#(#many),*] = { #(#body)* [#(#many),*] }; },
         });
-        for statement in body {
-            read_names(statement.clone(), &mut read_later);
+        for i in (start..end).rev() {
+            live_before(&statements[i], &defined[i], &mut read_later);
         }
         end = start;
     }
     blocks.reverse();
     blocks
+}
+
+/// Turns the names read after `statement` into those read after the statement before it:
+/// a name it binds is, from there back, another binding (a covariance entry read again
+/// after the tests hands nothing on from its first read), and the names it reads are
+/// read. A name it both reads and binds (`let a = a * 2.0;`) stays read.
+fn live_before(statement: &TokenStream, defined: &[Ident], live: &mut HashSet<String>) {
+    for name in defined {
+        live.remove(&name.to_string());
+    }
+    let mut reads = HashSet::new();
+    read_names(without_patterns(statement), &mut reads);
+    live.extend(reads);
+}
+
+/// `statement` without the patterns of its top-level `let`s (the names they bind are not
+/// reads).
+fn without_patterns(statement: &TokenStream) -> TokenStream {
+    let mut in_pattern = false;
+    let mut kept = TokenStream::new();
+    for token in statement.clone() {
+        match &token {
+            TokenTree::Ident(ident) if !in_pattern && ident == "let" => in_pattern = true,
+            TokenTree::Punct(p) if in_pattern && p.as_char() == '=' => in_pattern = false,
+            _ if in_pattern => {}
+            _ => kept.extend([token]),
+        }
+    }
+    kept
 }
 
 /// The names a statement binds with its top-level `let`s (a guarded reciprocal is an `if`
@@ -159,6 +194,22 @@ mod tests {
         // The last block hands on only what the tail reads.
         assert!(squeeze(&blocks[3]).starts_with(&format!("let{last}={{")));
         assert!(squeeze(&blocks[3]).ends_with(&format!("{last}}};")));
+        // A name read again later (a covariance entry after the tests) is not handed on
+        // from its first binding; bound twice in one block, it is handed on once.
+        let mut rebinding = statements(n);
+        rebinding.push(quote! { let a0 = *a0_slot; });
+        let rebound = scoped(rebinding, &quote! { self.x = [#last, a0]; });
+        assert!(squeeze(&rebound[0]).starts_with("let[b0,a5]={"));
+        assert!(squeeze(&rebound[3]).ends_with(&format!("[{last},a0]}};")));
+        let mut twice = vec![quote! { let z = 0.0; }, quote! { let b0 = z; }];
+        twice.push(quote! { let b0 = b0 + 1.0; });
+        twice.extend((3..=BLOCK_LEN).map(|i| {
+            let filler = quote::format_ident!("f{i}");
+            quote! { let #filler = 1.0; }
+        }));
+        let blocks = scoped(twice, &quote! { self.x = [b0]; });
+        assert_eq!(blocks.len(), 2);
+        assert!(squeeze(&blocks[1]).starts_with("letb0={letb0=z;"));
         // A name after `.` or `::` is not a read.
         let mut reads = HashSet::new();
         read_names(quote! { libm::sinf(self.p) + q }, &mut reads);
