@@ -292,8 +292,27 @@ pub fn noise_vars(
 /// Summed pairwise, so its expression nests as deep as the logarithm of its terms: a chain
 /// of 2n nested sums is what made rustfmt take minutes on a 10-state model's code.
 pub fn finiteness_probe(graph: &mut Graph, vector: &[NodeId], matrix: &Matrix) -> NodeId {
+    finiteness_probe_of_changes(graph, vector, matrix, &[])
+}
+
+/// [`finiteness_probe`] without the entries whose new value is one of `stored`, the
+/// variables the filter keeps: an entry a step leaves as it was (a parameter's estimate in
+/// a prediction, its variance where its process noise is structurally zero) was tested
+/// by the step that wrote it, and its constructor and setters accept finite values only.
+pub fn finiteness_probe_of_changes(
+    graph: &mut Graph,
+    vector: &[NodeId],
+    matrix: &Matrix,
+    stored: &[NodeId],
+) -> NodeId {
+    let stored: std::collections::HashSet<NodeId> = stored.iter().copied().collect();
     let diagonal = (0..matrix.len()).map(|i| matrix[i][i]);
-    let terms: Vec<NodeId> = vector.iter().copied().chain(diagonal).collect();
+    let terms: Vec<NodeId> = vector
+        .iter()
+        .copied()
+        .chain(diagonal)
+        .filter(|term| !stored.contains(term))
+        .collect();
     pairwise_sum(graph, &terms)
 }
 

@@ -9,7 +9,9 @@
 //! are computed, each is live for a moment. The step still leaves the filter unchanged
 //! unless it returns `Status::Ok`: every test comes before the first store, and the tests
 //! are the ones the step made before (the probe of the estimate and variances; the
-//! off-diagonal entries are not tested, as they were not).
+//! off-diagonal entries are not tested, as they were not). An entry of the estimate or of
+//! the covariance that the step leaves as it was (a parameter's estimate in a prediction)
+//! is neither probed nor written: it was tested when it was written.
 //!
 //! The covariance is read through references to its entries: before the tests, through
 //! `let [p11_in, p12_in, ..] = stateforge_math::opaque(&self.p);`, an entry read where it is
@@ -35,7 +37,7 @@ use crate::model::Scalar;
 use crate::symbolic::linalg::{packed_index, packed_len};
 use crate::symbolic::NodeId;
 use proc_macro2::{Ident, TokenStream};
-use quote::quote;
+use quote::{quote, ToTokens};
 use std::cmp::Reverse;
 use std::collections::BTreeSet;
 
@@ -160,6 +162,8 @@ pub struct Commit<'a> {
     /// The order its entries are computed and stored in (positions in `self.p`; see
     /// [`prediction_order`] and [`update_order`]).
     pub order: &'a [usize],
+    /// Names the code's own variables must not take (the model's).
+    pub avoid: &'a [String],
     /// The variables that hold variances (the old covariance's, the process noise's).
     pub known_variances: &'a [NodeId],
     /// Whether the stores read again the entries the tests read, through the stores' own
@@ -209,9 +213,35 @@ pub fn commit(lowerer: &mut Lowerer, commit: &Commit<'_>, scalar: Scalar) -> Com
         slots.read_through(lowerer, &slots.names, true);
         lowerer.statement(TokenStream::new())
     });
-    let x_values = lowerer.segment(x);
-    lowerer.read_pending(commit.x_vars);
-    lowerer.statement(quote! { self.x = [#(#x_values),*]; });
+    // The entries a step leaves as they were (a parameter's estimate in a prediction)
+    // are not written, as the covariance's are not.
+    let x_changed: Vec<usize> = (0..n).filter(|&i| x[i] != commit.x_vars[i]).collect();
+    let changed_values: Vec<NodeId> = x_changed.iter().map(|&i| x[i]).collect();
+    let x_values = lowerer.segment(&changed_values);
+    let overwritten: Vec<NodeId> = x_changed.iter().map(|&i| commit.x_vars[i]).collect();
+    lowerer.read_pending(&overwritten);
+    if x_changed.len() == n {
+        lowerer.statement(quote! { self.x = [#(#x_values),*]; });
+    } else if let Some(&last) = x_changed.last() {
+        let graph = lowerer.graph();
+        let slot = |i: usize| match graph.node(commit.x_vars[i]) {
+            crate::symbolic::Node::Var(v) => {
+                let name = format!("{}_slot", graph.var_info(v).name);
+                ident(&unclaimed_name(name, commit.avoid))
+            }
+            _ => ident(&format!("x{i}_slot")),
+        };
+        let slots: Vec<Ident> = x_changed.iter().map(|&i| slot(i)).collect();
+        let pattern = (0..=last).map(|i| match x_changed.binary_search(&i) {
+            Ok(k) => slots[k].to_token_stream(),
+            Err(_) => quote! { _ },
+        });
+        let rest = (last + 1 < n).then(|| quote! { , .. });
+        lowerer.statement(quote! {
+            let [#(#pattern),* #rest] = &mut self.x;
+            #(*#slots = #x_values;)*
+        });
+    }
     let off_diagonal = commit
         .order
         .iter()
@@ -230,7 +260,7 @@ pub fn commit(lowerer: &mut Lowerer, commit: &Commit<'_>, scalar: Scalar) -> Com
         .into_iter()
         .filter(|&k| p[k] != slots.vars[k])
         .collect();
-    lowerer.count_extra(OpCount::stores(n + written.len()));
+    lowerer.count_extra(OpCount::stores(x_changed.len() + written.len()));
     lowerer.count_extra(divergence_test_ops(n));
     Committed {
         read_by_tests,

@@ -9,8 +9,8 @@ use crate::emit::code::{
     guard_pivots, innovation_pivot_failure, pivot_names, var_idents, INNOVATION,
 };
 use crate::emit::filter::{
-    finiteness_probe, interleaved_finiteness_probe, model_names, name_estimate, reads_time,
-    FilterLayout, FilterVars,
+    finiteness_probe_of_changes, interleaved_finiteness_probe, model_names, name_estimate,
+    reads_time, FilterLayout, FilterVars,
 };
 use crate::emit::in_place::{self, CovarianceSlots};
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
@@ -530,7 +530,8 @@ fn lower(
     let probe = if kind.updates() {
         interleaved_finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p)
     } else {
-        finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p)
+        let stored: Vec<NodeId> = nodes.g.x.iter().chain(&nodes.vars.p).copied().collect();
+        finiteness_probe_of_changes(&mut nodes.g.graph, &nodes.x, &nodes.p, &stored)
     };
     let p_packed = packed_upper(&nodes.p);
     let mut all_roots: Vec<NodeId> = nodes.x.iter().chain(&p_packed).copied().collect();
@@ -590,6 +591,7 @@ fn lower(
         slots: &slots,
         order: &nodes.order,
         known_variances: &variances,
+        avoid: &nodes.avoid,
         reread,
     };
     let committed = in_place::commit(&mut lowerer, &commit, scalar);
