@@ -31,6 +31,43 @@ stateforge::model! {
 }
 "#;
 
+/// What a cold build builds: the user crate's `src/lib.rs`, and how.
+pub struct Build {
+    /// The crate's source.
+    source: String,
+    /// Cargo's arguments after `build`, besides `--offline`.
+    flags: Vec<&'static str>,
+    /// What it is, for the report.
+    what: &'static str,
+}
+
+impl Build {
+    /// The README's one-model crate (the cantilever), in a debug build.
+    pub fn readme_model() -> Build {
+        Build {
+            source: MODEL.to_string(),
+            flags: Vec::new(),
+            what: "a one-model crate (debug)",
+        }
+    }
+}
+
+/// The 24-state navigation model alone in a `no_std` crate, in a release build for the
+/// Cortex-M4F as firmware is built.
+pub fn navigation_firmware() -> Result<Build, String> {
+    let path = workspace_root().join("generated-demo/models/navigation.rs");
+    let model = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    crate::setup::rust_target(crate::MCU_TARGET)?;
+    Ok(Build {
+        source: format!(
+            "//! The navigation model, built as firmware builds it.\n#![no_std]\n\
+             #![forbid(unsafe_code)]\n\n{model}"
+        ),
+        flags: vec!["--release", "--target", crate::MCU_TARGET],
+        what: "the 24-state navigation model's crate (release, thumbv7em-none-eabihf)",
+    })
+}
+
 /// What one cold build measured.
 pub struct Measurement {
     /// Wall-clock seconds of `cargo build`.
@@ -44,7 +81,11 @@ pub struct Measurement {
 /// Builds the one-model crate against the macro crate at `macros` (this workspace's
 /// `stateforge` by default) in a fresh directory with an empty target directory, `jobs`
 /// parallel jobs.
-pub fn measure(macros: Option<&Path>, jobs: Option<u32>) -> Result<Measurement, String> {
+pub fn measure(
+    macros: Option<&Path>,
+    jobs: Option<u32>,
+    what: &Build,
+) -> Result<Measurement, String> {
     let macros = macros.map_or_else(|| workspace_root().join("stateforge"), Path::to_path_buf);
     let macros = macros
         .canonicalize()
@@ -76,7 +117,7 @@ pub fn measure(macros: Option<&Path>, jobs: Option<u32>) -> Result<Measurement, 
         "cold-build-user",
         None,
         &dependencies,
-        &[("src/lib.rs", MODEL.to_string())],
+        &[("src/lib.rs", what.source.clone())],
         lockfile.as_deref(),
     )?;
     // Sources are fetched first, so the time is compiling, not downloading.
@@ -85,12 +126,13 @@ pub fn measure(macros: Option<&Path>, jobs: Option<u32>) -> Result<Measurement, 
         user.cargo().args(["fetch"]),
     )?;
     let mut build = user.cargo();
-    build.args(["build", "--offline"]);
+    build.args(["build", "--offline"]).args(&what.flags);
     if let Some(jobs) = jobs {
         build.arg(format!("--jobs={jobs}"));
     }
     println!(
-        "xtask: cold build of a one-model crate using {}",
+        "xtask: cold build of {} using {}",
+        what.what,
         macros.display()
     );
     let start = Instant::now();

@@ -111,14 +111,30 @@ enum Task {
         /// Parallel jobs for cargo (default: cargo's).
         #[arg(long)]
         jobs: Option<u32>,
+        /// Build the 24-state navigation model (`generated-demo/models/navigation.rs`)
+        /// in release for the Cortex-M4F, as its firmware is, instead of the README's
+        /// cantilever in a debug build.
+        #[arg(long)]
+        navigation: bool,
     },
 }
 
 fn main() -> ExitCode {
     let outcome = match Cli::parse().task {
         Task::Accuracy { sequences } => Ok(accuracy::report(sequences)),
-        Task::ColdBuild { macros, jobs } => {
-            cold_build::measure(macros.as_deref(), jobs).map(|m| m.to_string())
+        Task::ColdBuild {
+            macros,
+            jobs,
+            navigation,
+        } => {
+            let build = if navigation {
+                cold_build::navigation_firmware()
+            } else {
+                Ok(cold_build::Build::readme_model())
+            };
+            build
+                .and_then(|build| cold_build::measure(macros.as_deref(), jobs, &build))
+                .map(|m| m.to_string())
         }
         Task::Imports => {
             imports::check(&scratch::workspace_root()).map(|summary| format!("xtask: {summary}\n"))
