@@ -213,35 +213,7 @@ pub fn commit(lowerer: &mut Lowerer, commit: &Commit<'_>, scalar: Scalar) -> Com
         slots.read_through(lowerer, &slots.names, true);
         lowerer.statement(TokenStream::new())
     });
-    // The entries a step leaves as they were (a parameter's estimate in a prediction)
-    // are not written, as the covariance's are not.
-    let x_changed: Vec<usize> = (0..n).filter(|&i| x[i] != commit.x_vars[i]).collect();
-    let changed_values: Vec<NodeId> = x_changed.iter().map(|&i| x[i]).collect();
-    let x_values = lowerer.segment(&changed_values);
-    let overwritten: Vec<NodeId> = x_changed.iter().map(|&i| commit.x_vars[i]).collect();
-    lowerer.read_pending(&overwritten);
-    if x_changed.len() == n {
-        lowerer.statement(quote! { self.x = [#(#x_values),*]; });
-    } else if let Some(&last) = x_changed.last() {
-        let graph = lowerer.graph();
-        let slot = |i: usize| match graph.node(commit.x_vars[i]) {
-            crate::symbolic::Node::Var(v) => {
-                let name = format!("{}_slot", graph.var_info(v).name);
-                ident(&unclaimed_name(name, commit.avoid))
-            }
-            _ => ident(&format!("x{i}_slot")),
-        };
-        let slots: Vec<Ident> = x_changed.iter().map(|&i| slot(i)).collect();
-        let pattern = (0..=last).map(|i| match x_changed.binary_search(&i) {
-            Ok(k) => slots[k].to_token_stream(),
-            Err(_) => quote! { _ },
-        });
-        let rest = (last + 1 < n).then(|| quote! { , .. });
-        lowerer.statement(quote! {
-            let [#(#pattern),* #rest] = &mut self.x;
-            #(*#slots = #x_values;)*
-        });
-    }
+    let x_written = commit_estimate(lowerer, commit);
     let off_diagonal = commit
         .order
         .iter()
@@ -260,13 +232,49 @@ pub fn commit(lowerer: &mut Lowerer, commit: &Commit<'_>, scalar: Scalar) -> Com
         .into_iter()
         .filter(|&k| p[k] != slots.vars[k])
         .collect();
-    lowerer.count_extra(OpCount::stores(x_changed.len() + written.len()));
+    lowerer.count_extra(OpCount::stores(x_written + written.len()));
     lowerer.count_extra(divergence_test_ops(n));
     Committed {
         read_by_tests,
         binding_statement,
         written,
     }
+}
+
+/// Stores the new estimate, `self.x = [..];`, or, where the step leaves entries as they
+/// were (a parameter's estimate in a prediction), each changed entry through a reference,
+/// as the covariance's unchanged entries are not written either. Returns how many entries
+/// it stores.
+fn commit_estimate(lowerer: &mut Lowerer, commit: &Commit<'_>) -> usize {
+    let (x, n) = (commit.x, commit.x.len());
+    let x_changed: Vec<usize> = (0..n).filter(|&i| x[i] != commit.x_vars[i]).collect();
+    let changed_values: Vec<NodeId> = x_changed.iter().map(|&i| x[i]).collect();
+    let x_values = lowerer.segment(&changed_values);
+    let overwritten: Vec<NodeId> = x_changed.iter().map(|&i| commit.x_vars[i]).collect();
+    lowerer.read_pending(&overwritten);
+    if x_changed.len() == n {
+        lowerer.statement(quote! { self.x = [#(#x_values),*]; });
+    } else if let Some(&last) = x_changed.last() {
+        let graph = lowerer.graph();
+        let reference = |i: usize| match graph.node(commit.x_vars[i]) {
+            crate::symbolic::Node::Var(v) => {
+                let name = format!("{}_slot", graph.var_info(v).name);
+                ident(&unclaimed_name(name, commit.avoid))
+            }
+            _ => ident(&format!("x{i}_slot")),
+        };
+        let references: Vec<Ident> = x_changed.iter().map(|&i| reference(i)).collect();
+        let pattern = (0..=last).map(|i| match x_changed.binary_search(&i) {
+            Ok(k) => references[k].to_token_stream(),
+            Err(_) => quote! { _ },
+        });
+        let rest = (last + 1 < n).then(|| quote! { , .. });
+        lowerer.statement(quote! {
+            let [#(#pattern),* #rest] = &mut self.x;
+            #(*#references = #x_values;)*
+        });
+    }
+    x_changed.len()
 }
 
 /// `lowerer`'s statements, with the references to the covariance bound where [`commit`]
