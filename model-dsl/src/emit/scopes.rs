@@ -27,7 +27,7 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
     if statements.len() <= BLOCK_LEN {
         return statements;
     }
-    let defined: Vec<Vec<Ident>> = statements.iter().map(defined_names).collect();
+    let parts: Vec<Parts> = statements.iter().map(Parts::of).collect();
     let mut read_later: HashSet<String> = HashSet::new();
     read_names(tail.clone(), &mut read_later);
     // Walking backwards, a block hands on what it defines that is read after it. A
@@ -37,24 +37,24 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
     let mut blocks = Vec::new();
     let mut end = statements.len();
     while end > 0 {
-        if defined[end - 1].len() > WIDE_STATEMENT {
+        if parts[end - 1].bound.len() > WIDE_STATEMENT {
             blocks.push(statements[end - 1].clone());
-            live_before(&statements[end - 1], &defined[end - 1], &mut read_later);
+            live_before(&parts[end - 1], &mut read_later);
             end -= 1;
             continue;
         }
         let floor = end.saturating_sub(BLOCK_LEN);
         let start = (floor..end)
             .rev()
-            .find(|&i| defined[i].len() > WIDE_STATEMENT)
+            .find(|&i| parts[i].bound.len() > WIDE_STATEMENT)
             .map_or(floor, |wide| wide + 1);
         // A name bound twice in the block (a covariance entry read again after the
         // tests) is handed on once, as its last binding.
         let mut seen = HashSet::new();
-        let mut exported: Vec<&Ident> = defined[start..end]
+        let mut exported: Vec<&Ident> = parts[start..end]
             .iter()
             .rev()
-            .flat_map(|names| names.iter().rev())
+            .flat_map(|part| part.bound.iter().rev())
             .filter(|name| read_later.contains(&name.to_string()))
             .filter(|name| seen.insert(name.to_string()))
             .collect();
@@ -65,8 +65,8 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
             [one] => quote! { let #one = { #(#body)* #one }; },
             many => quote! { let [#(#many),*] = { #(#body)* [#(#many),*] }; },
         });
-        for i in (start..end).rev() {
-            live_before(&statements[i], &defined[i], &mut read_later);
+        for part in parts[start..end].iter().rev() {
+            live_before(part, &mut read_later);
         }
         end = start;
     }
@@ -74,49 +74,42 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
     blocks
 }
 
-/// Turns the names read after `statement` into those read after the statement before it:
-/// a name it binds is, from there back, another binding (a covariance entry read again
-/// after the tests hands nothing on from its first read), and the names it reads are
-/// read. A name it both reads and binds (`let a = a * 2.0;`) stays read.
-fn live_before(statement: &TokenStream, defined: &[Ident], live: &mut HashSet<String>) {
-    for name in defined {
+/// Turns the names read after a statement (`parts`) into those read after the statement
+/// before it: a name it binds is, from there back, another binding (a covariance entry
+/// read again after the tests hands nothing on from its first read), and the names it
+/// reads are read. A name it both reads and binds (`let a = a * 2.0;`) stays read.
+fn live_before(parts: &Parts, live: &mut HashSet<String>) {
+    for name in &parts.bound {
         live.remove(&name.to_string());
     }
-    let mut reads = HashSet::new();
-    read_names(without_patterns(statement), &mut reads);
-    live.extend(reads);
+    read_names(parts.rest.clone(), live);
 }
 
-/// `statement` without the patterns of its top-level `let`s (the names they bind are not
-/// reads).
-fn without_patterns(statement: &TokenStream) -> TokenStream {
-    let mut in_pattern = false;
-    let mut kept = TokenStream::new();
-    for token in statement.clone() {
-        match &token {
-            TokenTree::Ident(ident) if !in_pattern && ident == "let" => in_pattern = true,
-            TokenTree::Punct(p) if in_pattern && p.as_char() == '=' => in_pattern = false,
-            _ if in_pattern => {}
-            _ => kept.extend([token]),
-        }
-    }
-    kept
+/// A statement's parts: the names it binds with its top-level `let`s (a guarded
+/// reciprocal is an `if` and a `let` in one statement), and the rest of its tokens, what
+/// it reads.
+struct Parts {
+    bound: Vec<Ident>,
+    rest: TokenStream,
 }
 
-/// The names a statement binds with its top-level `let`s (a guarded reciprocal is an `if`
-/// and a `let` in one statement).
-fn defined_names(statement: &TokenStream) -> Vec<Ident> {
-    let mut names = Vec::new();
-    let mut in_pattern = false;
-    for token in statement.clone() {
-        match token {
-            TokenTree::Ident(ident) if !in_pattern && ident == "let" => in_pattern = true,
-            TokenTree::Punct(p) if in_pattern && p.as_char() == '=' => in_pattern = false,
-            other if in_pattern => pattern_names(other, &mut names),
-            _ => {}
+impl Parts {
+    fn of(statement: &TokenStream) -> Parts {
+        let (mut bound, mut rest) = (Vec::new(), TokenStream::new());
+        let mut in_pattern = false;
+        for token in statement.clone() {
+            match token {
+                TokenTree::Ident(ident) if !in_pattern && ident == "let" => {
+                    in_pattern = true;
+                    rest.extend([TokenTree::Ident(ident)]);
+                }
+                TokenTree::Punct(p) if in_pattern && p.as_char() == '=' => in_pattern = false,
+                other if in_pattern => pattern_names(other, &mut bound),
+                other => rest.extend([other]),
+            }
         }
+        Parts { bound, rest }
     }
-    names
 }
 
 /// Identifiers bound by a pattern: every identifier but `_` and `mut`.

@@ -519,6 +519,17 @@ fn measurement_time(
     Some(g.graph.add(t_prev, dt))
 }
 
+/// The sum the method's divergence test bounds: an update's of every new entry and
+/// variance, each state's beside its own; a prediction's of those it changes.
+fn divergence_probe(nodes: &mut EkfNodes, kind: EkfMethod) -> NodeId {
+    if kind.updates() {
+        interleaved_finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p)
+    } else {
+        let stored: Vec<NodeId> = nodes.g.x.iter().chain(&nodes.vars.p).copied().collect();
+        finiteness_probe_of_changes(&mut nodes.g.graph, &nodes.x, &nodes.p, &stored)
+    }
+}
+
 /// Lowers an EKF method: its statements, ending in the commit of the new estimate (with
 /// the innovation when it stores one), the variables they read, and their arithmetic.
 fn lower(
@@ -527,12 +538,7 @@ fn lower(
     scalar: Scalar,
     kind: EkfMethod,
 ) -> (TokenStream, BTreeSet<VarId>, OpCount) {
-    let probe = if kind.updates() {
-        interleaved_finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p)
-    } else {
-        let stored: Vec<NodeId> = nodes.g.x.iter().chain(&nodes.vars.p).copied().collect();
-        finiteness_probe_of_changes(&mut nodes.g.graph, &nodes.x, &nodes.p, &stored)
-    };
+    let probe = divergence_probe(nodes, kind);
     let p_packed = packed_upper(&nodes.p);
     let mut all_roots: Vec<NodeId> = nodes.x.iter().chain(&p_packed).copied().collect();
     all_roots.push(probe);
