@@ -53,17 +53,17 @@ impl Build {
 }
 
 /// The 24-state navigation model alone in a `no_std` crate, in a release build for the
-/// Cortex-M4F as firmware is built.
-pub fn navigation_firmware() -> Result<Build, String> {
+/// Cortex-M4F (`target`) as firmware is built.
+pub fn navigation_firmware(target: &'static str) -> Result<Build, String> {
     let path = workspace_root().join("generated-demo/models/navigation.rs");
     let model = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    crate::setup::rust_target(crate::MCU_TARGET)?;
+    crate::setup::rust_target(target)?;
     Ok(Build {
         source: format!(
             "//! The navigation model, built as firmware builds it.\n#![no_std]\n\
              #![forbid(unsafe_code)]\n\n{model}"
         ),
-        flags: vec!["--release", "--target", crate::MCU_TARGET],
+        flags: vec!["--release", "--target", target],
         what: "the 24-state navigation model's crate (release, thumbv7em-none-eabihf)",
     })
 }

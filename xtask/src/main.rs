@@ -128,7 +128,7 @@ fn main() -> ExitCode {
             navigation,
         } => {
             let build = if navigation {
-                cold_build::navigation_firmware()
+                cold_build::navigation_firmware(MCU_TARGET)
             } else {
                 Ok(cold_build::Build::readme_model())
             };
