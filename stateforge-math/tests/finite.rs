@@ -95,28 +95,28 @@ fn f64_all_finite_agrees_with_is_finite_on_every_pair() {
 /// kind of value at every place of a 3 x 3 matrix.
 #[test]
 fn upper_triangle_finite_tests_the_upper_triangle_only() {
-    for value in f32_cases() {
+    check_upper_triangle(1.0_f32, &f32_cases(), f32::is_finite, |m| {
+        stateforge_math::f32::upper_triangle_finite(m)
+    });
+    check_upper_triangle(1.0_f64, &f64_cases(), f64::is_finite, |m| {
+        stateforge_math::f64::upper_triangle_finite(m)
+    });
+}
+
+/// Puts each of `cases` at each place of a 3 x 3 matrix of `one`s and checks that `test`
+/// finds it finite exactly when it is below the diagonal or `finite`.
+fn check_upper_triangle<T: Copy + std::fmt::Debug>(
+    one: T,
+    cases: &[T],
+    finite: fn(T) -> bool,
+    test: impl Fn(&[[T; 3]; 3]) -> bool,
+) {
+    for &value in cases {
         for (i, j) in (0..3).flat_map(|i| (0..3).map(move |j| (i, j))) {
-            let mut m = [[1.0_f32; 3]; 3];
+            let mut m = [[one; 3]; 3];
             m[i][j] = value;
-            let expected = i > j || value.is_finite();
-            assert_eq!(
-                stateforge_math::f32::upper_triangle_finite(&m),
-                expected,
-                "{value:?} at ({i}, {j})"
-            );
-        }
-    }
-    for value in f64_cases() {
-        for (i, j) in (0..3).flat_map(|i| (0..3).map(move |j| (i, j))) {
-            let mut m = [[1.0_f64; 3]; 3];
-            m[i][j] = value;
-            let expected = i > j || value.is_finite();
-            assert_eq!(
-                stateforge_math::f64::upper_triangle_finite(&m),
-                expected,
-                "{value:?} at ({i}, {j})"
-            );
+            let expected = i > j || finite(value);
+            assert_eq!(test(&m), expected, "{value:?} at ({i}, {j})");
         }
     }
 }
