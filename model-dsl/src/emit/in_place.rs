@@ -66,13 +66,7 @@ impl CovarianceSlots {
         let graph = lowerer.graph();
         let named = |suffix: &str| -> Vec<Ident> {
             vars.iter()
-                .map(|&var| {
-                    let name = match graph.node(var) {
-                        crate::symbolic::Node::Var(v) => graph.var_info(v).name.clone(),
-                        _ => String::from("p"),
-                    };
-                    ident(&unclaimed_name(format!("{name}_{suffix}"), avoid))
-                })
+                .map(|&var| reference_name(graph, var, "p", suffix, avoid))
                 .collect()
         };
         let slots = CovarianceSlots {
@@ -145,6 +139,22 @@ impl CovarianceSlots {
             .map(|&var| lowerer.is_emitted(var))
             .collect()
     }
+}
+
+/// The name of a reference to the value `var` stands for, `<var>_<suffix>` (`p12_slot`),
+/// `<fallback>_<suffix>` if `var` is not a variable, avoiding `avoid`.
+fn reference_name(
+    graph: &crate::symbolic::Graph,
+    var: NodeId,
+    fallback: &str,
+    suffix: &str,
+    avoid: &[String],
+) -> Ident {
+    let name = match graph.node(var) {
+        crate::symbolic::Node::Var(v) => graph.var_info(v).name.as_str(),
+        _ => fallback,
+    };
+    ident(&unclaimed_name(format!("{name}_{suffix}"), avoid))
 }
 
 /// What a step commits in place: its new estimate and covariance, and what it tests first.
@@ -256,14 +266,10 @@ fn commit_estimate(lowerer: &mut Lowerer, commit: &Commit<'_>) -> usize {
         lowerer.statement(quote! { self.x = [#(#x_values),*]; });
     } else if let Some(&last) = x_changed.last() {
         let graph = lowerer.graph();
-        let reference = |i: usize| match graph.node(commit.x_vars[i]) {
-            crate::symbolic::Node::Var(v) => {
-                let name = format!("{}_slot", graph.var_info(v).name);
-                ident(&unclaimed_name(name, commit.avoid))
-            }
-            _ => ident(&format!("x{i}_slot")),
-        };
-        let references: Vec<Ident> = x_changed.iter().map(|&i| reference(i)).collect();
+        let references: Vec<Ident> = x_changed
+            .iter()
+            .map(|&i| reference_name(graph, commit.x_vars[i], "x", "slot", commit.avoid))
+            .collect();
         let pattern = (0..=last).map(|i| match x_changed.binary_search(&i) {
             Ok(k) => references[k].to_token_stream(),
             Err(_) => quote! { _ },
@@ -328,7 +334,8 @@ pub fn update_order(n: usize, m: usize) -> Vec<usize> {
 /// diagonal up. Rows join a group when they share half their structural non-zeros or
 /// have the same coefficients (a position's three rows, `p_i = p_i + T v_i`). The
 /// groups go last first and each its columns last first. Orders chosen by measurement,
-/// not derived: the navigation model's `predict` takes 3219 instructions so; 3243 with
+/// not derived: the navigation model's `predict` took 3219 instructions so (before its
+/// unchanged entries were left unwritten and unprobed); 3243 with
 /// the positions' rows apart, 3321 with the last entries in blocks of 2 x 2, 3397 with
 /// the groups and columns first first as well.
 pub fn prediction_order(
