@@ -7,7 +7,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::graph::{Graph, Node, NodeId, VarId};
-use super::linalg::{matmul, packed_upper, symmetric_from_packed, Matrix};
+use super::linalg::{matmul, packed_upper, sparser_row_last, symmetric_from_packed, Matrix};
 use crate::model::Method;
 use std::collections::HashMap;
 
@@ -108,7 +108,8 @@ pub fn covariance_rate(
 /// Computed as two products by `Phi = I + h A`, whose entries do not change over a
 /// sub-step where `A` does not (computed once before a loop of sub-steps) and are mostly
 /// structural zeros and ones (a row of `F` that is a unit vector, as `der(q) = qd`
-/// gives): `G = Phi P`, then the upper triangle of `G Phi' + h S`. In each entry the
+/// gives): `G = Phi P`, then the upper triangle of `G Phi' + h S`, each entry from the row
+/// of `G` that gives it in fewer terms (`N_ij = G_i Phi_j' = G_j Phi_i'`). In each entry the
 /// off-diagonal products are summed first and the diagonal one, usually the entry
 /// itself, added last: a small increment added to the value it changes.
 pub fn euler_covariance_step(
@@ -132,14 +133,16 @@ pub fn euler_covariance_step(
                 .collect()
         })
         .collect();
-    // N = G Phi' + h S: N_ij = sum_k G_ik Phi_jk + h S_ij, upper triangle.
+    // N = G Phi' + h S: N_ij = sum_k G_ik Phi_jk + h S_ij, upper triangle; or the same
+    // sum from row j of G where it has fewer terms (`sparser_row_last`).
     let zero = g.zero();
     let mut out = vec![vec![zero; n]; n];
     for i in 0..n {
         for j in i..n {
-            let terms = (0..n).map(|k| (left[i][k], phi[j][k]));
+            let (row, col) = sparser_row_last(g, &phi, i, j);
+            let terms = (0..n).map(|k| (left[row][k], phi[col][k]));
             let noise = g.mul(h, s[i][j]);
-            let v = increment_then_diagonal(g, terms, j, Some(noise));
+            let v = increment_then_diagonal(g, terms, col, Some(noise));
             out[i][j] = v;
             out[j][i] = v;
         }
@@ -356,13 +359,13 @@ impl AtPoint {
 mod tests {
     use super::*;
 
-    fn constant(g: &mut Graph, m: [[f64; 2]; 2]) -> Matrix {
+    fn constant<const N: usize>(g: &mut Graph, m: [[f64; N]; N]) -> Matrix {
         m.iter()
             .map(|row| row.iter().map(|&v| g.num(v)).collect())
             .collect()
     }
 
-    fn value(g: &Graph, m: &Matrix) -> [[f64; 2]; 2] {
+    fn value<const N: usize>(g: &Graph, m: &Matrix) -> [[f64; N]; N] {
         let no_vars = |_| f64::NAN;
         std::array::from_fn(|i| std::array::from_fn(|j| g.eval(m[i][j], &no_vars)))
     }
@@ -380,7 +383,7 @@ mod tests {
             [0.6 + 0.1 + 1.0, 1.0 - 8.15 + 0.15],
             [1.0 - 8.15 + 0.15, -3.4 + 0.2 + 0.5],
         ];
-        for (row, want) in value(&g, &rate).iter().zip(expected) {
+        for (row, want) in value::<2>(&g, &rate).iter().zip(expected) {
             for (v, w) in row.iter().zip(want) {
                 assert!((v - w).abs() < 1e-12, "{v} vs {w}");
             }
@@ -400,7 +403,7 @@ mod tests {
         let phi = [[1.0 + h * alpha, h], [-4.0 * h, 1.0 + h * (-0.5 + alpha)]];
         let pm = [[2.0, 0.3], [0.3, 1.0]];
         let sm = [[0.1, 0.0], [0.0, 0.2]];
-        let got = value(&g, &step);
+        let got = value::<2>(&g, &step);
         for i in 0..2 {
             for j in 0..2 {
                 let mut want = h * sm[i][j];
@@ -414,6 +417,59 @@ mod tests {
                     "({i},{j}): {} vs {want}",
                     got[i][j]
                 );
+            }
+        }
+    }
+
+    /// `(I + h F) P (I + h F)' + h S` summed term by term.
+    fn by_hand<const N: usize>(
+        h: f64,
+        f: [[f64; N]; N],
+        p: [[f64; N]; N],
+        s: [[f64; N]; N],
+    ) -> [[f64; N]; N] {
+        let phi: [[f64; N]; N] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| f64::from(u8::from(i == j)) + h * f[i][j])
+        });
+        std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
+                let mut sum = h * s[i][j];
+                for k in 0..N {
+                    for l in 0..N {
+                        sum += phi[i][k] * p[k][l] * phi[j][l];
+                    }
+                }
+                sum
+            })
+        })
+    }
+
+    #[test]
+    fn an_entry_is_taken_from_the_row_whose_products_are_fewer() {
+        // der(q) = qd, der(qd) = -4 q - 0.5 qd + 2 c, c a parameter: Phi_q = [1, h, 0] has
+        // two terms, Phi_qd three, Phi_c one.
+        let fm = [[0.0, 1.0, 0.0], [-4.0, -0.5, 2.0], [0.0, 0.0, 0.0]];
+        let pm = [[2.0, 0.3, -0.2], [0.3, 1.0, 0.4], [-0.2, 0.4, 0.5]];
+        let sm = [[0.1, 0.0, 0.0], [0.0, 0.2, 0.0], [0.0, 0.0, 0.3]];
+        let h = 0.1;
+        let mut g = Graph::new();
+        let (f, p, s) = (
+            constant(&mut g, fm),
+            constant(&mut g, pm),
+            constant(&mut g, sm),
+        );
+        let h_node = g.num(h);
+        let phi = euler_transition(&mut g, h_node, &f, None);
+        // N_(q, qd): two products from row qd of G, three from row q.
+        assert_eq!(sparser_row_last(&g, &phi, 0, 1), (1, 0));
+        // N_(q, c) = G_(q, c) is one product already; N_(qd, c) too.
+        assert_eq!(sparser_row_last(&g, &phi, 0, 2), (0, 2));
+        assert_eq!(sparser_row_last(&g, &phi, 1, 2), (1, 2));
+        let step = euler_covariance_step(&mut g, h_node, &f, None, &p, &s);
+        let got: [[f64; 3]; 3] = value(&g, &step);
+        for (i, (got_row, want_row)) in got.iter().zip(by_hand(h, fm, pm, sm)).enumerate() {
+            for (j, (v, w)) in got_row.iter().zip(want_row).enumerate() {
+                assert!((v - w).abs() < 1e-12, "({i},{j}): {v} vs {w}");
             }
         }
     }

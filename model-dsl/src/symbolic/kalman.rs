@@ -5,7 +5,8 @@
 use super::continuous::AtPoint;
 use super::graph::{Graph, NodeId};
 use super::linalg::{
-    add, dot, ldl_factor, matmul, sandwich_symmetric, transpose, Coefficients, Matrix,
+    add, dot, ldl_factor, matmul, sandwich_symmetric, sparser_row_last, transpose, Coefficients,
+    Matrix,
 };
 use super::model_graph::ModelGraph;
 use crate::model::Func;
@@ -17,10 +18,10 @@ pub fn predict_covariance(g: &mut Graph, a: &Matrix, p: &Matrix, q: &Matrix) -> 
 }
 
 /// [`predict_covariance`] with entry `ij` as `(A P)_j . A_i` rather than
-/// `(A P)_i . A_j` (the same sum) where row `i` of `A` has fewer structural nonzeros than
-/// row `j`, all among `j`'s: that row of `A P` is computed for the diagonal entry `jj`
-/// anyway, and the sum has fewer terms (the EKF's `x1 = x1 + TS x2` row against the
-/// cantilever's `x2` row).
+/// `(A P)_i . A_j` where that sum has fewer terms ([`sparser_row_last`]: the EKF's
+/// `x1 = x1 + TS x2` row against the cantilever's `x2` row).
+// `out[i][j]` and its mirror `out[j][i]` are written together: index loops.
+#[allow(clippy::needless_range_loop)]
 pub fn predict_covariance_by_sparse_rows(
     g: &mut Graph,
     a: &Matrix,
@@ -29,18 +30,10 @@ pub fn predict_covariance_by_sparse_rows(
 ) -> Matrix {
     let ap = matmul(g, a, p);
     let n = a.len();
-    let support = |g: &Graph, row: &[NodeId]| -> Vec<usize> {
-        (0..row.len()).filter(|&k| !g.is_zero(row[k])).collect()
-    };
     let mut out = vec![vec![g.zero(); n]; n];
     for i in 0..n {
         for j in i..n {
-            let (si, sj) = (support(g, &a[i]), support(g, &a[j]));
-            let (dense, sparse) = if si.len() < sj.len() && si.iter().all(|k| sj.contains(k)) {
-                (j, i)
-            } else {
-                (i, j)
-            };
+            let (dense, sparse) = sparser_row_last(g, a, i, j);
             let v = dot(g, &ap[dense], &a[sparse]);
             out[i][j] = v;
             out[j][i] = v;
