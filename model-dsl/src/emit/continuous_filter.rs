@@ -14,7 +14,8 @@ use crate::emit::code::{
     INNOVATION,
 };
 use crate::emit::filter::{
-    finiteness_probe, model_names, name_estimate, reads_time, unclaimed_name, FilterVars,
+    correction_reads_input, finiteness_probe, model_names, name_estimate, reads_variable,
+    unclaimed_name, FilterVars, MEASUREMENT_INPUT_DOC,
 };
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::measurement;
@@ -182,14 +183,21 @@ pub fn method(
     let mut nodes = MethodNodes::build(model, mg, kind, options);
     let lowered = lower(&mut nodes, model, scalar, kind);
     let ty = ident(scalar.type_name());
-    let arguments = arguments(&nodes, model, kind, &lowered.used_vars, &ty);
+    let (graph, used_vars) = (&nodes.g.graph, &lowered.used_vars);
+    let reads_input = correction_reads_input(graph, &nodes.g.u, kind.predicts(), used_vars);
+    let arguments = arguments(&nodes, model, kind, (used_vars, reads_input), &ty);
     let (name, doc) = kind.name_and_doc();
     let time_doc = if model.uses_time() {
         kind.time_doc()
     } else {
         ""
     };
-    let doc = format!("{doc}{time_doc}");
+    let input_doc = if reads_input {
+        MEASUREMENT_INPUT_DOC
+    } else {
+        ""
+    };
+    let doc = format!("{doc}{time_doc}{input_doc}");
     let tokens = arguments.method(&ident(name), &quote! { #[doc = #doc] }, lowered.body);
     (tokens, lowered.total, lowered.per_substep)
 }
@@ -615,12 +623,13 @@ fn substep_loop(lowerer: &mut Lowerer, nodes: &MethodNodes, uses_time: bool) -> 
 
 /// The method's arguments: the times where the model reads `t` (the start `t_prev` of a
 /// propagation, the measurement's time `t` of the hybrid EKF's update), the input
-/// `u_prev` of a propagation, the measurement of an update or of the continuous-time EKF.
+/// `u_prev` of a propagation, the input `u` of an update whose outputs read it
+/// (`reads_input`), the measurement of an update or of the continuous-time EKF.
 fn arguments(
     nodes: &MethodNodes,
     model: &Model,
     kind: FilterMethod,
-    used_vars: &BTreeSet<VarId>,
+    (used_vars, reads_input): (&BTreeSet<VarId>, bool),
     ty: &proc_macro2::Ident,
 ) -> Arguments {
     let g = &nodes.g;
@@ -630,14 +639,17 @@ fn arguments(
         if kind.predicts() {
             // A gated step passes it on to `predict` when it rejects an outlier.
             let passed_on = nodes.nis.is_some() && nodes.gated;
-            let read = passed_on || reads_time(graph, nodes.t_start, used_vars);
+            let read = passed_on || reads_variable(graph, nodes.t_start, used_vars);
             arguments.time("t_prev", read, ty);
         } else {
-            arguments.time("t", reads_time(graph, g.t, used_vars), ty);
+            arguments.time("t", reads_variable(graph, g.t, used_vars), ty);
         }
     }
     if kind.predicts() && !g.u.is_empty() {
         arguments.array("u_prev", var_idents(graph, &g.u), ty);
+    }
+    if reads_input {
+        arguments.array("u", var_idents(graph, &g.u), ty);
     }
     if kind.updates() {
         arguments.array("y", var_idents(graph, &nodes.vars.y), ty);

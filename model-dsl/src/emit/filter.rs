@@ -347,9 +347,30 @@ fn pairwise_sum(graph: &mut Graph, terms: &[NodeId]) -> NodeId {
     }
 }
 
-/// Whether the code reads the time variable `t`.
-pub fn reads_time(graph: &Graph, t: NodeId, used: &std::collections::BTreeSet<VarId>) -> bool {
-    matches!(graph.node(t), crate::symbolic::Node::Var(v) if used.contains(&v))
+/// Whether the code reads the variable `var` (the time `t`, an input).
+pub fn reads_variable(
+    graph: &Graph,
+    var: NodeId,
+    used: &std::collections::BTreeSet<VarId>,
+) -> bool {
+    matches!(graph.node(var), crate::symbolic::Node::Var(v) if used.contains(&v))
+}
+
+/// What the documentation of a correction that takes the input `u` adds: an output that
+/// reads an input (a feedthrough, `y = c x + d u`) needs the input at the measurement.
+pub const MEASUREMENT_INPUT_DOC: &str = " `h` reads the input: `u` is the input in effect at \
+     the measurement (rejected unless finite, as the measurement is); a step evaluates `h` \
+     with `u_prev`, the input held until its measurement.";
+
+/// Whether a correction that does not predict must take the input `u`: its code reads one
+/// of the input variables `u` (an output reads an input). A step reads them from `u_prev`.
+pub fn correction_reads_input(
+    graph: &Graph,
+    u: &[NodeId],
+    predicts: bool,
+    used: &std::collections::BTreeSet<VarId>,
+) -> bool {
+    !predicts && u.iter().any(|&v| reads_variable(graph, v, used))
 }
 
 /// `t: f32` (named `name`), or `_t: f32` when the code does not read it.
@@ -360,7 +381,7 @@ pub fn time_param(
     ty: &proc_macro2::Ident,
     name: &str,
 ) -> TokenStream {
-    let name = if reads_time(graph, t, used) {
+    let name = if reads_variable(graph, t, used) {
         ident(name)
     } else {
         ident(&format!("_{name}"))

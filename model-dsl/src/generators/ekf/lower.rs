@@ -9,8 +9,8 @@ use crate::emit::code::{
     guard_pivots, innovation_pivot_failure, pivot_names, var_idents, INNOVATION,
 };
 use crate::emit::filter::{
-    finiteness_probe_of_changes, interleaved_finiteness_probe, model_names, name_estimate,
-    reads_time, FilterLayout, FilterVars,
+    correction_reads_input, finiteness_probe_of_changes, interleaved_finiteness_probe, model_names,
+    name_estimate, reads_variable, FilterLayout, FilterVars, MEASUREMENT_INPUT_DOC,
 };
 use crate::emit::in_place::{self, CovarianceSlots};
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
@@ -360,8 +360,13 @@ fn method(
     let mut nodes = EkfNodes::build(model, mg, kind, spec);
     let (body, used_vars, ops) = lower(&mut nodes, model, scalar, kind);
     let ty = ident(scalar.type_name());
-    let arguments = arguments(&nodes, model, kind, &used_vars, &ty);
-    let (name, doc) = kind.name_and_doc(model, spec);
+    let graph = &nodes.g.graph;
+    let reads_input = correction_reads_input(graph, &nodes.g.u, kind.predicts(), &used_vars);
+    let arguments = arguments(&nodes, model, kind, (&used_vars, reads_input), &ty);
+    let (name, mut doc) = kind.name_and_doc(model, spec);
+    if reads_input {
+        doc.push_str(MEASUREMENT_INPUT_DOC);
+    }
     // A line per attribute: a sensor's own documentation comes before what the update does.
     let doc = doc.lines();
     (
@@ -614,13 +619,14 @@ fn lower(
 /// The method's arguments: the times where the model reads `t` (the previous sample's
 /// `t_prev` of a prediction, which a gated step passes on to `predict` when it rejects an
 /// outlier, so always reads; the measurement's `t` of a correction, unless a step knows
-/// it), the input `u_prev` of a prediction, the measurement `y` of a correction (a scalar
-/// for one output alone).
+/// it), the input `u_prev` of a prediction, the input `u` of a correction whose outputs
+/// read it (`reads_input`), the measurement `y` of a correction (a scalar for one output
+/// alone).
 fn arguments(
     nodes: &EkfNodes,
     model: &Model,
     kind: EkfMethod,
-    used_vars: &BTreeSet<VarId>,
+    (used_vars, reads_input): (&BTreeSet<VarId>, bool),
     ty: &proc_macro2::Ident,
 ) -> Arguments {
     let g = &nodes.g;
@@ -628,14 +634,17 @@ fn arguments(
     let mut arguments = Arguments::default();
     if let Some(t_prev) = nodes.t_prev {
         let passed_on = nodes.gated && kind == EkfMethod::Step;
-        let read = passed_on || reads_time(graph, t_prev, used_vars);
+        let read = passed_on || reads_variable(graph, t_prev, used_vars);
         arguments.time("t_prev", read, ty);
     }
     if model.uses_time() && kind.updates() && nodes.t_measured.is_none() {
-        arguments.time("t", reads_time(graph, g.t, used_vars), ty);
+        arguments.time("t", reads_variable(graph, g.t, used_vars), ty);
     }
     if kind.predicts() && !g.u.is_empty() {
         arguments.array("u_prev", var_idents(graph, &g.u), ty);
+    }
+    if reads_input {
+        arguments.array("u", var_idents(graph, &g.u), ty);
     }
     let y = var_idents(graph, &nodes.vars.y);
     match kind {
