@@ -345,6 +345,13 @@ fn continuous_dynamics_without_a_method_or_a_step_are_told_the_toml() {
     assert_error(
         &small_with(
             "kind = \"discrete\"",
+            "kind = \"continuous\"\nmethod = \"rk4\"\ndt = \"0\"",
+        ),
+        "18:7: the step `dt`, a time in seconds, must be positive and finite, not 0",
+    );
+    assert_error(
+        &small_with(
+            "kind = \"discrete\"",
             "kind = \"continuous\"\nmethod = \"rk4\"\ndt = \"TS\"\nsubsteps = -1",
         ),
         "19:12: model file: invalid value: integer `-1`, expected a whole number of sub-steps \

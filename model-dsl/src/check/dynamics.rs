@@ -207,7 +207,7 @@ fn check_method(span: Span, method: &Option<Name>, diag: &mut Diagnostics) -> Op
     }
 }
 
-/// The step `dt`: a constant expression.
+/// The step `dt`: a constant expression, positive.
 fn check_step(expr: &SurfaceExpr, scope: &Scope, diag: &mut Diagnostics) -> Option<Expr> {
     let e = resolve(expr, scope, &[], "the step `dt`", diag)?;
     let consts_only = !e.any(&|e| {
@@ -229,7 +229,18 @@ fn check_step(expr: &SurfaceExpr, scope: &Scope, diag: &mut Diagnostics) -> Opti
         );
         return None;
     }
-    Some(e)
+    // A step of zero would leave the state where it is, a negative one integrate
+    // backwards.
+    match e.fold(&|i| scope.const_value(i)) {
+        Some(dt) if dt <= 0.0 || !dt.is_finite() => {
+            diag.error(
+                expr.span,
+                format!("the step `dt`, a time in seconds, must be positive and finite, not {dt}"),
+            );
+            None
+        }
+        _ => Some(e),
+    }
 }
 
 /// Sub-steps per sample: 1 unless given, at most [`crate::model::SUBSTEPS_MAX`].
