@@ -22,6 +22,42 @@ fn cantilever_model_file_generates_the_macros_code() {
     assert_eq!(code_without_docs(from_file), code_without_docs(from_macro));
 }
 
+/// The model of the TOML example in `stateforge/doc/model-files.md`, as the macro writes it.
+const DOCUMENTED_MODEL: &str = r#"
+stateforge::model! {
+    /// A forced, damped oscillator.
+    pub mod oscillator {
+        scalar f32, f64;
+        /// Sample time [s].
+        const TS = 0.01;
+        state x1, x2;
+        input u;
+        output y = x1;
+        generate ekf(process_noise = diagonal), hybrid_ekf;
+        dynamics continuous(rk4, dt = TS, substeps = 2) {
+            let spring = -4.0 * x1;
+            der(x1) = x2;
+            der(x2) = spring - 0.2 * x2 + u;
+        }
+    }
+}
+"#;
+
+#[test]
+fn the_documented_model_file_generates_the_macros_code() {
+    let doc = std::fs::read_to_string(workspace_path("stateforge/doc/model-files.md"))
+        .expect("the model-file documentation exists");
+    let toml = doc
+        .split("```toml\n")
+        .nth(1)
+        .and_then(|rest| rest.split("```").next())
+        .expect("the documentation has a TOML example");
+    let from_file = stateforge_cli::expand_model_file(toml).expect("the example expands");
+    let from_macro =
+        stateforge_compiler::expand_macro_source(DOCUMENTED_MODEL).expect("macro expands");
+    assert_eq!(code_without_docs(from_file), code_without_docs(from_macro));
+}
+
 fn errors_of(toml: &str) -> String {
     match stateforge_cli::expand_model_file(toml) {
         Ok(_) => panic!("expected errors for:\n{toml}"),
