@@ -40,3 +40,99 @@ impl Diagnostics {
         }
     }
 }
+
+/// `a, b and c` (with `conjunction` between the last two), for a message's list.
+pub fn phrase(items: &[String], conjunction: &str) -> String {
+    match items.split_last() {
+        None => String::new(),
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} {conjunction} {last}", rest.join(", ")),
+    }
+}
+
+/// The candidate a misspelt `name` most likely meant: one that differs only in case, else
+/// the nearest by edits (insertions, deletions, substitutions, a swap of neighbours) if at
+/// most a third of its letters (at least one) differ and it has three or more (`x3` is
+/// one edit from `x1`, and more likely a name not declared yet); ties go to the first
+/// candidate. For "did you mean `omega`?".
+pub fn closest<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    // Names are identifiers; a long one (pasted by mistake) gets no suggestion, which
+    // keeps the table below small.
+    const LONGEST: usize = 64;
+    let name: Vec<char> = name.chars().collect();
+    if name.is_empty() || name.len() > LONGEST {
+        return None;
+    }
+    let allowed = if name.len() < 3 {
+        0
+    } else {
+        (name.len() / 3).max(1)
+    };
+    let mut best: Option<(usize, &str)> = None;
+    for candidate in candidates {
+        let other: Vec<char> = candidate.chars().collect();
+        if other == name || other.len() > LONGEST {
+            continue;
+        }
+        let same_but_case = other.len() == name.len()
+            && other
+                .iter()
+                .zip(&name)
+                .all(|(a, b)| a.to_lowercase().eq(b.to_lowercase()));
+        let d = if same_but_case {
+            0
+        } else {
+            edits(&name, &other)
+        };
+        if d <= allowed && best.is_none_or(|(b, _)| d < b) {
+            best = Some((d, candidate));
+        }
+    }
+    best.map(|(_, candidate)| candidate)
+}
+
+/// Edits between `a` and `b` (optimal string alignment: a swap of neighbours is one).
+fn edits(a: &[char], b: &[char]) -> usize {
+    let mut table = vec![vec![0usize; b.len() + 1]; a.len() + 1];
+    for (i, row) in table.iter_mut().enumerate() {
+        row[0] = i;
+    }
+    for (j, cell) in table[0].iter_mut().enumerate() {
+        *cell = j;
+    }
+    for i in 1..=a.len() {
+        for j in 1..=b.len() {
+            let substitution = usize::from(a[i - 1] != b[j - 1]);
+            let mut d = (table[i - 1][j] + 1)
+                .min(table[i][j - 1] + 1)
+                .min(table[i - 1][j - 1] + substitution);
+            if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                d = d.min(table[i - 2][j - 2] + 1);
+            }
+            table[i][j] = d;
+        }
+    }
+    table[a.len()][b.len()]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::closest;
+
+    #[test]
+    fn a_misspelt_name_gets_the_nearest_candidate() {
+        let names = ["theta", "omega", "torque", "TS"];
+        assert_eq!(closest("omgea", names), Some("omega"));
+        assert_eq!(closest("thetta", names), Some("theta"));
+        assert_eq!(closest("Ts", names), Some("TS"));
+        assert_eq!(closest("x3", ["x1", "x2"]), None);
+        assert_eq!(
+            closest("proces_noise", ["process_noise", "gate"]),
+            Some("process_noise")
+        );
+        // Too far from every candidate, or the name itself: no suggestion.
+        assert_eq!(closest("velocity", names), None);
+        assert_eq!(closest("omega", names), None);
+        assert_eq!(closest(&"x".repeat(10_000), names), None);
+    }
+}

@@ -3,7 +3,7 @@
 //! the model's scalar types.
 
 use crate::ast::{BinaryOp, Comparison, Name, SurfaceExpr, SurfaceKind};
-use crate::diagnostics::Diagnostics;
+use crate::diagnostics::{closest, Diagnostics};
 use crate::model::{Expr, Func, Local, Scalar};
 use crate::scope::{Binding, Scope};
 
@@ -107,10 +107,19 @@ fn resolve_name(
                  with `let` inside `dynamics`"
             )
         }
-        None => format!(
-            "unknown symbol `{name}` in {context}: declare it with `state`, `param`, `input` \
-             or `const`"
-        ),
+        None => {
+            let known = scope.names.keys().chain(scope.declared.keys());
+            match closest(name, known.map(String::as_str)) {
+                Some(near) => format!(
+                    "unknown symbol `{name}` in {context}: did you mean `{near}`? (a new name \
+                     is declared with `state`, `param`, `input` or `const`)"
+                ),
+                None => format!(
+                    "unknown symbol `{name}` in {context}: declare it with `state`, `param`, \
+                     `input` or `const`"
+                ),
+            }
+        }
     };
     diag.error(expr.span, message);
     None

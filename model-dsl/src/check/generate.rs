@@ -3,7 +3,7 @@
 
 use super::names::generated_item;
 use crate::ast::{GenerateDecl, ModelDecl};
-use crate::diagnostics::Diagnostics;
+use crate::diagnostics::{phrase, Diagnostics};
 use crate::generators::{Args, Budget, Context, Generator, Kind, Requirement, REGISTRY};
 use crate::scope::Scope;
 
@@ -149,15 +149,6 @@ fn with(requirement: Requirement) -> String {
         .map(|kind| format!("`{}`", kind.name()))
         .collect();
     phrase(&names, "and")
-}
-
-/// `a, b and c` (with `conjunction` between the last two).
-fn phrase(items: &[String], conjunction: &str) -> String {
-    match items.split_last() {
-        None => String::new(),
-        Some((last, [])) => last.clone(),
-        Some((last, rest)) => format!("{} {conjunction} {last}", rest.join(", ")),
-    }
 }
 
 /// A type name chosen with `name = ..` must not be another item of the generated module.

@@ -4,7 +4,7 @@
 //! every generator.
 
 use crate::ast::{ArgValue, GenerateArg, GenerateDecl, ModelDecl, Name};
-use crate::diagnostics::Diagnostics;
+use crate::diagnostics::{closest, phrase, Diagnostics};
 use crate::scope::{Binding, Scope};
 use proc_macro2::Span;
 
@@ -68,6 +68,9 @@ impl<'a> Context<'a> {
 pub struct Args<'a> {
     item: &'a GenerateDecl,
     used: Vec<bool>,
+    /// The options the generator asked for, by their first names: what an unknown one is
+    /// told it could have been.
+    options: Vec<String>,
     /// An option written under two of its names (`state` and `states`): where, and why.
     aliased: Vec<(Span, String)>,
 }
@@ -84,6 +87,7 @@ impl<'a> Args<'a> {
         Args {
             item,
             used: vec![false; item.args.len()],
+            options: Vec::new(),
             aliased: Vec::new(),
         }
     }
@@ -91,6 +95,11 @@ impl<'a> Args<'a> {
     /// The argument written under one of `names`, the first if several were (the others
     /// are reported as given twice, not as unknown: all are marked as used).
     pub fn take(&mut self, names: &[&str]) -> Option<&'a GenerateArg> {
+        if let Some(&name) = names.first() {
+            if !self.options.iter().any(|o| o == name) {
+                self.options.push(name.to_owned());
+            }
+        }
         let mut first: Option<&'a GenerateArg> = None;
         for (i, arg) in self.item.args.iter().enumerate() {
             if !names.contains(&arg.name.text.as_str()) {
@@ -310,14 +319,25 @@ impl<'a> Args<'a> {
         }
         for (arg, used) in self.item.args.iter().zip(&self.used) {
             if !used {
-                diag.error(
-                    arg.name.span,
-                    format!(
-                        "`{}` takes no argument `{}`",
-                        self.item.name.text, arg.name.text
-                    ),
-                );
+                diag.error(arg.name.span, self.unknown_option(&arg.name.text));
             }
+        }
+    }
+
+    /// What an option the generator does not take is told: the one it may have meant, or
+    /// the generator's options.
+    fn unknown_option(&self, name: &str) -> String {
+        let generator = &self.item.name.text;
+        let options: Vec<String> = self.options.iter().map(|o| format!("`{o}`")).collect();
+        match closest(name, self.options.iter().map(String::as_str)) {
+            Some(near) => {
+                format!("`{generator}` takes no argument `{name}`: did you mean `{near}`?")
+            }
+            None if options.is_empty() => format!("`{generator}` takes no arguments"),
+            None => format!(
+                "`{generator}` takes no argument `{name}`; its options are {}",
+                phrase(&options, "and")
+            ),
         }
     }
 }
