@@ -75,7 +75,7 @@ const HINTS: [(&str, &str); 13] = [
 ];
 
 /// Short pieces of macro syntax and their TOML form.
-const PIECES: [(&str, &str); 7] = [
+const PIECES: [(&str, &str); 8] = [
     ("(`state`)", "(`[[state]]`)"),
     (
         "declare each value, `const A = 1e-6;`,",
@@ -85,6 +85,10 @@ const PIECES: [(&str, &str); 7] = [
     ("`discretisation` is `zoh`", "`discretisation` is `\"zoh\"`"),
     (") or `sample_step` (", ") or `\"sample_step\"` ("),
     ("(`if q_mid > 0.0 { .. }`)", "(`if_gt(q_mid, 0, .., ..)`)"),
+    (
+        "a new name is declared with `state`, `param`, `input` or `const`",
+        "a new name is declared as a `[[state]]`, `[[param]]`, `[[input]]` or `[[const]]`",
+    ),
     (
         "declare it with `state`, `param`, `input` or `const`",
         "declare it as a `[[state]]`, `[[param]]`, `[[input]]` or `[[const]]` with `name = \

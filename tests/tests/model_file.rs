@@ -420,6 +420,11 @@ fn an_error_inside_an_expression_points_at_its_token() {
         &small_with("x1 = \"x1 + TS * x2\"", "x1 = \"x1 + foo\""),
         &format!("18:12: {unknown}"),
     );
+    assert_error(
+        &small_with("x1 = \"x1 + TS * x2\"", "x1 = \"x1 + TS * x22\""),
+        "18:17: unknown symbol `x22` in the dynamics of `x1`: did you mean `x2`? (a new name is \
+         declared as a `[[state]]`, `[[param]]`, `[[input]]` or `[[const]]`)",
+    );
     // Escapes, literal and multi-line strings: the caret still finds the token.
     assert_error(
         &small_with("x1 = \"x1 + TS * x2\"", "x1 = \"x1\\t+ foo\""),
