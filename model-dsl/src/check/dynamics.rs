@@ -123,7 +123,8 @@ fn check_equation_kind(target: &Name, derivative: bool, continuous: bool, diag: 
     }
 }
 
-/// The right-hand sides in state order; a state without an equation is an error.
+/// The right-hand sides in state order; a state without an equation is an error (once per
+/// name: a second declaration is reported as declared twice).
 fn complete_equations(
     rhs: Vec<Option<Option<Expr>>>,
     (states, state_spans): (&[Symbol], &[Span]),
@@ -131,10 +132,15 @@ fn complete_equations(
     diag: &mut Diagnostics,
 ) -> Vec<Expr> {
     let mut complete = Vec::with_capacity(states.len());
+    // A state declared twice is reported as such; its second declaration needs no
+    // equation of its own.
+    let mut seen = std::collections::HashSet::new();
     for ((slot, state), span) in rhs.into_iter().zip(states).zip(state_spans) {
+        let first = seen.insert(state.name.as_str());
         match slot {
             Some(Some(expr)) => complete.push(expr),
             Some(None) => {}
+            None if !first => {}
             None => {
                 let form = if continuous {
                     format!("der({}) = ...;", state.name)
