@@ -23,9 +23,9 @@ use crate::emit::names::{ident, TempNamer};
 use crate::emit::substeps::{lower_loop, Carried, SubstepLoop, P_SUB, T_SUB, X_SUB};
 use crate::model::{Method, Model, Scalar};
 use crate::symbolic::continuous::{
-    covariance_rate, euler_covariance_step, euler_state_step, integrate_substep, join, split,
-    AtPoint,
+    covariance_rate, euler_covariance_step, integrate_substep, join, split, AtPoint,
 };
+use crate::symbolic::euler_state::euler_state_step;
 use crate::symbolic::linalg::{
     packed_len, packed_upper, symmetric_from_packed, Coefficients, Matrix,
 };

@@ -174,77 +174,10 @@ pub fn euler_transition(g: &mut Graph, h: NodeId, f: &Matrix, alpha: Option<Node
         .collect()
 }
 
-/// One forward Euler sub-step `x + h f(x)` of the estimate, with `F = df/dx` at `x`. A
-/// row of `f` that is affine in the states that change (those whose rate is not a
-/// structural zero; the parameters, a random walk, do not), with coefficients that
-/// depend on none of them, is that row of `Phi x + h f(x_0)` (`Phi = I + h F`, `x_0` the
-/// point with the changing states at zero): the same value, from `Phi`'s entries, which
-/// the covariance sub-step computes anyway, and a constant term computed before a loop.
-pub fn euler_state_step(
-    g: &mut Graph,
-    h: NodeId,
-    x: &[NodeId],
-    dx: &[NodeId],
-    f: &Matrix,
-) -> Vec<NodeId> {
-    let n = x.len();
-    let changing: Vec<usize> = (0..n).filter(|&i| !g.is_zero(dx[i])).collect();
-    let changing_vars: Vec<NodeId> = changing.iter().map(|&k| x[k]).collect();
-    let to_zero: HashMap<VarId, NodeId> = changing_vars
-        .iter()
-        .filter_map(|&v| match g.node(v) {
-            Node::Var(id) => Some((id, g.zero())),
-            _ => None,
-        })
-        .collect();
-    let phi = euler_transition(g, h, f, None);
-    (0..n)
-        .map(|i| {
-            let affine = to_zero.len() == changing.len()
-                && changing
-                    .iter()
-                    .all(|&k| !depends_on(g, f[i][k], &changing_vars));
-            if !affine || g.is_zero(dx[i]) {
-                let step = g.mul(h, dx[i]);
-                return g.add(x[i], step);
-            }
-            let at_zero = g.substitute(dx[i], &to_zero, &mut HashMap::new());
-            let mut sum = scale(g, h, at_zero);
-            for &k in changing.iter().filter(|&&k| k != i) {
-                let term = g.mul_whole(phi[i][k], x[k]);
-                sum = g.add(sum, term);
-            }
-            if g.constant_value(f[i][i]).is_some() {
-                let diagonal = g.mul_whole(phi[i][i], x[i]);
-                return g.add(sum, diagonal);
-            }
-            let diagonal = scale(g, h, f[i][i]);
-            let term = g.mul_whole(diagonal, x[i]);
-            sum = g.add(sum, term);
-            g.add(sum, x[i])
-        })
-        .collect()
-}
-
-/// Whether `e` reads any of the variables `vars`.
-fn depends_on(g: &Graph, e: NodeId, vars: &[NodeId]) -> bool {
-    let mut stack = vec![e];
-    let mut seen = std::collections::HashSet::new();
-    while let Some(id) = stack.pop() {
-        if vars.contains(&id) {
-            return true;
-        }
-        if seen.insert(id) {
-            stack.extend(g.node(id).children());
-        }
-    }
-    false
-}
-
 /// `h e`, with `h` distributed over the sums of `e` when each of their terms has a
 /// constant factor (`h (c u - k q)` as `(h c) u - (h k) q`: the constants fold, one
 /// operation fewer).
-fn scale(g: &mut Graph, h: NodeId, e: NodeId) -> NodeId {
+pub(super) fn scale(g: &mut Graph, h: NodeId, e: NodeId) -> NodeId {
     if !matches!(g.node(e), Node::Add(..) | Node::Sub(..) | Node::Neg(_)) || !distributes(g, e) {
         return g.mul(h, e);
     }

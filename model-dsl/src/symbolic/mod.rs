@@ -3,6 +3,7 @@
 
 pub mod continuous;
 pub mod diff;
+pub mod euler_state;
 pub mod graph;
 pub mod kalman;
 pub mod linalg;
