@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 
 pub mod cantilever_sim;
+pub mod compare;
 pub mod continuous_reference;
 pub mod predictive_reference;
 pub mod reference;

@@ -5,17 +5,8 @@
 
 use generated_demo::helicopter::in_f64::{f, h, jacobian_h_wrt_x, Ekf, Status};
 use nalgebra::{SMatrix, SVector};
+use tests::compare::largest_relative_difference;
 use tests::rng::Lcg;
-
-/// Largest difference relative to the largest entry of `want`.
-fn relative_difference(got: &[f64], want: &[f64]) -> f64 {
-    let scale = want.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-    let worst = got
-        .iter()
-        .zip(want)
-        .fold(0.0_f64, |m, (g, w)| m.max((g - w).abs()));
-    worst / scale
-}
 
 fn diagonal<const N: usize>(d: [f64; N]) -> [[f64; N]; N] {
     std::array::from_fn(|i| std::array::from_fn(|j| if i == j { d[i] } else { 0.0 }))
@@ -54,8 +45,11 @@ fn sequential_updates_equal_the_joint_update() {
         assert_eq!(sequential.update_y_phi(t, y[1]), Status::Ok);
         let flat = |p: [[f64; 6]; 6]| p.concat();
         worst = worst
-            .max(relative_difference(&sequential.state(), &joint.state()))
-            .max(relative_difference(
+            .max(largest_relative_difference(
+                &sequential.state(),
+                &joint.state(),
+            ))
+            .max(largest_relative_difference(
                 &flat(sequential.covariance()),
                 &flat(joint.covariance()),
             ));
@@ -81,11 +75,11 @@ fn one_output_update_equals_a_dense_kalman_update() {
     let x_new = xv + gain * (y_yaw - h(t, &x)[1]);
     let i_kc = SMatrix::<f64, 6, 6>::identity() - gain * c;
     let p_new = i_kc * pm * i_kc.transpose() + gain * 2e-4 * gain.transpose();
-    assert!(relative_difference(&ekf.state(), x_new.as_slice()) < 1e-14);
+    assert!(largest_relative_difference(&ekf.state(), x_new.as_slice()) < 1e-14);
     let p_flat: Vec<f64> = (0..6)
         .flat_map(|i| (0..6).map(move |j| p_new[(i, j)]))
         .collect();
-    assert!(relative_difference(&ekf.covariance().concat(), &p_flat) < 1e-13);
+    assert!(largest_relative_difference(&ekf.covariance().concat(), &p_flat) < 1e-13);
     // A partial update stores its own innovation (zero for the other output) and its
     // normalised square, `r^2 / S`.
     let r = y_yaw - h(t, &x)[1];

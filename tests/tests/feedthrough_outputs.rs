@@ -4,6 +4,8 @@
 //! its measurement, so a step agrees with `predict(u_prev)` then `update(u_prev, y)`. An
 //! output that reads no input keeps its update without `u` (`update_position(y)`).
 
+use tests::compare::assert_same_estimates;
+
 stateforge::model! {
     /// A mass on a spring, forced by `u`; a position sensor and an accelerometer.
     mod forced_mass {
@@ -36,18 +38,6 @@ fn sample(k: usize) -> ([f64; 1], [f64; 2]) {
     ([u], [x1, -4.0 * x1 + 1.1 * u])
 }
 
-/// Largest difference of two estimates and covariances, relative to the largest entry.
-fn difference(a: ([f64; 2], [[f64; 2]; 2]), b: ([f64; 2], [[f64; 2]; 2])) -> f64 {
-    let flat = |(x, p): ([f64; 2], [[f64; 2]; 2])| [x[0], x[1], p[0][0], p[0][1], p[1][1]];
-    let (a, b) = (flat(a), flat(b));
-    let scale = b.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-    let worst = a
-        .iter()
-        .zip(&b)
-        .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()));
-    worst / scale
-}
-
 #[test]
 fn a_step_corrects_with_the_input_held_until_its_measurement() {
     use forced_mass::{Ekf, HybridEkf, Status};
@@ -68,7 +58,7 @@ fn a_step_corrects_with_the_input_held_until_its_measurement() {
         assert_eq!(hybrid.step(&u_prev, &y), Status::Ok);
         assert_eq!(hybrid_split.predict(&u_prev), Status::Ok);
         assert_eq!(hybrid_split.update(&u_prev, &y), Status::Ok);
-        for (a, b) in [
+        let pairs = [
             (
                 (stepped.state(), stepped.covariance()),
                 (split.state(), split.covariance()),
@@ -77,14 +67,8 @@ fn a_step_corrects_with_the_input_held_until_its_measurement() {
                 (hybrid.state(), hybrid.covariance()),
                 (hybrid_split.state(), hybrid_split.covariance()),
             ),
-        ] {
-            let d = difference(a, b);
-            assert!(
-                d <= 1e-12,
-                "sample {k}: the step and predict/update differ by {d:e}"
-            );
-            worst = worst.max(d);
-        }
+        ];
+        worst = worst.max(assert_same_estimates(k, &pairs));
     }
     println!("feedthrough: step and predict/update(u_prev, y) within {worst:.1e}");
 }

@@ -8,6 +8,7 @@
 
 use generated_demo::navigation::in_f64::{f, h, jacobian_h_wrt_x, Ekf, Status};
 use nalgebra::{DMatrix, DVector};
+use tests::compare::largest_relative_difference;
 use tests::rng::Lcg;
 
 const N: usize = 24;
@@ -69,16 +70,6 @@ fn imu(k: usize) -> [f64; 6] {
     [0.001 * dt, -0.002 * dt, rate * dt, 0.1 * dt, 0.0, -9.7 * dt]
 }
 
-/// Largest difference relative to the largest entry of `want`.
-fn relative_difference(got: &[f64], want: &[f64]) -> f64 {
-    let scale = want.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-    let worst = got
-        .iter()
-        .zip(want)
-        .fold(0.0_f64, |m, (g, w)| m.max((g - w).abs()));
-    worst / scale
-}
-
 /// The filter after a second of prediction, so that its covariance couples the states.
 fn predicted_filter(r: &[[f64; M]; M]) -> Ekf {
     let mut ekf = filter(r);
@@ -125,8 +116,8 @@ fn a_sensor_update_equals_a_dense_kalman_update() {
             _ => ekf.update_magnetometer(&y.clone().try_into().unwrap()),
         };
         assert_eq!(status, Status::Ok);
-        let x_error = relative_difference(&ekf.state(), &x_want);
-        let p_error = relative_difference(&ekf.covariance().concat(), &p_want);
+        let x_error = largest_relative_difference(&ekf.state(), &x_want);
+        let p_error = largest_relative_difference(&ekf.covariance().concat(), &p_want);
         eprintln!("{name}: state {x_error:e}, covariance {p_error:e} relative");
         assert!(
             x_error < 1e-13 && p_error < 1e-12,
@@ -144,7 +135,7 @@ fn a_sensor_stores_its_own_innovation_and_nis() {
     let y = [hx[6] + 0.01, hx[7] - 0.004, hx[8] + 0.002];
     assert_eq!(ekf.update_magnetometer(&y), Status::Ok);
     let residual: Vec<f64> = (0..3).map(|a| y[a] - hx[6 + a]).collect();
-    assert!(relative_difference(&ekf.magnetometer_innovation(), &residual) < 1e-12);
+    assert!(largest_relative_difference(&ekf.magnetometer_innovation(), &residual) < 1e-12);
     let jac = jacobian_h_wrt_x(&x);
     let c = DMatrix::from_fn(3, N, |a, j| jac[6 + a][j]);
     let pm = DMatrix::from_fn(N, N, |i, j| p[i][j]);
@@ -190,8 +181,11 @@ fn sensor_updates_in_turn_equal_the_joint_update() {
         assert_eq!(in_turn.update_magnetometer(&magnetometer), Status::Ok);
         assert_eq!(in_turn.update_gnss(&y[..6].try_into().unwrap()), Status::Ok);
         worst = worst
-            .max(relative_difference(&in_turn.state(), &joint.state()))
-            .max(relative_difference(
+            .max(largest_relative_difference(
+                &in_turn.state(),
+                &joint.state(),
+            ))
+            .max(largest_relative_difference(
                 &in_turn.covariance().concat(),
                 &joint.covariance().concat(),
             ));
