@@ -14,8 +14,8 @@ use crate::emit::code::{
     INNOVATION,
 };
 use crate::emit::filter::{
-    correction_reads_input, finiteness_probe, model_names, name_estimate, reads_variable,
-    unclaimed_name, FilterVars, MEASUREMENT_INPUT_DOC,
+    correction_reads_input, finiteness_probe, model_names, name_estimate, packed_vars,
+    reads_variable, unclaimed_name, FilterVars, MEASUREMENT_INPUT_DOC,
 };
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::measurement;
@@ -29,6 +29,7 @@ use crate::symbolic::euler_state::euler_state_step;
 use crate::symbolic::linalg::{
     packed_len, packed_upper, symmetric_from_packed, Coefficients, Matrix,
 };
+use crate::symbolic::scaled_covariance::Scaling;
 use crate::symbolic::{kalman, Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::TokenStream;
 use quote::quote;
@@ -273,14 +274,15 @@ impl Dynamics {
 
     /// One sub-step of length `h` from time `t0` of the estimate `x` and covariance `p`,
     /// joined: the model's rule on [`Dynamics::rate`], except that an Euler sub-step takes
-    /// the covariance of the Euler step itself (see `euler_covariance_step`).
+    /// the covariance of the Euler step itself (see `euler_covariance_step`), with
+    /// `scaling` of the covariance `D p D` scaled (see `scaled_covariance`).
     fn substep(
         &self,
         g: &mut Graph,
         (rule, h): (Method, NodeId),
         t0: NodeId,
-        x: &[NodeId],
-        p: &Matrix,
+        (x, p): (&[NodeId], &Matrix),
+        scaling: Option<&Scaling>,
     ) -> Vec<NodeId> {
         if rule == Method::Rk4 {
             let mut rate = |g: &mut Graph, t: NodeId, z: &[NodeId]| self.rate(g, t, z);
@@ -289,8 +291,11 @@ impl Dynamics {
         let point: Vec<NodeId> = std::iter::once(t0).chain(x.iter().copied()).collect();
         let dx = self.at.eval(g, &point, &self.rate_x);
         let f = self.at.eval_matrix(g, &point, &self.jacobian);
-        let p_next = euler_covariance_step(g, h, &f, self.alpha, p, &self.q);
-        let x_next = euler_state_step(g, h, x, &dx, &f);
+        let p_next = match scaling {
+            Some(scaling) => scaling.covariance_step(g, &f, self.alpha, p, &self.q),
+            None => euler_covariance_step(g, h, &f, self.alpha, p, &self.q),
+        };
+        let x_next = euler_state_step(g, h, x, &dx, &f, scaling);
         join(&x_next, &p_next)
     }
 }
@@ -311,6 +316,12 @@ struct MethodNodes {
     substeps: u32,
     /// Whether the sub-steps run as a loop (a propagation of several).
     looped: bool,
+    /// The scaling of the covariance the loop carries, if any (see `scaled_covariance`).
+    scaling: Option<Scaling>,
+    /// The packed covariance's variables in the loop: `p`'s, or the scaled ones.
+    p_loop: Vec<NodeId>,
+    /// The value the loop starts them from: `p`, or `D P D`.
+    p_initial: Vec<NodeId>,
     /// The time the integration starts at: `t_prev` where the model reads time.
     t_start: NodeId,
     /// A step's measurement time, `t_prev + dt`, where the model reads time.
@@ -374,6 +385,19 @@ impl MethodNodes {
         let t_sub = g.graph.var(T_SUB);
         let dynamics = Dynamics::new(&mut g, model, kind, &vars, t_sub, &avoid);
         let coefficients = Coefficients::new(&avoid);
+        let looped = kind.predicts() && substeps > 1;
+        let scaling = (looped && rule == Method::Euler)
+            .then(|| g.graph.constant_value(h))
+            .flatten()
+            .and_then(|h| Scaling::for_unit_couplings(&g.graph, &dynamics.jacobian, h));
+        let (p_loop, p_initial) = match &scaling {
+            Some(scaling) => {
+                let p = symmetric_from_packed(&vars.p, n);
+                let initial = packed_upper(&scaling.apply(&mut g.graph, &p, 1));
+                (packed_vars(&mut g.graph, "ps", n, &avoid), initial)
+            }
+            None => (vars.p.clone(), vars.p.clone()),
+        };
         let mut nodes = MethodNodes {
             x: g.x.clone(),
             p: symmetric_from_packed(&vars.p, n),
@@ -382,7 +406,10 @@ impl MethodNodes {
             vars,
             dynamics,
             substeps,
-            looped: kind.predicts() && substeps > 1,
+            looped,
+            scaling,
+            p_loop,
+            p_initial,
             t_start,
             t_measured,
             t_sub,
@@ -415,13 +442,23 @@ impl MethodNodes {
             self.t_start
         };
         let graph = &mut self.g.graph;
+        let p = if self.looped {
+            symmetric_from_packed(&self.p_loop, self.dynamics.n)
+        } else {
+            self.p.clone()
+        };
+        let scaling = self.scaling.as_ref();
         let z = self
             .dynamics
-            .substep(graph, (rule, h), t0, &self.x, &self.p);
+            .substep(graph, (rule, h), t0, (&self.x, &p), scaling);
         if self.looped {
             self.loop_next = z;
             if uses_time {
                 self.loop_next.push(graph.add(self.t_sub, h));
+            }
+            if let Some(scaling) = scaling {
+                // After the loop, `P = D^-1 P~ D^-1`.
+                self.p = scaling.apply(graph, &p, -1);
             }
         } else {
             (self.x, self.p) = split(&z, self.dynamics.n);
@@ -471,6 +508,9 @@ impl MethodNodes {
         roots.push(probe);
         roots.extend(&self.pivots);
         roots.extend(&self.loop_next);
+        if self.scaling.is_some() {
+            roots.extend(&self.p_initial);
+        }
         roots.extend(&self.innovation);
         roots.extend(&self.innovation_covariance);
         roots.extend(self.nis);
@@ -583,7 +623,14 @@ fn read_noise_and_alpha(lowerer: &mut Lowerer, nodes: &MethodNodes) {
 /// reads the carried arrays.
 fn substep_loop(lowerer: &mut Lowerer, nodes: &MethodNodes, uses_time: bool) -> SubstepLoop {
     let n = nodes.dynamics.n;
-    let (x_vars, p_vars) = (&nodes.g.x, &nodes.vars.p);
+    let (x_vars, p_vars) = (&nodes.g.x, &nodes.p_loop);
+    let p_initial = if nodes.scaling.is_some() {
+        lowerer.read_lazily(&quote! { self.p }, &nodes.vars.p);
+        let values = lowerer.segment(&nodes.p_initial);
+        quote! { [#(#values),*] }
+    } else {
+        quote! { self.p }
+    };
     let (x_next, rest) = nodes.loop_next.split_at(n);
     let (p_next, t_next) = rest.split_at(packed_len(n));
     let mut carried = vec![
@@ -596,7 +643,7 @@ fn substep_loop(lowerer: &mut Lowerer, nodes: &MethodNodes, uses_time: bool) -> 
         },
         Carried {
             name: P_SUB,
-            initial: quote! { self.p },
+            initial: p_initial,
             vars: p_vars,
             next: p_next,
             scalar: false,

@@ -120,8 +120,18 @@ pub fn euler_covariance_step(
     p: &Matrix,
     s: &Matrix,
 ) -> Matrix {
-    let n = p.len();
     let phi = euler_transition(g, h, f, alpha);
+    let noise: Matrix = s
+        .iter()
+        .map(|row| row.iter().map(|&v| g.mul(h, v)).collect())
+        .collect();
+    covariance_of_transition(g, &phi, p, &noise)
+}
+
+/// `Phi P Phi' + W`, upper triangle computed once, as [`euler_covariance_step`] computes
+/// it: the covariance after a step whose transition is `Phi` and whose noise adds `W`.
+pub fn covariance_of_transition(g: &mut Graph, phi: &Matrix, p: &Matrix, w: &Matrix) -> Matrix {
+    let n = p.len();
     // G = Phi P: G_ij = sum_k Phi_ik P_kj.
     let left: Matrix = (0..n)
         .map(|i| {
@@ -133,16 +143,15 @@ pub fn euler_covariance_step(
                 .collect()
         })
         .collect();
-    // N = G Phi' + h S: N_ij = sum_k G_ik Phi_jk + h S_ij, upper triangle; or the same
-    // sum from row j of G where it has fewer terms (`sparser_row_last`).
+    // N = G Phi' + W: N_ij = sum_k G_ik Phi_jk + W_ij, upper triangle; or the same sum
+    // from row j of G where it has fewer terms (`sparser_row_last`).
     let zero = g.zero();
     let mut out = vec![vec![zero; n]; n];
     for i in 0..n {
         for j in i..n {
-            let (row, col) = sparser_row_last(g, &phi, i, j);
+            let (row, col) = sparser_row_last(g, phi, i, j);
             let terms = (0..n).map(|k| (left[row][k], phi[col][k]));
-            let noise = g.mul(h, s[i][j]);
-            let v = increment_then_diagonal(g, terms, col, Some(noise));
+            let v = increment_then_diagonal(g, terms, col, Some(w[i][j]));
             out[i][j] = v;
             out[j][i] = v;
         }
@@ -152,6 +161,17 @@ pub fn euler_covariance_step(
 
 /// `Phi = I + h A` of an Euler sub-step, `A = F`, or `F + alpha I` with `alpha`.
 pub fn euler_transition(g: &mut Graph, h: NodeId, f: &Matrix, alpha: Option<NodeId>) -> Matrix {
+    euler_transition_with(g, f, alpha, |_, _| Some(h))
+}
+
+/// `Phi = I + (h A)` with the step of each entry `(i, j)` of `A` given by `step(i, j)`:
+/// `h` itself, or a scaled `h` (see `scaled_covariance`), `None` for one.
+pub fn euler_transition_with(
+    g: &mut Graph,
+    f: &Matrix,
+    alpha: Option<NodeId>,
+    step: impl Fn(usize, usize) -> Option<NodeId>,
+) -> Matrix {
     let n = f.len();
     let one = g.one();
     (0..n)
@@ -162,11 +182,14 @@ pub fn euler_transition(g: &mut Graph, h: NodeId, f: &Matrix, alpha: Option<Node
                         Some(alpha) if i == j => g.add(f[i][j], alpha),
                         _ => f[i][j],
                     };
-                    let step = scale(g, h, a);
+                    let increment = match step(i, j) {
+                        Some(h) => scale(g, h, a),
+                        None => a,
+                    };
                     if i == j {
-                        g.add(one, step)
+                        g.add(one, increment)
                     } else {
-                        step
+                        increment
                     }
                 })
                 .collect()

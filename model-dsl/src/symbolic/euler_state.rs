@@ -4,15 +4,20 @@
 use super::continuous::{euler_transition, scale};
 use super::graph::{Graph, Node, NodeId};
 use super::linalg::Matrix;
+use super::scaled_covariance::Scaling;
 use std::collections::{HashMap, HashSet};
 
-/// One forward Euler sub-step `x + h f(x)` of the estimate, with `F = df/dx` at `x`.
+/// One forward Euler sub-step `x + h f(x)` of the estimate, with `F = df/dx` at `x`, beside
+/// the covariance sub-step, which computes the entries of `Phi = I + h F` (or, carried
+/// with `scaling`, of `Phi~ = D Phi D^-1`) anyway.
 ///
 /// A row `f_i` affine in a set `V` of the estimate's variables (its derivatives by them
 /// read none of them) is exactly `f_i(x_V=0) + sum_{k in V} F_ik x_k`, so
 /// `x_i + h f_i = h f_i(x_V=0) + sum_{k in V, k != i} Phi_ik x_k + Phi_ii x_i` (the last
 /// term `x_i` when `i` is not in `V`). The `Phi_ik` are the covariance sub-step's own
-/// entries: only the products and the remainder at zero are new work, and a remainder
+/// entries (`Phi_ik x_k = Phi~_ik (h^(e_k - e_i) x_k)` when scaled, the factor computed
+/// before the loop for a parameter): only the products and the remainder at zero are new
+/// work, and a remainder
 /// that reads no changing state is computed once, before the loop. The sets tried are
 /// the states that change (the parameters, random walks, are held) and each variable
 /// alone; the row takes the form with the fewest operations in the loop, the plain
@@ -25,17 +30,24 @@ pub fn euler_state_step(
     x: &[NodeId],
     dx: &[NodeId],
     f: &Matrix,
+    scaling: Option<&Scaling>,
 ) -> Vec<NodeId> {
     let n = x.len();
     let changing: Vec<usize> = (0..n).filter(|&i| !g.is_zero(dx[i])).collect();
+    let phi = euler_transition(g, h, f, None);
     let step = Step {
         h,
         x,
         dx,
         f,
-        phi: euler_transition(g, h, f, None),
+        computed: match scaling {
+            Some(scaling) => scaling.transition(g, f, None),
+            None => phi.clone(),
+        },
+        phi,
+        scaling,
     };
-    let mut work = LoopWork::new(g, &step.phi, changing.iter().map(|&k| x[k]).collect());
+    let mut work = LoopWork::new(g, &step.computed, changing.iter().map(|&k| x[k]).collect());
     let mut sets = vec![changing];
     sets.extend((0..n).map(|k| vec![k]));
     (0..n)
@@ -64,14 +76,16 @@ pub fn euler_state_step(
         .collect()
 }
 
-/// What one Euler sub-step reads: its length, the estimate, `f` and `F` there, and
-/// `Phi = I + h F`.
+/// What one Euler sub-step reads: its length, the estimate, `f` and `F` there,
+/// `Phi = I + h F`, and the transition the covariance sub-step computes with its scaling.
 struct Step<'a> {
     h: NodeId,
     x: &'a [NodeId],
     dx: &'a [NodeId],
     f: &'a Matrix,
     phi: Matrix,
+    computed: Matrix,
+    scaling: Option<&'a Scaling>,
 }
 
 impl Step<'_> {
@@ -104,7 +118,7 @@ impl Step<'_> {
             g.add(x[i], remainder)
         };
         for &k in set.iter().filter(|&&k| k != i) {
-            let term = g.mul_whole(self.phi[i][k], x[k]);
+            let term = self.product(g, i, k);
             sum = g.add(sum, term);
         }
         if !set.contains(&i) {
@@ -120,6 +134,22 @@ impl Step<'_> {
         sum = g.add(sum, term);
         Some(g.add(sum, x[i]))
     }
+
+    /// `Phi_ik x_k`; with the covariance scaled and `x_k` a parameter, as
+    /// `Phi~_ik (h^(e_k - e_i) x_k)`: the scaled entry is the one the loop computes, the
+    /// parameter's factor is computed before it.
+    fn product(&self, g: &mut Graph, i: usize, k: usize) -> NodeId {
+        match self.scaling {
+            Some(scaling) if g.is_zero(self.dx[k]) => {
+                let x_k = match scaling.power(g, scaling.exponent(k) - scaling.exponent(i)) {
+                    Some(factor) => g.mul(factor, self.x[k]),
+                    None => self.x[k],
+                };
+                g.mul_whole(self.computed[i][k], x_k)
+            }
+            _ => g.mul_whole(self.phi[i][k], self.x[k]),
+        }
+    }
 }
 
 /// The operations a loop body already computes, and a count of those a new expression
@@ -131,12 +161,12 @@ struct LoopWork {
 }
 
 impl LoopWork {
-    fn new(g: &Graph, phi: &Matrix, changing: Vec<NodeId>) -> LoopWork {
+    fn new(g: &Graph, transition: &Matrix, changing: Vec<NodeId>) -> LoopWork {
         let mut work = LoopWork {
             computed: HashSet::new(),
             changing,
         };
-        for &entry in phi.iter().flatten() {
+        for &entry in transition.iter().flatten() {
             work.computed_by(g, entry);
         }
         work
@@ -227,12 +257,14 @@ mod tests {
         let mut g = Graph::new();
         let (x, dx, f) = blade(&mut g);
         let h = g.num(2e-5);
-        let next = euler_state_step(&mut g, h, &x, &dx, &f);
+        let scaling = Scaling::for_unit_couplings(&g, &f, 2e-5).expect("q' = qd scales");
+        let unscaled = euler_state_step(&mut g, h, &x, &dx, &f, None);
+        let scaled = euler_state_step(&mut g, h, &x, &dx, &f, Some(&scaling));
         let point = [1e-3, -0.2, 3.0, 4.5];
         let at = |v: crate::symbolic::VarId| point[v.0 as usize];
-        for i in 0..4 {
+        for (i, next) in (0..4).flat_map(|i| [(i, unscaled[i]), (i, scaled[i])]) {
             let want = point[i] + 2e-5 * g.eval(dx[i], &at);
-            let got = g.eval(next[i], &at);
+            let got = g.eval(next, &at);
             assert!(
                 (got - want).abs() <= 1e-15 * want.abs().max(1.0),
                 "row {i}: {got} vs {want}"
@@ -245,8 +277,8 @@ mod tests {
         let mut g = Graph::new();
         let (x, dx, f) = blade(&mut g);
         let h = g.num(2e-5);
-        let next = euler_state_step(&mut g, h, &x, &dx, &f);
         let phi = euler_transition(&mut g, h, &f, None);
+        let next = euler_state_step(&mut g, h, &x, &dx, &f, None);
         // q' + h eta + (1/m) Phi_(q', 1/m): two products and two additions, where
         // `Phi_(q', q) q + (h F_(q', q')) q' + q' + h eta + h (1/m) c u` takes three
         // products in the loop and four additions.

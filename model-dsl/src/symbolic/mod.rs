@@ -9,6 +9,7 @@ pub mod kalman;
 pub mod linalg;
 pub mod model_graph;
 pub mod riccati;
+pub mod scaled_covariance;
 
 pub use diff::Differentiator;
 pub use graph::{loop_invariant_operands, substitute, Graph, Node, NodeId, VarId};
