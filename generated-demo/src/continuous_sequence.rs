@@ -147,9 +147,9 @@ pub mod blade_tuning {
     pub const X0: [f32; 5] = [0.0, 0.0, 0.0, 0.0, 2.0];
     /// Initial covariance (diagonal).
     pub const P0: [f32; 5] = [1e-5, 1.0, 0.0, 0.0, 1e-4];
-    /// Process noise density (diagonal): `2 alpha_n (0.63 F_e)^2 / T` on the shaping
-    /// filter's drive, `1e2 / T` on 1/m.
-    pub const Q: [f32; 5] = [0.0, 0.0, 0.0, 31_752.0, 1e4];
+    /// Process noise density (diagonal), on the states it enters (`eta2`, `inv_m`):
+    /// `2 alpha_n (0.63 F_e)^2 / T` on the shaping filter's drive, `1e2 / T` on 1/m.
+    pub const Q: [f32; 2] = [31_752.0, 1e4];
     /// Measurement noise variance.
     pub const R: f32 = 1e-6;
 }

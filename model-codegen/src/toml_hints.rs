@@ -111,10 +111,11 @@ pub(crate) fn in_toml_terms(errors: syn::Error) -> syn::Error {
 }
 
 /// Options whose values the checks' hints write as bare names (`name = GatedEkf`).
-const NAMED_OPTIONS: [&str; 10] = [
+const NAMED_OPTIONS: [&str; 11] = [
     "name",
     "gate",
     "process_noise",
+    "process_noise_on",
     "measurement_noise",
     "k1",
     "discretisation",
@@ -310,6 +311,10 @@ pub(crate) fn option_takes(generator: &str, option: &str) -> &'static str {
             "a list of the model's constants' names, `process_noise = [\"Q1\", \"Q2\"]`"
         }
         (_, "process_noise") => "`process_noise = \"diagonal\"` or `process_noise = \"full\"`",
+        (_, "process_noise_on") => {
+            "a list of the states and parameters the process noise enters, as strings: \
+             `process_noise_on = [\"x2\", \"k\"]`"
+        }
         ("dkf", "eta") => "a number from 0 to 1, `eta = 0.5`",
         ("continuous_ekf", "alpha") => "a number of at least 0, `alpha = 0.5`",
         ("lqr" | "mpc", "states" | "state") => {

@@ -956,10 +956,11 @@ fn blade_and_mass_spring_hybrid_filters() {
         let x0 = [0.0, 0.0, 0.0, 0.0, 2.0];
         let (p0, q, r) = (
             [1e-5, 1.0, 1e-6, 1e-6, 1e-4],
-            [0.0, 0.0, 0.0, 1.0, 1e2],
+            // On eta2 and inv_m, the states its process noise enters.
+            [1.0, 1e2],
             [1e-6],
         );
-        let truth = HybridEkf::new(&x0, &diag(&[0.0; 5]), &[0.0; 5], &[[1e12]]).unwrap();
+        let truth = HybridEkf::new(&x0, &diag(&[0.0; 5]), &[0.0; 2], &[[1e12]]).unwrap();
         let data = data(
             truth,
             0.01,

@@ -322,6 +322,13 @@ fn a_generator_option_of_the_wrong_kind_says_what_it_takes_under_the_value() {
         "21:26: `process_noise` is `\"diagonal\"` (only the variances) or `\"full\"` (a \
          symmetric matrix)",
     );
+    let noise_on = format!("{SMALL}[generate]\nekf = {{ process_noise_on = [\"x3\"] }}\n");
+    assert_error(
+        &noise_on,
+        "21:30: `x3` is not a state or parameter: `process_noise_on` lists the states and \
+         parameters the process noise enters, `process_noise_on = [\"x2\", \"k\"]`; it is zero \
+         on the others (by default it enters every state)",
+    );
 }
 
 #[test]

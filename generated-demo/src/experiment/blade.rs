@@ -45,18 +45,12 @@ fn tracking_delay(t: &[f64], series: &[f64], from: f64, to: f64, target: f64) ->
 
 /// The control-mode filter of eq. (20) with the paper's tuning (sect. 4.1): x0 = [0 0 2 0
 /// 0], P0 = diag\[1e-5 1 1e-4 0 0\], R_C = 1e-6, Q~_C = diag[2 alpha_n (0.63 F_e)^2, 1e2] on
-/// the shaping filter's drive and on 1/m (ours in the order [q, q', eta1, eta2, 1/m]),
-/// Q = Q~ / T.
+/// the shaping filter's drive and on 1/m (the filter's process noise enters `eta2` and
+/// `inv_m` only), Q = Q~ / T.
 pub fn control_ekf() -> control::in_f64::HybridEkf {
     let ts = control::in_f64::TS;
     let alpha_n = control::in_f64::ALPHA_N;
-    let q_control = [
-        0.0,
-        0.0,
-        0.0,
-        2.0 * alpha_n * (0.63 * HIT_FORCE).powi(2) / ts,
-        1e2 / ts,
-    ];
+    let q_control = [2.0 * alpha_n * (0.63 * HIT_FORCE).powi(2) / ts, 1e2 / ts];
     control::in_f64::HybridEkf::new(
         &[0.0, 0.0, 0.0, 0.0, 2.0],
         &diag([1e-5, 1.0, 0.0, 0.0, 1e-4]),

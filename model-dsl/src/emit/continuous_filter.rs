@@ -15,7 +15,7 @@ use crate::emit::code::{
 };
 use crate::emit::filter::{
     correction_reads_input, finiteness_probe, model_names, name_estimate, packed_vars,
-    reads_variable, unclaimed_name, FilterVars, MEASUREMENT_INPUT_DOC,
+    reads_variable, unclaimed_name, FilterVars, ProcessNoise, MEASUREMENT_INPUT_DOC,
 };
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::measurement;
@@ -163,10 +163,10 @@ impl FilterMethod {
 }
 
 /// The options of a filter that shape each of its methods.
-#[derive(Clone, Copy)]
+#[derive(Clone)]
 pub struct FilterOptions {
-    /// Whether the process noise is stored as its diagonal.
-    pub diagonal_noise: bool,
+    /// The process noise's shape.
+    pub noise: ProcessNoise,
     /// Whether the filter has an innovation gate, which its corrections pass.
     pub gated: bool,
 }
@@ -179,7 +179,7 @@ pub fn method(
     mg: &ModelGraph,
     scalar: Scalar,
     kind: FilterMethod,
-    options: FilterOptions,
+    options: &FilterOptions,
 ) -> (TokenStream, OpCount, OpCount) {
     let mut nodes = MethodNodes::build(model, mg, kind, options);
     let lowered = lower(&mut nodes, model, scalar, kind);
@@ -357,14 +357,14 @@ impl MethodNodes {
         model: &Model,
         mg: &ModelGraph,
         kind: FilterMethod,
-        options: FilterOptions,
+        options: &FilterOptions,
     ) -> MethodNodes {
         let mut g = mg.clone();
         let (n, m) = (model.state_len(), model.outputs.len());
         let mut avoid = model_names(model);
         avoid.extend([X_SUB, P_SUB, T_SUB, "t_prev"].map(String::from));
         let all: Vec<usize> = (0..m).collect();
-        let vars = FilterVars::declare(&mut g.graph, model, &all, options.diagonal_noise, &avoid);
+        let vars = FilterVars::declare(&mut g.graph, model, &all, &options.noise, &avoid);
         let (rule, h, substeps) = g
             .substep(model)
             .expect("the checker admits the hybrid EKF on continuous dynamics only");

@@ -12,8 +12,9 @@ use crate::emit::names::ident;
 /// The process noise argument, shared by the constructors and the setters.
 pub use crate::emit::tuning::noise_argument;
 use crate::emit::tuning::noise_setters;
+pub use crate::emit::tuning::ProcessNoise;
 use crate::model::Model;
-use crate::symbolic::linalg::{packed_len, symmetric_from_packed, Matrix};
+use crate::symbolic::linalg::{packed_len, Matrix};
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
@@ -30,8 +31,10 @@ pub struct FilterLayout {
     n: usize,
     /// `m`, the measurement's length.
     m: usize,
-    /// Whether the process noise is diagonal (stored as its variances).
-    diagonal: bool,
+    /// The process noise's shape.
+    noise: ProcessNoise,
+    /// What the constructor's and setter's documentation say of the states it enters.
+    noise_doc: String,
     /// `n`, as a literal.
     pub n_len: Literal,
     /// `m`, as a literal.
@@ -50,24 +53,26 @@ pub struct FilterLayout {
 
 impl FilterLayout {
     /// The layout of a filter of `model` in the scalar type `ty`, its process noise
-    /// diagonal if `diagonal`.
-    pub fn new(model: &Model, diagonal: bool, ty: &Ident) -> FilterLayout {
+    /// shaped as `noise`.
+    pub fn new(model: &Model, noise: &ProcessNoise, ty: &Ident) -> FilterLayout {
         let (n, m) = (model.state_len(), model.outputs.len());
         let [n_len, m_len, np, mp] =
             [n, m, packed_len(n), packed_len(m)].map(Literal::usize_unsuffixed);
-        let (_, q_field, _) = noise_argument("q", n, diagonal, ty);
+        let k = noise.len(n);
+        let (_, q_field, _) = noise_argument("q", k, noise.diagonal, ty);
         FilterLayout {
             ty: ty.clone(),
             n,
             m,
-            diagonal,
+            noise: noise.clone(),
+            noise_doc: noise.states_doc(model),
             n_len,
             m_len,
             np,
             mp,
             q_field,
             accessors: estimate_accessors(n, ty),
-            setters: noise_setters(n, m, diagonal, ty),
+            setters: noise_setters((k, &noise.states_doc(model)), m, noise.diagonal, ty),
         }
     }
 
@@ -110,12 +115,18 @@ impl FilterLayout {
         extra_init: &TokenStream,
     ) -> TokenStream {
         let mut arguments = Arguments::default();
+        let noise_doc = (!self.noise_doc.is_empty()).then(|| {
+            let text = &self.noise_doc;
+            quote! { #[doc = #text] }
+        });
+        let doc = quote! { #doc #noise_doc };
         let p0 = self.initial_estimate(&mut arguments);
-        let q = arguments.process_noise("q", self.n, self.diagonal, &self.ty);
+        let k = self.noise.len(self.n);
+        let q = arguments.process_noise("q", k, self.noise.diagonal, &self.ty);
         let r = arguments.covariance("r", self.m, &self.ty);
         let known_init = known.argument(&mut arguments);
         arguments.constructor(
-            doc,
+            &doc,
             REJECTS_NON_FINITE,
             quote! {
                 Ok(#type_name {
@@ -175,12 +186,12 @@ impl FilterVars {
         graph: &mut Graph,
         model: &Model,
         outputs: &[usize],
-        diagonal_noise: bool,
+        noise: &ProcessNoise,
         avoid: &[String],
     ) -> FilterVars {
         let (n, m) = (model.state_len(), model.outputs.len());
         let p = packed_vars(graph, "p", n, avoid);
-        let (q, q_matrix) = noise_vars(graph, "q", n, diagonal_noise, avoid);
+        let (q, q_matrix) = noise_vars(graph, "q", n, noise, avoid);
         let r = packed_vars(graph, "r", m, avoid);
         let y = outputs
             .iter()
@@ -259,32 +270,34 @@ pub fn packed_vars(graph: &mut Graph, prefix: &str, n: usize, avoid: &[String]) 
         .collect()
 }
 
-/// A process noise covariance: its variables (the packed upper triangle, or only the
-/// diagonal) and the matrix they make (structural zeros off the diagonal if diagonal).
+/// A process noise covariance of `n` states shaped as `noise`: its variables (the packed
+/// upper triangle, or only the diagonal, over the states it enters) and the `n x n` matrix
+/// they make, structural zeros where it does not enter (and off the diagonal if diagonal).
 pub fn noise_vars(
     graph: &mut Graph,
     prefix: &str,
     n: usize,
-    diagonal: bool,
+    noise: &ProcessNoise,
     avoid: &[String],
 ) -> (Vec<NodeId>, Matrix) {
-    let packed = packed_vars(graph, prefix, n, avoid);
-    if !diagonal {
-        let matrix = symmetric_from_packed(&packed, n);
-        return (packed, matrix);
-    }
-    let variances: Vec<NodeId> = (0..n)
-        .map(|i| packed[crate::symbolic::linalg::packed_index(n, i, i)])
-        .collect();
+    let k = noise.len(n);
+    let packed = packed_vars(graph, prefix, k, avoid);
+    let entry = |a: usize, b: usize| packed[crate::symbolic::linalg::packed_index(k, a, b)];
     let zero = graph.zero();
-    let matrix = (0..n)
-        .map(|i| {
-            (0..n)
-                .map(|j| if i == j { variances[i] } else { zero })
-                .collect()
-        })
-        .collect();
-    (variances, matrix)
+    let mut matrix = vec![vec![zero; n]; n];
+    for a in 0..k {
+        for b in 0..k {
+            if a == b || !noise.diagonal {
+                matrix[noise.state(a)][noise.state(b)] = entry(a, b);
+            }
+        }
+    }
+    let vars = if noise.diagonal {
+        (0..k).map(|a| entry(a, a)).collect()
+    } else {
+        packed
+    };
+    (vars, matrix)
 }
 
 /// The sum of a vector and of a matrix's diagonal: finite exactly when all of them are

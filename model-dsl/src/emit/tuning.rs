@@ -5,24 +5,31 @@
 use super::arguments::{covariance_test, reject_non_covariance};
 use super::code::pack_upper;
 use super::names::ident;
+use crate::model::Model;
 use crate::symbolic::linalg::packed_len;
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
 /// `set_process_noise` and `set_measurement_noise` for a filter whose fields `q` (packed,
-/// or its `n` variances if `diagonal_q`) and `r` (packed, `m x m`) hold the noise.
-pub fn noise_setters(n: usize, m: usize, diagonal_q: bool, ty: &proc_macro2::Ident) -> TokenStream {
-    let set_q = process_noise_setter("set_process_noise", "q", n, diagonal_q, ty);
+/// or its `k` variances if `diagonal_q`; `states_doc` says which states they are, see
+/// [`ProcessNoise::states_doc`]) and `r` (packed, `m x m`) hold the noise.
+pub fn noise_setters(
+    (k, states_doc): (usize, &str),
+    m: usize,
+    diagonal_q: bool,
+    ty: &proc_macro2::Ident,
+) -> TokenStream {
+    let set_q = process_noise_setter("set_process_noise", "q", (k, states_doc), diagonal_q, ty);
     let set_r = measurement_noise_setter(m, ty);
     quote! { #set_q #set_r }
 }
 
 /// `fn <method>(&mut self, q) -> Status` replacing the process noise field `field` (packed,
-/// or its `n` variances if `diagonal`).
+/// or its `n` variances if `diagonal`), documented with `states_doc` after what it does.
 pub fn process_noise_setter(
     method: &str,
     field: &str,
-    n: usize,
+    (n, states_doc): (usize, &str),
     diagonal: bool,
     ty: &proc_macro2::Ident,
 ) -> TokenStream {
@@ -47,6 +54,7 @@ pub fn process_noise_setter(
              [`Status::InvalidCovariance`], leaving the filter unchanged."
         )
     };
+    let doc = format!("{doc}{states_doc}");
     let method = ident(method);
     quote! {
         #[doc = #doc]
@@ -119,6 +127,47 @@ pub fn noise_argument(
             quote! { #arg: &[[#ty; #n_len]; #n_len] },
             quote! { [#ty; #packed] },
             pack_upper(name, ty),
+        )
+    }
+}
+
+/// The process noise's shape: the states it enters (every state, or those a filter lists
+/// with `process_noise_on`, the paper's noise input matrix as a selection) and whether it
+/// is diagonal there (stored as its variances) or a full symmetric matrix.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ProcessNoise {
+    /// Whether it is diagonal.
+    pub diagonal: bool,
+    /// The indices in the state vector of the states it enters, in the order its
+    /// entries are given; `None` for every state.
+    pub on: Option<Vec<usize>>,
+}
+
+impl ProcessNoise {
+    /// How many states it enters, of `n`.
+    pub fn len(&self, n: usize) -> usize {
+        self.on.as_ref().map_or(n, Vec::len)
+    }
+
+    /// The state its `a`-th row and column are.
+    pub fn state(&self, a: usize) -> usize {
+        self.on.as_ref().map_or(a, |on| on[a])
+    }
+
+    /// A sentence for the documentation of what takes or stores it: which states it
+    /// enters, where it is not every state (empty otherwise), starting with a space.
+    pub fn states_doc(&self, model: &Model) -> String {
+        let Some(on) = &self.on else {
+            return String::new();
+        };
+        let names: Vec<&str> = model.state_names().collect();
+        let listed: Vec<String> = on.iter().map(|&i| format!("`{}`", names[i])).collect();
+        let listed = match listed.split_last() {
+            Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+            _ => listed.concat(),
+        };
+        format!(
+            " The process noise enters {listed} only (in this order; zero on the other states)."
         )
     }
 }

@@ -5,6 +5,7 @@
 
 use crate::ast::{ArgValue, GenerateArg, GenerateDecl, ModelDecl, Name};
 use crate::diagnostics::{closest, phrase, Diagnostics};
+use crate::emit::filter::ProcessNoise;
 use crate::scope::{Binding, Scope};
 use proc_macro2::Span;
 
@@ -53,6 +54,32 @@ impl<'a> Context<'a> {
             Some((Binding::State(i), _)) => Some(*i),
             _ => None,
         }
+    }
+
+    /// The index of the state or parameter `name` in the state vector (physical states
+    /// first, then parameters), if it is one.
+    pub fn estimate_index(&self, name: &str) -> Option<usize> {
+        match self.scope.get(name)? {
+            (Binding::State(i), _) => Some(*i),
+            (Binding::Param(i), _) => {
+                let states = self.scope.names.values();
+                Some(
+                    states
+                        .filter(|(b, _)| matches!(b, Binding::State(_)))
+                        .count()
+                        + i,
+                )
+            }
+            _ => None,
+        }
+    }
+
+    /// The names of the states and parameters, in declaration order.
+    pub fn estimate_names(&self) -> impl Iterator<Item = &str> {
+        let names = self.scope.names.iter();
+        names
+            .filter(|(_, (b, _))| matches!(b, Binding::State(_) | Binding::Param(_)))
+            .map(|(name, _)| name.as_str())
     }
 
     /// The index of the input `name` in the model's inputs, if it is one.
@@ -312,6 +339,52 @@ impl<'a> Args<'a> {
         }
     }
 
+    /// `process_noise = diagonal | full` and `process_noise_on = [eta2, inv_m]`: the
+    /// process noise's shape, on every state or on the states and parameters listed (in
+    /// the order given: the order of its entries).
+    pub fn process_noise_shape(&mut self, cx: &Context, diag: &mut Diagnostics) -> ProcessNoise {
+        let diagonal = self.process_noise(diag);
+        let Some(arg) = self.take(&["process_noise_on"]) else {
+            return ProcessNoise { diagonal, on: None };
+        };
+        let (names, span) = match &arg.value {
+            ArgValue::Names(list, span) => (list.clone(), *span),
+            ArgValue::Name(n) => (vec![n.clone()], n.span),
+            other => {
+                diag.error(other.span(), PROCESS_NOISE_ON_USAGE);
+                return ProcessNoise { diagonal, on: None };
+            }
+        };
+        if names.is_empty() {
+            diag.error(span, PROCESS_NOISE_ON_USAGE);
+        }
+        let mut on = Vec::new();
+        for name in &names {
+            match cx.estimate_index(&name.text) {
+                Some(i) if on.contains(&i) => {
+                    diag.error(name.span, format!("`{}` is listed twice", name.text));
+                }
+                Some(i) => on.push(i),
+                None => {
+                    let hint = match closest(&name.text, cx.estimate_names()) {
+                        Some(meant) => format!("did you mean `{meant}`? "),
+                        None => String::new(),
+                    };
+                    let text = &name.text;
+                    let message = format!(
+                        "`{text}` is not a state or parameter: {hint}{PROCESS_NOISE_ON_USAGE}"
+                    );
+                    diag.error(name.span, message);
+                }
+            }
+        }
+        let complete = !names.is_empty() && on.len() == names.len();
+        ProcessNoise {
+            diagonal,
+            on: complete.then_some(on),
+        }
+    }
+
     /// Reports every argument no reader took, and options written under two names.
     pub fn report_unused(&self, diag: &mut Diagnostics) {
         for (span, message) in &self.aliased {
@@ -355,6 +428,11 @@ fn is_type_name(text: &str) -> bool {
         && text.chars().all(|c| c.is_ascii_alphanumeric())
         && text.chars().any(|c| c.is_ascii_lowercase())
 }
+
+/// What `process_noise_on` takes.
+const PROCESS_NOISE_ON_USAGE: &str = "`process_noise_on` lists the states and parameters \
+     the process noise enters, `process_noise_on = [x2, k]`; it is zero on the others (by \
+     default it enters every state)";
 
 /// The physical states a controller regulates and the inputs it computes, by index
 /// (`states = [x1, x2], input = u`); `example` opens the usage shown when either is missing.

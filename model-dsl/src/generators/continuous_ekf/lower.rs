@@ -34,18 +34,17 @@ pub fn emit_continuous_ekf(
     mg: &ModelGraph,
     scalar: Scalar,
 ) -> ContinuousEkfCode {
-    let diagonal = spec.diagonal_noise;
     let options = FilterOptions {
-        diagonal_noise: diagonal,
+        noise: spec.process_noise.clone(),
         gated: spec.gate.is_some(),
     };
     let alpha = spec.alpha.is_some();
     let step_kind = FilterMethod::Continuous { alpha };
-    let (step, step_ops, substep_ops) = method(model, mg, scalar, step_kind, options);
+    let (step, step_ops, substep_ops) = method(model, mg, scalar, step_kind, &options);
     let predict_kind = FilterMethod::ContinuousPredict { alpha };
-    let (predict, ..) = method(model, mg, scalar, predict_kind, options);
+    let (predict, ..) = method(model, mg, scalar, predict_kind, &options);
     let ty = ident(scalar.type_name());
-    let layout = FilterLayout::new(model, diagonal, &ty);
+    let layout = FilterLayout::new(model, &spec.process_noise, &ty);
     let fields = layout.fields();
     let measurement_fields = measurement::fields(model, spec.gate, &ty);
     let measurement_init = measurement::initial_values(model, spec.gate, scalar);

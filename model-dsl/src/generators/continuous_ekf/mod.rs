@@ -40,7 +40,7 @@ impl Kind for ContinuousEkf {
         &self,
         _item: &GenerateDecl,
         args: &mut Args,
-        _cx: &Context,
+        cx: &Context,
         diag: &mut Diagnostics,
     ) -> Option<Box<dyn Generator>> {
         let alpha = args.optional_number("alpha", diag);
@@ -54,7 +54,7 @@ impl Kind for ContinuousEkf {
             );
         }
         Some(Box::new(ContinuousEkfSpec {
-            diagonal_noise: args.process_noise(diag),
+            process_noise: args.process_noise_shape(cx, diag),
             alpha: alpha.map(|(a, _)| a),
             gate: args.gate(diag),
         }))

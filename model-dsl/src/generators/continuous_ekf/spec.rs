@@ -1,10 +1,13 @@
 //! The continuous-time EKF's options, as checked.
 
+use crate::emit::filter::ProcessNoise;
+
 /// Options of the continuous-time EKF.
 #[derive(Clone, Debug, Default)]
 pub struct ContinuousEkfSpec {
-    /// Whether the process noise spectral density is diagonal.
-    pub diagonal_noise: bool,
+    /// The process noise's shape: diagonal (stored and added as its variances) or a full
+    /// symmetric matrix, on every state or on those `process_noise_on` lists.
+    pub process_noise: ProcessNoise,
     /// The default prescribed degree of stability `alpha >= 0` (Reif et al.), if the
     /// filter has one: `F` is replaced by `F + alpha I` in its Riccati equation.
     pub alpha: Option<f64>,

@@ -10,7 +10,7 @@ use crate::emit::code::{
     guard_pivots, innovation_pivot_failure, packed_diagonal, pivot_names, reject_diverged,
     var_idents, INNOVATION,
 };
-use crate::emit::filter::{finiteness_probe, model_names, noise_vars, packed_vars};
+use crate::emit::filter::{finiteness_probe, model_names, noise_vars, packed_vars, ProcessNoise};
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::measurement;
 use crate::emit::names::{ident, TempNamer};
@@ -208,9 +208,13 @@ impl FilterVars {
             .map(|o| graph.var(&format!("{}_measured", o.name)))
             .collect();
         let pbar_vars = packed_vars(graph, "pbar", n, avoid);
-        let (qbar_vars, qbar) = noise_vars(graph, "qbar", n, diagonal_noise, avoid);
+        let noise = ProcessNoise {
+            diagonal: diagonal_noise,
+            on: None,
+        };
+        let (qbar_vars, qbar) = noise_vars(graph, "qbar", n, &noise, avoid);
         let p_vars = packed_vars(graph, "p", n, avoid);
-        let (q_vars, q) = noise_vars(graph, "q", n, diagonal_noise, avoid);
+        let (q_vars, q) = noise_vars(graph, "q", n, &noise, avoid);
         let r_vars = packed_vars(graph, "r", m, avoid);
         let window_covariance = if least_squares {
             packed_vars(graph, "phi_cov", model.params.len(), avoid)

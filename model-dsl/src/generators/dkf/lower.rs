@@ -475,7 +475,7 @@ impl DkfType {
             crate::emit::tuning::process_noise_setter(
                 method,
                 field,
-                self.n,
+                (self.n, ""),
                 self.diagonal_noise,
                 &self.ty,
             )

@@ -56,7 +56,7 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
         })
         .collect();
     let ty = ident(scalar.type_name());
-    let layout = FilterLayout::new(model, spec.diagonal_noise, &ty);
+    let layout = FilterLayout::new(model, &spec.process_noise, &ty);
     let methods = quote! {
         #step
 
@@ -154,7 +154,7 @@ fn constructor_tokens(
     scalar: Scalar,
     known: &crate::emit::known::KnownItems,
 ) -> TokenStream {
-    let new_doc = if spec.diagonal_noise {
+    let new_doc = if spec.process_noise.diagonal {
         " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
          variances `q` (a diagonal covariance) and the measurement noise covariance `r`. The \
          matrices must be covariances (symmetric, positive semi-definite): both are checked."
@@ -421,7 +421,7 @@ impl EkfNodes {
         let mut g = mg.clone();
         let outputs = kind.outputs(model);
         let avoid = model_names(model);
-        let vars = FilterVars::declare(&mut g.graph, model, &outputs, spec.diagonal_noise, &avoid);
+        let vars = FilterVars::declare(&mut g.graph, model, &outputs, &spec.process_noise, &avoid);
         let t_prev = (kind.predicts() && model.uses_time()).then(|| match kind {
             // A step evaluates `h` at another time than `f`: a variable of its own.
             EkfMethod::Step => g.graph.var("t_prev"),

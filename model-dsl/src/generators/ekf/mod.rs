@@ -35,7 +35,7 @@ impl Kind for Ekf {
         &self,
         _item: &GenerateDecl,
         args: &mut Args,
-        _cx: &Context,
+        cx: &Context,
         diag: &mut Diagnostics,
     ) -> Option<Box<dyn Generator>> {
         let type_name = args.type_name("Ekf", diag);
@@ -43,7 +43,7 @@ impl Kind for Ekf {
         Some(Box::new(EkfSpec {
             type_name,
             gate,
-            diagonal_noise: args.process_noise(diag),
+            process_noise: args.process_noise_shape(cx, diag),
         }))
     }
 }

@@ -32,15 +32,14 @@ pub fn emit_hybrid_ekf(
     mg: &ModelGraph,
     scalar: Scalar,
 ) -> HybridEkfCode {
-    let diagonal = spec.diagonal_noise;
     let options = FilterOptions {
-        diagonal_noise: diagonal,
+        noise: spec.process_noise.clone(),
         gated: spec.gate.is_some(),
     };
-    let (step, step_ops, substep_ops) = method(model, mg, scalar, FilterMethod::Step, options);
-    let (predict, ..) = method(model, mg, scalar, FilterMethod::Predict, options);
-    let (update, ..) = method(model, mg, scalar, FilterMethod::Update, options);
-    let layout = FilterLayout::new(model, diagonal, &ident(scalar.type_name()));
+    let (step, step_ops, substep_ops) = method(model, mg, scalar, FilterMethod::Step, &options);
+    let (predict, ..) = method(model, mg, scalar, FilterMethod::Predict, &options);
+    let (update, ..) = method(model, mg, scalar, FilterMethod::Update, &options);
+    let layout = FilterLayout::new(model, &spec.process_noise, &ident(scalar.type_name()));
     let fields = layout.fields();
     let measurement_fields = measurement::fields(model, spec.gate, &layout.ty);
     let measurement_methods =
@@ -57,7 +56,7 @@ pub fn emit_hybrid_ekf(
     );
     let constructor = constructor_tokens(
         &layout,
-        diagonal,
+        spec.process_noise.diagonal,
         &measurement::initial_values(model, spec.gate, scalar),
     );
     let gate_doc = measurement::gate_doc_attribute(spec.gate);

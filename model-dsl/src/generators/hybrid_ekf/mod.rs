@@ -39,11 +39,11 @@ impl Kind for HybridEkf {
         &self,
         _item: &GenerateDecl,
         args: &mut Args,
-        _cx: &Context,
+        cx: &Context,
         diag: &mut Diagnostics,
     ) -> Option<Box<dyn Generator>> {
         Some(Box::new(HybridEkfSpec {
-            diagonal_noise: args.process_noise(diag),
+            process_noise: args.process_noise_shape(cx, diag),
             gate: args.gate(diag),
         }))
     }

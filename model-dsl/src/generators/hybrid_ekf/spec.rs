@@ -1,10 +1,13 @@
 //! The hybrid EKF's options, as checked.
 
+use crate::emit::filter::ProcessNoise;
+
 /// Options of the hybrid (continuous-discrete) EKF.
 #[derive(Clone, Debug, Default)]
 pub struct HybridEkfSpec {
-    /// Whether the process noise spectral density is diagonal.
-    pub diagonal_noise: bool,
+    /// The process noise's shape: diagonal (stored and added as its variances) or a full
+    /// symmetric matrix, on every state or on those `process_noise_on` lists.
+    pub process_noise: ProcessNoise,
     /// The innovation gate: a measurement whose normalised innovation squared exceeds it
     /// is rejected as an outlier (`None`: no gate is generated).
     pub gate: Option<f64>,
