@@ -2,8 +2,12 @@
 //! run compared against.
 
 /// The largest entry-wise difference of `got` from `want`, relative to the largest
-/// magnitude in `want`.
+/// magnitude in `want`; infinite where an entry of either is not finite (`f64::max` would
+/// pass over a NaN).
 pub fn largest_relative_difference(got: &[f64], want: &[f64]) -> f64 {
+    if got.iter().chain(want).any(|v| !v.is_finite()) {
+        return f64::INFINITY;
+    }
     let scale = want.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
     let worst = got
         .iter()
@@ -25,8 +29,9 @@ pub fn estimate_difference<const N: usize>(got: Estimate<N>, want: Estimate<N>) 
     largest_relative_difference(&flat(got), &flat(want))
 }
 
-/// Asserts that each pair of estimates (a filter's `step`, the same filter's `predict`
-/// then `update`) agree within `1e-12` at `sample`, and returns the largest difference.
+/// Asserts that each pair of estimates (two ways to the same estimate: a filter's `step`
+/// and its `predict` then `update`, say) agree within `1e-12` at `sample`, and returns the
+/// largest difference.
 pub fn assert_same_estimates<const N: usize>(
     sample: usize,
     pairs: &[(Estimate<N>, Estimate<N>)],
@@ -36,7 +41,7 @@ pub fn assert_same_estimates<const N: usize>(
         let d = estimate_difference(stepped, split);
         assert!(
             d <= 1e-12,
-            "sample {sample}: the step and predict/update differ by {d:e}"
+            "sample {sample}: the two estimates differ by {d:e}"
         );
         worst = worst.max(d);
     }
@@ -54,5 +59,9 @@ mod tests {
         // p21 is not read: only the upper triangle counts.
         let got = ([1.0, 0.0], [[2.0, 0.5], [9.0, 3.0]]);
         assert_eq!(estimate_difference(got, want), 0.25);
+        assert_eq!(
+            largest_relative_difference(&[f64::NAN], &[1.0]),
+            f64::INFINITY
+        );
     }
 }

@@ -16,6 +16,7 @@ stateforge::model! {
         input u;
         output y = x1;
         generate ekf(process_noise_on = [k, x2]),
+            ekf(process_noise = diagonal, process_noise_on = [k], name = EkfOnK),
             hybrid_ekf(process_noise = diagonal, process_noise_on = [k, x2]);
         dynamics continuous(euler, dt = TS, substeps = 20) {
             der(x1) = x2;
@@ -84,6 +85,29 @@ fn noise_on_the_states_listed_is_the_whole_noise_with_zeros_elsewhere() {
     assert_eq!(predicted.predict(&[0.0]), selected::Status::Ok);
     assert!(predicted.covariance()[2][2] >= P0[2][2] + 1e-2 - 1e-12);
     println!("process noise on [k, x2]: as the whole noise with zeros within {worst:.1e}");
+}
+
+#[test]
+fn noise_on_one_parameter_is_its_variance_alone() {
+    let q_whole = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1e-2]];
+    let mut listed = selected::EkfOnK::new(&X0, &P0, &[1e-2], &R).unwrap();
+    let mut whole = everywhere::Ekf::new(&X0, &P0, &q_whole, &R).unwrap();
+    let mut worst = 0.0_f64;
+    for k in 1..=200 {
+        let (u, y) = sample(k);
+        assert_eq!(listed.step(&u, &y), selected::Status::Ok);
+        assert_eq!(whole.step(&u, &y), everywhere::Status::Ok);
+        let pair = (
+            (listed.state(), listed.covariance()),
+            (whole.state(), whole.covariance()),
+        );
+        worst = worst.max(assert_same_estimates(k, &[pair]));
+    }
+    assert_eq!(
+        listed.set_process_noise(&[-1e-3]),
+        selected::Status::InvalidCovariance
+    );
+    println!("process noise on k alone: as the whole noise with zeros within {worst:.1e}");
 }
 
 #[test]

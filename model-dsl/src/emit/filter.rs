@@ -214,19 +214,13 @@ impl FilterVars {
 
 impl FilterVars {
     /// The variables that hold variances, never negative: the covariance's diagonal
-    /// (`n x n`) and the process noise's.
+    /// (`n x n`) and the process noise's (on the states it enters).
     pub fn variances(&self, n: usize) -> Vec<NodeId> {
-        let diagonal = |packed: &[NodeId]| -> Vec<NodeId> {
-            (0..n)
-                .map(|i| packed[crate::symbolic::linalg::packed_index(n, i, i)])
-                .collect()
-        };
-        let q = if self.q.len() == n {
-            self.q.clone()
-        } else {
-            diagonal(&self.q)
-        };
-        diagonal(&self.p).into_iter().chain(q).collect()
+        let p = (0..n).map(|i| self.p[crate::symbolic::linalg::packed_index(n, i, i)]);
+        let q = (0..n)
+            .map(|i| self.q_matrix[i][i])
+            .filter(|v| self.q.contains(v));
+        p.chain(q).collect()
     }
 }
 

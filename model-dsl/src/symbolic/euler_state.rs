@@ -12,7 +12,8 @@ use std::collections::{HashMap, HashSet};
 /// with `scaling`, of `Phi~ = D Phi D^-1`) anyway.
 ///
 /// A row `f_i` affine in a set `V` of the estimate's variables (its derivatives by them
-/// read none of them) is exactly `f_i(x_V=0) + sum_{k in V} F_ik x_k`, so
+/// read none of them, and no `if` of it tests one: `if v > 0 { 2 } else { -2 }`, a Coulomb
+/// friction, has a zero derivative but is not its value at `v = 0`) is exactly `f_i(x_V=0) + sum_{k in V} F_ik x_k`, so
 /// `x_i + h f_i = h f_i(x_V=0) + sum_{k in V, k != i} Phi_ik x_k + Phi_ii x_i` (the last
 /// term `x_i` when `i` is not in `V`). The `Phi_ik` are the covariance sub-step's own
 /// entries (`Phi_ik x_k = Phi~_ik (h^(e_k - e_i) x_k)` when scaled, the factor computed
@@ -105,7 +106,7 @@ impl Step<'_> {
             };
             to_zero.insert(id, g.zero());
         }
-        if set.iter().any(|&k| depends_on(g, f[i][k], &vars)) {
+        if set.iter().any(|&k| depends_on(g, f[i][k], &vars)) || switches_on(g, self.dx[i], &vars) {
             return None;
         }
         let at_zero = g.substitute(self.dx[i], &to_zero, &mut HashMap::new());
@@ -198,6 +199,16 @@ impl LoopWork {
     }
 }
 
+/// Whether `e` holds an `if` whose condition reads any of the variables `vars`.
+fn switches_on(g: &Graph, e: NodeId, vars: &[NodeId]) -> bool {
+    g.pending_from(e, Node::children, |_| false)
+        .into_iter()
+        .any(|id| match g.node(id) {
+            Node::Select { lhs, rhs, .. } => depends_on(g, lhs, vars) || depends_on(g, rhs, vars),
+            _ => false,
+        })
+}
+
 /// Whether `e` reads any of the variables `vars`.
 fn depends_on(g: &Graph, e: NodeId, vars: &[NodeId]) -> bool {
     let mut stack = vec![e];
@@ -269,6 +280,39 @@ mod tests {
                 (got - want).abs() <= 1e-15 * want.abs().max(1.0),
                 "row {i}: {got} vs {want}"
             );
+        }
+    }
+
+    #[test]
+    fn a_switch_on_a_variable_keeps_the_row_whole() {
+        // [x, v] with `v' = -4 x - 0.1 v - (if v > 0 { 2 } else { -2 }) + 1`, a Coulomb
+        // friction: its derivative by `v` is -0.1, but it is not affine in `v`.
+        let mut g = Graph::new();
+        let (x, v) = (g.var("x"), g.var("v"));
+        let (zero, two, minus_two) = (g.zero(), g.num(2.0), g.num(-2.0));
+        let friction = g.select(crate::ast::Comparison::Gt, v, zero, two, minus_two);
+        let (four, tenth, one) = (g.num(4.0), g.num(0.1), g.one());
+        let spring = g.mul(four, x);
+        let damping = g.mul(tenth, v);
+        let rate = g.sub(one, spring);
+        let rate = g.sub(rate, damping);
+        let rate = g.sub(rate, friction);
+        let dx = vec![v, rate];
+        let f: Matrix = dx
+            .iter()
+            .map(|&row| {
+                [0, 1]
+                    .map(|k| Differentiator::new(crate::symbolic::VarId(k)).diff(&mut g, row))
+                    .to_vec()
+            })
+            .collect();
+        let h = g.num(0.01);
+        let next = euler_state_step(&mut g, h, &[x, v], &dx, &f, None);
+        for point in [[0.3, 1.0], [0.3, -1.0]] {
+            let at = |var: crate::symbolic::VarId| point[var.0 as usize];
+            let want = point[1] + 0.01 * g.eval(dx[1], &at);
+            let got = g.eval(next[1], &at);
+            assert!((got - want).abs() <= 1e-15, "at {point:?}: {got} vs {want}");
         }
     }
 
