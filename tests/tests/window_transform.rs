@@ -1,11 +1,32 @@
 //! The window transform is exact on noise-free data, for every model that has a DKF:
 //! the reconstructed `phi` equals the true state and parameters, and
 //! `F x + G u + d = f(x, u)` at the true state, to 1e-9 relative (f64); a window longer
-//! than the minimum (least squares) as well.
+//! than the minimum (least squares) as well, and a model with a switched (Coulomb) friction.
 
 use generated_demo::{beam_two_actuators, cantilever, cantilever_long_window, duffing_beam};
 
 const RTOL: f64 = 1e-9;
+
+stateforge::model! {
+    /// The cantilever with a Coulomb friction on its velocity: a term whose derivatives
+    /// vanish but which switches with the state, so the transform must not take its value
+    /// at zero state.
+    mod friction_beam {
+        scalar f32, f64;
+        const TS = 0.015;
+        const FRICTION = 5.0;
+        state x1, x2;
+        param x3, x4, x5;
+        input u;
+        output y = x1;
+        generate dkf(eta = 0.5, process_noise = diagonal, gate = off);
+        dynamics discrete {
+            let coulomb = if x2 > 0.0 { FRICTION } else { -FRICTION };
+            x1 = x1 + TS * x2;
+            x2 = TS * x1 * x3 + (1.0 + TS * x4) * x2 + TS * x5 * u - TS * coulomb;
+        }
+    }
+}
 
 /// Entry-wise agreement at the vector's scale.
 fn assert_agree(what: &str, k: usize, got: &[f64], want: &[f64]) {
@@ -103,6 +124,16 @@ fn cubic_stiffness_transform_is_exact() {
         duffing_beam,
         [0.2, 0.0, -393.93, -6.941, -50.0, 0.4924],
         identity_matrix::<6>(),
+        |k: usize| [input(k, 0.0)]
+    );
+}
+
+#[test]
+fn a_switched_friction_transform_is_exact() {
+    check_exactness!(
+        friction_beam,
+        [0.2, 0.0, -393.93, -6.941, 0.4924],
+        [1.0; 5],
         |k: usize| [input(k, 0.0)]
     );
 }

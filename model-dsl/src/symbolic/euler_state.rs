@@ -106,7 +106,9 @@ impl Step<'_> {
             };
             to_zero.insert(id, g.zero());
         }
-        if set.iter().any(|&k| depends_on(g, f[i][k], &vars)) || switches_on(g, self.dx[i], &vars) {
+        let var_ids: Vec<_> = to_zero.keys().copied().collect();
+        if set.iter().any(|&k| depends_on(g, f[i][k], &vars)) || g.switches_on(self.dx[i], &var_ids)
+        {
             return None;
         }
         let at_zero = g.substitute(self.dx[i], &to_zero, &mut HashMap::new());
@@ -197,16 +199,6 @@ impl LoopWork {
         }
         count
     }
-}
-
-/// Whether `e` holds an `if` whose condition reads any of the variables `vars`.
-fn switches_on(g: &Graph, e: NodeId, vars: &[NodeId]) -> bool {
-    g.pending_from(e, Node::children, |_| false)
-        .into_iter()
-        .any(|id| match g.node(id) {
-            Node::Select { lhs, rhs, .. } => depends_on(g, lhs, vars) || depends_on(g, rhs, vars),
-            _ => false,
-        })
 }
 
 /// Whether `e` reads any of the variables `vars`.

@@ -633,6 +633,24 @@ impl Graph {
         pending
     }
 
+    /// Whether `root` holds an `if` whose condition reads any of `vars`: an expression whose
+    /// derivatives by them read none of them may still change with them, by a switch
+    /// (`if v > 0 { 2 } else { -2 }`, a Coulomb friction, has derivative zero in `v`), so
+    /// it is affine in them only where this is false.
+    pub fn switches_on(&self, root: NodeId, vars: &[VarId]) -> bool {
+        let mut reads: HashMap<NodeId, bool> = HashMap::new();
+        for id in self.pending_from(root, Node::children, |_| false) {
+            let node = self.node(id);
+            let own = matches!(node, Node::Var(v) if vars.contains(&v));
+            let value = own || node.children().iter().any(|c| reads[c]);
+            reads.insert(id, value);
+        }
+        reads.keys().any(|&id| match self.node(id) {
+            Node::Select { lhs, rhs, .. } => reads[&lhs] || reads[&rhs],
+            _ => false,
+        })
+    }
+
     /// Rebuilds `root` with variables replaced by the nodes `map` gives (memoised).
     pub fn substitute(
         &mut self,

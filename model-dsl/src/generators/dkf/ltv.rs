@@ -150,7 +150,13 @@ impl Ltv<'_> {
     /// affine in them (every second derivative zero).
     fn first_derivatives(&self, graph: &mut Graph, expr: NodeId) -> (Vec<NodeId>, bool) {
         let mut derivatives = Vec::new();
-        let mut affine = true;
+        let vars: Vec<VarId> = self
+            .state_vars
+            .iter()
+            .chain(self.input_vars)
+            .copied()
+            .collect();
+        let mut affine = !graph.switches_on(expr, &vars);
         for &v in self.state_vars.iter().chain(self.input_vars) {
             let mut dv = Differentiator::new(v);
             let deriv = dv.diff(graph, expr);
