@@ -414,6 +414,14 @@ impl Derivation<'_> {
     /// parameters that makes the step nonlinear in them.
     fn parameter_coefficients(&self, mg: &mut ModelGraph, c: usize) -> Result<Vec<NodeId>, String> {
         let row = mg.f[c];
+        if mg.graph.switches_on(row, &self.param_vars) {
+            return Err(format!(
+                "the step of `{}` switches on a parameter (an `if` whose condition reads \
+                 one): the window transform needs each step linear in the parameters. Make \
+                 the switch read states or inputs only",
+                self.model.states[c].name
+            ));
+        }
         let mut coefficients = Vec::with_capacity(self.param_vars.len());
         for (p, &pv) in self.param_vars.iter().enumerate() {
             let mut d = Differentiator::new(pv);
