@@ -32,7 +32,7 @@ impl Scaling {
     /// reached (a coupling that contradicts the exponents already given stays `+-h`),
     /// each connected group's smallest exponent zero. `None` where no coupling becomes
     /// a one, `h` is not a positive number, or `h^(2 e_i)` would move a covariance entry
-    /// by more than [`MAX_DECADES`].
+    /// by more than `MAX_DECADES` (20).
     pub fn for_unit_couplings(g: &Graph, f: &Matrix, h: f64) -> Option<Scaling> {
         let n = f.len();
         let unit =
