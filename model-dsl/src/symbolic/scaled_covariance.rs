@@ -99,12 +99,17 @@ impl Scaling {
     /// `D P D` (`by = 1`) or `D^-1 P D^-1` (`by = -1`).
     pub fn apply(&self, g: &mut Graph, p: &Matrix, by: i32) -> Matrix {
         let e = &self.exponents;
-        (0..p.len())
+        self.times_powers(g, p, |i, j| by * (e[i] + e[j]))
+    }
+
+    /// Each entry `(i, j)` of `m` times `h^k(i, j)` (itself where the power is zero).
+    fn times_powers(&self, g: &mut Graph, m: &Matrix, k: impl Fn(usize, usize) -> i32) -> Matrix {
+        (0..m.len())
             .map(|i| {
-                (0..p.len())
-                    .map(|j| match self.power(g, by * (e[i] + e[j])) {
-                        Some(factor) => g.mul(factor, p[i][j]),
-                        None => p[i][j],
+                (0..m.len())
+                    .map(|j| match self.power(g, k(i, j)) {
+                        Some(factor) => scale(g, factor, m[i][j]),
+                        None => m[i][j],
                     })
                     .collect()
             })
@@ -123,16 +128,7 @@ impl Scaling {
     ) -> Matrix {
         let phi = self.transition(g, f, alpha);
         let e = &self.exponents;
-        let noise: Matrix = (0..s.len())
-            .map(|i| {
-                (0..s.len())
-                    .map(|j| match self.power(g, 1 + e[i] + e[j]) {
-                        Some(factor) => scale(g, factor, s[i][j]),
-                        None => s[i][j],
-                    })
-                    .collect()
-            })
-            .collect();
+        let noise = self.times_powers(g, s, |i, j| 1 + e[i] + e[j]);
         covariance_of_transition(g, &phi, p_scaled, &noise)
     }
 }
