@@ -13,18 +13,18 @@ use std::collections::{HashMap, HashSet};
 ///
 /// A row `f_i` affine in a set `V` of the estimate's variables (its derivatives by them
 /// read none of them, and no `if` of it tests one: `if v > 0 { 2 } else { -2 }`, a Coulomb
-/// friction, has a zero derivative but is not its value at `v = 0`) is exactly `f_i(x_V=0) + sum_{k in V} F_ik x_k`, so
-/// `x_i + h f_i = h f_i(x_V=0) + sum_{k in V, k != i} Phi_ik x_k + Phi_ii x_i` (the last
-/// term `x_i` when `i` is not in `V`). The `Phi_ik` are the covariance sub-step's own
-/// entries (`Phi_ik x_k = Phi~_ik (h^(e_k - e_i) x_k)` when scaled, the factor computed
-/// before the loop for a parameter): only the products and the remainder at zero are new
-/// work, and a remainder
-/// that reads no changing state is computed once, before the loop. The sets tried are
-/// the states that change (the parameters, random walks, are held) and each variable
-/// alone; the row takes the form with the fewest operations in the loop, the plain
-/// `x_i + h f_i` only where it is cheaper than every affine form. The blade's
-/// `q'' = (1/m)(c u - k q - b q') + eta2` is affine in `1/m`: `q' + h eta2 + (1/m)
-/// Phi_(q', 1/m)`, two multiply-adds where the form in the changing states takes four.
+/// friction, has a zero derivative but is not its value at `v = 0`) is exactly
+/// `f_i(x_V=0) + sum_{k in V} F_ik x_k`, so `x_i + h f_i = h f_i(x_V=0) + sum_{k in V, k != i}
+/// Phi_ik x_k + Phi_ii x_i` (the last term `x_i` when `i` is not in `V`). The `Phi_ik` are
+/// the covariance sub-step's own entries (`Phi_ik x_k = Phi~_ik (h^(e_k - e_i) x_k)` when
+/// scaled, the factor computed before the loop for a parameter): only the products and the
+/// remainder at zero are new work, and a remainder that reads no changing state is
+/// computed once, before the loop. The sets tried are the states that change (the
+/// parameters, random walks, are held) and each variable alone; the row takes the form
+/// with the fewest operations in the loop, the plain `x_i + h f_i` only where it is cheaper
+/// than every affine form. The blade's `q'' = (1/m)(c u - k q - b q') + eta2` is affine in
+/// `1/m`: `q' + h eta2 + (1/m) Phi_(q', 1/m)`, two multiply-adds where the form in the
+/// changing states takes four.
 pub fn euler_state_step(
     g: &mut Graph,
     h: NodeId,
@@ -98,16 +98,16 @@ impl Step<'_> {
         if set.len() == 1 && g.is_zero(f[i][set[0]]) {
             return None;
         }
-        let vars: Vec<NodeId> = set.iter().map(|&k| x[k]).collect();
         let mut to_zero = HashMap::new();
-        for &v in &vars {
+        for v in set.iter().map(|&k| x[k]) {
             let Node::Var(id) = g.node(v) else {
                 return None;
             };
             to_zero.insert(id, g.zero());
         }
         let var_ids: Vec<_> = to_zero.keys().copied().collect();
-        if set.iter().any(|&k| depends_on(g, f[i][k], &vars)) || g.switches_on(self.dx[i], &var_ids)
+        if set.iter().any(|&k| g.reads_any(f[i][k], &var_ids))
+            || g.switches_on(self.dx[i], &var_ids)
         {
             return None;
         }
@@ -199,21 +199,6 @@ impl LoopWork {
         }
         count
     }
-}
-
-/// Whether `e` reads any of the variables `vars`.
-fn depends_on(g: &Graph, e: NodeId, vars: &[NodeId]) -> bool {
-    let mut stack = vec![e];
-    let mut seen = HashSet::new();
-    while let Some(id) = stack.pop() {
-        if vars.contains(&id) {
-            return true;
-        }
-        if seen.insert(id) {
-            stack.extend(g.node(id).children());
-        }
-    }
-    false
 }
 
 #[cfg(test)]
@@ -321,7 +306,8 @@ mod tests {
         let changing = x[..3].to_vec();
         let work = LoopWork::new(&g, &phi, changing);
         let product = g.mul_whole(phi[1][3], x[3]);
-        assert!(depends_on(&g, next[1], &[product]));
+        let reached = g.pending_from(next[1], Node::children, |_| false);
+        assert!(reached.contains(&product));
         assert!(work.operations(&g, next[1]) <= 4);
     }
 }

@@ -638,6 +638,20 @@ impl Graph {
     /// (`if v > 0 { 2 } else { -2 }`, a Coulomb friction, has derivative zero in `v`), so
     /// it is affine in them only where this is false.
     pub fn switches_on(&self, root: NodeId, vars: &[VarId]) -> bool {
+        let reads = self.reading(root, vars);
+        reads.keys().any(|&id| match self.node(id) {
+            Node::Select { lhs, rhs, .. } => reads[&lhs] || reads[&rhs],
+            _ => false,
+        })
+    }
+
+    /// Whether `root` reads any of `vars`.
+    pub fn reads_any(&self, root: NodeId, vars: &[VarId]) -> bool {
+        self.reading(root, vars)[&root]
+    }
+
+    /// For `root` and each node it depends on, whether it reads any of `vars`.
+    fn reading(&self, root: NodeId, vars: &[VarId]) -> HashMap<NodeId, bool> {
         let mut reads: HashMap<NodeId, bool> = HashMap::new();
         for id in self.pending_from(root, Node::children, |_| false) {
             let node = self.node(id);
@@ -645,10 +659,7 @@ impl Graph {
             let value = own || node.children().iter().any(|c| reads[c]);
             reads.insert(id, value);
         }
-        reads.keys().any(|&id| match self.node(id) {
-            Node::Select { lhs, rhs, .. } => reads[&lhs] || reads[&rhs],
-            _ => false,
-        })
+        reads
     }
 
     /// Rebuilds `root` with variables replaced by the nodes `map` gives (memoised).
