@@ -60,19 +60,21 @@ impl FilterLayout {
             [n, m, packed_len(n), packed_len(m)].map(Literal::usize_unsuffixed);
         let k = noise.len(n);
         let (_, q_field, _) = noise_argument("q", k, noise.diagonal, ty);
+        let noise_doc = noise.states_doc(model);
+        let setters = noise_setters((k, &noise_doc), m, noise.diagonal, ty);
         FilterLayout {
             ty: ty.clone(),
             n,
             m,
             noise: noise.clone(),
-            noise_doc: noise.states_doc(model),
+            noise_doc,
             n_len,
             m_len,
             np,
             mp,
             q_field,
             accessors: estimate_accessors(n, ty),
-            setters: noise_setters((k, &noise.states_doc(model)), m, noise.diagonal, ty),
+            setters,
         }
     }
 
