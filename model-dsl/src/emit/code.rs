@@ -80,20 +80,29 @@ pub fn all_finite(
     }
 }
 
-/// `stateforge_math::f32::all_finite([a, b, ..])` for up to 32 names; past that, the
-/// halves' tests joined by `&&`, so that no array on the stack is larger than 32 values
-/// (a 100-state covariance's 5050 entries would be 20 KB) and the nesting stays shallow.
+/// `stateforge_math::f32::all_finite([a, b, ..])`, by [`array_test`].
 fn all_finite_in_float(
     names: &[proc_macro2::Ident],
     scalar_type: &proc_macro2::Ident,
 ) -> TokenStream {
+    let values: Vec<TokenStream> = names.iter().map(|name| quote! { #name }).collect();
+    array_test(
+        &quote! { stateforge_math::#scalar_type::all_finite },
+        &values,
+    )
+}
+
+/// `test([a, b, ..])` of a `stateforge_math` test of an array (`all_finite`,
+/// `none_negative`) for up to 32 values; past that, the halves' tests joined by `&&`, so
+/// that no array on the stack is larger than 32 values (a 100-state covariance's 5050
+/// entries would be 20 KB) and the nesting stays shallow.
+fn array_test(test: &TokenStream, values: &[TokenStream]) -> TokenStream {
     const FLAT: usize = 32;
-    if names.len() <= FLAT {
-        return quote! { stateforge_math::#scalar_type::all_finite([#(#names),*]) };
+    if values.len() <= FLAT {
+        return quote! { #test([#(#values),*]) };
     }
-    let (left, right) = names.split_at(names.len() / 2);
-    let left = all_finite_in_float(left, scalar_type);
-    let right = all_finite_in_float(right, scalar_type);
+    let (left, right) = values.split_at(values.len() / 2);
+    let (left, right) = (array_test(test, left), array_test(test, right));
     quote! { (#left && #right) }
 }
 
@@ -240,11 +249,11 @@ pub fn unpack_symmetric(field: &str, ty: &proc_macro2::Ident) -> TokenStream {
 
 /// The test a filter step's result passes before it is stored (the divergence bound):
 /// its probe, the sum of the new estimate's entries and variances (see
-/// `finiteness_probe`), within `stateforge_math`'s `DIVERGENCE_BOUND` (1e18), and each new
-/// variance in `variances` non-negative. A failure returns `NonFinite` when the probe is not
-/// finite, else `Diverged`: only the failing branch tells them apart. One test and branch
-/// each: joined by `&&`, the tests are combined into flags before one branch, which costs
-/// more on the target.
+/// `finiteness_probe`), within `stateforge_math`'s `DIVERGENCE_BOUND` (1e18), and no new
+/// variance in `variances` negative (`none_negative`: their sign bits joined, one branch).
+/// A failure returns `NonFinite` when the probe is not finite, else `Diverged`: only the
+/// failing branch tells them apart. Two tests and branches: joined by `&&`, floating-point
+/// tests are combined into flags before one branch, which costs more on the target.
 pub fn reject_diverged(
     probe: &TokenStream,
     variances: &[TokenStream],
@@ -261,23 +270,25 @@ pub fn divergence_tests(
     scalar: Scalar,
 ) -> Vec<TokenStream> {
     let ty = ident(scalar.type_name());
-    let zero = literal(0.0, scalar);
     // A variance that lowered to a non-negative literal needs no test.
     let literal_non_negative = |v: &TokenStream| {
         let text = v.to_string();
         let number = text.trim_end_matches("_f32").trim_end_matches("_f64");
         number.parse::<f64>().is_ok_and(|v| v >= 0.0)
     };
-    let variance_tests = variances
+    let tested: Vec<TokenStream> = variances
         .iter()
         .filter(|v| !literal_non_negative(v))
-        .map(|v| {
-            quote! {
-                if #v < #zero {
-                    return Status::Diverged;
-                }
+        .cloned()
+        .collect();
+    let variance_test = (!tested.is_empty()).then(|| {
+        let none_negative = array_test(&quote! { stateforge_math::#ty::none_negative }, &tested);
+        quote! {
+            if !#none_negative {
+                return Status::Diverged;
             }
-        });
+        }
+    });
     // The probe is bound to a name; anything else (a literal) is parenthesised.
     let receiver = match syn::parse2::<syn::Ident>(probe.clone()) {
         Ok(name) => quote! { #name },
@@ -292,15 +303,16 @@ pub fn divergence_tests(
             };
         }
     };
-    std::iter::once(probe_test).chain(variance_tests).collect()
+    std::iter::once(probe_test).chain(variance_test).collect()
 }
 
 /// What [`reject_diverged`] costs a step of `n` states: a comparison and branch for the
-/// probe and for each variance.
+/// probe, and for the variances a move and an `orr` each and one branch, about two cycles a
+/// variance, counted as comparisons (three cycles each), rounded up.
 pub fn divergence_test_ops(n: usize) -> crate::emit::lower::OpCount {
     let n = u32::try_from(n).unwrap_or(u32::MAX);
     crate::emit::lower::OpCount {
-        compare: n.saturating_add(1),
+        compare: n.saturating_mul(2).div_ceil(3).saturating_add(2),
         ..Default::default()
     }
 }
