@@ -1,6 +1,7 @@
 //! The fault matrix: every filter the demo models generate, in `f32` and `f64`, against
 //! every fault a sensor or a caller can produce (a NaN, infinite, 1e30 or stuck
-//! measurement; a NaN or 1e30 input; a spike of 30 standard deviations; a NaN or huge time
+//! measurement; a NaN, infinite or 1e30 input; a spike of 30 standard deviations; a NaN,
+//! infinite or huge time
 //! where the filter takes one; an initial covariance 1e8 times the measurement noise).
 //!
 //! What must hold, for each filter and fault:
@@ -547,6 +548,14 @@ fn faults<S: Subject>(subject: &S, data: &[Sample], k0: usize) -> Vec<Fault> {
             expect: Expect::Rejected,
         },
         Fault {
+            name: "last output's measurement minus infinity",
+            samples: with(&|s| {
+                let last = s.y.len() - 1;
+                s.y[last] = f64::NEG_INFINITY;
+            }),
+            expect: Expect::Rejected,
+        },
+        Fault {
             name: "measurement of 1e30",
             samples: with(&|s| s.y[0] = 1e30),
             expect: Expect::NotOk,
@@ -586,6 +595,19 @@ fn faults<S: Subject>(subject: &S, data: &[Sample], k0: usize) -> Vec<Fault> {
             expect: Expect::Rejected,
         });
         faults.push(Fault {
+            name: "infinite input",
+            samples: with(&|s| s.u[0] = f64::INFINITY),
+            expect: Expect::Rejected,
+        });
+        faults.push(Fault {
+            name: "last input minus infinity",
+            samples: with(&|s| {
+                let last = s.u.len() - 1;
+                s.u[last] = f64::NEG_INFINITY;
+            }),
+            expect: Expect::Rejected,
+        });
+        faults.push(Fault {
             name: "input of 1e30",
             samples: with(&|s| s.u[0] = 1e30),
             expect: Expect::Anything,
@@ -595,6 +617,11 @@ fn faults<S: Subject>(subject: &S, data: &[Sample], k0: usize) -> Vec<Fault> {
         faults.push(Fault {
             name: "NaN time",
             samples: with(&|s| s.t = f64::NAN),
+            expect: Expect::Rejected,
+        });
+        faults.push(Fault {
+            name: "infinite time",
+            samples: with(&|s| s.t = f64::INFINITY),
             expect: Expect::Rejected,
         });
         faults.push(Fault {

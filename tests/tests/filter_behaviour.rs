@@ -116,6 +116,39 @@ fn an_input_free_window_freezes_the_input_gain() {
     assert!(input_free > 50, "{input_free} input-free windows");
 }
 
+/// The `f32` EKFs test a step's input and measurement only where a test of the result fails
+/// (a non-finite one always makes one fail): every non-finite argument, to every method,
+/// with and without a gate, is still `RejectedInput`, the filter unchanged.
+#[test]
+fn non_finite_arguments_leave_the_f32_ekfs_unchanged() {
+    use generated_demo::cantilever::{Ekf, GatedEkf, Status};
+    let samples = run(100, 1e-4, 5);
+    let narrow = |v: &[f64]| -> Vec<f32> { v.iter().map(|&e| e as f32).collect() };
+    let x0: [f32; 5] = narrow(&X0_CLOSE).try_into().unwrap();
+    let q: [f32; 5] = narrow(&Q_DIAG).try_into().unwrap();
+    let p0: [[f32; 5]; 5] = p0(2e4).map(|row| narrow(&row).try_into().unwrap());
+    let r = [[R as f32]];
+    let mut ekf = Ekf::new(&x0, &p0, &q, &r).unwrap();
+    let mut gated = GatedEkf::new(&x0, &p0, &q, &r).unwrap();
+    for k in 1..samples.len() {
+        let (u, y) = ([samples[k - 1].u as f32], [samples[k].y as f32]);
+        assert_eq!(ekf.step(&u, &y), Status::Ok);
+        assert_eq!(gated.step(&u, &y), Status::Ok);
+    }
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        let (ekf_before, gated_before) = (ekf, gated);
+        assert_eq!(ekf.step(&[bad], &[0.1]), Status::RejectedInput);
+        assert_eq!(ekf.step(&[1.0], &[bad]), Status::RejectedInput);
+        assert_eq!(ekf.predict(&[bad]), Status::RejectedInput);
+        assert_eq!(ekf.update(&[bad]), Status::RejectedInput);
+        assert_eq!(ekf, ekf_before);
+        assert_eq!(gated.step(&[bad], &[0.1]), Status::RejectedInput);
+        assert_eq!(gated.step(&[1.0], &[bad]), Status::RejectedInput);
+        assert_eq!(gated.update(&[bad]), Status::RejectedInput);
+        assert_eq!(gated, gated_before);
+    }
+}
+
 #[test]
 fn nan_input_leaves_every_filter_unchanged() {
     let samples = run(100, 1e-4, 5);

@@ -139,15 +139,41 @@ pub fn guarded_reciprocal(
 }
 
 /// What a filter does when a pivot of its innovation covariance fails the guard: returns
-/// `NonFinite` if it is NaN (an overflow within the step), else `NonPositiveInnovation`.
-/// Only the failing branch tests for NaN.
+/// [`innovation_pivot_status`].
 pub fn innovation_pivot_failure(pivot: &TokenStream) -> TokenStream {
+    failure_return(&innovation_pivot_status(pivot), None)
+}
+
+/// The status of a pivot of the innovation covariance that fails the guard: `NonFinite` if
+/// it is NaN (an overflow within the step), else `NonPositiveInnovation`. Only the failing
+/// branch tests for NaN.
+pub fn innovation_pivot_status(pivot: &TokenStream) -> TokenStream {
     quote! {
-        return if #pivot.is_nan() {
+        if #pivot.is_nan() {
             Status::NonFinite
         } else {
             Status::NonPositiveInnovation
-        };
+        }
+    }
+}
+
+/// `return <status>;`: what a failing test runs. In a method that tests some arguments'
+/// finiteness only when a test fails (`deferred`: the test that they are finite, see
+/// `Graph::carries_non_finite`), `return if !<deferred> { Status::RejectedInput } else
+/// <status>;`: such an argument, when not finite, fails a test before anything is
+/// stored, and is told apart from the test's own failure here, off the usual path.
+pub fn failure_return(status: &TokenStream, deferred: Option<&TokenStream>) -> TokenStream {
+    let Some(finite) = deferred else {
+        return quote! { return #status; };
+    };
+    let otherwise = match syn::parse2::<syn::Expr>(status.clone()) {
+        Ok(syn::Expr::If(_)) => status.clone(),
+        _ => quote! { { #status } },
+    };
+    quote! {
+        return if !#finite {
+            Status::RejectedInput
+        } else #otherwise;
     }
 }
 
@@ -259,15 +285,17 @@ pub fn reject_diverged(
     variances: &[TokenStream],
     scalar: Scalar,
 ) -> TokenStream {
-    let tests = divergence_tests(probe, variances, scalar);
+    let tests = divergence_tests(probe, variances, scalar, None);
     quote! { #(#tests)* }
 }
 
-/// [`reject_diverged`]'s tests, one statement each (the probe's first).
+/// [`reject_diverged`]'s tests, one statement each (the probe's first), each failure
+/// telling apart the arguments whose finiteness is `deferred` ([`failure_return`]).
 pub fn divergence_tests(
     probe: &TokenStream,
     variances: &[TokenStream],
     scalar: Scalar,
+    deferred: Option<&TokenStream>,
 ) -> Vec<TokenStream> {
     let ty = ident(scalar.type_name());
     // A variance that lowered to a non-negative literal needs no test.
@@ -283,9 +311,10 @@ pub fn divergence_tests(
         .collect();
     let variance_test = (!tested.is_empty()).then(|| {
         let none_negative = array_test(&quote! { stateforge_math::#ty::none_negative }, &tested);
+        let failure = failure_return(&quote! { Status::Diverged }, deferred);
         quote! {
             if !#none_negative {
-                return Status::Diverged;
+                #failure
             }
         }
     });
@@ -294,13 +323,17 @@ pub fn divergence_tests(
         Ok(name) => quote! { #name },
         Err(_) => quote! { (#probe) },
     };
+    let status = quote! {
+        if #receiver.is_finite() {
+            Status::Diverged
+        } else {
+            Status::NonFinite
+        }
+    };
+    let failure = failure_return(&status, deferred);
     let probe_test = quote! {
         if !stateforge_math::#ty::within_divergence_bound(#probe) {
-            return if #receiver.is_finite() {
-                Status::Diverged
-            } else {
-                Status::NonFinite
-            };
+            #failure
         }
     };
     std::iter::once(probe_test).chain(variance_test).collect()

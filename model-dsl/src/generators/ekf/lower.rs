@@ -6,7 +6,7 @@
 use super::spec::EkfSpec;
 use crate::emit::arguments::Arguments;
 use crate::emit::code::{
-    guard_pivots, innovation_pivot_failure, pivot_names, var_idents, INNOVATION,
+    failure_return, guard_pivots, innovation_pivot_status, pivot_names, var_idents, INNOVATION,
 };
 use crate::emit::filter::{
     correction_reads_input, finiteness_probe_of_changes, interleaved_finiteness_probe, model_names,
@@ -20,7 +20,7 @@ use crate::emit::sensors;
 use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
 use crate::symbolic::linalg::{packed_upper, symmetric_from_packed, Coefficients, Matrix};
-use crate::symbolic::{ModelGraph, NodeId, VarId};
+use crate::symbolic::{ModelGraph, Node, NodeId, VarId};
 use proc_macro2::TokenStream;
 use quote::quote;
 use std::collections::BTreeSet;
@@ -358,11 +358,12 @@ fn method(
     spec: &EkfSpec,
 ) -> (TokenStream, OpCount) {
     let mut nodes = EkfNodes::build(model, mg, kind, spec);
-    let (body, used_vars, ops) = lower(&mut nodes, model, scalar, kind);
+    let (body, used_vars, ops, tested_on_failure) = lower(&mut nodes, model, scalar, kind);
     let ty = ident(scalar.type_name());
     let graph = &nodes.g.graph;
     let reads_input = correction_reads_input(graph, &nodes.g.u, kind.predicts(), &used_vars);
-    let arguments = arguments(&nodes, model, kind, (&used_vars, reads_input), &ty);
+    let mut arguments = arguments(&nodes, model, kind, (&used_vars, reads_input), &ty);
+    arguments.test_on_failure(&tested_on_failure);
     let (name, mut doc) = kind.name_and_doc(model, spec);
     if reads_input {
         doc.push_str(MEASUREMENT_INPUT_DOC);
@@ -535,15 +536,57 @@ fn divergence_probe(nodes: &mut EkfNodes, kind: EkfMethod) -> NodeId {
     }
 }
 
+/// The method's arguments it tests for finiteness only where a test fails: those that make
+/// the divergence probe or the normalised innovation squared non-finite whenever they are
+/// not finite (`Graph::carry_non_finite`), so that a non-finite one always fails a test
+/// before anything is stored. The measurement always does (`y` enters the innovation and
+/// its normalised square); an input does where it enters the new estimate through
+/// arithmetic.
+fn tested_on_failure(nodes: &EkfNodes, probe: NodeId) -> Vec<proc_macro2::Ident> {
+    let graph = &nodes.g.graph;
+    let var_of = |node: NodeId| match graph.node(node) {
+        Node::Var(v) => Some(v),
+        _ => None,
+    };
+    let arguments = nodes.g.u.iter().chain(&nodes.vars.y).chain(&nodes.t_prev);
+    let vars: Vec<VarId> = arguments
+        .chain([&nodes.g.t])
+        .filter_map(|&n| var_of(n))
+        .collect();
+    let defined: Vec<(VarId, NodeId)> = nodes
+        .coefficients
+        .definitions
+        .iter()
+        .filter_map(|&(var, value)| Some((var_of(var)?, value)))
+        .collect();
+    let roots: Vec<NodeId> = std::iter::once(probe).chain(nodes.nis).collect();
+    let carried = graph.carry_non_finite(&roots, &vars, &defined);
+    vars.iter()
+        .zip(carried)
+        .filter(|&(_, carried)| carried)
+        .map(|(&v, _)| ident(&graph.var_info(v).name))
+        .collect()
+}
+
 /// Lowers an EKF method: its statements, ending in the commit of the new estimate (with
-/// the innovation when it stores one), the variables they read, and their arithmetic.
+/// the innovation when it stores one), the variables they read, their arithmetic, and the
+/// arguments it tests for finiteness only where a test fails ([`tested_on_failure`]).
 fn lower(
     nodes: &mut EkfNodes,
     model: &Model,
     scalar: Scalar,
     kind: EkfMethod,
-) -> (TokenStream, BTreeSet<VarId>, OpCount) {
+) -> (
+    TokenStream,
+    BTreeSet<VarId>,
+    OpCount,
+    Vec<proc_macro2::Ident>,
+) {
     let probe = divergence_probe(nodes, kind);
+    let tested_on_failure = tested_on_failure(nodes, probe);
+    let ty = ident(scalar.type_name());
+    let deferred = crate::emit::code::all_finite(&tested_on_failure, &[], &ty);
+    let deferred = deferred.as_ref();
     let p_packed = packed_upper(&nodes.p);
     let mut all_roots: Vec<NodeId> = nodes.x.iter().chain(&p_packed).copied().collect();
     all_roots.push(probe);
@@ -571,7 +614,7 @@ fn lower(
         &nodes.pivots,
         &nodes.reciprocals,
         (INNOVATION, ""),
-        &innovation_pivot_failure,
+        &|pivot| failure_return(&innovation_pivot_status(pivot), deferred),
         scalar,
     );
     let sensor = kind.sensor(model);
@@ -591,6 +634,7 @@ fn lower(
         gate_prefix: &prefix,
         keep_prediction: (kind == EkfMethod::Step)
             .then(|| measurement::keep_prediction_call(model)),
+        deferred,
     };
     let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
     let variances = nodes.vars.variances(model.state_len());
@@ -604,6 +648,7 @@ fn lower(
         known_variances: &variances,
         avoid: &nodes.avoid,
         reread,
+        deferred,
     };
     let committed = in_place::commit(&mut lowerer, &commit, scalar);
     let Lowered {
@@ -613,7 +658,8 @@ fn lower(
     } = in_place::finish(lowerer, &slots, &committed);
     let tail = quote! { #store_innovation Status::Ok };
     let statements = crate::emit::scopes::scoped(statements, &tail);
-    (quote! { #(#statements)* #tail }, used_vars, ops)
+    let body = quote! { #(#statements)* #tail };
+    (body, used_vars, ops, tested_on_failure)
 }
 
 /// The method's arguments: the times where the model reads `t` (the previous sample's
