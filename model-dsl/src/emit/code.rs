@@ -159,21 +159,27 @@ pub fn innovation_pivot_status(pivot: &TokenStream) -> TokenStream {
 
 /// `return <status>;`: what a failing test runs. In a method that tests some arguments'
 /// finiteness only when a test fails (`deferred`: the test that they are finite, see
-/// `Graph::carries_non_finite`), `return if !<deferred> { Status::RejectedInput } else
-/// <status>;`: such an argument, when not finite, fails a test before anything is
-/// stored, and is told apart from the test's own failure here, off the usual path.
+/// `Graph::carry_non_finite`), `return if <deferred> { <status> } else {
+/// Status::RejectedInput };` (`if !<deferred> { .. } else if ..` when the status is itself
+/// an `if`): such an argument, when not finite, fails a test before anything is stored,
+/// and is told apart from the test's own failure here, off the usual path.
 pub fn failure_return(status: &TokenStream, deferred: Option<&TokenStream>) -> TokenStream {
     let Some(finite) = deferred else {
         return quote! { return #status; };
     };
-    let otherwise = match syn::parse2::<syn::Expr>(status.clone()) {
-        Ok(syn::Expr::If(_)) => status.clone(),
-        _ => quote! { { #status } },
-    };
+    if let Ok(syn::Expr::If(_)) = syn::parse2::<syn::Expr>(status.clone()) {
+        return quote! {
+            return if !#finite {
+                Status::RejectedInput
+            } else #status;
+        };
+    }
     quote! {
-        return if !#finite {
+        return if #finite {
+            #status
+        } else {
             Status::RejectedInput
-        } else #otherwise;
+        };
     }
 }
 
