@@ -5,7 +5,7 @@ use super::names::{clear_of, ident, matrix_entry};
 use crate::model::Scalar;
 use crate::symbolic::{Graph, Node, NodeId, VarId};
 use proc_macro2::TokenStream;
-use quote::quote;
+use quote::{quote, ToTokens};
 use std::collections::BTreeSet;
 
 /// `let [a, _, c] = source;` naming the variables the code reads, or nothing if it reads
@@ -174,6 +174,11 @@ pub fn failure_return(status: &TokenStream, deferred: Option<&TokenStream>) -> T
             } else #status;
         };
     }
+    // `(a && b)` is parenthesised for `!`; unnegated, the parentheses would be unused.
+    let finite = match syn::parse2::<syn::Expr>(finite.clone()) {
+        Ok(syn::Expr::Paren(inner)) => inner.expr.to_token_stream(),
+        _ => finite.clone(),
+    };
     quote! {
         return if #finite {
             #status
