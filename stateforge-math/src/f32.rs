@@ -429,19 +429,6 @@ pub fn all_non_negative<const N: usize>(variances: &[f32; N]) -> bool {
     crate::covariance::all_non_negative(variances)
 }
 
-/// Whether no value is below zero (`-0.0` and NaN are not): the test a filter step's new
-/// variances pass before it is stored (a NaN variance is caught by the step's probe, which
-/// sums them). The sign bits first: on a Cortex-M4F one move to an integer register and
-/// one `orr` a variance, then one branch for all, where a floating-point comparison costs
-/// three instructions each (`vcmp`, `vmrs`, a branch). Only when a sign bit is set (a
-/// negative value, `-0.0`, or NaN with its sign set) are the values compared one by one.
-#[must_use]
-#[inline(always)]
-pub fn none_negative<const N: usize>(values: [f32; N]) -> bool {
-    let signs = values.iter().fold(0, |signs, v| signs | v.to_bits());
-    signs & 0x8000_0000 == 0 || !values.iter().any(|&v| v < 0.0)
-}
-
 /// The divergence bound on a filter step's result: a step is applied only when the sum of
 /// its new estimate's entries and variances lies within plus or minus this (1e18), far
 /// below where `f32` arithmetic overflows (1e18 squared is 1e36; `f32::MAX` is 3.4e38).

@@ -121,15 +121,6 @@ pub fn all_non_negative<const N: usize>(variances: &[f64; N]) -> bool {
     crate::covariance::all_non_negative(variances)
 }
 
-/// Whether no value is below zero (`-0.0` and NaN are not): the test a filter step's new
-/// variances pass before it is stored (the `f32` version tests the sign bits first; the
-/// answers are the same).
-#[must_use]
-#[inline(always)]
-pub fn none_negative<const N: usize>(values: [f64; N]) -> bool {
-    !values.iter().any(|&v| v < 0.0)
-}
-
 /// The divergence bound on a filter step's result: a step is applied only when the sum of
 /// its new estimate's entries and variances lies within plus or minus this (1e18), far
 /// below where `f32` arithmetic overflows (1e18 squared is 1e36; `f32::MAX` is 3.4e38).

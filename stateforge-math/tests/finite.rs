@@ -80,43 +80,6 @@ fn f32_all_finite_agrees_with_is_finite_on_every_pair_and_triple() {
 }
 
 #[test]
-fn none_negative_agrees_with_comparisons_on_every_pair_and_triple() {
-    let cases = f32_cases();
-    let not_negative = |v: f32| v >= 0.0 || v.is_nan();
-    assert!(stateforge_math::f32::none_negative([]));
-    for &a in &cases {
-        assert_eq!(
-            stateforge_math::f32::none_negative([a]),
-            not_negative(a),
-            "{a:e}"
-        );
-        for &b in &cases {
-            for &c in &cases {
-                let all = not_negative(a) && not_negative(b) && not_negative(c);
-                assert_eq!(
-                    stateforge_math::f32::none_negative([a, b, c]),
-                    all,
-                    "{a:e} {b:e} {c:e}"
-                );
-            }
-        }
-    }
-    // -0.0 sets the sign bit but is zero, and NaN is not negative: both pass.
-    assert!(stateforge_math::f32::none_negative([
-        f32::from_bits(0xFFC0_0000),
-        -0.0
-    ]));
-    assert!(stateforge_math::f32::none_negative([1.0, -0.0, 0.0]));
-    for &a in &f64_cases() {
-        assert_eq!(
-            stateforge_math::f64::none_negative([a, 1.0]),
-            a >= 0.0 || a.is_nan(),
-            "{a:e}"
-        );
-    }
-}
-
-#[test]
 fn f64_all_finite_agrees_with_is_finite_on_every_pair() {
     let cases = f64_cases();
     assert!(stateforge_math::f64::all_finite([]));
