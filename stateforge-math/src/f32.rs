@@ -364,18 +364,6 @@ pub fn all_finite<const N: usize>(values: [f32; N]) -> bool {
         .is_none_or(|sum| sum == 0.0)
 }
 
-/// Whether every entry of `values` is finite, tested on its bits (an exponent not all
-/// ones): the test a filter step makes of an argument it uses before testing it, where a
-/// test of its result fails. Read again from the caller's array, in integer registers, the
-/// values hold no floating-point register while the step runs.
-#[must_use]
-#[inline(always)]
-pub fn entries_finite<const N: usize>(values: &[f32; N]) -> bool {
-    values
-        .iter()
-        .all(|v| v.to_bits() & 0x7F80_0000 != 0x7F80_0000)
-}
-
 /// Absolute value (clears the sign bit; NaN stays NaN).
 #[inline]
 pub fn abs(x: f32) -> f32 {

@@ -65,15 +65,6 @@ pub fn all_finite<const N: usize>(values: [f64; N]) -> bool {
     values.iter().all(|v| v.is_finite())
 }
 
-/// Whether every entry of `values` is finite: the test a filter step makes of an argument
-/// it uses before testing it, where a test of its result fails (the `f32` version tests
-/// the bits; the answers are the same).
-#[must_use]
-#[inline(always)]
-pub fn entries_finite<const N: usize>(values: &[f64; N]) -> bool {
-    values.iter().all(|v| v.is_finite())
-}
-
 /// Absolute value (clears the sign bit; NaN stays NaN).
 #[inline]
 pub fn abs(x: f64) -> f64 {

@@ -65,16 +65,6 @@ fn f32_all_finite_agrees_with_is_finite_on_every_pair_and_triple() {
             }
         }
     }
-    for &a in &cases {
-        for &b in &cases {
-            let both = a.is_finite() && b.is_finite();
-            assert_eq!(
-                stateforge_math::f32::entries_finite(&[a, b]),
-                both,
-                "{a:e} {b:e}"
-            );
-        }
-    }
     // Large finite values do not overflow the test (their differences are exact zeros).
     assert!(stateforge_math::f32::all_finite([f32::MAX; 32]));
 }
@@ -99,12 +89,6 @@ fn f64_all_finite_agrees_with_is_finite_on_every_pair() {
         }
     }
     assert!(stateforge_math::f64::all_finite([f64::MIN; 32]));
-    for &a in &f64_cases() {
-        assert_eq!(
-            stateforge_math::f64::entries_finite(&[a, 1.0]),
-            a.is_finite()
-        );
-    }
 }
 
 /// `upper_triangle_finite` reads the upper triangle and the diagonal, nothing else: every

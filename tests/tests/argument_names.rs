@@ -1,7 +1,6 @@
 //! A model whose own names are those of the methods' arguments (a state `y`, like the
-//! measurement `y`): the EKF tests some arguments only where a test of its result fails,
-//! after the model's names are bound, so it must still reach the arguments, and a
-//! non-finite one is still `RejectedInput`, the filter unchanged.
+//! measurement `y`): the generated methods still read and test their arguments, and a
+//! non-finite one is `RejectedInput`, the filter unchanged.
 
 stateforge::model! {
     /// A cart whose position is `y`, slowed by an unknown drag `t_prev`, pushed by `u`.

@@ -116,9 +116,8 @@ fn an_input_free_window_freezes_the_input_gain() {
     assert!(input_free > 50, "{input_free} input-free windows");
 }
 
-/// The `f32` EKFs test a step's input and measurement only where a test of the result fails
-/// (a non-finite one always makes one fail): every non-finite argument, to every method,
-/// with and without a gate, is still `RejectedInput`, the filter unchanged.
+/// The `f32` EKFs, with and without a gate: every non-finite argument, to every method, is
+/// `RejectedInput`, the filter unchanged.
 #[test]
 fn non_finite_arguments_leave_the_f32_ekfs_unchanged() {
     use generated_demo::cantilever::{Ekf, GatedEkf, Status};

@@ -1,8 +1,7 @@
 //! The arguments of a generated method or constructor: their parameters, the statements
 //! binding the entries the code reads, and the checks made where the arguments enter,
 //! before anything is computed or stored: every entry read finite, and every covariance a
-//! covariance (symmetric, positive semi-definite). A method may leave out of the first
-//! the arguments its tests of the result catch ([`Arguments::test_on_failure`]).
+//! covariance (symmetric, positive semi-definite).
 
 use super::code::{all_finite, reject_non_finite, upper_triangle};
 use super::names::ident;
@@ -136,13 +135,6 @@ impl Arguments {
         self.unpack.push(quote! { let #var = #arg; });
         self.checked.push(var);
         self.scalar_type = Some(ty.clone());
-    }
-
-    /// Leaves the variables `names` out of the test made before anything is computed: the
-    /// method tests them where a test of its results fails (see
-    /// `code::failure_return`), because a non-finite one makes that test fail.
-    pub fn test_on_failure(&mut self, names: &[Ident]) {
-        self.checked.retain(|name| !names.contains(name));
     }
 
     /// `pub fn name(&mut self, ..) -> Status`, documented by the attributes `doc`: unpacks

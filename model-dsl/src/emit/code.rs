@@ -5,7 +5,7 @@ use super::names::{clear_of, ident, matrix_entry};
 use crate::model::Scalar;
 use crate::symbolic::{Graph, Node, NodeId, VarId};
 use proc_macro2::TokenStream;
-use quote::{quote, ToTokens};
+use quote::quote;
 use std::collections::BTreeSet;
 
 /// `let [a, _, c] = source;` naming the variables the code reads, or nothing if it reads
@@ -80,29 +80,20 @@ pub fn all_finite(
     }
 }
 
-/// `stateforge_math::f32::all_finite([a, b, ..])`, by [`array_test`].
+/// `stateforge_math::f32::all_finite([a, b, ..])` for up to 32 names; past that, the
+/// halves' tests joined by `&&`, so that no array on the stack is larger than 32 values
+/// (a 100-state covariance's 5050 entries would be 20 KB) and the nesting stays shallow.
 fn all_finite_in_float(
     names: &[proc_macro2::Ident],
     scalar_type: &proc_macro2::Ident,
 ) -> TokenStream {
-    let values: Vec<TokenStream> = names.iter().map(|name| quote! { #name }).collect();
-    array_test(
-        &quote! { stateforge_math::#scalar_type::all_finite },
-        &values,
-    )
-}
-
-/// `test([a, b, ..])` of a `stateforge_math` test of an array (`all_finite`) for up to 32
-/// values; past that, the halves' tests joined by `&&`, so
-/// that no array on the stack is larger than 32 values (a 100-state covariance's 5050
-/// entries would be 20 KB) and the nesting stays shallow.
-fn array_test(test: &TokenStream, values: &[TokenStream]) -> TokenStream {
     const FLAT: usize = 32;
-    if values.len() <= FLAT {
-        return quote! { #test([#(#values),*]) };
+    if names.len() <= FLAT {
+        return quote! { stateforge_math::#scalar_type::all_finite([#(#names),*]) };
     }
-    let (left, right) = values.split_at(values.len() / 2);
-    let (left, right) = (array_test(test, left), array_test(test, right));
+    let (left, right) = names.split_at(names.len() / 2);
+    let left = all_finite_in_float(left, scalar_type);
+    let right = all_finite_in_float(right, scalar_type);
     quote! { (#left && #right) }
 }
 
@@ -139,51 +130,14 @@ pub fn guarded_reciprocal(
 }
 
 /// What a filter does when a pivot of its innovation covariance fails the guard: returns
-/// [`innovation_pivot_status`].
+/// `NonFinite` if it is NaN (an overflow within the step), else `NonPositiveInnovation`.
+/// Only the failing branch tests for NaN.
 pub fn innovation_pivot_failure(pivot: &TokenStream) -> TokenStream {
-    failure_return(&innovation_pivot_status(pivot), None)
-}
-
-/// The status of a pivot of the innovation covariance that fails the guard: `NonFinite` if
-/// it is NaN (an overflow within the step), else `NonPositiveInnovation`. Only the failing
-/// branch tests for NaN.
-pub fn innovation_pivot_status(pivot: &TokenStream) -> TokenStream {
     quote! {
-        if #pivot.is_nan() {
+        return if #pivot.is_nan() {
             Status::NonFinite
         } else {
             Status::NonPositiveInnovation
-        }
-    }
-}
-
-/// `return <status>;`: what a failing test runs. In a method that tests some arguments'
-/// finiteness only when a test fails (`deferred`: the test that they are finite, see
-/// `Graph::carry_non_finite`), `return if <deferred> { <status> } else {
-/// Status::RejectedInput };` (`if !<deferred> { .. } else if ..` when the status is itself
-/// an `if`): such an argument, when not finite, fails a test before anything is stored,
-/// and is told apart from the test's own failure here, off the usual path.
-pub fn failure_return(status: &TokenStream, deferred: Option<&TokenStream>) -> TokenStream {
-    let Some(finite) = deferred else {
-        return quote! { return #status; };
-    };
-    if let Ok(syn::Expr::If(_)) = syn::parse2::<syn::Expr>(status.clone()) {
-        return quote! {
-            return if !#finite {
-                Status::RejectedInput
-            } else #status;
-        };
-    }
-    // `(a && b)` is parenthesised for `!`; unnegated, the parentheses would be unused.
-    let finite = match syn::parse2::<syn::Expr>(finite.clone()) {
-        Ok(syn::Expr::Paren(inner)) => inner.expr.to_token_stream(),
-        _ => finite.clone(),
-    };
-    quote! {
-        return if #finite {
-            #status
-        } else {
-            Status::RejectedInput
         };
     }
 }
@@ -290,43 +244,37 @@ pub fn unpack_symmetric(field: &str, ty: &proc_macro2::Ident) -> TokenStream {
 /// variance in `variances` non-negative. A failure returns `NonFinite` when the probe is not
 /// finite, else `Diverged`: only the failing branch tells them apart. One test and branch
 /// each: joined by `&&`, the tests are combined into flags before one branch, which costs
-/// more on the target. (A test of the variances' joined sign bits, one branch for all, cost
-/// fewer instructions in the test itself but more in the steps around it: the hybrid EKF's
-/// sub-step loop spilled one more value, 37467 -> 38462 instructions a step, and the
-/// navigation EKF's GNSS update 5428 -> 5452.)
+/// more on the target.
 pub fn reject_diverged(
     probe: &TokenStream,
     variances: &[TokenStream],
     scalar: Scalar,
 ) -> TokenStream {
-    let tests = divergence_tests(probe, variances, scalar, None);
+    let tests = divergence_tests(probe, variances, scalar);
     quote! { #(#tests)* }
 }
 
-/// [`reject_diverged`]'s tests, one statement each (the probe's first), each failure
-/// telling apart the arguments whose finiteness is `deferred` ([`failure_return`]).
+/// [`reject_diverged`]'s tests, one statement each (the probe's first).
 pub fn divergence_tests(
     probe: &TokenStream,
     variances: &[TokenStream],
     scalar: Scalar,
-    deferred: Option<&TokenStream>,
 ) -> Vec<TokenStream> {
     let ty = ident(scalar.type_name());
+    let zero = literal(0.0, scalar);
     // A variance that lowered to a non-negative literal needs no test.
     let literal_non_negative = |v: &TokenStream| {
         let text = v.to_string();
         let number = text.trim_end_matches("_f32").trim_end_matches("_f64");
         number.parse::<f64>().is_ok_and(|v| v >= 0.0)
     };
-    let zero = literal(0.0, scalar);
-    let variance_failure = failure_return(&quote! { Status::Diverged }, deferred);
     let variance_tests = variances
         .iter()
         .filter(|v| !literal_non_negative(v))
         .map(|v| {
             quote! {
                 if #v < #zero {
-                    #variance_failure
+                    return Status::Diverged;
                 }
             }
         });
@@ -335,17 +283,13 @@ pub fn divergence_tests(
         Ok(name) => quote! { #name },
         Err(_) => quote! { (#probe) },
     };
-    let status = quote! {
-        if #receiver.is_finite() {
-            Status::Diverged
-        } else {
-            Status::NonFinite
-        }
-    };
-    let failure = failure_return(&status, deferred);
     let probe_test = quote! {
         if !stateforge_math::#ty::within_divergence_bound(#probe) {
-            #failure
+            return if #receiver.is_finite() {
+                Status::Diverged
+            } else {
+                Status::NonFinite
+            };
         }
     };
     std::iter::once(probe_test).chain(variance_tests).collect()

@@ -576,7 +576,6 @@ fn lower(
         gated: nodes.gated,
         gate_prefix: "",
         keep_prediction: (kind.predicts()).then(|| measurement::keep_prediction_call(model)),
-        deferred: None,
     };
     let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
     let Lowered {

@@ -183,9 +183,6 @@ pub struct Commit<'a> {
     /// need, and its stores most of them again (the navigation model's `predict`: 3347
     /// instructions keeping them, 3321 reading them again).
     pub reread: bool,
-    /// The test that the arguments whose finiteness the method tests only when a test fails
-    /// are finite ([`super::code::failure_return`]), if it has any.
-    pub deferred: Option<&'a TokenStream>,
 }
 
 /// What [`commit`] leaves to bind once the method is lowered: which entries the tests read,
@@ -218,7 +215,7 @@ pub fn commit(lowerer: &mut Lowerer, commit: &Commit<'_>, scalar: Scalar) -> Com
         .filter(|&(&v, _)| !sum_of(graph, v, commit.known_variances))
         .map(|(_, tokens)| tokens)
         .collect();
-    for test in divergence_tests(commit.probe, &tested, scalar, commit.deferred) {
+    for test in divergence_tests(commit.probe, &tested, scalar) {
         lowerer.statement(test);
     }
     let read_by_tests = slots.read_so_far(lowerer);

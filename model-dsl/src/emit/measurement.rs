@@ -6,7 +6,7 @@
 //! its own, under the prefix `akf_`).
 
 use crate::emit::arguments::Arguments;
-use crate::emit::code::{failure_return, guard_pivots, pivot_names, INNOVATION};
+use crate::emit::code::{guard_pivots, pivot_names, INNOVATION};
 use crate::emit::filter::{model_names, packed_vars, unclaimed_name, FilterLayout};
 use crate::emit::lower::{Lowerer, OpCount};
 use crate::emit::names::{ident, TempNamer};
@@ -216,10 +216,6 @@ pub struct Kept<'a> {
     /// prediction when the gate rejects an outlier, and the arguments before the innovation
     /// it is passed; `None` in an update, which keeps the estimate it had.
     pub keep_prediction: Option<(proc_macro2::Ident, Vec<TokenStream>)>,
-    /// The test that the arguments whose finiteness the method tests only when a test fails
-    /// are finite ([`crate::emit::code::failure_return`]), if it has any: the gate's
-    /// failure tells them apart before it stores anything.
-    pub deferred: Option<&'a TokenStream>,
 }
 
 /// Lowers what `kept` stores, last, where it holds no register while the update runs, and
@@ -249,24 +245,15 @@ pub fn store_and_gate(lowerer: &mut Lowerer, kept: &Kept<'_>) -> TokenStream {
         });
         let rejection = outlier_rejection(keep_prediction, &store);
         let gate = ident(&format!("{}gate", kept.gate_prefix));
-        let rejected_input = kept.deferred.map(|finite| {
-            quote! {
-                if !#finite {
-                    return Status::RejectedInput;
-                }
-            }
-        });
         quote! {
             if !stateforge_math::#ty::within_gate(#nis, self.#gate) {
-                #rejected_input
                 #rejection
             }
         }
     } else {
-        let failure = failure_return(&quote! { Status::Diverged }, kept.deferred);
         quote! {
             if !stateforge_math::#ty::within_gate(#nis, stateforge_math::#ty::DIVERGENCE_NIS) {
-                #failure
+                return Status::Diverged;
             }
         }
     };

@@ -650,67 +650,6 @@ impl Graph {
         self.reading(root, vars)[&root]
     }
 
-    /// For each variable of `vars`, whether one of `roots` is infinite or NaN whenever the
-    /// variable is, whatever the other variables are: it reaches the root through sums,
-    /// differences, products, negations, numerators, or a function that keeps a non-finite
-    /// argument non-finite (`sin`, `cos`, `tan`, `ln`, `sqrt`, `abs`: NaN or an infinity
-    /// out). In IEEE arithmetic an infinite or NaN operand of `+ - *` or a numerator gives
-    /// an infinity or NaN (`inf * 0` and `inf - inf` are NaN). Not through a denominator
-    /// (`1 / inf` is 0), `exp` (`exp(-inf)` is 0), `tanh`, `atan2`, or an `if` (a NaN
-    /// condition picks a branch). `defined` are variables that stand for a value (a
-    /// Jacobian's entry bound to a name), read through. A method whose tests fail on a
-    /// non-finite root tests such a variable only when a test fails.
-    pub fn carry_non_finite(
-        &self,
-        roots: &[NodeId],
-        vars: &[VarId],
-        defined: &[(VarId, NodeId)],
-    ) -> Vec<bool> {
-        vars.chunks(64)
-            .flat_map(|chunk| {
-                let carried = self.carried_non_finite(chunk, defined);
-                let any_root = roots.iter().fold(0, |all, r| all | carried[r.index()]);
-                (0..chunk.len()).map(move |i| any_root & (1 << i) != 0)
-            })
-            .collect()
-    }
-
-    /// For every node, the bits of the (up to 64) `vars` it is non-finite with (see
-    /// [`Graph::carry_non_finite`]). A definition may come after its variable, so the
-    /// passes repeat until nothing changes; each only adds bits.
-    fn carried_non_finite(&self, vars: &[VarId], defined: &[(VarId, NodeId)]) -> Vec<u64> {
-        let definitions: HashMap<VarId, NodeId> = defined.iter().copied().collect();
-        let mut carried = vec![0_u64; self.len()];
-        loop {
-            let mut changed = false;
-            for id in self.ids() {
-                let of = |operand: NodeId| carried[operand.index()];
-                let bits = match self.node(id) {
-                    Node::Var(v) => {
-                        let own = vars.iter().position(|&w| w == v).map_or(0, |i| 1 << i);
-                        own | definitions.get(&v).map_or(0, |&value| of(value))
-                    }
-                    Node::Num(_) | Node::Named(_) | Node::Atan2(..) | Node::Select { .. } => 0,
-                    Node::Neg(a) | Node::Div(a, _) => of(a),
-                    Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => of(a) | of(b),
-                    Node::Call(func, a) => match func {
-                        Func::Sin | Func::Cos | Func::Tan | Func::Ln | Func::Sqrt | Func::Abs => {
-                            of(a)
-                        }
-                        Func::Exp | Func::Tanh => 0,
-                    },
-                };
-                if bits != carried[id.index()] {
-                    carried[id.index()] = bits;
-                    changed = true;
-                }
-            }
-            if !changed {
-                return carried;
-            }
-        }
-    }
-
     /// For `root` and each node it depends on, whether it reads any of `vars`.
     fn reading(&self, root: NodeId, vars: &[VarId]) -> HashMap<NodeId, bool> {
         let mut reads: HashMap<NodeId, bool> = HashMap::new();
@@ -827,45 +766,6 @@ pub fn loop_invariant_operands(g: &Graph, roots: &[NodeId], loop_vars: &[NodeId]
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn non_finite_variables_are_carried_through_arithmetic_not_through_denominators_or_switches() {
-        let mut g = Graph::new();
-        let (u, x) = (g.var("u"), g.var("x"));
-        let (Node::Var(u_var), Node::Var(x_var)) = (g.node(u), g.node(x)) else {
-            unreachable!("variables")
-        };
-        let carries = |g: &Graph, root: NodeId| g.carry_non_finite(&[root], &[u_var, x_var], &[]);
-        let ux = g.mul(u, x);
-        let sum = g.add(ux, x);
-        let sine = g.call(Func::Sin, sum);
-        let root = g.sub(sine, x);
-        assert_eq!(carries(&g, root), [true, true]);
-        let one = g.one();
-        let reciprocal = g.div(one, u);
-        assert_eq!(carries(&g, reciprocal), [false, false]);
-        let quotient = g.div(u, x);
-        assert_eq!(carries(&g, quotient), [true, false]);
-        let exp = g.call(Func::Exp, u);
-        assert_eq!(carries(&g, exp), [false, false]);
-        let zero = g.zero();
-        let switch = g.select(Comparison::Gt, u, zero, one, x);
-        assert_eq!(carries(&g, switch), [false, false]);
-        let angle = g.atan2(u, x);
-        assert_eq!(carries(&g, angle), [false, false]);
-        // Through a named value defined after the variable that names it, and over two
-        // roots: each variable is carried by one of them.
-        let a = g.var("a");
-        let Node::Var(a_var) = g.node(a) else {
-            unreachable!("a variable")
-        };
-        let scaled = g.mul(a, x);
-        let defined_as = g.add(u, one);
-        let through = g.carry_non_finite(&[scaled], &[u_var], &[(a_var, defined_as)]);
-        assert_eq!(through, [true]);
-        let both = g.carry_non_finite(&[reciprocal, quotient], &[u_var, x_var], &[]);
-        assert_eq!(both, [true, false]);
-    }
 
     #[test]
     fn double_angles_are_written_with_the_sine_and_cosine_of_the_angle() {

@@ -675,7 +675,6 @@ impl<'a> StepLowering<'a> {
             gated: self.gate.is_some(),
             gate_prefix: "",
             keep_prediction: Some((stage.filter.keeper(), stage.prediction_args.clone())),
-            deferred: None,
         };
         measurement::store_and_gate(lowerer, &kept)
     }

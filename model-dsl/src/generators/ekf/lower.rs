@@ -6,7 +6,7 @@
 use super::spec::EkfSpec;
 use crate::emit::arguments::Arguments;
 use crate::emit::code::{
-    failure_return, guard_pivots, innovation_pivot_status, pivot_names, var_idents, INNOVATION,
+    guard_pivots, innovation_pivot_failure, pivot_names, var_idents, INNOVATION,
 };
 use crate::emit::filter::{
     correction_reads_input, finiteness_probe_of_changes, interleaved_finiteness_probe, model_names,
@@ -15,12 +15,12 @@ use crate::emit::filter::{
 use crate::emit::in_place::{self, CovarianceSlots};
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::measurement;
-use crate::emit::names::{clear_of, ident, TempNamer};
+use crate::emit::names::{ident, TempNamer};
 use crate::emit::sensors;
 use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
 use crate::symbolic::linalg::{packed_upper, symmetric_from_packed, Coefficients, Matrix};
-use crate::symbolic::{ModelGraph, Node, NodeId, VarId};
+use crate::symbolic::{ModelGraph, NodeId, VarId};
 use proc_macro2::TokenStream;
 use quote::quote;
 use std::collections::BTreeSet;
@@ -358,17 +358,11 @@ fn method(
     spec: &EkfSpec,
 ) -> (TokenStream, OpCount) {
     let mut nodes = EkfNodes::build(model, mg, kind, spec);
-    let LoweredMethod {
-        body,
-        used_vars,
-        ops,
-        tested_on_failure,
-    } = lower(&mut nodes, model, scalar, kind);
+    let (body, used_vars, ops) = lower(&mut nodes, model, scalar, kind);
     let ty = ident(scalar.type_name());
     let graph = &nodes.g.graph;
     let reads_input = correction_reads_input(graph, &nodes.g.u, kind.predicts(), &used_vars);
-    let mut arguments = arguments(&nodes, model, kind, (&used_vars, reads_input), &ty);
-    arguments.test_on_failure(&tested_on_failure);
+    let arguments = arguments(&nodes, model, kind, (&used_vars, reads_input), &ty);
     let (name, mut doc) = kind.name_and_doc(model, spec);
     if reads_input {
         doc.push_str(MEASUREMENT_INPUT_DOC);
@@ -541,140 +535,25 @@ fn divergence_probe(nodes: &mut EkfNodes, kind: EkfMethod) -> NodeId {
     }
 }
 
-/// The method's arguments it tests for finiteness only where a test fails.
-struct ArgumentTest {
-    /// Their variables, which the test made before anything is computed leaves out.
-    vars: Vec<proc_macro2::Ident>,
-    /// The test a failure makes of them, if any.
-    test: Option<TokenStream>,
-    /// `let y_argument = y;`: the arguments the model's own names hide later in the body,
-    /// bound first under names of their own.
-    aliases: Vec<TokenStream>,
-}
-
-/// The method's arguments it tests for finiteness only where a test fails: those that make
-/// the divergence probe or the normalised innovation squared non-finite whenever they are
-/// not finite (`Graph::carry_non_finite`), so that a non-finite one always fails a test
-/// before anything is stored. The measurement always does (`y` enters the innovation and
-/// its normalised square); an input does where it enters the new estimate through
-/// arithmetic. A failure tests an array argument's bits, read again where the caller keeps
-/// them (`entries_finite(u_prev)`), so that no register holds them on the usual path (the
-/// cantilever's EKF step: 182 instructions, 187 testing the values it read; the navigation
-/// EKF's GNSS update 5428, 5574 testing values).
-fn argument_test(
-    nodes: &EkfNodes,
-    probe: NodeId,
-    kind: EkfMethod,
-    ty: &proc_macro2::Ident,
-) -> ArgumentTest {
-    let graph = &nodes.g.graph;
-    let var_of = |node: NodeId| match graph.node(node) {
-        Node::Var(v) => Some(v),
-        _ => None,
-    };
-    let defined: Vec<(VarId, NodeId)> = nodes
-        .coefficients
-        .definitions
-        .iter()
-        .filter_map(|&(var, value)| Some((var_of(var)?, value)))
-        .collect();
-    let roots: Vec<NodeId> = std::iter::once(probe).chain(nodes.nis).collect();
-    let taken = |name: &str| nodes.avoid.iter().any(|a| a == name);
-    let mut deferred = ArgumentTest {
-        vars: Vec::new(),
-        test: None,
-        aliases: Vec::new(),
-    };
-    let mut tests = Vec::new();
-    for (vars, (name, scalar)) in argument_groups(nodes, kind) {
-        let vars: Vec<VarId> = vars.iter().filter_map(|&n| var_of(n)).collect();
-        let carried = graph.carry_non_finite(&roots, &vars, &defined);
-        if !carried.contains(&true) {
-            continue;
-        }
-        let bound: Vec<proc_macro2::Ident> = vars
-            .iter()
-            .map(|&v| ident(&graph.var_info(v).name))
-            .collect();
-        let carried_names = bound.iter().zip(&carried).filter(|&(_, &c)| c);
-        deferred.vars.extend(carried_names.map(|(b, _)| b.clone()));
-        let argument = if bound.iter().any(|b| *b == name) {
-            // Its own entry's name hides it from the start (a correction's input `u`).
-            quote! { &[#(#bound),*] }
-        } else {
-            let mut reference = ident(name);
-            if taken(name) {
-                let alias = ident(&clear_of(&format!("{name}_argument"), taken));
-                deferred.aliases.push(quote! { let #alias = #reference; });
-                reference = alias;
-            }
-            if scalar {
-                quote! { &[#reference] }
-            } else {
-                quote! { #reference }
-            }
-        };
-        tests.push(quote! { stateforge_math::#ty::entries_finite(#argument) });
-    }
-    deferred.test = (!tests.is_empty()).then(|| match tests.as_slice() {
-        [one] => one.clone(),
-        _ => quote! { (#(#tests)&&*) },
-    });
-    deferred
-}
-
-/// The method's arguments a failure may test (see [`argument_test`]), each with the
-/// variables it binds, its name and whether it is a scalar: the input (`u_prev` of a
-/// prediction, `u` of a correction that reads it), the measurement (a scalar for one output
-/// alone), and the times, each once (`predict`'s `t_prev` is the model's `t`; a correction
-/// takes `t` unless a step knows the measurement's time).
-fn argument_groups(nodes: &EkfNodes, kind: EkfMethod) -> Vec<(Vec<NodeId>, (&str, bool))> {
-    let input = if kind.predicts() { "u_prev" } else { "u" };
-    let mut groups = vec![(nodes.g.u.clone(), (input, false))];
-    match kind {
-        EkfMethod::Predict => {}
-        EkfMethod::UpdateOutput(_) => groups.push((nodes.vars.y.clone(), ("y", true))),
-        _ => groups.push((nodes.vars.y.clone(), ("y", false))),
-    }
-    groups.extend(nodes.t_prev.map(|t| (vec![t], ("t_prev", true))));
-    if kind.updates() && nodes.t_measured.is_none() && nodes.t_prev != Some(nodes.g.t) {
-        groups.push((vec![nodes.g.t], ("t", true)));
-    }
-    groups
-}
-
-/// An EKF method lowered: its statements, the variables they read, their arithmetic, and
-/// the arguments it tests for finiteness only where a test fails ([`argument_test`]).
-struct LoweredMethod {
-    body: TokenStream,
-    used_vars: BTreeSet<VarId>,
-    ops: OpCount,
-    tested_on_failure: Vec<proc_macro2::Ident>,
-}
-
-/// Everything the method computes: the new estimate and covariance, the probe, the
-/// pivots, what the correction stores and the NIS.
-fn roots(nodes: &EkfNodes, probe: NodeId, p_packed: &[NodeId]) -> Vec<NodeId> {
-    let mut roots: Vec<NodeId> = nodes.x.iter().chain(p_packed).copied().collect();
-    roots.push(probe);
-    roots.extend(&nodes.pivots);
-    roots.extend(&nodes.innovation);
-    roots.extend(&nodes.innovation_covariance);
-    roots.extend(nodes.nis);
-    roots
-}
-
 /// Lowers an EKF method: its statements, ending in the commit of the new estimate (with
-/// the innovation when it stores one).
-fn lower(nodes: &mut EkfNodes, model: &Model, scalar: Scalar, kind: EkfMethod) -> LoweredMethod {
+/// the innovation when it stores one), the variables they read, and their arithmetic.
+fn lower(
+    nodes: &mut EkfNodes,
+    model: &Model,
+    scalar: Scalar,
+    kind: EkfMethod,
+) -> (TokenStream, BTreeSet<VarId>, OpCount) {
     let probe = divergence_probe(nodes, kind);
-    let ty = ident(scalar.type_name());
-    let argument_test = argument_test(nodes, probe, kind, &ty);
-    let deferred = argument_test.test.as_ref();
     let p_packed = packed_upper(&nodes.p);
+    let mut all_roots: Vec<NodeId> = nodes.x.iter().chain(&p_packed).copied().collect();
+    all_roots.push(probe);
+    all_roots.extend(&nodes.pivots);
+    all_roots.extend(&nodes.innovation);
+    all_roots.extend(&nodes.innovation_covariance);
+    all_roots.extend(nodes.nis);
     let (g, vars) = (&nodes.g, &nodes.vars);
     let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
-    let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &roots(nodes, probe, &p_packed));
+    let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
     lowerer.read_lazily(&quote! { self.x }, &g.x);
     // A covariance the registers hold is read once (see `Commit::reread`).
     let reread = vars.p.len() > crate::emit::registers::FPU_REGISTERS;
@@ -692,7 +571,7 @@ fn lower(nodes: &mut EkfNodes, model: &Model, scalar: Scalar, kind: EkfMethod) -
         &nodes.pivots,
         &nodes.reciprocals,
         (INNOVATION, ""),
-        &|pivot| failure_return(&innovation_pivot_status(pivot), deferred),
+        &innovation_pivot_failure,
         scalar,
     );
     let sensor = kind.sensor(model);
@@ -712,7 +591,6 @@ fn lower(nodes: &mut EkfNodes, model: &Model, scalar: Scalar, kind: EkfMethod) -
         gate_prefix: &prefix,
         keep_prediction: (kind == EkfMethod::Step)
             .then(|| measurement::keep_prediction_call(model)),
-        deferred,
     };
     let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
     let variances = nodes.vars.variances(model.state_len());
@@ -726,7 +604,6 @@ fn lower(nodes: &mut EkfNodes, model: &Model, scalar: Scalar, kind: EkfMethod) -
         known_variances: &variances,
         avoid: &nodes.avoid,
         reread,
-        deferred,
     };
     let committed = in_place::commit(&mut lowerer, &commit, scalar);
     let Lowered {
@@ -736,13 +613,7 @@ fn lower(nodes: &mut EkfNodes, model: &Model, scalar: Scalar, kind: EkfMethod) -
     } = in_place::finish(lowerer, &slots, &committed);
     let tail = quote! { #store_innovation Status::Ok };
     let statements = crate::emit::scopes::scoped(statements, &tail);
-    let aliases = &argument_test.aliases;
-    LoweredMethod {
-        body: quote! { #(#aliases)* #(#statements)* #tail },
-        used_vars,
-        ops,
-        tested_on_failure: argument_test.vars,
-    }
+    (quote! { #(#statements)* #tail }, used_vars, ops)
 }
 
 /// The method's arguments: the times where the model reads `t` (the previous sample's

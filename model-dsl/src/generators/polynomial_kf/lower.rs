@@ -518,7 +518,6 @@ fn recursive_step(
         gated: spec.gate.is_some(),
         gate_prefix: "",
         keep_prediction: Some(measurement::keep_prediction_call(model)),
-        deferred: None,
     };
     let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
     let Lowered {
