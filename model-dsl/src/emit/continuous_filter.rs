@@ -351,6 +351,44 @@ struct MethodNodes {
     coefficients: Coefficients,
 }
 
+/// The time the method's model starts from: the model's `t` where it reads none or in an
+/// update; `predict`'s previous sample's time, under the name `t_prev`; a variable of its
+/// own, `t_prev`, in a step (whose update is at another time) and the continuous-time EKF
+/// (whose running time is).
+fn start_time(g: &mut ModelGraph, model: &Model, kind: FilterMethod) -> NodeId {
+    match kind {
+        _ if !model.uses_time() => g.t,
+        FilterMethod::Predict | FilterMethod::ContinuousPredict { .. } => g.name_time("t_prev"),
+        FilterMethod::Step | FilterMethod::Continuous { .. } => g.graph.var("t_prev"),
+        FilterMethod::Update => g.t,
+    }
+}
+
+/// The covariance a loop of Euler sub-steps (`scaled`, with the sub-step `h`) carries:
+/// scaled (`D P D`, [`Scaling::for_unit_couplings`]) where the sub-step is a known constant
+/// and a scaling is taken, with the loop's variables `ps..` and their initial values from
+/// `P`; else `P`'s own variables (`p`, packed) for both.
+fn loop_covariance(
+    g: &mut ModelGraph,
+    (scaled, h): (bool, NodeId),
+    jacobian: &Matrix,
+    p: &[NodeId],
+    avoid: &[String],
+) -> (Option<Scaling>, Vec<NodeId>, Vec<NodeId>) {
+    let scaling = scaled
+        .then(|| g.graph.constant_value(h))
+        .flatten()
+        .and_then(|h| Scaling::for_unit_couplings(&g.graph, jacobian, h));
+    let Some(scaling) = scaling else {
+        return (None, p.to_vec(), p.to_vec());
+    };
+    let n = jacobian.len();
+    let full = symmetric_from_packed(p, n);
+    let initial = packed_upper(&scaling.apply(&mut g.graph, &full, 1));
+    let p_loop = packed_vars(&mut g.graph, "ps", n, avoid);
+    (Some(scaling), p_loop, initial)
+}
+
 impl MethodNodes {
     /// Declares the method's variables, then integrates and/or updates as `kind` asks.
     fn build(
@@ -371,33 +409,16 @@ impl MethodNodes {
         let dt = g
             .sample_time(model)
             .expect("continuous dynamics state their sample time");
-        let t_start = match kind {
-            _ if !model.uses_time() => g.t,
-            // `predict` evaluates the model from one time, the previous sample's.
-            FilterMethod::Predict | FilterMethod::ContinuousPredict { .. } => g.name_time("t_prev"),
-            // A step's update and the continuous-time EKF's running time are at other
-            // times than the start: it is a variable of its own.
-            FilterMethod::Step | FilterMethod::Continuous { .. } => g.graph.var("t_prev"),
-            FilterMethod::Update => g.t,
-        };
+        let t_start = start_time(&mut g, model, kind);
         let t_measured = (kind.predicts() && kind.updates() && model.uses_time())
             .then(|| g.graph.add(t_start, dt));
         let t_sub = g.graph.var(T_SUB);
         let dynamics = Dynamics::new(&mut g, model, kind, &vars, t_sub, &avoid);
         let coefficients = Coefficients::new(&avoid);
         let looped = kind.predicts() && substeps > 1;
-        let scaling = (looped && rule == Method::Euler)
-            .then(|| g.graph.constant_value(h))
-            .flatten()
-            .and_then(|h| Scaling::for_unit_couplings(&g.graph, &dynamics.jacobian, h));
-        let (p_loop, p_initial) = match &scaling {
-            Some(scaling) => {
-                let p = symmetric_from_packed(&vars.p, n);
-                let initial = packed_upper(&scaling.apply(&mut g.graph, &p, 1));
-                (packed_vars(&mut g.graph, "ps", n, &avoid), initial)
-            }
-            None => (vars.p.clone(), vars.p.clone()),
-        };
+        let scaled = looped && rule == Method::Euler;
+        let (scaling, p_loop, p_initial) =
+            loop_covariance(&mut g, (scaled, h), &dynamics.jacobian, &vars.p, &avoid);
         let mut nodes = MethodNodes {
             x: g.x.clone(),
             p: symmetric_from_packed(&vars.p, n),
