@@ -1031,6 +1031,16 @@ fn with_fix(message: &str, at: &str) -> String {
             .collect();
         return format!("duplicate key `{key}`: a table gives each key once; remove or rename one");
     }
+    if message == "floating-point number overflowed" {
+        let written: String = at
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '+' | '-' | '_'))
+            .collect();
+        return format!(
+            "`{written}` is beyond the largest number a model can hold (about 1.8e308 in f64, \
+             3.4e38 in f32): every number must be finite; rescale the model's units"
+        );
+    }
     if message.ends_with("expected a string") {
         return format!("{message}: write it in quotes, `\"...\"`");
     }

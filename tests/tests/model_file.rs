@@ -207,6 +207,12 @@ fn model_file_numbers_must_be_finite_in_the_scalar_type() {
     assert!(errors_of(&file("nan")).contains("finite"));
     assert!(errors_of(&file("inf")).contains("finite"));
     assert!(errors_of(&file("1e300")).contains("overflows in f32"));
+    // Beyond f64 TOML itself cannot read it; the error says which number and what to do.
+    assert_error(
+        &file("-1e400"),
+        "5:9: model file: `-1e400` is beyond the largest number a model can hold (about \
+         1.8e308 in f64, 3.4e38 in f32): every number must be finite; rescale the model's units",
+    );
     assert!(errors_of(&file("\"1 / 0\"")).contains("division by zero"));
     // TOML's own `nan` as an equation.
     let equation = small_model("m", "", "x").replace("x = \"x\"", "x = nan");
