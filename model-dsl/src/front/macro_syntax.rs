@@ -23,6 +23,7 @@ use crate::ast::{
 use crate::diagnostics::Diagnostics;
 use proc_macro2::{Span, TokenStream};
 use quote::ToTokens;
+use syn::buffer::Cursor;
 use syn::parse::{Parse, ParseStream, Parser};
 use syn::spanned::Spanned;
 use syn::{braced, parenthesized, Attribute, Expr, Ident, Token};
@@ -107,14 +108,14 @@ fn parse_item(input: ParseStream, decl: &mut ModelDecl, diag: &mut Diagnostics) 
         let outputs = parse_outputs(input, &docs, diag)?;
         decl.outputs.extend(outputs);
     } else if look.peek(kw::sensor) {
-        let sensor = parse_sensor(input, docs)?;
+        let sensor = parse_sensor(input, docs, diag)?;
         decl.sensors.push(sensor);
     } else if look.peek(kw::dynamics) {
         let dynamics = parse_dynamics(input, diag)?;
         decl.dynamics.push(dynamics);
     } else if look.peek(kw::generate) {
         input.parse::<kw::generate>()?;
-        let items = input.parse_terminated_until_semi(parse_generate_item)?;
+        let items = input.parse_terminated_until_semi(parse_generate_item, diag)?;
         decl.generate.extend(items);
     } else {
         return Err(look.error());
@@ -129,7 +130,7 @@ fn parse_scalar(
     diag: &mut Diagnostics,
 ) -> syn::Result<()> {
     let keyword = input.parse::<kw::scalar>()?;
-    let types = input.parse_terminated_until_semi(|i| i.parse::<Ident>())?;
+    let types = input.parse_terminated_until_semi(|i| i.parse::<Ident>(), diag)?;
     if types.is_empty() {
         return Err(syn::Error::new(
             keyword.span,
@@ -149,11 +150,12 @@ fn parse_const(
     docs: Vec<String>,
     diag: &mut Diagnostics,
 ) -> syn::Result<ConstDecl> {
+    let start = input.cursor();
     input.parse::<Token![const]>()?;
     let ident: Ident = input.parse()?;
     input.parse::<Token![=]>()?;
     let value = expr(&input.parse()?, diag);
-    input.parse::<Token![;]>()?;
+    end_with_semi(input, start, &ITEM, diag)?;
     Ok(ConstDecl {
         docs,
         name: name(&ident),
@@ -178,10 +180,13 @@ fn parse_symbols(
         input.parse::<kw::input>()?;
         SymbolKind::Input
     };
-    let entries = input.parse_terminated_until_semi(|i| {
-        let own = Attribute::parse_outer(i)?;
-        Ok((own, i.parse::<Ident>()?))
-    })?;
+    let entries = input.parse_terminated_until_semi(
+        |i| {
+            let own = Attribute::parse_outer(i)?;
+            Ok((own, i.parse::<Ident>()?))
+        },
+        diag,
+    )?;
     let symbols = entries.into_iter().map(|(own, ident)| {
         let own = self::docs(&own, diag);
         SymbolDecl {
@@ -200,12 +205,15 @@ fn parse_outputs(
     diag: &mut Diagnostics,
 ) -> syn::Result<Vec<OutputDecl>> {
     input.parse::<kw::output>()?;
-    let entries = input.parse_terminated_until_semi(|i| {
-        let own = Attribute::parse_outer(i)?;
-        let ident: Ident = i.parse()?;
-        i.parse::<Token![=]>()?;
-        Ok((own, ident, i.parse::<Expr>()?))
-    })?;
+    let entries = input.parse_terminated_until_semi(
+        |i| {
+            let own = Attribute::parse_outer(i)?;
+            let ident: Ident = i.parse()?;
+            i.parse::<Token![=]>()?;
+            Ok((own, ident, i.parse::<Expr>()?))
+        },
+        diag,
+    )?;
     let outputs = entries.into_iter().map(|(own, ident, value)| {
         let own = self::docs(&own, diag);
         OutputDecl {
@@ -218,14 +226,19 @@ fn parse_outputs(
 }
 
 /// `sensor gnss = [gnss_pn, gnss_pe];`: outputs measured together, by name.
-fn parse_sensor(input: ParseStream, docs: Vec<String>) -> syn::Result<SensorDecl> {
+fn parse_sensor(
+    input: ParseStream,
+    docs: Vec<String>,
+    diag: &mut Diagnostics,
+) -> syn::Result<SensorDecl> {
+    let start = input.cursor();
     input.parse::<kw::sensor>()?;
     let sensor = name(&input.parse::<Ident>()?);
     input.parse::<Token![=]>()?;
     let content;
     syn::bracketed!(content in input);
     let outputs = content.parse_terminated(Ident::parse, Token![,])?;
-    input.parse::<Token![;]>()?;
+    end_with_semi(input, start, &ITEM, diag)?;
     Ok(SensorDecl {
         docs,
         name: sensor,
@@ -370,6 +383,7 @@ fn parse_dynamics_kind(input: ParseStream, diag: &mut Diagnostics) -> syn::Resul
 }
 
 fn parse_statement(input: ParseStream, diag: &mut Diagnostics) -> syn::Result<Statement> {
+    let start = input.cursor();
     for attr in Attribute::parse_outer(input)? {
         diag.error(
             attr.span(),
@@ -401,7 +415,7 @@ fn parse_statement(input: ParseStream, diag: &mut Diagnostics) -> syn::Result<St
             value: expr(&input.parse()?, diag),
         }
     };
-    input.parse::<Token![;]>()?;
+    end_with_semi(input, start, &STATEMENT, diag)?;
     Ok(statement)
 }
 
@@ -410,6 +424,7 @@ trait UntilSemi {
     fn parse_terminated_until_semi<T>(
         &self,
         entry: impl FnMut(ParseStream) -> syn::Result<T>,
+        diag: &mut Diagnostics,
     ) -> syn::Result<Vec<T>>;
 }
 
@@ -417,7 +432,9 @@ impl UntilSemi for ParseStream<'_> {
     fn parse_terminated_until_semi<T>(
         &self,
         mut entry: impl FnMut(ParseStream) -> syn::Result<T>,
+        diag: &mut Diagnostics,
     ) -> syn::Result<Vec<T>> {
+        let start = self.cursor();
         let mut entries = vec![entry(self)?];
         while self.parse::<Option<Token![,]>>()?.is_some() {
             if self.peek(Token![;]) {
@@ -425,9 +442,98 @@ impl UntilSemi for ParseStream<'_> {
             }
             entries.push(entry(self)?);
         }
-        self.parse::<Token![;]>()?;
+        end_with_semi(self, start, &LIST, diag)?;
         Ok(entries)
     }
+}
+
+/// What a `;` ends, for the messages when it is missing.
+struct Ending {
+    /// When only the `;` is missing: the message under the last token before it.
+    missing: &'static str,
+    /// When something else is wrong: the message under the unexpected token.
+    unexpected: &'static str,
+    /// Whether the tokens ahead begin the next one, so that only the `;` is missing.
+    starts_next: fn(ParseStream) -> bool,
+}
+
+/// A declaration's tokens end here: the next is a declaration's keyword, a doc comment,
+/// or the end of the model.
+fn starts_item(input: ParseStream) -> bool {
+    input.is_empty()
+        || input.peek(Token![#])
+        || input.peek(Token![const])
+        || input.peek(kw::scalar)
+        || input.peek(kw::state)
+        || input.peek(kw::param)
+        || input.peek(kw::input)
+        || input.peek(kw::known)
+        || input.peek(kw::output)
+        || input.peek(kw::sensor)
+        || input.peek(kw::dynamics)
+        || input.peek(kw::generate)
+}
+
+const ITEM: Ending = Ending {
+    missing: "expected `;` after this: each declaration in a model ends with `;`",
+    unexpected: "expected `;` here, to end the declaration",
+    starts_next: starts_item,
+};
+
+const LIST: Ending = Ending {
+    missing: ITEM.missing,
+    unexpected: "expected `,` between two entries, or `;` to end the declaration",
+    starts_next: starts_item,
+};
+
+const STATEMENT: Ending = Ending {
+    missing: "expected `;` after this: each equation in `dynamics` ends with `;`",
+    unexpected: "expected an operator, or `;` to end the equation",
+    starts_next: |input| {
+        input.is_empty()
+            || input.peek(Token![#])
+            || input.peek(Token![let])
+            || (input.peek(kw::der) && input.peek2(syn::token::Paren))
+            || (input.peek(Ident) && input.peek2(Token![=]))
+    },
+};
+
+/// The `;` that ends what was parsed from `start`. `syn` reports a missing one at the
+/// token after it, which is the next declaration, a line below the mistake; this reports
+/// it under the last token before it, as rustc does. When the next declaration follows, only
+/// the `;` is missing: the error is recorded and the parse goes on, so the mistakes after
+/// it are reported in the same compile. Anything else stays `syn`'s error where it is.
+fn end_with_semi(
+    input: ParseStream,
+    start: Cursor,
+    ending: &Ending,
+    diag: &mut Diagnostics,
+) -> syn::Result<()> {
+    if input.parse::<Option<Token![;]>>()?.is_some() {
+        return Ok(());
+    }
+    if !(ending.starts_next)(input) {
+        return Err(input.error(ending.unexpected));
+    }
+    let last = last_span(start, input.cursor()).unwrap_or_else(|| input.span());
+    diag.error(last, ending.missing);
+    Ok(())
+}
+
+/// The span of the last token from `start` up to `end`, two cursors in one stream (a
+/// group's closing delimiter for a group).
+fn last_span(start: Cursor, end: Cursor) -> Option<Span> {
+    let mut last = None;
+    let mut at = start;
+    while at != end {
+        let (tree, next) = at.token_tree()?;
+        last = Some(match tree {
+            proc_macro2::TokenTree::Group(group) => group.span_close(),
+            other => other.span(),
+        });
+        at = next;
+    }
+    last
 }
 
 fn name(ident: &Ident) -> Name {
