@@ -9,6 +9,7 @@
 #![forbid(unsafe_code)]
 
 mod expression_places;
+mod expression_text;
 pub mod meval_text;
 pub mod model_file;
 mod toml_hints;

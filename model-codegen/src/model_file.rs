@@ -31,15 +31,15 @@
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
 
 use crate::expression_places;
+pub use crate::expression_text::comparison_of;
+use crate::expression_text::parse_expression;
 use crate::toml_hints;
-use meval::tokenizer::{Operation, Token};
 use proc_macro2::{Span, TokenStream};
 use serde::de::{Deserializer, IgnoredAny, MapAccess, SeqAccess, Unexpected, Visitor};
 use serde::Deserialize;
 use stateforge_compiler::ast::{
-    ArgValue, BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg,
-    GenerateDecl, ModelDecl, Name, OutputDecl, SensorDecl, Statement, SurfaceExpr, SurfaceKind,
-    SymbolDecl, SymbolKind,
+    ArgValue, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg, GenerateDecl, ModelDecl, Name,
+    OutputDecl, SensorDecl, Statement, SurfaceExpr, SurfaceKind, SymbolDecl, SymbolKind,
 };
 use stateforge_compiler::diagnostics::Diagnostics;
 use std::fmt;
@@ -443,20 +443,60 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
         let at = e.span().and_then(|r| source.get(r.start..)).unwrap_or("");
         syn::Error::new(span, format!("model file: {}", with_fix(e.message(), at)))
     })?;
-    let mut diag = Diagnostics::default();
-    let top = places.at(0);
-    let name = |field: &Spanned<String>| Name {
-        text: field.get_ref().clone(),
-        span: places.inside(source, field),
+    let mut reader = Reader {
+        source,
+        places,
+        diag: Diagnostics::default(),
     };
-    let docs = |doc: &str| -> Vec<String> {
-        doc.lines()
-            .filter(|_| !doc.is_empty())
-            .map(|l| format!(" {l}"))
-            .collect()
+    // Fields in the order the macro's grammar reads them, which is the order of the errors.
+    let decl = ModelDecl {
+        docs: docs(&file.doc),
+        vis: file.visibility.tokens(),
+        name: reader.name(&file.name),
+        scalars: reader.scalars(&file.scalar),
+        span: reader.places.at(0),
+        constants: reader.constants(&file.constants),
+        symbols: reader.symbols(&file),
+        outputs: reader.outputs(&file.outputs),
+        sensors: reader.sensors(&file.sensors),
+        dynamics: file.dynamics.iter().map(|d| reader.dynamics(d)).collect(),
+        generate: generate_items(
+            file.generate.as_ref(),
+            source,
+            &reader.places,
+            &mut reader.diag,
+        ),
     };
-    let expr = |value: &Spanned<Value>, field: &str, diag: &mut Diagnostics| {
-        let span = places.of_field(value);
+    Ok((decl, reader.diag))
+}
+
+/// The lines of a `doc` field, each led by a space as a `///` comment's are.
+fn docs(doc: &str) -> Vec<String> {
+    doc.lines()
+        .filter(|_| !doc.is_empty())
+        .map(|l| format!(" {l}"))
+        .collect()
+}
+
+/// A model file read into the declarations of a [`ModelDecl`], its mistakes collected.
+struct Reader<'a> {
+    source: &'a str,
+    places: Places,
+    diag: Diagnostics,
+}
+
+impl Reader<'_> {
+    /// A name, placed inside its quotes.
+    fn name(&self, field: &Spanned<String>) -> Name {
+        Name {
+            text: field.get_ref().clone(),
+            span: self.places.inside(self.source, field),
+        }
+    }
+
+    /// A number, or an expression in a string, each token placed where it is written.
+    fn expr(&mut self, value: &Spanned<Value>, field: &str) -> SurfaceExpr {
+        let span = self.places.of_field(value);
         match value.get_ref() {
             Value::Number(v) => SurfaceExpr {
                 kind: SurfaceKind::Number(*v),
@@ -465,399 +505,134 @@ pub fn parse_model_file(source: &str) -> syn::Result<(ModelDecl, Diagnostics)> {
             Value::Text(text) => {
                 // Byte `i` of the expression is at `offsets[i]` in the string's source text.
                 let start = value.span().start;
-                let offsets = source
+                let offsets = self
+                    .source
                     .get(value.span())
                     .and_then(|raw| expression_places::string_offsets(raw, text));
+                let places = &self.places;
                 let at = |i: usize| {
                     offsets
                         .as_ref()
                         .and_then(|o| o.get(i))
                         .map_or(span, |o| places.at(start + o))
                 };
-                parse_expression(text, field, &at, diag)
+                parse_expression(text, field, &at, &mut self.diag)
             }
         }
-    };
+    }
 
-    let vis = file.visibility.tokens();
-    let scalar_span = places.of_field(&file.scalar);
-    let scalar_name = |text: &String| Name {
-        text: text.clone(),
-        span: scalar_span,
-    };
-    let scalars = match file.scalar.get_ref() {
-        OneOrMany::One(s) => vec![scalar_name(s)],
-        OneOrMany::Many(list) => list.iter().map(scalar_name).collect(),
-    };
-    let constants = file
-        .constants
-        .iter()
-        .map(|c| ConstDecl {
-            docs: docs(&c.doc),
-            name: name(&c.name),
-            value: expr(
-                &c.value,
-                &format!("const `{}`", c.name.get_ref()),
-                &mut diag,
-            ),
-        })
-        .collect();
-    let symbols = [
-        (&file.states, SymbolKind::State),
-        (&file.params, SymbolKind::Param),
-        (&file.inputs, SymbolKind::Input),
-        (&file.known, SymbolKind::Known),
-    ]
-    .into_iter()
-    .flat_map(|(list, kind)| {
-        list.iter().map(move |s| SymbolDecl {
-            docs: docs(&s.doc),
-            name: name(&s.name),
-            kind,
-        })
-    })
-    .collect();
-    let outputs = file
-        .outputs
-        .iter()
-        .map(|o| OutputDecl {
-            docs: docs(&o.doc),
-            name: name(&o.name),
-            expr: expr(
-                &o.value,
-                &format!("output `{}`", o.name.get_ref()),
-                &mut diag,
-            ),
-        })
-        .collect();
-    let sensors = file
-        .sensors
-        .iter()
-        .map(|s| SensorDecl {
-            docs: docs(&s.doc),
-            name: name(&s.name),
-            outputs: s.outputs.iter().map(name).collect(),
-        })
-        .collect();
-    let dynamics = file
-        .dynamics
-        .iter()
-        .map(|d| {
-            let kind_span = places.of_field(&d.kind);
-            let kind = match d.kind.get_ref().as_str() {
-                "discrete" => DynamicsKind::Discrete,
-                "continuous" => DynamicsKind::Continuous {
-                    method: d.method.as_ref().map(name),
-                    dt: d.dt.as_ref().map(|v| expr(v, "dynamics.dt", &mut diag)),
-                    substeps: d
-                        .substeps
-                        .as_ref()
-                        .map(|n| (n.get_ref().0, places.of_field(n))),
-                },
-                other => {
-                    diag.error(
-                        kind_span,
-                        format!("dynamics.kind: `{other}` is neither `discrete` nor `continuous`"),
-                    );
-                    DynamicsKind::Discrete
-                }
-            };
-            let derivative = matches!(kind, DynamicsKind::Continuous { .. });
-            let lets = d.lets.iter().map(|l| Statement::Let {
-                name: name(&l.name),
-                value: expr(
-                    &l.value,
-                    &format!("dynamics.let `{}`", l.name.get_ref()),
-                    &mut diag,
-                ),
-            });
-            let mut statements: Vec<Statement> = lets.collect();
-            statements.extend(
-                d.equations
-                    .iter()
-                    .map(|(state, value)| Statement::Equation {
-                        target: name(state),
-                        derivative,
-                        value: expr(
-                            value,
-                            &format!("dynamics.equations.{}", state.get_ref()),
-                            &mut diag,
-                        ),
-                    }),
-            );
-            DynamicsDecl {
-                span: kind_span,
+    /// `scalar = "f32"` or `scalar = ["f32", "f64"]`, each placed at the field.
+    fn scalars(&self, scalar: &Spanned<OneOrMany>) -> Vec<Name> {
+        let span = self.places.of_field(scalar);
+        let scalar_name = |text: &String| Name {
+            text: text.clone(),
+            span,
+        };
+        match scalar.get_ref() {
+            OneOrMany::One(s) => vec![scalar_name(s)],
+            OneOrMany::Many(list) => list.iter().map(scalar_name).collect(),
+        }
+    }
+
+    fn constants(&mut self, constants: &[Entry]) -> Vec<ConstDecl> {
+        constants
+            .iter()
+            .map(|c| ConstDecl {
+                docs: docs(&c.doc),
+                name: self.name(&c.name),
+                value: self.expr(&c.value, &format!("const `{}`", c.name.get_ref())),
+            })
+            .collect()
+    }
+
+    /// States, parameters, inputs and known values, in that order.
+    fn symbols(&self, file: &ModelFile) -> Vec<SymbolDecl> {
+        [
+            (&file.states, SymbolKind::State),
+            (&file.params, SymbolKind::Param),
+            (&file.inputs, SymbolKind::Input),
+            (&file.known, SymbolKind::Known),
+        ]
+        .into_iter()
+        .flat_map(|(list, kind)| {
+            list.iter().map(move |s| SymbolDecl {
+                docs: docs(&s.doc),
+                name: self.name(&s.name),
                 kind,
-                statements,
-            }
+            })
         })
-        .collect();
-    let decl = ModelDecl {
-        docs: docs(&file.doc),
-        vis,
-        name: name(&file.name),
-        scalars,
-        span: top,
-        constants,
-        symbols,
-        outputs,
-        sensors,
-        dynamics,
-        generate: generate_items(file.generate.as_ref(), source, &places, &mut diag),
-    };
-    Ok((decl, diag))
-}
-
-/// Parses one `meval` expression into a surface expression. `at(i)` is where byte `i` of
-/// `text` stands in the file: each node is placed at its first token, as the macro's are,
-/// and each mistake under the token it is about.
-fn parse_expression(
-    text: &str,
-    field: &str,
-    at: &dyn Fn(usize) -> Span,
-    diag: &mut Diagnostics,
-) -> SurfaceExpr {
-    let start = at(0);
-    let zero = SurfaceExpr {
-        kind: SurfaceKind::Number(0.0),
-        span: start,
-    };
-    if let Err(message) = stateforge_compiler::front::limits::check_expression_text(text) {
-        // A stray character is named by the check: the caret goes under it.
-        let stray = message
-            .strip_prefix('`')
-            .and_then(|m| m.split_once("` has no meaning"))
-            .map(|(c, _)| c);
-        let place = stray.and_then(|c| text.find(c)).map_or(start, at);
-        let comparison = stray.is_some_and(|c| matches!(c, "<" | ">" | "=" | "!"));
-        let hint = if comparison {
-            "; a comparison is written as a piecewise function, `if_gt(a, b, then, else)` \
-             (also `if_ge`, `if_lt`, `if_le`)"
-        } else {
-            ""
-        };
-        diag.error(place, format!("{field}: {message}{hint}"));
-        return zero;
+        .collect()
     }
-    let parsed = match meval::Expr::from_str(text) {
-        Ok(parsed) => parsed,
-        Err(e) => {
-            let (offset, message) = parse_error(text, &e);
-            diag.error(at(offset), format!("{field}: {message}"));
-            return zero;
+
+    fn outputs(&mut self, outputs: &[Entry]) -> Vec<OutputDecl> {
+        outputs
+            .iter()
+            .map(|o| OutputDecl {
+                docs: docs(&o.doc),
+                name: self.name(&o.name),
+                expr: self.expr(&o.value, &format!("output `{}`", o.name.get_ref())),
+            })
+            .collect()
+    }
+
+    fn sensors(&self, sensors: &[Sensor]) -> Vec<SensorDecl> {
+        sensors
+            .iter()
+            .map(|s| SensorDecl {
+                docs: docs(&s.doc),
+                name: self.name(&s.name),
+                outputs: s.outputs.iter().map(|o| self.name(o)).collect(),
+            })
+            .collect()
+    }
+
+    /// `[dynamics]`: its kind, its `[[dynamics.let]]` intermediates in order, then one
+    /// equation per state, in the file's order.
+    fn dynamics(&mut self, d: &Dynamics) -> DynamicsDecl {
+        let kind = self.dynamics_kind(d);
+        let derivative = matches!(kind, DynamicsKind::Continuous { .. });
+        let mut statements: Vec<Statement> = Vec::new();
+        for l in &d.lets {
+            statements.push(Statement::Let {
+                name: self.name(&l.name),
+                value: self.expr(&l.value, &format!("dynamics.let `{}`", l.name.get_ref())),
+            });
         }
-    };
-    let offsets = expression_places::rpn_offsets(text, &parsed);
-    let place = |i: usize| {
-        offsets
-            .as_ref()
-            .and_then(|o| o.get(i))
-            .map_or(start, |&o| at(o))
-    };
-    // `meval` gives reverse Polish notation: operands come before their operator.
-    let mut stack: Vec<SurfaceExpr> = Vec::new();
-    for (i, token) in parsed.iter().enumerate() {
-        let here = place(i);
-        let node = |kind, span| SurfaceExpr { kind, span };
-        let made = match token {
-            Token::Number(v) if !v.is_finite() => {
-                diag.error(
-                    here,
-                    format!("{field}: `{text}` holds {v}: every number must be finite"),
-                );
-                return zero;
-            }
-            Token::Number(v) => node(SurfaceKind::Number(*v), here),
-            Token::Var(v) if v == "pi" => node(SurfaceKind::Number(std::f64::consts::PI), here),
-            Token::Var(v) => node(SurfaceKind::Name(v.clone()), here),
-            Token::Unary(Operation::Minus) => match stack.pop() {
-                Some(a) => node(SurfaceKind::Neg(Box::new(a)), here),
-                None => break,
+        for (state, value) in d.equations.iter() {
+            statements.push(Statement::Equation {
+                target: self.name(state),
+                derivative,
+                value: self.expr(value, &format!("dynamics.equations.{}", state.get_ref())),
+            });
+        }
+        DynamicsDecl {
+            span: self.places.of_field(&d.kind),
+            kind,
+            statements,
+        }
+    }
+
+    /// `kind = "discrete"`, or `kind = "continuous"` with its method, step and sub-steps.
+    fn dynamics_kind(&mut self, d: &Dynamics) -> DynamicsKind {
+        match d.kind.get_ref().as_str() {
+            "discrete" => DynamicsKind::Discrete,
+            "continuous" => DynamicsKind::Continuous {
+                method: d.method.as_ref().map(|m| self.name(m)),
+                dt: d.dt.as_ref().map(|v| self.expr(v, "dynamics.dt")),
+                substeps: d
+                    .substeps
+                    .as_ref()
+                    .map(|n| (n.get_ref().0, self.places.of_field(n))),
             },
-            Token::Unary(Operation::Plus) => continue,
-            Token::Binary(op) => {
-                let (Some(b), Some(a)) = (stack.pop(), stack.pop()) else {
-                    break;
-                };
-                let first = a.span;
-                let op = match op {
-                    Operation::Plus => BinaryOp::Add,
-                    Operation::Minus => BinaryOp::Sub,
-                    Operation::Times => BinaryOp::Mul,
-                    Operation::Div => BinaryOp::Div,
-                    Operation::Pow => {
-                        let powi = Name {
-                            text: "powi".into(),
-                            span: here,
-                        };
-                        stack.push(node(SurfaceKind::Call(powi, vec![a, b]), first));
-                        continue;
-                    }
-                    Operation::Rem => {
-                        diag.error(
-                            here,
-                            format!(
-                                "{field}: `%` (a remainder) is not part of the model language: \
-                                 use `+ - * /` and `^` for a whole power"
-                            ),
-                        );
-                        return zero;
-                    }
-                };
-                node(SurfaceKind::Binary(op, Box::new(a), Box::new(b)), first)
+            other => {
+                self.diag.error(
+                    self.places.of_field(&d.kind),
+                    format!("dynamics.kind: `{other}` is neither `discrete` nor `continuous`"),
+                );
+                DynamicsKind::Discrete
             }
-            Token::Func(f, arity) => {
-                let n = arity.unwrap_or(0);
-                if stack.len() < n {
-                    break;
-                }
-                let args = stack.split_off(stack.len() - n);
-                if comparison_of(f).is_some() && n != 4 {
-                    diag.error(
-                        here,
-                        format!("{field}: `{f}(a, b, then, else)` takes 4 arguments, found {n}"),
-                    );
-                    return zero;
-                }
-                piecewise(f, &args, here).unwrap_or_else(|| {
-                    node(
-                        SurfaceKind::Call(
-                            Name {
-                                text: f.clone(),
-                                span: here,
-                            },
-                            args,
-                        ),
-                        here,
-                    )
-                })
-            }
-            _ => break,
-        };
-        stack.push(made);
-    }
-    match (stack.pop(), stack.is_empty()) {
-        (Some(e), true) => e,
-        _ => {
-            diag.error(
-                start,
-                format!("{field}: cannot read `{text}` as one expression"),
-            );
-            zero
         }
     }
-}
-
-/// Where `meval` stopped reading `text` (a byte of it), and what to write there.
-fn parse_error(text: &str, error: &meval::Error) -> (usize, String) {
-    use meval::tokenizer::ParseError;
-    use meval::{Error, RPNError};
-    let end = text.len();
-    // The place of the infix token `k` of `text` (parentheses and commas counted).
-    let token_at = |k: usize| {
-        meval::tokenizer::tokenize(text)
-            .ok()
-            .and_then(|tokens| expression_places::token_offsets(text, &tokens))
-            .and_then(|offsets| offsets.get(k).copied())
-            .unwrap_or(0)
-    };
-    match error {
-        Error::ParseError(ParseError::UnexpectedToken(i)) => {
-            let i = *i
-                + (text.get(*i..).unwrap_or("").len()
-                    - text.get(*i..).unwrap_or("").trim_start().len());
-            let rest = text.get(i..).unwrap_or("");
-            let word = rest
-                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == '.'))
-                .unwrap_or(rest.len());
-            let token = match rest.chars().next() {
-                Some(c) if word == 0 => c.to_string(),
-                _ => rest[..word].to_owned(),
-            };
-            // What `meval` wanted there: a value after an operator, `(` or `,` (the text
-            // before is then incomplete), else an operator.
-            let wants_value = matches!(
-                meval::tokenizer::tokenize(&text[..i]),
-                Err(ParseError::MissingArgument)
-            );
-            // Characters outside the language were refused before `meval` read the text.
-            let message = match token.as_str() {
-                ")" => format!("`{text}` has a `)` that closes no `(`: remove it, or add the `(`"),
-                "," => format!(
-                    "`{text}` has a `,` outside a call: commas separate a function's \
-                     arguments, as in `atan2(y, x)`"
-                ),
-                _ if wants_value => format!(
-                    "`{text}` has `{token}` where a value belongs: write a number, a name, a \
-                     call such as `sin(x1)`, or `(` here"
-                ),
-                _ => format!(
-                    "`{text}` has `{token}` where an operator belongs: write `+ - * / ^` \
-                     between two values"
-                ),
-            };
-            (i, message)
-        }
-        Error::ParseError(ParseError::MissingRParen(n)) => {
-            let n = *n;
-            let which = if n == 1 { "a `(`" } else { "`(`s" };
-            (end, format!("`{text}` leaves {which} open: add {n} `)`"))
-        }
-        Error::ParseError(ParseError::MissingArgument) => (
-            end,
-            format!(
-                "`{text}` ends where a value belongs: finish it with a number, a name or a call"
-            ),
-        ),
-        Error::RPNError(RPNError::MismatchedRParen(k)) => (
-            token_at(*k),
-            format!("`{text}` has a `)` that closes no `(`: remove it, or add the `(`"),
-        ),
-        Error::RPNError(RPNError::MismatchedLParen(k)) => (
-            token_at(*k),
-            format!("`{text}` leaves this `(` open: add its `)`"),
-        ),
-        Error::RPNError(RPNError::UnexpectedComma(k)) => (
-            token_at(*k),
-            format!(
-                "`{text}` has a `,` outside a call: commas separate a function's arguments, \
-                 as in `atan2(y, x)`"
-            ),
-        ),
-        _ => (
-            0,
-            format!("cannot read `{text}` as one expression: {error}"),
-        ),
-    }
-}
-
-/// `if_gt(a, b, then, else)` and its siblings as a piecewise term.
-fn piecewise(function: &str, args: &[SurfaceExpr], here: Span) -> Option<SurfaceExpr> {
-    let cmp = comparison_of(function)?;
-    let [lhs, rhs, then, otherwise] = args else {
-        return None;
-    };
-    Some(SurfaceExpr {
-        kind: SurfaceKind::If {
-            cmp,
-            lhs: Box::new(lhs.clone()),
-            rhs: Box::new(rhs.clone()),
-            then: Box::new(then.clone()),
-            otherwise: Box::new(otherwise.clone()),
-        },
-        span: here,
-    })
-}
-
-/// The comparison a piecewise function of the model-file language stands for.
-pub fn comparison_of(function: &str) -> Option<Comparison> {
-    Some(match function {
-        "if_gt" => Comparison::Gt,
-        "if_ge" => Comparison::Ge,
-        "if_lt" => Comparison::Lt,
-        "if_le" => Comparison::Le,
-        _ => return None,
-    })
 }
 
 /// The `[generate]` table as `generate` items. A generator's value is `true`, a table of
