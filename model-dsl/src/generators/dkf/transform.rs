@@ -15,6 +15,7 @@ use crate::symbolic::linalg::{packed_index, Matrix};
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
+use std::collections::BTreeSet;
 
 /// `fn transform(&self, u) -> (phi, WindowStatus, [det_sq, column_norms], parameters)`:
 /// eqs. (8)-(12), and the arithmetic of its costliest path (the full solve).
@@ -60,19 +61,7 @@ pub fn transform_fn(
         .collect();
     let phi_states = base.segment(&wt.phi_states);
     let tail = base.take_statements();
-    // A least-squares window's parameter covariance, computed only for a solved window.
-    let covariance = solve.covariance.as_ref().map(|(r_vars, covariance)| {
-        let mut fork = base.clone();
-        let values = fork.segment(covariance);
-        let body = fork.take_statements();
-        let Lowered { used_vars, ops, .. } = fork.finish();
-        let code = CovarianceCode {
-            r_vars: r_vars.clone(),
-            body,
-            values,
-        };
-        (code, used_vars, ops)
-    });
+    let covariance = solve.covariance.as_ref().map(|c| covariance_code(&base, c));
     let Lowered {
         mut used_vars,
         mut ops,
@@ -97,6 +86,25 @@ pub fn transform_fn(
     let tokens = code.method(model, &g, wt, used_vars, scalar);
     // The costliest path: the common code plus the full solve's branch.
     (tokens, ops.plus(full_ops.minus(at_fork)))
+}
+
+/// A least-squares window's parameter covariance, `(r_vars, covariance)`, lowered in a
+/// fork of `base` (it is computed only for a solved window): its code, the variables it
+/// reads and what it computes.
+fn covariance_code(
+    base: &Lowerer,
+    (r_vars, covariance): &(Vec<NodeId>, Vec<NodeId>),
+) -> (CovarianceCode, BTreeSet<VarId>, OpCount) {
+    let mut fork = base.clone();
+    let values = fork.segment(covariance);
+    let body = fork.take_statements();
+    let Lowered { used_vars, ops, .. } = fork.finish();
+    let code = CovarianceCode {
+        r_vars: r_vars.clone(),
+        body,
+        values,
+    };
+    (code, used_vars, ops)
 }
 
 /// The parameter system of one case solved symbolically by Cramer's rule (eq. 9): each
@@ -376,7 +384,7 @@ impl TransformCode {
         model: &Model,
         g: &ModelGraph,
         wt: &WindowTransform,
-        used_vars: std::collections::BTreeSet<VarId>,
+        used_vars: BTreeSet<VarId>,
         scalar: Scalar,
     ) -> TokenStream {
         let (u_param, unpack) = window_reads(g, wt, &used_vars, scalar);
@@ -468,7 +476,7 @@ impl TransformCode {
 impl CovarianceCode {
     /// The covariance's entries if the window was solved, else the last (eq. in
     /// [`window_noise`]), reading the measurement noise's variances.
-    fn tokens(&self, g: &ModelGraph, used: &std::collections::BTreeSet<VarId>) -> TokenStream {
+    fn tokens(&self, g: &ModelGraph, used: &BTreeSet<VarId>) -> TokenStream {
         let Self { body, values, .. } = self;
         let unpack_r = destructure(&g.graph, quote! { self.r }, &self.r_vars, used);
         quote! {
@@ -489,7 +497,7 @@ impl CovarianceCode {
 fn window_reads(
     g: &ModelGraph,
     wt: &WindowTransform,
-    used: &std::collections::BTreeSet<VarId>,
+    used: &BTreeSet<VarId>,
     scalar: Scalar,
 ) -> (Option<TokenStream>, TokenStream) {
     let mut used = used.clone();
@@ -519,11 +527,7 @@ fn window_reads(
 }
 
 /// The window variables as `let` patterns over the stored history.
-fn window_unpack(
-    graph: &Graph,
-    wt: &WindowTransform,
-    used: &std::collections::BTreeSet<VarId>,
-) -> TokenStream {
+fn window_unpack(graph: &Graph, wt: &WindowTransform, used: &BTreeSet<VarId>) -> TokenStream {
     let outputs: Vec<NodeId> = wt.outputs.iter().flatten().copied().collect();
     let inputs: Vec<NodeId> = wt.inputs.iter().flatten().copied().collect();
     let y = destructure(graph, quote! { self.outputs }, &outputs, used);
