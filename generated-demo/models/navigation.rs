@@ -71,8 +71,12 @@ stateforge::model! {
             /// body magnetic bias, z \[gauss\]
             mag_bz,
             /// wind velocity, north \[m/s\]
+            // The wind is carried for the 24-state layout of EKF2 (and SymForce's peer):
+            // it enters airspeed and drag fusion, which this model does not have.
+            #[allow(unused)]
             wind_n,
             /// wind velocity, east \[m/s\]
+            #[allow(unused)]
             wind_e;
         input
             /// IMU delta angle over the sample, body x \[rad\]

@@ -16,6 +16,7 @@ mod toml_hints;
 
 use proc_macro2::TokenStream;
 use stateforge_compiler::check::Checked;
+use stateforge_compiler::diagnostics::Warning;
 
 /// Formats generated tokens as a Rust source file with `prettyplease` (for snapshots; the
 /// tool then passes the file through [`rustfmt`]).
@@ -64,11 +65,22 @@ pub fn rustfmt(code: &str) -> Result<String, String> {
 /// The checks are the macro's; their hints are rewritten in the model file's syntax.
 pub fn parse_model_file(source: &str) -> syn::Result<Checked> {
     let (decl, diag) = model_file::parse_model_file(source)?;
-    stateforge_compiler::check::check(&decl, diag).map_err(toml_hints::in_toml_terms)
+    let mut checked =
+        stateforge_compiler::check::check(&decl, diag).map_err(toml_hints::in_toml_terms)?;
+    checked.warnings = toml_hints::warnings_in_toml_terms(checked.warnings);
+    Ok(checked)
 }
 
 /// Expands a TOML model file: the same module the macro would generate.
 pub fn expand_model_file(source: &str) -> syn::Result<TokenStream> {
-    stateforge_compiler::pipeline::emit_model(&parse_model_file(source)?)
-        .map_err(toml_hints::in_toml_terms)
+    expand_model_file_with_warnings(source).map(|(module, _)| module)
+}
+
+/// [`expand_model_file`], and the warnings about the model (declarations nothing reads),
+/// their hints in the model file's syntax.
+pub fn expand_model_file_with_warnings(source: &str) -> syn::Result<(TokenStream, Vec<Warning>)> {
+    let checked = parse_model_file(source)?;
+    let module =
+        stateforge_compiler::pipeline::emit_model(&checked).map_err(toml_hints::in_toml_terms)?;
+    Ok((module, checked.warnings))
 }

@@ -49,11 +49,24 @@ fn main() -> ExitCode {
         }
     };
     let is_toml = args.model.extension().is_some_and(|e| e == "toml");
-    let generated = if is_toml {
-        stateforge_cli::expand_model_file(&source)
+    let expanded = if is_toml {
+        stateforge_cli::expand_model_file_with_warnings(&source)
     } else {
-        stateforge_compiler::expand_macro_source(&source)
+        stateforge_compiler::parse_macro_source(&source).and_then(|checked| {
+            let module = stateforge_compiler::pipeline::emit_model(&checked)?;
+            Ok((module, checked.warnings))
+        })
     };
+    let generated = expanded.map(|(module, warnings)| {
+        for warning in &warnings {
+            let message = &warning.message;
+            eprint!(
+                "{}",
+                report(&args.model, &source, "warning", warning.span, message)
+            );
+        }
+        module
+    });
     match generated.and_then(stateforge_cli::format) {
         Ok(code) => {
             let code = format!("{}{code}", header(&args.model));
@@ -80,7 +93,11 @@ fn main() -> ExitCode {
         }
         Err(errors) => {
             for error in errors {
-                eprint!("{}", report(&args.model, &source, &error));
+                let message = error.to_string();
+                eprint!(
+                    "{}",
+                    report(&args.model, &source, "error", error.span(), &message)
+                );
             }
             ExitCode::FAILURE
         }
@@ -127,26 +144,33 @@ const PEDANTIC_BY_DESIGN: &str = "#![allow(\n    clippy::unreadable_literal,\n  
     clippy::trivially_copy_pass_by_ref,\n    clippy::too_many_lines,\n    \
     clippy::doc_markdown\n)]\n";
 
-/// `file:line:column: error: message`, then the offending line with a caret under the
-/// column, as rustc prints them; just `file: error: message` where the error has no place.
-fn report(path: &std::path::Path, source: &str, error: &syn::Error) -> String {
-    let start = error.span().start();
+/// `file:line:column: error: message` (or `warning`, the `level`), then the offending line
+/// with a caret under the column, as rustc prints them; just `file: error: message` where
+/// the error has no place.
+fn report(
+    path: &std::path::Path,
+    source: &str,
+    level: &str,
+    span: proc_macro2::Span,
+    message: &str,
+) -> String {
+    let start = span.start();
     let Some(line) = start
         .line
         .checked_sub(1)
         .and_then(|i| source.lines().nth(i))
     else {
         // syn places "unexpected end of input" nowhere: it is the end of the model.
-        let place = if error.to_string().contains("end of input") {
+        let place = if message.contains("end of input") {
             " (at the end of the model's braces)"
         } else {
             ""
         };
-        return format!("{}: error: {error}{place}\n", path.display());
+        return format!("{}: {level}: {message}{place}\n", path.display());
     };
     let gutter = " ".repeat(start.line.to_string().len());
     format!(
-        "{}:{}:{}: error: {error}\n{gutter} |\n{} | {line}\n{gutter} | {}^\n",
+        "{}:{}:{}: {level}: {message}\n{gutter} |\n{} | {line}\n{gutter} | {}^\n",
         path.display(),
         start.line,
         start.column + 1,

@@ -140,6 +140,9 @@ struct Symbol {
     name: Spanned<String>,
     #[serde(default)]
     doc: String,
+    /// Read by no expression on purpose: no warning (the macro's `#[allow(unused)]`).
+    #[serde(default)]
+    allow_unused: bool,
 }
 
 /// Outputs measured together by one sensor, listed by name.
@@ -559,6 +562,7 @@ impl Reader<'_> {
                 docs: docs(&s.doc),
                 name: self.name(&s.name),
                 kind,
+                allow_unused: s.allow_unused,
             })
         })
         .collect()

@@ -7,6 +7,8 @@
 //! model-file mistake that produces it (`tests/tests/model_file.rs`), so a reworded hint in
 //! the checks shows up there as a failing test, not as macro syntax shown to a TOML user.
 
+use stateforge_compiler::diagnostics::Warning;
+
 /// Whole hints of the checks and their TOML form, applied before the general rules.
 const HINTS: [(&str, &str); 13] = [
     (
@@ -95,6 +97,22 @@ const PIECES: [(&str, &str); 8] = [
          \"{name}\"`",
     ),
 ];
+
+/// `warnings` with the macro syntax of their hints written as TOML. A warning's only macro
+/// syntax is the attribute that silences it; the rules for errors are not applied (they
+/// would read `allow_unused = true` as an output's declaration).
+pub(crate) fn warnings_in_toml_terms(warnings: Vec<Warning>) -> Vec<Warning> {
+    warnings
+        .into_iter()
+        .map(|w| Warning {
+            message: w.message.replace(
+                "declare it `#[allow(unused)]`",
+                "add `allow_unused = true` to its table",
+            ),
+            ..w
+        })
+        .collect()
+}
 
 /// Every message of `errors` with the macro syntax of its hint written as TOML.
 pub(crate) fn in_toml_terms(errors: syn::Error) -> syn::Error {

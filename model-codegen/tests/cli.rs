@@ -5,8 +5,9 @@
 use std::process::Command;
 
 /// Runs `stateforge-codegen` on `source` saved as `file_name` in a directory of the test's
-/// own (`test`), and returns what it printed, with the path shortened to the file name.
-fn errors_for(test: &str, file_name: &str, source: &str) -> String {
+/// own (`test`): whether it succeeded, and what it printed on standard error, with the
+/// path shortened to the file name.
+fn run(test: &str, file_name: &str, source: &str) -> (bool, String) {
     let dir =
         std::env::temp_dir().join(format!("stateforge-codegen-{test}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temporary directory");
@@ -16,9 +17,61 @@ fn errors_for(test: &str, file_name: &str, source: &str) -> String {
         .arg(&path)
         .output()
         .expect("stateforge-codegen runs");
-    assert!(!output.status.success(), "a bad model must fail");
     let stderr = String::from_utf8_lossy(&output.stderr);
-    stderr.replace(&path.display().to_string(), file_name)
+    let stderr = stderr.replace(&path.display().to_string(), file_name);
+    (output.status.success(), stderr)
+}
+
+/// What `stateforge-codegen` printed for `source`, a bad model, which must fail.
+fn errors_for(test: &str, file_name: &str, source: &str) -> String {
+    let (succeeded, errors) = run(test, file_name, source);
+    assert!(!succeeded, "a bad model must fail: {errors}");
+    errors
+}
+
+#[test]
+fn symbols_nothing_reads_are_warned_about_in_the_files_own_terms() {
+    let model = |param_table: &str| {
+        format!(
+            "name = \"m\"\nscalar = \"f32\"\n[[state]]\nname = \"x\"\n{param_table}\
+             [dynamics]\nkind = \"discrete\"\n[dynamics.equations]\nx = \"x\"\n"
+        )
+    };
+    let (succeeded, warnings) = run(
+        "unused-toml",
+        "m.toml",
+        &model("[[param]]\nname = \"spare\"\n"),
+    );
+    assert!(succeeded, "a warning is no error: {warnings}");
+    assert!(
+        warnings.starts_with(
+            "m.toml:6:9: warning: the parameter `spare` is read by no expression and no \
+             option; the filters carry it, but nothing moves its estimate: use it in the \
+             dynamics or an output, remove it, or add `allow_unused = true` to its table if it \
+             is kept on purpose\n"
+        ),
+        "{warnings}"
+    );
+    assert!(
+        warnings.contains("6 | name = \"spare\"\n  |         ^"),
+        "{warnings}"
+    );
+    let kept = model("[[param]]\nname = \"spare\"\nallow_unused = true\n");
+    assert_eq!(run("unused-kept", "m.toml", &kept), (true, String::new()));
+    // The macro's form: the hint in its own syntax.
+    let macro_model = "stateforge::model! {\n    pub mod m {\n        scalar f32;\n        \
+                       state x;\n        input u;\n        dynamics discrete {\n            \
+                       x = x;\n        }\n    }\n}\n";
+    let (succeeded, warnings) = run("unused-macro", "m.rs", macro_model);
+    assert!(succeeded, "{warnings}");
+    assert!(
+        warnings.starts_with("m.rs:5:15: warning: the input `u` is read by no expression"),
+        "{warnings}"
+    );
+    assert!(
+        warnings.contains("declare it `#[allow(unused)]`"),
+        "{warnings}"
+    );
 }
 
 #[test]

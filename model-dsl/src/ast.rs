@@ -119,6 +119,9 @@ pub struct SymbolDecl {
     pub name: Name,
     /// Its role.
     pub kind: SymbolKind,
+    /// Declared `#[allow(unused)]` (in a model file, `allow_unused = true`): read by no
+    /// expression on purpose, so not warned about (a state carried for a layout).
+    pub allow_unused: bool,
 }
 
 /// `output y = expr`

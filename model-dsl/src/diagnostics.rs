@@ -41,6 +41,35 @@ impl Diagnostics {
     }
 }
 
+/// A warning about a valid model (a declaration nothing reads): where, and what to do.
+#[derive(Clone, Debug)]
+pub struct Warning {
+    /// The offending token.
+    pub span: Span,
+    /// What is wrong and what to write.
+    pub message: String,
+}
+
+impl Warning {
+    /// The warning as items that make rustc warn under [`Warning::span`]: a procedural
+    /// macro has no warning of its own on stable Rust, so this is a `#[deprecated]`
+    /// constant carrying the message, used there (rustc then prints "use of deprecated
+    /// constant `_::model_warning`: " and the message). For the macro's output only: a
+    /// generated file gets its warnings from the tool, printed.
+    pub fn to_tokens(&self) -> proc_macro2::TokenStream {
+        let message = &self.message;
+        let used_here = proc_macro2::Ident::new("model_warning", self.span);
+        quote::quote! {
+            const _: () = {
+                #[deprecated(note = #message)]
+                #[allow(non_upper_case_globals)]
+                const model_warning: () = ();
+                #used_here
+            };
+        }
+    }
+}
+
 /// `a, b and c` (with `conjunction` between the last two), for a message's list.
 pub fn phrase(items: &[String], conjunction: &str) -> String {
     match items.split_last() {

@@ -43,8 +43,18 @@ pub fn expand(tokens: TokenStream) -> syn::Result<TokenStream> {
 
 /// [`expand`], with the generated module's extras (the `stateforge` crate's features).
 pub fn expand_with(tokens: TokenStream, options: &pipeline::Options) -> syn::Result<TokenStream> {
+    expand_with_warnings(tokens, options).map(|(module, _)| module)
+}
+
+/// [`expand_with`], and the warnings about the model (declarations nothing reads), for the
+/// macro to place under their tokens ([`diagnostics::Warning::to_tokens`]).
+pub fn expand_with_warnings(
+    tokens: TokenStream,
+    options: &pipeline::Options,
+) -> syn::Result<(TokenStream, Vec<diagnostics::Warning>)> {
     let model = parse_model(tokens)?;
-    pipeline::emit_model_with(&model, options)
+    let module = pipeline::emit_model_with(&model, options)?;
+    Ok((module, model.warnings))
 }
 
 /// Parses and checks Rust source holding one `model! { .. }` invocation (a demo model

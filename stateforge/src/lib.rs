@@ -25,8 +25,13 @@ pub fn model(input: TokenStream) -> TokenStream {
         // The `nalgebra` feature adds each model's `interop` module.
         nalgebra: cfg!(feature = "nalgebra"),
     };
-    match stateforge_compiler::expand_with(input, &options) {
-        Ok(generated) => respan(generated, anchor).into(),
+    match stateforge_compiler::expand_with_warnings(input, &options) {
+        Ok((generated, warnings)) => {
+            let mut tokens = respan(generated, anchor);
+            // Not respanned: each warning stays under the user's token.
+            tokens.extend(warnings.iter().map(|w| w.to_tokens()));
+            tokens.into()
+        }
         Err(errors) => errors.to_compile_error().into(),
     }
 }

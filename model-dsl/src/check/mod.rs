@@ -8,9 +8,10 @@ mod expr;
 mod generate;
 mod names;
 mod sensors;
+mod unused;
 
 use crate::ast::{ModelDecl, SymbolKind};
-use crate::diagnostics::Diagnostics;
+use crate::diagnostics::{Diagnostics, Warning};
 use crate::generators::Generator;
 use crate::model::{Constant, Model, Output, Scalar, Symbol};
 use crate::scope::{Binding, Scope};
@@ -32,6 +33,8 @@ pub struct Checked {
     pub generators: Vec<Box<dyn Generator>>,
     /// Each generator's cycle budget, if it gives one (`max_cycles = ..`).
     pub budgets: Vec<Option<crate::generators::Budget>>,
+    /// Declarations nothing reads (see `unused`).
+    pub warnings: Vec<Warning>,
 }
 
 impl Checked {
@@ -108,6 +111,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Checked> {
         model,
         generators,
         budgets,
+        warnings: unused::unused_declarations(decl),
     })
 }
 

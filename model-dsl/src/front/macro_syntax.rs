@@ -90,7 +90,21 @@ fn parse_decl(input: ParseStream, diag: &mut Diagnostics) -> syn::Result<ModelDe
 }
 
 fn parse_item(input: ParseStream, decl: &mut ModelDecl, diag: &mut Diagnostics) -> syn::Result<()> {
-    let docs = docs(&Attribute::parse_outer(input)?, diag);
+    let mut attrs = Attribute::parse_outer(input)?;
+    let allow_unused = take_allow_unused(&mut attrs);
+    let docs = docs(&attrs, diag);
+    let symbols = [
+        input.peek(kw::param),
+        input.peek(kw::input),
+        input.peek(kw::known),
+    ];
+    if let (Some(span), false) = (allow_unused, symbols.contains(&true)) {
+        diag.error(
+            span,
+            "`#[allow(unused)]` applies to a `param`, `input` or `known` list, or one name \
+             in it",
+        );
+    }
     let look = input.lookahead1();
     if look.peek(kw::scalar) {
         parse_scalar(input, decl, diag)?;
@@ -102,7 +116,7 @@ fn parse_item(input: ParseStream, decl: &mut ModelDecl, diag: &mut Diagnostics) 
         || look.peek(kw::input)
         || look.peek(kw::known)
     {
-        let symbols = parse_symbols(input, &docs, diag)?;
+        let symbols = parse_symbols(input, &docs, allow_unused.is_some(), diag)?;
         decl.symbols.extend(symbols);
     } else if look.peek(kw::output) {
         let outputs = parse_outputs(input, &docs, diag)?;
@@ -164,10 +178,11 @@ fn parse_const(
 }
 
 /// `state a, b;` (or `param`, `input`, `known`): each name with its own doc comment, or
-/// the item's.
+/// the item's, and `#[allow(unused)]` on the list or on the name.
 fn parse_symbols(
     input: ParseStream,
     docs: &[String],
+    list_allows_unused: bool,
     diag: &mut Diagnostics,
 ) -> syn::Result<Vec<SymbolDecl>> {
     let kind = if input.parse::<Option<kw::state>>()?.is_some() {
@@ -187,12 +202,14 @@ fn parse_symbols(
         },
         diag,
     )?;
-    let symbols = entries.into_iter().map(|(own, ident)| {
+    let symbols = entries.into_iter().map(|(mut own, ident)| {
+        let allow_unused = take_allow_unused(&mut own).is_some() || list_allows_unused;
         let own = self::docs(&own, diag);
         SymbolDecl {
             docs: if own.is_empty() { docs.to_vec() } else { own },
             name: name(&ident),
             kind,
+            allow_unused,
         }
     });
     Ok(symbols.collect())
@@ -541,6 +558,21 @@ fn name(ident: &Ident) -> Name {
         text: ident.to_string(),
         span: ident.span(),
     }
+}
+
+/// Removes `#[allow(unused)]` from `attrs` (a symbol read by nothing on purpose), and says
+/// where it was, if anywhere.
+fn take_allow_unused(attrs: &mut Vec<Attribute>) -> Option<Span> {
+    let mut at = None;
+    attrs.retain(|attr| {
+        let allows_unused = attr.path().is_ident("allow")
+            && matches!(&attr.meta, syn::Meta::List(list) if list.tokens.to_string() == "unused");
+        if allows_unused {
+            at = Some(attr.path().span());
+        }
+        !allows_unused
+    });
+    at
 }
 
 /// Doc comment lines of `attrs`; any other attribute is an error.
