@@ -142,7 +142,7 @@ struct Symbol {
     doc: String,
     /// Read by no expression on purpose: no warning (the macro's `#[allow(unused)]`).
     #[serde(default)]
-    allow_unused: bool,
+    allow_unused: Option<Spanned<bool>>,
 }
 
 /// Outputs measured together by one sensor, listed by name.
@@ -549,23 +549,33 @@ impl Reader<'_> {
     }
 
     /// States, parameters, inputs and known values, in that order.
-    fn symbols(&self, file: &ModelFile) -> Vec<SymbolDecl> {
-        [
+    /// `allow_unused` applies to the others only: a state is never warned about.
+    fn symbols(&mut self, file: &ModelFile) -> Vec<SymbolDecl> {
+        let lists = [
             (&file.states, SymbolKind::State),
             (&file.params, SymbolKind::Param),
             (&file.inputs, SymbolKind::Input),
             (&file.known, SymbolKind::Known),
-        ]
-        .into_iter()
-        .flat_map(|(list, kind)| {
-            list.iter().map(move |s| SymbolDecl {
-                docs: docs(&s.doc),
-                name: self.name(&s.name),
-                kind,
-                allow_unused: s.allow_unused,
-            })
-        })
-        .collect()
+        ];
+        let mut symbols = Vec::new();
+        for (list, kind) in lists {
+            for symbol in list {
+                let allow_unused = symbol.allow_unused.as_ref();
+                if let (Some(key), SymbolKind::State) = (allow_unused, kind) {
+                    self.diag.error(
+                        self.places.of_field(key),
+                        "`allow_unused` applies to a `[[param]]`, `[[input]]` or `[[known]]`",
+                    );
+                }
+                symbols.push(SymbolDecl {
+                    docs: docs(&symbol.doc),
+                    name: self.name(&symbol.name),
+                    kind,
+                    allow_unused: allow_unused.is_some_and(|a| *a.get_ref()),
+                });
+            }
+        }
+        symbols
     }
 
     fn outputs(&mut self, outputs: &[Entry]) -> Vec<OutputDecl> {

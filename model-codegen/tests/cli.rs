@@ -58,6 +58,16 @@ fn symbols_nothing_reads_are_warned_about_in_the_files_own_terms() {
     );
     let kept = model("[[param]]\nname = \"spare\"\nallow_unused = true\n");
     assert_eq!(run("unused-kept", "m.toml", &kept), (true, String::new()));
+    let on_a_state = model("[[state]]\nname = \"x2\"\nallow_unused = true\n")
+        .replace("x = \"x\"\n", "x = \"x\"\nx2 = \"x2\"\n");
+    let errors = errors_for("unused-state", "m.toml", &on_a_state);
+    assert!(
+        errors.starts_with(
+            "m.toml:7:16: error: `allow_unused` applies to a `[[param]]`, `[[input]]` or \
+             `[[known]]`"
+        ),
+        "{errors}"
+    );
     // The macro's form: the hint in its own syntax.
     let macro_model = "stateforge::model! {\n    pub mod m {\n        scalar f32;\n        \
                        state x;\n        input u;\n        dynamics discrete {\n            \

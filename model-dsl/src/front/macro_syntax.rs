@@ -99,11 +99,7 @@ fn parse_item(input: ParseStream, decl: &mut ModelDecl, diag: &mut Diagnostics) 
         input.peek(kw::known),
     ];
     if let (Some(span), false) = (allow_unused, symbols.contains(&true)) {
-        diag.error(
-            span,
-            "`#[allow(unused)]` applies to a `param`, `input` or `known` list, or one name \
-             in it",
-        );
+        diag.error(span, ALLOW_UNUSED_APPLIES_TO);
     }
     let look = input.lookahead1();
     if look.peek(kw::scalar) {
@@ -203,7 +199,11 @@ fn parse_symbols(
         diag,
     )?;
     let symbols = entries.into_iter().map(|(mut own, ident)| {
-        let allow_unused = take_allow_unused(&mut own).is_some() || list_allows_unused;
+        let own_allows_unused = take_allow_unused(&mut own);
+        if let (Some(span), SymbolKind::State) = (own_allows_unused, kind) {
+            diag.error(span, ALLOW_UNUSED_APPLIES_TO);
+        }
+        let allow_unused = own_allows_unused.is_some() || list_allows_unused;
         let own = self::docs(&own, diag);
         SymbolDecl {
             docs: if own.is_empty() { docs.to_vec() } else { own },
@@ -559,6 +559,10 @@ fn name(ident: &Ident) -> Name {
         span: ident.span(),
     }
 }
+
+/// Where `#[allow(unused)]` is written on anything else: a state is never warned about.
+const ALLOW_UNUSED_APPLIES_TO: &str =
+    "`#[allow(unused)]` applies to a `param`, `input` or `known` list, or one name in it";
 
 /// Removes `#[allow(unused)]` from `attrs` (a symbol read by nothing on purpose), and says
 /// where it was, if anywhere.
