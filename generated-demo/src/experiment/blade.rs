@@ -63,6 +63,20 @@ pub fn control_ekf() -> control::in_f64::HybridEkf {
 /// Runs both modes, prints the tables, writes `out/blade.csv`, `out/blade_mass.svg` and
 /// `out/blade_identification.svg`.
 pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
+    let (trace, rejected) = simulate();
+    let time = trace.time().to_vec();
+    let column = |name: &str| trace.column(name).unwrap_or(&[]).to_vec();
+    print_identification(&time, &column);
+    print_control(&time, &column);
+    if rejected > 0 {
+        println!("{rejected} filter steps were rejected");
+    }
+    write_figures(out, &trace)
+}
+
+/// The experiment: identification mode until `IDENTIFICATION_END`, then control mode, each
+/// sample's truth and estimates traced; and how many filter steps were rejected.
+fn simulate() -> (Trace, u32) {
     let ts = ident::in_f64::TS;
     // sect. 4.1: x0, P0, R_I; Q~_I has five entries for six states in the text: read as
     // [q', k, b, c, 1/m] with no noise on the position, Q = Q~ / T.
@@ -92,30 +106,14 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
         trace.set("q true", x[0]);
         trace.set("m true", mass(t));
         trace.set("u", u_prev);
-        if t <= IDENTIFICATION_END + 1e-9 {
-            if identification.step(&[u_prev], &[y]) != ident::in_f64::Status::Ok {
-                rejected += 1;
-            }
-            let [q, _, k_hat, b_hat, c_hat, inv_m] = identification.state();
-            for (name, v) in [
-                ("q id", q),
-                ("k id", k_hat),
-                ("b id", b_hat),
-                ("c id", c_hat),
-            ] {
-                trace.set(name, v);
-            }
-            trace.set("m id", 1.0 / inv_m);
+        let accepted = if t <= IDENTIFICATION_END + 1e-9 {
+            identify(&mut identification, u_prev, y, &mut trace)
         } else {
             let filter = controlled.get_or_insert_with(control_ekf);
-            if filter.step(&[u_prev], &[y]) != control::in_f64::Status::Ok {
-                rejected += 1;
-            }
-            let [q, _, _, _, inv_m] = filter.state();
-            trace.set("q control", q);
-            trace.set("m control", 1.0 / inv_m);
-            raw_masses.push(1.0 / inv_m);
-            trace.set("m median", median_of_last(&raw_masses, 50));
+            track_mass(filter, u_prev, y, &mut raw_masses, &mut trace)
+        };
+        if !accepted {
+            rejected += 1;
         }
         let sigma = if t < IDENTIFICATION_END {
             INPUT_SIGMA
@@ -124,10 +122,46 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
         };
         u_prev = (sigma * input.sample(k)).clamp(-100.0, 100.0);
     }
-    let time = trace.time().to_vec();
-    let column = |name: &str| trace.column(name).unwrap_or(&[]).to_vec();
-    let median = column("m median");
+    (trace, rejected)
+}
 
+/// One identification-mode sample (eq. 19): the filter's step, its estimates traced;
+/// whether the step was accepted.
+fn identify(filter: &mut ident::in_f64::HybridEkf, u_prev: f64, y: f64, trace: &mut Trace) -> bool {
+    let accepted = filter.step(&[u_prev], &[y]) == ident::in_f64::Status::Ok;
+    let [q, _, k_hat, b_hat, c_hat, inv_m] = filter.state();
+    for (name, v) in [
+        ("q id", q),
+        ("k id", k_hat),
+        ("b id", b_hat),
+        ("c id", c_hat),
+    ] {
+        trace.set(name, v);
+    }
+    trace.set("m id", 1.0 / inv_m);
+    accepted
+}
+
+/// One control-mode sample (eq. 20): the filter's step, its mass estimate traced raw and
+/// as the median of the last 50; whether the step was accepted.
+fn track_mass(
+    filter: &mut control::in_f64::HybridEkf,
+    u_prev: f64,
+    y: f64,
+    raw_masses: &mut Vec<f64>,
+    trace: &mut Trace,
+) -> bool {
+    let accepted = filter.step(&[u_prev], &[y]) == control::in_f64::Status::Ok;
+    let [q, _, _, _, inv_m] = filter.state();
+    trace.set("q control", q);
+    trace.set("m control", 1.0 / inv_m);
+    raw_masses.push(1.0 / inv_m);
+    trace.set("m median", median_of_last(raw_masses, 50));
+    accepted
+}
+
+/// The identification mode's table: the truth, the EKF's means over 15-20 s, the paper's.
+fn print_identification(time: &[f64], column: &dyn Fn(&str) -> Vec<f64>) {
     println!(
         "\nBlade of Takács, Polóni and Rohal-Ilkiv, \"Adaptive predictive control of transient"
     );
@@ -140,7 +174,7 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
         "{:<10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}",
         "", "k", "b", "c", "m", "k/m", "b/m", "c/m"
     );
-    let at = |name: &str| mean(&time, &column(name), 15.0, IDENTIFICATION_END);
+    let at = |name: &str| mean(time, &column(name), 15.0, IDENTIFICATION_END);
     let (k_hat, b_hat, c_hat, m_hat) = (at("k id"), at("b id"), at("c id"), at("m id"));
     println!(
         "{:<10} {:>10.1} {:>10.4} {:>10.3e} {:>10.4} {:>10.1} {:>10.4} {:>10.3e}",
@@ -170,7 +204,12 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
     );
     println!("(eq. 19 determines k/m, b/m and c/m; how they split into k, b, c and m rests on");
     println!("the prior x0, P0, as in the paper.)");
+}
 
+/// The control mode's table: the mass estimate, raw and median, per window of the added
+/// mass, and how long the median took to follow each change.
+fn print_control(time: &[f64], column: &dyn Fn(&str) -> Vec<f64>) {
+    let median = column("m median");
     let m_loaded = M + ADDED_MASS;
     println!("\nControl mode (eq. 20: 1/m and a shaping filter; k, b, c fixed), hits every {HIT_EVERY} s,");
     println!(
@@ -196,28 +235,28 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
     ];
     for (label, from, to, truth, change) in windows {
         let raw = mean(
-            &time,
+            time,
             &column("m control"),
             from.max(from + 5.0 * f64::from(change.is_some())),
             to,
         );
         let filtered = mean(
-            &time,
+            time,
             &median,
             from.max(from + 5.0 * f64::from(change.is_some())),
             to,
         );
         let delay = change
-            .and_then(|c| tracking_delay(&time, &median, c, to, truth))
+            .and_then(|c| tracking_delay(time, &median, c, to, truth))
             .map_or_else(|| "-".to_owned(), |d| format!("{d:.2} s"));
         println!("{label:<22} {truth:>8.4} {raw:>8.4} {filtered:>8.4} {delay:>14}");
     }
     println!("(means after the first 5 s of each window; delay: until the median stays within 5 % for 2 s)");
-    if rejected > 0 {
-        println!("{rejected} filter steps were rejected");
-    }
+}
 
-    report::write_csv(&trace, std::fs::File::create(out.join("blade.csv"))?)?;
+/// `out/blade.csv` and the figures: the mass estimate, and the identified spring constant.
+fn write_figures(out: &Path, trace: &Trace) -> Result<(), Box<dyn Error>> {
+    report::write_csv(trace, std::fs::File::create(out.join("blade.csv"))?)?;
     let lines: Vec<Line> = ["m true", "m control", "m median"]
         .iter()
         .filter_map(|n| trace.line(n))

@@ -359,17 +359,9 @@ const COLOURS: [RGBColor; 8] = [
     RGBColor(127, 127, 127),
 ];
 
-/// Draws `lines` against time into an SVG file at `path` (900x450 px). The y axis spans
-/// `y_range`, or the finite values with a 5 % margin if None. Non-finite values and values
-/// outside the y range break a line rather than being clamped, so a diverging estimate
-/// leaves the chart instead of flattening the others.
-pub fn plot_lines(
-    path: &Path,
-    title: &str,
-    y_label: &str,
-    lines: &[Line],
-    y_range: Option<(f64, f64)>,
-) -> Result<(), Box<dyn Error>> {
+/// The time axis, over the lines' finite times (one second wide at least), and the y axis:
+/// `y_range`, or the finite values with a 5 % margin.
+fn axes(lines: &[Line], y_range: Option<(f64, f64)>) -> ((f64, f64), (f64, f64)) {
     let finite = |s: &[f64]| {
         s.iter()
             .copied()
@@ -391,7 +383,35 @@ pub fn plot_lines(
         (lo - margin, hi + margin)
     });
     let t1 = if t1 > t0 { t1 } else { t0 + 1.0 };
+    ((t0, t1), (y0, y1))
+}
 
+/// `line` split into runs of drawable points: finite, and within `(y0, y1)`.
+fn drawable_runs(line: &Line, (y0, y1): (f64, f64)) -> Vec<Vec<(f64, f64)>> {
+    let mut segments: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+    for (&t, &v) in line.t.iter().zip(line.v) {
+        if t.is_finite() && v.is_finite() && (y0..=y1).contains(&v) {
+            segments.last_mut().expect("never empty").push((t, v));
+        } else if !segments.last().expect("never empty").is_empty() {
+            segments.push(Vec::new());
+        }
+    }
+    segments.retain(|s| !s.is_empty());
+    segments
+}
+
+/// Draws `lines` against time into an SVG file at `path` (900x450 px). The y axis spans
+/// `y_range`, or the finite values with a 5 % margin if None. Non-finite values and values
+/// outside the y range break a line rather than being clamped, so a diverging estimate
+/// leaves the chart instead of flattening the others.
+pub fn plot_lines(
+    path: &Path,
+    title: &str,
+    y_label: &str,
+    lines: &[Line],
+    y_range: Option<(f64, f64)>,
+) -> Result<(), Box<dyn Error>> {
+    let ((t0, t1), (y0, y1)) = axes(lines, y_range);
     let root = SVGBackend::new(path, (900, 450)).into_drawing_area();
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
@@ -408,16 +428,7 @@ pub fn plot_lines(
         .draw()?;
     for (i, line) in lines.iter().enumerate() {
         let colour = COLOURS[i % COLOURS.len()];
-        // Split into runs of drawable points.
-        let mut segments: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
-        for (&t, &v) in line.t.iter().zip(line.v) {
-            if t.is_finite() && v.is_finite() && (y0..=y1).contains(&v) {
-                segments.last_mut().expect("never empty").push((t, v));
-            } else if !segments.last().expect("never empty").is_empty() {
-                segments.push(Vec::new());
-            }
-        }
-        segments.retain(|s| !s.is_empty());
+        let mut segments = drawable_runs(line, (y0, y1));
         // One legend entry per line, even when it is broken into segments or, having no
         // drawable point (e.g. a read-out undefined throughout), is not drawn at all.
         let legend = if segments.is_empty() {

@@ -151,9 +151,15 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
         SURGE.2, SURGE.0, SURGE.1
     );
 
-    report::write_csv(&trace, std::fs::File::create(out.join("helicopter.csv"))?)?;
+    write_figures(out, &trace, &surged)
+}
+
+/// `out/helicopter.csv`, `out/helicopter_surge.csv` and the figures: the pitch error of
+/// both observers, and the pitch through the supply surge.
+fn write_figures(out: &Path, trace: &Trace, surged: &Trace) -> Result<(), Box<dyn Error>> {
+    report::write_csv(trace, std::fs::File::create(out.join("helicopter.csv"))?)?;
     report::write_csv(
-        &surged,
+        surged,
         std::fs::File::create(out.join("helicopter_surge.csv"))?,
     )?;
     let names = ["nominal standard psi error", "nominal alpha psi error"];
