@@ -36,12 +36,10 @@ impl Feed {
     }
 }
 
-fn benches(c: &mut Criterion) {
-    let p0 = diag([0.1, 1.0, 2e4, 1000.0, 0.1]);
-    let q = diag(Q_DIAG);
-
+/// One EKF step: the generated `f64` and `f32` filters and the nalgebra reference.
+fn bench_ekf_step(c: &mut Criterion, p0: &[[f64; 5]; 5], q: &[[f64; 5]; 5]) {
     let mut group = c.benchmark_group("EKF step");
-    let (mut ekf, mut feed) = (Ekf::new(&X0, &p0, &Q_DIAG, &[[R]]).unwrap(), Feed::new());
+    let (mut ekf, mut feed) = (Ekf::new(&X0, p0, &Q_DIAG, &[[R]]).unwrap(), Feed::new());
     group.bench_function("generated f64", |b| {
         b.iter(|| {
             let (u, y) = feed.next();
@@ -62,8 +60,7 @@ fn benches(c: &mut Criterion) {
             black_box(ekf32.step(&[black_box(u as f32)], &[black_box(y as f32)]))
         })
     });
-    let mut reference =
-        reference::Ekf::new(State::from(X0), mat(&p0), mat(&q), SMatrix::from([[R]]));
+    let mut reference = reference::Ekf::new(State::from(X0), mat(p0), mat(q), SMatrix::from([[R]]));
     let mut feed = Feed::new();
     group.bench_function("nalgebra reference", |b| {
         b.iter(|| {
@@ -72,10 +69,13 @@ fn benches(c: &mut Criterion) {
         })
     });
     group.finish();
+}
 
+/// One DKF step: the generated `f64` filter and the nalgebra reference.
+fn bench_dkf_step(c: &mut Criterion, p0: &[[f64; 5]; 5], q: &[[f64; 5]; 5]) {
     let mut group = c.benchmark_group("DKF step");
     let (mut dkf, mut feed) = (
-        Dkf::new(&X0, &p0, &Q_DIAG, &p0, &Q_DIAG, &[[R]]).unwrap(),
+        Dkf::new(&X0, p0, &Q_DIAG, p0, &Q_DIAG, &[[R]]).unwrap(),
         Feed::new(),
     );
     group.bench_function("generated f64", |b| {
@@ -86,9 +86,9 @@ fn benches(c: &mut Criterion) {
     });
     let mut reference = reference::Dkf::new(
         State::from(X0),
-        mat(&p0),
-        mat(&q),
-        mat(&q),
+        mat(p0),
+        mat(q),
+        mat(q),
         SMatrix::from([[R]]),
         0.5,
     );
@@ -100,7 +100,11 @@ fn benches(c: &mut Criterion) {
         })
     });
     group.finish();
+}
 
+/// One LQR solve over a horizon of 50: the generated `f64` solver and the nalgebra
+/// reference.
+fn bench_lqr_solve(c: &mut Criterion) {
     let mut group = c.benchmark_group("LQR solve (N = 50)");
     let estimate = [0.1, 0.2, -393.93, -6.941, 0.4924];
     let mut lqr = Lqr::new(&[[1.0, 0.0], [0.0, 1.0]], &[[0.001]], Some(&[100.0])).unwrap();
@@ -118,6 +122,15 @@ fn benches(c: &mut Criterion) {
         })
     });
     group.finish();
+}
+
+/// Every benchmark group, on the cantilever's tuning.
+fn benches(c: &mut Criterion) {
+    let p0 = diag([0.1, 1.0, 2e4, 1000.0, 0.1]);
+    let q = diag(Q_DIAG);
+    bench_ekf_step(c, &p0, &q);
+    bench_dkf_step(c, &p0, &q);
+    bench_lqr_solve(c);
 }
 
 criterion_group! {

@@ -104,7 +104,8 @@ fn gaussian(lcg: &mut Lcg) -> f64 {
     (-2.0 * a.ln()).sqrt() * (std::f64::consts::PI * lcg.uniform()).cos()
 }
 
-fn measure(steps: usize) {
+/// One period of the simulation's PRBS, checked to repeat in the next period.
+fn repeating_prbs() -> Vec<f64> {
     let period = run(2 * PRBS_PERIOD, 0.0, 0);
     let prbs: Vec<f64> = period[..PRBS_PERIOD].iter().map(|s| s.u).collect();
     assert!(
@@ -114,26 +115,36 @@ fn measure(steps: usize) {
             .all(|(s, &u)| s.u == u),
         "the simulation's PRBS repeats every {PRBS_PERIOD} samples"
     );
-    let [x3, x4, x5] = euler_equivalent(20.0, 0.026, 0.5);
-    let mut truth = State::new(0.0, 0.0, x3, x4, x5);
-    let mut noise = Lcg(7);
+    prbs
+}
 
+/// The `f32` and `f64` EKFs with the tuning of `tests/tests/filters.rs`.
+fn new_filters() -> (Ekf, in_f64::Ekf) {
     let to_f32 = |v: f64| v as f32;
     let p0_64 = p0(2e4);
-    let mut ekf32 = Ekf::new(
+    let ekf32 = Ekf::new(
         &X0_CLOSE.map(to_f32),
         &p0_64.map(|row| row.map(to_f32)),
         &Q_DIAG.map(to_f32),
         &[[R as f32]],
     )
     .unwrap();
-    let mut ekf64 = in_f64::Ekf::new(&X0_CLOSE, &p0_64, &Q_DIAG, &[[R]]).unwrap();
+    let ekf64 = in_f64::Ekf::new(&X0_CLOSE, &p0_64, &Q_DIAG, &[[R]]).unwrap();
+    (ekf32, ekf64)
+}
 
-    let checkpoints: Vec<usize> = (3..8)
+/// The steps at which a row is printed: 1 and 3 times the powers of ten from 1e3 to 1e7
+/// below `steps`, and `steps`.
+fn checkpoints(steps: usize) -> Vec<usize> {
+    (3..8)
         .flat_map(|e| [10usize.pow(e), 3 * 10usize.pow(e)])
         .filter(|&c| c < steps)
         .chain([steps])
-        .collect();
+        .collect()
+}
+
+/// Prints the table's header.
+fn print_header() {
     println!(
         "{:>9} {:>17} {:>8} {:>8} {:>9} {:>9} {:>5} {:>8} {:>8} {:>8} {:>5} {:>5}",
         "steps",
@@ -149,10 +160,80 @@ fn measure(steps: usize) {
         "bad32",
         "bad64"
     );
-    let (mut max_cond32, mut not_pd32, mut dp) = (0.0f64, 0, 0.0f64);
-    let (mut bad32, mut bad64) = (0, 0);
-    let mut largest64 = [0.0f64; 5];
-    let (mut dx12, mut dpar) = (0.0f64, 0.0f64);
+}
+
+/// What the run has found so far: the worst values and the counts of the table's columns.
+#[derive(Default)]
+struct Tally {
+    max_cond32: f64,
+    not_pd32: usize,
+    dp: f64,
+    bad32: usize,
+    bad64: usize,
+    largest64: [f64; 5],
+    dx12: f64,
+    dpar: f64,
+}
+
+impl Tally {
+    /// Takes in the two estimates' differences, relative to the largest `f64` magnitudes.
+    fn compare_states(&mut self, x32: &[f32; 5], x64: &[f64; 5]) {
+        for i in 0..5 {
+            self.largest64[i] = self.largest64[i].max(x64[i].abs());
+            let difference = (f64::from(x32[i]) - x64[i]).abs() / self.largest64[i];
+            let worst = if i < 2 {
+                &mut self.dx12
+            } else {
+                &mut self.dpar
+            };
+            *worst = worst.max(difference);
+        }
+    }
+
+    /// Samples both covariances' spectra and their difference; prints a row at step `k`
+    /// if it is a checkpoint.
+    fn sample_covariances(&mut self, ekf32: &Ekf, ekf64: &in_f64::Ekf, k: usize, checkpoint: bool) {
+        let p32 = Matrix5::from_fn(|i, j| ekf32.covariance()[i][j]);
+        let s32 = spectrum(&p32.map(f64::from));
+        self.max_cond32 = self.max_cond32.max(s32.cond);
+        self.not_pd32 += usize::from(Cholesky::new(p32).is_none() || s32.min_eig <= 0.0);
+        let p64 = Matrix5::from_fn(|i, j| ekf64.covariance()[i][j]);
+        self.dp = self.dp.max(relative_error(&p32.map(f64::from), &p64));
+        if checkpoint {
+            self.print_row(k, &s32, &spectrum(&p64));
+        }
+    }
+
+    /// Prints the row of step `k`, with the spectra of the two covariances now.
+    fn print_row(&self, k: usize, s32: &Spectrum, s64: &Spectrum) {
+        let Tally {
+            max_cond32,
+            not_pd32,
+            dp,
+            bad32,
+            bad64,
+            dx12,
+            dpar,
+            ..
+        } = *self;
+        println!(
+            "{k:>9} {:>8.1e}/{:>8.1e} {:>8.1e} {:>8.1e} {:>9.2e} {:>9.2e} {not_pd32:>5} \
+             {dx12:>8.1e} {dpar:>8.1e} {dp:>8.1e} {bad32:>5} {bad64:>5}",
+            s32.cond, max_cond32, s64.cond, s32.corr_cond, s32.min_eig, s64.min_eig,
+        );
+    }
+}
+
+/// Runs both filters for `steps` samples of the simulated cantilever, printing the table.
+fn measure(steps: usize) {
+    let prbs = repeating_prbs();
+    let [x3, x4, x5] = euler_equivalent(20.0, 0.026, 0.5);
+    let mut truth = State::new(0.0, 0.0, x3, x4, x5);
+    let mut noise = Lcg(7);
+    let (mut ekf32, mut ekf64) = new_filters();
+    let checkpoints = checkpoints(steps);
+    print_header();
+    let mut tally = Tally::default();
     let mut u_prev = 0.0;
     for k in 0..=steps {
         let y = truth[0] + SIGMA * gaussian(&mut noise);
@@ -162,35 +243,14 @@ fn measure(steps: usize) {
             u_prev = u;
             continue;
         }
-        bad32 += usize::from(ekf32.step(&[u_prev as f32], &[y as f32]) != Status::Ok);
-        bad64 += usize::from(ekf64.step(&[u_prev], &[y]) != Status::Ok);
+        tally.bad32 += usize::from(ekf32.step(&[u_prev as f32], &[y as f32]) != Status::Ok);
+        tally.bad64 += usize::from(ekf64.step(&[u_prev], &[y]) != Status::Ok);
         u_prev = u;
-
-        let (x32, x64) = (ekf32.state(), ekf64.state());
-        for i in 0..5 {
-            largest64[i] = largest64[i].max(x64[i].abs());
-            let difference = (f64::from(x32[i]) - x64[i]).abs() / largest64[i];
-            let worst = if i < 2 { &mut dx12 } else { &mut dpar };
-            *worst = worst.max(difference);
-        }
-
+        tally.compare_states(&ekf32.state(), &ekf64.state());
         let checkpoint = checkpoints.contains(&k);
         if k % SAMPLE_EVERY != 0 && !checkpoint {
             continue;
         }
-        let p32 = Matrix5::from_fn(|i, j| ekf32.covariance()[i][j]);
-        let s32 = spectrum(&p32.map(f64::from));
-        max_cond32 = max_cond32.max(s32.cond);
-        not_pd32 += usize::from(Cholesky::new(p32).is_none() || s32.min_eig <= 0.0);
-        let p64 = Matrix5::from_fn(|i, j| ekf64.covariance()[i][j]);
-        dp = dp.max(relative_error(&p32.map(f64::from), &p64));
-        if checkpoint {
-            let s64 = spectrum(&p64);
-            println!(
-                "{k:>9} {:>8.1e}/{:>8.1e} {:>8.1e} {:>8.1e} {:>9.2e} {:>9.2e} {not_pd32:>5} \
-                 {dx12:>8.1e} {dpar:>8.1e} {dp:>8.1e} {bad32:>5} {bad64:>5}",
-                s32.cond, max_cond32, s64.cond, s32.corr_cond, s32.min_eig, s64.min_eig,
-            );
-        }
+        tally.sample_covariances(&ekf32, &ekf64, k, checkpoint);
     }
 }

@@ -7,7 +7,9 @@
 
 use generated_demo::{blade_identification as blade_id, helicopter, mass_spring_damper};
 use nalgebra::{SMatrix, SVector};
-use tests::continuous_reference::{diagonal, relative_difference, ContinuousEkf, HybridEkf};
+use tests::continuous_reference::{
+    diagonal, relative_difference, ContinuousEkf, HybridEkf, Innovation,
+};
 
 /// Agreement required of generated and reference filters (relative, at the scale of the
 /// vector or matrix).
@@ -575,63 +577,91 @@ mod pendulum_model {
     };
 }
 
-/// Both continuous filters with sub-steps in a loop, RK4 and explicit time (the running
-/// time is carried by the loop) against the references over 2000 samples.
-#[test]
-fn looped_rk4_substeps_with_time_agree_with_the_references() {
-    use pendulum::{ContinuousEkf as Ct, HybridEkf as Hybrid, Status, TS};
-    assert_eq!(Hybrid::SUBSTEPS, 4);
-    let x0 = [0.3, 0.0, 0.5];
-    let p0 = diagonal([0.1, 0.1, 0.1]);
-    // A full process noise (the default, not `diagonal`), with a coupling.
-    let q = SMatrix::<f64, 3, 3>::new(1e-4, 2e-5, 0.0, 2e-5, 1e-3, 0.0, 0.0, 0.0, 1e-3);
-    let r = 1e-3;
-    let mut hybrid = Hybrid::new(&x0, &to_array(&p0), &to_array(&q), &[[r]]).unwrap();
-    let mut ct = Ct::new(&x0, &to_array(&p0), &to_array(&q), &[[r]]).unwrap();
-    let mut hybrid_reference = HybridEkf {
-        model: &pendulum_model::MODEL,
-        estimate: (SVector::from(x0), p0),
-        q,
-        r: SMatrix::<f64, 1, 1>::new(r),
-    };
-    let mut ct_reference = ContinuousEkf {
-        model: &pendulum_model::MODEL,
-        estimate: (SVector::from(x0), p0),
-        q,
-        r: SMatrix::<f64, 1, 1>::new(r),
-        alpha: Ct::ALPHA,
-    };
-    let mut truth = SVector::from([1.0, 0.0, 0.8]);
-    let (mut worst_x, mut worst_p) = (0.0_f64, 0.0_f64);
-    for k in 1..=2000 {
+/// Advances the pendulum's truth over `[t_prev, t_prev + TS]` with the reference's own RK4,
+/// ten steps per sample.
+fn advance_pendulum_truth(truth: &mut SVector<f64, 3>, t_prev: f64, u: &[f64; 1]) {
+    use pendulum::TS;
+    for i in 0..10 {
+        let h = TS / 10.0;
+        let s = t_prev + i as f64 * h;
+        let rate = |s: f64, x: &SVector<f64, 3>| (pendulum_model::MODEL.rate)(s, x, u);
+        let k1 = rate(s, truth);
+        let k2 = rate(s + h / 2.0, &(*truth + k1 * (h / 2.0)));
+        let k3 = rate(s + h / 2.0, &(*truth + k2 * (h / 2.0)));
+        let k4 = rate(s + h, &(*truth + k3 * h));
+        *truth += (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0);
+    }
+}
+
+/// The pendulum's two generated continuous filters beside their references.
+struct PendulumFilters {
+    hybrid: pendulum::HybridEkf,
+    ct: pendulum::ContinuousEkf,
+    hybrid_reference: HybridEkf<'static, 3, 1, 1>,
+    ct_reference: ContinuousEkf<'static, 3, 1, 1>,
+}
+
+impl PendulumFilters {
+    /// All four filters from one `x0`, `P0`, `R` and a full process noise with a coupling.
+    fn new() -> Self {
+        use pendulum::{ContinuousEkf as Ct, HybridEkf as Hybrid};
+        let x0 = [0.3, 0.0, 0.5];
+        let p0 = diagonal([0.1, 0.1, 0.1]);
+        // A full process noise (the default, not `diagonal`), with a coupling.
+        let q = SMatrix::<f64, 3, 3>::new(1e-4, 2e-5, 0.0, 2e-5, 1e-3, 0.0, 0.0, 0.0, 1e-3);
+        let r = 1e-3;
+        let hybrid = Hybrid::new(&x0, &to_array(&p0), &to_array(&q), &[[r]]).unwrap();
+        let ct = Ct::new(&x0, &to_array(&p0), &to_array(&q), &[[r]]).unwrap();
+        let hybrid_reference = HybridEkf {
+            model: &pendulum_model::MODEL,
+            estimate: (SVector::from(x0), p0),
+            q,
+            r: SMatrix::<f64, 1, 1>::new(r),
+        };
+        let ct_reference = ContinuousEkf {
+            model: &pendulum_model::MODEL,
+            estimate: (SVector::from(x0), p0),
+            q,
+            r: SMatrix::<f64, 1, 1>::new(r),
+            alpha: Ct::ALPHA,
+        };
+        PendulumFilters {
+            hybrid,
+            ct,
+            hybrid_reference,
+            ct_reference,
+        }
+    }
+
+    /// Steps all four over sample `k`, the generated ones passing; returns the references'
+    /// innovations, hybrid then continuous.
+    fn step(&mut self, k: usize, u: &[f64; 1], y: &[f64; 1]) -> [Innovation<1>; 2] {
+        use pendulum::{Status, TS};
         let t_prev = (k - 1) as f64 * TS;
         let t = k as f64 * TS;
-        let u = [2.0 * (1.3 * t_prev).sin()];
-        // The truth: the reference's own RK4, ten steps per sample.
-        for i in 0..10 {
-            let h = TS / 10.0;
-            let s = t_prev + i as f64 * h;
-            let rate = |s: f64, x: &SVector<f64, 3>| (pendulum_model::MODEL.rate)(s, x, &u);
-            let k1 = rate(s, &truth);
-            let k2 = rate(s + h / 2.0, &(truth + k1 * (h / 2.0)));
-            let k3 = rate(s + h / 2.0, &(truth + k2 * (h / 2.0)));
-            let k4 = rate(s + h, &(truth + k3 * h));
-            truth += (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0);
-        }
-        let y = [truth[0] + wobble(k, 1e-2)];
         assert_eq!(
-            hybrid.step(t_prev, &u, &y),
+            self.hybrid.step(t_prev, u, y),
             Status::Ok,
             "hybrid, sample {k}"
         );
-        hybrid_reference.predict(t_prev, &u);
-        let hybrid_innovation = hybrid_reference.update(t, &SVector::from(y));
+        self.hybrid_reference.predict(t_prev, u);
+        let hybrid_innovation = self.hybrid_reference.update(t, &SVector::from(*y));
         assert_eq!(
-            ct.step(t_prev, &u, &y),
+            self.ct.step(t_prev, u, y),
             Status::Ok,
             "continuous, sample {k}"
         );
-        let ct_innovation = ct_reference.step(t_prev, &u, &SVector::from(y));
+        let ct_innovation = self.ct_reference.step(t_prev, u, &SVector::from(*y));
+        [hybrid_innovation, ct_innovation]
+    }
+
+    /// Checks both generated innovations and NIS against the references' at sample `k`.
+    fn assert_innovations_agree(
+        &self,
+        k: usize,
+        [hybrid_innovation, ct_innovation]: [Innovation<1>; 2],
+    ) {
+        let (hybrid, ct) = (&self.hybrid, &self.ct);
         for (what, (innovation, nis), (r, s)) in [
             (
                 "hybrid",
@@ -657,22 +687,51 @@ fn looped_rk4_substeps_with_time_agree_with_the_references() {
                 "{what}, sample {k}: NIS {nis} against {reference_nis}"
             );
         }
+    }
+
+    /// Checks both generated estimates against the references' and their covariances
+    /// symmetric positive definite at sample `k`; returns the largest differences of x and P.
+    fn assert_estimates_agree(&self, k: usize) -> (f64, f64) {
+        let (hybrid, ct) = (&self.hybrid, &self.ct);
+        let (mut worst_x, mut worst_p) = (0.0_f64, 0.0_f64);
         for (what, generated, reference) in [
             (
                 "hybrid",
                 (hybrid.state(), hybrid.covariance()),
-                &hybrid_reference.estimate,
+                &self.hybrid_reference.estimate,
             ),
             (
                 "continuous",
                 (ct.state(), ct.covariance()),
-                &ct_reference.estimate,
+                &self.ct_reference.estimate,
             ),
         ] {
             let (dx, dp) = compare(&format!("{what}, sample {k}"), generated, reference);
             (worst_x, worst_p) = (worst_x.max(dx), worst_p.max(dp));
             assert_spd(&format!("{what}, sample {k}"), &generated.1);
         }
+        (worst_x, worst_p)
+    }
+}
+
+/// Both continuous filters with sub-steps in a loop, RK4 and explicit time (the running
+/// time is carried by the loop) against the references over 2000 samples.
+#[test]
+fn looped_rk4_substeps_with_time_agree_with_the_references() {
+    use pendulum::{HybridEkf as Hybrid, TS};
+    assert_eq!(Hybrid::SUBSTEPS, 4);
+    let mut filters = PendulumFilters::new();
+    let mut truth = SVector::from([1.0, 0.0, 0.8]);
+    let (mut worst_x, mut worst_p) = (0.0_f64, 0.0_f64);
+    for k in 1..=2000 {
+        let t_prev = (k - 1) as f64 * TS;
+        let u = [2.0 * (1.3 * t_prev).sin()];
+        advance_pendulum_truth(&mut truth, t_prev, &u);
+        let y = [truth[0] + wobble(k, 1e-2)];
+        let innovations = filters.step(k, &u, &y);
+        filters.assert_innovations_agree(k, innovations);
+        let (dx, dp) = filters.assert_estimates_agree(k);
+        (worst_x, worst_p) = (worst_x.max(dx), worst_p.max(dp));
     }
     println!("looped RK4 with time: x within {worst_x:.1e}, P within {worst_p:.1e}");
 }

@@ -5,6 +5,8 @@
 
 use generated_demo::{blade_identification, cantilever, helicopter, polynomial};
 use nalgebra::SMatrix;
+use std::ops::Range;
+use tests::cantilever_sim::Sample;
 use tests::reference::{self, State};
 use tests::tuning::{diag, p0, Q_DIAG, R, X0_CLOSE};
 
@@ -73,30 +75,30 @@ fn an_ungated_ekf_refuses_a_measurement_beyond_the_divergence_bound() {
     }
 }
 
-/// The DKF's gate judges each filter by its own NIS: with the gate at 100 (ten standard
-/// deviations: a run of consistent samples passes it), a spike of 100 standard deviations
-/// of the wider of the two filters' predictions is rejected by both, each keeping its prediction (what `predict` gives, the window emptied),
-/// the innovations recorded; the window then refills and the filter goes on. `reset`
-/// gives the filter that `new` builds, keeping the gate; `predict` rejects a NaN input.
-#[test]
-fn a_gated_dkf_keeps_both_predictions_empties_its_window_and_resets() {
-    use cantilever::in_f64::{Dkf, Status, WindowStatus};
-    let new = || Dkf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]).unwrap();
-    let mut filter = new();
-    assert_eq!(filter.set_innovation_gate(100.0), Status::Ok);
-    let samples = tests::cantilever_sim::run(400, 1e-4, 3);
-    for k in 1..300 {
+/// The cantilever's DKF as the tests build it, ungated.
+fn new_dkf() -> cantilever::in_f64::Dkf {
+    use cantilever::in_f64::Dkf;
+    Dkf::new(&X0_CLOSE, &p0(2e4), &Q_DIAG, &p0(2e4), &Q_DIAG, &[[R]]).unwrap()
+}
+
+/// Steps the DKF through samples `ks` (input of the previous sample), each step passing.
+fn step_through(filter: &mut cantilever::in_f64::Dkf, samples: &[Sample], ks: Range<usize>) {
+    for k in ks {
         let status = filter.step(&[samples[k - 1].u], &[samples[k].y]);
         assert!(status.is_ok(), "step {k}: {status:?}");
     }
-    let (k, u) = (300, [samples[299].u]);
-    let mut predicted = filter;
-    assert!(predicted.predict(&u).is_ok());
-    // The LKF's prediction against the reference's equations: `f` linearised about the
-    // AKF's previous estimate, `x = f(xbar) + A (x - xbar)`, `P = A P A' + Q`.
+}
+
+/// Checks the LKF's prediction against the reference's equations: `f` linearised about the
+/// AKF's previous estimate, `x = f(xbar) + A (x - xbar)`, `P = A P A' + Q`.
+fn assert_lkf_prediction_matches_the_reference(
+    filter: &cantilever::in_f64::Dkf,
+    predicted: &cantilever::in_f64::Dkf,
+    u: f64,
+) {
     let (xbar, x) = (State::from(filter.akf_state()), State::from(filter.state()));
-    let a = reference::jacobian_f_x(&xbar, u[0]);
-    let x_pred = reference::f(&xbar, u[0]) + a * (x - xbar);
+    let a = reference::jacobian_f_x(&xbar, u);
+    let x_pred = reference::f(&xbar, u) + a * (x - xbar);
     let p = SMatrix::<f64, 5, 5>::from_fn(|i, j| filter.covariance()[i][j]);
     let p_pred = a * p * a.transpose() + SMatrix::<f64, 5, 5>::from_diagonal(&State::from(Q_DIAG));
     for i in 0..5 {
@@ -113,14 +115,18 @@ fn a_gated_dkf_keeps_both_predictions_empties_its_window_and_resets() {
             );
         }
     }
-    assert_eq!(
-        predicted.predict(&[f64::NAN]).lkf,
-        Status::RejectedInput,
-        "a NaN input"
-    );
-    let widest = predicted.covariance()[0][0].max(predicted.akf_covariance()[0][0]);
-    let spike = samples[k].y + 100.0 * (widest + R).sqrt();
-    let status = filter.step(&u, &[spike]);
+}
+
+/// Steps the DKF with `spike`; checks both filters reject it, keep `predicted`'s estimates
+/// and record their innovations.
+fn assert_both_reject_the_spike(
+    filter: &mut cantilever::in_f64::Dkf,
+    predicted: &cantilever::in_f64::Dkf,
+    u: &[f64; 1],
+    spike: f64,
+) {
+    use cantilever::in_f64::Status;
+    let status = filter.step(u, &[spike]);
     assert_eq!(
         (status.lkf, status.akf),
         (Status::OutlierRejected, Status::OutlierRejected)
@@ -141,24 +147,54 @@ fn a_gated_dkf_keeps_both_predictions_empties_its_window_and_resets() {
     }
     assert!((filter.innovation()[0] - (spike - predicted.state()[0])).abs() < 1e-9);
     assert!((filter.akf_innovation()[0] - (spike - predicted.akf_state()[0])).abs() < 1e-9);
-    let next = filter.step(&[samples[k].u], &[samples[k + 1].y]);
-    assert!(next.is_ok(), "{next:?}");
-    assert_eq!(next.window, WindowStatus::Filling, "the window refills");
-    for k in k + 2..samples.len() {
-        let status = filter.step(&[samples[k - 1].u], &[samples[k].y]);
-        assert!(status.is_ok(), "step {k}: {status:?}");
-    }
+}
+
+/// Checks `reset` gives the filter `new` builds, gate kept, and refuses a negative `P0`
+/// of the AKF, leaving it so.
+fn assert_reset_gives_a_fresh_gated_filter(filter: &mut cantilever::in_f64::Dkf) {
+    use cantilever::in_f64::Status;
     assert_eq!(filter.reset(&X0_CLOSE, &p0(2e4), &p0(2e4)), Status::Ok);
-    let mut fresh = new();
+    let mut fresh = new_dkf();
     assert_eq!(fresh.set_innovation_gate(100.0), Status::Ok);
-    assert_eq!(filter, fresh);
+    assert_eq!(*filter, fresh);
     let mut negative = p0(2e4);
     negative[1][1] = -1.0;
     assert_eq!(
         filter.reset(&X0_CLOSE, &p0(2e4), &negative),
         Status::InvalidCovariance
     );
-    assert_eq!(filter, fresh);
+    assert_eq!(*filter, fresh);
+}
+
+/// The DKF's gate judges each filter by its own NIS: with the gate at 100 (ten standard
+/// deviations: a run of consistent samples passes it), a spike of 100 standard deviations
+/// of the wider of the two filters' predictions is rejected by both, each keeping its prediction (what `predict` gives, the window emptied),
+/// the innovations recorded; the window then refills and the filter goes on. `reset`
+/// gives the filter that `new` builds, keeping the gate; `predict` rejects a NaN input.
+#[test]
+fn a_gated_dkf_keeps_both_predictions_empties_its_window_and_resets() {
+    use cantilever::in_f64::{Status, WindowStatus};
+    let mut filter = new_dkf();
+    assert_eq!(filter.set_innovation_gate(100.0), Status::Ok);
+    let samples = tests::cantilever_sim::run(400, 1e-4, 3);
+    step_through(&mut filter, &samples, 1..300);
+    let (k, u) = (300, [samples[299].u]);
+    let mut predicted = filter;
+    assert!(predicted.predict(&u).is_ok());
+    assert_lkf_prediction_matches_the_reference(&filter, &predicted, u[0]);
+    assert_eq!(
+        predicted.predict(&[f64::NAN]).lkf,
+        Status::RejectedInput,
+        "a NaN input"
+    );
+    let widest = predicted.covariance()[0][0].max(predicted.akf_covariance()[0][0]);
+    let spike = samples[k].y + 100.0 * (widest + R).sqrt();
+    assert_both_reject_the_spike(&mut filter, &predicted, &u, spike);
+    let next = filter.step(&[samples[k].u], &[samples[k + 1].y]);
+    assert!(next.is_ok(), "{next:?}");
+    assert_eq!(next.window, WindowStatus::Filling, "the window refills");
+    step_through(&mut filter, &samples, k + 2..samples.len());
+    assert_reset_gives_a_fresh_gated_filter(&mut filter);
 }
 
 #[test]
@@ -303,11 +339,9 @@ fn per_output_updates_are_gated_and_keep_their_innovation() {
     assert!(filter.state()[2] > before.state()[2]);
 }
 
-/// Of each kind of covariance argument that is not one, rejected by every filter's
-/// constructor, `reset` and setters with `InvalidCovariance`, the filter unchanged; a
-/// semi-definite one (a state known exactly, perfectly correlated entries) accepted.
-#[test]
-fn covariances_that_are_not_covariances_are_rejected_where_they_enter() {
+/// Checks the cantilever's EKF and DKF refuse an indefinite, an asymmetric and a negative
+/// `P0` in `new` and `reset`, and the EKF's setters negative noise, the filter unchanged.
+fn assert_cantilever_filters_reject_bad_covariances() -> cantilever::in_f64::Ekf {
     use cantilever::in_f64::{Dkf, Ekf, Status};
     let mut indefinite = p0(2e4);
     indefinite[0][1] = 1.0; // A correlation of 1 / sqrt(1e-4 * 1) = 100.
@@ -340,35 +374,41 @@ fn covariances_that_are_not_covariances_are_rejected_where_they_enter() {
         Status::InvalidCovariance
     );
     assert_eq!(ekf, before);
-    // Semi-definite: the position known exactly, two parameters perfectly correlated.
+    ekf
+}
+
+/// Checks the cantilever's EKF accepts a semi-definite `P0`: the position known exactly,
+/// two parameters perfectly correlated.
+fn assert_a_semi_definite_covariance_is_accepted(mut ekf: cantilever::in_f64::Ekf) {
+    use cantilever::in_f64::Status;
     let mut known = p0(2e4);
     known[0][0] = 0.0;
     (known[2][2], known[3][3], known[2][3], known[3][2]) = (4.0, 9.0, 6.0, 6.0);
     assert_eq!(ekf.reset(&X0_CLOSE, &known), Status::Ok);
+}
 
-    let blade_filter = || {
-        blade_identification::in_f64::HybridEkf::new(
-            &blade::X0,
-            &diagonal(blade::P0),
-            &blade::Q,
-            &[[blade::R]],
-        )
-    };
+/// Checks the blade's hybrid EKF refuses an indefinite `P0` in `reset` and a negative `Q`
+/// in its setter, the filter unchanged.
+fn assert_hybrid_ekf_rejects_bad_covariances() {
+    use blade_identification::in_f64::{HybridEkf, Status};
+    let blade_filter =
+        || HybridEkf::new(&blade::X0, &diagonal(blade::P0), &blade::Q, &[[blade::R]]);
     let mut hybrid = blade_filter().unwrap();
     let before = hybrid;
     let mut p = diagonal(blade::P0);
     p[2][3] = 1e3; // 1e3 against sqrt(1e4 * 1e-2) = 10.
     p[3][2] = 1e3;
-    assert_eq!(
-        hybrid.reset(&blade::X0, &p),
-        blade_identification::in_f64::Status::InvalidCovariance
-    );
+    assert_eq!(hybrid.reset(&blade::X0, &p), Status::InvalidCovariance);
     assert_eq!(
         hybrid.set_process_noise(&[0.0, -1e-2, 1e3, 1e-3, 1e-9, 1.0]),
-        blade_identification::in_f64::Status::InvalidCovariance
+        Status::InvalidCovariance
     );
     assert_eq!(hybrid, before);
+}
 
+/// Checks the helicopter's continuous EKF refuses an indefinite `P0` and an indefinite `R`.
+fn assert_continuous_ekf_rejects_bad_covariances() {
+    use helicopter::in_f64::{ContinuousEkf, Status};
     let r = [[0.0007, 0.0], [0.0, 0.00193]];
     let q = [0.0099, 0.0022, 0.0894, 0.0017, 1.2678, 1.27];
     let x0 = [0.0; 6];
@@ -376,24 +416,35 @@ fn covariances_that_are_not_covariances_are_rejected_where_they_enter() {
     p[4][5] = 1.5;
     p[5][4] = 1.5;
     assert_eq!(
-        helicopter::in_f64::ContinuousEkf::new(&x0, &p, &q, &r),
-        Err(helicopter::in_f64::Status::InvalidCovariance)
+        ContinuousEkf::new(&x0, &p, &q, &r),
+        Err(Status::InvalidCovariance)
     );
     assert_eq!(
-        helicopter::in_f64::ContinuousEkf::new(
-            &x0,
-            &diagonal([1.0; 6]),
-            &q,
-            &[[1e-3, 1e-3], [1e-3, 1e-4]]
-        ),
-        Err(helicopter::in_f64::Status::InvalidCovariance)
+        ContinuousEkf::new(&x0, &diagonal([1.0; 6]), &q, &[[1e-3, 1e-3], [1e-3, 1e-4]]),
+        Err(Status::InvalidCovariance)
     );
+}
 
+/// Checks the polynomial KF refuses an indefinite `P0`.
+fn assert_polynomial_kf_rejects_a_bad_covariance() {
+    use polynomial::in_f64::{PolynomialKf, Status};
     let mut p = diagonal([1.0; 4]);
     p[0][3] = -1.01;
     p[3][0] = -1.01;
     assert_eq!(
-        polynomial::in_f64::PolynomialKf::new(&[0.0; 4], &p),
-        Err(polynomial::in_f64::Status::InvalidCovariance)
+        PolynomialKf::new(&[0.0; 4], &p),
+        Err(Status::InvalidCovariance)
     );
+}
+
+/// Of each kind of covariance argument that is not one, rejected by every filter's
+/// constructor, `reset` and setters with `InvalidCovariance`, the filter unchanged; a
+/// semi-definite one (a state known exactly, perfectly correlated entries) accepted.
+#[test]
+fn covariances_that_are_not_covariances_are_rejected_where_they_enter() {
+    let ekf = assert_cantilever_filters_reject_bad_covariances();
+    assert_a_semi_definite_covariance_is_accepted(ekf);
+    assert_hybrid_ekf_rejects_bad_covariances();
+    assert_continuous_ekf_rejects_bad_covariances();
+    assert_polynomial_kf_rejects_a_bad_covariance();
 }

@@ -528,15 +528,18 @@ enum Expect {
     Anything,
 }
 
-/// The faults for `subject`, replacing the data from sample `k0`.
-fn faults<S: Subject>(subject: &S, data: &[Sample], k0: usize) -> Vec<Fault> {
+/// `good` with `f` applied to it, as the one sample of a fault.
+fn altered(good: &Sample, f: &dyn Fn(&mut Sample)) -> Vec<Sample> {
+    let mut s = good.clone();
+    f(&mut s);
+    vec![s]
+}
+
+/// The faults of the measurement: NaN, infinite, 1e30 and stuck from sample `k0`.
+fn measurement_faults(data: &[Sample], k0: usize) -> Vec<Fault> {
     let good = &data[k0];
-    let with = |f: &dyn Fn(&mut Sample)| {
-        let mut s = good.clone();
-        f(&mut s);
-        vec![s]
-    };
-    let mut faults = vec![
+    let with = |f: &dyn Fn(&mut Sample)| altered(good, f);
+    vec![
         Fault {
             name: "NaN measurement",
             samples: with(&|s| s.y[0] = f64::NAN),
@@ -571,9 +574,14 @@ fn faults<S: Subject>(subject: &S, data: &[Sample], k0: usize) -> Vec<Fault> {
                 .collect(),
             expect: Expect::Anything,
         },
-    ];
+    ]
+}
+
+/// A spike of 30 measurement standard deviations on every output of `good`: an outlier
+/// to a gated `subject`.
+fn spike_fault<S: Subject>(subject: &S, good: &Sample) -> Fault {
     let sigma = subject.sigma();
-    let spike = with(&|s| {
+    let spike = altered(good, &|s| {
         s.y.iter_mut()
             .zip(&sigma)
             .for_each(|(y, sd)| *y += 30.0 * sd)
@@ -583,52 +591,75 @@ fn faults<S: Subject>(subject: &S, data: &[Sample], k0: usize) -> Vec<Fault> {
     } else {
         Expect::Anything
     };
-    faults.push(Fault {
+    Fault {
         name: "spike of 30 sigma",
         samples: spike,
         expect,
-    });
-    if !good.u.is_empty() {
-        faults.push(Fault {
+    }
+}
+
+/// The faults of the input of `good`: NaN, infinite and 1e30.
+fn input_faults(good: &Sample) -> Vec<Fault> {
+    let with = |f: &dyn Fn(&mut Sample)| altered(good, f);
+    vec![
+        Fault {
             name: "NaN input",
             samples: with(&|s| s.u[0] = f64::NAN),
             expect: Expect::Rejected,
-        });
-        faults.push(Fault {
+        },
+        Fault {
             name: "infinite input",
             samples: with(&|s| s.u[0] = f64::INFINITY),
             expect: Expect::Rejected,
-        });
-        faults.push(Fault {
+        },
+        Fault {
             name: "last input minus infinity",
             samples: with(&|s| {
                 let last = s.u.len() - 1;
                 s.u[last] = f64::NEG_INFINITY;
             }),
             expect: Expect::Rejected,
-        });
-        faults.push(Fault {
+        },
+        Fault {
             name: "input of 1e30",
             samples: with(&|s| s.u[0] = 1e30),
             expect: Expect::Anything,
-        });
-    }
-    if subject.takes_time() {
-        faults.push(Fault {
+        },
+    ]
+}
+
+/// The faults of the time of `good`: NaN, infinite and 1e30.
+fn time_faults(good: &Sample) -> Vec<Fault> {
+    let with = |f: &dyn Fn(&mut Sample)| altered(good, f);
+    vec![
+        Fault {
             name: "NaN time",
             samples: with(&|s| s.t = f64::NAN),
             expect: Expect::Rejected,
-        });
-        faults.push(Fault {
+        },
+        Fault {
             name: "infinite time",
             samples: with(&|s| s.t = f64::INFINITY),
             expect: Expect::Rejected,
-        });
-        faults.push(Fault {
+        },
+        Fault {
             name: "time of 1e30",
             samples: with(&|s| s.t = 1e30),
             expect: Expect::Anything,
-        });
+        },
+    ]
+}
+
+/// The faults for `subject`, replacing the data from sample `k0`.
+fn faults<S: Subject>(subject: &S, data: &[Sample], k0: usize) -> Vec<Fault> {
+    let good = &data[k0];
+    let mut faults = measurement_faults(data, k0);
+    faults.push(spike_fault(subject, good));
+    if !good.u.is_empty() {
+        faults.extend(input_faults(good));
+    }
+    if subject.takes_time() {
+        faults.extend(time_faults(good));
     }
     faults
 }

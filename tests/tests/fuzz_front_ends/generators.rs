@@ -513,161 +513,170 @@ fn dynamics_body(text: &str) -> Option<Range<usize>> {
 fn change_macro_model(text: &str, change: &ModelChange) -> String {
     match *change {
         ModelChange::DeleteOutputs => remove_ranges(text, &statements(text, "output")),
-        ModelChange::DeleteInputs => {
-            let found = statements(text, "input");
-            let names: Vec<String> = found
-                .iter()
-                .flat_map(|r| split_top(&text[r.start + "input".len()..r.end - 1]))
-                .map(|name| name.lines().last().unwrap_or("").trim().to_owned())
-                .collect();
-            let mut out = remove_ranges(text, &found);
-            if let Some(body) = dynamics_body(&out) {
-                let zeroed = names.iter().fold(out[body.clone()].to_owned(), |t, n| {
-                    replace_word(&t, n, "0.0")
-                });
-                out.replace_range(body, &zeroed);
-            }
-            out
-        }
-        ModelChange::ToDiscrete => {
-            let Some(at) = text.find("dynamics continuous") else {
-                return text.to_owned();
-            };
-            let open = at + "dynamics continuous".len();
-            let Some(close) = closing(&text[open..]) else {
-                return text.to_owned();
-            };
-            let mut out = format!("{}dynamics discrete{}", &text[..at], &text[open + close..]);
-            while let Some(der) = out.find("der(") {
-                let Some(close) = out[der..].find(')') else {
-                    break;
-                };
-                out.replace_range(der + close..der + close + 1, "");
-                out.replace_range(der..der + 4, "");
-            }
-            out
-        }
-        ModelChange::ToContinuous { rk4 } => {
-            let Some(at) = text.find("dynamics discrete") else {
-                return text.to_owned();
-            };
-            let method = if rk4 { "rk4" } else { "euler" };
-            let mut out = text.to_owned();
-            out.replace_range(
-                at..at + "dynamics discrete".len(),
-                &format!("dynamics continuous({method}, dt = TS)"),
-            );
-            let Some(body) = dynamics_body(&out) else {
-                return out;
-            };
-            let lines: Vec<String> = out[body.clone()]
-                .split_inclusive('\n')
-                .map(|line| match equation_target(line) {
-                    Some(name) => line.replacen(name, &format!("der({name})"), 1),
-                    None => line.to_owned(),
-                })
-                .collect();
-            out.replace_range(body, &lines.concat());
-            out
-        }
-        ModelChange::Substeps(n) => {
-            let text = change_macro_model(text, &ModelChange::ToContinuous { rk4: false });
-            let Some(at) = text.find("dynamics continuous") else {
-                return text;
-            };
-            let open = at + "dynamics continuous".len();
-            let Some(close) = closing(&text[open..]) else {
-                return text;
-            };
-            let mut args = split_top(&text[open + 1..open + close - 1]);
-            args.retain(|a| !a.starts_with("substeps"));
-            args.push(format!("substeps = {n}"));
-            format!(
-                "{}({}){}",
-                &text[..open],
-                args.join(", "),
-                &text[open + close..]
-            )
-        }
-        ModelChange::Declare { kind, name, used } => {
-            let mut out = text.to_owned();
-            if used {
-                if let Some(body) = dynamics_body(&out) {
-                    let lines: Vec<&str> = out[body.clone()].split_inclusive('\n').collect();
-                    let first = lines.iter().position(|l| {
-                        equation_target(l.trim_start().trim_start_matches("der(")).is_some()
-                            && l.trim_end().ends_with(';')
-                    });
-                    if let Some(i) = first {
-                        let line = lines[i];
-                        let eq = line.find('=').unwrap_or(0);
-                        let semi = line.rfind(';').unwrap_or(line.len());
-                        let wrapped = format!(
-                            "{}= {name} * ({}){}",
-                            &line[..eq],
-                            line[eq + 1..semi].trim(),
-                            &line[semi..]
-                        );
-                        let mut new = lines.clone();
-                        new[i] = &wrapped;
-                        let body_text = new.concat();
-                        out.replace_range(body, &body_text);
-                    }
-                }
-            }
-            match statements(&out, "scalar").first() {
-                Some(r) => {
-                    out.insert_str(r.end, &format!("\n        {kind} {name};"));
-                    out
-                }
-                None => out,
-            }
-        }
+        ModelChange::DeleteInputs => macro_without_inputs(text),
+        ModelChange::ToDiscrete => macro_to_discrete(text),
+        ModelChange::ToContinuous { rk4 } => macro_to_continuous(text, rk4),
+        ModelChange::Substeps(n) => macro_with_substeps(text, n),
+        ModelChange::Declare { kind, name, used } => macro_declaring(text, kind, name, used),
     }
+}
+
+/// A `model!` model without its `input` statements, its dynamics reading 0.0 for them.
+fn macro_without_inputs(text: &str) -> String {
+    let found = statements(text, "input");
+    let names: Vec<String> = found
+        .iter()
+        .flat_map(|r| split_top(&text[r.start + "input".len()..r.end - 1]))
+        .map(|name| name.lines().last().unwrap_or("").trim().to_owned())
+        .collect();
+    let mut out = remove_ranges(text, &found);
+    if let Some(body) = dynamics_body(&out) {
+        let zeroed = names.iter().fold(out[body.clone()].to_owned(), |t, n| {
+            replace_word(&t, n, "0.0")
+        });
+        out.replace_range(body, &zeroed);
+    }
+    out
+}
+
+/// A `model!` model's continuous dynamics made discrete, `der(x) = e` becoming `x = e`.
+fn macro_to_discrete(text: &str) -> String {
+    let Some(at) = text.find("dynamics continuous") else {
+        return text.to_owned();
+    };
+    let open = at + "dynamics continuous".len();
+    let Some(close) = closing(&text[open..]) else {
+        return text.to_owned();
+    };
+    let mut out = format!("{}dynamics discrete{}", &text[..at], &text[open + close..]);
+    while let Some(der) = out.find("der(") {
+        let Some(close) = out[der..].find(')') else {
+            break;
+        };
+        out.replace_range(der + close..der + close + 1, "");
+        out.replace_range(der..der + 4, "");
+    }
+    out
+}
+
+/// A `model!` model's discrete dynamics made continuous (RK4 or Euler at `TS`), `x = e`
+/// becoming `der(x) = e`.
+fn macro_to_continuous(text: &str, rk4: bool) -> String {
+    let Some(at) = text.find("dynamics discrete") else {
+        return text.to_owned();
+    };
+    let method = if rk4 { "rk4" } else { "euler" };
+    let mut out = text.to_owned();
+    out.replace_range(
+        at..at + "dynamics discrete".len(),
+        &format!("dynamics continuous({method}, dt = TS)"),
+    );
+    let Some(body) = dynamics_body(&out) else {
+        return out;
+    };
+    let lines: Vec<String> = out[body.clone()]
+        .split_inclusive('\n')
+        .map(|line| match equation_target(line) {
+            Some(name) => line.replacen(name, &format!("der({name})"), 1),
+            None => line.to_owned(),
+        })
+        .collect();
+    out.replace_range(body, &lines.concat());
+    out
+}
+
+/// A `model!` model's dynamics made continuous (Euler if they were discrete) with
+/// `substeps = n` in place of any it had.
+fn macro_with_substeps(text: &str, n: &str) -> String {
+    let text = change_macro_model(text, &ModelChange::ToContinuous { rk4: false });
+    let Some(at) = text.find("dynamics continuous") else {
+        return text;
+    };
+    let open = at + "dynamics continuous".len();
+    let Some(close) = closing(&text[open..]) else {
+        return text;
+    };
+    let mut args = split_top(&text[open + 1..open + close - 1]);
+    args.retain(|a| !a.starts_with("substeps"));
+    args.push(format!("substeps = {n}"));
+    format!(
+        "{}({}){}",
+        &text[..open],
+        args.join(", "),
+        &text[open + close..]
+    )
+}
+
+/// A `model!` model with `kind name;` declared after `scalar`, the first equation's
+/// right-hand side multiplied by `name` if `used`.
+fn macro_declaring(text: &str, kind: &str, name: &str, used: bool) -> String {
+    let mut out = text.to_owned();
+    if used {
+        multiply_first_macro_equation(&mut out, name);
+    }
+    match statements(&out, "scalar").first() {
+        Some(r) => {
+            out.insert_str(r.end, &format!("\n        {kind} {name};"));
+            out
+        }
+        None => out,
+    }
+}
+
+/// Multiplies the right-hand side of the first one-line equation of a `model!` model's
+/// dynamics by `name`.
+fn multiply_first_macro_equation(out: &mut String, name: &str) {
+    let Some(body) = dynamics_body(out) else {
+        return;
+    };
+    let lines: Vec<&str> = out[body.clone()].split_inclusive('\n').collect();
+    let first = lines.iter().position(|l| {
+        equation_target(l.trim_start().trim_start_matches("der(")).is_some()
+            && l.trim_end().ends_with(';')
+    });
+    if let Some(i) = first {
+        let line = lines[i];
+        let eq = line.find('=').unwrap_or(0);
+        let semi = line.rfind(';').unwrap_or(line.len());
+        let wrapped = format!(
+            "{}= {name} * ({}){}",
+            &line[..eq],
+            line[eq + 1..semi].trim(),
+            &line[semi..]
+        );
+        let mut new = lines.clone();
+        new[i] = &wrapped;
+        let body_text = new.concat();
+        out.replace_range(body, &body_text);
+    }
+}
+
+/// The entries of a model file's array of tables `header`, each up to the next header.
+fn file_entries(text: &str, header: &str) -> Vec<Range<usize>> {
+    let mut found = Vec::new();
+    let mut from = 0;
+    while let Some(at) = text[from..].find(header).map(|i| i + from) {
+        let end = text[at + header.len()..]
+            .find("\n[")
+            .map_or(text.len(), |i| at + header.len() + i + 1);
+        found.push(at..end);
+        from = end;
+    }
+    found
+}
+
+/// `text` without the lines that start with any of `keys`.
+fn without_lines(text: &str, keys: &[&str]) -> String {
+    text.split_inclusive('\n')
+        .filter(|l| !keys.iter().any(|k| l.starts_with(k)))
+        .collect()
 }
 
 /// `change` applied to a model file (without its `[generate]` table).
 fn change_model_file(text: &str, change: &ModelChange) -> String {
-    // The entries of the array of tables `header`, each up to the next header.
-    let entries = |header: &str| -> Vec<Range<usize>> {
-        let mut found = Vec::new();
-        let mut from = 0;
-        while let Some(at) = text[from..].find(header).map(|i| i + from) {
-            let end = text[at + header.len()..]
-                .find("\n[")
-                .map_or(text.len(), |i| at + header.len() + i + 1);
-            found.push(at..end);
-            from = end;
-        }
-        found
-    };
-    let without_lines = |text: &str, keys: &[&str]| -> String {
-        text.split_inclusive('\n')
-            .filter(|l| !keys.iter().any(|k| l.starts_with(k)))
-            .collect()
-    };
     match *change {
-        ModelChange::DeleteOutputs => remove_ranges(text, &entries("[[output]]")),
-        ModelChange::DeleteInputs => {
-            let found = entries("[[input]]");
-            let names: Vec<String> = found
-                .iter()
-                .filter_map(|r| {
-                    let at = r.start + text[r.clone()].find("name = \"")? + "name = \"".len();
-                    Some(text[at..at + text[at..].find('"')?].to_owned())
-                })
-                .collect();
-            let out = remove_ranges(text, &found);
-            match out.find("[dynamics.equations]") {
-                Some(at) => {
-                    let zeroed = names
-                        .iter()
-                        .fold(out[at..].to_owned(), |t, n| replace_word(&t, n, "0"));
-                    format!("{}{zeroed}", &out[..at])
-                }
-                None => out,
-            }
-        }
+        ModelChange::DeleteOutputs => remove_ranges(text, &file_entries(text, "[[output]]")),
+        ModelChange::DeleteInputs => file_without_inputs(text),
         ModelChange::ToDiscrete => without_lines(
             &text.replace("kind = \"continuous\"", "kind = \"discrete\""),
             &["method =", "dt =", "substeps ="],
@@ -686,30 +695,56 @@ fn change_model_file(text: &str, change: &ModelChange) -> String {
                 &format!("kind = \"continuous\"\nsubsteps = {n}"),
             )
         }
-        ModelChange::Declare { kind, name, used } => {
-            let mut out = text.to_owned();
-            if used {
-                if let Some(at) = out.find("[dynamics.equations]\n") {
-                    let line_start = at + "[dynamics.equations]\n".len();
-                    let line_end = out[line_start..]
-                        .find('\n')
-                        .map_or(out.len(), |i| line_start + i);
-                    let line = out[line_start..line_end].to_owned();
-                    if let Some((lhs, rhs)) = line.split_once("= \"") {
-                        let rhs = rhs.trim_end_matches('"');
-                        let wrapped = format!("{lhs}= \"{name} * ({rhs})\"");
-                        out.replace_range(line_start..line_end, &wrapped);
-                    }
-                }
+        ModelChange::Declare { kind, name, used } => file_declaring(text, kind, name, used),
+    }
+}
+
+/// A model file without its `[[input]]` entries, its equations reading 0 for them.
+fn file_without_inputs(text: &str) -> String {
+    let found = file_entries(text, "[[input]]");
+    let names: Vec<String> = found
+        .iter()
+        .filter_map(|r| {
+            let at = r.start + text[r.clone()].find("name = \"")? + "name = \"".len();
+            Some(text[at..at + text[at..].find('"')?].to_owned())
+        })
+        .collect();
+    let out = remove_ranges(text, &found);
+    match out.find("[dynamics.equations]") {
+        Some(at) => {
+            let zeroed = names
+                .iter()
+                .fold(out[at..].to_owned(), |t, n| replace_word(&t, n, "0"));
+            format!("{}{zeroed}", &out[..at])
+        }
+        None => out,
+    }
+}
+
+/// A model file with a `[[kind]]` entry `name` before `[dynamics]`, the first equation's
+/// right-hand side multiplied by `name` if `used`.
+fn file_declaring(text: &str, kind: &str, name: &str, used: bool) -> String {
+    let mut out = text.to_owned();
+    if used {
+        if let Some(at) = out.find("[dynamics.equations]\n") {
+            let line_start = at + "[dynamics.equations]\n".len();
+            let line_end = out[line_start..]
+                .find('\n')
+                .map_or(out.len(), |i| line_start + i);
+            let line = out[line_start..line_end].to_owned();
+            if let Some((lhs, rhs)) = line.split_once("= \"") {
+                let rhs = rhs.trim_end_matches('"');
+                let wrapped = format!("{lhs}= \"{name} * ({rhs})\"");
+                out.replace_range(line_start..line_end, &wrapped);
             }
-            let entry = format!("[[{kind}]]\nname = \"{name}\"\n\n");
-            match out.find("[dynamics]") {
-                Some(at) => out.insert_str(at, &entry),
-                None => out.push_str(&format!("\n{entry}")),
-            }
-            out
         }
     }
+    let entry = format!("[[{kind}]]\nname = \"{name}\"\n\n");
+    match out.find("[dynamics]") {
+        Some(at) => out.insert_str(at, &entry),
+        None => out.push_str(&format!("\n{entry}")),
+    }
+    out
 }
 
 /// A `model!` model after `changes`.
