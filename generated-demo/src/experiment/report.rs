@@ -20,9 +20,9 @@ use super::readout::{self, or_nan};
 pub const TRUE_PHYSICAL: [&str; 3] = ["true wn", "true zeta", "true alpha"];
 /// Columns of the true Euler-equivalent parameters, set by [`Trace::set_truth`].
 pub const TRUE_EULER: [&str; 3] = ["true x3", "true x4", "true x5"];
-/// A filter has diverged at the first sample whose estimate is not finite or has
-/// An estimate entry beyond this magnitude has diverged (mm, mm/s, 1/s^2, 1/s,
-/// mm/(s^2 V): 1e7 is far beyond anything physical; for x3 = -wn^2, wn > 3000 rad/s).
+/// A filter has diverged at the first sample whose estimate is not finite or has an entry
+/// beyond this magnitude (mm, mm/s, 1/s^2, 1/s, mm/(s^2 V): 1e7 is far beyond anything
+/// physical; for x3 = -wn^2, wn > 3000 rad/s).
 pub const DIVERGENCE_LIMIT: f64 = 1e7;
 
 /// Name of state `index` (0-based) of the estimate labelled `label`: "{label} x{index+1}".

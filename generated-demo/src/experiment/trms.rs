@@ -98,7 +98,13 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
     run_once(alpha, false, &mut trace, "nominal")?;
     let mut surged = Trace::new();
     run_once(alpha, true, &mut surged, "surge")?;
+    print_errors(&trace, &surged, alpha);
+    write_figures(out, &trace, &surged)
+}
 
+/// The table: each observer's RMS estimation errors, over the run and over 25-30 s, in the
+/// nominal and the surge runs, with the paper's.
+fn print_errors(trace: &Trace, surged: &Trace, alpha: f64) {
     println!("\nHelicopter (TRMS) of Kulkarni and Purwar, \"Nonlinear experimental estimation and");
     println!("verification of a MIMO system through EKF\": continuous-time EKF (eq. 5, one RK4");
     println!("step per 1 ms, then the measurement terms' exact flow), multi-sine input, estimate");
@@ -111,10 +117,7 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
         "{:<40} {:>9} {:>9} {:>9} {:>9}   {:>9} {:>9}",
         "observer", "E1rms", "E3rms", "psi'", "phi'", "E1 25-30", "E3 25-30"
     );
-    for (run, tag, name) in [
-        (&trace, "nominal", ""),
-        (&surged, "surge", ", surge at 25 s"),
-    ] {
+    for (run, tag, name) in [(trace, "nominal", ""), (surged, "surge", ", surge at 25 s")] {
         for (label, title) in [("standard", "standard Pdot"), ("alpha", "modified Pdot")] {
             let error = |state: &str, from: f64, to: f64| {
                 let column = run
@@ -150,8 +153,6 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
         "(surge: +{} on both motors' voltage from {} to {} s, unknown to the filters)",
         SURGE.2, SURGE.0, SURGE.1
     );
-
-    write_figures(out, &trace, &surged)
 }
 
 /// `out/helicopter.csv`, `out/helicopter_surge.csv` and the figures: the pitch error of
