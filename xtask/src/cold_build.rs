@@ -94,25 +94,7 @@ pub fn measure(
         .parent()
         .map(|root| root.join("Cargo.lock"))
         .filter(|lock| lock.exists());
-    // Under its package name, which an older checkout may spell otherwise
-    // (`codegen-macros`), and imported as `stateforge`, the name the model uses.
-    // The runtime crate the generated code calls: `stateforge-math` beside the macros,
-    // or `libm` for a checkout from before it.
-    let runtime = macros
-        .parent()
-        .map(|root| root.join("stateforge-math"))
-        .filter(|math| math.exists())
-        .map_or("libm = \"0.2\"".to_owned(), |math| {
-            format!(
-                "stateforge-math = {{ path = {:?} }}",
-                math.display().to_string()
-            )
-        });
-    let dependencies = format!(
-        "stateforge = {{ package = {:?}, path = {:?} }}\n{runtime}",
-        package_name(&macros)?,
-        macros.display().to_string()
-    );
+    let dependencies = user_dependencies(&macros)?;
     let user = Scratch::new(
         "cold-build-user",
         None,
@@ -160,6 +142,28 @@ pub fn measure(
         compiled,
         warnings,
     })
+}
+
+/// The one-model crate's dependencies on the macro crate at `macros`: under its package
+/// name, which an older checkout may spell otherwise (`codegen-macros`), and imported as
+/// `stateforge`, the name the model uses; and the runtime crate the generated code calls,
+/// `stateforge-math` beside the macros, or `libm` for a checkout from before it.
+fn user_dependencies(macros: &Path) -> Result<String, String> {
+    let runtime = macros
+        .parent()
+        .map(|root| root.join("stateforge-math"))
+        .filter(|math| math.exists())
+        .map_or("libm = \"0.2\"".to_owned(), |math| {
+            format!(
+                "stateforge-math = {{ path = {:?} }}",
+                math.display().to_string()
+            )
+        });
+    Ok(format!(
+        "stateforge = {{ package = {:?}, path = {:?} }}\n{runtime}",
+        package_name(macros)?,
+        macros.display().to_string()
+    ))
 }
 
 /// The `name` of the package whose directory is `dir`, read from its `Cargo.toml`.

@@ -197,99 +197,13 @@ fn sample_line(line: &str, k: &str, values: &[&str]) -> Result<(usize, Vec<f64>)
     Ok((k, v))
 }
 
+/// The firmware's report, read from its output: an error if it stopped before `done` or
+/// printed no estimates or no costs.
 fn parse(text: &str) -> Result<Report, String> {
     let mut report = Report::default();
     let mut done = false;
     for line in text.lines() {
-        let words: Vec<&str> = line.split_whitespace().collect();
-        match words.as_slice() {
-            ["estimate", k, values @ ..] if values.len() == 18 => {
-                let (k, v) = sample_line(line, k, values)?;
-                let five = |at: usize| [v[at], v[at + 1], v[at + 2], v[at + 3], v[at + 4]];
-                report.estimates.push(Estimate {
-                    k,
-                    ekf: five(0),
-                    dkf: five(5),
-                    dkf_wrong: five(10),
-                    gain: [v[15], v[16]],
-                    control: v[17],
-                });
-            }
-            ["cost", kernel, generated, baseline] => {
-                let parse = |w: &str| {
-                    w.parse::<u32>()
-                        .map_err(|_| format!("bad count in `{line}`"))
-                };
-                report.costs.push(Cost {
-                    kernel: (*kernel).to_owned(),
-                    instructions: (parse(generated)?, parse(baseline)?),
-                    stack: (0, 0),
-                });
-            }
-            ["stack", kernel, generated, baseline] => {
-                let parse = |w: &str| {
-                    w.parse::<u32>()
-                        .map_err(|_| format!("bad size in `{line}`"))
-                };
-                let stack = (parse(generated)?, parse(baseline)?);
-                match report.costs.iter_mut().find(|c| c.kernel == *kernel) {
-                    Some(cost) => cost.stack = stack,
-                    None => return Err(format!("stack before cost for `{kernel}`")),
-                }
-            }
-            ["spread", kernel, median, worst, iterations] => {
-                let parse = |w: &str| {
-                    w.parse::<u32>()
-                        .map_err(|_| format!("bad count in `{line}`"))
-                };
-                report.spreads.push(Spread {
-                    kernel: (*kernel).to_owned(),
-                    median: parse(median)?,
-                    worst: parse(worst)?,
-                    iterations: parse(iterations)?,
-                });
-            }
-            ["paths", "mpc_solve", counts @ ..] if counts.len() == 4 => {
-                let n: Vec<u32> = counts
-                    .iter()
-                    .map(|w| w.parse::<u32>())
-                    .collect::<Result<_, _>>()
-                    .map_err(|_| format!("bad count in `{line}`"))?;
-                report.mpc_paths = Some(MpcPaths {
-                    solves: n[0],
-                    model_rebuilds: n[1],
-                    problem_rebuilds: n[2],
-                    iterations: n[3],
-                });
-            }
-            [tag @ ("continuous" | "hybrid" | "observer" | "polykf" | "mpc"), k, values @ ..] => {
-                let sample = sample_line(line, k, values)?;
-                match *tag {
-                    "continuous" => report.continuous.push(sample),
-                    "hybrid" => report.hybrid.push(sample),
-                    "observer" => report.observer.push(sample),
-                    "mpc" => report.mpc.push(sample),
-                    _ => report.polykf.push(sample),
-                }
-            }
-            ["fused", differing, of] => {
-                let parse = |w: &str| {
-                    w.parse::<u32>()
-                        .map_err(|_| format!("bad count in `{line}`"))
-                };
-                report.fused = Some((parse(differing)?, parse(of)?));
-            }
-            ["math", function, x, y] => {
-                let bits = |w: &str| {
-                    u32::from_str_radix(w, 16).map_err(|_| format!("bad bits in `{line}`"))
-                };
-                report
-                    .math
-                    .push(((*function).to_owned(), bits(x)?, bits(y)?));
-            }
-            ["done"] => done = true,
-            _ => {}
-        }
+        done |= read_line(&mut report, line)?;
     }
     if !done {
         return Err("the firmware stopped before `done`".into());
@@ -298,4 +212,85 @@ fn parse(text: &str) -> Result<Report, String> {
         return Err("the firmware printed no estimates or no costs".into());
     }
     Ok(report)
+}
+
+/// A whole number `word` of `line`; the error names it as `what` ("count", "size").
+fn whole(line: &str, word: &str, what: &str) -> Result<u32, String> {
+    word.parse::<u32>()
+        .map_err(|_| format!("bad {what} in `{line}`"))
+}
+
+/// Adds what `line` says to `report`, and says whether it is the last line, `done`.
+/// Lines of no known tag are the firmware's prose, skipped.
+fn read_line(report: &mut Report, line: &str) -> Result<bool, String> {
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let count = |w: &str| whole(line, w, "count");
+    match words.as_slice() {
+        ["estimate", k, values @ ..] if values.len() == 18 => {
+            report.estimates.push(estimate(line, k, values)?);
+        }
+        ["cost", kernel, generated, baseline] => report.costs.push(Cost {
+            kernel: (*kernel).to_owned(),
+            instructions: (count(generated)?, count(baseline)?),
+            stack: (0, 0),
+        }),
+        ["stack", kernel, generated, baseline] => {
+            let size = |w: &str| whole(line, w, "size");
+            let stack = (size(generated)?, size(baseline)?);
+            match report.costs.iter_mut().find(|c| c.kernel == *kernel) {
+                Some(cost) => cost.stack = stack,
+                None => return Err(format!("stack before cost for `{kernel}`")),
+            }
+        }
+        ["spread", kernel, median, worst, iterations] => report.spreads.push(Spread {
+            kernel: (*kernel).to_owned(),
+            median: count(median)?,
+            worst: count(worst)?,
+            iterations: count(iterations)?,
+        }),
+        ["paths", "mpc_solve", solves, model_rebuilds, problem_rebuilds, iterations] => {
+            report.mpc_paths = Some(MpcPaths {
+                solves: count(solves)?,
+                model_rebuilds: count(model_rebuilds)?,
+                problem_rebuilds: count(problem_rebuilds)?,
+                iterations: count(iterations)?,
+            });
+        }
+        [tag @ ("continuous" | "hybrid" | "observer" | "polykf" | "mpc"), k, values @ ..] => {
+            let sample = sample_line(line, k, values)?;
+            match *tag {
+                "continuous" => report.continuous.push(sample),
+                "hybrid" => report.hybrid.push(sample),
+                "observer" => report.observer.push(sample),
+                "mpc" => report.mpc.push(sample),
+                _ => report.polykf.push(sample),
+            }
+        }
+        ["fused", differing, of] => report.fused = Some((count(differing)?, count(of)?)),
+        ["math", function, x, y] => {
+            let bits =
+                |w: &str| u32::from_str_radix(w, 16).map_err(|_| format!("bad bits in `{line}`"));
+            report
+                .math
+                .push(((*function).to_owned(), bits(x)?, bits(y)?));
+        }
+        ["done"] => return Ok(true),
+        _ => {}
+    }
+    Ok(false)
+}
+
+/// An `estimate k ..` line: the EKF's and the DKF's estimates from the close guess, the
+/// DKF's from the wrong guess, the LQR gain and the control.
+fn estimate(line: &str, k: &str, values: &[&str]) -> Result<Estimate, String> {
+    let (k, v) = sample_line(line, k, values)?;
+    let five = |at: usize| [v[at], v[at + 1], v[at + 2], v[at + 3], v[at + 4]];
+    Ok(Estimate {
+        k,
+        ekf: five(0),
+        dkf: five(5),
+        dkf_wrong: five(10),
+        gain: [v[15], v[16]],
+        control: v[17],
+    })
 }

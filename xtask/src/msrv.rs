@@ -28,18 +28,7 @@ fn show((major, minor): Version) -> String {
 
 /// Checks the `published` crates' `rust-version`; a summary of what was checked.
 pub fn check(published: &[&str]) -> Result<String, String> {
-    let output = crate::command::cargo()
-        .args(["metadata", "--format-version", "1", "--locked"])
-        .output()
-        .map_err(|e| format!("cannot run cargo metadata: {e}"))?;
-    if !output.status.success() {
-        return Err(format!(
-            "cargo metadata failed: {}",
-            String::from_utf8_lossy(&output.stderr)
-        ));
-    }
-    let metadata: serde_json::Value =
-        serde_json::from_slice(&output.stdout).map_err(|e| format!("cargo metadata: {e}"))?;
+    let metadata = workspace_metadata()?;
     let packages: BTreeMap<&str, &serde_json::Value> = metadata["packages"]
         .as_array()
         .ok_or("cargo metadata: no packages")?
@@ -106,6 +95,21 @@ pub fn check(published: &[&str]) -> Result<String, String> {
         }
     }
     Ok(format!("rust-version {}", summary.join("; ")))
+}
+
+/// `cargo metadata` of the workspace, as locked.
+fn workspace_metadata() -> Result<serde_json::Value, String> {
+    let output = crate::command::cargo()
+        .args(["metadata", "--format-version", "1", "--locked"])
+        .output()
+        .map_err(|e| format!("cannot run cargo metadata: {e}"))?;
+    if !output.status.success() {
+        return Err(format!(
+            "cargo metadata failed: {}",
+            String::from_utf8_lossy(&output.stderr)
+        ));
+    }
+    serde_json::from_slice(&output.stdout).map_err(|e| format!("cargo metadata: {e}"))
 }
 
 /// Every package `root` needs to build: normal and build dependencies, transitively.

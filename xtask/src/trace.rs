@@ -68,31 +68,11 @@ pub fn run(
             .ok_or_else(|| format!("the firmware has no `{name}` marker"))
     };
     let (begin, end) = (marker("trace_begin")?, marker("trace_end")?);
-    let mut followed = Vec::new();
-    for wrapper in wrappers {
-        let &(entry, _) = program
-            .functions
-            .get(wrapper)
-            .ok_or_else(|| format!("the firmware has no function `{wrapper}`"))?;
-        let mut ranges: Vec<(u32, u32)> = program
-            .reachable(wrapper)
-            .iter()
-            .filter_map(|f| program.functions.get(f))
-            .map(|&(start, size)| (start, start + size))
-            .collect();
-        ranges.sort_unstable();
-        followed.push(Followed { entry, ranges });
-    }
-    let classes: BTreeMap<u32, Kind> = program
-        .instructions
+    let followed = wrappers
         .iter()
-        .map(|(&a, i)| {
-            let class = timing::classify(&i.mnemonic, &i.operands);
-            let group = timing::group(&i.mnemonic, class);
-            (a, (class, i.size, group))
-        })
-        .collect();
-
+        .map(|wrapper| follow(program, wrapper))
+        .collect::<Result<Vec<_>, _>>()?;
+    let classes = instruction_kinds(program);
     let mut child = Command::new("qemu-system-arm")
         .args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
         .args(["-semihosting-config", "enable=on,target=native"])
@@ -138,6 +118,36 @@ pub fn run(
         return Err(format!("the traced firmware run failed ({status})"));
     }
     Ok(wrappers.iter().cloned().zip(traced).collect())
+}
+
+/// The wrapper function `wrapper` of `program`: its entry, and the address ranges of every
+/// function it can reach, sorted.
+fn follow(program: &Program, wrapper: &str) -> Result<Followed, String> {
+    let &(entry, _) = program
+        .functions
+        .get(wrapper)
+        .ok_or_else(|| format!("the firmware has no function `{wrapper}`"))?;
+    let mut ranges: Vec<(u32, u32)> = program
+        .reachable(wrapper)
+        .iter()
+        .filter_map(|f| program.functions.get(f))
+        .map(|&(start, size)| (start, start + size))
+        .collect();
+    ranges.sort_unstable();
+    Ok(Followed { entry, ranges })
+}
+
+/// Each instruction's timing class, size and group, by address.
+fn instruction_kinds(program: &Program) -> BTreeMap<u32, Kind> {
+    program
+        .instructions
+        .iter()
+        .map(|(&a, i)| {
+            let class = timing::classify(&i.mnemonic, &i.operands);
+            let group = timing::group(&i.mnemonic, class);
+            (a, (class, i.size, group))
+        })
+        .collect()
 }
 
 /// The guest address of a QEMU log line starting with `prefix`:
