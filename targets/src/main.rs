@@ -209,6 +209,7 @@ fn warmed<T>(mut filter: T, mut step: impl FnMut(&mut T, f32, f32)) -> T {
     filter
 }
 
+/// The EKF and DKF steps' costs and stacks, then the controller's on the warmed DKFs.
 fn costs(clock: &Clock) {
     let step_ekf = |f: &mut Ekf, u: f32, y: f32| {
         let _ = black_box(generated_ekf_step(f, u, y));

@@ -90,23 +90,7 @@ pub fn measure(
     let macros = macros
         .canonicalize()
         .map_err(|e| format!("{}: {e}", macros.display()))?;
-    let lockfile: Option<PathBuf> = macros
-        .parent()
-        .map(|root| root.join("Cargo.lock"))
-        .filter(|lock| lock.exists());
-    let dependencies = user_dependencies(&macros)?;
-    let user = Scratch::new(
-        "cold-build-user",
-        None,
-        &dependencies,
-        &[("src/lib.rs", what.source.clone())],
-        lockfile.as_deref(),
-    )?;
-    // Sources are fetched first, so the time is compiling, not downloading.
-    crate::command::run(
-        "fetching the user crate's dependencies",
-        user.cargo().args(["fetch"]),
-    )?;
+    let user = user_crate(&macros, what)?;
     let mut build = user.cargo();
     build.args(["build", "--offline"]).args(&what.flags);
     if let Some(jobs) = jobs {
@@ -127,21 +111,50 @@ pub fn measure(
     if !output.status.success() {
         return Err(format!("the one-model crate does not build:\n{stderr}"));
     }
-    let compiled = stderr
-        .lines()
-        .filter_map(|l| l.trim().strip_prefix("Compiling "))
-        .map(str::to_string)
-        .collect();
-    let warnings = stderr
-        .lines()
-        .filter(|l| l.trim_start().starts_with("warning"))
-        .map(str::to_string)
-        .collect();
-    Ok(Measurement {
-        seconds,
-        compiled,
-        warnings,
-    })
+    Ok(Measurement::read(seconds, &stderr))
+}
+
+/// The user crate of `what` on the macros at `macros`, in a fresh directory, sources fetched.
+fn user_crate(macros: &Path, what: &Build) -> Result<Scratch, String> {
+    let lockfile: Option<PathBuf> = macros
+        .parent()
+        .map(|root| root.join("Cargo.lock"))
+        .filter(|lock| lock.exists());
+    let dependencies = user_dependencies(macros)?;
+    let user = Scratch::new(
+        "cold-build-user",
+        None,
+        &dependencies,
+        &[("src/lib.rs", what.source.clone())],
+        lockfile.as_deref(),
+    )?;
+    // Sources are fetched first, so the time is compiling, not downloading.
+    crate::command::run(
+        "fetching the user crate's dependencies",
+        user.cargo().args(["fetch"]),
+    )?;
+    Ok(user)
+}
+
+impl Measurement {
+    /// A build of `seconds` whose cargo printed `stderr`: the crates it compiled, its warnings.
+    fn read(seconds: f64, stderr: &str) -> Measurement {
+        let compiled = stderr
+            .lines()
+            .filter_map(|l| l.trim().strip_prefix("Compiling "))
+            .map(str::to_string)
+            .collect();
+        let warnings = stderr
+            .lines()
+            .filter(|l| l.trim_start().starts_with("warning"))
+            .map(str::to_string)
+            .collect();
+        Measurement {
+            seconds,
+            compiled,
+            warnings,
+        }
+    }
 }
 
 /// The one-model crate's dependencies on the macro crate at `macros`: under its package

@@ -29,72 +29,98 @@ fn show((major, minor): Version) -> String {
 /// Checks the `published` crates' `rust-version`; a summary of what was checked.
 pub fn check(published: &[&str]) -> Result<String, String> {
     let metadata = workspace_metadata()?;
-    let packages: BTreeMap<&str, &serde_json::Value> = metadata["packages"]
+    let packages = packages_by_id(&metadata)?;
+    let installed = installed_rustc()?;
+    let mut declared_versions = BTreeSet::new();
+    for name in published {
+        declared_versions.insert(checked_declaration(&metadata, &packages, name, installed)?);
+    }
+    let mut summary = Vec::new();
+    for declared in declared_versions {
+        summary.push(check_language(published, declared, installed)?);
+    }
+    Ok(format!("rust-version {}", summary.join("; ")))
+}
+
+/// The workspace's packages in `metadata`, by package id.
+fn packages_by_id(
+    metadata: &serde_json::Value,
+) -> Result<BTreeMap<&str, &serde_json::Value>, String> {
+    Ok(metadata["packages"]
         .as_array()
         .ok_or("cargo metadata: no packages")?
         .iter()
         .filter_map(|p| Some((p["id"].as_str()?, p)))
-        .collect();
-    let installed = installed_rustc()?;
-    let mut declared_versions = BTreeSet::new();
-    for name in published {
-        let (id, package) = packages
-            .iter()
-            .find(|(_, p)| p["name"] == *name)
-            .ok_or_else(|| format!("no package {name} in the workspace"))?;
-        let declared = package["rust_version"]
-            .as_str()
-            .and_then(parse_version)
-            .ok_or_else(|| format!("{name} declares no rust-version"))?;
-        for dependency in dependency_closure(&metadata, id) {
-            let Some(dep) = packages.get(dependency.as_str()) else {
-                continue;
-            };
-            if let Some(needed) = dep["rust_version"].as_str().and_then(parse_version) {
-                if needed > declared {
-                    return Err(format!(
-                        "{name} declares rust-version {} but its dependency {} {} needs {}",
-                        show(declared),
-                        dep["name"].as_str().unwrap_or("?"),
-                        dep["version"].as_str().unwrap_or("?"),
-                        show(needed)
-                    ));
-                }
+        .collect())
+}
+
+/// Crate `name`'s declared `rust-version`, checked against its dependencies' and `installed`.
+fn checked_declaration(
+    metadata: &serde_json::Value,
+    packages: &BTreeMap<&str, &serde_json::Value>,
+    name: &str,
+    installed: Version,
+) -> Result<Version, String> {
+    let (id, package) = packages
+        .iter()
+        .find(|(_, p)| p["name"] == *name)
+        .ok_or_else(|| format!("no package {name} in the workspace"))?;
+    let declared = package["rust_version"]
+        .as_str()
+        .and_then(parse_version)
+        .ok_or_else(|| format!("{name} declares no rust-version"))?;
+    for dependency in dependency_closure(metadata, id) {
+        let Some(dep) = packages.get(dependency.as_str()) else {
+            continue;
+        };
+        if let Some(needed) = dep["rust_version"].as_str().and_then(parse_version) {
+            if needed > declared {
+                return Err(format!(
+                    "{name} declares rust-version {} but its dependency {} {} needs {}",
+                    show(declared),
+                    dep["name"].as_str().unwrap_or("?"),
+                    dep["version"].as_str().unwrap_or("?"),
+                    show(needed)
+                ));
             }
         }
-        if installed < declared {
-            return Err(format!(
-                "{name} declares rust-version {} but the installed rustc is {}",
-                show(declared),
-                show(installed)
-            ));
-        }
-        declared_versions.insert(declared);
     }
-    let mut summary = Vec::new();
-    for declared in declared_versions {
-        let version = show(declared);
-        if let Some(toolchain) = installed_toolchain(&version) {
-            // Through rustup's `cargo`, not `$CARGO`: the toolchain override needs the proxy.
-            let mut check = Command::new("cargo");
-            check.arg(format!("+{toolchain}")).arg("check");
-            for name in published {
-                check.args(["--package", name]);
-            }
-            crate::command::run(&format!("cargo +{toolchain} check"), &mut check)?;
-            summary.push(format!("{version}: checked with {toolchain}"));
-        } else {
-            let toolchain = version;
-            summary.push(format!(
-                "{toolchain}: at least every dependency's, at most the installed {}; \
-                 Rust {toolchain} is not installed, so the language is checked on {} only \
-                 (std items by clippy's incompatible_msrv)",
-                show(installed),
-                show(installed)
-            ));
-        }
+    if installed < declared {
+        return Err(format!(
+            "{name} declares rust-version {} but the installed rustc is {}",
+            show(declared),
+            show(installed)
+        ));
     }
-    Ok(format!("rust-version {}", summary.join("; ")))
+    Ok(declared)
+}
+
+/// The summary's entry for `declared`: the crates checked with its toolchain if rustup has it.
+fn check_language(
+    published: &[&str],
+    declared: Version,
+    installed: Version,
+) -> Result<String, String> {
+    let version = show(declared);
+    if let Some(toolchain) = installed_toolchain(&version) {
+        // Through rustup's `cargo`, not `$CARGO`: the toolchain override needs the proxy.
+        let mut check = Command::new("cargo");
+        check.arg(format!("+{toolchain}")).arg("check");
+        for name in published {
+            check.args(["--package", name]);
+        }
+        crate::command::run(&format!("cargo +{toolchain} check"), &mut check)?;
+        Ok(format!("{version}: checked with {toolchain}"))
+    } else {
+        let toolchain = version;
+        Ok(format!(
+            "{toolchain}: at least every dependency's, at most the installed {}; \
+             Rust {toolchain} is not installed, so the language is checked on {} only \
+             (std items by clippy's incompatible_msrv)",
+            show(installed),
+            show(installed)
+        ))
+    }
 }
 
 /// `cargo metadata` of the workspace, as locked.

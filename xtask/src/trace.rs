@@ -10,7 +10,7 @@ use crate::timing::{self, Class};
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::{Child, Command, Stdio};
 
 /// An instruction's class, size and group.
 type Kind = (Class, u32, usize);
@@ -60,29 +60,16 @@ pub fn run(
     program: &Program,
     wrappers: &[String],
 ) -> Result<BTreeMap<String, Traced>, String> {
-    let marker = |name: &str| {
-        program
-            .function(name)
-            .and_then(|f| program.functions.get(&f))
-            .map(|&(start, _)| start)
-            .ok_or_else(|| format!("the firmware has no `{name}` marker"))
-    };
-    let (begin, end) = (marker("trace_begin")?, marker("trace_end")?);
+    let (begin, end) = (
+        marker(program, "trace_begin")?,
+        marker(program, "trace_end")?,
+    );
     let followed = wrappers
         .iter()
         .map(|wrapper| follow(program, wrapper))
         .collect::<Result<Vec<_>, _>>()?;
     let classes = instruction_kinds(program);
-    let mut child = Command::new("qemu-system-arm")
-        .args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
-        .args(["-semihosting-config", "enable=on,target=native"])
-        .args(["-singlestep", "-d", "exec,nochain", "-kernel"])
-        .arg(elf)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
+    let mut child = start_qemu(elf)?;
     // The firmware's own output goes to stdout: drain it so QEMU never blocks on it.
     let mut stdout = child.stdout.take().ok_or("no stdout")?;
     let drain = std::thread::spawn(move || {
@@ -91,7 +78,45 @@ pub fn run(
         text
     });
     let log = BufReader::with_capacity(1 << 20, child.stderr.take().ok_or("no stderr")?);
+    let traced = walk_log(log, (begin, end), &followed, &classes)?;
+    let status = child.wait().map_err(|e| e.to_string())?;
+    let output = drain.join().unwrap_or_default();
+    if !status.success() || !output.contains("done") {
+        return Err(format!("the traced firmware run failed ({status})"));
+    }
+    Ok(wrappers.iter().cloned().zip(traced).collect())
+}
 
+/// The address of the firmware's marker function `name` (`trace_begin`, `trace_end`).
+fn marker(program: &Program, name: &str) -> Result<u32, String> {
+    program
+        .function(name)
+        .and_then(|f| program.functions.get(&f))
+        .map(|&(start, _)| start)
+        .ok_or_else(|| format!("the firmware has no `{name}` marker"))
+}
+
+/// QEMU started on `elf`, logging every executed block (one instruction each) to its stderr.
+fn start_qemu(elf: &Path) -> Result<Child, String> {
+    Command::new("qemu-system-arm")
+        .args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
+        .args(["-semihosting-config", "enable=on,target=native"])
+        .args(["-singlestep", "-d", "exec,nochain", "-kernel"])
+        .arg(elf)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("cannot start qemu-system-arm: {e}"))
+}
+
+/// What each `followed` wrapper executed, per QEMU's `log`, between markers `begin` and `end`.
+fn walk_log(
+    log: impl BufRead,
+    (begin, end): (u32, u32),
+    followed: &[Followed],
+    classes: &BTreeMap<u32, Kind>,
+) -> Result<Vec<Traced>, String> {
     let mut traced = vec![Traced::default(); followed.len()];
     let mut state = State::default();
     // A logged block that QEMU then abandoned ("Stopped execution of TB chain before" its
@@ -101,7 +126,7 @@ pub fn run(
         let line = line.map_err(|e| format!("reading the QEMU log: {e}"))?;
         if let Some(address) = logged_address(&line, "Trace ") {
             if let Some(a) = held.replace(address) {
-                state.step(a, begin, end, &followed, &classes, &mut traced);
+                state.step(a, begin, end, followed, classes, &mut traced);
             }
         } else if let Some(address) = logged_address(&line, "Stopped execution") {
             if held == Some(address) {
@@ -110,14 +135,9 @@ pub fn run(
         }
     }
     if let Some(a) = held {
-        state.step(a, begin, end, &followed, &classes, &mut traced);
+        state.step(a, begin, end, followed, classes, &mut traced);
     }
-    let status = child.wait().map_err(|e| e.to_string())?;
-    let output = drain.join().unwrap_or_default();
-    if !status.success() || !output.contains("done") {
-        return Err(format!("the traced firmware run failed ({status})"));
-    }
-    Ok(wrappers.iter().cloned().zip(traced).collect())
+    Ok(traced)
 }
 
 /// The wrapper function `wrapper` of `program`: its entry, and the address ranges of every
