@@ -97,8 +97,12 @@ mod tests {
     use quote::quote;
 
     fn warned(tokens: proc_macro2::TokenStream) -> Vec<String> {
-        let checked = crate::parse_model(tokens).expect("a valid model");
-        checked.warnings.into_iter().map(|w| w.message).collect()
+        let (decl, diag) = crate::front::macro_syntax::parse_model(tokens).expect("parses");
+        assert!(!diag.has_errors(), "a valid model");
+        super::unused_declarations(&decl)
+            .into_iter()
+            .map(|w| w.message)
+            .collect()
     }
 
     #[test]
