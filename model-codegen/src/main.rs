@@ -52,10 +52,7 @@ fn main() -> ExitCode {
     let expanded = if is_toml {
         stateforge_cli::expand_model_file_with_warnings(&source)
     } else {
-        stateforge_compiler::parse_macro_source(&source).and_then(|checked| {
-            let module = stateforge_compiler::pipeline::emit_model(&checked)?;
-            Ok((module, checked.warnings))
-        })
+        stateforge_compiler::expand_macro_source_with_warnings(&source)
     };
     let generated = expanded.map(|(module, warnings)| {
         for warning in &warnings {

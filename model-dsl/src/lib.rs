@@ -52,7 +52,14 @@ pub fn expand_with_warnings(
     tokens: TokenStream,
     options: &pipeline::Options,
 ) -> syn::Result<(TokenStream, Vec<diagnostics::Warning>)> {
-    let model = parse_model(tokens)?;
+    emit_with_warnings(parse_model(tokens)?, options)
+}
+
+/// The module generated for `model`, and its warnings.
+fn emit_with_warnings(
+    model: check::Checked,
+    options: &pipeline::Options,
+) -> syn::Result<(TokenStream, Vec<diagnostics::Warning>)> {
     let module = pipeline::emit_model_with(&model, options)?;
     Ok((module, model.warnings))
 }
@@ -67,5 +74,12 @@ pub fn parse_macro_source(source: &str) -> syn::Result<check::Checked> {
 
 /// Expands Rust source holding one `model! { .. }` invocation (a demo model file).
 pub fn expand_macro_source(source: &str) -> syn::Result<TokenStream> {
-    pipeline::emit_model(&parse_macro_source(source)?)
+    expand_macro_source_with_warnings(source).map(|(module, _)| module)
+}
+
+/// [`expand_macro_source`], and the warnings about the model, for a tool to print.
+pub fn expand_macro_source_with_warnings(
+    source: &str,
+) -> syn::Result<(TokenStream, Vec<diagnostics::Warning>)> {
+    emit_with_warnings(parse_macro_source(source)?, &pipeline::Options::default())
 }

@@ -5,7 +5,9 @@
 //! not among them: the generated module exports each (`m::TS`), for the application to
 //! read. A symbol kept on purpose is declared `#[allow(unused)]`.
 
-use crate::ast::{ArgValue, ModelDecl, Name, Statement, SurfaceExpr, SurfaceKind, SymbolKind};
+use crate::ast::{
+    ArgValue, DynamicsKind, ModelDecl, Name, Statement, SurfaceExpr, SurfaceKind, SymbolKind,
+};
 use crate::diagnostics::Warning;
 use std::collections::HashSet;
 
@@ -52,7 +54,7 @@ fn names_read(decl: &ModelDecl) -> HashSet<&str> {
     let mut exprs: Vec<&SurfaceExpr> = decl.constants.iter().map(|c| &c.value).collect();
     exprs.extend(decl.outputs.iter().map(|o| &o.expr));
     for block in &decl.dynamics {
-        if let crate::ast::DynamicsKind::Continuous { dt: Some(dt), .. } = &block.kind {
+        if let DynamicsKind::Continuous { dt: Some(dt), .. } = &block.kind {
             exprs.push(dt);
         }
         exprs.extend(block.statements.iter().map(|s| match s {
