@@ -59,7 +59,7 @@ fn run(sizes: &[usize]) -> Result<(), String> {
          publish = false\n\n[dependencies]\nstateforge = {{ path = {:?} }}\n\
          stateforge-math = {{ path = {:?} }}\n\n[workspace]\n",
         workspace
-            .join("stateforge")
+            .join("codegen-macros")
             .canonicalize()
             .map_err(|e| e.to_string())?,
         workspace

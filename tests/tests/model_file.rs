@@ -22,7 +22,7 @@ fn cantilever_model_file_generates_the_macros_code() {
     assert_eq!(code_without_docs(from_file), code_without_docs(from_macro));
 }
 
-/// The model of the TOML example in `stateforge/doc/model-files.md`, as the macro writes it.
+/// The model of the TOML example in `codegen-macros/doc/model-files.md`, as the macro writes it.
 const DOCUMENTED_MODEL: &str = r#"
 stateforge::model! {
     /// A forced, damped oscillator.
@@ -45,7 +45,7 @@ stateforge::model! {
 
 #[test]
 fn the_documented_model_file_generates_the_macros_code() {
-    let doc = std::fs::read_to_string(workspace_path("stateforge/doc/model-files.md"))
+    let doc = std::fs::read_to_string(workspace_path("codegen-macros/doc/model-files.md"))
         .expect("the model-file documentation exists");
     let toml = doc
         .split("```toml\n")

@@ -15,7 +15,7 @@ use syn::visit::Visit;
 /// The crates' source folders, relative to the workspace root.
 const SOURCE_ROOTS: &[&str] = &[
     "model-dsl/src",
-    "stateforge/src",
+    "codegen-macros/src",
     "model-codegen/src",
     "generated-demo/src",
     "tests/src",
