@@ -7,7 +7,7 @@ stateforge::model! {
     /// Continuous model, eqs. (1)-(2): x1' = x2, x2' = x3*x1 + x4*x2 + x5*u,
     /// with x3 = -wn^2, x4 = -2*zeta*wn, x5 = alpha (input gain), y = x1.
     /// Discretised with forward Euler at the paper's sample time Ts = 15 ms,
-    /// eq. (3), exactly as restated in reference/dkf-equations.md.
+    /// eq. (3) of the double Kalman filter paper.
     /// The parameters are augmented states following a random walk (eqs. 2c-2e).
     ///
     /// Units (paper: laser 10 mm/V, actuator voltage; the restatement uses):

@@ -1,4 +1,7 @@
-//! The systems of the five papers in `shared/seeds`, declared once with `model!`, two
+//! The systems of the five papers the project comes from (the double Kalman filter
+//! paper's cantilever, Takacs, Poloni and Rohal-Ilkiv's blade, the polynomial Kalman
+//! filter, the piecewise-linear beam's switched observers, Kulkarni and Purwar's
+//! helicopter), declared once with `model!`, two
 //! variants of the cantilever that exercise the window transform on other structures, and
 //! the cantilever with a least-squares DKF window (`cantilever_long_window`), and a 24-state
 //! strapdown navigation model with GNSS and magnetometer sensors (`navigation`).

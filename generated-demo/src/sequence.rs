@@ -4,7 +4,7 @@
 //! same data bit for bit (IEEE arithmetic only).
 //!
 //! The beam is the Euler model with the Euler-equivalent parameters of wn = 20 rad/s,
-//! zeta = 0.026, alpha = 0.5 (shared/reference/simulating-the-paper.md); the input is the
+//! zeta = 0.026, alpha = 0.5 (the notes, "Simulating the cantilever"); the input is the
 //! paper's PRBS (+-100 V, 9-bit LFSR, each bit held 4 samples); the measurement noise is
 //! uniform with standard deviation `NOISE_SIGMA`.
 

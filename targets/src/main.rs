@@ -46,7 +46,8 @@ use panic_semihosting as _;
 
 include!(concat!(env!("OUT_DIR"), "/sequence.rs"));
 
-/// The paper's guesses and the tuning of shared/reference/simulating-the-paper.md.
+/// The paper's guesses and the tuning that reproduces its divergence result
+/// (generated-demo's notes, "Simulating the cantilever").
 const X0_CLOSE: [f32; 5] = [0.01, 0.0, -400.0, -1.0, 0.01];
 const X0_WRONG: [f32; 5] = [0.01, 0.0, -50000.0, -10.0, 0.01];
 const P0_CLOSE: [f32; 5] = [0.1, 1.0, 2e4, 1000.0, 0.1];

@@ -1,5 +1,5 @@
 //! A deterministic simulation of the cantilever experiment for tests: the Euler model run
-//! with Euler-equivalent parameters (shared/reference/simulating-the-paper.md), a PRBS of
+//! with Euler-equivalent parameters (generated-demo's notes, "Simulating the cantilever"), a PRBS of
 //! +-100 V from a 9-bit LFSR with each bit held 4 samples, and Gaussian measurement noise.
 
 use crate::reference::{euler_equivalent, f, State};

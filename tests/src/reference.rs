@@ -1,9 +1,8 @@
 //! Independent `f64` reference implementation of the cantilever paper's algorithms
-//! (seed 000): the EKF (Alg. 1), the LTV window transform and the double Kalman filter
+//! (the double Kalman filter paper): the EKF (Alg. 1), the LTV window transform and the double Kalman filter
 //! (Sect. 2, Alg. 2) and the adaptive finite-horizon LQR (Alg. 3, eq. 19).
 //!
-//! Everything here is written by hand from the paper (restated in
-//! `shared/reference/dkf-equations.md`) and uses `nalgebra`; nothing comes from the code
+//! Everything here is written by hand from the paper's equations and uses `nalgebra`; nothing comes from the code
 //! generator, so tests can check generated code against it.
 //!
 //! # Model (eqs. 3a-3f)

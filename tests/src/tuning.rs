@@ -1,5 +1,5 @@
-//! The paper's initial guesses and the tuning of shared/reference/simulating-the-paper.md,
-//! shared by the tests and benchmarks of the cantilever's filters.
+//! The paper's initial guesses and the tuning that reproduces its divergence result
+//! (generated-demo's notes, "Simulating the cantilever"), shared by the tests and benchmarks of the cantilever's filters.
 
 /// The close initial guess (x3 near the beam's -wn^2).
 pub const X0_CLOSE: [f64; 5] = [0.01, 0.0, -400.0, -1.0, 0.01];

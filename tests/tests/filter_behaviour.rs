@@ -8,7 +8,7 @@ use tests::tuning::{p0, Q_DIAG, R, X0_CLOSE, X0_WRONG};
 
 const TRUE_WN: f64 = 20.0;
 
-/// wn read from the Euler model's poles (shared/reference/simulating-the-paper.md).
+/// wn read from the Euler model's poles (generated-demo's notes, "Simulating the cantilever").
 fn wn(x: &[f64; 5]) -> f64 {
     poles_readout(x[2], x[3]).0
 }

@@ -24,8 +24,8 @@ fn random_window(seed: u64) -> (Vec<f64>, Vec<f64>) {
     (y, u)
 }
 
-/// The paper's eq. (8) at every sample the window reaches, written from the restatement
-/// (dkf-equations.md): with `dy[j] = (y[j] - y[j-1]) / TS`,
+/// The paper's eq. (8) at every sample the window reaches, written from the paper's
+/// eqs. (4)-(8): with `dy[j] = (y[j] - y[j-1]) / TS`,
 /// `(dy[j] - dy[j-1]) / TS = y[j-2] x3 + dy[j-1] x4 + u[j-2] x5`: the matrix and
 /// right-hand side.
 fn reference_system(y: &[f64], u: &[f64]) -> (DMatrix<f64>, DVector<f64>) {

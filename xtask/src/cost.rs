@@ -23,7 +23,7 @@ struct Kernel {
     /// Goal in instructions per call.
     goal: Option<u32>,
     /// The C peer's instructions per call (CasADi 3.8 C, arm-none-eabi-gcc 12 -O2, hard
-    /// float, measured the same way; shared/reference/cortex-m4-measurement.md).
+    /// float, measured the same way, as the Cortex-M4F notes describe).
     c_peer: Option<u32>,
     /// The paper's time on its STM32F407 at 168 MHz, in milliseconds.
     paper_ms: Option<f64>,

@@ -3,7 +3,7 @@
 //! report (table, CSV, SVG). The filters and the LQR live elsewhere; this module only
 //! feeds them data and reports what they estimated.
 //!
-//! Units throughout: mm, mm/s, V, s (shared/reference/simulating-the-paper.md).
+//! Units throughout: mm, mm/s, V, s (the notes, "Simulating the cantilever").
 
 pub mod blade;
 pub mod blade_control;

@@ -1,7 +1,6 @@
 //! The simulated beam: the first bending mode of the cantilever, sampled at TS.
 //!
-//! Two plant kinds (shared/reference/simulating-the-paper.md, "A plant that makes the
-//! comparison fair"):
+//! Two plant kinds (the notes, "Simulating the cantilever"):
 //! - [`PlantKind::Euler`] (default): the filters' own forward-Euler model (the generated
 //!   `cantilever::in_f64::f`) run with the Euler-equivalent parameters of the physical
 //!   mode. Structurally what every filter assumes, so the comparison measures the filters.
@@ -39,7 +38,7 @@ pub struct Physical {
 
 impl Physical {
     /// The beam with the extra 400 g tip mass: "this value decreases to 20 with an extra
-    /// tip-mass of 400 g" (sect. 5.1); zeta and alpha from the reference note.
+    /// tip-mass of 400 g" (sect. 5.1); zeta unchanged, alpha scaled by `(50/20)^2`.
     pub const WITH_TIP_MASS: Physical = Physical {
         wn: 20.0,
         zeta: 0.026,
@@ -61,7 +60,7 @@ impl Physical {
 /// Natural frequency of the free beam, "about 50 rad/sec" (sect. 5.1).
 pub const FREE_WN: f64 = 50.0;
 
-/// Default measurement-noise standard deviation [mm]: a good laser sensor (reference note;
+/// Default measurement-noise standard deviation [mm]: a good laser sensor (the notes;
 /// with the paper's R = 0.001 mm^2 the DKF works at this level).
 pub const DEFAULT_NOISE_SIGMA: f64 = 1e-4;
 
@@ -69,7 +68,7 @@ pub const DEFAULT_NOISE_SIGMA: f64 = 1e-4;
 /// response (0.43 mm RMS) and within what +-100 V can attenuate in about 2 s (sect. 5.2).
 pub const STINGER_VELOCITY: f64 = 50.0;
 
-/// Actuator limit \[V\]; the adaptive LQR must be saturated to it (reference note).
+/// Actuator limit \[V\]; the adaptive LQR must be saturated to it (the notes).
 pub const ACTUATOR_LIMIT: f64 = 100.0;
 
 /// Clamps a commanded voltage to +-[`ACTUATOR_LIMIT`]. The plant does not clamp by itself,

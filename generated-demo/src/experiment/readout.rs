@@ -4,7 +4,7 @@
 //! TS > 2 zeta / wn), so a filter on it converges to Euler-equivalent values. The naive
 //! read-out of those gives wn = 19.85, zeta = 0.175 for a 20 rad/s, zeta = 0.026 beam;
 //! mapping the model's discrete poles back to continuous time gives 20 and 0.026
-//! (shared/reference/simulating-the-paper.md). Both are offered so reports can show both.
+//! (the notes, "Simulating the cantilever"). Both are offered so reports can show both.
 
 use super::plant::Physical;
 use super::TS;

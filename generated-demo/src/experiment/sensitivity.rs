@@ -3,7 +3,7 @@
 //! window holds 40 samples, solved by least squares (`cantilever_long_window`).
 //!
 //! The minimum window differentiates y twice through the fewest samples, so its
-//! parameters are noise once sigma nears 1e-2 mm (shared/reference/simulating-the-paper.md);
+//! parameters are noise once sigma nears 1e-2 mm (the notes, "Simulating the cantilever");
 //! the longer window averages that noise over its 38 equations.
 //!
 //! - [`table`]: mean wn over 2-15 s, from the paper's close and wrong guesses, for noise

@@ -1,4 +1,4 @@
-//! The cantilever filters' tuning (shared/reference/simulating-the-paper.md), shared by
+//! The cantilever filters' tuning (the notes, "Simulating the cantilever"), shared by
 //! the estimation runs and the fault experiment.
 
 use super::diag;
