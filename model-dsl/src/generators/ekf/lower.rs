@@ -177,10 +177,11 @@ fn constructor_tokens(
 fn type_doc(spec: &EkfSpec) -> (String, String) {
     let gate = measurement::gate_doc(spec.gate);
     let what = format!(
-        " Extended Kalman filter of this model (Algorithm 1 of the double Kalman filter paper, \
-         which compares the EKF with the DKF on a vibrating cantilever beam): state estimate `x` (physical states, \
-         then parameters) and covariance `P`, stored once as a packed upper triangle; \
-         Joseph-form update.{gate}"
+        " Extended Kalman filter of this model: state estimate `x` (the states, then the \
+         parameters, each a constant the filter estimates as a random walk) and covariance \
+         `P`, stored once as a packed upper triangle; prediction through `f` and its Jacobian, \
+         Joseph-form update (the discrete EKF as Algorithm 1 of the double Kalman filter \
+         paper states it).{gate}"
     );
     let convention = format!(
         " Index convention (all filters of this module): [`{}::step`] at sample `k` takes \
