@@ -72,15 +72,17 @@ pub fn abs(x: f64) -> f64 {
 }
 
 /// Whether `m` is a covariance: symmetric to within rounding and positive semi-definite,
-/// tested by an `L D L'` factorisation in `f64`. Symmetric means
-/// `(m[i][j] - m[j][i])^2 <= eps m[i][i] m[j][j]`; semi-definite means that
-/// `M + delta diag(M)`, `delta = 2 n (n + 1) eps`, factorises with positive pivots: the
-/// shift forgives what rounding makes of a semi-definite matrix scaled to unit variances,
-/// and nothing of a negative variance or a correlation beyond 1 by more than that. Each
-/// tolerance is relative to the entries' own variances, so a variance of 1e8 beside one
-/// of 1e-6 is judged each on its own scale; a zero variance must have zero covariances. A filter tests every
-/// covariance it is given (initial, process and measurement noise) so; the entries must be
-/// finite (tested first).
+/// tested by an `L D L'` factorisation in `f64`. Semi-definite means that
+/// `M + delta diag(M) + t I`, `delta = 2 n (n + 1) eps`, `t = delta max_i m[i][i]`,
+/// factorises with positive pivots; symmetric, that
+/// `(m[i][j] - m[j][i])^2 <= eps (m[i][i] + t) (m[j][j] + t)`. The first shift forgives
+/// what rounding makes of a semi-definite matrix scaled to unit variances, and nothing of a
+/// negative variance or a correlation beyond 1 by more than that, so that variances of
+/// very different scales are judged each on its own; the second forgives rounding at the
+/// scale of the largest variance, which a covariance computed in `f64` (a filter's own,
+/// as `covariance()` returns it) carries. A zero variance among zeros must have zero
+/// covariances. A filter tests every covariance it is given (initial, process and
+/// measurement noise, `reset`) so; the entries must be finite (tested first).
 #[must_use]
 pub fn is_covariance<const N: usize>(m: &[[f64; N]; N]) -> bool {
     crate::covariance::is_covariance(m)

@@ -67,20 +67,26 @@ fn indefinite_matrices_are_not_covariances() {
 }
 
 #[test]
-fn variances_of_very_different_scales_are_judged_each_on_its_own() {
+fn variances_of_very_different_scales_are_judged_each_on_its_own_above_the_largests_rounding() {
     // A parameter's variance of 1e8 beside a state's of 1e-6: positive definite.
     let spread = [[1e8, 0.0, 0.0], [0.0, 1e-6, 1e-7], [0.0, 1e-7, 1e-6]];
     assert!(stateforge_math::f32::is_covariance(&spread));
     assert!(stateforge_math::f64::is_covariance(
         &spread.map(|r| r.map(f64::from))
     ));
-    // The same small block with a correlation beyond 1: indefinite, although tiny beside
-    // the 1e8.
+    // The same small block with a correlation of 10: an eigenvalue of -9e-6. In `f64` it
+    // is far above the rounding of the 1e8 (5.3e-15 of it, 5.3e-7), so it is judged on its
+    // own scale and refused, although tiny beside the 1e8.
     let indefinite = [[1e8, 0.0, 0.0], [0.0, 1e-6, 1e-5], [0.0, 1e-5, 1e-6]];
-    assert!(!stateforge_math::f32::is_covariance(&indefinite));
     assert!(!stateforge_math::f64::is_covariance(
         &indefinite.map(|r| r.map(f64::from))
     ));
+    // In `f32` the rounding of a 1e8 is 286 (2.9e-6 of it): a matrix computed in `f32`
+    // from such entries cannot tell the block's -9e-6 from rounding, so it passes there;
+    // beside a variance of 1 (rounding 2.9e-6) the block is refused again.
+    assert!(stateforge_math::f32::is_covariance(&indefinite));
+    let beside_one = [[1.0, 0.0, 0.0], [0.0, 1e-6, 1e-5], [0.0, 1e-5, 1e-6]];
+    assert!(!stateforge_math::f32::is_covariance(&beside_one));
 }
 
 #[test]
