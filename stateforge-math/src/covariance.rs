@@ -77,13 +77,12 @@ pub(crate) fn is_covariance<T: Real, const N: usize>(m: &[[T; N]; N]) -> bool {
     }
     let n = T::from_count(N);
     let delta = (n + n) * (n + T::from_count(1)) * T::EPSILON;
-    let largest = (0..N).fold(T::ZERO, |largest, i| {
+    let mut largest = T::ZERO;
+    for i in 0..N {
         if m[i][i] > largest {
-            m[i][i]
-        } else {
-            largest
+            largest = m[i][i];
         }
-    });
+    }
     let shift = delta * largest;
     if !is_symmetric(m, shift) {
         return false;
