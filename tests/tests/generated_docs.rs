@@ -35,7 +35,13 @@ impl Visit<'_> for Docs {
 
 /// Words of the papers' systems that a user's unrelated model's docs must not contain
 /// except inside a cited title.
-const PAPERS_SYSTEMS: [&str; 5] = ["cantilever beam", "vibrating", "blade", "helicopter", "stinger"];
+const PAPERS_SYSTEMS: [&str; 5] = [
+    "cantilever beam",
+    "vibrating",
+    "blade",
+    "helicopter",
+    "stinger",
+];
 
 fn assert_about_the_model(what: &str, docs: &[String]) {
     assert!(!docs.is_empty(), "{what}: no generated docs found");

@@ -24,7 +24,10 @@ fn the_top_level_is_the_specifications() {
         "targets",
         "tests",
     ] {
-        assert!(root.join(entry).exists(), "{entry} is missing at the top level");
+        assert!(
+            root.join(entry).exists(),
+            "{entry} is missing at the top level"
+        );
     }
     let manifest = std::fs::read_to_string(root.join("codegen-macros/Cargo.toml"))
         .expect("codegen-macros/Cargo.toml");

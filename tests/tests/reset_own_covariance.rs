@@ -34,7 +34,12 @@ fn reset_accepts_the_f64_filters_own_covariance_at_every_sample() {
                 }
                 let mut again = ekf;
                 let status = again.reset(&ekf.state(), &ekf.covariance());
-                assert_eq!(status, Status::Ok, "R = {r}, sample {k}: {:?}", ekf.covariance());
+                assert_eq!(
+                    status,
+                    Status::Ok,
+                    "R = {r}, sample {k}: {:?}",
+                    ekf.covariance()
+                );
                 assert_eq!(again.covariance(), ekf.covariance());
             }
         }
@@ -49,15 +54,20 @@ fn reset_accepts_the_f32_filters_own_covariance_at_every_sample() {
     for r in SENSORS.into_iter().chain([1e-20, 0.0]) {
         for x0 in [X0_CLOSE, X0_WRONG] {
             let p = p0(2e6).map(|row| row.map(single));
-            let mut ekf = Ekf::new(&x0.map(single), &p, &[0.0; 5], &[[single(r)]])
-                .expect("a valid prior");
+            let mut ekf =
+                Ekf::new(&x0.map(single), &p, &[0.0; 5], &[[single(r)]]).expect("a valid prior");
             for (k, sample) in Measured::new().take(SAMPLES).enumerate() {
                 if ekf.step(&[sample.u], &[sample.y]) != Status::Ok {
                     break;
                 }
                 let mut again = ekf;
                 let status = again.reset(&ekf.state(), &ekf.covariance());
-                assert_eq!(status, Status::Ok, "R = {r}, sample {k}: {:?}", ekf.covariance());
+                assert_eq!(
+                    status,
+                    Status::Ok,
+                    "R = {r}, sample {k}: {:?}",
+                    ekf.covariance()
+                );
                 assert_eq!(again.covariance(), ekf.covariance());
             }
         }

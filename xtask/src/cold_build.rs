@@ -86,7 +86,10 @@ pub fn measure(
     jobs: Option<u32>,
     what: &Build,
 ) -> Result<Measurement, String> {
-    let macros = macros.map_or_else(|| workspace_root().join("codegen-macros"), Path::to_path_buf);
+    let macros = macros.map_or_else(
+        || workspace_root().join("codegen-macros"),
+        Path::to_path_buf,
+    );
     let macros = macros
         .canonicalize()
         .map_err(|e| format!("{}: {e}", macros.display()))?;
