@@ -16,7 +16,7 @@ use crate::generators::Generator;
 use crate::model::{Constant, Model, Output, Scalar, Symbol};
 use crate::scope::{Binding, Scope};
 use dynamics::{check_dynamics, check_known_substeps};
-use expr::resolve;
+use expr::{resolve, Reader};
 use generate::check_generate;
 use names::{
     check_case_collisions, check_identifier, check_name_allowed, declare, duplicate_error,
@@ -171,8 +171,8 @@ fn check_outputs(decl: &ModelDecl, scope: &Scope, diag: &mut Diagnostics) -> Vec
             check_name_allowed(&out.name, false, diag);
             output_names.insert(out.name.text.as_str());
         }
-        let context = format!("the output `{}`", out.name.text);
-        if let Some(expr) = resolve(&out.expr, scope, &[], &context, diag) {
+        let context = Reader::Output(&out.name.text);
+        if let Some(expr) = resolve(&out.expr, scope, &[], context, diag) {
             outputs.push(Output {
                 docs: out.docs.clone(),
                 name: out.name.text.clone(),
@@ -219,8 +219,8 @@ fn check_scalars(decl: &ModelDecl, diag: &mut Diagnostics) -> Vec<Scalar> {
 fn check_constants(decl: &ModelDecl, scope: &mut Scope, diag: &mut Diagnostics) -> Vec<Constant> {
     let mut constants = Vec::new();
     for c in &decl.constants {
-        let context = format!("the constant `{}`", c.name.text);
-        let value = resolve(&c.value, scope, &[], &context, diag).and_then(|expr| {
+        let context = Reader::Constant(&c.name.text);
+        let value = resolve(&c.value, scope, &[], context, diag).and_then(|expr| {
             let value = expr.fold(&|i| scope.const_values.get(i).copied());
             if value.is_none() {
                 diag.error(
@@ -236,7 +236,13 @@ fn check_constants(decl: &ModelDecl, scope: &mut Scope, diag: &mut Diagnostics) 
             value: value.unwrap_or(0.0),
         });
         scope.const_values.push(value.unwrap_or(0.0));
+        let fresh = !scope.contains_key(&c.name.text) && !scope.failed.contains(&c.name.text);
         declare(scope, &c.name, Binding::Const(constants.len() - 1), diag);
+        // Its error is reported: what reads it reports none of its own (a stand-in
+        // value would make `1.0 / K` a division by zero).
+        if value.is_none() && fresh {
+            scope.failed.insert(c.name.text.clone());
+        }
     }
     constants
 }
