@@ -167,7 +167,7 @@ fn cannot_read(context: Reader, name: &str, what: &str) -> String {
         (_, "an output") => format!(
             "{context} cannot use `{name}`, an output: an expression reads the model's \
              variables, not its outputs; to share a value, name it with `let` inside \
-             `dynamics` and read that"
+             `dynamics` and read that (an output may read it too)"
         ),
         // The lines of `dynamics` are read in order, each `let` naming a value for the
         // lines below it (which also rules out an intermediate defined by itself).
@@ -177,7 +177,7 @@ fn cannot_read(context: Reader, name: &str, what: &str) -> String {
         ),
         (Reader::Output(_), _) => format!(
             "{context} cannot use `{name}`, {what}: an output reads the states, parameters, \
-             inputs and constants"
+             inputs and constants, and the intermediates of the model's `dynamics`"
         ),
     }
 }

@@ -56,7 +56,6 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Checked> {
     scope.scalars = scalars.clone();
     let constants = check_constants(decl, &mut scope, &mut diag);
     let symbols = check_symbols(decl, &mut scope, &mut diag);
-    let outputs = check_outputs(decl, &scope, &mut diag);
     let sensors = check_sensors(decl, &mut diag);
     let mut locals = Vec::new();
     let dynamics = match decl.dynamics.as_slice() {
@@ -79,6 +78,8 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Checked> {
             check_dynamics(block, &mut scope, states, &mut locals, &mut diag)
         }
     };
+    // After the dynamics: an output may read their intermediates.
+    let outputs = check_outputs(decl, &scope, &locals, &mut diag);
     check_known_substeps(decl, &mut diag);
     let generators = check_generate(decl, &scope, &mut diag);
     let Some(dynamics) = dynamics else {
@@ -160,19 +161,31 @@ fn check_symbols(decl: &ModelDecl, scope: &mut Scope, diag: &mut Diagnostics) ->
     s
 }
 
-/// Resolves the outputs `y = h(x, u)`; each needs its own name.
-fn check_outputs(decl: &ModelDecl, scope: &Scope, diag: &mut Diagnostics) -> Vec<Output> {
+/// Resolves the outputs `y = h(x, u)`, which may read the intermediates of the dynamics
+/// (`locals`): each a function of the time, states, parameters and inputs, evaluated where
+/// the output is. Each output needs a name of its own among the constants, symbols and
+/// outputs (an intermediate's name is a temporary's: `output speed = speed;` reads one).
+fn check_outputs(
+    decl: &ModelDecl,
+    scope: &Scope,
+    locals: &[crate::model::Local],
+    diag: &mut Diagnostics,
+) -> Vec<Output> {
     let mut outputs = Vec::new();
     let mut output_names = std::collections::HashSet::new();
     for out in &decl.outputs {
-        if output_names.contains(out.name.text.as_str()) || scope.contains_key(&out.name.text) {
+        let taken = match scope.get(&out.name.text) {
+            Some((Binding::Local(_), _)) | None => false,
+            Some(_) => true,
+        };
+        if output_names.contains(out.name.text.as_str()) || taken {
             duplicate_error(diag, &out.name);
         } else {
             check_name_allowed(&out.name, false, diag);
             output_names.insert(out.name.text.as_str());
         }
         let context = Reader::Output(&out.name.text);
-        if let Some(expr) = resolve(&out.expr, scope, &[], context, diag) {
+        if let Some(expr) = resolve(&out.expr, scope, locals, context, diag) {
             outputs.push(Output {
                 docs: out.docs.clone(),
                 name: out.name.text.clone(),
