@@ -77,8 +77,12 @@ const HINTS: [(&str, &str); 13] = [
 ];
 
 /// Short pieces of macro syntax and their TOML form.
-const PIECES: [(&str, &str); 8] = [
+const PIECES: [(&str, &str); 9] = [
     ("(`state`)", "(`[[state]]`)"),
+    (
+        "with `let` inside `dynamics`",
+        "in a `[[dynamics.let]]` table",
+    ),
     (
         "declare each value, `const A = 1e-6;`,",
         "declare each value as a `[[const]]` (`name = \"A\"`, `value = 1e-6`),",
@@ -160,6 +164,11 @@ pub(crate) fn rewrite(message: &str) -> String {
     text = rewrite_quoted(&text, |code| {
         let name = code.strip_prefix("state ")?.strip_suffix(';')?;
         Some(format!("[[state]]` and `name = \"{name}\""))
+    });
+    // `move `let b = ..;` up`: an intermediate's table, among the `[[dynamics.let]]` ones.
+    text = rewrite_quoted(&text, |code| {
+        let name = code.strip_prefix("let ")?.strip_suffix(" = ..;")?;
+        Some(format!("[[dynamics.let]]` table of `{name}"))
     });
     // `const k = ..;`: one constant's declaration.
     text = rewrite_quoted(&text, |code| {

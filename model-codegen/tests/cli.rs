@@ -157,6 +157,46 @@ fn macro_file_errors_give_line_column_and_the_line() {
     );
 }
 
+/// A crate's `lib.rs` around a model: inner docs and attributes, a `use`, other items.
+const LIB_RS: &str = "//! The crate's model.\n#![no_std]\n#![forbid(unsafe_code)]\n\n\
+                      use core::f32::consts::PI;\n\n/// Half a turn.\npub const HALF: f32 = PI;\n\n\
+                      stateforge::model! {\n    pub mod m {\n        scalar f32;\n        \
+                      state x1;\n        dynamics discrete {\n            x1 = 0.5 * x1;\n        \
+                      }\n    }\n}\n\nmod tests {}\n";
+
+#[test]
+fn an_ordinary_lib_rs_around_the_model_is_read() {
+    assert_eq!(run("lib-rs", "lib.rs", LIB_RS), (true, String::new()));
+    // Its errors are placed on the file's own lines.
+    let errors = errors_for(
+        "lib-rs-error",
+        "lib.rs",
+        &LIB_RS.replace("0.5 * x1", "0.5 ^ x1"),
+    );
+    assert!(
+        errors.starts_with("lib.rs:15:22: error: `^` is exclusive-or"),
+        "{errors}"
+    );
+    // A file without a model, or with two, is told what the tool reads.
+    let errors = errors_for("lib-rs-none", "lib.rs", "//! No model.\n#![no_std]\n");
+    assert!(
+        errors.starts_with(
+            "lib.rs:1:1: error: no `model!` invocation found: the file is read as \
+                            Rust source holding one `model! { .. }` invocation"
+        ),
+        "{errors}"
+    );
+    let twice = LIB_RS.replace("mod tests {}", "stateforge::model! { pub mod n {} }");
+    let errors = errors_for("lib-rs-two", "lib.rs", &twice);
+    assert!(
+        errors.starts_with(
+            "lib.rs:20:13: error: a second `model!` invocation: the tool \
+                            generates one model per file"
+        ),
+        "{errors}"
+    );
+}
+
 #[test]
 fn version_names_the_tool() {
     let output = Command::new(env!("CARGO_BIN_EXE_stateforge-codegen"))

@@ -64,15 +64,15 @@ fn emit_with_warnings(
     Ok((module, model.warnings))
 }
 
-/// Parses and checks Rust source holding one `model! { .. }` invocation (a demo model
-/// file) into the model IR.
+/// Parses and checks a Rust source file holding one `model! { .. }` invocation (a demo
+/// model, a crate's `lib.rs` with its `//!` docs, attributes and other items) into the
+/// model IR ([`front::source_file::model_invocation`]).
 pub fn parse_macro_source(source: &str) -> syn::Result<check::Checked> {
-    // Not trimmed: spans then give the file's own lines and columns.
-    let invocation: syn::Macro = syn::parse_str(source)?;
-    parse_model(invocation.tokens)
+    parse_model(front::source_file::model_invocation(source)?)
 }
 
-/// Expands Rust source holding one `model! { .. }` invocation (a demo model file).
+/// Expands a Rust source file holding one `model! { .. }` invocation (a demo model, a
+/// crate's `lib.rs`).
 pub fn expand_macro_source(source: &str) -> syn::Result<TokenStream> {
     expand_macro_source_with_warnings(source).map(|(module, _)| module)
 }

@@ -342,6 +342,20 @@ impl Model {
             .map(|s| s.name.as_str())
     }
 
+    /// Whether `pred` holds for `expr` or any part of it, or of an intermediate it reads
+    /// (an output may read those of the dynamics). Each intermediate reads only earlier
+    /// ones, so one pass in order decides each once.
+    pub fn reads(&self, expr: &Expr, pred: &dyn Fn(&Expr) -> bool) -> bool {
+        let mut local_reads: Vec<bool> = Vec::with_capacity(self.locals.len());
+        for local in &self.locals {
+            let reads = local.expr.any(&|e| {
+                pred(e) || matches!(e, Expr::Local(i) if local_reads.get(*i) == Some(&true))
+            });
+            local_reads.push(reads);
+        }
+        expr.any(&|e| pred(e) || matches!(e, Expr::Local(i) if local_reads.get(*i) == Some(&true)))
+    }
+
     /// Whether the time `t` appears anywhere in the model.
     pub fn uses_time(&self) -> bool {
         let mut exprs = self

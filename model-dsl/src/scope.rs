@@ -28,6 +28,10 @@ pub struct Scope {
     /// What each name of the model is, declared yet or not, for a name used before (or
     /// where) it can be.
     pub(crate) declared: std::collections::HashMap<String, &'static str>,
+    /// Names whose definition (a constant's or an intermediate's expression) had an error,
+    /// recorded already: an expression that reads one is left unresolved without an error
+    /// of its own, so one mistake is reported once, where it is.
+    pub(crate) failed: std::collections::HashSet<String>,
 }
 
 impl Scope {
@@ -56,6 +60,7 @@ impl Scope {
             const_values: Vec::new(),
             scalars: Vec::new(),
             declared,
+            failed: std::collections::HashSet::new(),
         }
     }
 

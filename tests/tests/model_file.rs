@@ -32,7 +32,7 @@ stateforge::model! {
         const TS = 0.01;
         state x1, x2;
         input u;
-        output y = x1;
+        output y = x1, spring_force = spring;
         generate ekf(process_noise = diagonal), hybrid_ekf;
         dynamics continuous(rk4, dt = TS, substeps = 2) {
             let spring = -4.0 * x1;
@@ -516,6 +516,45 @@ fn values_toml_reads_but_a_model_does_not_say_what_to_write() {
         &small_with("scalar = \"f32\"\n", ""),
         "1:1: model file: missing field `scalar`: add `scalar = \"f32\"` (or `scalar = [\"f32\", \
          \"f64\"]`)",
+    );
+}
+
+#[test]
+fn outputs_share_intermediates_and_their_mistakes_are_told_in_toml() {
+    // An output reads a `[[dynamics.let]]`: the output of the intermediate, 2 x1 + u.
+    let shared = small_with("value = \"x1\"\n", "value = \"drive\"\n").replace(
+        "[dynamics.equations]\n",
+        "[[dynamics.let]]\nname = \"drive\"\nvalue = \"2 * x1 + u\"\n[dynamics.equations]\n",
+    );
+    let checked = stateforge_cli::parse_model_file(&shared).expect("the model file checks");
+    let model = &checked.model;
+    assert!(matches!(
+        model.outputs[0].expr,
+        stateforge_compiler::model::Expr::Local(0)
+    ));
+    stateforge_cli::expand_model_file(&shared).expect("the model file expands");
+    // An output cannot read another output; the hint says how to share the value.
+    let second = small_with(
+        "value = \"x1\"\n",
+        "value = \"x1\"\n[[output]]\nname = \"y2\"\nvalue = \"2 * y\"\n",
+    );
+    assert_error(
+        &second,
+        "17:14: the output `y2` cannot use `y`, an output: an expression reads the model's \
+         variables, not its outputs; to share a value, name it in a `[[dynamics.let]]` table \
+         and read that (an output may read it too)",
+    );
+    // The intermediates are read in order.
+    let later = small_with(
+        "[dynamics.equations]\n",
+        "[[dynamics.let]]\nname = \"a\"\nvalue = \"b\"\n[[dynamics.let]]\nname = \"b\"\n\
+         value = \"x1\"\n[dynamics.equations]\n",
+    );
+    assert_error(
+        &later,
+        "19:10: the intermediate `a` cannot use `b`, an intermediate not defined above this \
+         line: a line of `dynamics` reads the intermediates above it; move `[[dynamics.let]]` \
+         table of `b` up",
     );
 }
 

@@ -2,8 +2,8 @@
 //! dynamics, `der(x) = ..` for continuous ones), named intermediates, and for continuous
 //! dynamics the discretisation (integration rule, step and sub-steps).
 
-use super::expr::resolve;
-use super::names::declare;
+use super::expr::{resolve, Reader};
+use super::names::{declare, duplicate_error};
 use crate::ast::{DynamicsDecl, DynamicsKind, ModelDecl, Name, Statement, SurfaceExpr, SymbolKind};
 use crate::diagnostics::Diagnostics;
 use crate::model::{Discretisation, Dynamics, Expr, Local, Method, Symbol, UNROLLED_SUBSTEPS_MAX};
@@ -33,23 +33,14 @@ pub(super) fn check_dynamics(
     let mut rhs: Vec<Option<Option<Expr>>> = vec![None; states.len()];
     for statement in &block.statements {
         match statement {
-            Statement::Let { name, value } => {
-                let context = format!("the intermediate `{}`", name.text);
-                if let Some(expr) = resolve(value, scope, locals, &context, diag) {
-                    locals.push(Local {
-                        name: name.text.clone(),
-                        expr,
-                    });
-                    declare(scope, name, Binding::Local(locals.len() - 1), diag);
-                }
-            }
+            Statement::Let { name, value } => check_let(name, value, scope, locals, diag),
             Statement::Equation {
                 target,
                 derivative,
                 value,
             } => {
-                let context = format!("the dynamics of `{}`", target.text);
-                let expr = resolve(value, scope, locals, &context, diag);
+                let context = Reader::Equation(&target.text);
+                let expr = resolve(value, scope, locals, context, diag);
                 let Some(index) = equation_target(target, scope, diag) else {
                     continue;
                 };
@@ -74,6 +65,33 @@ pub(super) fn check_dynamics(
         discretisation,
         rhs: complete,
     })
+}
+
+/// `let name = value;`: an intermediate for the lines below (and the outputs). One whose
+/// value has an error is marked failed (unless the name is taken, which `declare`
+/// reports), so that what reads it reports nothing more.
+fn check_let(
+    name: &Name,
+    value: &SurfaceExpr,
+    scope: &mut Scope,
+    locals: &mut Vec<Local>,
+    diag: &mut Diagnostics,
+) {
+    match resolve(value, scope, locals, Reader::Intermediate(&name.text), diag) {
+        Some(expr) => {
+            locals.push(Local {
+                name: name.text.clone(),
+                expr,
+            });
+            declare(scope, name, Binding::Local(locals.len() - 1), diag);
+        }
+        None if scope.contains_key(&name.text) || scope.failed.contains(&name.text) => {
+            duplicate_error(diag, name);
+        }
+        None => {
+            scope.failed.insert(name.text.clone());
+        }
+    }
 }
 
 /// The state an equation's left-hand side names, or an error saying what it is instead.
@@ -215,7 +233,7 @@ fn check_method(span: Span, method: &Option<Name>, diag: &mut Diagnostics) -> Op
 
 /// The step `dt`: a constant expression, positive.
 fn check_step(expr: &SurfaceExpr, scope: &Scope, diag: &mut Diagnostics) -> Option<Expr> {
-    let e = resolve(expr, scope, &[], "the step `dt`", diag)?;
+    let e = resolve(expr, scope, &[], Reader::Step, diag)?;
     let consts_only = !e.any(&|e| {
         !matches!(
             e,

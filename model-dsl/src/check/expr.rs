@@ -32,12 +32,41 @@ fn unrepresentable(value: f64, scalars: &[Scalar]) -> Option<String> {
     None
 }
 
-/// Resolves names and function calls; returns `None` after recording an error.
+/// What an expression belongs to: what its errors call it, and so what it may read.
+#[derive(Clone, Copy)]
+pub(super) enum Reader<'a> {
+    /// `const NAME = ..;`, a number fixed when the code is generated.
+    Constant(&'a str),
+    /// The step `dt` of continuous dynamics, a constant expression.
+    Step,
+    /// `output y = ..;`, computed from the model's variables and intermediates.
+    Output(&'a str),
+    /// `let a = ..;` in `dynamics`, which reads the intermediates above it.
+    Intermediate(&'a str),
+    /// A state's equation, which reads the intermediates above it.
+    Equation(&'a str),
+}
+
+impl std::fmt::Display for Reader<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        match self {
+            Reader::Constant(name) => write!(f, "the constant `{name}`"),
+            Reader::Step => f.write_str("the step `dt`"),
+            Reader::Output(name) => write!(f, "the output `{name}`"),
+            Reader::Intermediate(name) => write!(f, "the intermediate `{name}`"),
+            Reader::Equation(name) => write!(f, "the dynamics of `{name}`"),
+        }
+    }
+}
+
+/// Resolves names and function calls; returns `None` after recording an error, or when
+/// it reads a name whose definition failed (its error recorded already: see
+/// [`Scope::failed`]).
 pub(super) fn resolve(
     expr: &SurfaceExpr,
     scope: &Scope,
     locals: &[Local],
-    context: &str,
+    context: Reader,
     diag: &mut Diagnostics,
 ) -> Option<Expr> {
     let mut go = |e: &SurfaceExpr, diag: &mut Diagnostics| resolve(e, scope, locals, context, diag);
@@ -85,9 +114,14 @@ fn resolve_name(
     name: &str,
     scope: &Scope,
     locals: &[Local],
-    context: &str,
+    context: Reader,
     diag: &mut Diagnostics,
 ) -> Option<Expr> {
+    // A name whose own definition was wrong is reported there, once: what reads it stays
+    // unresolved without an error of its own, which would bury the real one.
+    if scope.failed.contains(name) {
+        return None;
+    }
     let message = match scope.get(name) {
         Some((Binding::Const(i), _)) => return Some(Expr::Const(*i)),
         Some((Binding::State(i), _)) => return Some(Expr::State(*i)),
@@ -100,12 +134,7 @@ fn resolve_name(
         }
         None if name == "t" => return Some(Expr::Time),
         None if scope.declared.contains_key(name) => {
-            let what = scope.declared[name];
-            format!(
-                "{context} cannot use `{name}`, {what}: a constant is a number fixed when the \
-                 code is generated; compute a value that depends on the model's variables \
-                 with `let` inside `dynamics`"
-            )
+            cannot_read(context, name, scope.declared[name])
         }
         None => {
             let known = scope.names.keys().chain(scope.declared.keys());
@@ -125,13 +154,41 @@ fn resolve_name(
     None
 }
 
+/// Why `context` cannot read `name`, a declared name (`what` it is) not in its scope, and
+/// what to write instead.
+fn cannot_read(context: Reader, name: &str, what: &str) -> String {
+    match (context, what) {
+        (Reader::Constant(_) | Reader::Step, _) => format!(
+            "{context} cannot use `{name}`, {what}: a constant is a number fixed when the \
+             code is generated; compute a value that depends on the model's variables with \
+             `let` inside `dynamics`"
+        ),
+        // Outputs are measurements: nothing in the model reads one back.
+        (_, "an output") => format!(
+            "{context} cannot use `{name}`, an output: an expression reads the model's \
+             variables, not its outputs; to share a value, name it with `let` inside \
+             `dynamics` and read that (an output may read it too)"
+        ),
+        // The lines of `dynamics` are read in order, each `let` naming a value for the
+        // lines below it (which also rules out an intermediate defined by itself).
+        (Reader::Intermediate(_) | Reader::Equation(_), _) => format!(
+            "{context} cannot use `{name}`, an intermediate not defined above this line: a \
+             line of `dynamics` reads the intermediates above it; move `let {name} = ..;` up"
+        ),
+        (Reader::Output(_), _) => format!(
+            "{context} cannot use `{name}`, {what}: an output reads the states, parameters, \
+             inputs and constants, and the intermediates of the model's `dynamics`"
+        ),
+    }
+}
+
 /// Every constant part is folded into a literal of the generated code: it must be finite
 /// in the model's scalar types, and no divisor may fold to zero.
 fn check_constant_parts(
     e: Expr,
     expr: &SurfaceExpr,
     scope: &Scope,
-    context: &str,
+    context: Reader,
     diag: &mut Diagnostics,
 ) -> Option<Expr> {
     let constant = |i: usize| scope.const_values.get(i).copied();

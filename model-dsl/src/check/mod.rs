@@ -16,7 +16,7 @@ use crate::generators::Generator;
 use crate::model::{Constant, Model, Output, Scalar, Symbol};
 use crate::scope::{Binding, Scope};
 use dynamics::{check_dynamics, check_known_substeps};
-use expr::resolve;
+use expr::{resolve, Reader};
 use generate::check_generate;
 use names::{
     check_case_collisions, check_identifier, check_name_allowed, declare, duplicate_error,
@@ -56,7 +56,6 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Checked> {
     scope.scalars = scalars.clone();
     let constants = check_constants(decl, &mut scope, &mut diag);
     let symbols = check_symbols(decl, &mut scope, &mut diag);
-    let outputs = check_outputs(decl, &scope, &mut diag);
     let sensors = check_sensors(decl, &mut diag);
     let mut locals = Vec::new();
     let dynamics = match decl.dynamics.as_slice() {
@@ -79,6 +78,8 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Checked> {
             check_dynamics(block, &mut scope, states, &mut locals, &mut diag)
         }
     };
+    // After the dynamics: an output may read their intermediates.
+    let outputs = check_outputs(decl, &scope, &locals, &mut diag);
     check_known_substeps(decl, &mut diag);
     let generators = check_generate(decl, &scope, &mut diag);
     let Some(dynamics) = dynamics else {
@@ -160,19 +161,31 @@ fn check_symbols(decl: &ModelDecl, scope: &mut Scope, diag: &mut Diagnostics) ->
     s
 }
 
-/// Resolves the outputs `y = h(x, u)`; each needs its own name.
-fn check_outputs(decl: &ModelDecl, scope: &Scope, diag: &mut Diagnostics) -> Vec<Output> {
+/// Resolves the outputs `y = h(x, u)`, which may read the intermediates of the dynamics
+/// (`locals`): each a function of the time, states, parameters and inputs, evaluated where
+/// the output is. Each output needs a name of its own among the constants, symbols and
+/// outputs (an intermediate's name is a temporary's: `output speed = speed;` reads one).
+fn check_outputs(
+    decl: &ModelDecl,
+    scope: &Scope,
+    locals: &[crate::model::Local],
+    diag: &mut Diagnostics,
+) -> Vec<Output> {
     let mut outputs = Vec::new();
     let mut output_names = std::collections::HashSet::new();
     for out in &decl.outputs {
-        if output_names.contains(out.name.text.as_str()) || scope.contains_key(&out.name.text) {
+        let taken = match scope.get(&out.name.text) {
+            Some((Binding::Local(_), _)) | None => false,
+            Some(_) => true,
+        };
+        if output_names.contains(out.name.text.as_str()) || taken {
             duplicate_error(diag, &out.name);
         } else {
             check_name_allowed(&out.name, false, diag);
             output_names.insert(out.name.text.as_str());
         }
-        let context = format!("the output `{}`", out.name.text);
-        if let Some(expr) = resolve(&out.expr, scope, &[], &context, diag) {
+        let context = Reader::Output(&out.name.text);
+        if let Some(expr) = resolve(&out.expr, scope, locals, context, diag) {
             outputs.push(Output {
                 docs: out.docs.clone(),
                 name: out.name.text.clone(),
@@ -219,8 +232,8 @@ fn check_scalars(decl: &ModelDecl, diag: &mut Diagnostics) -> Vec<Scalar> {
 fn check_constants(decl: &ModelDecl, scope: &mut Scope, diag: &mut Diagnostics) -> Vec<Constant> {
     let mut constants = Vec::new();
     for c in &decl.constants {
-        let context = format!("the constant `{}`", c.name.text);
-        let value = resolve(&c.value, scope, &[], &context, diag).and_then(|expr| {
+        let context = Reader::Constant(&c.name.text);
+        let value = resolve(&c.value, scope, &[], context, diag).and_then(|expr| {
             let value = expr.fold(&|i| scope.const_values.get(i).copied());
             if value.is_none() {
                 diag.error(
@@ -236,7 +249,13 @@ fn check_constants(decl: &ModelDecl, scope: &mut Scope, diag: &mut Diagnostics) 
             value: value.unwrap_or(0.0),
         });
         scope.const_values.push(value.unwrap_or(0.0));
+        let fresh = !scope.contains_key(&c.name.text) && !scope.failed.contains(&c.name.text);
         declare(scope, &c.name, Binding::Const(constants.len() - 1), diag);
+        // Its error is reported: what reads it reports none of its own (a stand-in
+        // value would make `1.0 / K` a division by zero).
+        if value.is_none() && fresh {
+            scope.failed.insert(c.name.text.clone());
+        }
     }
     constants
 }

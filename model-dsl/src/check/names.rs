@@ -42,7 +42,7 @@ pub fn generated_item(text: &str) -> bool {
 }
 
 pub(super) fn declare(scope: &mut Scope, name: &Name, binding: Binding, diag: &mut Diagnostics) {
-    if scope.contains_key(&name.text) {
+    if scope.contains_key(&name.text) || scope.failed.contains(&name.text) {
         duplicate_error(diag, name);
         return;
     }

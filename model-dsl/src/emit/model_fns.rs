@@ -41,7 +41,7 @@ pub fn model_functions(model: &Model, mg: &mut ModelGraph) -> Vec<ModelFunction>
     let h_uses_u = model
         .outputs
         .iter()
-        .any(|o| o.expr.any(&|e| matches!(e, Expr::Input(_))));
+        .any(|o| model.reads(&o.expr, &|e| matches!(e, Expr::Input(_))));
     let flat = |m: Vec<Vec<NodeId>>| m.into_iter().flatten().collect::<Vec<_>>();
     let n = model.state_len();
 
