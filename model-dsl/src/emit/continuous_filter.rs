@@ -306,6 +306,9 @@ impl Dynamics {
 struct MethodNodes {
     /// The model's graph, with the method's variables and nodes.
     g: ModelGraph,
+    /// In the hybrid EKF's step, its prediction's divergence probe and variances, tested
+    /// as `predict` tests them, before the update.
+    prediction_test: Option<(NodeId, Vec<NodeId>)>,
     /// Names generated variables avoid.
     avoid: Vec<String>,
     /// The covariance, noise and measurement variables.
@@ -420,6 +423,7 @@ impl MethodNodes {
         let (scaling, p_loop, p_initial) =
             loop_covariance(&mut g, (scaled, h), &dynamics.jacobian, &vars.p, &avoid);
         let mut nodes = MethodNodes {
+            prediction_test: None,
             x: g.x.clone(),
             p: symmetric_from_packed(&vars.p, n),
             g,
@@ -445,6 +449,11 @@ impl MethodNodes {
         };
         if kind.predicts() {
             nodes.propagate((rule, h), model.uses_time());
+        }
+        if kind == FilterMethod::Step {
+            let probe = finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p);
+            let variances = (0..n).map(|i| nodes.p[i][i]).collect();
+            nodes.prediction_test = Some((probe, variances));
         }
         if kind.updates() {
             // The continuous-time EKF's measurement terms over the sample `T` are the
@@ -521,12 +530,24 @@ impl MethodNodes {
 }
 
 impl MethodNodes {
+    /// In the hybrid EKF's step, the tests `predict` makes, of the prediction, before the
+    /// update (see `in_place::test_prediction`); nothing in another method.
+    fn test_prediction(&self, lowerer: &mut Lowerer, scalar: Scalar) {
+        if let Some((probe, variances)) = &self.prediction_test {
+            crate::emit::in_place::test_prediction(lowerer, *probe, variances, &[], scalar);
+        }
+    }
+
     /// Every value the method lowers: the new estimate and covariance (`results`), the
     /// finiteness `probe`, the pivots, the loop's next values, and what the measurement
     /// stage keeps.
     fn roots(&self, results: &[NodeId], probe: NodeId) -> Vec<NodeId> {
         let mut roots = results.to_vec();
         roots.push(probe);
+        if let Some((probe, variances)) = &self.prediction_test {
+            roots.push(*probe);
+            roots.extend(variances);
+        }
         roots.extend(&self.pivots);
         roots.extend(&self.loop_next);
         if self.scaling.is_some() {
@@ -574,6 +595,7 @@ fn lower(
         lowerer.read_lazily(&quote! { self.p }, &nodes.vars.p);
         None
     };
+    nodes.test_prediction(&mut lowerer, scalar);
     let suffix = if kind.updates() { "new" } else { "pred" };
     name_estimate(&mut lowerer, model, &nodes.x, suffix);
     guard_pivots(

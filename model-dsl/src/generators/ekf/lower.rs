@@ -394,6 +394,9 @@ struct EkfNodes {
     x: Vec<NodeId>,
     /// The new covariance.
     p: Matrix,
+    /// In a step, the prediction it corrects (estimate and covariance), which it tests as
+    /// `predict` does before the correction.
+    predicted: Option<(Vec<NodeId>, Matrix)>,
     /// The innovation covariance's pivots, checked positive before their reciprocals.
     pivots: Vec<NodeId>,
     /// The pivots' reciprocals.
@@ -438,6 +441,7 @@ impl EkfNodes {
             vars,
             t_prev,
             t_measured,
+            predicted: None,
             pivots: Vec::new(),
             reciprocals: Vec::new(),
             innovation: Vec::new(),
@@ -451,6 +455,9 @@ impl EkfNodes {
             let q = &nodes.vars.q_matrix;
             let coefficients = &mut nodes.coefficients;
             let (x, p, a) = kalman::ekf_predict(&mut nodes.g, &nodes.p, q, t_prev, coefficients);
+            if kind.updates() {
+                nodes.predicted = Some((x.clone(), p.clone()));
+            }
             (nodes.x, nodes.p) = (x, p);
             nodes.order = in_place::prediction_order(&nodes.g.graph, &a);
         }
@@ -530,9 +537,76 @@ fn divergence_probe(nodes: &mut EkfNodes, kind: EkfMethod) -> NodeId {
     if kind.updates() {
         interleaved_finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p)
     } else {
-        let stored: Vec<NodeId> = nodes.g.x.iter().chain(&nodes.vars.p).copied().collect();
-        finiteness_probe_of_changes(&mut nodes.g.graph, &nodes.x, &nodes.p, &stored)
+        let (x, p) = (nodes.x.clone(), nodes.p.clone());
+        prediction_probe(nodes, &x, &p)
     }
+}
+
+/// A prediction's divergence probe: the sum of the entries and variances it changes.
+fn prediction_probe(nodes: &mut EkfNodes, x: &[NodeId], p: &Matrix) -> NodeId {
+    let stored: Vec<NodeId> = nodes.g.x.iter().chain(&nodes.vars.p).copied().collect();
+    finiteness_probe_of_changes(&mut nodes.g.graph, x, p, &stored)
+}
+
+/// A step's test of its prediction (see [`in_place::test_prediction`]): its probe and
+/// its variances, as roots to lower, then tested.
+struct PredictionTest {
+    probe: NodeId,
+    variances: Vec<NodeId>,
+}
+
+impl PredictionTest {
+    /// The test of a step's prediction; `None` in any other method.
+    fn new(nodes: &mut EkfNodes) -> Option<PredictionTest> {
+        let (x, p) = nodes.predicted.clone()?;
+        let probe = prediction_probe(nodes, &x, &p);
+        let variances = (0..x.len()).map(|i| p[i][i]).collect();
+        Some(PredictionTest { probe, variances })
+    }
+
+    /// Names the prediction's entries (`x1_pred`, `p11_pred`; the correction's names,
+    /// given after, win where they are the same values) and tests it, its variances
+    /// that are sums of `known_variances` untested.
+    fn lower(
+        &self,
+        lowerer: &mut Lowerer,
+        (model, nodes): (&Model, &EkfNodes),
+        known_variances: &[NodeId],
+        scalar: Scalar,
+    ) {
+        if let Some((x, p)) = &nodes.predicted {
+            name_results(lowerer, model, x, &nodes.vars.p, &packed_upper(p), "pred");
+        }
+        in_place::test_prediction(
+            lowerer,
+            self.probe,
+            &self.variances,
+            known_variances,
+            scalar,
+        );
+    }
+}
+
+/// Every value an EKF method lowers: the new estimate and packed covariance `p_packed`,
+/// the divergence `probe`, a step's test of its prediction, the pivots and what the
+/// measurement stage keeps.
+fn roots(
+    nodes: &EkfNodes,
+    p_packed: &[NodeId],
+    probe: NodeId,
+    prediction_test: Option<&PredictionTest>,
+) -> Vec<NodeId> {
+    let mut all_roots: Vec<NodeId> = nodes.x.iter().chain(p_packed).copied().collect();
+    all_roots.push(probe);
+    if let Some(test) = prediction_test {
+        all_roots.push(test.probe);
+        all_roots.extend(&test.variances);
+    }
+    all_roots.extend(&nodes.pivots);
+    all_roots.extend(&nodes.innovation);
+    all_roots.extend(&nodes.innovation_covariance);
+    all_roots.extend(nodes.nis);
+    all_roots
 }
 
 /// Lowers an EKF method: its statements, ending in the commit of the new estimate (with
@@ -544,13 +618,9 @@ fn lower(
     kind: EkfMethod,
 ) -> (TokenStream, BTreeSet<VarId>, OpCount) {
     let probe = divergence_probe(nodes, kind);
+    let prediction_test = PredictionTest::new(nodes);
     let p_packed = packed_upper(&nodes.p);
-    let mut all_roots: Vec<NodeId> = nodes.x.iter().chain(&p_packed).copied().collect();
-    all_roots.push(probe);
-    all_roots.extend(&nodes.pivots);
-    all_roots.extend(&nodes.innovation);
-    all_roots.extend(&nodes.innovation_covariance);
-    all_roots.extend(nodes.nis);
+    let all_roots = roots(nodes, &p_packed, probe, prediction_test.as_ref());
     let (g, vars) = (&nodes.g, &nodes.vars);
     let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
@@ -563,6 +633,10 @@ fn lower(
     lowerer.read_lazily(&quote! { self.known }, &g.known);
     for &(var, value) in &nodes.coefficients.definitions {
         lowerer.define(var, value);
+    }
+    let variances = nodes.vars.variances(model.state_len());
+    if let Some(test) = &prediction_test {
+        test.lower(&mut lowerer, (model, nodes), &variances, scalar);
     }
     let suffix = if kind.updates() { "new" } else { "pred" };
     name_results(&mut lowerer, model, &nodes.x, &vars.p, &p_packed, suffix);
@@ -593,7 +667,6 @@ fn lower(
             .then(|| measurement::keep_prediction_call(model)),
     };
     let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
-    let variances = nodes.vars.variances(model.state_len());
     let commit = in_place::Commit {
         probe: &probe,
         x: &nodes.x,
