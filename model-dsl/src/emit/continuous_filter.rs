@@ -169,6 +169,21 @@ pub struct FilterOptions {
     pub noise: ProcessNoise,
     /// Whether the filter has an innovation gate, which its corrections pass.
     pub gated: bool,
+    /// Whether it recovers after a run of refusals (`recover_after`, see
+    /// [`crate::emit::recovery`]).
+    pub recovers: bool,
+}
+
+impl FilterOptions {
+    /// The options of a filter with the process noise `noise`, the gate `gate` and the
+    /// recovery after `recover_after` refusals, as its spec gives them.
+    pub fn of(noise: &ProcessNoise, gate: Option<f64>, recover_after: Option<u32>) -> Self {
+        FilterOptions {
+            noise: noise.clone(),
+            gated: gate.is_some(),
+            recovers: recover_after.is_some(),
+        }
+    }
 }
 
 /// One method: the propagation between samples and/or the update at the sample, built
@@ -350,6 +365,8 @@ struct MethodNodes {
     nis: Option<NodeId>,
     /// Whether the filter has an innovation gate.
     gated: bool,
+    /// Whether a refusal goes through the recovery stage.
+    recovers: bool,
     /// The measurement Jacobian's entries bound to variables, each computed once.
     coefficients: Coefficients,
 }
@@ -445,6 +462,7 @@ impl MethodNodes {
             innovation_covariance: Vec::new(),
             nis: None,
             gated: options.gated,
+            recovers: options.recovers,
             coefficients,
         };
         if kind.predicts() {
@@ -619,6 +637,7 @@ fn lower(
         gated: nodes.gated,
         gate_prefix: "",
         keep_prediction: (kind.predicts()).then(|| measurement::keep_prediction_call(model)),
+        recovers: nodes.recovers,
     };
     let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
     let Lowered {

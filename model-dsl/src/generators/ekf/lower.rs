@@ -16,6 +16,7 @@ use crate::emit::in_place::{self, CovarianceSlots};
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::measurement;
 use crate::emit::names::{ident, TempNamer};
+use crate::emit::recovery;
 use crate::emit::sensors;
 use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
@@ -110,10 +111,14 @@ fn ekf_type(
     let fields = layout.fields();
     let measurement_fields = measurement::fields(model, spec.gate, ty);
     let sensor_fields = sensors::fields(model, spec.gate, ty);
-    let constructor = constructor_tokens(spec, layout, model, scalar, &known);
+    let recovery = recovery_items(model, spec, scalar);
+    let (recovery_fields, recovery_methods) = (&recovery.fields, &recovery.methods);
+    let constructor = constructor_tokens(spec, layout, model, scalar, &known, &recovery.initial);
     let clear_sensors = sensors::clear(model, scalar);
+    let recovery_clear = &recovery.clear;
+    let also_cleared = quote! { #clear_sensors #recovery_clear };
     let measurement_methods =
-        measurement::methods(model, layout, (spec.gate, &clear_sensors), scalar);
+        measurement::methods(model, layout, (spec.gate, &also_cleared), scalar);
     let sensor_methods = sensors::methods(model, spec.gate, scalar);
     quote! {
         #[doc = #type_doc]
@@ -124,6 +129,7 @@ fn ekf_type(
             #fields
             #measurement_fields
             #sensor_fields
+            #recovery_fields
             #known_field
         }
 
@@ -140,9 +146,22 @@ fn ekf_type(
 
             #known_methods
 
+            #recovery_methods
+
             #methods
         }
     }
+}
+
+/// The filter's recovery after a run of refusals: its own stage and each sensor's update.
+fn recovery_items(model: &Model, spec: &EkfSpec, scalar: Scalar) -> recovery::RecoveryItems {
+    let sensor_stages: Vec<(String, String)> = model
+        .sensors
+        .iter()
+        .map(|sensor| (sensors::prefix(sensor), sensor.name.clone()))
+        .collect();
+    let n = model.state_len();
+    recovery::filter_items(spec.recover_after, n, &sensor_stages, scalar)
 }
 
 /// `fn new`: the shared layout's constructor, with the measurement stage's initial values
@@ -153,6 +172,7 @@ fn constructor_tokens(
     model: &Model,
     scalar: Scalar,
     known: &crate::emit::known::KnownItems,
+    recovery_init: &TokenStream,
 ) -> TokenStream {
     let new_doc = if spec.process_noise.diagonal {
         " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
@@ -169,7 +189,7 @@ fn constructor_tokens(
         &ident(&spec.type_name),
         &quote! { #[doc = #new_doc] },
         known,
-        &quote! { #measurement #sensors },
+        &quote! { #measurement #sensors #recovery_init },
     )
 }
 
@@ -410,6 +430,8 @@ struct EkfNodes {
     nis: Option<NodeId>,
     /// Whether the filter has an innovation gate.
     gated: bool,
+    /// Whether a refusal goes through the recovery stage (`recover_after`).
+    recovers: bool,
     /// The Jacobians' entries bound to variables, each computed once.
     coefficients: Coefficients,
     /// The order the new covariance's entries are computed and stored in (positions in
@@ -448,6 +470,7 @@ impl EkfNodes {
             innovation_covariance: Vec::new(),
             nis: None,
             gated: spec.gate.is_some(),
+            recovers: spec.recover_after.is_some(),
             coefficients,
             order: Vec::new(),
         };
@@ -665,6 +688,7 @@ fn lower(
         gate_prefix: &prefix,
         keep_prediction: (kind == EkfMethod::Step)
             .then(|| measurement::keep_prediction_call(model)),
+        recovers: nodes.recovers,
     };
     let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
     let commit = in_place::Commit {
