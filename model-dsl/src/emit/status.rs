@@ -30,7 +30,9 @@ pub fn status_enum() -> TokenStream {
             /// `DIVERGENCE_BOUND`); or, in a filter without an innovation gate, the
             /// measurement's normalised innovation squared exceeded 1e8 (`DIVERGENCE_NIS`),
             /// a change of the estimate by up to 1e4 standard deviations, or was NaN. Nothing was
-            /// applied: a filter that keeps returning it needs a `reset`.
+            /// applied (a refused measurement is counted: a run of them ends in
+            /// [`Status::Recovering`]); a filter whose results keep leaving the bound
+            /// needs a `reset`.
             Diverged,
             /// The Riccati recursion met a non-positive `R + B' P B`; it is never divided by.
             NonPositiveControlWeight,
