@@ -183,3 +183,30 @@ pub(crate) fn unpack_symmetric<T: Real, const N: usize, const L: usize>(
     }
     m
 }
+
+/// Scales the packed covariance `packed` (upper triangle, row by row) by `scale` when
+/// `scale` is above 1 and the scaled variances sum to at most `bound`; whether it did. A
+/// common scale keeps a covariance positive semi-definite. NaN scales nothing.
+pub(crate) fn inflate<T: Real, const L: usize>(packed: &mut [T; L], scale: T, bound: T) -> bool {
+    // The dimension `n`, `n (n + 1) / 2 = L`; row `i`'s variance follows the `n - i + 1`
+    // entries of row `i - 1`.
+    let mut n = 0;
+    while n * (n + 1) / 2 < L {
+        n += 1;
+    }
+    let (mut variances, mut diagonal) = (T::ZERO, 0);
+    for row in 0..n {
+        if let Some(&variance) = packed.get(diagonal) {
+            variances = variances + variance;
+        }
+        diagonal += n - row;
+    }
+    let one = T::from_count(1);
+    if !(scale > one && variances * scale <= bound) {
+        return false;
+    }
+    for entry in packed.iter_mut() {
+        *entry = *entry * scale;
+    }
+    true
+}

@@ -413,6 +413,14 @@ pub fn unpack_symmetric<const N: usize, const L: usize>(packed: &[f32; L]) -> [[
     crate::covariance::unpack_symmetric(packed)
 }
 
+/// A filter stage's recovery after a run of refused measurements: scales the packed
+/// covariance `packed` by `scale` when that is above 1 and the scaled variances stay within
+/// [`DIVERGENCE_BOUND`]; whether it did (never for NaN).
+#[must_use]
+pub fn inflate_covariance<const L: usize>(packed: &mut [f32; L], scale: f32) -> bool {
+    crate::covariance::inflate(packed, scale, DIVERGENCE_BOUND)
+}
+
 /// Whether every variance of a diagonal covariance is non-negative (NaN is not).
 #[must_use]
 pub fn all_non_negative<const N: usize>(variances: &[f32; N]) -> bool {

@@ -108,6 +108,14 @@ pub fn unpack_symmetric<const N: usize, const L: usize>(packed: &[f64; L]) -> [[
     crate::covariance::unpack_symmetric(packed)
 }
 
+/// A filter stage's recovery after a run of refused measurements: scales the packed
+/// covariance `packed` by `scale` when that is above 1 and the scaled variances stay within
+/// [`DIVERGENCE_BOUND`]; whether it did (never for NaN).
+#[must_use]
+pub fn inflate_covariance<const L: usize>(packed: &mut [f64; L], scale: f64) -> bool {
+    crate::covariance::inflate(packed, scale, DIVERGENCE_BOUND)
+}
+
 /// Whether every variance of a diagonal covariance is non-negative (NaN is not).
 #[must_use]
 pub fn all_non_negative<const N: usize>(variances: &[f64; N]) -> bool {

@@ -50,3 +50,22 @@ pub mod f64;
 pub fn opaque<T>(value: T) -> T {
     core::hint::black_box(value)
 }
+
+/// A filter stage's count of the measurements it refused in a row, before any (and after
+/// one it took): what the generated code stores in it.
+pub const NO_REFUSALS: u32 = 0;
+
+/// Counts a refused measurement in `count`, a filter stage's refusals in a row: whether it
+/// is the `limit`-th in a row, when the count starts again from [`NO_REFUSALS`] and the
+/// stage recovers (scales its covariance). Saturates; never overflows.
+#[must_use]
+pub fn refusal_run_complete(count: &mut u32, limit: u32) -> bool {
+    let counted = count.saturating_add(1);
+    if counted >= limit {
+        *count = NO_REFUSALS;
+        true
+    } else {
+        *count = counted;
+        false
+    }
+}

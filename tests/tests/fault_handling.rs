@@ -66,8 +66,17 @@ fn an_ungated_ekf_refuses_a_measurement_beyond_the_divergence_bound() {
             "{standard_deviations}"
         );
         if expected == Status::Diverged {
-            assert_eq!(stepped, filter);
-            assert_eq!(updated, predicted);
+            // Nothing applied; the refusal counted (`recover_after`), which is all a
+            // refusal changes: the filter is otherwise as it was.
+            for (after, before) in [(stepped, filter), (updated, predicted)] {
+                assert_eq!(after.refusals(), before.refusals() + 1);
+                let observed = |f: &cantilever::in_f64::Ekf| {
+                    (f.state(), f.covariance(), f.innovation(), f.refusals())
+                };
+                let mut counted = observed(&before);
+                counted.3 += 1;
+                assert_eq!(observed(&after), counted);
+            }
         } else {
             let moved = (updated.state()[0] - y).abs();
             assert!(moved > 1.0 && moved < 1e18, "{moved}");

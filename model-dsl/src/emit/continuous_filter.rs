@@ -169,6 +169,21 @@ pub struct FilterOptions {
     pub noise: ProcessNoise,
     /// Whether the filter has an innovation gate, which its corrections pass.
     pub gated: bool,
+    /// Whether it recovers after a run of refusals (`recover_after`, see
+    /// [`crate::emit::recovery`]).
+    pub recovers: bool,
+}
+
+impl FilterOptions {
+    /// The options of a filter with the process noise `noise`, the gate `gate` and the
+    /// recovery after `recover_after` refusals, as its spec gives them.
+    pub fn of(noise: &ProcessNoise, gate: Option<f64>, recover_after: Option<u32>) -> Self {
+        FilterOptions {
+            noise: noise.clone(),
+            gated: gate.is_some(),
+            recovers: recover_after.is_some(),
+        }
+    }
 }
 
 /// One method: the propagation between samples and/or the update at the sample, built
@@ -306,6 +321,9 @@ impl Dynamics {
 struct MethodNodes {
     /// The model's graph, with the method's variables and nodes.
     g: ModelGraph,
+    /// In the hybrid EKF's step, its prediction's divergence probe and variances, tested
+    /// as `predict` tests them, before the update.
+    prediction_test: Option<(NodeId, Vec<NodeId>)>,
     /// Names generated variables avoid.
     avoid: Vec<String>,
     /// The covariance, noise and measurement variables.
@@ -347,6 +365,8 @@ struct MethodNodes {
     nis: Option<NodeId>,
     /// Whether the filter has an innovation gate.
     gated: bool,
+    /// Whether a refusal goes through the recovery stage.
+    recovers: bool,
     /// The measurement Jacobian's entries bound to variables, each computed once.
     coefficients: Coefficients,
 }
@@ -420,6 +440,7 @@ impl MethodNodes {
         let (scaling, p_loop, p_initial) =
             loop_covariance(&mut g, (scaled, h), &dynamics.jacobian, &vars.p, &avoid);
         let mut nodes = MethodNodes {
+            prediction_test: None,
             x: g.x.clone(),
             p: symmetric_from_packed(&vars.p, n),
             g,
@@ -441,10 +462,16 @@ impl MethodNodes {
             innovation_covariance: Vec::new(),
             nis: None,
             gated: options.gated,
+            recovers: options.recovers,
             coefficients,
         };
         if kind.predicts() {
             nodes.propagate((rule, h), model.uses_time());
+        }
+        if kind == FilterMethod::Step {
+            let probe = finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p);
+            let variances = (0..n).map(|i| nodes.p[i][i]).collect();
+            nodes.prediction_test = Some((probe, variances));
         }
         if kind.updates() {
             // The continuous-time EKF's measurement terms over the sample `T` are the
@@ -521,12 +548,24 @@ impl MethodNodes {
 }
 
 impl MethodNodes {
+    /// In the hybrid EKF's step, the tests `predict` makes, of the prediction, before the
+    /// update (see `in_place::test_prediction`); nothing in another method.
+    fn test_prediction(&self, lowerer: &mut Lowerer, scalar: Scalar) {
+        if let Some((probe, variances)) = &self.prediction_test {
+            crate::emit::in_place::test_prediction(lowerer, *probe, variances, &[], scalar);
+        }
+    }
+
     /// Every value the method lowers: the new estimate and covariance (`results`), the
     /// finiteness `probe`, the pivots, the loop's next values, and what the measurement
     /// stage keeps.
     fn roots(&self, results: &[NodeId], probe: NodeId) -> Vec<NodeId> {
         let mut roots = results.to_vec();
         roots.push(probe);
+        if let Some((probe, variances)) = &self.prediction_test {
+            roots.push(*probe);
+            roots.extend(variances);
+        }
         roots.extend(&self.pivots);
         roots.extend(&self.loop_next);
         if self.scaling.is_some() {
@@ -574,6 +613,7 @@ fn lower(
         lowerer.read_lazily(&quote! { self.p }, &nodes.vars.p);
         None
     };
+    nodes.test_prediction(&mut lowerer, scalar);
     let suffix = if kind.updates() { "new" } else { "pred" };
     name_estimate(&mut lowerer, model, &nodes.x, suffix);
     guard_pivots(
@@ -597,6 +637,7 @@ fn lower(
         gated: nodes.gated,
         gate_prefix: "",
         keep_prediction: (kind.predicts()).then(|| measurement::keep_prediction_call(model)),
+        recovers: nodes.recovers,
     };
     let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
     let Lowered {

@@ -251,6 +251,33 @@ pub fn commit(lowerer: &mut Lowerer, commit: &Commit<'_>, scalar: Scalar) -> Com
     }
 }
 
+/// A step's test of its prediction, before its correction: the tests `predict` makes
+/// before it stores (the divergence probe of the prediction, `probe`, and each predicted
+/// variance in `variances` that is not a sum of `known_variances`), so that a step returns
+/// what `predict` then `update` would: a prediction beyond the divergence bound is
+/// `Diverged` (or `NonFinite`) in both, whatever the correction would have made of it.
+pub fn test_prediction(
+    lowerer: &mut Lowerer,
+    probe: NodeId,
+    variances: &[NodeId],
+    known_variances: &[NodeId],
+    scalar: Scalar,
+) {
+    let probe = lowerer.bind(probe, "prediction_probe");
+    let rendered = lowerer.segment(variances);
+    let graph = lowerer.graph();
+    let tested: Vec<TokenStream> = variances
+        .iter()
+        .zip(rendered)
+        .filter(|&(&v, _)| !sum_of(graph, v, known_variances))
+        .map(|(_, tokens)| tokens)
+        .collect();
+    for test in divergence_tests(&probe, &tested, scalar) {
+        lowerer.statement(test);
+    }
+    lowerer.count_extra(divergence_test_ops(variances.len()));
+}
+
 /// Stores the new estimate, `self.x = [..];`, or, where the step leaves entries as they
 /// were (a parameter's estimate in a prediction), each changed entry through a reference,
 /// as the covariance's unchanged entries are not written either. Returns how many entries

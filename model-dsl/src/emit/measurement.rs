@@ -216,6 +216,9 @@ pub struct Kept<'a> {
     /// prediction when the gate rejects an outlier, and the arguments before the innovation
     /// it is passed; `None` in an update, which keeps the estimate it had.
     pub keep_prediction: Option<(proc_macro2::Ident, Vec<TokenStream>)>,
+    /// Whether the stage recovers after a run of refusals ([`crate::emit::recovery`]): a
+    /// refusal is passed to its `{prefix}refused`, a taken measurement ends the run.
+    pub recovers: bool,
 }
 
 /// Lowers what `kept` stores, last, where it holds no register while the update runs, and
@@ -235,6 +238,27 @@ pub fn store_and_gate(lowerer: &mut Lowerer, kept: &Kept<'_>) -> TokenStream {
     let store = store_innovation_tokens(kept.prefix, &innovation_values, &covariance_values);
     let nis = lowerer.bind(nis, "nis");
     let ty = ident(lowerer.scalar().type_name());
+    // With recovery, a refusal is passed to the stage's cold `refused`.
+    // What a recovery scales the covariance to pass: the gate, or without one (whose
+    // bound, 1e4 standard deviations, says nothing of consistency) the innovation's
+    // expected normalised square, its number of outputs.
+    let threshold = if kept.gated {
+        let gate = ident(&format!("{}gate", kept.gate_prefix));
+        quote! { self.#gate }
+    } else {
+        crate::emit::lower::literal(m as f64, lowerer.scalar())
+    };
+    let refused = kept.recovers.then(|| {
+        let method = crate::emit::recovery::method_name(kept.prefix);
+        quote! { self.#method(#nis, #threshold, refusal) }
+    });
+    let refuse = |refusal: TokenStream| match &refused {
+        Some(call) => quote! {
+            let refusal = #refusal;
+            return #call;
+        },
+        None => quote! { return #refusal; },
+    };
     let test = if kept.gated {
         let keep_prediction = kept.keep_prediction.as_ref().map(|(method, args)| {
             quote! {
@@ -243,7 +267,7 @@ pub fn store_and_gate(lowerer: &mut Lowerer, kept: &Kept<'_>) -> TokenStream {
                 )
             }
         });
-        let rejection = outlier_rejection(keep_prediction, &store);
+        let rejection = outlier_rejection(keep_prediction, &store, refuse);
         let gate = ident(&format!("{}gate", kept.gate_prefix));
         quote! {
             if !stateforge_math::#ty::within_gate(#nis, self.#gate) {
@@ -251,9 +275,10 @@ pub fn store_and_gate(lowerer: &mut Lowerer, kept: &Kept<'_>) -> TokenStream {
             }
         }
     } else {
+        let diverged = refuse(quote! { Status::Diverged });
         quote! {
             if !stateforge_math::#ty::within_gate(#nis, stateforge_math::#ty::DIVERGENCE_NIS) {
-                return Status::Diverged;
+                #diverged
             }
         }
     };
@@ -262,6 +287,12 @@ pub fn store_and_gate(lowerer: &mut Lowerer, kept: &Kept<'_>) -> TokenStream {
         compare: 1,
         ..Default::default()
     });
+    if kept.recovers {
+        // A taken measurement ends a run of refusals.
+        lowerer.count_extra(OpCount::stores(1));
+        let clear = crate::emit::recovery::clear(kept.prefix);
+        return quote! { #store #clear };
+    }
     store
 }
 
@@ -498,17 +529,22 @@ fn store_innovation_tokens(
 /// What a gated update does with an outlier: store its innovation and return
 /// `OutlierRejected`. A step keeps its prediction, as `predict` alone would have, through
 /// the cold, out-of-line `keep_prediction` (`keep_prediction`: its call), so the usual
-/// sample pays only for the test.
+/// sample pays only for the test. `refuse` returns the refusal (through the stage's
+/// recovery, where it has one).
 fn outlier_rejection(
     keep_prediction: Option<TokenStream>,
     store_innovation: &TokenStream,
+    refuse: impl Fn(TokenStream) -> TokenStream,
 ) -> TokenStream {
     match keep_prediction {
-        Some(call) => quote! { return #call; },
-        None => quote! {
-            #store_innovation
-            return Status::OutlierRejected;
-        },
+        Some(call) => refuse(call),
+        None => {
+            let refusal = refuse(quote! { Status::OutlierRejected });
+            quote! {
+                #store_innovation
+                #refusal
+            }
+        }
     }
 }
 

@@ -8,7 +8,8 @@ pub fn status_enum() -> TokenStream {
     quote! {
         /// What a filter or controller step did. On anything but [`Status::Ok`] the filter
         /// or controller is left exactly as it was, except as
-        /// [`Status::OutlierRejected`] says.
+        /// [`Status::OutlierRejected`] and [`Status::Recovering`] say, and that a filter
+        /// counts the measurements it refuses in a row (`refusals()`, see `RECOVER_AFTER`).
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
         #[must_use = "a step that did not return `Status::Ok` left the filter unchanged"]
         pub enum Status {
@@ -29,7 +30,9 @@ pub fn status_enum() -> TokenStream {
             /// `DIVERGENCE_BOUND`); or, in a filter without an innovation gate, the
             /// measurement's normalised innovation squared exceeded 1e8 (`DIVERGENCE_NIS`),
             /// a change of the estimate by up to 1e4 standard deviations, or was NaN. Nothing was
-            /// applied: a filter that keeps returning it needs a `reset`.
+            /// applied (a refused measurement is counted: a run of them ends in
+            /// [`Status::Recovering`]); a filter whose results keep leaving the bound
+            /// needs a `reset`.
             Diverged,
             /// The Riccati recursion met a non-positive `R + B' P B`; it is never divided by.
             NonPositiveControlWeight,
@@ -37,6 +40,13 @@ pub fn status_enum() -> TokenStream {
             /// it was not used. An update leaves the estimate as it was; a step keeps the
             /// prediction. The filter's innovation describes the rejected measurement.
             OutlierRejected,
+            /// The measurement was refused (as `OutlierRejected` or, without a gate,
+            /// `Diverged` says), the filter's `RECOVER_AFTER`-th in a row: the filter scaled
+            /// its covariance by the measurement's normalised innovation squared over the
+            /// gate (without one, over its number of outputs), so that it takes the next
+            /// measurements instead of refusing them for good. Its estimate is as the
+            /// refusal left it.
+            Recovering,
         }
     }
 }

@@ -313,6 +313,35 @@ impl<'a> Args<'a> {
         }
     }
 
+    /// `recover_after = 10` (consecutive refused measurements before a stage inflates its
+    /// covariance, [`crate::emit::recovery`]) or `recover_after = off` (never: the filter
+    /// refuses until it is reset); [`crate::emit::recovery::DEFAULT_RECOVER_AFTER`] without
+    /// it. Every filter that measures through the measurement stage takes it.
+    pub fn recover_after(&mut self, diag: &mut Diagnostics) -> Option<u32> {
+        use crate::emit::recovery::{DEFAULT_RECOVER_AFTER, MAX_RECOVER_AFTER};
+        match self.take(&["recover_after"]).map(|a| &a.value) {
+            None => Some(DEFAULT_RECOVER_AFTER),
+            Some(ArgValue::Number(v, _))
+                if v.fract() == 0.0 && (1.0..=f64::from(MAX_RECOVER_AFTER)).contains(v) =>
+            {
+                Some(*v as u32)
+            }
+            Some(ArgValue::Name(n)) if n.text == "off" => None,
+            Some(other) => {
+                diag.error(
+                    other.span(),
+                    format!(
+                        "`recover_after` is how many measurements in a row a filter refuses \
+                         before it inflates its covariance and takes them again, a whole \
+                         number from 1 to {MAX_RECOVER_AFTER} (10 unless given), or `off` to \
+                         refuse until `reset`"
+                    ),
+                );
+                Some(DEFAULT_RECOVER_AFTER)
+            }
+        }
+    }
+
     /// `process_noise = diagonal` or `full` (the default).
     pub fn process_noise(&mut self, diag: &mut Diagnostics) -> bool {
         match self.take(&["process_noise"]).map(|a| &a.value) {

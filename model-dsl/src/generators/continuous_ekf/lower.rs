@@ -12,6 +12,7 @@ use crate::emit::known::KnownItems;
 use crate::emit::lower::{literal, OpCount};
 use crate::emit::measurement;
 use crate::emit::names::ident;
+use crate::emit::recovery;
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
 use proc_macro2::TokenStream;
@@ -34,22 +35,22 @@ pub fn emit_continuous_ekf(
     mg: &ModelGraph,
     scalar: Scalar,
 ) -> ContinuousEkfCode {
-    let options = FilterOptions {
-        noise: spec.process_noise.clone(),
-        gated: spec.gate.is_some(),
-    };
+    let options = FilterOptions::of(&spec.process_noise, spec.gate, spec.recover_after);
     let alpha = spec.alpha.is_some();
     let step_kind = FilterMethod::Continuous { alpha };
     let (step, step_ops, substep_ops) = method(model, mg, scalar, step_kind, &options);
     let predict_kind = FilterMethod::ContinuousPredict { alpha };
     let (predict, ..) = method(model, mg, scalar, predict_kind, &options);
     let ty = ident(scalar.type_name());
+    let recovery = recovery::filter_items(spec.recover_after, model.state_len(), &[], scalar);
     let layout = FilterLayout::new(model, &spec.process_noise, &ty);
     let fields = layout.fields();
-    let measurement_fields = measurement::fields(model, spec.gate, &ty);
-    let measurement_init = measurement::initial_values(model, spec.gate, scalar);
+    let measurement_fields = recovery.after_fields(measurement::fields(model, spec.gate, &ty));
+    let measurement_init =
+        recovery.after_initial(measurement::initial_values(model, spec.gate, scalar));
+    let cleared = (spec.gate, &recovery.clear);
     let measurement_methods =
-        measurement::methods(model, &layout, (spec.gate, &TokenStream::new()), scalar);
+        recovery.after_methods(measurement::methods(model, &layout, cleared, scalar));
     let FilterLayout {
         accessors, setters, ..
     } = &layout;

@@ -57,6 +57,7 @@ impl Kind for ContinuousEkf {
             process_noise: args.process_noise_shape(cx, diag),
             alpha: alpha.map(|(a, _)| a),
             gate: args.gate(diag),
+            recover_after: args.recover_after(diag),
         }))
     }
 }

@@ -14,4 +14,8 @@ pub struct ContinuousEkfSpec {
     /// The innovation gate: a measurement whose normalised innovation squared (against
     /// `H P H' + R / T`) exceeds it is rejected as an outlier (`None`: no gate).
     pub gate: Option<f64>,
+    /// Consecutive refused measurements after which a stage inflates its covariance and
+    /// takes them again (`recover_after = N`; `None` for `off`), see
+    /// [`crate::emit::recovery`].
+    pub recover_after: Option<u32>,
 }

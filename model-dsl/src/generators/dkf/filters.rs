@@ -81,6 +81,7 @@ pub fn step_fn(
         avoid: &avoid,
         scalar,
         gate: spec.gate,
+        recovers: spec.recover_after.is_some(),
         least_squares,
     };
     let (lkf_method, lkf_ops) = step.stage_method(step.lkf_stage(lkf));
@@ -442,6 +443,8 @@ struct StepLowering<'a> {
     avoid: &'a [String],
     scalar: Scalar,
     gate: Option<f64>,
+    /// Whether a filter's refusal goes through its recovery (`recover_after`).
+    recovers: bool,
     /// Whether the window is solved by least squares, with a parameter covariance.
     least_squares: bool,
 }
@@ -675,6 +678,7 @@ impl<'a> StepLowering<'a> {
             gated: self.gate.is_some(),
             gate_prefix: "",
             keep_prediction: Some((stage.filter.keeper(), stage.prediction_args.clone())),
+            recovers: self.recovers,
         };
         measurement::store_and_gate(lowerer, &kept)
     }
@@ -713,12 +717,14 @@ impl<'a> StepLowering<'a> {
                 quote! { self.akf_step(&phi, #u_arg y) },
                 quote! {
                     // A measurement either filter refused (an outlier, or a result beyond
-                    // the divergence bound) stays out of the window: it empties, as for a
-                    // missing sample, and refills.
+                    // the divergence bound; also the refusal a filter recovers at) stays
+                    // out of the window: it empties, as for a missing sample, and refills.
                     if lkf == Status::OutlierRejected
                         || lkf == Status::Diverged
+                        || lkf == Status::Recovering
                         || akf == Status::OutlierRejected
                         || akf == Status::Diverged
+                        || akf == Status::Recovering
                     {
                         self.filled = [false; WINDOW_OUTPUTS];
                     } else {

@@ -19,7 +19,7 @@ use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::packed_len;
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::{Ident, Literal, TokenStream};
-use quote::quote;
+use quote::{quote, ToTokens};
 
 /// Generated DKF code and its cost.
 pub struct DkfCode {
@@ -44,11 +44,8 @@ pub fn emit_dkf(
     let filters = step_fn(model, &mut g, wt, scalar, spec);
     let push = push_fn(model, &g, wt, scalar);
     let ltv = ltv_fn(model, &g, wt, scalar);
-    // The design aid of a least-squares window only.
-    let noise_gain = wt
-        .least_squares()
-        .then(|| super::window_noise::noise_gain_at_zero(&mut g.graph, wt))
-        .flatten();
+    // The design aid of every window, the minimum's included.
+    let noise_gain = super::window_noise::noise_gain_at_zero(&mut g.graph, wt);
     let dkf = DkfType::new(model, spec, wt, scalar, noise_gain);
     let declaration = dkf.declaration(model, wt);
     let constructor = dkf.constructor_tokens(model);
@@ -105,6 +102,8 @@ struct DkfType {
     diagonal_noise: bool,
     /// The innovation gate, if any.
     gate: Option<f64>,
+    /// Refusals in a row after which a filter recovers (`recover_after`), if it does.
+    recover_after: Option<u32>,
     /// Outputs the window holds, the latest included.
     window_outputs: usize,
     /// Past inputs the window holds.
@@ -133,6 +132,7 @@ impl DkfType {
             nu: model.inputs.len(),
             diagonal_noise: spec.diagonal_noise,
             gate: spec.gate,
+            recover_after: spec.recover_after,
             window_outputs: wt.output_delays + 1,
             window_inputs: wt.input_delays,
             least_squares: wt.least_squares(),
@@ -149,6 +149,23 @@ impl DkfType {
         let len = Literal::usize_unsuffixed(self.np * (self.np + 1) / 2);
         self.least_squares
             .then(|| (quote! { [#ty; #len] }, quote! { [#zero; #len] }))
+    }
+
+    /// What both filters' recovery adds ([`crate::emit::recovery`]): the LKF inflates `P`,
+    /// the AKF `Pbar`.
+    fn recovery(&self) -> crate::emit::recovery::RecoveryItems {
+        use crate::emit::recovery::{items, Recovery};
+        let stage = |prefix, covariance, what| Recovery {
+            prefix,
+            covariance,
+            n: self.n,
+            what,
+        };
+        let stages = [
+            stage(Filter::Lkf.prefix(), "p", "the LKF"),
+            stage(Filter::Akf.prefix(), "pbar", "the AKF"),
+        ];
+        items(self.recover_after, &stages, self.scalar)
     }
 
     /// The constructor argument, field type and stored value of the process noise `name`.
@@ -174,6 +191,7 @@ impl DkfType {
             measurement::innovation_fields(model, Filter::Akf.prefix(), ty),
         ];
         let gate_field = measurement::gate_field(self.gate, ty);
+        let recovery_fields = self.recovery().fields;
         let gate_doc = measurement::gate_doc_attribute(self.gate);
         let covariance_field = self
             .covariance_field()
@@ -211,6 +229,7 @@ impl DkfType {
                 r: [#ty; #mm],
                 #(#innovations)*
                 #gate_field
+                #recovery_fields
             }
         }
     }
@@ -247,6 +266,7 @@ impl DkfType {
             measurement::cleared_values(model, Filter::Akf.prefix(), self.scalar),
         ];
         let gate = measurement::gate_initial_value(self.gate, self.scalar);
+        let recovery = self.recovery().initial;
         let covariance_value = self
             .covariance_field()
             .map(|(_, zero)| quote! { phi_covariance: #zero, });
@@ -273,6 +293,7 @@ impl DkfType {
                     r: #r,
                     #(#innovations)*
                     #gate
+                    #recovery
                 })
             },
         );
@@ -358,6 +379,8 @@ impl DkfType {
             measurement::clear_innovation(model, Filter::Lkf.prefix(), self.scalar),
             measurement::clear_innovation(model, Filter::Akf.prefix(), self.scalar),
         ];
+        let recovery = self.recovery();
+        let (recovery_clear, recovery_methods) = (&recovery.clear, &recovery.methods);
         let covariance_reset = self
             .covariance_field()
             .map(|(_, zero)| quote! { self.phi_covariance = #zero; });
@@ -387,6 +410,7 @@ impl DkfType {
                 self.window_det_sq = #zero;
                 self.window_column_norms = #zero;
                 #(#clear)*
+                #recovery_clear
                 Status::Ok
             },
         );
@@ -401,7 +425,43 @@ impl DkfType {
             #reset
             #(#accessors)*
             #gate
+            #recovery_methods
         }
+    }
+
+    /// `window_equation_noise()`, the design aid `WINDOW_NOISE_GAIN` at the declared
+    /// measurement noise (the largest output variance of `r`); nothing when the gain is
+    /// not a number.
+    fn equation_noise_method(&self) -> Option<TokenStream> {
+        self.noise_gain.filter(|gain| gain.is_finite())?;
+        let ty = &self.ty;
+        let sqrt = crate::emit::names::math_fn(self.scalar, "sqrt");
+        let variances: Vec<Ident> = (0..self.m).map(|i| ident(&format!("r{i}"))).collect();
+        // `self.r` destructured: its variances named, the covariances `_`.
+        let pattern = (0..packed_len(self.m)).map(|k| {
+            match (0..self.m).find(|&i| crate::symbolic::linalg::packed_index(self.m, i, i) == k) {
+                Some(i) => variances[i].to_token_stream(),
+                None => quote! { _ },
+            }
+        });
+        let largest = variances[1..].iter().map(|r| {
+            quote! { let variance = if #r > variance { #r } else { variance }; }
+        });
+        let first = &variances[0];
+        Some(quote! {
+            /// A design aid at the declared measurement noise: the standard deviation of
+            /// one window equation's error, `WINDOW_NOISE_GAIN * sqrt(R)` with `R` the
+            /// largest output variance of `r`, in the scale the model's step writes the
+            /// equation. Compare it with the equation's terms at the excitation (see
+            /// `WINDOW_NOISE_GAIN`).
+            #[must_use]
+            pub fn window_equation_noise(&self) -> #ty {
+                let [#(#pattern),*] = self.r;
+                let variance = #first;
+                #(#largest)*
+                WINDOW_NOISE_GAIN * #sqrt(variance)
+            }
+        })
     }
 
     /// What the window says: the last solved parameters, the excitation measure, and the
@@ -436,7 +496,10 @@ impl DkfType {
                 }
             }
         });
+        let equation_noise = self.equation_noise_method();
         quote! {
+            #equation_noise
+
             /// The parameters the last well-excited window gave (or those of `x0`).
             #[must_use]
             pub fn window_parameters(&self) -> [#ty; #p_len] {
@@ -543,14 +606,19 @@ impl DkfType {
         let noise_gain = self.noise_gain.filter(|gain| gain.is_finite()).map(|gain| {
             let value = literal(gain, self.scalar);
             quote! {
-                /// A design aid of the least-squares window: the standard deviation of one
-                /// equation's error (eq. 8, in the scale the model's step writes it) per
-                /// unit standard deviation of the measurement noise, from the window's
-                /// finite differences alone (at zero parameters): how much the
-                /// differences amplify noise, which a shorter sample time raises. What
-                /// that makes of the parameters depends on the excitation and the
-                /// window's length: [`Dkf::window_parameter_covariance`] gives it for each
-                /// window of a simulated run of the nominal excitation.
+                /// A design aid of the window: the standard deviation of one equation's
+                /// error (eq. 8, in the scale the model's step writes it) per unit standard
+                /// deviation of the measurement noise, from the window's finite
+                /// differences alone (at zero parameters): how much the differences
+                /// amplify noise, which a shorter sample time raises.
+                /// [`Dkf::window_equation_noise`] gives it at the declared noise `R`. The
+                /// minimum window solves the parameters from as many equations as there
+                /// are parameters: where that noise is not small against the equation's
+                /// terms at the excitation, its parameters are noise (and the AKF, which
+                /// takes them as exact, refuses the measurements that disagree), and a
+                /// least-squares window (`dkf(window = N)`) averages it over its
+                /// equations: see the language reference's "The window's length and
+                /// measurement noise" for the length to choose.
                 pub const WINDOW_NOISE_GAIN: #ty = #value;
             }
         });

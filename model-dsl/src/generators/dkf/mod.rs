@@ -57,6 +57,7 @@ impl Kind for Dkf {
     ) -> Option<Box<dyn Generator>> {
         let (eta, eta_span) = args.number("eta", 0.5, diag);
         let gate = args.gate(diag);
+        let recover_after = args.recover_after(diag);
         let diagonal_noise = args.process_noise(diag);
         if !(0.0..=1.0).contains(&eta) {
             diag.error(eta_span, "`eta` weights a split: it lies in 0..=1");
@@ -65,6 +66,7 @@ impl Kind for Dkf {
         Some(Box::new(DkfSpec {
             eta,
             gate,
+            recover_after,
             diagonal_noise,
             window,
             span: item.name.span,

@@ -15,4 +15,8 @@ pub struct DkfSpec {
     pub window: Option<(usize, proc_macro2::Span)>,
     /// Where `dkf` was written, for errors of the window transform.
     pub span: proc_macro2::Span,
+    /// Consecutive refused measurements after which a stage inflates its covariance and
+    /// takes them again (`recover_after = N`; `None` for `off`), see
+    /// [`crate::emit::recovery`].
+    pub recover_after: Option<u32>,
 }

@@ -16,6 +16,7 @@ use crate::emit::in_place::{self, CovarianceSlots};
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::measurement;
 use crate::emit::names::{ident, TempNamer};
+use crate::emit::recovery;
 use crate::emit::sensors;
 use crate::model::{Model, Scalar};
 use crate::symbolic::kalman;
@@ -110,10 +111,14 @@ fn ekf_type(
     let fields = layout.fields();
     let measurement_fields = measurement::fields(model, spec.gate, ty);
     let sensor_fields = sensors::fields(model, spec.gate, ty);
-    let constructor = constructor_tokens(spec, layout, model, scalar, &known);
+    let recovery = recovery_items(model, spec, scalar);
+    let (recovery_fields, recovery_methods) = (&recovery.fields, &recovery.methods);
+    let constructor = constructor_tokens(spec, layout, model, scalar, &known, &recovery.initial);
     let clear_sensors = sensors::clear(model, scalar);
+    let recovery_clear = &recovery.clear;
+    let also_cleared = quote! { #clear_sensors #recovery_clear };
     let measurement_methods =
-        measurement::methods(model, layout, (spec.gate, &clear_sensors), scalar);
+        measurement::methods(model, layout, (spec.gate, &also_cleared), scalar);
     let sensor_methods = sensors::methods(model, spec.gate, scalar);
     quote! {
         #[doc = #type_doc]
@@ -124,6 +129,7 @@ fn ekf_type(
             #fields
             #measurement_fields
             #sensor_fields
+            #recovery_fields
             #known_field
         }
 
@@ -140,9 +146,22 @@ fn ekf_type(
 
             #known_methods
 
+            #recovery_methods
+
             #methods
         }
     }
+}
+
+/// The filter's recovery after a run of refusals: its own stage and each sensor's update.
+fn recovery_items(model: &Model, spec: &EkfSpec, scalar: Scalar) -> recovery::RecoveryItems {
+    let sensor_stages: Vec<(String, String)> = model
+        .sensors
+        .iter()
+        .map(|sensor| (sensors::prefix(sensor), sensor.name.clone()))
+        .collect();
+    let n = model.state_len();
+    recovery::filter_items(spec.recover_after, n, &sensor_stages, scalar)
 }
 
 /// `fn new`: the shared layout's constructor, with the measurement stage's initial values
@@ -153,6 +172,7 @@ fn constructor_tokens(
     model: &Model,
     scalar: Scalar,
     known: &crate::emit::known::KnownItems,
+    recovery_init: &TokenStream,
 ) -> TokenStream {
     let new_doc = if spec.process_noise.diagonal {
         " A filter from the initial estimate `x0` and covariance `p0`, the process noise \
@@ -169,7 +189,7 @@ fn constructor_tokens(
         &ident(&spec.type_name),
         &quote! { #[doc = #new_doc] },
         known,
-        &quote! { #measurement #sensors },
+        &quote! { #measurement #sensors #recovery_init },
     )
 }
 
@@ -395,6 +415,9 @@ struct EkfNodes {
     x: Vec<NodeId>,
     /// The new covariance.
     p: Matrix,
+    /// In a step, the prediction it corrects (estimate and covariance), which it tests as
+    /// `predict` does before the correction.
+    predicted: Option<(Vec<NodeId>, Matrix)>,
     /// The innovation covariance's pivots, checked positive before their reciprocals.
     pivots: Vec<NodeId>,
     /// The pivots' reciprocals.
@@ -408,6 +431,8 @@ struct EkfNodes {
     nis: Option<NodeId>,
     /// Whether the filter has an innovation gate.
     gated: bool,
+    /// Whether a refusal goes through the recovery stage (`recover_after`).
+    recovers: bool,
     /// The Jacobians' entries bound to variables, each computed once.
     coefficients: Coefficients,
     /// The order the new covariance's entries are computed and stored in (positions in
@@ -439,12 +464,14 @@ impl EkfNodes {
             vars,
             t_prev,
             t_measured,
+            predicted: None,
             pivots: Vec::new(),
             reciprocals: Vec::new(),
             innovation: Vec::new(),
             innovation_covariance: Vec::new(),
             nis: None,
             gated: spec.gate.is_some(),
+            recovers: spec.recover_after.is_some(),
             coefficients,
             order: Vec::new(),
         };
@@ -452,6 +479,9 @@ impl EkfNodes {
             let q = &nodes.vars.q_matrix;
             let coefficients = &mut nodes.coefficients;
             let (x, p, a) = kalman::ekf_predict(&mut nodes.g, &nodes.p, q, t_prev, coefficients);
+            if kind.updates() {
+                nodes.predicted = Some((x.clone(), p.clone()));
+            }
             (nodes.x, nodes.p) = (x, p);
             nodes.order = in_place::prediction_order(&nodes.g.graph, &a);
         }
@@ -531,9 +561,76 @@ fn divergence_probe(nodes: &mut EkfNodes, kind: EkfMethod) -> NodeId {
     if kind.updates() {
         interleaved_finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p)
     } else {
-        let stored: Vec<NodeId> = nodes.g.x.iter().chain(&nodes.vars.p).copied().collect();
-        finiteness_probe_of_changes(&mut nodes.g.graph, &nodes.x, &nodes.p, &stored)
+        let (x, p) = (nodes.x.clone(), nodes.p.clone());
+        prediction_probe(nodes, &x, &p)
     }
+}
+
+/// A prediction's divergence probe: the sum of the entries and variances it changes.
+fn prediction_probe(nodes: &mut EkfNodes, x: &[NodeId], p: &Matrix) -> NodeId {
+    let stored: Vec<NodeId> = nodes.g.x.iter().chain(&nodes.vars.p).copied().collect();
+    finiteness_probe_of_changes(&mut nodes.g.graph, x, p, &stored)
+}
+
+/// A step's test of its prediction (see [`in_place::test_prediction`]): its probe and
+/// its variances, as roots to lower, then tested.
+struct PredictionTest {
+    probe: NodeId,
+    variances: Vec<NodeId>,
+}
+
+impl PredictionTest {
+    /// The test of a step's prediction; `None` in any other method.
+    fn new(nodes: &mut EkfNodes) -> Option<PredictionTest> {
+        let (x, p) = nodes.predicted.clone()?;
+        let probe = prediction_probe(nodes, &x, &p);
+        let variances = (0..x.len()).map(|i| p[i][i]).collect();
+        Some(PredictionTest { probe, variances })
+    }
+
+    /// Names the prediction's entries (`x1_pred`, `p11_pred`; the correction's names,
+    /// given after, win where they are the same values) and tests it, its variances
+    /// that are sums of `known_variances` untested.
+    fn lower(
+        &self,
+        lowerer: &mut Lowerer,
+        (model, nodes): (&Model, &EkfNodes),
+        known_variances: &[NodeId],
+        scalar: Scalar,
+    ) {
+        if let Some((x, p)) = &nodes.predicted {
+            name_results(lowerer, model, x, &nodes.vars.p, &packed_upper(p), "pred");
+        }
+        in_place::test_prediction(
+            lowerer,
+            self.probe,
+            &self.variances,
+            known_variances,
+            scalar,
+        );
+    }
+}
+
+/// Every value an EKF method lowers: the new estimate and packed covariance `p_packed`,
+/// the divergence `probe`, a step's test of its prediction, the pivots and what the
+/// measurement stage keeps.
+fn roots(
+    nodes: &EkfNodes,
+    p_packed: &[NodeId],
+    probe: NodeId,
+    prediction_test: Option<&PredictionTest>,
+) -> Vec<NodeId> {
+    let mut all_roots: Vec<NodeId> = nodes.x.iter().chain(p_packed).copied().collect();
+    all_roots.push(probe);
+    if let Some(test) = prediction_test {
+        all_roots.push(test.probe);
+        all_roots.extend(&test.variances);
+    }
+    all_roots.extend(&nodes.pivots);
+    all_roots.extend(&nodes.innovation);
+    all_roots.extend(&nodes.innovation_covariance);
+    all_roots.extend(nodes.nis);
+    all_roots
 }
 
 /// Lowers an EKF method: its statements, ending in the commit of the new estimate (with
@@ -545,13 +642,9 @@ fn lower(
     kind: EkfMethod,
 ) -> (TokenStream, BTreeSet<VarId>, OpCount) {
     let probe = divergence_probe(nodes, kind);
+    let prediction_test = PredictionTest::new(nodes);
     let p_packed = packed_upper(&nodes.p);
-    let mut all_roots: Vec<NodeId> = nodes.x.iter().chain(&p_packed).copied().collect();
-    all_roots.push(probe);
-    all_roots.extend(&nodes.pivots);
-    all_roots.extend(&nodes.innovation);
-    all_roots.extend(&nodes.innovation_covariance);
-    all_roots.extend(nodes.nis);
+    let all_roots = roots(nodes, &p_packed, probe, prediction_test.as_ref());
     let (g, vars) = (&nodes.g, &nodes.vars);
     let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &all_roots);
@@ -564,6 +657,10 @@ fn lower(
     lowerer.read_lazily(&quote! { self.known }, &g.known);
     for &(var, value) in &nodes.coefficients.definitions {
         lowerer.define(var, value);
+    }
+    let variances = nodes.vars.variances(model.state_len());
+    if let Some(test) = &prediction_test {
+        test.lower(&mut lowerer, (model, nodes), &variances, scalar);
     }
     let suffix = if kind.updates() { "new" } else { "pred" };
     name_results(&mut lowerer, model, &nodes.x, &vars.p, &p_packed, suffix);
@@ -592,9 +689,9 @@ fn lower(
         gate_prefix: &prefix,
         keep_prediction: (kind == EkfMethod::Step)
             .then(|| measurement::keep_prediction_call(model)),
+        recovers: nodes.recovers,
     };
     let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
-    let variances = nodes.vars.variances(model.state_len());
     let commit = in_place::Commit {
         probe: &probe,
         x: &nodes.x,

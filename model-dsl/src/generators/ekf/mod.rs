@@ -43,6 +43,7 @@ impl Kind for Ekf {
         Some(Box::new(EkfSpec {
             type_name,
             gate,
+            recover_after: args.recover_after(diag),
             process_noise: args.process_noise_shape(cx, diag),
         }))
     }

@@ -10,6 +10,7 @@ use crate::emit::known::KnownItems;
 use crate::emit::lower::OpCount;
 use crate::emit::measurement;
 use crate::emit::names::ident;
+use crate::emit::recovery;
 use crate::model::{Model, Scalar};
 use crate::symbolic::ModelGraph;
 use proc_macro2::TokenStream;
@@ -32,18 +33,18 @@ pub fn emit_hybrid_ekf(
     mg: &ModelGraph,
     scalar: Scalar,
 ) -> HybridEkfCode {
-    let options = FilterOptions {
-        noise: spec.process_noise.clone(),
-        gated: spec.gate.is_some(),
-    };
+    let options = FilterOptions::of(&spec.process_noise, spec.gate, spec.recover_after);
     let (step, step_ops, substep_ops) = method(model, mg, scalar, FilterMethod::Step, &options);
     let (predict, ..) = method(model, mg, scalar, FilterMethod::Predict, &options);
     let (update, ..) = method(model, mg, scalar, FilterMethod::Update, &options);
+    let recovery = recovery::filter_items(spec.recover_after, model.state_len(), &[], scalar);
     let layout = FilterLayout::new(model, &spec.process_noise, &ident(scalar.type_name()));
     let fields = layout.fields();
-    let measurement_fields = measurement::fields(model, spec.gate, &layout.ty);
+    let measurement_fields =
+        recovery.after_fields(measurement::fields(model, spec.gate, &layout.ty));
+    let cleared = (spec.gate, &recovery.clear);
     let measurement_methods =
-        measurement::methods(model, &layout, (spec.gate, &TokenStream::new()), scalar);
+        recovery.after_methods(measurement::methods(model, &layout, cleared, scalar));
     let FilterLayout {
         accessors, setters, ..
     } = &layout;
@@ -57,7 +58,7 @@ pub fn emit_hybrid_ekf(
     let constructor = constructor_tokens(
         &layout,
         spec.process_noise.diagonal,
-        &measurement::initial_values(model, spec.gate, scalar),
+        &recovery.after_initial(measurement::initial_values(model, spec.gate, scalar)),
     );
     let gate_doc = measurement::gate_doc_attribute(spec.gate);
     let tokens = quote! {

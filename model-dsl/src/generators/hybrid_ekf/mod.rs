@@ -45,6 +45,7 @@ impl Kind for HybridEkf {
         Some(Box::new(HybridEkfSpec {
             process_noise: args.process_noise_shape(cx, diag),
             gate: args.gate(diag),
+            recover_after: args.recover_after(diag),
         }))
     }
 }

@@ -518,6 +518,8 @@ fn recursive_step(
         gated: spec.gate.is_some(),
         gate_prefix: "",
         keep_prediction: Some(measurement::keep_prediction_call(model)),
+        // It recovers by its window's re-initialisation, every `REINIT_EVERY` samples.
+        recovers: false,
     };
     let store_innovation = measurement::store_and_gate(&mut lowerer, &kept);
     let Lowered {
