@@ -421,6 +421,45 @@ pub fn inflate_covariance<const L: usize>(packed: &mut [f32; L], scale: f32) -> 
     crate::covariance::inflate(packed, scale, DIVERGENCE_BOUND)
 }
 
+/// A design aid of the double Kalman filter's window: the least-squares window length
+/// (`dkf(window = N)`) at which one window equation's error `equation_noise` (a standard
+/// deviation, as `Dkf::window_equation_noise` gives it), averaged over the window's
+/// `N - window_outputs + params` equations as if they were independent, is a tenth of
+/// `equation_terms` (the size of the equation's terms at the excitation); never below the
+/// minimum window, `window_outputs` outputs. A rule of thumb: neighbouring equations share
+/// measurements, so check the length it names with a simulation. `None` when
+/// `equation_terms` is not positive and finite, `equation_noise` is negative or not finite,
+/// or the window would need more than 100 000 equations.
+#[must_use]
+pub fn window_len_for(
+    equation_noise: f32,
+    equation_terms: f32,
+    window_outputs: usize,
+    params: usize,
+) -> Option<usize> {
+    let known = equation_terms > 0.0
+        && equation_terms.is_finite()
+        && equation_noise >= 0.0
+        && equation_noise.is_finite();
+    if !known {
+        return None;
+    }
+    let ratio = 10.0 * equation_noise / equation_terms;
+    let equations = ratio * ratio;
+    if equations > 100_000.0 {
+        return None;
+    }
+    // `equations` is within [0, 1e5]: the conversion is exact but for the fraction.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let mut whole = equations as usize;
+    #[allow(clippy::cast_precision_loss)]
+    if (whole as f32) < equations {
+        whole += 1;
+    }
+    let length = (whole.max(params) + window_outputs).saturating_sub(params);
+    Some(length.max(window_outputs))
+}
+
 /// Whether every variance of a diagonal covariance is non-negative (NaN is not).
 #[must_use]
 pub fn all_non_negative<const N: usize>(variances: &[f32; N]) -> bool {

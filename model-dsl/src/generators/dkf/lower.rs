@@ -448,6 +448,7 @@ impl DkfType {
             quote! { let variance = if #r > variance { #r } else { variance }; }
         });
         let first = &variances[0];
+        let params = Literal::usize_unsuffixed(self.np);
         Some(quote! {
             /// A design aid at the declared measurement noise: the standard deviation of
             /// one window equation's error, `WINDOW_NOISE_GAIN * sqrt(R)` with `R` the
@@ -460,6 +461,24 @@ impl DkfType {
                 let variance = #first;
                 #(#largest)*
                 WINDOW_NOISE_GAIN * #sqrt(variance)
+            }
+            /// A design aid naming the window to use at the declared measurement noise:
+            /// the least-squares window length (`dkf(window = N)`) at which
+            /// [`Dkf::window_equation_noise`], averaged over the window's equations as if
+            /// they were independent, is a tenth of `equation_terms`, the size of the
+            /// equation's terms at the excitation (a rule of thumb: check it with a
+            /// simulation). `None` when `equation_terms` is not positive and finite, or
+            /// the window would need more than 100 000 equations.
+            #[must_use]
+            pub fn window_len_for(&self, equation_terms: #ty) -> Option<usize> {
+                /// The parameters the window solves.
+                const PARAMS: usize = #params;
+                stateforge_math::#ty::window_len_for(
+                    self.window_equation_noise(),
+                    equation_terms,
+                    WINDOW_OUTPUTS,
+                    PARAMS,
+                )
             }
         })
     }
@@ -617,8 +636,8 @@ impl DkfType {
                 /// terms at the excitation, its parameters are noise (and the AKF, which
                 /// takes them as exact, refuses the measurements that disagree), and a
                 /// least-squares window (`dkf(window = N)`) averages it over its
-                /// equations: see the language reference's "The window's length and
-                /// measurement noise" for the length to choose.
+                /// equations: [`Dkf::window_len_for`] names the length to choose (the language
+                /// reference's "How much noise a window takes").
                 pub const WINDOW_NOISE_GAIN: #ty = #value;
             }
         });
