@@ -261,8 +261,8 @@ struct Dynamics {
     q: Matrix,
     /// The variable `alpha`, when the filter has the field.
     alpha: Option<NodeId>,
-    /// `2 alpha`.
-    two_alpha: Option<NodeId>,
+    /// The variable `2 alpha` and its value.
+    two_alpha: Option<(NodeId, NodeId)>,
     /// The measurement terms, where the whole equations are integrated.
     measurement: Option<MeasurementTerms>,
 }
@@ -374,9 +374,16 @@ impl Dynamics {
         let alpha = kind
             .has_alpha()
             .then(|| g.graph.var(&unclaimed_name(String::from("alpha"), avoid)));
+        // `2 alpha` under a name of its own, computed once: the Riccati equation's
+        // `2 alpha P_ij` is then one multiply-add per entry and stage, where the simplifier
+        // would write `2 (P_ij alpha)`, two multiplications and an addition.
         let two_alpha = alpha.map(|alpha| {
             let two = g.graph.num(2.0);
-            g.graph.mul(two, alpha)
+            let value = g.graph.mul(two, alpha);
+            let var = g
+                .graph
+                .var(&unclaimed_name(String::from("two_alpha"), avoid));
+            (var, value)
         });
         let measurement = matches!(kind, FilterMethod::Continuous { .. })
             .then(|| MeasurementTerms::new(g, vars, model.outputs.len()));
@@ -400,7 +407,8 @@ impl Dynamics {
         let point: Vec<NodeId> = std::iter::once(t).chain(xs.iter().copied()).collect();
         let mut dx = self.at.eval(g, &point, &self.rate_x);
         let f = self.at.eval_matrix(g, &point, &self.jacobian);
-        let mut dp = covariance_rate(g, &f, &ps, &self.q, self.two_alpha);
+        let two_alpha = self.two_alpha.map(|(var, _)| var);
+        let mut dp = covariance_rate(g, &f, &ps, &self.q, two_alpha);
         if let Some(terms) = &self.measurement {
             (dx, dp) = terms.apply(g, &point, (&dx, &dp), &ps);
         }
@@ -877,6 +885,9 @@ fn lower(
     let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&nodes.g.graph, scalar, namer, &all_roots);
     for &(var, value) in &nodes.coefficients.definitions {
+        lowerer.define(var, value);
+    }
+    if let Some((var, value)) = nodes.dynamics.two_alpha {
         lowerer.define(var, value);
     }
     read_noise_and_alpha(&mut lowerer, nodes);
