@@ -884,41 +884,11 @@ fn lower(
     let all_roots = nodes.roots(&results, probe);
     let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&nodes.g.graph, scalar, namer, &all_roots);
-    for &(var, value) in &nodes.coefficients.definitions {
-        lowerer.define(var, value);
-    }
-    if let Some((var, value)) = nodes.dynamics.two_alpha {
-        lowerer.define(var, value);
-    }
     read_noise_and_alpha(&mut lowerer, nodes);
     let substep_loop = lower_start(&mut lowerer, nodes, model, kind);
     let suffix = if kind.updates() { "new" } else { "pred" };
     name_estimate(&mut lowerer, model, &nodes.x, suffix);
-    // The hybrid EKF's update, or the split step's second half of its measurement terms.
-    let after = if kind.is_continuous() {
-        nodes.flows.get(1..).unwrap_or_default()
-    } else {
-        guard_pivots(
-            &mut lowerer,
-            &nodes.pivots,
-            &nodes.reciprocals,
-            (INNOVATION, ""),
-            &innovation_pivot_failure,
-            scalar,
-        );
-        &nodes.flows[..]
-    };
-    for (pivots, reciprocals, suffix) in after {
-        let names = (INNOVATION, *suffix);
-        guard_pivots(
-            &mut lowerer,
-            pivots,
-            reciprocals,
-            names,
-            &innovation_pivot_failure,
-            scalar,
-        );
-    }
+    guard_after_propagation(&mut lowerer, nodes, kind);
     measurement::name_innovation(&mut lowerer, model, &nodes.innovation, "");
     let probe = lowerer.bind(probe, "divergence_probe");
     let values = lowerer.segment(&results);
@@ -961,6 +931,39 @@ fn lower(
         used_vars,
         total,
         per_substep,
+    }
+}
+
+/// Guards the pivots of what follows the propagation: the hybrid EKF's update, or the split
+/// step's measurement terms after its first (the continuous-time EKF's innovation and that
+/// first flow are guarded before, see [`lower_start`]).
+fn guard_after_propagation(lowerer: &mut Lowerer, nodes: &MethodNodes, kind: FilterMethod) {
+    let scalar = lowerer.scalar();
+    let after = if kind.is_continuous() {
+        nodes.flows.get(1..).unwrap_or_default()
+    } else {
+        let (pivots, reciprocals) = (&nodes.pivots, &nodes.reciprocals);
+        let names = (INNOVATION, "");
+        guard_pivots(
+            lowerer,
+            pivots,
+            reciprocals,
+            names,
+            &innovation_pivot_failure,
+            scalar,
+        );
+        &nodes.flows[..]
+    };
+    for (pivots, reciprocals, suffix) in after {
+        let names = (INNOVATION, *suffix);
+        guard_pivots(
+            lowerer,
+            pivots,
+            reciprocals,
+            names,
+            &innovation_pivot_failure,
+            scalar,
+        );
     }
 }
 
@@ -1049,8 +1052,16 @@ fn fall_back_when_stiff(lowerer: &mut Lowerer, nodes: &MethodNodes, model: &Mode
     });
 }
 
-/// Reads the noise from the fields and `alpha` from its field, before the sub-steps.
+/// Reads the noise from the fields and `alpha` from its field, before the sub-steps; the
+/// variables that stand for a value computed once (the measurement Jacobian's entries,
+/// `2 alpha`) compute it where first used.
 fn read_noise_and_alpha(lowerer: &mut Lowerer, nodes: &MethodNodes) {
+    for &(var, value) in &nodes.coefficients.definitions {
+        lowerer.define(var, value);
+    }
+    if let Some((var, value)) = nodes.dynamics.two_alpha {
+        lowerer.define(var, value);
+    }
     lowerer.read_lazily(&quote! { self.q }, &nodes.vars.q);
     lowerer.read_lazily(&quote! { self.r }, &nodes.vars.r);
     if let Some(alpha) = nodes.dynamics.alpha {

@@ -44,25 +44,8 @@ pub fn emit_continuous_ekf(
     };
     let alpha = spec.alpha.is_some();
     let whole = integrates_whole(model, mg);
-    let split_kind = FilterMethod::ContinuousSplit {
-        alpha,
-        fallback: whole,
-    };
-    let (split_step, split_ops, split_substep_ops) =
-        method(model, mg, scalar, split_kind, &options);
-    let (step, step_ops, substep_ops, split_step, split_step_ops) = if whole {
-        let step_kind = FilterMethod::Continuous { alpha };
-        let (step, ops, substep_ops) = method(model, mg, scalar, step_kind, &options);
-        (step, ops, substep_ops, split_step, Some(split_ops))
-    } else {
-        (
-            split_step,
-            split_ops,
-            split_substep_ops,
-            TokenStream::new(),
-            None,
-        )
-    };
+    let (step, step_ops, substep_ops, split_step, split_step_ops) =
+        steps(model, mg, scalar, (alpha, whole), &options);
     let predict_kind = FilterMethod::ContinuousPredict { alpha };
     let (predict, ..) = method(model, mg, scalar, predict_kind, &options);
     let ty = ident(scalar.type_name());
@@ -126,6 +109,40 @@ pub fn emit_continuous_ekf(
         substep_ops,
         step_ops,
         split_step_ops,
+    }
+}
+
+/// A continuous-time EKF's steps: `step` (its tokens, its arithmetic and that of one
+/// sub-step) and, where it integrates the whole equations, the `step_split` it falls back
+/// on (its tokens and arithmetic).
+type Steps = (TokenStream, OpCount, OpCount, TokenStream, Option<OpCount>);
+
+/// The filter's steps ([`Steps`]): where it integrates the whole equations (`whole`),
+/// `step` and `step_split`; else `step` is the split step.
+fn steps(
+    model: &Model,
+    mg: &ModelGraph,
+    scalar: Scalar,
+    (alpha, whole): (bool, bool),
+    options: &FilterOptions,
+) -> Steps {
+    let split_kind = FilterMethod::ContinuousSplit {
+        alpha,
+        fallback: whole,
+    };
+    let (split_step, split_ops, split_substep_ops) = method(model, mg, scalar, split_kind, options);
+    if whole {
+        let step_kind = FilterMethod::Continuous { alpha };
+        let (step, ops, substep_ops) = method(model, mg, scalar, step_kind, options);
+        (step, ops, substep_ops, split_step, Some(split_ops))
+    } else {
+        (
+            split_step,
+            split_ops,
+            split_substep_ops,
+            TokenStream::new(),
+            None,
+        )
     }
 }
 
