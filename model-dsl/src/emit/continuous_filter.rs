@@ -5,8 +5,10 @@
 //! sub-steps (a loop when there are several); at each sample the discrete Joseph-form
 //! update (eqs. 24-26), shared with the EKF. The continuous-time EKF of Kulkarni and Purwar
 //! (eq. 5) adds the measurement terms `K (y - h)` and `- P H' R^-1 H P` to those equations;
-//! it integrates them split: the same propagation without them, then their exact flow over
-//! the sample, which is the discrete update with `R / T` (see [`FilterMethod::Continuous`]).
+//! it integrates the whole equations by RK4 while they are not stiff, else split
+//! symmetrically: the measurement terms' exact flow (the discrete update with the noise
+//! density over the time it covers) on either side of the same propagation without them
+//! (see [`FilterMethod::Continuous`] and [`FilterMethod::ContinuousSplit`]).
 
 use crate::emit::arguments::Arguments;
 use crate::emit::code::{
