@@ -231,18 +231,19 @@ impl<const N: usize, const M: usize, const U: usize> ContinuousEkf<'_, N, M, U> 
     /// One sample split symmetrically (Strang) in `parts` sub-steps of `h = T / parts`, each
     /// the measurement terms' exact flow over `h / 2` at its start, the propagation over `h`
     /// (one sub-step of the model's rule; with one part, the model's sub-steps), their flow
-    /// over `h / 2` at its end.
+    /// over `h / 2` at its end; the flows of neighbouring sub-steps are one, over `h`.
     pub fn split_step(&mut self, t_prev: f64, u: &[f64; U], y: &SVector<f64, M>, parts: u32) {
         let h = self.model.dt / f64::from(parts);
-        for part in 0..parts {
-            let t = t_prev + f64::from(part) * h;
-            self.measure(t, y, 0.5 * h);
+        self.measure(t_prev, y, 0.5 * h);
+        for part in 1..=parts {
+            let t = t_prev + f64::from(part - 1) * h;
             if parts == 1 {
                 self.propagate(t, u);
             } else {
                 self.propagate_over(t, u, h);
             }
-            self.measure(t + h, y, 0.5 * h);
+            let flow = if part < parts { h } else { 0.5 * h };
+            self.measure(t + h, y, flow);
         }
     }
 
