@@ -195,8 +195,7 @@ fn integration_doc(whole: bool) -> &'static str {
         "Integrated by RK4, the whole equations over the sample, while the measurement \
          terms are not stiff: while `T tr(R^-1 H P H')` (at least `T` times the largest rate \
          `P H' R^-1 H` pulls the estimate at) is at most 0.1, so that the error stays of \
-         the fourth order in `T` (the helicopter's, at 1 ms, within 4e-7 of the exact \
-         solution of the equations). A stiffer sample (a precise sensor and an uncertain \
+         the fourth order in `T`. A stiffer sample (a precise sensor and an uncertain \
          start), or an `R` that is not positive definite, is integrated split, so that no \
          gain makes it unstable, in two sub-steps of Strang's splitting: the measurement \
          terms alone over a quarter of the sample by their exact flow, \
