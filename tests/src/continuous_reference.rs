@@ -9,8 +9,9 @@
 //! and number of sub-steps, the time running from the previous sample in steps of
 //! `dt / substeps`: classical RK4 on `P' = A P + P A' + S`, or for forward Euler the
 //! covariance of the Euler step, `(I + h A) P (I + h A)' + h S`. The continuous-time EKF
-//! then applies its measurement terms' exact flow, as the generated filter does; the
-//! equations it approximates are solved to a tight tolerance by [`ContinuousEkfEquation`].
+//! integrates its whole equations so while they are not stiff, else splits off its
+//! measurement terms' exact flow, as the generated filter does; the equations it
+//! approximates are solved to a tight tolerance by [`ContinuousEkfEquation`].
 
 use nalgebra::{SMatrix, SVector};
 
@@ -154,10 +155,11 @@ impl<const N: usize, const M: usize, const U: usize> HybridEkf<'_, N, M, U> {
 pub type Innovation<const M: usize> = (SVector<f64, M>, SMatrix<f64, M, M>);
 
 /// The continuous-time EKF (seed 004 eq. 5) with a prescribed degree of stability `alpha`
-/// (eq. 26; `alpha = 0` is the standard filter), integrated as the generated filter does:
-/// split, the propagation without the measurement terms over the sample (the model's rule
-/// and sub-steps, as the hybrid EKF), then the measurement terms' exact flow over the
-/// sample `T`, the Joseph-form update with `R / T`. `Q` and `R` are spectral densities.
+/// (eq. 26; `alpha = 0` is the standard filter), integrated as the generated filter does
+/// (see [`ContinuousEkf::step`]): the whole equations by RK4 while they are not stiff, else
+/// split symmetrically, the measurement terms' exact flow (the Joseph-form update with
+/// `2 R / T`) over half the sample on either side of the propagation without them (the
+/// model's rule and sub-steps, as the hybrid EKF). `Q` and `R` are spectral densities.
 pub struct ContinuousEkf<'m, const N: usize, const M: usize, const U: usize> {
     /// The model.
     pub model: &'m Model<N, M, U>,
@@ -171,31 +173,116 @@ pub struct ContinuousEkf<'m, const N: usize, const M: usize, const U: usize> {
     pub alpha: f64,
 }
 
+/// The largest `T tr(R^-1 H P H')` at which the continuous-time EKF integrates its whole
+/// equations by RK4, as the generated filter does.
+pub const WHOLE_STEP_STIFFNESS: f64 = 0.1;
+
 impl<const N: usize, const M: usize, const U: usize> ContinuousEkf<'_, N, M, U> {
-    /// One sample from `t_prev` with `u` and `y` held; returns the update's innovation and
-    /// its covariance.
+    /// One sample from `t_prev` with `u` and `y` held, as the generated filter integrates
+    /// it: for a model of one RK4 sub-step, the whole equations by RK4 while `R` is
+    /// invertible and `T tr(R^-1 H P H')` at the start is within [`WHOLE_STEP_STIFFNESS`];
+    /// else split ([`ContinuousEkf::split_step`]). Returns the innovation at the start of
+    /// the sample, `y - h(t_prev, x)`, and its covariance `H P H' + R / T`.
     pub fn step(&mut self, t_prev: f64, u: &[f64; U], y: &SVector<f64, M>) -> Innovation<M> {
+        let (model, (x, p)) = (self.model, self.estimate);
+        let c = (model.jacobian_h)(t_prev, &x);
+        let innovation = (
+            y - (model.h)(t_prev, &x),
+            c * p * c.transpose() + self.r / model.dt,
+        );
+        let one_rk4_step = matches!(model.rule, Rule::Rk4) && model.substeps == 1;
+        let r_inv = self.r.try_inverse().filter(|_| self.r.cholesky().is_some());
+        match r_inv {
+            Some(r_inv)
+                if one_rk4_step
+                    && model.dt * (r_inv * c * p * c.transpose()).trace()
+                        <= WHOLE_STEP_STIFFNESS =>
+            {
+                self.whole_step(t_prev, u, y, &r_inv);
+            }
+            _ => self.split_step(t_prev, u, y, if one_rk4_step { 2 } else { 1 }),
+        }
+        innovation
+    }
+
+    /// The whole equations (seed 004 eq. 5, with `alpha` eq. 26) over one sample by one
+    /// classical RK4 step: `x' = f + K (y - h)`, `P' = A P + P A' + Q - K H P`,
+    /// `K = P H' R^-1`, `A = F + alpha I`.
+    pub fn whole_step(
+        &mut self,
+        t_prev: f64,
+        u: &[f64; U],
+        y: &SVector<f64, M>,
+        r_inv: &SMatrix<f64, M, M>,
+    ) {
+        let model = self.model;
+        let (q, alpha) = (self.q, self.alpha);
+        // `A P + P A' - K H P` is `A~ P + P A~'` with `A~ = A - K H / 2`.
+        let rate = |t: f64, x: &SVector<f64, N>, p: &SMatrix<f64, N, N>| {
+            let c = (model.jacobian_h)(t, x);
+            let gain = p * c.transpose() * r_inv;
+            let a = (model.jacobian)(t, x, u) + SMatrix::<f64, N, N>::identity() * alpha
+                - gain * c * 0.5;
+            ((model.rate)(t, x, u) + gain * (y - (model.h)(t, x)), a, q)
+        };
+        self.estimate = integrate(Rule::Rk4, model.dt, 1, t_prev, self.estimate, &rate);
+    }
+
+    /// One sample split symmetrically (Strang) in `parts` sub-steps of `h = T / parts`, each
+    /// the measurement terms' exact flow over `h / 2` at its start, the propagation over `h`
+    /// (one sub-step of the model's rule; with one part, the model's sub-steps), their flow
+    /// over `h / 2` at its end; the flows of neighbouring sub-steps are one, over `h`.
+    pub fn split_step(&mut self, t_prev: f64, u: &[f64; U], y: &SVector<f64, M>, parts: u32) {
+        let h = self.model.dt / f64::from(parts);
+        self.measure(t_prev, y, 0.5 * h);
+        for part in 1..=parts {
+            let t = t_prev + f64::from(part - 1) * h;
+            if parts == 1 {
+                self.propagate(t, u);
+            } else {
+                self.propagate_over(t, u, h);
+            }
+            let flow = if part < parts { h } else { 0.5 * h };
+            self.measure(t + h, y, flow);
+        }
+    }
+
+    /// The equations without the measurement terms over one sample from `t_prev` with `u`
+    /// held (the model's rule and sub-steps, as the hybrid EKF).
+    pub fn propagate(&mut self, t_prev: f64, u: &[f64; U]) {
+        let (dt, substeps) = (self.model.dt, self.model.substeps);
+        self.propagate_in(t_prev, u, (dt, substeps));
+    }
+
+    /// The equations without the measurement terms over `h` from `t` with `u` held, by one
+    /// step of the model's rule.
+    pub fn propagate_over(&mut self, t: f64, u: &[f64; U], h: f64) {
+        self.propagate_in(t, u, (h, 1));
+    }
+
+    /// The equations without the measurement terms over `duration` from `t_prev` with `u`
+    /// held, in `substeps` steps of the model's rule.
+    fn propagate_in(&mut self, t_prev: f64, u: &[f64; U], (duration, substeps): (f64, u32)) {
         let model = self.model;
         let (q, alpha) = (self.q, self.alpha);
         let rate = |t: f64, x: &SVector<f64, N>, _: &SMatrix<f64, N, N>| {
             let a = (model.jacobian)(t, x, u) + SMatrix::<f64, N, N>::identity() * alpha;
             ((model.rate)(t, x, u), a, q)
         };
-        let predicted = integrate(
-            model.rule,
-            model.dt,
-            model.substeps,
-            t_prev,
-            self.estimate,
-            &rate,
-        );
+        self.estimate = integrate(model.rule, duration, substeps, t_prev, self.estimate, &rate);
+    }
+
+    /// The measurement terms' exact flow over `duration` at time `t` (`H` held): the
+    /// Joseph-form update with the noise `R / duration`. Returns its innovation and
+    /// covariance.
+    pub fn measure(&mut self, t: f64, y: &SVector<f64, M>, duration: f64) -> Innovation<M> {
         let mut update = HybridEkf {
-            model,
-            estimate: predicted,
-            q,
-            r: self.r / model.dt,
+            model: self.model,
+            estimate: self.estimate,
+            q: self.q,
+            r: self.r / duration,
         };
-        let innovation = update.update(t_prev + model.dt, y);
+        let innovation = update.update(t, y);
         self.estimate = update.estimate;
         innovation
     }

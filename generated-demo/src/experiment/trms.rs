@@ -106,8 +106,8 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
 /// nominal and the surge runs, with the paper's.
 fn print_errors(trace: &Trace, surged: &Trace, alpha: f64) {
     println!("\nHelicopter (TRMS) of Kulkarni and Purwar, \"Nonlinear experimental estimation and");
-    println!("verification of a MIMO system through EKF\": continuous-time EKF (eq. 5, one RK4");
-    println!("step per 1 ms, then the measurement terms' exact flow), multi-sine input, estimate");
+    println!("verification of a MIMO system through EKF\": continuous-time EKF (eq. 5, RK4 of");
+    println!("the whole equations per 1 ms, split while stiff), multi-sine input, estimate");
     println!(
         "from x0 = [0.05 0 -0.05 0 0 0], encoder noise sigma [{} {}] rad, the paper's Q, R, P0;",
         NOISE[0], NOISE[1]

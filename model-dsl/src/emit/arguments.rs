@@ -140,6 +140,17 @@ impl Arguments {
     /// `pub fn name(&mut self, ..) -> Status`, documented by the attributes `doc`: unpacks
     /// and checks the arguments, then runs `body` (which ends by returning the status).
     pub fn method(self, name: &Ident, doc: &TokenStream, body: TokenStream) -> TokenStream {
+        self.method_with(quote! { pub }, name, doc, body)
+    }
+
+    /// [`Arguments::method`] with `visibility` (and attributes) in place of `pub`.
+    fn method_with(
+        self,
+        visibility: TokenStream,
+        name: &Ident,
+        doc: &TokenStream,
+        body: TokenStream,
+    ) -> TokenStream {
         let Arguments {
             params,
             unpack,
@@ -152,13 +163,19 @@ impl Arguments {
         let covariance_check = reject_non_covariance(&covariances, false);
         quote! {
             #doc
-            pub fn #name(&mut self, #(#params),*) -> Status {
+            #visibility fn #name(&mut self, #(#params),*) -> Status {
                 #(#unpack)*
                 #check
                 #covariance_check
                 #body
             }
         }
+    }
+
+    /// [`Arguments::method`] as a private `fn`, out of line: a cold path of a public
+    /// method (the continuous-time EKF's `step_split`).
+    pub fn private_method(self, name: &Ident, doc: &TokenStream, body: TokenStream) -> TokenStream {
+        self.method_with(quote! { #[inline(never)] }, name, doc, body)
     }
 
     /// `pub fn new(..) -> Result<Self, Status>`, documented by the attributes `doc` and

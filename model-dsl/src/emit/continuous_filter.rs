@@ -5,8 +5,10 @@
 //! sub-steps (a loop when there are several); at each sample the discrete Joseph-form
 //! update (eqs. 24-26), shared with the EKF. The continuous-time EKF of Kulkarni and Purwar
 //! (eq. 5) adds the measurement terms `K (y - h)` and `- P H' R^-1 H P` to those equations;
-//! it integrates them split: the same propagation without them, then their exact flow over
-//! the sample, which is the discrete update with `R / T` (see [`FilterMethod::Continuous`]).
+//! it integrates the whole equations by RK4 while they are not stiff, else split
+//! symmetrically: the measurement terms' exact flow (the discrete update with the noise
+//! density over the time it covers) on either side of the same propagation without them
+//! (see [`FilterMethod::Continuous`] and [`FilterMethod::ContinuousSplit`]).
 
 use crate::emit::arguments::Arguments;
 use crate::emit::code::{
@@ -29,6 +31,9 @@ use crate::symbolic::euler_state::euler_state_step;
 use crate::symbolic::linalg::{
     packed_len, packed_upper, symmetric_from_packed, Coefficients, Matrix,
 };
+use crate::symbolic::measurement_terms::{
+    innovation_feedback, measurement_stiffness, riccati_measurement_terms,
+};
 use crate::symbolic::scaled_covariance::Scaling;
 use crate::symbolic::{kalman, Graph, ModelGraph, NodeId, VarId};
 use proc_macro2::TokenStream;
@@ -48,20 +53,37 @@ pub enum FilterMethod {
     /// terms (Kulkarni and Purwar, eq. 5) over one sample, with `y` held; with `alpha`, a
     /// prescribed degree of stability (Reif et al.).
     ///
-    /// Integrated split (Lie-Trotter): first the equations without the measurement terms,
-    /// by the model's rule and sub-steps, as the hybrid EKF propagates; then the
-    /// measurement terms alone over the sample `T`, `x' = P H' R^-1 (y - h(x))`,
-    /// `P' = -P H' R^-1 H P`, by their exact flow. With `H` held, `d(P^-1)/dt = H' R^-1 H`
-    /// gives `P(T) = (P^-1 + T H' R^-1 H)^-1 = P - P H' (H P H' + R / T)^-1 H P`, and
-    /// `d(P^-1 x)/dt = H' R^-1 y` gives `x(T) = x + K (y - H x)` with the same gain: the
-    /// discrete Joseph-form update with the measurement noise `R / T`. An explicit rule on the
-    /// whole equation is unstable once `T` times the rate `P H' R^-1 H` leaves its stability
-    /// region (a precise sensor, an uncertain start: `P0 = 1`, `R = 5.5e-8` on the
-    /// helicopter at 1 ms); the exact flow is stable for any gain and keeps `P` positive
-    /// definite. The splitting's error is of the first order in `T`.
+    /// The whole equations by RK4 (of the fourth order in `T`) while the measurement terms
+    /// are not stiff: while `T tr(R^-1 H P H')`, at least `T` times the largest rate
+    /// `P H' R^-1 H` pulls the estimate at, is within [`WHOLE_STEP_STIFFNESS`], well inside
+    /// RK4's stability region (the covariance's rates are twice the estimate's). A stiffer
+    /// sample (a precise sensor, an uncertain start: `P0 = 1`, `R = 5.5e-8` on the
+    /// helicopter at 1 ms makes it 1.8e4), or an `R` that is not positive definite, takes
+    /// [`FilterMethod::ContinuousSplit`]'s step (`step_split`), stable for any gain. Only
+    /// for a model of one RK4 sub-step per sample (see [`integrates_whole`]).
     Continuous {
         /// Whether the filter has the field `alpha`.
         alpha: bool,
+    },
+    /// The continuous-time EKF's step integrated split, symmetrically (Strang): the
+    /// measurement terms alone over half the sample, `x' = P H' R^-1 (y - h(x))`,
+    /// `P' = -P H' R^-1 H P`, by their exact flow; then the equations without them over the
+    /// sample, by the model's rule and sub-steps, as the hybrid EKF propagates; then the
+    /// measurement terms' flow over the other half. With `H` held, `d(P^-1)/dt = H' R^-1 H`
+    /// gives `P(t) = (P^-1 + t H' R^-1 H)^-1 = P - P H' (H P H' + R / t)^-1 H P`, and
+    /// `d(P^-1 x)/dt = H' R^-1 y` gives `x(t) = x + K (y - H x)` with the same gain: the
+    /// discrete Joseph-form update with the measurement noise `R / t`, here `2 R / T`. The
+    /// exact flow is stable for any gain and keeps `P` positive definite; the splitting's
+    /// error is of the second order in `T`. As the fallback of the whole equations' step
+    /// (only stiff samples: an uncertain start) it takes two such sub-steps of `T / 2`, the
+    /// propagation by one RK4 step each, the halves between them one flow over `T / 2`:
+    /// a quarter of the error, where the first samples' error decides what follows.
+    ContinuousSplit {
+        /// Whether the filter has the field `alpha`.
+        alpha: bool,
+        /// Whether it is the private `step_split` that [`FilterMethod::Continuous`] falls
+        /// back on, rather than the filter's `step`.
+        fallback: bool,
     },
     /// The continuous-time EKF's step without the measurement terms: its propagation alone,
     /// for a sample without a measurement and for a gated step's outlier.
@@ -77,8 +99,8 @@ impl FilterMethod {
         self != FilterMethod::Update
     }
 
-    /// Whether the method makes the discrete update at the sample (the continuous-time
-    /// EKF's is the exact flow of its measurement terms).
+    /// Whether the method corrects with a measurement (the continuous-time EKF's through
+    /// its measurement terms).
     fn updates(self) -> bool {
         !matches!(
             self,
@@ -91,13 +113,17 @@ impl FilterMethod {
         matches!(
             self,
             FilterMethod::Continuous { alpha: true }
+                | FilterMethod::ContinuousSplit { alpha: true, .. }
                 | FilterMethod::ContinuousPredict { alpha: true }
         )
     }
 
-    /// Whether it is the continuous-time EKF's step.
+    /// Whether it is one of the continuous-time EKF's steps.
     fn is_continuous(self) -> bool {
-        matches!(self, FilterMethod::Continuous { .. })
+        matches!(
+            self,
+            FilterMethod::Continuous { .. } | FilterMethod::ContinuousSplit { .. }
+        )
     }
 
     /// What the method's documentation says of its times, for a model that reads `t`.
@@ -111,9 +137,9 @@ impl FilterMethod {
                 " The integration starts at `t_prev`, the previous sample's time, and `h` is \
                  evaluated a sample time `dt` later, at `t_prev + dt`."
             }
-            FilterMethod::Continuous { .. } => {
-                " The integration starts at `t_prev`, the previous sample's time, and `h` is \
-                 evaluated a sample time `dt` later, at `t_prev + dt`."
+            FilterMethod::Continuous { .. } | FilterMethod::ContinuousSplit { .. } => {
+                " The integration starts at `t_prev`, the previous sample's time, where the \
+                 innovation is taken."
             }
         }
     }
@@ -144,11 +170,24 @@ impl FilterMethod {
                 "step",
                 " One sample: integrates the estimate and the Riccati equation (eq. 5) from \
                  `x[k-1]` to the sample `k` with the input `u[k-1]` and the measurement `y` \
-                 (normally `y[k]`) held over the sample: the propagation without the \
-                 measurement terms, then their exact flow over the sample, the Joseph-form \
-                 update with the measurement noise `R / T`. Rejects a non-finite input or \
-                 measurement and a non-positive innovation variance (never divided by); \
-                 leaves the filter unchanged unless it returns [`Status::Ok`].",
+                 (normally `y[k]`) held over the sample, the whole equations by RK4 while the \
+                 measurement terms are not stiff (`T tr(R^-1 H P H')` at most 0.1), else \
+                 split, stable for any gain (see the type's documentation). The innovation `y - h(x[k-1])` and its covariance \
+                 `H P H' + R / T` are taken at the start of the sample. Rejects a non-finite \
+                 input or measurement and a non-positive innovation variance (never divided \
+                 by); leaves the filter unchanged unless it returns [`Status::Ok`].",
+            ),
+            FilterMethod::ContinuousSplit { fallback, .. } => (
+                if fallback { "step_split" } else { "step" },
+                " One sample: integrates the estimate and the Riccati equation (eq. 5) from \
+                 `x[k-1]` to the sample `k` with the input `u[k-1]` and the measurement `y` \
+                 (normally `y[k]`) held over the sample, split symmetrically (Strang): the \
+                 exact flow of the measurement terms over half a sub-step (the Joseph-form \
+                 update with the measurement noise `R` over that time), the propagation \
+                 without them over the sub-step, their flow over the other half. The innovation `y - h(x[k-1])` and its covariance \
+                 `H P H' + R / T` are taken at the start of the sample. Rejects a non-finite \
+                 input or measurement and a non-positive innovation variance (never divided \
+                 by); leaves the filter unchanged unless it returns [`Status::Ok`].",
             ),
             FilterMethod::ContinuousPredict { .. } => (
                 "predict",
@@ -214,7 +253,12 @@ pub fn method(
         ""
     };
     let doc = format!("{doc}{time_doc}{input_doc}");
-    let tokens = arguments.method(&ident(name), &quote! { #[doc = #doc] }, lowered.body);
+    let doc = quote! { #[doc = #doc] };
+    let tokens = if matches!(kind, FilterMethod::ContinuousSplit { fallback: true, .. }) {
+        arguments.private_method(&ident(name), &doc, lowered.body)
+    } else {
+        arguments.method(&ident(name), &doc, lowered.body)
+    };
     (tokens, lowered.total, lowered.per_substep)
 }
 
@@ -234,8 +278,94 @@ struct Dynamics {
     q: Matrix,
     /// The variable `alpha`, when the filter has the field.
     alpha: Option<NodeId>,
-    /// `2 alpha`.
-    two_alpha: Option<NodeId>,
+    /// The variable `2 alpha` and its value.
+    two_alpha: Option<(NodeId, NodeId)>,
+    /// The measurement terms, where the whole equations are integrated.
+    measurement: Option<MeasurementTerms>,
+}
+
+/// Whether the continuous-time EKF of `model` integrates its whole equations while they are
+/// not stiff ([`FilterMethod::Continuous`]): a model of one RK4 sub-step per sample. With
+/// Euler's rule, whose error is of the first order, or several sub-steps, it integrates
+/// them split ([`FilterMethod::ContinuousSplit`]) always.
+pub fn integrates_whole(model: &Model, mg: &ModelGraph) -> bool {
+    let mut g = mg.clone();
+    matches!(g.substep(model), Some((Method::Rk4, _, 1)))
+}
+
+/// The largest `T tr(R^-1 H P H')` at which the continuous-time EKF's step integrates the
+/// whole equations by RK4 (see [`FilterMethod::Continuous`]): the rates it pulls the
+/// covariance at, at most twice that, stay well inside RK4's stability interval (2.78), where
+/// RK4's error of a decaying mode is below 1e-7 of it per sample.
+pub const WHOLE_STEP_STIFFNESS: f64 = 0.1;
+
+/// The measurement terms of the continuous-time EKF's whole equations (Kulkarni and Purwar,
+/// eq. 5): `R^-1` through guarded pivots, `h` and `H` over the point `[t, x..]`.
+struct MeasurementTerms {
+    /// `R^-1`, over the reciprocals of its pivots.
+    r_inv: Matrix,
+    /// `R`'s pivots, checked positive (else the step falls back on the split).
+    r_pivots: Vec<NodeId>,
+    /// Their reciprocals.
+    r_reciprocals: Vec<NodeId>,
+    /// `h` over the point.
+    h: Vec<NodeId>,
+    /// `H = dh/dx` over the point.
+    jacobian_h: Matrix,
+    /// Evaluation at a point `[t, x..]`.
+    at: AtPoint,
+    /// The measurement's variables.
+    y: Vec<NodeId>,
+}
+
+/// The names of `R`'s pivots and their reciprocals in the whole equations' step.
+const NOISE_PIVOTS: ((&str, &str), &str) = (("measurement_variance", "inv_r"), "_r");
+
+impl MeasurementTerms {
+    /// `R^-1` of the measurement noise density's variables and `h`, `H` over `[t, x..]`.
+    fn new(g: &mut ModelGraph, vars: &FilterVars, m: usize) -> MeasurementTerms {
+        let r = symmetric_from_packed(&vars.r, m);
+        let (prefixes, suffix) = NOISE_PIVOTS;
+        let ldl = crate::symbolic::linalg::ldl_inverse(&mut g.graph, &r, |gr, j| {
+            gr.var(&pivot_names(m, j, prefixes, suffix).1)
+        });
+        let jacobian_h = g.jacobian_h_wrt_x();
+        let at = AtPoint::new(
+            std::iter::once(g.t)
+                .chain(g.x.iter().copied())
+                .map(|v| g.var_id(v))
+                .collect(),
+        );
+        MeasurementTerms {
+            r_inv: ldl.inverse,
+            r_pivots: ldl.pivots,
+            r_reciprocals: ldl.reciprocals,
+            h: g.h.clone(),
+            jacobian_h,
+            at,
+            y: vars.y.clone(),
+        }
+    }
+
+    /// `dx + K (y - h(x))` and `dp - P H' R^-1 H P` at `point = [t, x..]`.
+    fn apply(
+        &self,
+        g: &mut Graph,
+        point: &[NodeId],
+        (dx, dp): (&[NodeId], &Matrix),
+        p: &Matrix,
+    ) -> (Vec<NodeId>, Matrix) {
+        let h = self.at.eval(g, point, &self.h);
+        let jacobian_h = self.at.eval_matrix(g, point, &self.jacobian_h);
+        let (gain, dp) = riccati_measurement_terms(g, dp, p, &jacobian_h, &self.r_inv);
+        (innovation_feedback(g, dx, &gain, &self.y, &h), dp)
+    }
+
+    /// `T tr(R^-1 H P H')` at `point = [t, x..]` with the covariance `p`.
+    fn stiffness(&self, g: &mut Graph, duration: NodeId, point: &[NodeId], p: &Matrix) -> NodeId {
+        let jacobian_h = self.at.eval_matrix(g, point, &self.jacobian_h);
+        measurement_stiffness(g, duration, p, &jacobian_h, &self.r_inv)
+    }
 }
 
 impl Dynamics {
@@ -261,10 +391,19 @@ impl Dynamics {
         let alpha = kind
             .has_alpha()
             .then(|| g.graph.var(&unclaimed_name(String::from("alpha"), avoid)));
+        // `2 alpha` under a name of its own, computed once: the Riccati equation's
+        // `2 alpha P_ij` is then one multiply-add per entry and stage, where the simplifier
+        // would write `2 (P_ij alpha)`, two multiplications and an addition.
         let two_alpha = alpha.map(|alpha| {
             let two = g.graph.num(2.0);
-            g.graph.mul(two, alpha)
+            let value = g.graph.mul(two, alpha);
+            let var = g
+                .graph
+                .var(&unclaimed_name(String::from("two_alpha"), avoid));
+            (var, value)
         });
+        let measurement = matches!(kind, FilterMethod::Continuous { .. })
+            .then(|| MeasurementTerms::new(g, vars, model.outputs.len()));
         Dynamics {
             n: model.state_len(),
             rate_x,
@@ -273,17 +412,23 @@ impl Dynamics {
             q: vars.q_matrix.clone(),
             alpha,
             two_alpha,
+            measurement,
         }
     }
 
     /// `dz/dt` of the joined estimate and covariance `z` at time `t`: `f` and
-    /// `F P + P F' + Q` (eq. 21, with `alpha` eq. 26).
+    /// `F P + P F' + Q` (eq. 21, with `alpha` eq. 26), with the measurement terms of the
+    /// continuous-time EKF's whole equations (eq. 5).
     fn rate(&self, g: &mut Graph, t: NodeId, z: &[NodeId]) -> Vec<NodeId> {
         let (xs, ps) = split(z, self.n);
         let point: Vec<NodeId> = std::iter::once(t).chain(xs.iter().copied()).collect();
-        let dx = self.at.eval(g, &point, &self.rate_x);
+        let mut dx = self.at.eval(g, &point, &self.rate_x);
         let f = self.at.eval_matrix(g, &point, &self.jacobian);
-        let dp = covariance_rate(g, &f, &ps, &self.q, self.two_alpha);
+        let two_alpha = self.two_alpha.map(|(var, _)| var);
+        let mut dp = covariance_rate(g, &f, &ps, &self.q, two_alpha);
+        if let Some(terms) = &self.measurement {
+            (dx, dp) = terms.apply(g, &point, (&dx, &dp), &ps);
+        }
         join(&dx, &dp)
     }
 
@@ -303,6 +448,10 @@ impl Dynamics {
             let mut rate = |g: &mut Graph, t: NodeId, z: &[NodeId]| self.rate(g, t, z);
             return integrate_substep(g, rule, h, t0, &join(x, p), &mut rate);
         }
+        debug_assert!(
+            self.measurement.is_none(),
+            "the whole equations are integrated by RK4 only"
+        );
         let point: Vec<NodeId> = std::iter::once(t0).chain(x.iter().copied()).collect();
         let dx = self.at.eval(g, &point, &self.rate_x);
         let f = self.at.eval_matrix(g, &point, &self.jacobian);
@@ -338,8 +487,13 @@ struct MethodNodes {
     scaling: Option<Scaling>,
     /// The packed covariance's variables in the loop: `p`'s, or the scaled ones.
     p_loop: Vec<NodeId>,
-    /// The value the loop starts them from: `p`, or `D P D`.
+    /// The value the loop starts them from: `P`, or `D P D` (packed).
     p_initial: Vec<NodeId>,
+    /// The estimate the loop starts from: `x`, or a split step's after the first half of
+    /// its measurement terms.
+    x_initial: Vec<NodeId>,
+    /// The estimate's variables in the loop: `x`'s, or (a split step's) their own.
+    x_loop: Vec<NodeId>,
     /// The time the integration starts at: `t_prev` where the model reads time.
     t_start: NodeId,
     /// A step's measurement time, `t_prev + dt`, where the model reads time.
@@ -369,6 +523,12 @@ struct MethodNodes {
     recovers: bool,
     /// The measurement Jacobian's entries bound to variables, each computed once.
     coefficients: Coefficients,
+    /// The whole equations' `T tr(R^-1 H P H')` at the start, tested before they are
+    /// integrated.
+    stiffness: Option<NodeId>,
+    /// The split step's exact flows of the measurement terms: the pivots of each update,
+    /// their reciprocals and the suffix of their names.
+    flows: Vec<(Vec<NodeId>, Vec<NodeId>, &'static str)>,
 }
 
 /// The time the method's model starts from: the model's `t` where it reads none or in an
@@ -379,9 +539,35 @@ fn start_time(g: &mut ModelGraph, model: &Model, kind: FilterMethod) -> NodeId {
     match kind {
         _ if !model.uses_time() => g.t,
         FilterMethod::Predict | FilterMethod::ContinuousPredict { .. } => g.name_time("t_prev"),
-        FilterMethod::Step | FilterMethod::Continuous { .. } => g.graph.var("t_prev"),
+        FilterMethod::Step
+        | FilterMethod::Continuous { .. }
+        | FilterMethod::ContinuousSplit { .. } => g.graph.var("t_prev"),
         FilterMethod::Update => g.t,
     }
+}
+
+/// A sub-step's rule, its step and the sample time.
+type Rule = (Method, NodeId, NodeId);
+
+/// The variables of a split step's loop: it starts after the first half of the measurement
+/// terms, so it runs over variables of its own (which name its values after it too): the
+/// estimate's, `psi_sub..`, and the covariance's, `ps11..` (already its own where it is
+/// scaled).
+fn split_loop_vars(
+    g: &mut ModelGraph,
+    model: &Model,
+    avoid: &[String],
+    (scaling, p_loop): (&Option<Scaling>, Vec<NodeId>),
+) -> (Vec<NodeId>, Vec<NodeId>) {
+    let x_loop = model
+        .state_names()
+        .map(|name| g.graph.var(&unclaimed_name(format!("{name}_sub"), avoid)))
+        .collect();
+    let p_loop = match scaling {
+        Some(_) => p_loop,
+        None => packed_vars(&mut g.graph, "ps", model.state_len(), avoid),
+    };
+    (x_loop, p_loop)
 }
 
 /// The covariance a loop of Euler sub-steps (`scaled`, with the sub-step `h`) carries:
@@ -437,8 +623,12 @@ impl MethodNodes {
         let coefficients = Coefficients::new(&avoid);
         let looped = kind.predicts() && substeps > 1;
         let scaled = looped && rule == Method::Euler;
-        let (scaling, p_loop, p_initial) =
+        let (scaling, mut p_loop, p_initial) =
             loop_covariance(&mut g, (scaled, h), &dynamics.jacobian, &vars.p, &avoid);
+        let mut x_loop = g.x.clone();
+        if looped && matches!(kind, FilterMethod::ContinuousSplit { .. }) {
+            (x_loop, p_loop) = split_loop_vars(&mut g, model, &avoid, (&scaling, p_loop));
+        }
         let mut nodes = MethodNodes {
             prediction_test: None,
             x: g.x.clone(),
@@ -452,6 +642,8 @@ impl MethodNodes {
             scaling,
             p_loop,
             p_initial,
+            x_loop,
+            x_initial: Vec::new(),
             t_start,
             t_measured,
             t_sub,
@@ -464,50 +656,131 @@ impl MethodNodes {
             gated: options.gated,
             recovers: options.recovers,
             coefficients,
+            stiffness: None,
+            flows: Vec::new(),
         };
-        if kind.predicts() {
-            nodes.propagate((rule, h), model.uses_time());
-        }
-        if kind == FilterMethod::Step {
-            let probe = finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p);
-            let variances = (0..n).map(|i| nodes.p[i][i]).collect();
-            nodes.prediction_test = Some((probe, variances));
-        }
-        if kind.updates() {
-            // The continuous-time EKF's measurement terms over the sample `T` are the
-            // update with `R / T` (see `FilterMethod::Continuous`).
-            nodes.correct(m, kind.is_continuous().then_some(dt));
-        }
+        nodes.integrate(model, kind, (rule, h, dt));
         nodes
     }
 
-    /// The propagation over the sample: one sub-step from the loop's variables, which the
-    /// loop carries (with the running time when the model reads it), or the only one.
-    fn propagate(&mut self, (rule, h): (Method, NodeId), uses_time: bool) {
-        let t0 = if self.looped {
-            self.t_sub
-        } else {
-            self.t_start
-        };
+    /// What the method computes after its variables: a continuous-time EKF's innovation
+    /// at the start of the sample `dt`, then the propagation (sub-step rule `rule`, step
+    /// `h`) with the measurement terms as `kind` integrates them, or the hybrid EKF's
+    /// propagation and/or update.
+    fn integrate(&mut self, model: &Model, kind: FilterMethod, (rule, h, dt): Rule) {
+        let nodes = self;
+        let m = model.outputs.len();
+        let start = model.uses_time().then_some(nodes.t_start);
+        if kind.is_continuous() {
+            // The sample's innovation, at its start, against `H P H' + R / T`.
+            nodes.sample_innovation(m, (start, dt));
+        }
+        match kind {
+            FilterMethod::Continuous { .. } => {
+                nodes.stiffness = Some(nodes.stiffness_at_start(dt));
+                nodes.propagate((rule, h), nodes.t_start, model.uses_time());
+            }
+            FilterMethod::ContinuousSplit { fallback, .. } => {
+                // The fallback of the whole equations' step takes two sub-steps (see
+                // `FilterMethod::ContinuousSplit`).
+                let parts = if fallback { 2 } else { 1 };
+                nodes.strang(m, (rule, h, parts), (start, dt), model.uses_time());
+            }
+            _ => {
+                if kind.predicts() {
+                    nodes.propagate((rule, h), nodes.t_start, model.uses_time());
+                }
+                if kind == FilterMethod::Step {
+                    // The step tests its prediction as `predict` does, before correcting.
+                    let n = nodes.x.len();
+                    let probe = finiteness_probe(&mut nodes.g.graph, &nodes.x, &nodes.p);
+                    let variances = (0..n).map(|i| nodes.p[i][i]).collect();
+                    nodes.prediction_test = Some((probe, variances));
+                }
+                if kind.updates() {
+                    nodes.correct(m);
+                }
+            }
+        }
+    }
+
+    /// The split step over the sample `dt` from the time `start` (where the model reads
+    /// it) in `parts` sub-steps of Strang's splitting, each the measurement terms' flow
+    /// over half of it, the propagation (the model's rule and step `h / parts`), their
+    /// flow over the other half; the halves of neighbouring sub-steps are one flow.
+    fn strang(
+        &mut self,
+        m: usize,
+        (rule, h, parts): (Method, NodeId, u32),
+        (start, dt): (Option<NodeId>, NodeId),
+        uses_time: bool,
+    ) {
         let graph = &mut self.g.graph;
-        let p = if self.looped {
-            symmetric_from_packed(&self.p_loop, self.dynamics.n)
-        } else {
-            self.p.clone()
-        };
+        let share = graph.num(1.0 / f64::from(parts));
+        let (sub, h) = (graph.mul(share, dt), graph.mul(share, h));
+        let one_half = graph.num(0.5);
+        let half = graph.mul(one_half, sub);
+        self.measurement_flow(m, (start, half), "_start");
+        let mut t0 = self.t_start;
+        for part in 1..=parts {
+            self.propagate((rule, h), t0, uses_time);
+            t0 = self.g.graph.add(t0, sub);
+            if part < parts {
+                let t = uses_time.then_some(t0);
+                self.measurement_flow(m, (t, sub), "_mid");
+            }
+        }
+        self.measurement_flow(m, (self.t_measured, half), "_end");
+    }
+
+    /// The whole equations' stiffness at the start of the sample `dt`,
+    /// `T tr(R^-1 H P H')` (see [`MeasurementTerms::stiffness`]).
+    fn stiffness_at_start(&mut self, dt: NodeId) -> NodeId {
+        let terms = self
+            .dynamics
+            .measurement
+            .as_ref()
+            .expect("the whole equations have measurement terms");
+        let point: Vec<NodeId> = std::iter::once(self.t_start)
+            .chain(self.x.iter().copied())
+            .collect();
+        terms.stiffness(&mut self.g.graph, dt, &point, &self.p)
+    }
+
+    /// The propagation over the sample: one sub-step from the loop's variables, which the
+    /// loop carries (with the running time when the model reads it), or the only one, of
+    /// the step `h` from the time `start`.
+    fn propagate(&mut self, (rule, h): (Method, NodeId), start: NodeId, uses_time: bool) {
+        let t0 = if self.looped { self.t_sub } else { start };
+        let graph = &mut self.g.graph;
         let scaling = self.scaling.as_ref();
+        let (x, p) = if self.looped {
+            // The loop starts from the estimate so far (a split step's, after the first
+            // half of its measurement terms), its sub-steps run over the loop's variables.
+            self.x_initial.clone_from(&self.x);
+            self.p_initial = match scaling {
+                Some(scaling) => packed_upper(&scaling.apply(graph, &self.p, 1)),
+                None => packed_upper(&self.p),
+            };
+            let p = symmetric_from_packed(&self.p_loop, self.dynamics.n);
+            (self.x_loop.clone(), p)
+        } else {
+            (self.x.clone(), self.p.clone())
+        };
         let z = self
             .dynamics
-            .substep(graph, (rule, h), t0, (&self.x, &p), scaling);
+            .substep(graph, (rule, h), t0, (&x, &p), scaling);
         if self.looped {
             self.loop_next = z;
             if uses_time {
                 self.loop_next.push(graph.add(self.t_sub, h));
             }
-            if let Some(scaling) = scaling {
-                // After the loop, `P = D^-1 P~ D^-1`.
-                self.p = scaling.apply(graph, &p, -1);
-            }
+            // After the loop, the carried values; with a scaling, `P = D^-1 P~ D^-1`.
+            self.x = x;
+            self.p = match scaling {
+                Some(scaling) => scaling.apply(graph, &p, -1),
+                None => p,
+            };
         } else {
             (self.x, self.p) = split(&z, self.dynamics.n);
         }
@@ -515,10 +788,47 @@ impl MethodNodes {
 
     /// The Joseph-form update at the sample (Takacs et al., eqs. 24-26) with every one of the
     /// `m` outputs: the shared Kalman stage, with `h` and its Jacobian at the estimate (and
-    /// at a step's measurement time). With `noise_duration` `T`, the measurement noise is
-    /// the density `R` over it, `R / T`. With the gate (`gated`), the normalised innovation
+    /// at a step's measurement time). With the gate (`gated`), the normalised innovation
     /// squared, tested against the gate or the divergence bound.
-    fn correct(&mut self, m: usize, noise_duration: Option<NodeId>) {
+    fn correct(&mut self, m: usize) {
+        let correction = self.correction(m, (self.t_measured, None), "");
+        self.keep_innovation(&correction);
+        let update = correction.update;
+        (self.x, self.p) = (update.x, update.p);
+    }
+
+    /// The continuous-time EKF's innovation over the sample `dt`, kept and tested but not
+    /// applied: `y - h(x)` at the start of the sample (at the time `start` where the model
+    /// reads it) against `H P H' + R / T`, the covariance of the sample's measurement.
+    fn sample_innovation(&mut self, m: usize, (start, dt): (Option<NodeId>, NodeId)) {
+        let correction = self.correction(m, (start, Some(dt)), "");
+        self.keep_innovation(&correction);
+    }
+
+    /// The exact flow of the measurement terms over `duration` from the estimate (at the
+    /// time `t` where the model reads it): the update with `R / duration`, its pivots named
+    /// with `suffix`.
+    fn measurement_flow(
+        &mut self,
+        m: usize,
+        (t, duration): (Option<NodeId>, NodeId),
+        suffix: &'static str,
+    ) {
+        let update = self.correction(m, (t, Some(duration)), suffix).update;
+        (self.x, self.p) = (update.x, update.p);
+        self.flows.push((update.pivots, update.reciprocals, suffix));
+    }
+
+    /// The shared Kalman stage at the estimate with every one of the `m` outputs, `h` and
+    /// its Jacobian at time `t` where given. With `noise_duration` `T`, the measurement
+    /// noise is the density `R` over it, `R / T`. Its pivots' reciprocals are named with
+    /// `suffix`.
+    fn correction(
+        &mut self,
+        m: usize,
+        (t, noise_duration): (Option<NodeId>, Option<NodeId>),
+        suffix: &'static str,
+    ) -> kalman::Correction {
         let mut r = symmetric_from_packed(&self.vars.r, m);
         if let Some(duration) = noise_duration {
             let graph = &mut self.g.graph;
@@ -528,22 +838,26 @@ impl MethodNodes {
                 .collect();
         }
         let all: Vec<usize> = (0..m).collect();
-        let correction = kalman::ekf_correct(
+        kalman::ekf_correct(
             &mut self.g,
-            (self.t_measured, &self.x),
+            (t, &self.x),
             &self.p,
             (&self.vars.y, &all),
             &r,
             (&mut self.coefficients, |g: &mut Graph, j| {
-                g.var(&pivot_names(m, j, INNOVATION, "").1)
+                g.var(&pivot_names(m, j, INNOVATION, suffix).1)
             }),
-        );
-        let update = correction.update;
-        self.innovation = correction.residual;
+        )
+    }
+
+    /// Keeps a correction's innovation, its covariance (packed), normalised square and
+    /// pivots, to store, test and guard.
+    fn keep_innovation(&mut self, correction: &kalman::Correction) {
+        let update = &correction.update;
+        self.innovation = correction.residual.clone();
         self.innovation_covariance = packed_upper(&update.s);
         self.nis = Some(update.nis);
-        (self.x, self.p) = (update.x, update.p);
-        (self.pivots, self.reciprocals) = (update.pivots, update.reciprocals);
+        (self.pivots, self.reciprocals) = (update.pivots.clone(), update.reciprocals.clone());
     }
 }
 
@@ -574,6 +888,17 @@ impl MethodNodes {
         roots.extend(&self.innovation);
         roots.extend(&self.innovation_covariance);
         roots.extend(self.nis);
+        roots.extend(self.stiffness);
+        if self.x_loop != self.g.x {
+            roots.extend(&self.x_initial);
+            roots.extend(&self.p_initial);
+        }
+        if let Some(terms) = &self.dynamics.measurement {
+            roots.extend(&terms.r_pivots);
+        }
+        for (pivots, ..) in &self.flows {
+            roots.extend(pivots);
+        }
         roots
     }
 }
@@ -602,28 +927,12 @@ fn lower(
     let all_roots = nodes.roots(&results, probe);
     let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
     let mut lowerer = Lowerer::new(&nodes.g.graph, scalar, namer, &all_roots);
-    for &(var, value) in &nodes.coefficients.definitions {
-        lowerer.define(var, value);
-    }
     read_noise_and_alpha(&mut lowerer, nodes);
-    let substep_loop = if nodes.looped {
-        Some(substep_loop(&mut lowerer, nodes, model.uses_time()))
-    } else {
-        lowerer.read_lazily(&quote! { self.x }, &nodes.g.x);
-        lowerer.read_lazily(&quote! { self.p }, &nodes.vars.p);
-        None
-    };
+    let substep_loop = lower_start(&mut lowerer, nodes, model, kind);
     nodes.test_prediction(&mut lowerer, scalar);
     let suffix = if kind.updates() { "new" } else { "pred" };
     name_estimate(&mut lowerer, model, &nodes.x, suffix);
-    guard_pivots(
-        &mut lowerer,
-        &nodes.pivots,
-        &nodes.reciprocals,
-        (INNOVATION, ""),
-        &innovation_pivot_failure,
-        scalar,
-    );
+    guard_after_propagation(&mut lowerer, nodes, kind);
     measurement::name_innovation(&mut lowerer, model, &nodes.innovation, "");
     let probe = lowerer.bind(probe, "divergence_probe");
     let values = lowerer.segment(&results);
@@ -670,8 +979,134 @@ fn lower(
     }
 }
 
-/// Reads the noise from the fields and `alpha` from its field, before the sub-steps.
+/// Guards the pivots of what follows the propagation: the hybrid EKF's update, or the split
+/// step's measurement terms after its first (the continuous-time EKF's innovation and that
+/// first flow are guarded before, see [`lower_start`]).
+fn guard_after_propagation(lowerer: &mut Lowerer, nodes: &MethodNodes, kind: FilterMethod) {
+    let scalar = lowerer.scalar();
+    let after = if kind.is_continuous() {
+        nodes.flows.get(1..).unwrap_or_default()
+    } else {
+        let (pivots, reciprocals) = (&nodes.pivots, &nodes.reciprocals);
+        let names = (INNOVATION, "");
+        guard_pivots(
+            lowerer,
+            pivots,
+            reciprocals,
+            names,
+            &innovation_pivot_failure,
+            scalar,
+        );
+        &nodes.flows[..]
+    };
+    for (pivots, reciprocals, suffix) in after {
+        let names = (INNOVATION, *suffix);
+        guard_pivots(
+            lowerer,
+            pivots,
+            reciprocals,
+            names,
+            &innovation_pivot_failure,
+            scalar,
+        );
+    }
+}
+
+/// The code before the propagation: the estimate and covariance read from the fields, the
+/// whole equations' test of their stiffness, and a continuous-time EKF's values at the start
+/// of the sample (its innovation, checked, and a split step's first half of its measurement
+/// terms); then the loop of sub-steps, if the propagation has one.
+fn lower_start(
+    lowerer: &mut Lowerer,
+    nodes: &MethodNodes,
+    model: &Model,
+    kind: FilterMethod,
+) -> Option<SubstepLoop> {
+    let scalar = lowerer.scalar();
+    if !nodes.looped || kind.is_continuous() {
+        lowerer.read_lazily(&quote! { self.x }, &nodes.g.x);
+        lowerer.read_lazily(&quote! { self.p }, &nodes.vars.p);
+    }
+    // The whole equations' step (never looped) tests them first.
+    fall_back_when_stiff(lowerer, nodes, model);
+    if kind.is_continuous() {
+        let names = (INNOVATION, "");
+        let (pivots, reciprocals) = (&nodes.pivots, &nodes.reciprocals);
+        guard_pivots(
+            lowerer,
+            pivots,
+            reciprocals,
+            names,
+            &innovation_pivot_failure,
+            scalar,
+        );
+        for &value in nodes.innovation.iter().chain(&nodes.innovation_covariance) {
+            lowerer.force_let(value);
+        }
+        if let Some(nis) = nodes.nis {
+            lowerer.bind(nis, "nis");
+        }
+        if let Some((pivots, reciprocals, suffix)) = nodes.flows.first() {
+            let names = (INNOVATION, *suffix);
+            guard_pivots(
+                lowerer,
+                pivots,
+                reciprocals,
+                names,
+                &innovation_pivot_failure,
+                scalar,
+            );
+        }
+    }
+    nodes
+        .looped
+        .then(|| substep_loop(lowerer, nodes, model.uses_time()))
+}
+
+/// The whole equations' step falls back on `step_split` (see [`FilterMethod::Continuous`])
+/// where `R` is not positive definite (a pivot of its inverse is not positive) or the
+/// measurement terms are stiff, `T tr(R^-1 H P H')` beyond [`WHOLE_STEP_STIFFNESS`] (or
+/// not a number): checked before anything else is computed.
+fn fall_back_when_stiff(lowerer: &mut Lowerer, nodes: &MethodNodes, model: &Model) {
+    let (Some(terms), Some(stiffness)) = (&nodes.dynamics.measurement, nodes.stiffness) else {
+        return;
+    };
+    let mut arguments = measurement::keep_prediction_call(model).1;
+    arguments.push(quote! { y });
+    let fall_back = quote! { return self.step_split(#(#arguments),*); };
+    let scalar = lowerer.scalar();
+    let (prefixes, suffix) = NOISE_PIVOTS;
+    guard_pivots(
+        lowerer,
+        &terms.r_pivots,
+        &terms.r_reciprocals,
+        (prefixes, suffix),
+        &|_| fall_back.clone(),
+        scalar,
+    );
+    let stiffness = lowerer.bind(stiffness, "measurement_stiffness");
+    let limit = crate::emit::lower::literal(WHOLE_STEP_STIFFNESS, scalar);
+    lowerer.statement(quote! {
+        if !(#stiffness <= #limit) {
+            #fall_back
+        }
+    });
+    lowerer.count_extra(OpCount {
+        compare: 1,
+        ..OpCount::default()
+    });
+}
+
+/// Reads the noise from the fields and `alpha` from its field, before the sub-steps; the
+/// variables that stand for a value computed once (the measurement Jacobian's entries,
+/// `2 alpha`) compute it where first used.
 fn read_noise_and_alpha(lowerer: &mut Lowerer, nodes: &MethodNodes) {
+    for &(var, value) in &nodes.coefficients.definitions {
+        lowerer.define(var, value);
+    }
+    if let Some((var, value)) = nodes.dynamics.two_alpha {
+        lowerer.define(var, value);
+    }
     lowerer.read_lazily(&quote! { self.q }, &nodes.vars.q);
     lowerer.read_lazily(&quote! { self.r }, &nodes.vars.r);
     if let Some(alpha) = nodes.dynamics.alpha {
@@ -685,20 +1120,29 @@ fn read_noise_and_alpha(lowerer: &mut Lowerer, nodes: &MethodNodes) {
 /// reads the carried arrays.
 fn substep_loop(lowerer: &mut Lowerer, nodes: &MethodNodes, uses_time: bool) -> SubstepLoop {
     let n = nodes.dynamics.n;
-    let (x_vars, p_vars) = (&nodes.g.x, &nodes.p_loop);
-    let p_initial = if nodes.scaling.is_some() {
+    let (x_vars, p_vars) = (&nodes.x_loop, &nodes.p_loop);
+    // The fields themselves, unless the loop starts from values computed before it (a
+    // scaled covariance, a split step's first half of its measurement terms).
+    let x_initial = if nodes.x_initial == nodes.g.x {
+        quote! { self.x }
+    } else {
+        lowerer.read_lazily(&quote! { self.x }, &nodes.g.x);
+        let values = lowerer.segment(&nodes.x_initial);
+        quote! { [#(#values),*] }
+    };
+    let p_initial = if nodes.p_initial == nodes.vars.p {
+        quote! { self.p }
+    } else {
         lowerer.read_lazily(&quote! { self.p }, &nodes.vars.p);
         let values = lowerer.segment(&nodes.p_initial);
         quote! { [#(#values),*] }
-    } else {
-        quote! { self.p }
     };
     let (x_next, rest) = nodes.loop_next.split_at(n);
     let (p_next, t_next) = rest.split_at(packed_len(n));
     let mut carried = vec![
         Carried {
             name: X_SUB,
-            initial: quote! { self.x },
+            initial: x_initial,
             vars: x_vars,
             next: x_next,
             scalar: false,

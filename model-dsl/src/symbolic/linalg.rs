@@ -189,6 +189,9 @@ impl Coefficients {
             name.push('_');
         }
         let var = g.var(&name);
+        // A later matrix bound under the same prefix (a split step's Jacobian at another
+        // point) takes another name: two variables of one name would shadow each other.
+        self.avoid.push(name);
         self.definitions.push((var, value));
         self.bound.insert(magnitude, (var, negative));
         var

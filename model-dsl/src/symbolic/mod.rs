@@ -7,6 +7,7 @@ pub mod euler_state;
 pub mod graph;
 pub mod kalman;
 pub mod linalg;
+pub mod measurement_terms;
 pub mod model_graph;
 pub mod riccati;
 pub mod scaled_covariance;

@@ -6,7 +6,7 @@
 //! the paper's eq. 26): `F + alpha I` in place of `F` in the Riccati equation.
 
 use super::spec::ContinuousEkfSpec;
-use crate::emit::continuous_filter::{method, FilterMethod, FilterOptions};
+use crate::emit::continuous_filter::{integrates_whole, method, FilterMethod, FilterOptions};
 use crate::emit::filter::{substeps_constant, FilterLayout};
 use crate::emit::known::KnownItems;
 use crate::emit::lower::{literal, OpCount};
@@ -24,8 +24,12 @@ pub struct ContinuousEkfCode {
     pub tokens: TokenStream,
     /// Arithmetic of one integration sub-step of state and Riccati equation.
     pub substep_ops: OpCount,
-    /// Arithmetic of `step` (every sub-step).
+    /// Arithmetic of `step` (every sub-step): of the whole equations' step where the model
+    /// has one (see [`integrates_whole`]), else of the split step.
     pub step_ops: OpCount,
+    /// Arithmetic of the split step `step_split` a stiff sample takes, where `step` is the
+    /// whole equations'.
+    pub split_step_ops: Option<OpCount>,
 }
 
 /// The continuous-time EKF of `model` (continuous dynamics) in `scalar`.
@@ -37,8 +41,9 @@ pub fn emit_continuous_ekf(
 ) -> ContinuousEkfCode {
     let options = FilterOptions::of(&spec.process_noise, spec.gate, spec.recover_after);
     let alpha = spec.alpha.is_some();
-    let step_kind = FilterMethod::Continuous { alpha };
-    let (step, step_ops, substep_ops) = method(model, mg, scalar, step_kind, &options);
+    let whole = integrates_whole(model, mg);
+    let (step, step_ops, substep_ops, split_step, split_step_ops) =
+        steps(model, mg, scalar, (alpha, whole), &options);
     let predict_kind = FilterMethod::ContinuousPredict { alpha };
     let (predict, ..) = method(model, mg, scalar, predict_kind, &options);
     let ty = ident(scalar.type_name());
@@ -70,7 +75,7 @@ pub fn emit_continuous_ekf(
         &quote! { #measurement_init #alpha_init },
     );
     let alpha_items = spec.alpha.map(|alpha| alpha_items(alpha, scalar));
-    let doc = type_doc(spec);
+    let doc = type_doc(spec, whole);
     let tokens = quote! {
         #[doc = #doc]
         #[derive(Clone, Copy, Debug, PartialEq)]
@@ -95,6 +100,8 @@ pub fn emit_continuous_ekf(
 
             #step
 
+            #split_step
+
             #predict
         }
     };
@@ -102,6 +109,41 @@ pub fn emit_continuous_ekf(
         tokens,
         substep_ops,
         step_ops,
+        split_step_ops,
+    }
+}
+
+/// A continuous-time EKF's steps: `step` (its tokens, its arithmetic and that of one
+/// sub-step) and, where it integrates the whole equations, the `step_split` it falls back
+/// on (its tokens and arithmetic).
+type Steps = (TokenStream, OpCount, OpCount, TokenStream, Option<OpCount>);
+
+/// The filter's steps ([`Steps`]): where it integrates the whole equations (`whole`),
+/// `step` and `step_split`; else `step` is the split step.
+fn steps(
+    model: &Model,
+    mg: &ModelGraph,
+    scalar: Scalar,
+    (alpha, whole): (bool, bool),
+    options: &FilterOptions,
+) -> Steps {
+    let split_kind = FilterMethod::ContinuousSplit {
+        alpha,
+        fallback: whole,
+    };
+    let (split_step, split_ops, split_substep_ops) = method(model, mg, scalar, split_kind, options);
+    if whole {
+        let step_kind = FilterMethod::Continuous { alpha };
+        let (step, ops, substep_ops) = method(model, mg, scalar, step_kind, options);
+        (step, ops, substep_ops, split_step, Some(split_ops))
+    } else {
+        (
+            split_step,
+            split_ops,
+            split_substep_ops,
+            TokenStream::new(),
+            None,
+        )
     }
 }
 
@@ -147,8 +189,37 @@ fn alpha_items(alpha: f64, scalar: Scalar) -> TokenStream {
     }
 }
 
+/// How the step integrates the equations, with a model of one RK4 sub-step per sample
+/// (`whole`) or otherwise.
+fn integration_doc(whole: bool) -> &'static str {
+    if whole {
+        "Integrated by RK4, the whole equations over the sample, while the measurement \
+         terms are not stiff: while `T tr(R^-1 H P H')` (at least `T` times the largest rate \
+         `P H' R^-1 H` pulls the estimate at) is at most 0.1, so that the error stays of \
+         the fourth order in `T`. A stiffer sample (a precise sensor and an uncertain \
+         start), or an `R` that is not positive definite, is integrated split, so that no \
+         gain makes it unstable, in two sub-steps of Strang's splitting: the measurement \
+         terms alone over a quarter of the sample by their exact flow, \
+         `P = (P^-1 + t H' R^-1 H)^-1` over the time `t` (the Joseph-form update with the \
+         measurement noise `R / t`), the equations without them over half the sample by \
+         one RK4 step, the measurement terms' flow over half the sample, the equations \
+         without them over the other half, their flow over the last quarter. An explicit \
+         step of the whole equations diverges once `T` times the rate `P H' R^-1 H` leaves \
+         its stability region."
+    } else {
+        "Integrated split, so that no gain makes it unstable, by Strang's splitting: the \
+         measurement terms alone over half the sample by their exact flow, \
+         `P = (P^-1 + t H' R^-1 H)^-1` over the time `t` (the Joseph-form update with the \
+         measurement noise `2 R / T`), the equations without them over the sample by the \
+         model's rule and [`ContinuousEkf::SUBSTEPS`] sub-steps, the measurement terms' flow \
+         over the other half; the split's error is of the second order in `T`. An explicit \
+         step of the whole equations diverges once `T` times the rate `P H' R^-1 H` leaves \
+         its stability region (a precise sensor and an uncertain start)."
+    }
+}
+
 /// The filter type's documentation: eq. 5, with `alpha` eq. 26.
-fn type_doc(spec: &ContinuousEkfSpec) -> String {
+fn type_doc(spec: &ContinuousEkfSpec, whole: bool) -> String {
     let riccati = if spec.alpha.is_some() {
         "`P' = (F + alpha I) P + P (F + alpha I)' + Q - P H' R^-1 H P` (eq. 26, with a \
          prescribed degree of stability `alpha`, Reif et al.)"
@@ -161,15 +232,8 @@ fn type_doc(spec: &ContinuousEkfSpec) -> String {
          EKF\", eq. 5): `x' = f(x, u) + K (y - h(x))`, `K = P H' R^-1`, and {riccati}, \
          `F = df/dx`, `H = dh/dx`, over each sample with input and measurement held. \
          `Q` and `R` are spectral densities. The covariance is stored once, as a packed \
-         upper triangle.\n\n Integrated split, so that no gain makes it unstable: the \
-         equations without the measurement terms by the model's rule and \
-         [`ContinuousEkf::SUBSTEPS`] sub-steps, then the measurement terms alone by their \
-         exact flow over the sample `T`, `P = (P^-1 + T H' R^-1 H)^-1`: the Joseph-form \
-         update with the measurement noise `R / T`. A fixed explicit step of the whole \
-         equations diverges once `T` times the rate `P H' R^-1 H` leaves its stability \
-         region (a precise sensor and an uncertain start); the split's error is of the \
-         first order in `T` (the equations, with `y[k]` held from the previous sample, \
-         pull the estimate half a sample ahead of where the update uses `y[k]`).{gate}",
+         upper triangle.\n\n {integration}{gate}",
+        integration = integration_doc(whole),
         gate = measurement::gate_doc(spec.gate)
     )
 }

@@ -75,9 +75,17 @@ impl Generator for ContinuousEkfSpec {
 impl Lowering for ContinuousEkfSpec {
     fn lower(&self, model: &Model, mg: &ModelGraph, scalar: Scalar) -> Code {
         let ct = lower::emit_continuous_ekf(model, self, mg, scalar);
+        let split = ct.split_step_ops.map(|ops| {
+            Cost::new(
+                "CONTINUOUS_EKF_SPLIT_STEP_OPS",
+                "ContinuousEkf::step on a stiff sample (its split step)",
+                ops,
+            )
+            .part()
+        });
         Code {
             tokens: ct.tokens,
-            costs: vec![
+            costs: [
                 Cost::new(
                     "CONTINUOUS_EKF_SUBSTEP_OPS",
                     "one sub-step of ContinuousEkf::step",
@@ -90,7 +98,10 @@ impl Lowering for ContinuousEkfSpec {
                     ct.step_ops,
                 )
                 .budgeted(),
-            ],
+            ]
+            .into_iter()
+            .chain(split)
+            .collect(),
         }
     }
 }
