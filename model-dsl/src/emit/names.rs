@@ -78,6 +78,10 @@ pub struct TempNamer {
     /// Names the emitter chose for particular nodes, used before any other rule.
     preferred: HashMap<NodeId, String>,
     numbered: usize,
+    /// For a base name taken already, the suffix its next variant is sought from: every
+    /// smaller one was taken (names are never given back), so a name the model uses in
+    /// each of 256 sub-steps does not try `f_act_2` .. `f_act_256` again each time.
+    suffixes: HashMap<String, usize>,
 }
 
 impl TempNamer {
@@ -88,6 +92,7 @@ impl TempNamer {
             assigned: HashMap::new(),
             preferred: HashMap::new(),
             numbered: 0,
+            suffixes: HashMap::new(),
         }
     }
 
@@ -136,15 +141,21 @@ impl TempNamer {
         ident(&name)
     }
 
-    fn unique(&self, base: &str) -> String {
-        let valid = |s: &str| !self.taken.contains(s) && syn::parse_str::<syn::Ident>(s).is_ok();
+    fn unique(&mut self, base: &str) -> String {
+        let taken = &self.taken;
+        let valid = |s: &str| !taken.contains(s) && syn::parse_str::<syn::Ident>(s).is_ok();
         if valid(base) {
             return base.to_owned();
         }
-        (2..)
-            .map(|n| format!("{base}_{n}"))
-            .find(|s| valid(s))
-            .unwrap_or_else(|| base.to_owned())
+        let start = self.suffixes.get(base).copied().unwrap_or(2);
+        let Some((n, name)) = (start..)
+            .map(|n| (n, format!("{base}_{n}")))
+            .find(|(_, s)| valid(s))
+        else {
+            return base.to_owned();
+        };
+        self.suffixes.insert(base.to_owned(), n);
+        name
     }
 
     /// A readable description of a node from its operands, if one is short enough.

@@ -28,8 +28,9 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
         return statements;
     }
     let parts: Vec<Parts> = statements.iter().map(Parts::of).collect();
-    let mut read_later: HashSet<String> = HashSet::new();
-    read_names(tail.clone(), &mut read_later);
+    let mut tail_reads = Vec::new();
+    read_names(tail.clone(), &mut tail_reads);
+    let mut read_later: HashSet<&str> = tail_reads.iter().map(String::as_str).collect();
     // Walking backwards, a block hands on what it defines that is read after it. A
     // statement binding many names at once (reading a whole covariance) stays outside any
     // block: handing its thousands of names on through an array costs rustc far more
@@ -54,9 +55,10 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
         let mut exported: Vec<&Ident> = parts[start..end]
             .iter()
             .rev()
-            .flat_map(|part| part.bound.iter().rev())
-            .filter(|name| read_later.contains(&name.to_string()))
-            .filter(|name| seen.insert(name.to_string()))
+            .flat_map(|part| part.bound.iter().zip(&part.bound_text).rev())
+            .filter(|(_, text)| read_later.contains(text.as_str()))
+            .filter(|(_, text)| seen.insert(text.as_str()))
+            .map(|(name, _)| name)
             .collect();
         exported.reverse();
         let body = &statements[start..end];
@@ -78,37 +80,44 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
 /// before it: a name it binds is, from there back, another binding (a covariance entry
 /// read again after the tests hands nothing on from its first read), and the names it
 /// reads are read. A name it both reads and binds (`let a = a * 2.0;`) stays read.
-fn live_before(parts: &Parts, live: &mut HashSet<String>) {
-    for name in &parts.bound {
-        live.remove(&name.to_string());
+fn live_before<'a>(parts: &'a Parts, live: &mut HashSet<&'a str>) {
+    for name in &parts.bound_text {
+        live.remove(name.as_str());
     }
-    read_names(parts.rest.clone(), live);
+    live.extend(parts.reads.iter().map(String::as_str));
 }
 
 /// A statement's parts: the names it binds with its top-level `let`s (a guarded
-/// reciprocal is an `if` and a `let` in one statement), and the rest of its tokens, what
-/// it reads.
+/// reciprocal is an `if` and a `let` in one statement), as identifiers and as text, and
+/// the names the rest of its tokens read ([`read_names`] of them, taken as they go by).
 struct Parts {
     bound: Vec<Ident>,
-    rest: TokenStream,
+    bound_text: Vec<String>,
+    reads: Vec<String>,
 }
 
 impl Parts {
     fn of(statement: &TokenStream) -> Parts {
-        let (mut bound, mut rest) = (Vec::new(), TokenStream::new());
+        let (mut bound, mut reads) = (Vec::new(), Vec::new());
+        let mut reader = Reader::default();
         let mut in_pattern = false;
         for token in statement.clone() {
             match token {
                 TokenTree::Ident(ident) if !in_pattern && ident == "let" => {
                     in_pattern = true;
-                    rest.extend([TokenTree::Ident(ident)]);
+                    reader.read(&TokenTree::Ident(ident), &mut reads);
                 }
                 TokenTree::Punct(p) if in_pattern && p.as_char() == '=' => in_pattern = false,
                 other if in_pattern => pattern_names(other, &mut bound),
-                other => rest.extend([other]),
+                other => reader.read(&other, &mut reads),
             }
         }
-        Parts { bound, rest }
+        let bound_text = bound.iter().map(ToString::to_string).collect();
+        Parts {
+            bound,
+            bound_text,
+            reads,
+        }
     }
 }
 
@@ -127,23 +136,34 @@ fn pattern_names(token: TokenTree, names: &mut Vec<Ident>) {
 
 /// Adds the names `tokens` reads: identifiers that are not a field or method after `.`
 /// nor a path segment after `::`.
-fn read_names(tokens: TokenStream, names: &mut HashSet<String>) {
-    let mut after_accessor = false;
-    let mut previous_colon = false;
+fn read_names(tokens: TokenStream, names: &mut Vec<String>) {
+    let mut reader = Reader::default();
     for token in tokens {
-        match &token {
-            TokenTree::Ident(ident) if !after_accessor => {
-                names.insert(ident.to_string());
-            }
+        reader.read(&token, names);
+    }
+}
+
+/// [`read_names`] one token at a time: whether the last tokens were an accessor.
+#[derive(Default)]
+struct Reader {
+    after_accessor: bool,
+    previous_colon: bool,
+}
+
+impl Reader {
+    /// Adds the names `token` reads, the one after the tokens read before it.
+    fn read(&mut self, token: &TokenTree, names: &mut Vec<String>) {
+        match token {
+            TokenTree::Ident(ident) if !self.after_accessor => names.push(ident.to_string()),
             TokenTree::Group(group) => read_names(group.stream(), names),
             _ => {}
         }
-        let (dot, colon) = match &token {
+        let (dot, colon) = match token {
             TokenTree::Punct(p) => (p.as_char() == '.', p.as_char() == ':'),
             _ => (false, false),
         };
-        after_accessor = dot || (colon && previous_colon);
-        previous_colon = colon;
+        self.after_accessor = dot || (colon && self.previous_colon);
+        self.previous_colon = colon;
     }
 }
 
@@ -204,10 +224,10 @@ mod tests {
         assert_eq!(blocks.len(), 2);
         assert!(squeeze(&blocks[1]).starts_with("letb0={letb0=z;"));
         // A name after `.` or `::` is not a read.
-        let mut reads = HashSet::new();
+        let mut reads = Vec::new();
         read_names(quote! { libm::sinf(self.p) + q }, &mut reads);
         assert_eq!(
-            reads,
+            reads.into_iter().collect::<HashSet<String>>(),
             HashSet::from(["libm".into(), "self".into(), "q".into()])
         );
     }
