@@ -10,7 +10,7 @@
 //! array carries them (rustc checks a 250-element tuple far more slowly). Short functions
 //! are left exactly as they are.
 
-use proc_macro2::{Ident, TokenStream, TokenTree};
+use proc_macro2::{Delimiter, Group, Ident, TokenStream, TokenTree};
 use quote::quote;
 use std::collections::HashSet;
 
@@ -27,7 +27,10 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
     if statements.len() <= BLOCK_LEN {
         return statements;
     }
-    let parts: Vec<Parts> = statements.iter().map(Parts::of).collect();
+    // Each statement taken apart and put together again, its tokens moved (a copy of
+    // every statement's identifiers was most of this pass's time on large models).
+    let (parts, mut statements): (Vec<Parts>, Vec<TokenStream>) =
+        statements.into_iter().map(Parts::of).unzip();
     let mut tail_reads = Vec::new();
     read_names(tail.clone(), &mut tail_reads);
     let mut read_later: HashSet<&str> = tail_reads.iter().map(String::as_str).collect();
@@ -39,7 +42,7 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
     let mut end = statements.len();
     while end > 0 {
         if parts[end - 1].bound.len() > WIDE_STATEMENT {
-            blocks.push(statements[end - 1].clone());
+            blocks.extend(statements.pop());
             live_before(&parts[end - 1], &mut read_later);
             end -= 1;
             continue;
@@ -61,12 +64,7 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
             .map(|(name, _)| name)
             .collect();
         exported.reverse();
-        let body = &statements[start..end];
-        blocks.push(match exported.as_slice() {
-            [] => quote! { { #(#body)* } },
-            [one] => quote! { let #one = { #(#body)* #one }; },
-            many => quote! { let [#(#many),*] = { #(#body)* [#(#many),*] }; },
-        });
+        blocks.push(block(statements.split_off(start), &exported));
         for part in parts[start..end].iter().rev() {
             live_before(part, &mut read_later);
         }
@@ -74,6 +72,24 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
     }
     blocks.reverse();
     blocks
+}
+
+/// `{ body }`, or `let one = { body one };`, or `let [a, b] = { body [a, b] };`: the block
+/// of `body` handing on the names `exported`. The statements are moved into it, not copied.
+fn block(body: Vec<TokenStream>, exported: &[&Ident]) -> TokenStream {
+    let mut inner = TokenStream::new();
+    inner.extend(body);
+    let handed_on = match exported {
+        [] => None,
+        [one] => Some(quote! { #one }),
+        many => Some(quote! { [#(#many),*] }),
+    };
+    inner.extend(handed_on.clone());
+    let group = Group::new(Delimiter::Brace, inner);
+    match handed_on {
+        None => quote! { #group },
+        Some(names) => quote! { let #names = #group; },
+    }
 }
 
 /// Turns the names read after a statement (`parts`) into those read after the statement
@@ -97,27 +113,31 @@ struct Parts {
 }
 
 impl Parts {
-    fn of(statement: &TokenStream) -> Parts {
+    /// The parts of `statement`, and the statement, its tokens moved through.
+    fn of(statement: TokenStream) -> (Parts, TokenStream) {
         let (mut bound, mut reads) = (Vec::new(), Vec::new());
+        let mut tokens = Vec::new();
         let mut reader = Reader::default();
         let mut in_pattern = false;
-        for token in statement.clone() {
-            match token {
+        for token in statement {
+            match &token {
                 TokenTree::Ident(ident) if !in_pattern && ident == "let" => {
                     in_pattern = true;
-                    reader.read(&TokenTree::Ident(ident), &mut reads);
+                    reader.read(&token, &mut reads);
                 }
                 TokenTree::Punct(p) if in_pattern && p.as_char() == '=' => in_pattern = false,
-                other if in_pattern => pattern_names(other, &mut bound),
-                other => reader.read(&other, &mut reads),
+                other if in_pattern => pattern_names(other.clone(), &mut bound),
+                other => reader.read(other, &mut reads),
             }
+            tokens.push(token);
         }
         let bound_text = bound.iter().map(ToString::to_string).collect();
-        Parts {
+        let parts = Parts {
             bound,
             bound_text,
             reads,
-        }
+        };
+        (parts, tokens.into_iter().collect())
     }
 }
 
