@@ -5,7 +5,7 @@ use super::names::TempNamer;
 use super::registers::{RegisterFile, Step, FPU_REGISTERS};
 use crate::model::{Func, Scalar};
 use crate::symbolic::{Graph, Node, NodeId, VarId};
-use proc_macro2::{Literal, TokenStream};
+use proc_macro2::{Delimiter, Group, Literal, Punct, Spacing, TokenStream, TokenTree};
 use quote::quote;
 use std::collections::BTreeSet;
 use std::str::FromStr;
@@ -688,7 +688,7 @@ impl Lowerer<'_> {
         let operand = |id, min: Prec| {
             let (tokens, prec) = self.render(id);
             if prec < min {
-                quote! { (#tokens) }
+                TokenStream::from(TokenTree::Group(Group::new(Delimiter::Parenthesis, tokens)))
             } else {
                 tokens
             }
@@ -705,25 +705,25 @@ impl Lowerer<'_> {
             }
             Node::Neg(a) => {
                 let a = operand(a, Prec::Prefix);
-                (quote! { -#a }, Prec::Prefix)
+                (infix(TokenStream::new(), '-', a), Prec::Prefix)
             }
             // Right operands bind tighter than the operator: floating-point `a + (b + c)`
             // is not `a + b + c`, so the parentheses keep the computed value exact.
             Node::Add(a, b) => {
                 let (a, b) = (operand(a, Prec::Sum), operand(b, Prec::Product));
-                (quote! { #a + #b }, Prec::Sum)
+                (infix(a, '+', b), Prec::Sum)
             }
             Node::Sub(a, b) => {
                 let (a, b) = (operand(a, Prec::Sum), operand(b, Prec::Product));
-                (quote! { #a - #b }, Prec::Sum)
+                (infix(a, '-', b), Prec::Sum)
             }
             Node::Mul(a, b) => {
                 let (a, b) = (operand(a, Prec::Product), operand(b, Prec::Prefix));
-                (quote! { #a * #b }, Prec::Product)
+                (infix(a, '*', b), Prec::Product)
             }
             Node::Div(a, b) => {
                 let (a, b) = (operand(a, Prec::Product), operand(b, Prec::Prefix));
-                (quote! { #a / #b }, Prec::Product)
+                (infix(a, '/', b), Prec::Product)
             }
             Node::Call(f, a) => {
                 let a = operand(a, Prec::Sum);
@@ -762,6 +762,14 @@ impl Lowerer<'_> {
         };
         (tokens, prec)
     }
+}
+
+/// `a op b` (`op b` when `a` is empty): `b`'s tokens moved after `a`'s, in place, where
+/// `quote!` would copy both, at every level of an operand nested inline.
+fn infix(mut a: TokenStream, op: char, b: TokenStream) -> TokenStream {
+    a.extend([TokenTree::Punct(Punct::new(op, Spacing::Alone))]);
+    a.extend(b);
+    a
 }
 
 /// A typed literal, `0.015_f32`; negative values as `-lit`.
