@@ -8,8 +8,8 @@
 //! away), which a good allocator approaches. It feeds the static cycle estimate
 //! ([`crate::timing`]): on a Cortex-M4F a load or a store costs as much as two additions.
 
+use crate::fast_hash::{FastMap, FastSet};
 use crate::symbolic::{Graph, Node, NodeId};
-use std::collections::{HashMap, HashSet};
 
 /// The FPU's registers of the Cortex-M4F: 32 single-precision (`s0` to `s31`).
 pub const FPU_REGISTERS: usize = 32;
@@ -20,7 +20,7 @@ pub struct RegisterFile {
     capacity: usize,
     resident: Vec<NodeId>,
     /// Computed values with a copy on the stack (evicting them again stores nothing).
-    spilled: HashSet<NodeId>,
+    spilled: FastSet<NodeId>,
 }
 
 /// The memory traffic of a run.
@@ -48,7 +48,7 @@ impl RegisterFile {
         RegisterFile {
             capacity: capacity.max(3),
             resident: Vec::new(),
-            spilled: HashSet::new(),
+            spilled: FastSet::default(),
         }
     }
 
@@ -192,7 +192,7 @@ struct NextUses {
     /// The first use of each step's value after its step.
     value_after: Vec<Option<usize>>,
     /// The first use of each operand in the run.
-    first: HashMap<NodeId, usize>,
+    first: FastMap<NodeId, usize>,
 }
 
 impl NextUses {
@@ -205,7 +205,7 @@ impl NextUses {
         let mut operands = vec![None; starts[steps.len()]];
         let mut value_after = vec![None; steps.len()];
         // The first use at or after the position being looked at, walking back.
-        let mut first: HashMap<NodeId, usize> = HashMap::new();
+        let mut first: FastMap<NodeId, usize> = FastMap::default();
         for (position, step) in steps.iter().enumerate().rev() {
             value_after[position] = first.get(&step.value).copied();
             for (k, operand) in step.operands.iter().enumerate() {

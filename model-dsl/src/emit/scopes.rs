@@ -10,9 +10,9 @@
 //! array carries them (rustc checks a 250-element tuple far more slowly). Short functions
 //! are left exactly as they are.
 
+use crate::fast_hash::FastSet;
 use proc_macro2::{Delimiter, Group, Ident, TokenStream, TokenTree};
 use quote::quote;
-use std::collections::HashSet;
 
 /// The most statements one block holds, and the longest run left ungrouped.
 pub const BLOCK_LEN: usize = 1024;
@@ -33,7 +33,7 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
         statements.into_iter().map(Parts::of).unzip();
     let mut tail_reads = Vec::new();
     read_names(tail.clone(), &mut tail_reads);
-    let mut read_later: HashSet<&str> = tail_reads.iter().map(String::as_str).collect();
+    let mut read_later: FastSet<&str> = tail_reads.iter().map(String::as_str).collect();
     // Walking backwards, a block hands on what it defines that is read after it. A
     // statement binding many names at once (reading a whole covariance) stays outside any
     // block: handing its thousands of names on through an array costs rustc far more
@@ -54,7 +54,7 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
             .map_or(floor, |wide| wide + 1);
         // A name bound twice in the block (a covariance entry read again after the
         // tests) is handed on once, as its last binding.
-        let mut seen = HashSet::new();
+        let mut seen = FastSet::default();
         let mut exported: Vec<&Ident> = parts[start..end]
             .iter()
             .rev()
@@ -96,7 +96,7 @@ fn block(body: Vec<TokenStream>, exported: &[&Ident]) -> TokenStream {
 /// before it: a name it binds is, from there back, another binding (a covariance entry
 /// read again after the tests hands nothing on from its first read), and the names it
 /// reads are read. A name it both reads and binds (`let a = a * 2.0;`) stays read.
-fn live_before<'a>(parts: &'a Parts, live: &mut HashSet<&'a str>) {
+fn live_before<'a>(parts: &'a Parts, live: &mut FastSet<&'a str>) {
     for name in &parts.bound_text {
         live.remove(name.as_str());
     }
@@ -190,6 +190,7 @@ impl Reader {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::HashSet;
 
     fn statements(n: usize) -> Vec<TokenStream> {
         let mut out = vec![quote! { if !(d > 0.0) { return; } let [a0, _, b0, ..] = self.p; }];

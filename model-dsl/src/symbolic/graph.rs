@@ -109,7 +109,7 @@ pub struct ConstInfo {
 #[derive(Clone, Debug, Default)]
 pub struct Graph {
     nodes: Vec<Node>,
-    lookup: HashMap<Node, NodeId>,
+    lookup: crate::fast_hash::FastMap<Node, NodeId>,
     vars: Vec<VarInfo>,
     constants: Vec<ConstInfo>,
     /// Names the model gave some nodes (`let` intermediates), for generated temporaries.
