@@ -2,6 +2,7 @@
 //! inline expressions for the rest, and an operation count of what was emitted.
 
 use super::names::TempNamer;
+use crate::fast_hash::{FastMap, FastSet};
 use super::registers::{RegisterFile, Step, FPU_REGISTERS};
 use crate::model::{Func, Scalar};
 use crate::symbolic::{Graph, Node, NodeId, VarId};
@@ -172,17 +173,17 @@ pub struct Lowerer<'g> {
     reads: Vec<Option<TokenStream>>,
     /// How deeply each emitted node nests where it is written inline (0 once named).
     inline_depth: Vec<u32>,
-    read_of: std::collections::HashMap<NodeId, usize>,
+    read_of: FastMap<NodeId, usize>,
     /// Nodes the use counts have reached.
     reached: Vec<bool>,
     /// Variables that stand for a value computed here (see [`Lowerer::define`]).
-    definitions: std::collections::HashMap<NodeId, NodeId>,
+    definitions: FastMap<NodeId, NodeId>,
     /// Uses of each node by the code emitted so far.
     consumed: Vec<u32>,
     /// The values in registers, for the memory traffic of the code.
     registers: RegisterFile,
     /// Variables whose values the code holds in registers, not in memory.
-    held: std::collections::HashSet<NodeId>,
+    held: FastSet<NodeId>,
 }
 
 impl<'g> Lowerer<'g> {
@@ -199,12 +200,12 @@ impl<'g> Lowerer<'g> {
             ops: OpCount::default(),
             reads: Vec::new(),
             inline_depth: vec![0; graph.len()],
-            read_of: std::collections::HashMap::new(),
+            read_of: FastMap::default(),
             reached: vec![false; graph.len()],
-            definitions: std::collections::HashMap::new(),
+            definitions: FastMap::default(),
             consumed: vec![0; graph.len()],
             registers: RegisterFile::new(FPU_REGISTERS),
-            held: std::collections::HashSet::new(),
+            held: FastSet::default(),
         };
         lowerer.count_uses(all_roots);
         lowerer
@@ -342,7 +343,7 @@ impl<'g> Lowerer<'g> {
         let (order, ends) = self.schedule(&roots);
         self.count_traffic(&order, &roots);
         // Where in `order` each value is last an operand.
-        let mut last_operand = std::collections::HashMap::new();
+        let mut last_operand = FastMap::default();
         for (position, &id) in order.iter().enumerate() {
             for operand in self.operands(id) {
                 last_operand.insert(operand, position);
@@ -464,7 +465,7 @@ impl<'g> Lowerer<'g> {
     /// out of the loop when they fit. Those that do not fit are loaded where used.
     pub fn hoist_leaves(&mut self, roots: &[NodeId]) {
         let mut stack: Vec<NodeId> = roots.to_vec();
-        let mut seen = std::collections::HashSet::new();
+        let mut seen = FastSet::default();
         let mut leaves = Vec::new();
         while let Some(id) = stack.pop() {
             if !seen.insert(id) || self.held.contains(&id) {
@@ -506,7 +507,7 @@ impl<'g> Lowerer<'g> {
         }
         let (consumed, uses) = (&self.consumed, &self.uses);
         // A set: a Jacobian's segment has thousands of roots, asked about at every step.
-        let root_set: std::collections::HashSet<NodeId> = roots.iter().copied().collect();
+        let root_set: FastSet<NodeId> = roots.iter().copied().collect();
         let live_after = |v: NodeId| consumed[v.index()] < uses[v.index()] || root_set.contains(&v);
         let (definitions, held) = (&self.definitions, &self.held);
         let graph = self.graph;

@@ -4,7 +4,7 @@ use crate::model::Scalar;
 use crate::symbolic::{Graph, Node, NodeId};
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::quote;
-use std::collections::{HashMap, HashSet};
+use crate::fast_hash::{FastMap, FastSet};
 
 /// Longest derived temporary name before falling back to a numbered one.
 const MAX_DERIVED_LEN: usize = 20;
@@ -73,15 +73,15 @@ pub fn clear_of(base: &str, taken: impl Fn(&str) -> bool) -> String {
 /// `TS * x2`), else `tmp1`, `tmp2`, ... Names never repeat or shadow a model symbol.
 #[derive(Clone)]
 pub struct TempNamer {
-    taken: HashSet<String>,
-    assigned: HashMap<NodeId, String>,
+    taken: FastSet<String>,
+    assigned: FastMap<NodeId, String>,
     /// Names the emitter chose for particular nodes, used before any other rule.
-    preferred: HashMap<NodeId, String>,
+    preferred: FastMap<NodeId, String>,
     numbered: usize,
     /// For a base name taken already, the suffix its next variant is sought from: every
     /// smaller one was taken (names are never given back), so a name the model uses in
     /// each of 256 sub-steps does not try `f_act_2` .. `f_act_256` again each time.
-    suffixes: HashMap<String, usize>,
+    suffixes: FastMap<String, usize>,
 }
 
 impl TempNamer {
@@ -89,10 +89,10 @@ impl TempNamer {
     pub fn new<'a>(reserved: impl IntoIterator<Item = &'a str>) -> TempNamer {
         TempNamer {
             taken: reserved.into_iter().map(str::to_owned).collect(),
-            assigned: HashMap::new(),
-            preferred: HashMap::new(),
+            assigned: FastMap::default(),
+            preferred: FastMap::default(),
             numbered: 0,
-            suffixes: HashMap::new(),
+            suffixes: FastMap::default(),
         }
     }
 
