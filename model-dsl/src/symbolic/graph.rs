@@ -619,7 +619,7 @@ impl Graph {
         operands: impl Fn(Node) -> Vec<NodeId>,
         done: impl Fn(NodeId) -> bool,
     ) -> Vec<NodeId> {
-        let mut seen = std::collections::HashSet::new();
+        let mut seen = crate::fast_hash::FastSet::default();
         let mut stack = vec![root];
         let mut pending = Vec::new();
         while let Some(id) = stack.pop() {
