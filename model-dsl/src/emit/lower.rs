@@ -2,8 +2,8 @@
 //! inline expressions for the rest, and an operation count of what was emitted.
 
 use super::names::TempNamer;
-use crate::fast_hash::{FastMap, FastSet};
 use super::registers::{RegisterFile, Step, FPU_REGISTERS};
+use crate::fast_hash::{FastMap, FastSet};
 use crate::model::{Func, Scalar};
 use crate::symbolic::{Graph, Node, NodeId, VarId};
 use proc_macro2::{Delimiter, Group, Literal, Punct, Spacing, TokenStream, TokenTree};

@@ -1,10 +1,10 @@
 //! Every rule for names in generated code, in one place.
 
+use crate::fast_hash::{FastMap, FastSet};
 use crate::model::Scalar;
 use crate::symbolic::{Graph, Node, NodeId};
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::quote;
-use crate::fast_hash::{FastMap, FastSet};
 
 /// Longest derived temporary name before falling back to a numbered one.
 const MAX_DERIVED_LEN: usize = 20;

@@ -2,8 +2,8 @@
 
 use super::graph::{Graph, Node, NodeId, VarId};
 use crate::ast::Comparison;
-use crate::model::Func;
 use crate::fast_hash::FastMap;
+use crate::model::Func;
 
 /// Differentiates graph nodes with respect to one variable, reusing earlier results.
 pub struct Differentiator {
