@@ -19,6 +19,7 @@ pub mod ast;
 pub mod check;
 pub mod diagnostics;
 pub mod emit;
+pub mod fast_hash;
 pub mod front;
 pub mod generators;
 pub mod model;

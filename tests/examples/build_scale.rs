@@ -10,6 +10,18 @@
 //! ```text
 //! cargo run --release -p tests --example build_scale [-- 20 40 60 100]
 //! ```
+//!
+//! With `--compiler`, what the compiler itself costs on the largest inputs instead: the
+//! CPU time (user and system) and peak memory of expanding a 300-state chain's EKF (the
+//! macro's work, `stateforge_compiler::expand_macro_source`), and of what
+//! `stateforge-codegen --formatter prettyplease` does with the piecewise beam integrated
+//! by RK4 in 64 unrolled sub-steps (`tests/models/piecewise_beam_substeps.rs`: expansion,
+//! then prettyplease's layout). Each runs in a child of this program, which reports its
+//! own usage.
+//!
+//! ```text
+//! cargo run --release -p tests --example build_scale -- --compiler [STATES]
+//! ```
 
 use nix::sys::resource::{getrusage, UsageWho};
 use std::path::{Path, PathBuf};
@@ -29,6 +41,9 @@ fn main() -> ExitCode {
         if flag == "--build-once-release" {
             return build_once(Path::new(dir), &["--release", "--target", MCU_TARGET]);
         }
+    }
+    if let Some(code) = compiler::dispatch(&args) {
+        return code;
     }
     let sizes: Vec<usize> = if args.is_empty() {
         vec![20, 40, 60, 100]
@@ -165,5 +180,135 @@ fn build_once(dir: &Path, flags: &[&str]) -> ExitCode {
             ExitCode::SUCCESS
         }
         _ => ExitCode::FAILURE,
+    }
+}
+
+/// `--compiler`: the compiler's own CPU time and peak memory on the largest inputs.
+mod compiler {
+    use nix::sys::resource::{getrusage, UsageWho};
+    use std::path::PathBuf;
+    use std::process::{Command, ExitCode};
+    use tests::scale::integrator_chain;
+
+    /// The chain's states when `--compiler` names none.
+    const STATES: usize = 300;
+
+    /// Runs `--compiler [STATES]` or one of its children; `None` for other arguments.
+    pub fn dispatch(args: &[String]) -> Option<ExitCode> {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        match args.as_slice() {
+            ["--compiler"] => Some(report(STATES)),
+            ["--compiler", n] => Some(n.parse().map_or_else(|_| usage(), report)),
+            ["--expand-once", n] => Some(n.parse().map_or_else(|_| usage(), expand_once)),
+            ["--codegen-once"] => Some(codegen_once()),
+            _ => None,
+        }
+    }
+
+    fn usage() -> ExitCode {
+        eprintln!("usage: build_scale --compiler [STATES]");
+        ExitCode::FAILURE
+    }
+
+    /// The 64-sub-step piecewise beam, a `model!` file as `stateforge-codegen` reads one.
+    fn piecewise_beam() -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("models/piecewise_beam_substeps.rs")
+    }
+
+    fn report(states: usize) -> ExitCode {
+        let runs = [
+            (
+                format!("{states}-state chain, EKF: expand"),
+                vec!["--expand-once".to_owned(), states.to_string()],
+            ),
+            (
+                "64-sub-step piecewise beam: codegen (prettyplease)".to_owned(),
+                vec!["--codegen-once".to_owned()],
+            ),
+        ];
+        println!("{:<52} {:>12} {:>12}", "input", "CPU", "peak memory");
+        for (name, args) in runs {
+            match measure(&args) {
+                Ok((cpu, kib)) => println!(
+                    "{name:<52} {cpu:>10.2} s {:>9.2} GB",
+                    kib as f64 / (1024.0 * 1024.0)
+                ),
+                Err(e) => {
+                    eprintln!("build_scale: {name}: {e}");
+                    return ExitCode::FAILURE;
+                }
+            }
+        }
+        ExitCode::SUCCESS
+    }
+
+    /// Runs this program with `args` and reads the CPU seconds and peak KiB it reports.
+    fn measure(args: &[String]) -> Result<(f64, u64), String> {
+        let me = std::env::current_exe().map_err(|e| e.to_string())?;
+        let output = Command::new(me)
+            .args(args)
+            .output()
+            .map_err(|e| e.to_string())?;
+        let text = String::from_utf8_lossy(&output.stdout);
+        if !output.status.success() {
+            return Err(String::from_utf8_lossy(&output.stderr).into_owned());
+        }
+        match text.split_whitespace().collect::<Vec<_>>().as_slice() {
+            [cpu, kib] => Ok((
+                cpu.parse()
+                    .map_err(|_| format!("unexpected output: {text}"))?,
+                kib.parse()
+                    .map_err(|_| format!("unexpected output: {text}"))?,
+            )),
+            _ => Err(format!("unexpected output: {text}")),
+        }
+    }
+
+    /// Prints this process's CPU seconds (user and system) and peak resident KiB.
+    fn print_own_usage() -> ExitCode {
+        let Ok(usage) = getrusage(UsageWho::RUSAGE_SELF) else {
+            return ExitCode::FAILURE;
+        };
+        let seconds = |t: nix::sys::time::TimeVal| t.tv_sec() as f64 + t.tv_usec() as f64 * 1e-6;
+        let cpu = seconds(usage.user_time()) + seconds(usage.system_time());
+        println!("{cpu} {}", usage.max_rss());
+        ExitCode::SUCCESS
+    }
+
+    /// The child: expands the chain of `n` states with its EKF, as the macro does.
+    fn expand_once(n: usize) -> ExitCode {
+        let source = integrator_chain(n, true);
+        match stateforge_compiler::expand_macro_source(&source) {
+            Ok(tokens) => {
+                drop(tokens);
+                print_own_usage()
+            }
+            Err(e) => {
+                eprintln!("{e}");
+                ExitCode::FAILURE
+            }
+        }
+    }
+
+    /// The child: what `stateforge-codegen --formatter prettyplease` does with the
+    /// piecewise beam (its path through `stateforge_compiler` and `stateforge_cli`).
+    fn codegen_once() -> ExitCode {
+        let code = std::fs::read_to_string(piecewise_beam())
+            .map_err(|e| e.to_string())
+            .and_then(|source| {
+                stateforge_compiler::expand_macro_source_with_warnings(&source)
+                    .and_then(|(module, _)| stateforge_cli::format(module))
+                    .map_err(|e| e.to_string())
+            });
+        match code {
+            Ok(code) => {
+                drop(code);
+                print_own_usage()
+            }
+            Err(e) => {
+                eprintln!("{e}");
+                ExitCode::FAILURE
+            }
+        }
     }
 }

@@ -3,9 +3,10 @@
 
 use super::names::TempNamer;
 use super::registers::{RegisterFile, Step, FPU_REGISTERS};
+use crate::fast_hash::{FastMap, FastSet};
 use crate::model::{Func, Scalar};
 use crate::symbolic::{Graph, Node, NodeId, VarId};
-use proc_macro2::{Literal, TokenStream};
+use proc_macro2::{Delimiter, Group, Literal, Punct, Spacing, TokenStream, TokenTree};
 use quote::quote;
 use std::collections::BTreeSet;
 use std::str::FromStr;
@@ -172,17 +173,17 @@ pub struct Lowerer<'g> {
     reads: Vec<Option<TokenStream>>,
     /// How deeply each emitted node nests where it is written inline (0 once named).
     inline_depth: Vec<u32>,
-    read_of: std::collections::HashMap<NodeId, usize>,
+    read_of: FastMap<NodeId, usize>,
     /// Nodes the use counts have reached.
     reached: Vec<bool>,
     /// Variables that stand for a value computed here (see [`Lowerer::define`]).
-    definitions: std::collections::HashMap<NodeId, NodeId>,
+    definitions: FastMap<NodeId, NodeId>,
     /// Uses of each node by the code emitted so far.
     consumed: Vec<u32>,
     /// The values in registers, for the memory traffic of the code.
     registers: RegisterFile,
     /// Variables whose values the code holds in registers, not in memory.
-    held: std::collections::HashSet<NodeId>,
+    held: FastSet<NodeId>,
 }
 
 impl<'g> Lowerer<'g> {
@@ -199,12 +200,12 @@ impl<'g> Lowerer<'g> {
             ops: OpCount::default(),
             reads: Vec::new(),
             inline_depth: vec![0; graph.len()],
-            read_of: std::collections::HashMap::new(),
+            read_of: FastMap::default(),
             reached: vec![false; graph.len()],
-            definitions: std::collections::HashMap::new(),
+            definitions: FastMap::default(),
             consumed: vec![0; graph.len()],
             registers: RegisterFile::new(FPU_REGISTERS),
-            held: std::collections::HashSet::new(),
+            held: FastSet::default(),
         };
         lowerer.count_uses(all_roots);
         lowerer
@@ -342,7 +343,7 @@ impl<'g> Lowerer<'g> {
         let (order, ends) = self.schedule(&roots);
         self.count_traffic(&order, &roots);
         // Where in `order` each value is last an operand.
-        let mut last_operand = std::collections::HashMap::new();
+        let mut last_operand = FastMap::default();
         for (position, &id) in order.iter().enumerate() {
             for operand in self.operands(id) {
                 last_operand.insert(operand, position);
@@ -464,7 +465,7 @@ impl<'g> Lowerer<'g> {
     /// out of the loop when they fit. Those that do not fit are loaded where used.
     pub fn hoist_leaves(&mut self, roots: &[NodeId]) {
         let mut stack: Vec<NodeId> = roots.to_vec();
-        let mut seen = std::collections::HashSet::new();
+        let mut seen = FastSet::default();
         let mut leaves = Vec::new();
         while let Some(id) = stack.pop() {
             if !seen.insert(id) || self.held.contains(&id) {
@@ -506,7 +507,7 @@ impl<'g> Lowerer<'g> {
         }
         let (consumed, uses) = (&self.consumed, &self.uses);
         // A set: a Jacobian's segment has thousands of roots, asked about at every step.
-        let root_set: std::collections::HashSet<NodeId> = roots.iter().copied().collect();
+        let root_set: FastSet<NodeId> = roots.iter().copied().collect();
         let live_after = |v: NodeId| consumed[v.index()] < uses[v.index()] || root_set.contains(&v);
         let (definitions, held) = (&self.definitions, &self.held);
         let graph = self.graph;
@@ -688,7 +689,7 @@ impl Lowerer<'_> {
         let operand = |id, min: Prec| {
             let (tokens, prec) = self.render(id);
             if prec < min {
-                quote! { (#tokens) }
+                TokenStream::from(TokenTree::Group(Group::new(Delimiter::Parenthesis, tokens)))
             } else {
                 tokens
             }
@@ -705,25 +706,25 @@ impl Lowerer<'_> {
             }
             Node::Neg(a) => {
                 let a = operand(a, Prec::Prefix);
-                (quote! { -#a }, Prec::Prefix)
+                (infix(TokenStream::new(), '-', a), Prec::Prefix)
             }
             // Right operands bind tighter than the operator: floating-point `a + (b + c)`
             // is not `a + b + c`, so the parentheses keep the computed value exact.
             Node::Add(a, b) => {
                 let (a, b) = (operand(a, Prec::Sum), operand(b, Prec::Product));
-                (quote! { #a + #b }, Prec::Sum)
+                (infix(a, '+', b), Prec::Sum)
             }
             Node::Sub(a, b) => {
                 let (a, b) = (operand(a, Prec::Sum), operand(b, Prec::Product));
-                (quote! { #a - #b }, Prec::Sum)
+                (infix(a, '-', b), Prec::Sum)
             }
             Node::Mul(a, b) => {
                 let (a, b) = (operand(a, Prec::Product), operand(b, Prec::Prefix));
-                (quote! { #a * #b }, Prec::Product)
+                (infix(a, '*', b), Prec::Product)
             }
             Node::Div(a, b) => {
                 let (a, b) = (operand(a, Prec::Product), operand(b, Prec::Prefix));
-                (quote! { #a / #b }, Prec::Product)
+                (infix(a, '/', b), Prec::Product)
             }
             Node::Call(f, a) => {
                 let a = operand(a, Prec::Sum);
@@ -762,6 +763,14 @@ impl Lowerer<'_> {
         };
         (tokens, prec)
     }
+}
+
+/// `a op b` (`op b` when `a` is empty): `b`'s tokens moved after `a`'s, in place, where
+/// `quote!` would copy both, at every level of an operand nested inline.
+fn infix(mut a: TokenStream, op: char, b: TokenStream) -> TokenStream {
+    a.extend([TokenTree::Punct(Punct::new(op, Spacing::Alone))]);
+    a.extend(b);
+    a
 }
 
 /// A typed literal, `0.015_f32`; negative values as `-lit`.

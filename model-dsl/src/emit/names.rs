@@ -1,10 +1,10 @@
 //! Every rule for names in generated code, in one place.
 
+use crate::fast_hash::{FastMap, FastSet};
 use crate::model::Scalar;
 use crate::symbolic::{Graph, Node, NodeId};
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::quote;
-use std::collections::{HashMap, HashSet};
 
 /// Longest derived temporary name before falling back to a numbered one.
 const MAX_DERIVED_LEN: usize = 20;
@@ -73,11 +73,15 @@ pub fn clear_of(base: &str, taken: impl Fn(&str) -> bool) -> String {
 /// `TS * x2`), else `tmp1`, `tmp2`, ... Names never repeat or shadow a model symbol.
 #[derive(Clone)]
 pub struct TempNamer {
-    taken: HashSet<String>,
-    assigned: HashMap<NodeId, String>,
+    taken: FastSet<String>,
+    assigned: FastMap<NodeId, String>,
     /// Names the emitter chose for particular nodes, used before any other rule.
-    preferred: HashMap<NodeId, String>,
+    preferred: FastMap<NodeId, String>,
     numbered: usize,
+    /// For a base name taken already, the suffix its next variant is sought from: every
+    /// smaller one was taken (names are never given back), so a name the model uses in
+    /// each of 256 sub-steps does not try `f_act_2` .. `f_act_256` again each time.
+    suffixes: FastMap<String, usize>,
 }
 
 impl TempNamer {
@@ -85,9 +89,10 @@ impl TempNamer {
     pub fn new<'a>(reserved: impl IntoIterator<Item = &'a str>) -> TempNamer {
         TempNamer {
             taken: reserved.into_iter().map(str::to_owned).collect(),
-            assigned: HashMap::new(),
-            preferred: HashMap::new(),
+            assigned: FastMap::default(),
+            preferred: FastMap::default(),
             numbered: 0,
+            suffixes: FastMap::default(),
         }
     }
 
@@ -136,15 +141,21 @@ impl TempNamer {
         ident(&name)
     }
 
-    fn unique(&self, base: &str) -> String {
-        let valid = |s: &str| !self.taken.contains(s) && syn::parse_str::<syn::Ident>(s).is_ok();
+    fn unique(&mut self, base: &str) -> String {
+        let taken = &self.taken;
+        let valid = |s: &str| !taken.contains(s) && syn::parse_str::<syn::Ident>(s).is_ok();
         if valid(base) {
             return base.to_owned();
         }
-        (2..)
-            .map(|n| format!("{base}_{n}"))
-            .find(|s| valid(s))
-            .unwrap_or_else(|| base.to_owned())
+        let start = self.suffixes.get(base).copied().unwrap_or(2);
+        let Some((n, name)) = (start..)
+            .map(|n| (n, format!("{base}_{n}")))
+            .find(|(_, s)| valid(s))
+        else {
+            return base.to_owned();
+        };
+        self.suffixes.insert(base.to_owned(), n);
+        name
     }
 
     /// A readable description of a node from its operands, if one is short enough.

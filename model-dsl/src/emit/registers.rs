@@ -8,8 +8,8 @@
 //! away), which a good allocator approaches. It feeds the static cycle estimate
 //! ([`crate::timing`]): on a Cortex-M4F a load or a store costs as much as two additions.
 
+use crate::fast_hash::{FastMap, FastSet};
 use crate::symbolic::{Graph, Node, NodeId};
-use std::collections::{HashMap, HashSet};
 
 /// The FPU's registers of the Cortex-M4F: 32 single-precision (`s0` to `s31`).
 pub const FPU_REGISTERS: usize = 32;
@@ -20,7 +20,7 @@ pub struct RegisterFile {
     capacity: usize,
     resident: Vec<NodeId>,
     /// Computed values with a copy on the stack (evicting them again stores nothing).
-    spilled: HashSet<NodeId>,
+    spilled: FastSet<NodeId>,
 }
 
 /// The memory traffic of a run.
@@ -48,7 +48,7 @@ impl RegisterFile {
         RegisterFile {
             capacity: capacity.max(3),
             resident: Vec::new(),
-            spilled: HashSet::new(),
+            spilled: FastSet::default(),
         }
     }
 
@@ -84,14 +84,27 @@ impl RegisterFile {
         live_after: &dyn Fn(NodeId) -> bool,
         in_memory: &dyn Fn(NodeId) -> bool,
     ) -> Traffic {
-        let uses = use_positions(steps);
+        let plan = NextUses::of(steps);
+        // Beside each resident value, its next use: the first position past the one
+        // being run where it is an operand (kept up to date as each step is run).
+        let mut ahead: Vec<Option<usize>> = self
+            .resident
+            .iter()
+            .map(|v| plan.first.get(v).copied())
+            .collect();
         let mut traffic = Traffic::default();
         for (position, step) in steps.iter().enumerate() {
+            let after = plan.operands_after(position);
+            for (&operand, &next) in step.operands.iter().zip(after) {
+                if let Some(i) = self.resident.iter().position(|&v| v == operand) {
+                    ahead[i] = next;
+                }
+            }
             if in_memory(step.value) {
                 // A leaf is loaded where it is used.
                 continue;
             }
-            for &operand in &step.operands {
+            for (&operand, &next) in step.operands.iter().zip(after) {
                 if self.resident.contains(&operand) {
                     continue;
                 }
@@ -99,28 +112,46 @@ impl RegisterFile {
                     Node::Num(_) | Node::Named(_) => traffic.literal += 1,
                     _ => traffic.load += 1,
                 }
-                self.make_room(position, &uses, live_after, in_memory, &mut traffic);
+                self.make_room(&mut ahead, live_after, in_memory, &mut traffic);
                 self.resident.push(operand);
+                ahead.push(next);
             }
             // Operands used for the last time free their registers for the result.
-            let next = |v: NodeId| next_use(&uses, v, position);
-            self.resident
-                .retain(|&v| next(v).is_some() || live_after(v));
+            self.release_dead(&mut ahead, live_after);
             // A held value (a loop's carried value) may be in a register already.
             if !self.resident.contains(&step.value) {
-                self.make_room(position, &uses, live_after, in_memory, &mut traffic);
+                self.make_room(&mut ahead, live_after, in_memory, &mut traffic);
                 self.resident.push(step.value);
+                ahead.push(plan.value_after[position]);
             }
         }
         traffic
+    }
+
+    /// Drops the resident values that have no use ahead and are not live after the run.
+    fn release_dead(
+        &mut self,
+        ahead: &mut Vec<Option<usize>>,
+        live_after: &dyn Fn(NodeId) -> bool,
+    ) {
+        let mut kept = 0;
+        for i in 0..self.resident.len() {
+            let v = self.resident[i];
+            if ahead[i].is_some() || live_after(v) {
+                self.resident[kept] = v;
+                ahead[kept] = ahead[i];
+                kept += 1;
+            }
+        }
+        self.resident.truncate(kept);
+        ahead.truncate(kept);
     }
 
     /// Frees one register if all are taken, evicting the value used furthest ahead; a
     /// computed value still needed is stored (once).
     fn make_room(
         &mut self,
-        position: usize,
-        uses: &HashMap<NodeId, Vec<usize>>,
+        ahead: &mut Vec<Option<usize>>,
         live_after: &dyn Fn(NodeId) -> bool,
         in_memory: &dyn Fn(NodeId) -> bool,
         traffic: &mut Traffic,
@@ -128,7 +159,7 @@ impl RegisterFile {
         if self.resident.len() < self.capacity {
             return;
         }
-        let distance = |v: NodeId| match next_use(uses, v, position) {
+        let distance = |v: NodeId, next: Option<usize>| match next {
             Some(p) => p,
             None if live_after(v) => usize::MAX - 1,
             None => usize::MAX,
@@ -137,34 +168,65 @@ impl RegisterFile {
             .resident
             .iter()
             .enumerate()
-            .max_by_key(|&(_, &v)| distance(v))
+            .max_by_key(|&(i, &v)| distance(v, ahead[i]))
         else {
             return;
         };
+        let needed = distance(victim, ahead[index]) != usize::MAX;
         self.resident.swap_remove(index);
-        let needed = distance(victim) != usize::MAX;
+        ahead.swap_remove(index);
         if needed && !in_memory(victim) && self.spilled.insert(victim) {
             traffic.store += 1;
         }
     }
 }
 
-/// Where each value is used as an operand, in order.
-fn use_positions(steps: &[Step]) -> HashMap<NodeId, Vec<usize>> {
-    let mut uses: HashMap<NodeId, Vec<usize>> = HashMap::new();
-    for (position, step) in steps.iter().enumerate() {
-        for &operand in &step.operands {
-            uses.entry(operand).or_default().push(position);
-        }
-    }
-    uses
+/// Where each value of a run is next used: for each operand of each step, and for each
+/// step's value, the first later position where it is an operand; and each operand's
+/// first use. Found in one backward pass, so that running the steps asks no map.
+struct NextUses {
+    /// The next use of each step's operands in turn, all steps' one after the other.
+    operands: Vec<Option<usize>>,
+    /// Where each step's operands start in `operands`.
+    starts: Vec<usize>,
+    /// The first use of each step's value after its step.
+    value_after: Vec<Option<usize>>,
+    /// The first use of each operand in the run.
+    first: FastMap<NodeId, usize>,
 }
 
-/// The first use of `v` after `position`.
-fn next_use(uses: &HashMap<NodeId, Vec<usize>>, v: NodeId, position: usize) -> Option<usize> {
-    let positions = uses.get(&v)?;
-    let after = positions.partition_point(|&p| p <= position);
-    positions.get(after).copied()
+impl NextUses {
+    fn of(steps: &[Step]) -> NextUses {
+        let mut starts = Vec::with_capacity(steps.len() + 1);
+        starts.push(0);
+        for step in steps {
+            starts.push(starts[starts.len() - 1] + step.operands.len());
+        }
+        let mut operands = vec![None; starts[steps.len()]];
+        let mut value_after = vec![None; steps.len()];
+        // The first use at or after the position being looked at, walking back.
+        let mut first: FastMap<NodeId, usize> = FastMap::default();
+        for (position, step) in steps.iter().enumerate().rev() {
+            value_after[position] = first.get(&step.value).copied();
+            for (k, operand) in step.operands.iter().enumerate() {
+                operands[starts[position] + k] = first.get(operand).copied();
+            }
+            for &operand in &step.operands {
+                first.insert(operand, position);
+            }
+        }
+        NextUses {
+            operands,
+            starts,
+            value_after,
+            first,
+        }
+    }
+
+    /// The next uses of the operands of the step at `position`.
+    fn operands_after(&self, position: usize) -> &[Option<usize>] {
+        &self.operands[self.starts[position]..self.starts[position + 1]]
+    }
 }
 
 #[cfg(test)]

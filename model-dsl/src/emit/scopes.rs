@@ -10,9 +10,9 @@
 //! array carries them (rustc checks a 250-element tuple far more slowly). Short functions
 //! are left exactly as they are.
 
-use proc_macro2::{Ident, TokenStream, TokenTree};
+use crate::fast_hash::FastSet;
+use proc_macro2::{Delimiter, Group, Ident, TokenStream, TokenTree};
 use quote::quote;
-use std::collections::HashSet;
 
 /// The most statements one block holds, and the longest run left ungrouped.
 pub const BLOCK_LEN: usize = 1024;
@@ -27,9 +27,13 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
     if statements.len() <= BLOCK_LEN {
         return statements;
     }
-    let parts: Vec<Parts> = statements.iter().map(Parts::of).collect();
-    let mut read_later: HashSet<String> = HashSet::new();
-    read_names(tail.clone(), &mut read_later);
+    // Each statement taken apart and put together again, its tokens moved (a copy of
+    // every statement's identifiers was most of this pass's time on large models).
+    let (parts, mut statements): (Vec<Parts>, Vec<TokenStream>) =
+        statements.into_iter().map(Parts::of).unzip();
+    let mut tail_reads = Vec::new();
+    read_names(tail.clone(), &mut tail_reads);
+    let mut read_later: FastSet<&str> = tail_reads.iter().map(String::as_str).collect();
     // Walking backwards, a block hands on what it defines that is read after it. A
     // statement binding many names at once (reading a whole covariance) stays outside any
     // block: handing its thousands of names on through an array costs rustc far more
@@ -38,7 +42,7 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
     let mut end = statements.len();
     while end > 0 {
         if parts[end - 1].bound.len() > WIDE_STATEMENT {
-            blocks.push(statements[end - 1].clone());
+            blocks.extend(statements.pop());
             live_before(&parts[end - 1], &mut read_later);
             end -= 1;
             continue;
@@ -50,21 +54,17 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
             .map_or(floor, |wide| wide + 1);
         // A name bound twice in the block (a covariance entry read again after the
         // tests) is handed on once, as its last binding.
-        let mut seen = HashSet::new();
+        let mut seen = FastSet::default();
         let mut exported: Vec<&Ident> = parts[start..end]
             .iter()
             .rev()
-            .flat_map(|part| part.bound.iter().rev())
-            .filter(|name| read_later.contains(&name.to_string()))
-            .filter(|name| seen.insert(name.to_string()))
+            .flat_map(|part| part.bound.iter().zip(&part.bound_text).rev())
+            .filter(|(_, text)| read_later.contains(text.as_str()))
+            .filter(|(_, text)| seen.insert(text.as_str()))
+            .map(|(name, _)| name)
             .collect();
         exported.reverse();
-        let body = &statements[start..end];
-        blocks.push(match exported.as_slice() {
-            [] => quote! { { #(#body)* } },
-            [one] => quote! { let #one = { #(#body)* #one }; },
-            many => quote! { let [#(#many),*] = { #(#body)* [#(#many),*] }; },
-        });
+        blocks.push(block(statements.split_off(start), &exported));
         for part in parts[start..end].iter().rev() {
             live_before(part, &mut read_later);
         }
@@ -74,41 +74,70 @@ pub fn scoped(statements: Vec<TokenStream>, tail: &TokenStream) -> Vec<TokenStre
     blocks
 }
 
+/// `{ body }`, or `let one = { body one };`, or `let [a, b] = { body [a, b] };`: the block
+/// of `body` handing on the names `exported`. The statements are moved into it, not copied.
+fn block(body: Vec<TokenStream>, exported: &[&Ident]) -> TokenStream {
+    let mut inner = TokenStream::new();
+    inner.extend(body);
+    let handed_on = match exported {
+        [] => None,
+        [one] => Some(quote! { #one }),
+        many => Some(quote! { [#(#many),*] }),
+    };
+    inner.extend(handed_on.clone());
+    let group = Group::new(Delimiter::Brace, inner);
+    match handed_on {
+        None => quote! { #group },
+        Some(names) => quote! { let #names = #group; },
+    }
+}
+
 /// Turns the names read after a statement (`parts`) into those read after the statement
 /// before it: a name it binds is, from there back, another binding (a covariance entry
 /// read again after the tests hands nothing on from its first read), and the names it
 /// reads are read. A name it both reads and binds (`let a = a * 2.0;`) stays read.
-fn live_before(parts: &Parts, live: &mut HashSet<String>) {
-    for name in &parts.bound {
-        live.remove(&name.to_string());
+fn live_before<'a>(parts: &'a Parts, live: &mut FastSet<&'a str>) {
+    for name in &parts.bound_text {
+        live.remove(name.as_str());
     }
-    read_names(parts.rest.clone(), live);
+    live.extend(parts.reads.iter().map(String::as_str));
 }
 
 /// A statement's parts: the names it binds with its top-level `let`s (a guarded
-/// reciprocal is an `if` and a `let` in one statement), and the rest of its tokens, what
-/// it reads.
+/// reciprocal is an `if` and a `let` in one statement), as identifiers and as text, and
+/// the names the rest of its tokens read ([`read_names`] of them, taken as they go by).
 struct Parts {
     bound: Vec<Ident>,
-    rest: TokenStream,
+    bound_text: Vec<String>,
+    reads: Vec<String>,
 }
 
 impl Parts {
-    fn of(statement: &TokenStream) -> Parts {
-        let (mut bound, mut rest) = (Vec::new(), TokenStream::new());
+    /// The parts of `statement`, and the statement, its tokens moved through.
+    fn of(statement: TokenStream) -> (Parts, TokenStream) {
+        let (mut bound, mut reads) = (Vec::new(), Vec::new());
+        let mut tokens = Vec::new();
+        let mut reader = Reader::default();
         let mut in_pattern = false;
-        for token in statement.clone() {
-            match token {
+        for token in statement {
+            match &token {
                 TokenTree::Ident(ident) if !in_pattern && ident == "let" => {
                     in_pattern = true;
-                    rest.extend([TokenTree::Ident(ident)]);
+                    reader.read(&token, &mut reads);
                 }
                 TokenTree::Punct(p) if in_pattern && p.as_char() == '=' => in_pattern = false,
-                other if in_pattern => pattern_names(other, &mut bound),
-                other => rest.extend([other]),
+                other if in_pattern => pattern_names(other.clone(), &mut bound),
+                other => reader.read(other, &mut reads),
             }
+            tokens.push(token);
         }
-        Parts { bound, rest }
+        let bound_text = bound.iter().map(ToString::to_string).collect();
+        let parts = Parts {
+            bound,
+            bound_text,
+            reads,
+        };
+        (parts, tokens.into_iter().collect())
     }
 }
 
@@ -127,29 +156,41 @@ fn pattern_names(token: TokenTree, names: &mut Vec<Ident>) {
 
 /// Adds the names `tokens` reads: identifiers that are not a field or method after `.`
 /// nor a path segment after `::`.
-fn read_names(tokens: TokenStream, names: &mut HashSet<String>) {
-    let mut after_accessor = false;
-    let mut previous_colon = false;
+fn read_names(tokens: TokenStream, names: &mut Vec<String>) {
+    let mut reader = Reader::default();
     for token in tokens {
-        match &token {
-            TokenTree::Ident(ident) if !after_accessor => {
-                names.insert(ident.to_string());
-            }
+        reader.read(&token, names);
+    }
+}
+
+/// [`read_names`] one token at a time: whether the last tokens were an accessor.
+#[derive(Default)]
+struct Reader {
+    after_accessor: bool,
+    previous_colon: bool,
+}
+
+impl Reader {
+    /// Adds the names `token` reads, the one after the tokens read before it.
+    fn read(&mut self, token: &TokenTree, names: &mut Vec<String>) {
+        match token {
+            TokenTree::Ident(ident) if !self.after_accessor => names.push(ident.to_string()),
             TokenTree::Group(group) => read_names(group.stream(), names),
             _ => {}
         }
-        let (dot, colon) = match &token {
+        let (dot, colon) = match token {
             TokenTree::Punct(p) => (p.as_char() == '.', p.as_char() == ':'),
             _ => (false, false),
         };
-        after_accessor = dot || (colon && previous_colon);
-        previous_colon = colon;
+        self.after_accessor = dot || (colon && self.previous_colon);
+        self.previous_colon = colon;
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::HashSet;
 
     fn statements(n: usize) -> Vec<TokenStream> {
         let mut out = vec![quote! { if !(d > 0.0) { return; } let [a0, _, b0, ..] = self.p; }];
@@ -204,10 +245,10 @@ mod tests {
         assert_eq!(blocks.len(), 2);
         assert!(squeeze(&blocks[1]).starts_with("letb0={letb0=z;"));
         // A name after `.` or `::` is not a read.
-        let mut reads = HashSet::new();
+        let mut reads = Vec::new();
         read_names(quote! { libm::sinf(self.p) + q }, &mut reads);
         assert_eq!(
-            reads,
+            reads.into_iter().collect::<HashSet<String>>(),
             HashSet::from(["libm".into(), "self".into(), "q".into()])
         );
     }

@@ -2,13 +2,13 @@
 
 use super::graph::{Graph, Node, NodeId, VarId};
 use crate::ast::Comparison;
+use crate::fast_hash::FastMap;
 use crate::model::Func;
-use std::collections::HashMap;
 
 /// Differentiates graph nodes with respect to one variable, reusing earlier results.
 pub struct Differentiator {
     var: VarId,
-    memo: HashMap<NodeId, NodeId>,
+    memo: FastMap<NodeId, NodeId>,
 }
 
 /// The operands a node's derivative is built from: a piecewise term differentiates its
@@ -27,7 +27,7 @@ impl Differentiator {
     pub fn new(var: VarId) -> Differentiator {
         Differentiator {
             var,
-            memo: HashMap::new(),
+            memo: FastMap::default(),
         }
     }
 
@@ -49,7 +49,7 @@ impl Differentiator {
 
     /// The derivative of one node whose operands' derivatives are known.
     fn diff_node(&mut self, g: &mut Graph, root: NodeId) -> NodeId {
-        let known = |memo: &HashMap<NodeId, NodeId>, id: NodeId| memo[&id];
+        let known = |memo: &FastMap<NodeId, NodeId>, id: NodeId| memo[&id];
         match g.node(root) {
             Node::Num(_) | Node::Named(_) => g.zero(),
             Node::Var(v) => {

@@ -109,7 +109,7 @@ pub struct ConstInfo {
 #[derive(Clone, Debug, Default)]
 pub struct Graph {
     nodes: Vec<Node>,
-    lookup: HashMap<Node, NodeId>,
+    lookup: crate::fast_hash::FastMap<Node, NodeId>,
     vars: Vec<VarInfo>,
     constants: Vec<ConstInfo>,
     /// Names the model gave some nodes (`let` intermediates), for generated temporaries.
@@ -619,7 +619,7 @@ impl Graph {
         operands: impl Fn(Node) -> Vec<NodeId>,
         done: impl Fn(NodeId) -> bool,
     ) -> Vec<NodeId> {
-        let mut seen = std::collections::HashSet::new();
+        let mut seen = crate::fast_hash::FastSet::default();
         let mut stack = vec![root];
         let mut pending = Vec::new();
         while let Some(id) = stack.pop() {
