@@ -187,6 +187,7 @@ pub(crate) fn unpack_symmetric<T: Real, const N: usize, const L: usize>(
 /// Scales the packed covariance `packed` (upper triangle, row by row) by `scale` when
 /// `scale` is above 1 and the scaled variances sum to at most `bound`; whether it did. A
 /// common scale keeps a covariance positive semi-definite. NaN scales nothing.
+#[inline(always)]
 pub(crate) fn inflate<T: Real, const L: usize>(packed: &mut [T; L], scale: T, bound: T) -> bool {
     // The dimension `n`, `n (n + 1) / 2 = L`; row `i`'s variance follows the `n - i + 1`
     // entries of row `i - 1`.

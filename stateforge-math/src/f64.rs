@@ -112,6 +112,7 @@ pub fn unpack_symmetric<const N: usize, const L: usize>(packed: &[f64; L]) -> [[
 /// covariance `packed` by `scale` when that is above 1 and the scaled variances stay within
 /// [`DIVERGENCE_BOUND`]; whether it did (never for NaN).
 #[must_use]
+#[inline(always)]
 pub fn inflate_covariance<const L: usize>(packed: &mut [f64; L], scale: f64) -> bool {
     crate::covariance::inflate(packed, scale, DIVERGENCE_BOUND)
 }

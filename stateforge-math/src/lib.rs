@@ -59,6 +59,7 @@ pub const NO_REFUSALS: u32 = 0;
 /// is the `limit`-th in a row, when the count starts again from [`NO_REFUSALS`] and the
 /// stage recovers (scales its covariance). Saturates; never overflows.
 #[must_use]
+#[inline(always)]
 pub fn refusal_run_complete(count: &mut u32, limit: u32) -> bool {
     let counted = count.saturating_add(1);
     if counted >= limit {

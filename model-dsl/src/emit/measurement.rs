@@ -238,7 +238,7 @@ pub fn store_and_gate(lowerer: &mut Lowerer, kept: &Kept<'_>) -> TokenStream {
     let store = store_innovation_tokens(kept.prefix, &innovation_values, &covariance_values);
     let nis = lowerer.bind(nis, "nis");
     let ty = ident(lowerer.scalar().type_name());
-    // With recovery, a refusal is passed to the stage's cold `refused`.
+    // With recovery, a refusal is passed to the stage's inlined `refused`.
     // What a recovery scales the covariance to pass: the gate, or without one (whose
     // bound, 1e4 standard deviations, says nothing of consistency) the innovation's
     // expected normalised square, its number of outputs.
