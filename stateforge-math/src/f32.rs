@@ -383,7 +383,8 @@ fn copysign(magnitude: f32, sign: f32) -> f32 {
 /// `(m[i][j] - m[j][i])^2 <= eps (m[i][i] + t) (m[j][j] + t)`. The first shift forgives
 /// what rounding makes of a semi-definite matrix scaled to unit variances, and nothing of a
 /// negative variance or a correlation beyond 1 by more than that, so that variances of
-/// very different scales are judged each on its own; the second forgives rounding at the
+/// very different scales are judged each on its own, down to the second's scale; the
+/// second forgives rounding at the
 /// scale of the largest variance, which a covariance computed in `f32` (a filter's own,
 /// as `covariance()` returns it) carries. A zero variance among zeros must have zero
 /// covariances. A filter tests every covariance it is given (initial, process and
@@ -425,9 +426,9 @@ pub fn inflate_covariance<const L: usize>(packed: &mut [f32; L], scale: f32) -> 
 /// A design aid of the double Kalman filter's window: the least-squares window length
 /// (`dkf(window = N)`) at which one window equation's error `equation_noise` (a standard
 /// deviation, as `Dkf::window_equation_noise` gives it), averaged over the window's
-/// `N - window_outputs + params` equations as if they were independent, is a tenth of
+/// `N - minimum_window + params` equations as if they were independent, is a tenth of
 /// `equation_terms` (the size of the equation's terms at the excitation); never below the
-/// minimum window, `window_outputs` outputs. A rule of thumb: neighbouring equations share
+/// minimum window, `minimum_window` outputs that determine the `params` parameters. A rule of thumb: neighbouring equations share
 /// measurements, so check the length it names with a simulation. `None` when
 /// `equation_terms` is not positive and finite, `equation_noise` is negative or not finite,
 /// or the window would need more than 100 000 equations.
@@ -435,7 +436,7 @@ pub fn inflate_covariance<const L: usize>(packed: &mut [f32; L], scale: f32) -> 
 pub fn window_len_for(
     equation_noise: f32,
     equation_terms: f32,
-    window_outputs: usize,
+    minimum_window: usize,
     params: usize,
 ) -> Option<usize> {
     let known = equation_terms > 0.0
@@ -457,8 +458,8 @@ pub fn window_len_for(
     if (whole as f32) < equations {
         whole += 1;
     }
-    let length = (whole.max(params) + window_outputs).saturating_sub(params);
-    Some(length.max(window_outputs))
+    let length = (whole.max(params) + minimum_window).saturating_sub(params);
+    Some(length.max(minimum_window))
 }
 
 /// Whether every variance of a diagonal covariance is non-negative (NaN is not).
@@ -487,6 +488,15 @@ pub const DIVERGENCE_NIS: f32 = 1e8;
 #[inline(always)]
 pub fn within_divergence_bound(probe: f32) -> bool {
     abs(probe) <= DIVERGENCE_BOUND
+}
+
+/// Whether `value` is at most `limit` (false for NaN): a generated step's test of a
+/// measure against the bound of the code path it takes (the continuous-time EKF's
+/// stiffness against the whole equations' RK4).
+#[must_use]
+#[inline(always)]
+pub fn at_most(value: f32, limit: f32) -> bool {
+    value <= limit
 }
 
 /// Whether a normalised innovation squared is within `gate` (false for NaN).

@@ -106,6 +106,9 @@ struct DkfType {
     recover_after: Option<u32>,
     /// Outputs the window holds, the latest included.
     window_outputs: usize,
+    /// Outputs the paper's minimum window holds (the fewest that determine the
+    /// parameters).
+    minimum_window: usize,
     /// Past inputs the window holds.
     window_inputs: usize,
     /// Whether the window is solved by least squares, with a parameter covariance.
@@ -134,6 +137,7 @@ impl DkfType {
             gate: spec.gate,
             recover_after: spec.recover_after,
             window_outputs: wt.output_delays + 1,
+            minimum_window: wt.minimum_window,
             window_inputs: wt.input_delays,
             least_squares: wt.least_squares(),
             noise_gain,
@@ -158,7 +162,6 @@ impl DkfType {
         let stage = |prefix, covariance, what| Recovery {
             prefix,
             covariance,
-            n: self.n,
             what,
         };
         let stages = [
@@ -449,6 +452,7 @@ impl DkfType {
         });
         let first = &variances[0];
         let params = Literal::usize_unsuffixed(self.np);
+        let minimum_window = Literal::usize_unsuffixed(self.minimum_window);
         Some(quote! {
             /// A design aid at the declared measurement noise: the standard deviation of
             /// one window equation's error, `WINDOW_NOISE_GAIN * sqrt(R)` with `R` the
@@ -473,10 +477,13 @@ impl DkfType {
             pub fn window_len_for(&self, equation_terms: #ty) -> Option<usize> {
                 /// The parameters the window solves.
                 const PARAMS: usize = #params;
+                /// Outputs of the minimum window, which solves them from `PARAMS`
+                /// equations.
+                const MINIMUM_WINDOW: usize = #minimum_window;
                 stateforge_math::#ty::window_len_for(
                     self.window_equation_noise(),
                     equation_terms,
-                    WINDOW_OUTPUTS,
+                    MINIMUM_WINDOW,
                     PARAMS,
                 )
             }
