@@ -529,15 +529,26 @@ fn store_innovation_tokens(
 /// What a gated update does with an outlier: store its innovation and return
 /// `OutlierRejected`. A step keeps its prediction, as `predict` alone would have, through
 /// the cold, out-of-line `keep_prediction` (`keep_prediction`: its call), so the usual
-/// sample pays only for the test. `refuse` returns the refusal (through the stage's
-/// recovery, where it has one).
+/// sample pays only for the test; a prediction that fails returns its own status. `refuse`
+/// returns the refusal (through the stage's recovery, where it has one).
 fn outlier_rejection(
     keep_prediction: Option<TokenStream>,
     store_innovation: &TokenStream,
     refuse: impl Fn(TokenStream) -> TokenStream,
 ) -> TokenStream {
     match keep_prediction {
-        Some(call) => refuse(call),
+        Some(call) => {
+            let refusal = refuse(quote! { Status::OutlierRejected });
+            quote! {
+                let kept = #call;
+                // A prediction that failed (diverged, not finite) is its own answer, not
+                // a refused measurement: the recovery counts only refusals.
+                if kept != Status::OutlierRejected {
+                    return kept;
+                }
+                #refusal
+            }
+        }
         None => {
             let refusal = refuse(quote! { Status::OutlierRejected });
             quote! {
