@@ -11,7 +11,7 @@ pub fn status_enum() -> TokenStream {
         /// [`Status::OutlierRejected`] and [`Status::Recovering`] say, and that a filter
         /// counts the measurements it refuses in a row (`refusals()`, see `RECOVER_AFTER`).
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-        #[must_use = "a step that did not return `Status::Ok` left the filter unchanged"]
+        #[must_use = "a step that did not return `Status::Ok` did not apply its measurement"]
         pub enum Status {
             /// The step was applied.
             Ok,

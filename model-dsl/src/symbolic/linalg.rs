@@ -137,7 +137,7 @@ pub fn sandwich_symmetric(g: &mut Graph, a: &Matrix, m: &Matrix, b: &Matrix) -> 
 #[derive(Default)]
 pub struct Coefficients {
     /// Names the variables must not take (the model's own).
-    avoid: Vec<String>,
+    avoid: crate::fast_hash::FastSet<String>,
     /// Each variable with the value the code computes for it once.
     pub definitions: Vec<(NodeId, NodeId)>,
     /// The variable standing for each magnitude bound so far (see [`signed_magnitude`]),
@@ -149,7 +149,7 @@ impl Coefficients {
     /// A binder whose variables avoid the names in `avoid`.
     pub fn new(avoid: &[String]) -> Coefficients {
         Coefficients {
-            avoid: avoid.to_vec(),
+            avoid: avoid.iter().cloned().collect(),
             ..Coefficients::default()
         }
     }
@@ -192,7 +192,7 @@ impl Coefficients {
         let var = g.var(&name);
         // A later matrix bound under the same prefix (a split step's Jacobian at another
         // point) takes another name: two variables of one name would shadow each other.
-        self.avoid.push(name);
+        self.avoid.insert(name);
         self.definitions.push((var, value));
         self.bound.insert(magnitude, (var, negative));
         var

@@ -160,8 +160,7 @@ fn recovery_items(model: &Model, spec: &EkfSpec, scalar: Scalar) -> recovery::Re
         .iter()
         .map(|sensor| (sensors::prefix(sensor), sensor.name.clone()))
         .collect();
-    let n = model.state_len();
-    recovery::filter_items(spec.recover_after, n, &sensor_stages, scalar)
+    recovery::filter_items(spec.recover_after, &sensor_stages, scalar)
 }
 
 /// `fn new`: the shared layout's constructor, with the measurement stage's initial values
