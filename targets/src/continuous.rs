@@ -1,5 +1,5 @@
-//! The continuous filters on the target: the helicopter's continuous-time EKF (seed 004)
-//! and the blade's hybrid EKF with 500 Euler sub-steps (seed 001) on the deterministic
+//! The continuous filters on the target: the helicopter's continuous-time EKF (Kulkarni and Purwar's helicopter paper)
+//! and the blade's hybrid EKF with 500 Euler sub-steps (the blade paper) on the deterministic
 //! sequences of `generated_demo::continuous_sequence`, printed for the host to check, and
 //! their cost per call.
 //!

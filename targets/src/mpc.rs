@@ -1,4 +1,4 @@
-//! The blade's MPC (seed 001) on the target: `Mpc::solve` in `f32` on the deterministic
+//! The blade's MPC (the blade paper) on the target: `Mpc::solve` in `f32` on the deterministic
 //! estimates of `generated_demo::mpc_sequence` (impacts every second, 54 g added half-way),
 //! its plans printed for the host to check, and its cost per solve over the run.
 //!

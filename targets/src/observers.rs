@@ -1,5 +1,5 @@
 //! The compile-time designed observers on the target: the piecewise beam's
-//! linear-error-dynamics observer (seed 003) and the polynomial Kalman filter (seed 002),
+//! linear-error-dynamics observer (the piecewise-linear beam report) and the polynomial Kalman filter (the polynomial Kalman filter paper),
 //! run on embedded sequences and checked against the host, then measured per call beside
 //! plain nalgebra versions of the same algorithms.
 //!

@@ -1,6 +1,6 @@
 //! Independent `f64` references of the continuous filters, written densely with nalgebra:
-//! the hybrid (continuous-discrete) EKF of seed 001 (eq. 21 between samples, the Joseph
-//! update of eqs. 24-26 at the sample) and the continuous-time EKF of seed 004 (eq. 5, with
+//! the hybrid (continuous-discrete) EKF of the blade paper (eq. 21 between samples, the Joseph
+//! update of eqs. 24-26 at the sample) and the continuous-time EKF of Kulkarni and Purwar's helicopter paper (eq. 5, with
 //! the prescribed degree of stability of eq. 26). `P` is a full matrix, the gain uses a
 //! matrix inverse, and each model's `dx/dt` and Jacobian are written out by hand by the
 //! test that uses it (nothing comes from the code generator but the model constants).
@@ -106,7 +106,7 @@ fn integrate<const N: usize>(
     estimate
 }
 
-/// The hybrid EKF (seed 001): `Q` is a spectral density.
+/// The hybrid EKF (the blade paper): `Q` is a spectral density.
 pub struct HybridEkf<'m, const N: usize, const M: usize, const U: usize> {
     /// The model.
     pub model: &'m Model<N, M, U>,
@@ -154,7 +154,7 @@ impl<const N: usize, const M: usize, const U: usize> HybridEkf<'_, N, M, U> {
 /// A measurement's innovation `y - h(x)` and its covariance `S`.
 pub type Innovation<const M: usize> = (SVector<f64, M>, SMatrix<f64, M, M>);
 
-/// The continuous-time EKF (seed 004 eq. 5) with a prescribed degree of stability `alpha`
+/// The continuous-time EKF (Kulkarni and Purwar's helicopter paper, eq. 5) with a prescribed degree of stability `alpha`
 /// (eq. 26; `alpha = 0` is the standard filter), integrated as the generated filter does
 /// (see [`ContinuousEkf::step`]): the whole equations by RK4 while they are not stiff, else
 /// split symmetrically, the measurement terms' exact flow (the Joseph-form update with
@@ -205,7 +205,7 @@ impl<const N: usize, const M: usize, const U: usize> ContinuousEkf<'_, N, M, U> 
         innovation
     }
 
-    /// The whole equations (seed 004 eq. 5, with `alpha` eq. 26) over one sample by one
+    /// The whole equations (Kulkarni and Purwar's helicopter paper, eq. 5, with `alpha` eq. 26) over one sample by one
     /// classical RK4 step: `x' = f + K (y - h)`, `P' = A P + P A' + Q - K H P`,
     /// `K = P H' R^-1`, `A = F + alpha I`.
     pub fn whole_step(
@@ -288,7 +288,7 @@ impl<const N: usize, const M: usize, const U: usize> ContinuousEkf<'_, N, M, U> 
     }
 }
 
-/// The continuous-time EKF's equations themselves (seed 004 eq. 5, with `alpha` eq. 26),
+/// The continuous-time EKF's equations themselves (Kulkarni and Purwar's helicopter paper, eq. 5, with `alpha` eq. 26),
 /// `x' = f + K (y - h)`, `P' = A P + P A' + Q - K R K'`, `K = P H' R^-1`, `A = F + alpha I`,
 /// over each sample with `u` and `y` held, solved to a tight tolerance by the adaptive
 /// eighth-order Dormand-Prince method of the `ode_solvers` crate: what the split

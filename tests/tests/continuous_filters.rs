@@ -51,7 +51,7 @@ fn wobble(k: usize, scale: f64) -> f64 {
     scale * ((0.37 * t).sin() + 0.5 * (1.91 * t + 0.3).sin() + 0.25 * (5.3 * t).cos())
 }
 
-/// The blade in control mode (seed 001 eq. 20, `generated-demo/models/mass_spring_damper.rs`):
+/// The blade in control mode (the blade paper, eq. 20, `generated-demo/models/mass_spring_damper.rs`):
 /// `x = [q, q', eta1, eta2, 1/m]`, forward Euler at `T / 500`.
 pub mod blade_control {
     use generated_demo::mass_spring_damper::in_f64::{
@@ -97,7 +97,7 @@ pub mod blade_control {
     };
 }
 
-/// The blade in identification mode (seed 001 eq. 19,
+/// The blade in identification mode (the blade paper, eq. 19,
 /// `generated-demo/models/blade_identification.rs`): `x = [q, q', k, b, c, 1/m]`.
 pub mod blade_identification {
     use generated_demo::blade_identification::in_f64::TS;
@@ -134,7 +134,7 @@ pub mod blade_identification {
     };
 }
 
-/// The helicopter (seed 004 eq. 2, `generated-demo/models/helicopter.rs`):
+/// The helicopter (Kulkarni and Purwar's helicopter paper, eq. 2, `generated-demo/models/helicopter.rs`):
 /// `x = [psi, psi', phi, phi', tau1, tau2]`, `u = [u1, u2]`, `y = [psi, phi]`, one RK4
 /// step per 1 ms sample.
 pub mod helicopter_model {
@@ -403,7 +403,7 @@ fn decays_at_least_as(envelope: &[f64], alpha: f64, t1: f64, dt: f64) -> bool {
 }
 
 /// With a prescribed degree of stability `alpha`, the estimation error of a noise-free run
-/// decays at least as `exp(-alpha t)` (Reif et al.; seed 004 eq. 26): the helicopter at rest
+/// decays at least as `exp(-alpha t)` (Reif et al.; Kulkarni and Purwar's eq. 26): the helicopter at rest
 /// (where a held measurement is exact), from the paper's wrong initial estimate, over 8 s;
 /// after the first second the measured envelope of the error norm stays under
 /// `env(1 s) exp(-alpha (t - 1 s))`. The standard filter decays at about 2.2 per second
@@ -432,7 +432,7 @@ fn prescribed_degree_of_stability_bounds_the_error_decay() {
 }
 
 stateforge::model! {
-    /// The blade of seed 001 in identification mode (eq. 19) with one Euler step per
+    /// The blade in identification mode (Takacs, Poloni and Rohal-Ilkiv) (eq. 19) with one Euler step per
     /// sample, generating both the discrete EKF and the hybrid EKF.
     mod blade_one_euler_step {
         scalar f64;
@@ -848,7 +848,7 @@ fn continuous_ekf_against_its_equation(
 /// of the whole equations blew up on the first sample. The step stays stable from `P0` = 1
 /// and up to 1e8 times `R`, with the paper's tuning and with `alpha` (split while the
 /// measurement terms are stiff, the whole equations by RK4 once they are not), and follows
-/// the equations themselves within a sample times the rates (the first-order split it
+/// the equations themselves within a tenth of a sample times the rates (the first-order split it
 /// replaced was within half a sample times the rates: psi 5.6e-5 to 5.9e-5 rad, phi 1.3e-4
 /// to 1.6e-4 rad). Measured: psi within 1.2e-9 (the paper's tuning) to 2.3e-6 rad (the
 /// precise encoder), phi within 1.2e-8 to 1.7e-5 rad.
@@ -876,10 +876,11 @@ fn continuous_ekf_is_stable_with_a_stiff_gain_and_follows_its_equations() {
         );
         for angle in 0..2 {
             assert!(
-                difference[angle] <= TS * rate[angle],
-                "angle {angle}: {:e} from the equations, beyond T times its rate {:e}",
+                difference[angle] <= 0.1 * TS * rate[angle],
+                "angle {angle}: {:e} from the equations, beyond a tenth of T times its rate \
+                 {:e}",
                 difference[angle],
-                TS * rate[angle]
+                0.1 * TS * rate[angle]
             );
         }
     }

@@ -1,4 +1,4 @@
-//! The generated EKF with two measurements (the helicopter of seed 004: its innovation
+//! The generated EKF with two measurements (the helicopter of Kulkarni and Purwar's helicopter paper: its innovation
 //! covariance is inverted by an unrolled, guarded `L D L'` solve) against a dense EKF
 //! written with nalgebra on the same model functions, matrix inverse and all.
 

@@ -33,14 +33,16 @@ impl Visit<'_> for Docs {
     }
 }
 
-/// Words of the papers' systems that a user's unrelated model's docs must not contain
-/// except inside a cited title.
-const PAPERS_SYSTEMS: [&str; 5] = [
-    "cantilever beam",
+/// Words of the papers' and the demo's systems that a user's unrelated model's docs must
+/// not contain except inside a cited title.
+const PAPERS_SYSTEMS: [&str; 7] = [
+    "cantilever",
     "vibrating",
     "blade",
     "helicopter",
     "stinger",
+    "navigation",
+    "gnss",
 ];
 
 fn assert_about_the_model(what: &str, docs: &[String]) {
@@ -103,4 +105,24 @@ fn a_rovers_continuous_filters_are_documented_as_its_own() {
         }
     });
     assert_about_the_model("rover", &docs);
+}
+
+#[test]
+fn a_rovers_continuous_ekf_of_one_rk4_step_is_documented_as_its_own() {
+    let docs = generated_docs(quote! {
+        /// A rover's heading and speed, one RK4 step per sample.
+        pub mod rover {
+            scalar f32;
+            const TS = 0.01;
+            state heading, speed;
+            input turn_rate, thrust;
+            output compass = heading;
+            generate continuous_ekf(alpha = 0.3, process_noise = diagonal, gate = off);
+            dynamics continuous(rk4, dt = TS, substeps = 1) {
+                der(heading) = turn_rate;
+                der(speed) = thrust - 0.1 * speed;
+            }
+        }
+    });
+    assert_about_the_model("rover of one RK4 step", &docs);
 }

@@ -1,4 +1,4 @@
-//! The reconstructed piecewise beam (seed 003; its Appendix 1 matrices were lost in the
+//! The reconstructed piecewise beam (the piecewise-linear beam report; its Appendix 1 matrices were lost in the
 //! OCR) has the modes its documentation states, computed here with nalgebra from the
 //! generated constants: first mode 15.9 Hz free and 26.0 Hz with the one-sided spring
 //! engaged, second mode near 56 Hz (the lightly damped observer pole -8 +- 358i of

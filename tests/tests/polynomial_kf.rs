@@ -1,4 +1,4 @@
-//! The generated polynomial Kalman filter (seed 002) against a dense nalgebra reference
+//! The generated polynomial Kalman filter (the polynomial Kalman filter paper) against a dense nalgebra reference
 //! written from the paper's equations: prediction with `Phi(1)` (eq. 5-6), gain and update
 //! with `S = (I - K M) S1` (eq. 7-9), and re-initialisation by a least-squares fit solved
 //! with nalgebra's SVD, with covariance `sigma^2 (H'H)^-1`.

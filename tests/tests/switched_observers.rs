@@ -1,4 +1,4 @@
-//! The generated switched observers of the piecewise beam (seed 003) against a dense
+//! The generated switched observers of the piecewise beam (the piecewise-linear beam report) against a dense
 //! nalgebra simulation: the regime matrices read back from the generated model function
 //! `f` by differences, the gains from the Riccati recursion iterated to convergence and
 //! from `K2 = K1 + (A2 - A1) C'`, and the observers run side by side. Then the property
