@@ -23,6 +23,8 @@ pub(crate) trait Real:
     fn from_count(n: usize) -> Self;
     /// Whether the value is neither infinite nor NaN.
     fn finite(self) -> bool;
+    /// The least whole number at or above the value, for a value in `[0, 1e5]`.
+    fn ceil_count(self) -> usize;
 }
 
 impl Real for f32 {
@@ -35,6 +37,13 @@ impl Real for f32 {
     fn finite(self) -> bool {
         self.is_finite()
     }
+    // Within [0, 1e5]: the conversion is exact but for the fraction.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    #[allow(clippy::cast_precision_loss)]
+    fn ceil_count(self) -> usize {
+        let whole = self as usize;
+        whole + usize::from((whole as f32) < self)
+    }
 }
 
 impl Real for f64 {
@@ -46,6 +55,13 @@ impl Real for f64 {
     }
     fn finite(self) -> bool {
         self.is_finite()
+    }
+    // Within [0, 1e5]: the conversion is exact but for the fraction.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    #[allow(clippy::cast_precision_loss)]
+    fn ceil_count(self) -> usize {
+        let whole = self as usize;
+        whole + usize::from((whole as f64) < self)
     }
 }
 
@@ -182,32 +198,4 @@ pub(crate) fn unpack_symmetric<T: Real, const N: usize, const L: usize>(
         }
     }
     m
-}
-
-/// Scales the packed covariance `packed` (upper triangle, row by row) by `scale` when
-/// `scale` is above 1 and the scaled variances sum to at most `bound`; whether it did. A
-/// common scale keeps a covariance positive semi-definite. NaN scales nothing.
-#[inline(always)]
-pub(crate) fn inflate<T: Real, const L: usize>(packed: &mut [T; L], scale: T, bound: T) -> bool {
-    // The dimension `n`, `n (n + 1) / 2 = L`; row `i`'s variance follows the `n - i + 1`
-    // entries of row `i - 1`.
-    let mut n = 0;
-    while n * (n + 1) / 2 < L {
-        n += 1;
-    }
-    let (mut variances, mut diagonal) = (T::ZERO, 0);
-    for row in 0..n {
-        if let Some(&variance) = packed.get(diagonal) {
-            variances = variances + variance;
-        }
-        diagonal += n - row;
-    }
-    let one = T::from_count(1);
-    if !(scale > one && variances * scale <= bound) {
-        return false;
-    }
-    for entry in packed.iter_mut() {
-        *entry = *entry * scale;
-    }
-    true
 }

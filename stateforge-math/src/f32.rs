@@ -420,7 +420,7 @@ pub fn unpack_symmetric<const N: usize, const L: usize>(packed: &[f32; L]) -> [[
 #[must_use]
 #[inline(always)]
 pub fn inflate_covariance<const L: usize>(packed: &mut [f32; L], scale: f32) -> bool {
-    crate::covariance::inflate(packed, scale, DIVERGENCE_BOUND)
+    crate::recovery::inflate(packed, scale, DIVERGENCE_BOUND)
 }
 
 /// A design aid of the double Kalman filter's window: the least-squares window length
@@ -439,27 +439,7 @@ pub fn window_len_for(
     minimum_window: usize,
     params: usize,
 ) -> Option<usize> {
-    let known = equation_terms > 0.0
-        && equation_terms.is_finite()
-        && equation_noise >= 0.0
-        && equation_noise.is_finite();
-    if !known {
-        return None;
-    }
-    let ratio = 10.0 * equation_noise / equation_terms;
-    let equations = ratio * ratio;
-    if equations > 100_000.0 {
-        return None;
-    }
-    // `equations` is within [0, 1e5]: the conversion is exact but for the fraction.
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-    let mut whole = equations as usize;
-    #[allow(clippy::cast_precision_loss)]
-    if (whole as f32) < equations {
-        whole += 1;
-    }
-    let length = (whole.max(params) + minimum_window).saturating_sub(params);
-    Some(length.max(minimum_window))
+    crate::recovery::window_len_for(equation_noise, equation_terms, minimum_window, params)
 }
 
 /// Whether every variance of a diagonal covariance is non-negative (NaN is not).

@@ -37,6 +37,7 @@ mod arm;
 mod covariance;
 pub mod f32;
 pub mod f64;
+mod recovery;
 
 /// `value` unchanged, opaque to the optimiser (`core::hint::black_box`): what is read
 /// through a reference it returns is not known to be what is read through another
