@@ -207,17 +207,12 @@ pub fn commit(lowerer: &mut Lowerer, commit: &Commit<'_>, scalar: Scalar) -> Com
     let n = x.len();
     let diagonal: Vec<usize> = (0..n).map(|i| packed_index(n, i, i)).collect();
     let variances: Vec<NodeId> = diagonal.iter().map(|&k| p[k]).collect();
-    let rendered = lowerer.segment(&variances);
-    let graph = lowerer.graph();
-    let tested: Vec<TokenStream> = variances
-        .iter()
-        .zip(rendered)
-        .filter(|&(&v, _)| !sum_of(graph, v, commit.known_variances))
-        .map(|(_, tokens)| tokens)
-        .collect();
-    for test in divergence_tests(commit.probe, &tested, scalar) {
-        lowerer.statement(test);
-    }
+    test_divergence(
+        lowerer,
+        commit.probe,
+        (&variances, commit.known_variances),
+        scalar,
+    );
     let read_by_tests = slots.read_so_far(lowerer);
     let binding_statement = commit.reread.then(|| {
         slots.read_through(lowerer, &slots.names, true);
@@ -264,18 +259,30 @@ pub fn test_prediction(
     scalar: Scalar,
 ) {
     let probe = lowerer.bind(probe, "prediction_probe");
+    test_divergence(lowerer, &probe, (variances, known_variances), scalar);
+    lowerer.count_extra(divergence_test_ops(variances.len()));
+}
+
+/// The divergence tests of a step's result: the `probe` against the bound, and each of
+/// `variances` not negative, but for a sum of `known` variances (a sum of non-negative
+/// numbers is not negative).
+fn test_divergence(
+    lowerer: &mut Lowerer,
+    probe: &TokenStream,
+    (variances, known): (&[NodeId], &[NodeId]),
+    scalar: Scalar,
+) {
     let rendered = lowerer.segment(variances);
     let graph = lowerer.graph();
     let tested: Vec<TokenStream> = variances
         .iter()
         .zip(rendered)
-        .filter(|&(&v, _)| !sum_of(graph, v, known_variances))
+        .filter(|&(&v, _)| !sum_of(graph, v, known))
         .map(|(_, tokens)| tokens)
         .collect();
-    for test in divergence_tests(&probe, &tested, scalar) {
+    for test in divergence_tests(probe, &tested, scalar) {
         lowerer.statement(test);
     }
-    lowerer.count_extra(divergence_test_ops(variances.len()));
 }
 
 /// Stores the new estimate, `self.x = [..];`, or, where the step leaves entries as they
