@@ -992,29 +992,30 @@ fn guard_after_propagation(lowerer: &mut Lowerer, nodes: &MethodNodes, kind: Fil
     let after = if kind.is_continuous() {
         nodes.flows.get(1..).unwrap_or_default()
     } else {
-        let (pivots, reciprocals) = (&nodes.pivots, &nodes.reciprocals);
-        let names = (INNOVATION, "");
-        guard_pivots(
-            lowerer,
-            pivots,
-            reciprocals,
-            names,
-            &innovation_pivot_failure,
-            scalar,
-        );
+        guard_innovation_pivots(lowerer, (&nodes.pivots, &nodes.reciprocals), "", scalar);
         &nodes.flows[..]
     };
     for (pivots, reciprocals, suffix) in after {
-        let names = (INNOVATION, *suffix);
-        guard_pivots(
-            lowerer,
-            pivots,
-            reciprocals,
-            names,
-            &innovation_pivot_failure,
-            scalar,
-        );
+        guard_innovation_pivots(lowerer, (pivots, reciprocals), suffix, scalar);
     }
+}
+
+/// Guards an update's innovation pivots, named `INNOVATION` with `suffix`: a non-positive
+/// one returns `NonPositiveInnovation` before anything is divided by it.
+fn guard_innovation_pivots(
+    lowerer: &mut Lowerer,
+    (pivots, reciprocals): (&[NodeId], &[NodeId]),
+    suffix: &str,
+    scalar: Scalar,
+) {
+    guard_pivots(
+        lowerer,
+        pivots,
+        reciprocals,
+        (INNOVATION, suffix),
+        &innovation_pivot_failure,
+        scalar,
+    );
 }
 
 /// The code before the propagation: the estimate and covariance read from the fields, the
@@ -1035,16 +1036,7 @@ fn lower_start(
     // The whole equations' step (never looped) tests them first.
     fall_back_when_stiff(lowerer, nodes, model);
     if kind.is_continuous() {
-        let names = (INNOVATION, "");
-        let (pivots, reciprocals) = (&nodes.pivots, &nodes.reciprocals);
-        guard_pivots(
-            lowerer,
-            pivots,
-            reciprocals,
-            names,
-            &innovation_pivot_failure,
-            scalar,
-        );
+        guard_innovation_pivots(lowerer, (&nodes.pivots, &nodes.reciprocals), "", scalar);
         for &value in nodes.innovation.iter().chain(&nodes.innovation_covariance) {
             lowerer.force_let(value);
         }
@@ -1052,15 +1044,7 @@ fn lower_start(
             lowerer.bind(nis, "nis");
         }
         if let Some((pivots, reciprocals, suffix)) = nodes.flows.first() {
-            let names = (INNOVATION, *suffix);
-            guard_pivots(
-                lowerer,
-                pivots,
-                reciprocals,
-                names,
-                &innovation_pivot_failure,
-                scalar,
-            );
+            guard_innovation_pivots(lowerer, (pivots, reciprocals), suffix, scalar);
         }
     }
     nodes
