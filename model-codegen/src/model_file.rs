@@ -143,6 +143,9 @@ struct Symbol {
     /// Read by no expression on purpose: no warning (the macro's `#[allow(unused)]`).
     #[serde(default)]
     allow_unused: Option<Spanned<bool>>,
+    /// `"Vec3"` or `"Rot3"` (the macro's `name: Vec3`); a number if absent.
+    #[serde(default, rename = "type")]
+    ty: Option<Spanned<String>>,
 }
 
 /// Outputs measured together by one sensor, listed by name.
@@ -571,6 +574,7 @@ impl Reader<'_> {
                     docs: docs(&symbol.doc),
                     name: self.name(&symbol.name),
                     kind,
+                    ty: symbol.ty.as_ref().map(|ty| self.name(ty)),
                     allow_unused: allow_unused.is_some_and(|a| *a.get_ref()),
                 });
             }

@@ -119,6 +119,8 @@ pub struct SymbolDecl {
     pub name: Name,
     /// Its role.
     pub kind: SymbolKind,
+    /// Its type as written after a colon (`v: Vec3`); a number if none.
+    pub ty: Option<Name>,
     /// Declared `#[allow(unused)]` (in a model file, `allow_unused = true`): read by no
     /// expression on purpose, so not warned about (a state carried for a layout).
     pub allow_unused: bool,
@@ -241,8 +243,10 @@ pub enum SurfaceKind {
     Neg(Box<SurfaceExpr>),
     /// `a op b`
     Binary(BinaryOp, Box<SurfaceExpr>, Box<SurfaceExpr>),
-    /// `f(args)`: the function name is checked later.
+    /// `f(args)`: the function name is checked later. A method call `a.f(b)` is `f(a, b)`.
     Call(Name, Vec<SurfaceExpr>),
+    /// `v.x`: a component of a vector.
+    Field(Box<SurfaceExpr>, Name),
     /// `if lhs cmp rhs { then } else { otherwise }`
     If {
         /// The comparison.

@@ -22,6 +22,7 @@ pub mod emit;
 pub mod fast_hash;
 pub mod front;
 pub mod generators;
+pub mod geometry;
 pub mod model;
 pub mod numerics;
 pub mod pipeline;

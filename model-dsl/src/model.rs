@@ -32,8 +32,117 @@ pub struct Model {
     pub sensors: Vec<Sensor>,
     /// The dynamics of the physical states.
     pub dynamics: Dynamics,
-    /// Named intermediates of the dynamics block, referenced by [`Expr::Local`].
+    /// Named intermediates of the dynamics block, referenced by [`Expr::Local`]: the
+    /// model's own `let`s, and the entries of values its typed expressions read more than
+    /// once (computed once, by name).
     pub locals: Vec<Local>,
+    /// The symbols and outputs declared as vectors or rotations, in declaration order:
+    /// each stands for consecutive scalar entries of its list ([`Group::first`]).
+    pub groups: Vec<Group>,
+}
+
+/// The type of a declared symbol, output or intermediate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Type {
+    /// A number.
+    Scalar,
+    /// A 3-vector `[x, y, z]`.
+    Vec3,
+    /// A rotation: a unit quaternion stored `[x, y, z, w]`.
+    Rot3,
+}
+
+impl Type {
+    /// How many scalar entries a value of this type takes.
+    pub fn entry_count(self) -> usize {
+        self.entries().len()
+    }
+
+    /// The names of the entries, suffixed to the symbol's name (`v_x`); empty for a scalar,
+    /// which is its own entry.
+    pub fn entries(self) -> &'static [&'static str] {
+        match self {
+            Type::Scalar => &[""],
+            Type::Vec3 => &crate::geometry::VEC3_ENTRIES,
+            Type::Rot3 => &crate::geometry::QUAT_ENTRIES,
+        }
+    }
+
+    /// The name a model writes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Type::Scalar => "a scalar",
+            Type::Vec3 => "Vec3",
+            Type::Rot3 => "Rot3",
+        }
+    }
+}
+
+/// A value of a typed expression, entry by entry: what the checks expand a model's
+/// vectors and rotations into, so that everything after them sees scalars only.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Value {
+    /// A number.
+    Scalar(Expr),
+    /// A 3-vector.
+    Vec3([Expr; 3]),
+    /// A rotation: the unit quaternion `q` (`[x, y, z, w]`), or its inverse if `inverted`
+    /// (kept apart so that `q.inverse() * v` is `R' v` on the entries of `R`).
+    Rot3 {
+        /// The quaternion.
+        q: [Expr; 4],
+        /// Whether the value is the inverse of `q`.
+        inverted: bool,
+    },
+}
+
+impl Value {
+    /// Its type.
+    pub fn ty(&self) -> Type {
+        match self {
+            Value::Scalar(_) => Type::Scalar,
+            Value::Vec3(_) => Type::Vec3,
+            Value::Rot3 { .. } => Type::Rot3,
+        }
+    }
+}
+
+/// Which list a typed group's entries are in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GroupRole {
+    /// [`Model::states`]
+    State,
+    /// [`Model::params`]
+    Param,
+    /// [`Model::inputs`]
+    Input,
+    /// [`Model::known`]
+    Known,
+    /// [`Model::outputs`]
+    Output,
+}
+
+/// A vector or rotation among the model's symbols or outputs: consecutive scalar entries,
+/// named `<name>_x`, `<name>_y`, ..
+#[derive(Clone, Debug)]
+pub struct Group {
+    /// Doc comment lines.
+    pub docs: Vec<String>,
+    /// Name as declared.
+    pub name: String,
+    /// Its type.
+    pub ty: Type,
+    /// Which list holds its entries.
+    pub role: GroupRole,
+    /// The position of its first entry in that list.
+    pub first: usize,
+}
+
+impl Group {
+    /// The positions of its entries in its list.
+    pub fn entries(&self) -> std::ops::Range<usize> {
+        self.first..self.first + self.ty.entry_count()
+    }
 }
 
 /// Floating-point type of generated code.

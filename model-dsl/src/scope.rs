@@ -16,6 +16,8 @@ pub enum Binding {
     Input(usize),
     Known(usize),
     Local(usize),
+    /// A vector or rotation: [`Scope::typed`]`[i]`, its entries as expressions.
+    Typed(usize),
 }
 
 /// The names declared so far, and what expressions need to know of them.
@@ -32,6 +34,12 @@ pub struct Scope {
     /// recorded already: an expression that reads one is left unresolved without an error
     /// of its own, so one mistake is reported once, where it is.
     pub(crate) failed: std::collections::HashSet<String>,
+    /// The values of the typed names (vectors and rotations), each entry a scalar
+    /// expression (a state, an input, an intermediate, ..).
+    pub(crate) typed: Vec<crate::model::Value>,
+    /// How many entries the physical states take (a vector state three): where the
+    /// parameters start in the state vector.
+    pub(crate) state_len: usize,
 }
 
 impl Scope {
@@ -61,6 +69,8 @@ impl Scope {
             scalars: Vec::new(),
             declared,
             failed: std::collections::HashSet::new(),
+            typed: Vec::new(),
+            state_len: 0,
         }
     }
 
@@ -72,6 +82,11 @@ impl Scope {
     /// Whether `name` is declared.
     pub(crate) fn contains_key(&self, name: &str) -> bool {
         self.names.contains_key(name)
+    }
+
+    /// The value of the typed name bound as [`Binding::Typed`]`(i)`.
+    pub fn typed(&self, i: usize) -> Option<&crate::model::Value> {
+        self.typed.get(i)
     }
 
     /// The value of the `i`-th constant.

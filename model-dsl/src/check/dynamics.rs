@@ -2,11 +2,16 @@
 //! dynamics, `der(x) = ..` for continuous ones), named intermediates, and for continuous
 //! dynamics the discretisation (integration rule, step and sub-steps).
 
-use super::expr::{resolve, Reader};
+use super::expr::{article, resolve, resolve_value, Reader};
+use super::expr_algebra::ExprAlgebra;
 use super::names::{declare, duplicate_error};
+use super::typed::materialise;
 use crate::ast::{DynamicsDecl, DynamicsKind, ModelDecl, Name, Statement, SurfaceExpr, SymbolKind};
 use crate::diagnostics::Diagnostics;
-use crate::model::{Discretisation, Dynamics, Expr, Local, Method, Symbol, UNROLLED_SUBSTEPS_MAX};
+use crate::geometry;
+use crate::model::{
+    Discretisation, Dynamics, Expr, Local, Method, Symbol, Type, Value, UNROLLED_SUBSTEPS_MAX,
+};
 use crate::scope::{Binding, Scope};
 use proc_macro2::Span;
 
@@ -40,20 +45,24 @@ pub(super) fn check_dynamics(
                 value,
             } => {
                 let context = Reader::Equation(&target.text);
-                let expr = resolve(value, scope, locals, context, diag);
-                let Some(index) = equation_target(target, scope, diag) else {
+                let resolved = resolve_value(value, scope, Some(&mut *locals), context, diag);
+                let Some((ty, entries)) = equation_target(target, scope, diag) else {
                     continue;
                 };
                 check_equation_kind(target, *derivative, continuous, diag);
-                if rhs[index].is_some() {
-                    diag.error(
-                        target.span,
-                        format!(
-                            "state `{}` has a second equation: each state takes exactly one",
-                            target.text
-                        ),
-                    );
-                } else {
+                let written = (target, value, *derivative);
+                let exprs = equation_entries(written, ty, resolved, locals, diag);
+                for (&index, expr) in entries.iter().zip(exprs) {
+                    if rhs[index].is_some() {
+                        diag.error(
+                            target.span,
+                            format!(
+                                "state `{}` has a second equation: each state takes exactly one",
+                                target.text
+                            ),
+                        );
+                        break;
+                    }
                     rhs[index] = Some(expr);
                 }
             }
@@ -77,13 +86,30 @@ fn check_let(
     locals: &mut Vec<Local>,
     diag: &mut Diagnostics,
 ) {
-    match resolve(value, scope, locals, Reader::Intermediate(&name.text), diag) {
-        Some(expr) => {
+    let context = Reader::Intermediate(&name.text);
+    match resolve_value(value, scope, Some(&mut *locals), context, diag) {
+        Some(Value::Scalar(expr)) => {
             locals.push(Local {
                 name: name.text.clone(),
                 expr,
             });
             declare(scope, name, Binding::Local(locals.len() - 1), diag);
+        }
+        Some(typed) => {
+            // Each entry computed once, named after the intermediate (`w_x`).
+            let mut alg = ExprAlgebra {
+                locals: Some(locals),
+            };
+            let named = match typed {
+                Value::Vec3(v) => Value::Vec3(geometry::share3(&mut alg, v, &name.text)),
+                Value::Rot3 { q, inverted } => Value::Rot3 {
+                    q: geometry::share4(&mut alg, q, &name.text),
+                    inverted,
+                },
+                scalar => scalar,
+            };
+            scope.typed.push(named);
+            declare(scope, name, Binding::Typed(scope.typed.len() - 1), diag);
         }
         None if scope.contains_key(&name.text) || scope.failed.contains(&name.text) => {
             duplicate_error(diag, name);
@@ -94,11 +120,23 @@ fn check_let(
     }
 }
 
-/// The state an equation's left-hand side names, or an error saying what it is instead.
-fn equation_target(target: &Name, scope: &Scope, diag: &mut Diagnostics) -> Option<usize> {
+/// The state an equation's left-hand side names, its type and the positions of its
+/// entries among the states, or an error saying what it is instead.
+fn equation_target(
+    target: &Name,
+    scope: &Scope,
+    diag: &mut Diagnostics,
+) -> Option<(Type, Vec<usize>)> {
     let name = &target.text;
     let message = match scope.get(name) {
-        Some((Binding::State(i), _)) => return Some(*i),
+        Some((Binding::State(i), _)) => return Some((Type::Scalar, vec![*i])),
+        Some((Binding::Typed(i), _)) => match typed_entries(scope.typed(*i)?) {
+            (ty, Some(entries)) => return Some((ty, entries)),
+            (_, None) => format!(
+                "`{name}` is not a state: only states take dynamics (a vector intermediate \
+                 is named with `let`)"
+            ),
+        },
         Some((Binding::Param(_), _)) => format!(
             "`{name}` is a parameter: an unknown constant estimated as a random walk, so it \
              takes no dynamics; declare it with `state` if it evolves"
@@ -117,6 +155,75 @@ fn equation_target(target: &Name, scope: &Scope, diag: &mut Diagnostics) -> Opti
     };
     diag.error(target.span, message);
     None
+}
+
+/// A typed name's type, and its entries' positions among the states if it is a state.
+fn typed_entries(value: &Value) -> (Type, Option<Vec<usize>>) {
+    let entries: Vec<&Expr> = match value {
+        Value::Scalar(e) => vec![e],
+        Value::Vec3(v) => v.iter().collect(),
+        Value::Rot3 { q, .. } => q.iter().collect(),
+    };
+    let states = entries.into_iter().map(|e| match e {
+        Expr::State(i) => Some(*i),
+        _ => None,
+    });
+    (value.ty(), states.collect())
+}
+
+/// The right-hand sides of an equation's entries (each `None` after an error): its value
+/// must have the target's type. A rotation's next value is renormalised by one Newton
+/// step, so that it stays a unit quaternion to rounding however many samples it is
+/// advanced; a rotation state has no derivative (it is advanced on its manifold).
+fn equation_entries(
+    (target, value, derivative): (&Name, &SurfaceExpr, bool),
+    ty: Type,
+    resolved: Option<Value>,
+    locals: &mut Vec<Local>,
+    diag: &mut Diagnostics,
+) -> Vec<Option<Expr>> {
+    let failed = vec![None; ty.entry_count()];
+    let Some(resolved) = resolved else {
+        return failed;
+    };
+    let name = &target.text;
+    if ty == Type::Rot3 && derivative {
+        diag.error(
+            target.span,
+            format!(
+                "a rotation state is advanced on its manifold, not by a derivative: write \
+                 `dynamics discrete {{ {name} = {name} * exp(omega * DT); }}`"
+            ),
+        );
+        return failed;
+    }
+    let mut alg = ExprAlgebra {
+        locals: Some(locals),
+    };
+    match (ty, resolved) {
+        (Type::Scalar, Value::Scalar(e)) => vec![Some(e)],
+        (Type::Vec3, Value::Vec3(v)) => v.map(Some).to_vec(),
+        (Type::Rot3, rotation @ Value::Rot3 { .. }) => match materialise(&mut alg, rotation) {
+            Some(q) => geometry::renormalize(&mut alg, q).map(Some).to_vec(),
+            None => failed,
+        },
+        (_, other) => {
+            let next = match ty {
+                Type::Rot3 => format!("a rotation, such as `{name} = {name} * exp(omega * DT)`"),
+                Type::Vec3 => format!("a vector, such as `{name} = {name} + v * DT`"),
+                Type::Scalar => "a number: take a component (`v.x`) or a norm".to_owned(),
+            };
+            let what = article(ty);
+            diag.error(
+                value.span,
+                format!(
+                    "`{name}` is {what}, and this is {}: its next value is {next}",
+                    article(other.ty())
+                ),
+            );
+            failed
+        }
+    }
 }
 
 /// Continuous dynamics give derivatives, `der(x) = ..`; discrete ones the next sample.
@@ -233,7 +340,7 @@ fn check_method(span: Span, method: &Option<Name>, diag: &mut Diagnostics) -> Op
 
 /// The step `dt`: a constant expression, positive.
 fn check_step(expr: &SurfaceExpr, scope: &Scope, diag: &mut Diagnostics) -> Option<Expr> {
-    let e = resolve(expr, scope, &[], Reader::Step, diag)?;
+    let e = resolve(expr, scope, None, Reader::Step, diag)?;
     let consts_only = !e.any(&|e| {
         !matches!(
             e,

@@ -2,9 +2,12 @@
 //! arity and domain, piecewise terms, and every constant part folded and checked finite in
 //! the model's scalar types.
 
-use crate::ast::{BinaryOp, Comparison, Name, SurfaceExpr, SurfaceKind};
+use super::expr_algebra::ExprAlgebra;
+use super::typed::ROTATION_ARITHMETIC;
+use crate::ast::{Comparison, Name, SurfaceExpr, SurfaceKind};
 use crate::diagnostics::{closest, Diagnostics};
-use crate::model::{Expr, Func, Local, Scalar};
+use crate::geometry;
+use crate::model::{Expr, Func, Local, Scalar, Type, Value};
 use crate::scope::{Binding, Scope};
 
 /// Why `value` cannot be a literal of the model's scalar types, if it cannot: it must be
@@ -59,61 +62,153 @@ impl std::fmt::Display for Reader<'_> {
     }
 }
 
-/// Resolves names and function calls; returns `None` after recording an error, or when
-/// it reads a name whose definition failed (its error recorded already: see
-/// [`Scope::failed`]).
+/// Resolves a scalar expression: names, function calls and typed parts (a vector's
+/// component, a dot product); returns `None` after recording an error, or when it reads a
+/// name whose definition failed (its error recorded already: see [`Scope::failed`]).
+/// `locals` is where the intermediates are, `None` where none may be read (a constant).
 pub(super) fn resolve(
     expr: &SurfaceExpr,
     scope: &Scope,
-    locals: &[Local],
+    locals: Option<&mut Vec<Local>>,
     context: Reader,
     diag: &mut Diagnostics,
 ) -> Option<Expr> {
-    let mut go = |e: &SurfaceExpr, diag: &mut Diagnostics| resolve(e, scope, locals, context, diag);
-    let resolved = match &expr.kind {
-        SurfaceKind::Number(v) => Expr::Number(*v),
-        SurfaceKind::Name(name) => resolve_name(expr, name, scope, locals, context, diag)?,
-        SurfaceKind::Neg(a) => Expr::Neg(Box::new(go(a, diag)?)),
-        SurfaceKind::Binary(op, a, b) => {
-            let (a, b) = (go(a, diag), go(b, diag));
-            let (a, b) = (Box::new(a?), Box::new(b?));
-            match op {
-                BinaryOp::Add => Expr::Add(a, b),
-                BinaryOp::Sub => Expr::Sub(a, b),
-                BinaryOp::Mul => Expr::Mul(a, b),
-                BinaryOp::Div => Expr::Div(a, b),
-            }
-        }
-        SurfaceKind::Call(func, args) => {
-            resolve_call(expr, func, args, &scope.const_values, &mut go, diag)?
-        }
-        SurfaceKind::If {
-            cmp,
-            lhs,
-            rhs,
-            then,
-            otherwise,
-        } => {
-            let parts = [lhs, rhs, then, otherwise].map(|e| go(e, diag));
-            let [lhs, rhs, then, otherwise] = parts;
-            Expr::Select {
-                cmp: *cmp,
-                lhs: Box::new(lhs?),
-                rhs: Box::new(rhs?),
-                then: Box::new(then?),
-                otherwise: Box::new(otherwise?),
-            }
-        }
+    let mut resolver = Resolver {
+        scope,
+        locals,
+        context,
     };
-    check_constant_parts(resolved, expr, scope, context, diag)
+    resolver.scalar(expr, diag, &|ty| {
+        format!("{context} is a number, and this is {}", article(ty))
+    })
 }
 
-/// What a name refers to in an expression of `context`.
+/// Resolves an expression of any type (see [`resolve`]).
+pub(super) fn resolve_value(
+    expr: &SurfaceExpr,
+    scope: &Scope,
+    locals: Option<&mut Vec<Local>>,
+    context: Reader,
+    diag: &mut Diagnostics,
+) -> Option<Value> {
+    let mut resolver = Resolver {
+        scope,
+        locals,
+        context,
+    };
+    resolver.value(expr, diag)
+}
+
+/// `a Vec3`, `a Rot3`, `a scalar`: a type in a sentence.
+pub(super) fn article(ty: Type) -> String {
+    match ty {
+        Type::Scalar => "a scalar".to_owned(),
+        other => format!("a `{}`", other.name()),
+    }
+}
+
+/// What resolves one expression: the names it may read, where its shared parts go.
+pub(super) struct Resolver<'a, 'l> {
+    pub(super) scope: &'a Scope,
+    /// The intermediates it may read, and where the entries of a typed value read more
+    /// than once are named (computed once); `None` for a constant, which reads none.
+    pub(super) locals: Option<&'l mut Vec<Local>>,
+    pub(super) context: Reader<'a>,
+}
+
+impl Resolver<'_, '_> {
+    /// The value of `expr`, of whatever type it has.
+    pub(super) fn value(&mut self, expr: &SurfaceExpr, diag: &mut Diagnostics) -> Option<Value> {
+        let value = match &expr.kind {
+            SurfaceKind::Number(v) => Value::Scalar(Expr::Number(*v)),
+            SurfaceKind::Name(name) => self.name(expr, name, diag)?,
+            SurfaceKind::Neg(a) => self.negate(a, diag)?,
+            SurfaceKind::Binary(op, a, b) => self.binary(*op, a, b, diag)?,
+            SurfaceKind::Call(func, args) => self.call(expr, func, args, diag)?,
+            SurfaceKind::Field(base, component) => self.field(base, component, diag)?,
+            SurfaceKind::If {
+                cmp,
+                lhs,
+                rhs,
+                then,
+                otherwise,
+            } => self.piecewise(*cmp, [lhs, rhs, then, otherwise], diag)?,
+        };
+        match value {
+            Value::Scalar(e) => {
+                check_constant_parts(e, expr, self.scope, self.context, diag).map(Value::Scalar)
+            }
+            typed => Some(typed),
+        }
+    }
+
+    /// The value of `expr`, which must be a number: `why(its type)` says why otherwise.
+    pub(super) fn scalar(
+        &mut self,
+        expr: &SurfaceExpr,
+        diag: &mut Diagnostics,
+        why: &dyn Fn(Type) -> String,
+    ) -> Option<Expr> {
+        match self.value(expr, diag)? {
+            Value::Scalar(e) => Some(e),
+            typed => {
+                diag.error(expr.span, why(typed.ty()));
+                None
+            }
+        }
+    }
+
+    /// `-a`
+    fn negate(&mut self, a: &SurfaceExpr, diag: &mut Diagnostics) -> Option<Value> {
+        Some(match self.value(a, diag)? {
+            Value::Scalar(e) => Value::Scalar(Expr::Neg(Box::new(e))),
+            Value::Vec3(v) => Value::Vec3(geometry::neg(&mut self.algebra(), v)),
+            Value::Rot3 { .. } => {
+                diag.error(a.span, ROTATION_ARITHMETIC);
+                return None;
+            }
+        })
+    }
+
+    /// A name: what it is bound to, or an error saying what is wrong.
+    fn name(&mut self, expr: &SurfaceExpr, name: &str, diag: &mut Diagnostics) -> Option<Value> {
+        let visible = self.locals.as_deref().map_or(0, Vec::len);
+        if let Some((Binding::Typed(i), _)) = self.scope.get(name) {
+            let value = self.scope.typed(*i)?.clone();
+            let reads_later = |e: &Expr| matches!(e, Expr::Local(j) if *j >= visible);
+            let entries: Vec<&Expr> = match &value {
+                Value::Scalar(e) => vec![e],
+                Value::Vec3(v) => v.iter().collect(),
+                Value::Rot3 { q, .. } => q.iter().collect(),
+            };
+            if entries.into_iter().any(reads_later) {
+                let context = self.context;
+                diag.error(
+                    expr.span,
+                    format!("`{name}` is an intermediate of the dynamics block: {context} cannot use it"),
+                );
+                return None;
+            }
+            return Some(value);
+        }
+        resolve_name(expr, name, self.scope, visible, self.context, diag).map(Value::Scalar)
+    }
+
+    /// The algebra that builds this expression's scalar entries.
+    pub(super) fn algebra(&mut self) -> ExprAlgebra<'_> {
+        ExprAlgebra {
+            locals: self.locals.as_deref_mut(),
+        }
+    }
+}
+
+/// What a name refers to in an expression of `context`, which may read the first
+/// `visible` intermediates.
 fn resolve_name(
     expr: &SurfaceExpr,
     name: &str,
     scope: &Scope,
-    locals: &[Local],
+    visible: usize,
     context: Reader,
     diag: &mut Diagnostics,
 ) -> Option<Expr> {
@@ -128,8 +223,8 @@ fn resolve_name(
         Some((Binding::Param(i), _)) => return Some(Expr::Param(*i)),
         Some((Binding::Input(i), _)) => return Some(Expr::Input(*i)),
         Some((Binding::Known(i), _)) => return Some(Expr::Known(*i)),
-        Some((Binding::Local(i), _)) if *i < locals.len() => return Some(Expr::Local(*i)),
-        Some((Binding::Local(_), _)) => {
+        Some((Binding::Local(i), _)) if *i < visible => return Some(Expr::Local(*i)),
+        Some((Binding::Local(_) | Binding::Typed(_), _)) => {
             format!("`{name}` is an intermediate of the dynamics block: {context} cannot use it")
         }
         None if name == "t" => return Some(Expr::Time),
@@ -207,7 +302,7 @@ fn check_constant_parts(
     Some(e)
 }
 
-fn resolve_call(
+pub(super) fn resolve_call(
     expr: &SurfaceExpr,
     func: &Name,
     args: &[SurfaceExpr],

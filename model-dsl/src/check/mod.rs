@@ -5,18 +5,21 @@
 
 mod dynamics;
 mod expr;
+mod expr_algebra;
 mod generate;
+mod geometry_calls;
 mod names;
 mod sensors;
+mod typed;
 mod unused;
 
 use crate::ast::{ModelDecl, SymbolKind};
 use crate::diagnostics::{Diagnostics, Warning};
 use crate::generators::Generator;
-use crate::model::{Constant, Model, Output, Scalar, Symbol};
+use crate::model::{Constant, Expr, Group, GroupRole, Model, Output, Scalar, Symbol, Type, Value};
 use crate::scope::{Binding, Scope};
 use dynamics::{check_dynamics, check_known_substeps};
-use expr::{resolve, Reader};
+use expr::{resolve, resolve_value, Reader};
 use generate::check_generate;
 use names::{
     check_case_collisions, check_identifier, check_name_allowed, declare, duplicate_error,
@@ -55,8 +58,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Checked> {
     let scalars = check_scalars(decl, &mut diag);
     scope.scalars = scalars.clone();
     let constants = check_constants(decl, &mut scope, &mut diag);
-    let symbols = check_symbols(decl, &mut scope, &mut diag);
-    let sensors = check_sensors(decl, &mut diag);
+    let mut symbols = check_symbols(decl, &mut scope, &mut diag);
     let mut locals = Vec::new();
     let dynamics = match decl.dynamics.as_slice() {
         [] => {
@@ -79,7 +81,9 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Checked> {
         }
     };
     // After the dynamics: an output may read their intermediates.
-    let outputs = check_outputs(decl, &scope, &locals, &mut diag);
+    let (outputs, output_entries) =
+        check_outputs(decl, &scope, &mut locals, &mut symbols.groups, &mut diag);
+    let sensors = check_sensors(decl, &output_entries, &mut diag);
     check_known_substeps(decl, &mut diag);
     let generators = check_generate(decl, &scope, &mut diag);
     let Some(dynamics) = dynamics else {
@@ -106,6 +110,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Checked> {
         sensors,
         dynamics,
         locals,
+        groups: symbols.groups,
     };
     let (generators, budgets) = generators.into_iter().unzip();
     diag.finish(Checked {
@@ -116,14 +121,24 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Checked> {
     })
 }
 
-/// The declared symbols by kind, in order.
+/// The declared symbols by kind, in order, a vector or rotation as its entries.
 struct Symbols {
     states: Vec<Symbol>,
     state_spans: Vec<Span>,
     params: Vec<Symbol>,
     inputs: Vec<Symbol>,
     known: Vec<Symbol>,
+    /// The vectors and rotations among them (and, once checked, among the outputs).
+    groups: Vec<Group>,
 }
+
+/// Where a symbol of one kind goes: its list, how it is bound and read, its group role.
+type SymbolList<'a> = (
+    &'a mut Vec<Symbol>,
+    fn(usize) -> Binding,
+    GroupRole,
+    fn(usize) -> Expr,
+);
 
 /// Declares the states, parameters, inputs and run-time constants; a model needs a state.
 fn check_symbols(decl: &ModelDecl, scope: &mut Scope, diag: &mut Diagnostics) -> Symbols {
@@ -133,25 +148,48 @@ fn check_symbols(decl: &ModelDecl, scope: &mut Scope, diag: &mut Diagnostics) ->
         params: Vec::new(),
         inputs: Vec::new(),
         known: Vec::new(),
+        groups: Vec::new(),
     };
     for sym in &decl.symbols {
-        let symbol = Symbol {
+        let ty = symbol_type(sym, diag);
+        let (list, binding, role, read): SymbolList = match sym.kind {
+            SymbolKind::State => (&mut s.states, Binding::State, GroupRole::State, Expr::State),
+            SymbolKind::Param => (&mut s.params, Binding::Param, GroupRole::Param, Expr::Param),
+            SymbolKind::Input => (&mut s.inputs, Binding::Input, GroupRole::Input, Expr::Input),
+            SymbolKind::Known => (&mut s.known, Binding::Known, GroupRole::Known, Expr::Known),
+        };
+        let first = list.len();
+        for name in entry_names(&sym.name.text, ty) {
+            list.push(Symbol {
+                docs: sym.docs.clone(),
+                name,
+            });
+            if sym.kind == SymbolKind::State {
+                s.state_spans.push(sym.name.span);
+            }
+        }
+        if ty == Type::Scalar {
+            declare(scope, &sym.name, binding(first), diag);
+            continue;
+        }
+        check_entry_names(&sym.name, ty, scope, diag);
+        let entries: Vec<Expr> = (first..first + ty.entry_count()).map(read).collect();
+        scope.typed.push(typed_value(ty, entries));
+        declare(
+            scope,
+            &sym.name,
+            Binding::Typed(scope.typed.len() - 1),
+            diag,
+        );
+        s.groups.push(Group {
             docs: sym.docs.clone(),
             name: sym.name.text.clone(),
-        };
-        let (list, binding): (&mut Vec<Symbol>, fn(usize) -> Binding) = match sym.kind {
-            SymbolKind::State => {
-                s.state_spans.push(sym.name.span);
-                (&mut s.states, Binding::State)
-            }
-            SymbolKind::Param => (&mut s.params, Binding::Param),
-            SymbolKind::Input => (&mut s.inputs, Binding::Input),
-            SymbolKind::Known => (&mut s.known, Binding::Known),
-        };
-        list.push(symbol);
-        let index = list.len() - 1;
-        declare(scope, &sym.name, binding(index), diag);
+            ty,
+            role,
+            first,
+        });
     }
+    scope.state_len = s.states.len();
     if s.states.is_empty() {
         diag.error(
             decl.name.span,
@@ -161,17 +199,81 @@ fn check_symbols(decl: &ModelDecl, scope: &mut Scope, diag: &mut Diagnostics) ->
     s
 }
 
+/// The type written after a symbol's name; a rotation known at run time is refused (a
+/// known value is a number or a vector).
+fn symbol_type(sym: &crate::ast::SymbolDecl, diag: &mut Diagnostics) -> Type {
+    let Some(written) = &sym.ty else {
+        return Type::Scalar;
+    };
+    match typed::written_type(written) {
+        Ok(Type::Rot3) if sym.kind == SymbolKind::Known => {
+            diag.error(
+                written.span,
+                "a rotation is not `known`: declare it as an `input`, given each sample",
+            );
+            Type::Rot3
+        }
+        Ok(ty) => ty,
+        Err(message) => {
+            diag.error(written.span, message);
+            Type::Scalar
+        }
+    }
+}
+
+/// The names of the entries a symbol of type `ty` takes: its own for a number, `v_x`,
+/// `v_y`, `v_z` for a vector and `q_x` .. `q_w` for a rotation.
+fn entry_names(name: &str, ty: Type) -> Vec<String> {
+    match ty {
+        Type::Scalar => vec![name.to_owned()],
+        _ => ty.entries().iter().map(|e| format!("{name}_{e}")).collect(),
+    }
+}
+
+/// A typed value of the entries `entries`.
+fn typed_value(ty: Type, entries: Vec<Expr>) -> Value {
+    match (ty, <[Expr; 3]>::try_from(entries.clone())) {
+        (Type::Vec3, Ok(v)) => Value::Vec3(v),
+        _ => match <[Expr; 4]>::try_from(entries) {
+            Ok(q) => Value::Rot3 { q, inverted: false },
+            Err(mut entries) => Value::Scalar(entries.swap_remove(0)),
+        },
+    }
+}
+
+/// An entry's name (`v_x`) names it in the generated code (`X_NAMES`, `index::V_X`): no
+/// other name of the model may be the same.
+fn check_entry_names(name: &crate::ast::Name, ty: Type, scope: &Scope, diag: &mut Diagnostics) {
+    for entry in entry_names(&name.text, ty) {
+        if scope.contains_key(&entry) || scope.declared.contains_key(&entry) {
+            diag.error(
+                name.span,
+                format!(
+                    "`{entry}` names an entry of `{0}` in the generated code (`index::{1}`), \
+                     and the model declares `{entry}` too: rename one",
+                    name.text,
+                    entry.to_uppercase()
+                ),
+            );
+        }
+    }
+}
+
 /// Resolves the outputs `y = h(x, u)`, which may read the intermediates of the dynamics
 /// (`locals`): each a function of the time, states, parameters and inputs, evaluated where
 /// the output is. Each output needs a name of its own among the constants, symbols and
 /// outputs (an intermediate's name is a temporary's: `output speed = speed;` reads one).
+/// A vector output is three outputs, its entries (`mag_x`, ..), recorded in `groups`.
+/// Returns the outputs and, for each declared one, the positions of its entries.
 fn check_outputs(
     decl: &ModelDecl,
     scope: &Scope,
-    locals: &[crate::model::Local],
+    locals: &mut Vec<crate::model::Local>,
+    groups: &mut Vec<Group>,
     diag: &mut Diagnostics,
-) -> Vec<Output> {
+) -> (Vec<Output>, Vec<std::ops::Range<usize>>) {
     let mut outputs = Vec::new();
+    let mut entries = Vec::new();
     let mut output_names = std::collections::HashSet::new();
     for out in &decl.outputs {
         let taken = match scope.get(&out.name.text) {
@@ -185,16 +287,47 @@ fn check_outputs(
             output_names.insert(out.name.text.as_str());
         }
         let context = Reader::Output(&out.name.text);
-        if let Some(expr) = resolve(&out.expr, scope, locals, context, diag) {
+        let first = outputs.len();
+        let value = resolve_value(&out.expr, scope, Some(&mut *locals), context, diag);
+        let measured = match value {
+            Some(Value::Scalar(e)) => vec![e],
+            Some(Value::Vec3(v)) => {
+                check_entry_names(&out.name, Type::Vec3, scope, diag);
+                groups.push(Group {
+                    docs: out.docs.clone(),
+                    name: out.name.text.clone(),
+                    ty: Type::Vec3,
+                    role: GroupRole::Output,
+                    first,
+                });
+                v.to_vec()
+            }
+            Some(Value::Rot3 { .. }) => {
+                diag.error(out.expr.span, ROTATION_OUTPUT);
+                Vec::new()
+            }
+            None => Vec::new(),
+        };
+        let ty = if measured.len() == 3 {
+            Type::Vec3
+        } else {
+            Type::Scalar
+        };
+        for (name, expr) in entry_names(&out.name.text, ty).into_iter().zip(measured) {
             outputs.push(Output {
                 docs: out.docs.clone(),
-                name: out.name.text.clone(),
+                name,
                 expr,
             });
         }
+        entries.push(first..outputs.len());
     }
-    outputs
+    (outputs, entries)
 }
+
+/// Why a rotation is not an output.
+const ROTATION_OUTPUT: &str = "an output is a number or a vector: measure a vector the \
+     rotation turns, `q.inverse() * vec3(0.0, 0.0, 1.0)`, or its rotation vector, `log(q)`";
 
 fn check_scalars(decl: &ModelDecl, diag: &mut Diagnostics) -> Vec<Scalar> {
     let mut scalars = Vec::new();
@@ -233,7 +366,7 @@ fn check_constants(decl: &ModelDecl, scope: &mut Scope, diag: &mut Diagnostics) 
     let mut constants = Vec::new();
     for c in &decl.constants {
         let context = Reader::Constant(&c.name.text);
-        let value = resolve(&c.value, scope, &[], context, diag).and_then(|expr| {
+        let value = resolve(&c.value, scope, None, context, diag).and_then(|expr| {
             let value = expr.fold(&|i| scope.const_values.get(i).copied());
             if value.is_none() {
                 diag.error(

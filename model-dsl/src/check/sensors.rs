@@ -14,8 +14,14 @@ const LISTED_OUTPUTS: usize = 12;
 /// output's, whose update would share it) and at least one output that exists; an output
 /// belongs to one sensor at most, and appears in it once. Outputs are found among the
 /// declared ones, so that one whose expression is wrong (reported already) is not also
-/// unknown here.
-pub(super) fn check_sensors(decl: &ModelDecl, diag: &mut Diagnostics) -> Vec<Sensor> {
+/// unknown here. `entries[i]` are the positions of the `i`-th declared output's entries
+/// among the model's outputs (three for a vector). A vector output in no sensor is a
+/// sensor of its own, of its name (`update_mag`).
+pub(super) fn check_sensors(
+    decl: &ModelDecl,
+    entries: &[std::ops::Range<usize>],
+    diag: &mut Diagnostics,
+) -> Vec<Sensor> {
     let outputs: Vec<&str> = decl.outputs.iter().map(|o| o.name.text.as_str()).collect();
     let mut owners: HashMap<usize, &str> = HashMap::new();
     let mut sensor_names: HashSet<&str> = HashSet::new();
@@ -50,8 +56,23 @@ pub(super) fn check_sensors(decl: &ModelDecl, diag: &mut Diagnostics) -> Vec<Sen
         sensors.push(Sensor {
             docs: sensor.docs.clone(),
             name: name.text.clone(),
-            outputs: members(sensor, &outputs, &mut owners, diag),
+            outputs: members(sensor, &outputs, &mut owners, diag)
+                .into_iter()
+                .flat_map(|i| entries.get(i).cloned().unwrap_or_default())
+                .collect(),
         });
+    }
+    for (i, (output, entries)) in decl.outputs.iter().zip(entries).enumerate() {
+        if entries.len() > 1
+            && !owners.contains_key(&i)
+            && !sensor_names.contains(output.name.text.as_str())
+        {
+            sensors.push(Sensor {
+                docs: output.docs.clone(),
+                name: output.name.text.clone(),
+                outputs: entries.clone().collect(),
+            });
+        }
     }
     sensors
 }

@@ -70,7 +70,7 @@ fn names_read(decl: &ModelDecl) -> HashSet<&str> {
             SurfaceKind::Name(name) => {
                 read.insert(name.as_str());
             }
-            SurfaceKind::Neg(a) => exprs.push(a),
+            SurfaceKind::Neg(a) | SurfaceKind::Field(a, _) => exprs.push(a),
             SurfaceKind::Binary(_, a, b) => exprs.extend([&**a, &**b]),
             SurfaceKind::Call(_, args) => exprs.extend(args),
             SurfaceKind::If {

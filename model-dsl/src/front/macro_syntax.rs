@@ -4,7 +4,7 @@
 //! model       := doc* vis 'mod' IDENT '{' item* '}'
 //! item        := doc* ( 'scalar' IDENT,+ ';'
 //!                     | 'const' IDENT '=' expr ';'
-//!                     | ('state' | 'param' | 'input' | 'known') (doc* IDENT),+ ';'
+//!                     | ('state' | 'param' | 'input' | 'known') (doc* IDENT [':' TYPE]),+ ';'
 //!                     | 'output' (doc* IDENT '=' expr),+ ';'
 //!                     | 'sensor' IDENT '=' '[' IDENT,+ ']' ';'
 //!                     | 'dynamics' ('discrete' | 'continuous' ['(' method [',' 'dt' '=' expr] [',' 'substeps' '=' INT] ')'])
@@ -13,7 +13,9 @@
 //! ```
 //! Expressions are Rust expressions restricted to arithmetic, calls of the model
 //! functions (`sin cos tan tanh exp ln sqrt abs powi atan2 min max clamp`, also as methods,
-//! `x.sin()`, `y.atan2(x)`), and `if a > b { .. } else { .. }`.
+//! `x.sin()`, `y.atan2(x)`), and `if a > b { .. } else { .. }`; with `TYPE` `Vec3` or
+//! `Rot3`, also vectors and rotations (`vec3(a, b, c)`, `v.x`, `q * v`, `exp(theta)`, ..:
+//! the typed calls are checked in `check`).
 
 use crate::ast::{
     ArgValue, BinaryOp, Comparison, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg,
@@ -194,11 +196,16 @@ fn parse_symbols(
     let entries = input.parse_terminated_until_semi(
         |i| {
             let own = Attribute::parse_outer(i)?;
-            Ok((own, i.parse::<Ident>()?))
+            let ident = i.parse::<Ident>()?;
+            let ty = match i.parse::<Option<Token![:]>>()? {
+                Some(_) => Some(i.parse::<Ident>()?),
+                None => None,
+            };
+            Ok((own, ident, ty))
         },
         diag,
     )?;
-    let symbols = entries.into_iter().map(|(mut own, ident)| {
+    let symbols = entries.into_iter().map(|(mut own, ident, ty)| {
         let own_allows_unused = take_allow_unused(&mut own);
         if let (Some(span), SymbolKind::State) = (own_allows_unused, kind) {
             diag.error(span, ALLOW_UNUSED_APPLIES_TO);
@@ -209,6 +216,7 @@ fn parse_symbols(
             docs: if own.is_empty() { docs.to_vec() } else { own },
             name: name(&ident),
             kind,
+            ty: ty.as_ref().map(name),
             allow_unused,
         }
     });
@@ -627,6 +635,26 @@ fn expr(e: &Expr, diag: &mut Diagnostics) -> SurfaceExpr {
             args.extend(m.args.iter().map(|a| expr(a, diag)));
             SurfaceKind::Call(name(&m.method), args)
         }
+        Expr::Field(f) => match &f.member {
+            syn::Member::Named(component) => {
+                SurfaceKind::Field(Box::new(expr(&f.base, diag)), name(component))
+            }
+            syn::Member::Unnamed(_) => unsupported(
+                span,
+                "a vector's components are `.x`, `.y` and `.z`: write `v.x`",
+                diag,
+            ),
+        },
+        Expr::Index(_) => unsupported(
+            span,
+            "a model has no indexing: a vector's components are `v.x`, `v.y` and `v.z`",
+            diag,
+        ),
+        Expr::Array(_) => unsupported(
+            span,
+            "a vector is written `vec3(a, b, c)`, not as an array",
+            diag,
+        ),
         Expr::If(i) => return piecewise(i, diag),
         Expr::Block(b) => return block_value(&b.block, span, diag),
         _ => unsupported(

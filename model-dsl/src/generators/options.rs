@@ -6,6 +6,7 @@
 use crate::ast::{ArgValue, GenerateArg, GenerateDecl, ModelDecl, Name};
 use crate::diagnostics::{closest, phrase, Diagnostics};
 use crate::emit::filter::ProcessNoise;
+use crate::model::{Expr, Value};
 use crate::scope::{Binding, Scope};
 use proc_macro2::Span;
 
@@ -61,24 +62,59 @@ impl<'a> Context<'a> {
     pub fn estimate_index(&self, name: &str) -> Option<usize> {
         match self.scope.get(name)? {
             (Binding::State(i), _) => Some(*i),
-            (Binding::Param(i), _) => {
-                let states = self.scope.names.values();
-                Some(
-                    states
-                        .filter(|(b, _)| matches!(b, Binding::State(_)))
-                        .count()
-                        + i,
-                )
-            }
+            (Binding::Param(i), _) => Some(self.scope.state_len + i),
             _ => None,
         }
+    }
+
+    /// The indices in the state vector of the state or parameter `name`: one for a number,
+    /// its entries for a vector or rotation; `None` if it is neither.
+    pub fn estimate_indices(&self, name: &str) -> Option<Vec<usize>> {
+        let state_len = self.scope.state_len;
+        self.entries(name, &|e| match e {
+            Expr::State(i) => Some(*i),
+            Expr::Param(i) => Some(state_len + i),
+            _ => None,
+        })
+    }
+
+    /// The indices among the physical states of `name`'s entries (one for a number).
+    pub fn state_indices(&self, name: &str) -> Option<Vec<usize>> {
+        self.entries(name, &|e| match e {
+            Expr::State(i) => Some(*i),
+            _ => None,
+        })
+    }
+
+    /// The indices among the inputs of `name`'s entries (one for a number).
+    pub fn input_indices(&self, name: &str) -> Option<Vec<usize>> {
+        self.entries(name, &|e| match e {
+            Expr::Input(i) => Some(*i),
+            _ => None,
+        })
+    }
+
+    /// `index` of each entry of the symbol `name` (itself if a number), if it has all.
+    fn entries(&self, name: &str, index: &dyn Fn(&Expr) -> Option<usize>) -> Option<Vec<usize>> {
+        let entries = match self.scope.get(name)? {
+            (Binding::Typed(i), _) => match self.scope.typed(*i)? {
+                Value::Vec3(v) => v.to_vec(),
+                Value::Rot3 { q, .. } => q.to_vec(),
+                Value::Scalar(e) => vec![e.clone()],
+            },
+            (Binding::State(i), _) => vec![Expr::State(*i)],
+            (Binding::Param(i), _) => vec![Expr::Param(*i)],
+            (Binding::Input(i), _) => vec![Expr::Input(*i)],
+            _ => return None,
+        };
+        entries.iter().map(index).collect()
     }
 
     /// The names of the states and parameters, in declaration order.
     pub fn estimate_names(&self) -> impl Iterator<Item = &str> {
         let names = self.scope.names.iter();
         names
-            .filter(|(_, (b, _))| matches!(b, Binding::State(_) | Binding::Param(_)))
+            .filter(|(name, _)| self.estimate_indices(name).is_some())
             .map(|(name, _)| name.as_str())
     }
 
@@ -388,12 +424,16 @@ impl<'a> Args<'a> {
             diag.error(span, PROCESS_NOISE_ON_USAGE);
         }
         let mut on = Vec::new();
+        let mut listed = 0;
         for name in &names {
-            match cx.estimate_index(&name.text) {
-                Some(i) if on.contains(&i) => {
+            match cx.estimate_indices(&name.text) {
+                Some(entries) if entries.iter().any(|i| on.contains(i)) => {
                     diag.error(name.span, format!("`{}` is listed twice", name.text));
                 }
-                Some(i) => on.push(i),
+                Some(entries) => {
+                    on.extend(entries);
+                    listed += 1;
+                }
                 None => {
                     let hint = match closest(&name.text, cx.estimate_names()) {
                         Some(meant) => format!("did you mean `{meant}`? "),
@@ -407,7 +447,7 @@ impl<'a> Args<'a> {
                 }
             }
         }
-        let complete = !names.is_empty() && on.len() == names.len();
+        let complete = !names.is_empty() && listed == names.len();
         ProcessNoise {
             diagonal,
             on: complete.then_some(on),
@@ -475,7 +515,7 @@ pub fn regulated(
     let states = args.names(&["states", "state"], diag);
     let inputs = args.names(&["inputs", "input"], diag);
     let lookup = |names: Vec<Name>,
-                  index: &dyn Fn(&str) -> Option<usize>,
+                  index: &dyn Fn(&str) -> Option<Vec<usize>>,
                   what: &str,
                   diag: &mut Diagnostics| {
         names
@@ -487,17 +527,18 @@ pub fn regulated(
                 }
                 found
             })
+            .flatten()
             .collect::<Vec<usize>>()
     };
     // Names given but not states or inputs have their own errors.
     let missing = states.is_empty() || inputs.is_empty();
     let states = lookup(
         states,
-        &|n| cx.state_index(n),
+        &|n| cx.state_indices(n),
         "a physical state (`state`)",
         diag,
     );
-    let inputs = lookup(inputs, &|n| cx.input_index(n), "an input (`input`)", diag);
+    let inputs = lookup(inputs, &|n| cx.input_indices(n), "an input (`input`)", diag);
     for (list, what) in [(&states, "state"), (&inputs, "input")] {
         let mut seen = std::collections::HashSet::new();
         if list.iter().any(|i| !seen.insert(*i)) {

@@ -160,6 +160,10 @@ pub enum Requirement {
     CoefficientsAtGeneration,
     /// Its design is for a known system: no `param` (unknowns estimated as states).
     NoParameters,
+    /// It treats the estimate's entries as coordinates of a vector space: no rotation
+    /// (`Rot3`) among the states and parameters, whose four entries have three degrees of
+    /// freedom.
+    EuclideanStates,
 }
 
 impl Requirement {
@@ -209,8 +213,28 @@ impl Requirement {
                     param.name.text, param.name.text
                 )
             }),
+            Requirement::EuclideanStates => rotation_state(decl).map(|q| {
+                format!(
+                    "`{name}` treats the estimate's entries as a vector, and `{q}` is a \
+                     rotation: its four entries have three degrees of freedom, so a filter or \
+                     controller on them would leave the unit sphere. Regulate or estimate a \
+                     vector of the model (an attitude error `log(q_ref.inverse() * q)` is \
+                     one), or give the rotation as an `input`"
+                )
+            }),
         }
     }
+}
+
+/// The first rotation among the states and parameters, if any.
+fn rotation_state(decl: &ModelDecl) -> Option<&str> {
+    let estimated =
+        |s: &&crate::ast::SymbolDecl| matches!(s.kind, SymbolKind::State | SymbolKind::Param);
+    decl.symbols
+        .iter()
+        .filter(estimated)
+        .find(|s| s.ty.as_ref().is_some_and(|t| t.text == "Rot3"))
+        .map(|s| s.name.text.as_str())
 }
 
 /// Whether the model's dynamics are continuous.

@@ -26,6 +26,7 @@ const DESCRIPTION: Description = Description {
         Requirement::Outputs,
         Requirement::ContinuousDynamics,
         Requirement::CoefficientsAtGeneration,
+        Requirement::EuclideanStates,
     ],
     items: &["ContinuousEkf"],
     type_name_option: None,

@@ -30,6 +30,7 @@ const DESCRIPTION: Description = Description {
         Requirement::Outputs,
         Requirement::UnrolledStep,
         Requirement::CoefficientsAtGeneration,
+        Requirement::EuclideanStates,
     ],
     items: &[
         "Dkf",

@@ -21,7 +21,11 @@ pub struct Ekf;
 const DESCRIPTION: Description = Description {
     name: "ekf",
     usage: "`ekf`",
-    requirements: &[Requirement::Outputs, Requirement::UnrolledStep],
+    requirements: &[
+        Requirement::Outputs,
+        Requirement::UnrolledStep,
+        Requirement::EuclideanStates,
+    ],
     items: &["Ekf"],
     type_name_option: Some("Ekf"),
 };

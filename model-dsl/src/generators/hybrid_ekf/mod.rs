@@ -25,6 +25,7 @@ const DESCRIPTION: Description = Description {
         Requirement::Outputs,
         Requirement::ContinuousDynamics,
         Requirement::CoefficientsAtGeneration,
+        Requirement::EuclideanStates,
     ],
     items: &["HybridEkf"],
     type_name_option: None,

@@ -21,7 +21,11 @@ pub struct Lqr;
 const DESCRIPTION: Description = Description {
     name: "lqr",
     usage: "`lqr(..)`",
-    requirements: &[Requirement::Inputs, Requirement::UnrolledStep],
+    requirements: &[
+        Requirement::Inputs,
+        Requirement::UnrolledStep,
+        Requirement::EuclideanStates,
+    ],
     items: &["Lqr"],
     type_name_option: None,
 };

@@ -32,7 +32,11 @@ pub struct Mpc;
 const DESCRIPTION: Description = Description {
     name: "mpc",
     usage: "`mpc(..)`",
-    requirements: &[Requirement::Inputs, Requirement::CoefficientsAtGeneration],
+    requirements: &[
+        Requirement::Inputs,
+        Requirement::CoefficientsAtGeneration,
+        Requirement::EuclideanStates,
+    ],
     items: &["Mpc", "MpcStatus", "MpcRebuild", "PredictionModel"],
     type_name_option: None,
 };

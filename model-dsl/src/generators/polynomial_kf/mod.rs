@@ -29,7 +29,11 @@ const USAGE: &str = "polynomial_kf(order = 3, dt = TS, fading = 1e-9, noise_vari
 const DESCRIPTION: Description = Description {
     name: "polynomial_kf",
     usage: "`polynomial_kf(..)`",
-    requirements: &[Requirement::Outputs, Requirement::CoefficientsAtGeneration],
+    requirements: &[
+        Requirement::Outputs,
+        Requirement::CoefficientsAtGeneration,
+        Requirement::EuclideanStates,
+    ],
     items: &["PolynomialKf"],
     type_name_option: None,
 };

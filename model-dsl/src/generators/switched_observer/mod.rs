@@ -29,6 +29,7 @@ const DESCRIPTION: Description = Description {
         Requirement::UnrolledStep,
         Requirement::CoefficientsAtGeneration,
         Requirement::NoParameters,
+        Requirement::EuclideanStates,
     ],
     items: &[
         "LinearErrorObserver",
