@@ -210,7 +210,7 @@ fn equation_entries(
         (_, other) => {
             let next = match ty {
                 Type::Rot3 => format!("a rotation, such as `{name} = {name} * exp(omega * DT)`"),
-                Type::Vec3 => format!("a vector, such as `{name} = {name} + v * DT`"),
+                Type::Vec3 => format!("a vector, such as `{name} = {name} + rate * DT`"),
                 Type::Scalar => "a number: take a component (`v.x`) or a norm".to_owned(),
             };
             let what = article(ty);

@@ -650,11 +650,21 @@ fn expr(e: &Expr, diag: &mut Diagnostics) -> SurfaceExpr {
             "a model has no indexing: a vector's components are `v.x`, `v.y` and `v.z`",
             diag,
         ),
-        Expr::Array(_) => unsupported(
-            span,
-            "a vector is written `vec3(a, b, c)`, not as an array",
-            diag,
-        ),
+        Expr::Array(array) => {
+            diag.error(span, "a vector is written `vec3(a, b, c)`, not as an array");
+            // Three entries are read on as the `vec3` meant, so that what uses it reports
+            // nothing more.
+            let elements: Vec<SurfaceExpr> = array.elems.iter().map(|e| expr(e, diag)).collect();
+            if elements.len() == 3 {
+                let vec3 = Name {
+                    text: "vec3".to_owned(),
+                    span,
+                };
+                SurfaceKind::Call(vec3, elements)
+            } else {
+                SurfaceKind::Number(0.0)
+            }
+        }
         Expr::If(i) => return piecewise(i, diag),
         Expr::Block(b) => return block_value(&b.block, span, diag),
         _ => unsupported(
