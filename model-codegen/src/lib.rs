@@ -10,6 +10,7 @@
 
 mod expression_places;
 mod expression_text;
+mod layout;
 pub mod meval_text;
 pub mod model_file;
 mod toml_hints;
@@ -19,10 +20,11 @@ use stateforge_compiler::check::Checked;
 use stateforge_compiler::diagnostics::Warning;
 
 /// Formats generated tokens as a Rust source file with `prettyplease` (for snapshots; the
-/// tool then passes the file through [`rustfmt`]).
+/// tool then passes the file through [`rustfmt`]). The text is `prettyplease::unparse`'s
+/// of the whole file, laid out one item at a time so that a large module's syntax tree is
+/// never held whole.
 pub fn format(tokens: TokenStream) -> syn::Result<String> {
-    let file: syn::File = syn::parse2(tokens)?;
-    Ok(prettyplease::unparse(&file))
+    layout::format(tokens)
 }
 
 /// Formats a Rust source file with `rustfmt` (the `RUSTFMT` variable, else `rustfmt` on

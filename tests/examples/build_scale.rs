@@ -13,11 +13,13 @@
 //!
 //! With `--compiler`, what the compiler itself costs on the largest inputs instead: the
 //! CPU time (user and system) and peak memory of expanding a 300-state chain's EKF (the
-//! macro's work, `stateforge_compiler::expand_macro_source`), and of what
-//! `stateforge-codegen --formatter prettyplease` does with the piecewise beam integrated
-//! by RK4 in 64 unrolled sub-steps (`tests/models/piecewise_beam_substeps.rs`: expansion,
-//! then prettyplease's layout). Each runs in a child of this program, which reports its
-//! own usage.
+//! macro's work, `stateforge_compiler::expand_macro_source`, in a child of this program
+//! that reports its own usage), and of running `stateforge-codegen --formatter
+//! prettyplease` (expansion, then prettyplease's layout, with the tool's allocator) on
+//! that chain and on the piecewise beam integrated by RK4 in 64 unrolled sub-steps
+//! (`tests/models/piecewise_beam_substeps.rs`). The tool is built first (release), and
+//! each run's usage is the kernel's account of that process (`getrusage` of its waiting
+//! parent, a child of this program).
 //!
 //! ```text
 //! cargo run --release -p tests --example build_scale -- --compiler [STATES]
@@ -186,7 +188,7 @@ fn build_once(dir: &Path, flags: &[&str]) -> ExitCode {
 /// `--compiler`: the compiler's own CPU time and peak memory on the largest inputs.
 mod compiler {
     use nix::sys::resource::{getrusage, UsageWho};
-    use std::path::PathBuf;
+    use std::path::{Path, PathBuf};
     use std::process::{Command, ExitCode};
     use tests::scale::integrator_chain;
 
@@ -200,7 +202,7 @@ mod compiler {
             ["--compiler"] => Some(report(STATES)),
             ["--compiler", n] => Some(n.parse().map_or_else(|_| usage(), report)),
             ["--expand-once", n] => Some(n.parse().map_or_else(|_| usage(), expand_once)),
-            ["--codegen-once"] => Some(codegen_once()),
+            ["--codegen-once", tool, model] => Some(codegen_once(Path::new(tool), model)),
             _ => None,
         }
     }
@@ -210,36 +212,75 @@ mod compiler {
         ExitCode::FAILURE
     }
 
-    /// The 64-sub-step piecewise beam, a `model!` file as `stateforge-codegen` reads one.
-    fn piecewise_beam() -> PathBuf {
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("models/piecewise_beam_substeps.rs")
+    fn workspace() -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
     }
 
     fn report(states: usize) -> ExitCode {
-        let runs = [
+        match runs(states).and_then(|runs| print_runs(&runs)) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("build_scale: {e}");
+                ExitCode::FAILURE
+            }
+        }
+    }
+
+    /// What is measured: each row's name and the arguments of the child that measures it.
+    fn runs(states: usize) -> Result<Vec<(String, Vec<String>)>, String> {
+        let tool = build_tool()?;
+        let tool = tool.to_string_lossy().into_owned();
+        let dir = workspace().join("target/build-scale");
+        std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+        let chain = dir.join(format!("chain_{states}.rs"));
+        std::fs::write(&chain, integrator_chain(states, true)).map_err(|e| e.to_string())?;
+        let beam = workspace().join("tests/models/piecewise_beam_substeps.rs");
+        let codegen = |model: &Path| {
+            let model = model.to_string_lossy().into_owned();
+            vec!["--codegen-once".to_owned(), tool.clone(), model]
+        };
+        Ok(vec![
             (
                 format!("{states}-state chain, EKF: expand"),
                 vec!["--expand-once".to_owned(), states.to_string()],
             ),
             (
-                "64-sub-step piecewise beam: codegen (prettyplease)".to_owned(),
-                vec!["--codegen-once".to_owned()],
+                format!("{states}-state chain, EKF: stateforge-codegen"),
+                codegen(&chain),
             ),
-        ];
+            (
+                "64-sub-step piecewise beam: stateforge-codegen".to_owned(),
+                codegen(&beam),
+            ),
+        ])
+    }
+
+    fn print_runs(runs: &[(String, Vec<String>)]) -> Result<(), String> {
+        println!("(stateforge-codegen runs with --formatter prettyplease)");
         println!("{:<52} {:>12} {:>12}", "input", "CPU", "peak memory");
         for (name, args) in runs {
-            match measure(&args) {
-                Ok((cpu, kib)) => println!(
-                    "{name:<52} {cpu:>10.2} s {:>9.2} GB",
-                    kib as f64 / (1024.0 * 1024.0)
-                ),
-                Err(e) => {
-                    eprintln!("build_scale: {name}: {e}");
-                    return ExitCode::FAILURE;
-                }
-            }
+            let (cpu, kib) = measure(args).map_err(|e| format!("{name}: {e}"))?;
+            println!(
+                "{name:<52} {cpu:>10.2} s {:>9.2} GB",
+                kib as f64 / (1024.0 * 1024.0)
+            );
         }
-        ExitCode::SUCCESS
+        Ok(())
+    }
+
+    /// Builds `stateforge-codegen` (release) and returns its path.
+    fn build_tool() -> Result<PathBuf, String> {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let status = Command::new(cargo)
+            .args(["build", "--quiet", "--release", "-p", "stateforge-cli"])
+            .args(["--bin", "stateforge-codegen"])
+            .current_dir(workspace())
+            .status()
+            .map_err(|e| e.to_string())?;
+        if !status.success() {
+            return Err("building stateforge-codegen failed".into());
+        }
+        Ok(workspace().join("target/release/stateforge-codegen"))
     }
 
     /// Runs this program with `args` and reads the CPU seconds and peak KiB it reports.
@@ -264,9 +305,10 @@ mod compiler {
         }
     }
 
-    /// Prints this process's CPU seconds (user and system) and peak resident KiB.
-    fn print_own_usage() -> ExitCode {
-        let Ok(usage) = getrusage(UsageWho::RUSAGE_SELF) else {
+    /// Prints the CPU seconds (user and system) and peak resident KiB of this process
+    /// (`who` is `RUSAGE_SELF`) or of the children it waited for (`RUSAGE_CHILDREN`).
+    fn print_usage(who: UsageWho) -> ExitCode {
+        let Ok(usage) = getrusage(who) else {
             return ExitCode::FAILURE;
         };
         let seconds = |t: nix::sys::time::TimeVal| t.tv_sec() as f64 + t.tv_usec() as f64 * 1e-6;
@@ -281,7 +323,7 @@ mod compiler {
         match stateforge_compiler::expand_macro_source(&source) {
             Ok(tokens) => {
                 drop(tokens);
-                print_own_usage()
+                print_usage(UsageWho::RUSAGE_SELF)
             }
             Err(e) => {
                 eprintln!("{e}");
@@ -290,21 +332,16 @@ mod compiler {
         }
     }
 
-    /// The child: what `stateforge-codegen --formatter prettyplease` does with the
-    /// piecewise beam (its path through `stateforge_compiler` and `stateforge_cli`).
-    fn codegen_once() -> ExitCode {
-        let code = std::fs::read_to_string(piecewise_beam())
-            .map_err(|e| e.to_string())
-            .and_then(|source| {
-                stateforge_compiler::expand_macro_source_with_warnings(&source)
-                    .and_then(|(module, _)| stateforge_cli::format(module))
-                    .map_err(|e| e.to_string())
-            });
-        match code {
-            Ok(code) => {
-                drop(code);
-                print_own_usage()
-            }
+    /// The child: runs `stateforge-codegen --formatter prettyplease` (`tool`) on `model`,
+    /// its code to the null device, and prints that run's usage: the only child it waits
+    /// for.
+    fn codegen_once(tool: &Path, model: &str) -> ExitCode {
+        let status = Command::new(tool)
+            .args(["--formatter", "prettyplease", model, "-o", "/dev/null"])
+            .status();
+        match status {
+            Ok(s) if s.success() => print_usage(UsageWho::RUSAGE_CHILDREN),
+            Ok(_) => ExitCode::FAILURE,
             Err(e) => {
                 eprintln!("{e}");
                 ExitCode::FAILURE
