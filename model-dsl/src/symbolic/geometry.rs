@@ -1,246 +1,70 @@
-//! 3-vectors and rotations (unit quaternions) as ordinary graph nodes (issue 40).
-//!
-//! A vector is three nodes, a quaternion four stored `[x, y, z, w]` (nalgebra's
-//! `Quaternion::coords` order, SymForce's `Rot3` storage). Every operation expands to
-//! scalar nodes through the simplifying constructors, so structural zeros, shared
-//! subexpressions and cost counting apply to geometry as to any scalar model.
-//!
-//! Conventions follow Solà, "Quaternion kinematics for the error-state Kalman filter"
-//! (2017), cited below as "Solà" by section: Hamilton product, `R(q) v = q ⊗ v ⊗ q*`
-//! (active rotation, as nalgebra's `q * v`).
+//! The symbolic graph as an [`Algebra`] of scalars, so that vectors and rotations
+//! ([`crate::geometry`], written once for the checks and the graph) expand into ordinary
+//! graph nodes: structural zeros, shared subexpressions and cost counting apply to
+//! geometry as to any scalar model.
 
 use super::graph::{Graph, NodeId};
-use super::linalg;
 use crate::ast::Comparison;
+use crate::geometry::Algebra;
 use crate::model::Func;
 
-/// A 3-vector's components, `[x, y, z]`.
-pub type Vec3Nodes = [NodeId; 3];
+/// Each operation is the graph's simplifying constructor. [`Algebra::share`] returns the
+/// node itself: the graph is hash-consed, so a node read twice is computed once already.
+impl Algebra for Graph {
+    type S = NodeId;
 
-/// A quaternion's components, stored `[x, y, z, w]` (vector part, then scalar part).
-pub type QuatNodes = [NodeId; 4];
+    fn num(&mut self, value: f64) -> NodeId {
+        Graph::num(self, value)
+    }
 
-/// A 3×3 matrix, row by row.
-pub type Mat3Nodes = [[NodeId; 3]; 3];
+    fn add(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        Graph::add(self, a, b)
+    }
 
-/// `ε²` of the exponential map and logarithm, `|θ| ≈ sqrt(θ·θ + ε²)` (see [`exp`]).
-///
-/// One literal serves `f32` and `f64`: `ε²/8` (its largest effect on a value) is below
-/// `f64`'s rounding of 1 (1.1e-16), and `ε⁴ = 1e-36` (the smallest denominator of a
-/// second derivative) is above `f32`'s smallest normal number (1.2e-38).
-pub const EPSILON_SQUARED: f64 = 1e-18;
+    fn sub(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        Graph::sub(self, a, b)
+    }
 
-/// `a + b`
-pub fn vec_add(g: &mut Graph, a: Vec3Nodes, b: Vec3Nodes) -> Vec3Nodes {
-    [0, 1, 2].map(|i| g.add(a[i], b[i]))
-}
+    fn mul(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        Graph::mul(self, a, b)
+    }
 
-/// `a - b`
-pub fn vec_sub(g: &mut Graph, a: Vec3Nodes, b: Vec3Nodes) -> Vec3Nodes {
-    [0, 1, 2].map(|i| g.sub(a[i], b[i]))
-}
+    fn div(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        Graph::div(self, a, b)
+    }
 
-/// `-a`
-pub fn vec_neg(g: &mut Graph, a: Vec3Nodes) -> Vec3Nodes {
-    a.map(|c| g.neg(c))
-}
+    fn neg(&mut self, a: NodeId) -> NodeId {
+        Graph::neg(self, a)
+    }
 
-/// `k a`, a scalar times a vector.
-pub fn vec_scale(g: &mut Graph, k: NodeId, a: Vec3Nodes) -> Vec3Nodes {
-    a.map(|c| g.mul(k, c))
-}
+    fn call(&mut self, f: Func, a: NodeId) -> NodeId {
+        Graph::call(self, f, a)
+    }
 
-/// `a · b = a_x b_x + a_y b_y + a_z b_z`
-pub fn dot(g: &mut Graph, a: Vec3Nodes, b: Vec3Nodes) -> NodeId {
-    linalg::dot(g, &a, &b)
-}
+    fn atan2(&mut self, y: NodeId, x: NodeId) -> NodeId {
+        Graph::atan2(self, y, x)
+    }
 
-/// `a × b = [a_y b_z - a_z b_y, a_z b_x - a_x b_z, a_x b_y - a_y b_x]`, right-handed.
-pub fn cross(g: &mut Graph, a: Vec3Nodes, b: Vec3Nodes) -> Vec3Nodes {
-    [(1, 2), (2, 0), (0, 1)].map(|(i, j)| {
-        let (ab, ba) = (g.mul(a[i], b[j]), g.mul(a[j], b[i]));
-        g.sub(ab, ba)
-    })
-}
+    fn select(
+        &mut self,
+        cmp: Comparison,
+        lhs: NodeId,
+        rhs: NodeId,
+        then: NodeId,
+        otherwise: NodeId,
+    ) -> NodeId {
+        Graph::select(self, cmp, lhs, rhs, then, otherwise)
+    }
 
-/// `|a|² = a · a`
-pub fn norm_squared(g: &mut Graph, a: Vec3Nodes) -> NodeId {
-    dot(g, a, a)
-}
-
-/// `|a| = sqrt(a · a)`, exact (no `ε`): its derivative `a/|a|` does not exist at 0,
-/// where it evaluates to NaN, as `sqrt`'s does.
-pub fn norm(g: &mut Graph, a: Vec3Nodes) -> NodeId {
-    let squared = norm_squared(g, a);
-    g.call(Func::Sqrt, squared)
-}
-
-/// `a / |a|`, as `a (1/|a|)`: one division, three products (one more rounding than three
-/// divisions). Undefined (NaN) at `a = 0`, like nalgebra's `normalize`.
-pub fn normalize(g: &mut Graph, a: Vec3Nodes) -> Vec3Nodes {
-    let length = norm(g, a);
-    let one = g.one();
-    let reciprocal = g.div(one, length);
-    vec_scale(g, reciprocal, a)
-}
-
-/// The vector part `[x, y, z]` of a quaternion.
-pub fn vector_part(q: QuatNodes) -> Vec3Nodes {
-    [q[0], q[1], q[2]]
-}
-
-/// The Hamilton product `a ⊗ b` (Solà sect. 1.2.2):
-/// `[a_w b_v + b_w a_v + a_v × b_v, a_w b_w - a_v · b_v]`, 16 products and 12 sums.
-/// `R(a ⊗ b) = R(a) R(b)`: `b` acts first.
-pub fn compose(g: &mut Graph, a: QuatNodes, b: QuatNodes) -> QuatNodes {
-    let (av, bv) = (vector_part(a), vector_part(b));
-    let (aw_bv, bw_av) = (vec_scale(g, a[3], bv), vec_scale(g, b[3], av));
-    let sum = vec_add(g, aw_bv, bw_av);
-    let turn = cross(g, av, bv);
-    let [x, y, z] = vec_add(g, sum, turn);
-    let (ww, vv) = (g.mul(a[3], b[3]), dot(g, av, bv));
-    [x, y, z, g.sub(ww, vv)]
-}
-
-/// The conjugate `q* = [-q_v, q_w]` (Solà sect. 1.2.4), which is the inverse of a unit
-/// quaternion (sect. 1.2.6, `q⁻¹ = q*/|q|²`).
-pub fn conjugate(g: &mut Graph, q: QuatNodes) -> QuatNodes {
-    let [x, y, z] = vec_neg(g, vector_part(q));
-    [x, y, z, q[3]]
-}
-
-/// The rotation matrix of a unit quaternion (Solà sect. 2.5, its unit-norm form):
-///
-/// ```text
-/// R = [ 1 - 2(y² + z²)   2(xy - wz)       2(xz + wy)
-///       2(xy + wz)       1 - 2(x² + z²)   2(yz - wx)
-///       2(xz - wy)       2(yz + wx)       1 - 2(x² + y²) ]
-/// ```
-///
-/// Its nine products are nodes of their own, shared by every entry (and by [`rotate`]
-/// and [`inverse_rotate`] on the same `q`). The form assumes `|q| = 1`; for another norm
-/// it is not a multiple of a rotation (the homogeneous form would be).
-pub fn rotation_matrix(g: &mut Graph, q: QuatNodes) -> Mat3Nodes {
-    let [x, y, z, w] = q;
-    let [xx, yy, zz] = [x, y, z].map(|c| g.mul(c, c));
-    let [xy, xz, yz] = [(x, y), (x, z), (y, z)].map(|(a, b)| g.mul(a, b));
-    let [wx, wy, wz] = [x, y, z].map(|c| g.mul(w, c));
-    let (one, two) = (g.one(), g.num(2.0));
-    let mut diagonal = |a: NodeId, b: NodeId| {
-        let sum = g.add(a, b);
-        let twice = g.mul(two, sum);
-        g.sub(one, twice)
-    };
-    let (r00, r11, r22) = (diagonal(yy, zz), diagonal(xx, zz), diagonal(xx, yy));
-    let mut twice = |a: NodeId, b: NodeId, plus: bool| {
-        let inner = if plus { g.add(a, b) } else { g.sub(a, b) };
-        g.mul(two, inner)
-    };
-    let (r01, r10) = (twice(xy, wz, false), twice(xy, wz, true));
-    let (r02, r20) = (twice(xz, wy, true), twice(xz, wy, false));
-    let (r12, r21) = (twice(yz, wx, false), twice(yz, wx, true));
-    [[r00, r01, r02], [r10, r11, r12], [r20, r21, r22]]
-}
-
-/// `q * v = R(q) v` (Solà sect. 2.4, `q ⊗ v ⊗ q*`, with the matrix of [`rotation_matrix`]).
-pub fn rotate(g: &mut Graph, q: QuatNodes, v: Vec3Nodes) -> Vec3Nodes {
-    let r = rotation_matrix(g, q);
-    r.map(|row| linalg::dot(g, &row, &v))
-}
-
-/// `q⁻¹ * v = R(q)ᵀ v`, on the same nine products as [`rotate`].
-pub fn inverse_rotate(g: &mut Graph, q: QuatNodes, v: Vec3Nodes) -> Vec3Nodes {
-    let r = rotation_matrix(g, q);
-    [0, 1, 2].map(|j| {
-        let column = [r[0][j], r[1][j], r[2][j]];
-        linalg::dot(g, &column, &v)
-    })
-}
-
-/// `sqrt(v·v + ε²)`, the regularised length of [`exp`] and [`log`].
-fn padded_norm(g: &mut Graph, v: Vec3Nodes) -> NodeId {
-    let squared = norm_squared(g, v);
-    let epsilon_squared = g.num(EPSILON_SQUARED);
-    let padded = g.add(squared, epsilon_squared);
-    g.call(Func::Sqrt, padded)
-}
-
-/// The exponential map of a rotation vector `θ`, `Exp(θ) = e^(θ/2)` of the pure quaternion
-/// `θ/2` (Solà sect. 1.3.4; the rotation by `φ = |θ|` about `u = θ/φ`, sect. 2.4):
-/// `[u sin(φ/2), cos(φ/2)]`, computed exact and branch-free:
-/// `n = sqrt(θ·θ + ε²)`, `Exp(θ) = [θ sin(n/2)/n, cos(n/2)]`. The sine and cosine of
-/// one argument become one `sin_cos` in the lowering.
-///
-/// Why `ε` ([`EPSILON_SQUARED`] = 1e-18):
-/// - **Values.** `sin(n/2)/n` and `cos(n/2)` are even and flat in `n` at 0, so `n` in place
-///   of `|θ|` moves them by at most `ε²/48` and `ε²/8`, below rounding in `f32` and `f64`.
-///   At `θ = 0`, `sin(n/2)/n = 1/2` and `cos(n/2) = 1` exactly: the identity.
-/// - **Jacobian at 0**, `[I/2; 0]` (`Jr(0) = I`), with no `0·∞`: `dn/dθ_j = θ_j/n` is 0
-///   over a finite `n = 1e-9`, so the derivative of `sin(n/2)/n` is exactly 0 there.
-///   Near 0 the quotient rule's two terms (each about `1/(2n)`) cancel; the error is an
-///   ulp of them, multiplied by `θ_i θ_j / n ≤ n`: an ulp of `1/2` at most.
-/// - **Second derivatives** divide by `n⁴ ≥ 1e-36`, normal in `f32`: finite everywhere.
-///   At 0 they are exact to rounding (the cancelling term is multiplied by `θ = 0`). Near
-///   0 it is not multiplied away: the error is a few ulps of `1/(2n)`, absolute, against
-///   entries of about 1/4. Measured: in `f64` 5e-8 at `|θ| = 1e-9`, 2e-10 at 1e-6; in
-///   `f32` 32 at 1e-9, 0.06 at 1e-6, 4e-4 at 1e-4, 1e-5 at 1e-2. A Taylor arm for small
-///   `|θ|` (design step 11) would remove it.
-pub fn exp(g: &mut Graph, theta: Vec3Nodes) -> QuatNodes {
-    let n = padded_norm(g, theta);
-    let half = g.num(0.5);
-    let half_angle = g.mul(half, n);
-    let (sine, cosine) = (g.call(Func::Sin, half_angle), g.call(Func::Cos, half_angle));
-    let k = g.div(sine, n);
-    let [x, y, z] = vec_scale(g, k, theta);
-    [x, y, z, cosine]
-}
-
-/// The logarithm of a unit quaternion as a rotation vector, the inverse of [`exp`] (Solà
-/// sect. 1.3.6, `Log(q) = 2 atan2(|v|, w) v/|v|`): the shortest rotation, branch-free and
-/// total. `n = sqrt(v·v + ε²)`, `σ = -1 if w < 0 else 1`, `Log(q) = σ (2 atan2(n, |w|)/n) v`.
-///
-/// - **`q` and `-q`** give the same vector (`σ` flips with `v`), of angle at most `π`.
-///   At `w = 0` exactly (a half turn) `q` and `-q` give opposite vectors, the two names of
-///   that rotation; across `w = 0` the result jumps between them, as every logarithm of
-///   SO(3) must somewhere.
-/// - **Exact, not first order.** `atan2(n, |w|)/n` is even and flat in `n` at 0 (for
-///   `|w| > 0`), so `ε` moves it by at most `ε²/(3w²)` relative, and by at most
-///   `ε²/(2|v|²)`: below rounding for a unit `q`, whose `|w|` or `|v|` is at least 0.7.
-///   Near the identity it is `2v` (derivative `2I`); near a half turn (`w ≈ 0`) `atan2`
-///   keeps full accuracy, where `2 acos(w)` would not.
-/// - **Total.** `n ≥ ε`: no division by zero, whatever `q`; `Log(0) = 0`.
-///   `atan2` sees only the ratio of `|v|` to `|w|`, so a non-unit `q` gives the log of
-///   `q/|q|` (for `|v| ≫ ε`).
-///
-/// Matches nalgebra's `UnitQuaternion::scaled_axis`, which uses the same `atan2` and sign.
-pub fn log(g: &mut Graph, q: QuatNodes) -> Vec3Nodes {
-    let (v, w) = (vector_part(q), q[3]);
-    let n = padded_norm(g, v);
-    let magnitude_w = g.call(Func::Abs, w);
-    let half_angle = g.atan2(n, magnitude_w);
-    let two = g.num(2.0);
-    let angle = g.mul(two, half_angle);
-    let k = g.div(angle, n);
-    let (zero, minus_k) = (g.zero(), g.neg(k));
-    let signed = g.select(Comparison::Lt, w, zero, minus_k, k);
-    vec_scale(g, signed, v)
-}
-
-/// One Newton step towards a unit quaternion, `q (3 - q·q)/2`, written `q (1.5 - 0.5 q·q)`:
-/// Newton's iteration for `1/sqrt(q·q)` from 1. With `q·q = 1 + e` the result's squared
-/// norm is `1 - 3e²/4 + e³/4`: the error is squared, with no `sqrt` or division.
-/// 9 products, 4 sums.
-pub fn renormalize(g: &mut Graph, q: QuatNodes) -> QuatNodes {
-    let squared = linalg::dot(g, &q, &q);
-    let (three_halves, half) = (g.num(1.5), g.num(0.5));
-    let half_squared = g.mul(half, squared);
-    let factor = g.sub(three_halves, half_squared);
-    q.map(|c| g.mul(factor, c))
+    fn share(&mut self, a: NodeId, _hint: &str) -> NodeId {
+        a
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::{self, ANGLE_EPSILON_SQUARED};
     use crate::symbolic::diff::Differentiator;
     use crate::symbolic::graph::{Node, VarId};
     use nalgebra::{Matrix3, Quaternion, Unit, UnitQuaternion, Vector3, Vector4};
@@ -313,7 +137,7 @@ mod tests {
     fn exp_matches_nalgebra() {
         let mut g = Graph::new();
         let theta = vars::<3>(&mut g);
-        let q = exp(&mut g, theta);
+        let q = geometry::exp(&mut g, theta);
         for t in rotation_vectors() {
             let got = eval(&g, q, t.as_slice());
             let want = reference_exp(&t).into_inner().coords;
@@ -330,10 +154,10 @@ mod tests {
     fn log_matches_nalgebra_scaled_axis_and_inverts_exp() {
         let mut g = Graph::new();
         let q = vars::<4>(&mut g);
-        let log_q = log(&mut g, q);
+        let log_q = geometry::log(&mut g, q);
         let theta = vars::<3>(&mut g);
-        let exp_theta = exp(&mut g, theta);
-        let round_trip = log(&mut g, exp_theta);
+        let exp_theta = geometry::exp(&mut g, theta);
+        let round_trip = geometry::log(&mut g, exp_theta);
         for t in rotation_vectors() {
             let unit = reference_exp(&t);
             let got = eval(&g, log_q, unit.coords.as_slice());
@@ -352,7 +176,7 @@ mod tests {
     fn q_and_minus_q_have_the_same_log_the_shortest_rotation() {
         let mut g = Graph::new();
         let q = vars::<4>(&mut g);
-        let log_q = log(&mut g, q);
+        let log_q = geometry::log(&mut g, q);
         for t in rotation_vectors() {
             let unit = reference_exp(&t).into_inner().coords;
             let got = eval(&g, log_q, unit.as_slice());
@@ -373,9 +197,9 @@ mod tests {
     fn compose_is_the_hamilton_product_and_the_conjugate_inverts() {
         let mut g = Graph::new();
         let (a, b) = (vars::<4>(&mut g), vars::<4>(&mut g));
-        let product = compose(&mut g, a, b);
-        let a_inverse = conjugate(&mut g, a);
-        let identity = compose(&mut g, a, a_inverse);
+        let product = geometry::compose(&mut g, a, b);
+        let a_inverse = geometry::inverse(&mut g, a);
+        let identity = geometry::compose(&mut g, a, a_inverse);
         let axes = axes();
         for (i, t) in rotation_vectors().iter().enumerate() {
             let qa = reference_exp(t).into_inner();
@@ -401,9 +225,9 @@ mod tests {
     fn rotations_match_nalgebra_on_the_same_nine_products() {
         let mut g = Graph::new();
         let (q, v) = (vars::<4>(&mut g), vars::<3>(&mut g));
-        let rotated = rotate(&mut g, q, v);
+        let rotated = geometry::rotate(&mut g, q, v);
         let before = g.len();
-        let back = inverse_rotate(&mut g, q, v);
+        let back = geometry::inverse_rotate(&mut g, q, v);
         // R' v needs only new sums and products with v: no new product of q's components.
         let of_q = |id: NodeId| q.contains(&id);
         for id in g.ids().skip(before) {
@@ -435,14 +259,17 @@ mod tests {
     fn vector_operations_match_nalgebra() {
         let mut g = Graph::new();
         let (a, b, k) = (vars::<3>(&mut g), vars::<3>(&mut g), g.var("k"));
-        let sum = vec_add(&mut g, a, b);
-        let difference = vec_sub(&mut g, a, b);
-        let negated = vec_neg(&mut g, a);
-        let scaled = vec_scale(&mut g, k, a);
-        let product = cross(&mut g, a, b);
-        let [inner, length, squared] =
-            [dot(&mut g, a, b), norm(&mut g, a), norm_squared(&mut g, a)];
-        let unit = normalize(&mut g, a);
+        let sum = geometry::add(&mut g, a, b);
+        let difference = geometry::sub(&mut g, a, b);
+        let negated = geometry::neg(&mut g, a);
+        let scaled = geometry::scale(&mut g, k, a);
+        let product = geometry::cross(&mut g, a, b);
+        let [inner, length, squared] = [
+            geometry::dot(&mut g, a, b),
+            geometry::norm(&mut g, a),
+            geometry::norm_squared(&mut g, a),
+        ];
+        let unit = geometry::normalize(&mut g, a);
         let (x, y, s) = (
             Vector3::new(0.3, -2.0, 5.5),
             Vector3::new(-1.25, 0.5, 3.0),
@@ -489,7 +316,7 @@ mod tests {
     fn derivatives_at_the_identity_are_exact() {
         let mut g = Graph::new();
         let theta = vars::<3>(&mut g);
-        let q = exp(&mut g, theta);
+        let q = geometry::exp(&mut g, theta);
         let columns = jacobian(&mut g, q, 3);
         for (j, column) in columns.into_iter().enumerate() {
             let got = eval(&g, column, &[0.0; 3]);
@@ -499,7 +326,7 @@ mod tests {
         }
         let mut g = Graph::new();
         let q = vars::<4>(&mut g);
-        let log_q = log(&mut g, q);
+        let log_q = geometry::log(&mut g, q);
         let columns = jacobian(&mut g, log_q, 4);
         for (j, column) in columns.into_iter().enumerate() {
             let got = eval(&g, column, &[0.0, 0.0, 0.0, 1.0]);
@@ -544,8 +371,8 @@ mod tests {
     /// `q ⊗ [Jr δ/2, 1]` to first order, so `Jr e_j = 2 vec(q* ⊗ ∂q/∂θ_j)`.
     fn right_jacobian_symbolic(
         g: &Graph,
-        q: QuatNodes,
-        columns: &[QuatNodes],
+        q: [NodeId; 4],
+        columns: &[[NodeId; 4]],
         t: &Vector3<f64>,
     ) -> Matrix3<f64> {
         let value = |nodes| Quaternion::from_vector(Vector4::from(eval(g, nodes, t.as_slice())));
@@ -557,7 +384,7 @@ mod tests {
     fn right_jacobian_of_exp_matches_central_differences() {
         let mut g = Graph::new();
         let theta = vars::<3>(&mut g);
-        let q = exp(&mut g, theta);
+        let q = geometry::exp(&mut g, theta);
         let columns = jacobian(&mut g, q, 3);
         let axes = axes();
         for (t, closed) in [(1e-4, false), (0.1, true), (1.0, true), (3.0, true)]
@@ -620,11 +447,11 @@ mod tests {
         largest
     }
 
-    /// The error of `Exp`'s second derivatives near 0 that `exp` documents: a few ulps
+    /// The error of `Exp`'s second derivatives near 0 that [`geometry::exp`] documents: a few ulps
     /// (here 4) of the cancelling terms `1/(2n)`, `n = sqrt(θ·θ + ε²)`. Measured: 5e-8 in
     /// `f64` and 32 in `f32` at `|θ| = 1e-9`, 0.06 in `f32` at 1e-6, 4e-4 at 1e-4.
     fn cancellation_bound(ulp: f64, angle: f64) -> f64 {
-        let n = (angle * angle + EPSILON_SQUARED).sqrt();
+        let n = (angle * angle + ANGLE_EPSILON_SQUARED).sqrt();
         4.0 * ulp / (2.0 * n)
     }
 
@@ -632,7 +459,7 @@ mod tests {
     fn second_derivatives_of_exp_are_finite_and_exact_at_zero() {
         let mut g = Graph::new();
         let theta = vars::<3>(&mut g);
-        let q = exp(&mut g, theta);
+        let q = geometry::exp(&mut g, theta);
         let second = hessian(&mut g, q);
         let zero = Vector3::zeros();
         let at_zero = exp_second_derivative_error(&second, &zero, |n| eval(&g, n, &[0.0; 3]));
@@ -651,7 +478,7 @@ mod tests {
     fn newton_step_squares_the_norm_error() {
         let mut g = Graph::new();
         let q = vars::<4>(&mut g);
-        let step = renormalize(&mut g, q);
+        let step = geometry::renormalize(&mut g, q);
         for t in rotation_vectors() {
             let unit = reference_exp(&t).into_inner().coords;
             let same = eval(&g, step, unit.as_slice());
@@ -718,8 +545,8 @@ mod tests {
     fn exp_and_log_are_sane_in_f32() {
         let mut g = Graph::new();
         let theta = vars::<3>(&mut g);
-        let q = exp(&mut g, theta);
-        let back = log(&mut g, q);
+        let q = geometry::exp(&mut g, theta);
+        let back = geometry::log(&mut g, q);
         let (first, second) = (jacobian(&mut g, q, 3), hessian(&mut g, q));
         let eval32 = |nodes: [NodeId; 4], t: &[f32]| nodes.map(|n| eval_f32(&g, n, t));
         for t in rotation_vectors() {
