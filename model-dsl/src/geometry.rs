@@ -52,11 +52,11 @@ pub type Vec3<S> = [S; 3];
 /// A unit quaternion `[x, y, z, w]`.
 pub type Quat<S> = [S; 4];
 
-/// The names of a vector's entries, and of a rotation's stored entries, in order.
-pub const VEC3_ENTRIES: [&str; 3] = ["x", "y", "z"];
-
-/// The names of a rotation's stored entries, in storage order.
-pub const QUAT_ENTRIES: [&str; 4] = ["x", "y", "z", "w"];
+/// The names of a vector's entries and of a rotation's stored entries, in the order of
+/// [`Vec3`] and [`Quat`]; the model's types name their entries by them
+/// ([`crate::model::Type::entries`]), where they are defined so that this file imports the
+/// model and not the other way round.
+pub use crate::model::{QUAT_ENTRIES, VEC3_ENTRIES};
 
 /// `ε²` of the exponential map and the logarithm: `|θ|` is computed as `sqrt(θ·θ + ε²)`,
 /// which keeps both total at `θ = 0` with no branch. One literal serves `f32` and `f64`:
