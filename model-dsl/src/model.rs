@@ -41,6 +41,12 @@ pub struct Model {
     pub groups: Vec<Group>,
 }
 
+/// The names of a vector's entries, in order (`crate::geometry::Vec3`).
+pub const VEC3_ENTRIES: [&str; 3] = ["x", "y", "z"];
+
+/// The names of a rotation's stored entries, in storage order (`crate::geometry::Quat`).
+pub const QUAT_ENTRIES: [&str; 4] = ["x", "y", "z", "w"];
+
 /// The type of a declared symbol, output or intermediate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Type {
@@ -63,8 +69,8 @@ impl Type {
     pub fn entries(self) -> &'static [&'static str] {
         match self {
             Type::Scalar => &[""],
-            Type::Vec3 => &crate::geometry::VEC3_ENTRIES,
-            Type::Rot3 => &crate::geometry::QUAT_ENTRIES,
+            Type::Vec3 => &VEC3_ENTRIES,
+            Type::Rot3 => &QUAT_ENTRIES,
         }
     }
 

@@ -3,10 +3,8 @@
 //! the model's scalar types.
 
 use super::expr_algebra::ExprAlgebra;
-use super::typed::ROTATION_ARITHMETIC;
 use crate::ast::{Comparison, Name, SurfaceExpr, SurfaceKind};
 use crate::diagnostics::{closest, Diagnostics};
-use crate::geometry;
 use crate::model::{Expr, Func, Local, Scalar, Type, Value};
 use crate::scope::{Binding, Scope};
 
@@ -156,18 +154,6 @@ impl Resolver<'_, '_> {
                 None
             }
         }
-    }
-
-    /// `-a`
-    fn negate(&mut self, a: &SurfaceExpr, diag: &mut Diagnostics) -> Option<Value> {
-        Some(match self.value(a, diag)? {
-            Value::Scalar(e) => Value::Scalar(Expr::Neg(Box::new(e))),
-            Value::Vec3(v) => Value::Vec3(geometry::neg(&mut self.algebra(), v)),
-            Value::Rot3 { .. } => {
-                diag.error(a.span, ROTATION_ARITHMETIC);
-                return None;
-            }
-        })
     }
 
     /// A name: what it is bound to, or an error saying what is wrong.

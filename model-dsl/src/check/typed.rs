@@ -19,6 +19,18 @@ fn rotation_not_vector(what: &str) -> String {
 }
 
 impl Resolver<'_, '_> {
+    /// `-a`
+    pub(super) fn negate(&mut self, a: &SurfaceExpr, diag: &mut Diagnostics) -> Option<Value> {
+        Some(match self.value(a, diag)? {
+            Value::Scalar(e) => Value::Scalar(Expr::Neg(Box::new(e))),
+            Value::Vec3(v) => Value::Vec3(geometry::neg(&mut self.algebra(), v)),
+            Value::Rot3 { .. } => {
+                diag.error(a.span, ROTATION_ARITHMETIC);
+                return None;
+            }
+        })
+    }
+
     /// `a op b` of any types.
     pub(super) fn binary(
         &mut self,

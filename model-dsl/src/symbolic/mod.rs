@@ -4,6 +4,7 @@
 pub mod continuous;
 pub mod diff;
 pub mod euler_state;
+pub mod geometry;
 pub mod graph;
 pub mod kalman;
 pub mod linalg;
