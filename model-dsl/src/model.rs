@@ -84,6 +84,16 @@ impl Type {
     }
 }
 
+/// A rotation among the estimated entries: where it is stored, and where its tangent
+/// coordinates (a rotation vector) are.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Rotation {
+    /// Its first entry in the state vector (`[x, y, z, w]`).
+    pub storage: usize,
+    /// Its first coordinate in the tangent space.
+    pub tangent: usize,
+}
+
 /// A value of a typed expression, entry by entry: what the checks expand a model's
 /// vectors and rotations into, so that everything after them sees scalars only.
 #[derive(Clone, Debug, PartialEq)]
@@ -431,6 +441,81 @@ impl Model {
     /// Length of the state vector: physical states followed by parameters.
     pub fn state_len(&self) -> usize {
         self.states.len() + self.params.len()
+    }
+
+    /// The rotations among the states and parameters, in order: each one's first entry in
+    /// the state vector (4 entries, `[x, y, z, w]`) and its first coordinate in the
+    /// tangent space (3, a rotation vector). A filter keeps a rotation's uncertainty in
+    /// the tangent space: its covariance is over [`Model::tangent_len`] coordinates.
+    pub fn rotations(&self) -> Vec<Rotation> {
+        let mut estimated: Vec<(usize, &Group)> = self
+            .groups
+            .iter()
+            .filter(|g| g.ty == Type::Rot3)
+            .filter_map(|g| match g.role {
+                GroupRole::State => Some((g.first, g)),
+                GroupRole::Param => Some((self.states.len() + g.first, g)),
+                _ => None,
+            })
+            .collect();
+        estimated.sort_by_key(|&(first, _)| first);
+        estimated
+            .into_iter()
+            .enumerate()
+            .map(|(k, (first, _))| Rotation {
+                storage: first,
+                tangent: first - k,
+            })
+            .collect()
+    }
+
+    /// The dimension of the tangent space of the state: [`Model::state_len`], less one per
+    /// rotation (four entries, three degrees of freedom).
+    pub fn tangent_len(&self) -> usize {
+        self.state_len() - self.rotations().len()
+    }
+
+    /// The names of the tangent space's coordinates: a rotation `q`'s are `q_theta_x`,
+    /// `q_theta_y`, `q_theta_z` (its rotation vector), every other entry's its own.
+    pub fn tangent_names(&self) -> Vec<String> {
+        let rotations = self.rotations();
+        let names: Vec<&str> = self.state_names().collect();
+        let mut tangent = Vec::with_capacity(self.tangent_len());
+        let mut i = 0;
+        while i < names.len() {
+            if rotations.iter().any(|r| r.storage == i) {
+                let group = names[i].strip_suffix("_x").unwrap_or(names[i]);
+                tangent.extend(["x", "y", "z"].map(|c| format!("{group}_theta_{c}")));
+                i += 4;
+            } else {
+                tangent.push(names[i].to_owned());
+                i += 1;
+            }
+        }
+        tangent
+    }
+
+    /// The tangent coordinates of the state vector's entries `indices` (a rotation's four
+    /// entries give its three coordinates), each once, in order of first appearance.
+    pub fn tangent_indices(&self, indices: &[usize]) -> Vec<usize> {
+        let rotations = self.rotations();
+        let mut tangent = Vec::new();
+        for &i in indices {
+            let before = rotations.iter().filter(|r| r.storage + 4 <= i).count();
+            let coordinates = match rotations
+                .iter()
+                .find(|r| (r.storage..r.storage + 4).contains(&i))
+            {
+                Some(r) => (r.tangent..r.tangent + 3).collect(),
+                None => vec![i - before],
+            };
+            for c in coordinates {
+                if !tangent.contains(&c) {
+                    tangent.push(c);
+                }
+            }
+        }
+        tangent
     }
 
     /// Names of the physical states at `indices` (a controller's regulated states).

@@ -485,3 +485,11 @@ pub fn at_most(value: f32, limit: f32) -> bool {
 pub fn within_gate(nis: f32, gate: f32) -> bool {
     nis <= gate
 }
+
+/// `x` with each rotation's quaternion (`[x, y, z, w]`, starting at each of `firsts`)
+/// divided by its norm; `None` if a norm is not within 1 % of one. A generated
+/// error-state filter's check of the state it is given (`new`, `reset`).
+#[must_use]
+pub fn with_unit_rotations<const N: usize>(x: &[f32; N], firsts: &[usize]) -> Option<[f32; N]> {
+    crate::rotation::with_unit_rotations(x, firsts, sqrt, crate::rotation::NORM_TOLERANCE_F32)
+}

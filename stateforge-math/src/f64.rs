@@ -180,3 +180,11 @@ pub fn at_most(value: f64, limit: f64) -> bool {
 pub fn within_gate(nis: f64, gate: f64) -> bool {
     nis <= gate
 }
+
+/// `x` with each rotation's quaternion (`[x, y, z, w]`, starting at each of `firsts`)
+/// divided by its norm; `None` if a norm is not within 1 % of one. A generated
+/// error-state filter's check of the state it is given (`new`, `reset`).
+#[must_use]
+pub fn with_unit_rotations<const N: usize>(x: &[f64; N], firsts: &[usize]) -> Option<[f64; N]> {
+    crate::rotation::with_unit_rotations(x, firsts, sqrt, crate::rotation::NORM_TOLERANCE_F64)
+}

@@ -38,6 +38,7 @@ mod covariance;
 pub mod f32;
 pub mod f64;
 mod recovery;
+mod rotation;
 
 /// `value` unchanged, opaque to the optimiser (`core::hint::black_box`): what is read
 /// through a reference it returns is not known to be what is read through another

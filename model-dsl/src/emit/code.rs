@@ -213,9 +213,17 @@ pub fn upper_triangle(name: &str, size: usize) -> (TokenStream, Vec<proc_macro2:
 
 /// `state()` and `covariance()` of a filter whose fields `x` (`n` entries) and `p` (packed)
 /// hold its estimate.
-pub fn estimate_accessors(n: usize, ty: &proc_macro2::Ident) -> TokenStream {
+pub fn estimate_accessors((n, n_p): (usize, usize), ty: &proc_macro2::Ident) -> TokenStream {
     let n_len = proc_macro2::Literal::usize_unsuffixed(n);
+    let p_len = proc_macro2::Literal::usize_unsuffixed(n_p);
     let unpack_p = unpack_symmetric("p", ty);
+    let covariance_doc = if n == n_p {
+        " The estimate's covariance."
+    } else {
+        " The estimate's covariance, over the tangent space (`TANGENT_NAMES`): a rotation's \
+         uncertainty as that of its rotation vector, an error `δθ` in the earth frame \
+         (the true rotation is `Exp(δθ) ⊗ q`)."
+    };
     quote! {
         /// The state estimate: physical states, then parameters.
         #[must_use]
@@ -223,9 +231,9 @@ pub fn estimate_accessors(n: usize, ty: &proc_macro2::Ident) -> TokenStream {
             self.x
         }
 
-        /// The estimate's covariance.
+        #[doc = #covariance_doc]
         #[must_use]
-        pub fn covariance(&self) -> [[#ty; #n_len]; #n_len] {
+        pub fn covariance(&self) -> [[#ty; #p_len]; #p_len] {
             #unpack_p
         }
     }

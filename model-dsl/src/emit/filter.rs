@@ -29,6 +29,12 @@ pub struct FilterLayout {
     pub ty: Ident,
     /// `n`, the state's length.
     n: usize,
+    /// The covariance's dimension: `n`, less one per rotation (see
+    /// [`Model::tangent_len`]).
+    n_p: usize,
+    /// The names of the state's rotations' first entries (`q_x`): `x0` must hold unit
+    /// quaternions there.
+    rotations: Vec<String>,
     /// `m`, the measurement's length.
     m: usize,
     /// The process noise's shape.
@@ -55,16 +61,25 @@ impl FilterLayout {
     /// The layout of a filter of `model` in the scalar type `ty`, its process noise
     /// shaped as `noise`.
     pub fn new(model: &Model, noise: &ProcessNoise, ty: &Ident) -> FilterLayout {
-        let (n, m) = (model.state_len(), model.outputs.len());
+        let (n, n_p, m) = (model.state_len(), model.tangent_len(), model.outputs.len());
         let [n_len, m_len, np, mp] =
-            [n, m, packed_len(n), packed_len(m)].map(Literal::usize_unsuffixed);
-        let k = noise.len(n);
+            [n, m, packed_len(n_p), packed_len(m)].map(Literal::usize_unsuffixed);
+        let k = noise.len(n_p);
         let (_, q_field, _) = noise_argument("q", k, noise.diagonal, ty);
         let noise_doc = noise.states_doc(model);
         let setters = noise_setters((k, &noise_doc), m, noise.diagonal, ty);
         FilterLayout {
             ty: ty.clone(),
             n,
+            n_p,
+            rotations: {
+                let names: Vec<&str> = model.state_names().collect();
+                let firsts = model
+                    .rotations()
+                    .into_iter()
+                    .map(|r| names[r.storage].to_owned());
+                firsts.collect()
+            },
             m,
             noise: noise.clone(),
             noise_doc,
@@ -73,7 +88,7 @@ impl FilterLayout {
             np,
             mp,
             q_field,
-            accessors: estimate_accessors(n, ty),
+            accessors: estimate_accessors((n, n_p), ty),
             setters,
         }
     }
@@ -96,12 +111,40 @@ impl FilterLayout {
         }
     }
 
-    /// The arguments `x0: &[S; n]` and `p0: &[[S; n]; n]` of an initial estimate (the
+    /// The arguments `x0: &[S; n]` and `p0: &[[S; n_p]; n_p]` of an initial estimate (the
     /// constructor's, `reset`'s), both checked (`p0` also a covariance); returns the packed
-    /// upper triangle of `p0`, as an expression (`x0` is stored as it is).
-    pub fn initial_estimate(&self, arguments: &mut Arguments) -> TokenStream {
+    /// upper triangle of `p0`, as an expression, and `x0` as it is stored: as given, or
+    /// with its rotations normalised (see [`FilterLayout::unit_rotations`]).
+    pub fn initial_estimate(&self, arguments: &mut Arguments) -> (TokenStream, TokenStream) {
         arguments.vector("x0", self.n, &self.ty);
-        arguments.covariance("p0", self.n, &self.ty)
+        let p0 = arguments.covariance("p0", self.n_p, &self.ty);
+        let x0 = if self.rotations.is_empty() {
+            quote! { *x0 }
+        } else {
+            quote! { x0_unit }
+        };
+        (x0, p0)
+    }
+
+    /// For a state with rotations, the statement that gives `x0_unit`, `x0` with each
+    /// rotation's quaternion normalised, or leaves with `failed` (an expression of the
+    /// method's return type) when one is not within 1 % of a unit norm (a rotation given
+    /// as a quaternion not yet normalised, or rounded, is accepted; anything else is not a
+    /// rotation). Nothing for a state without one.
+    pub fn unit_rotations(&self, failed: &TokenStream) -> TokenStream {
+        if self.rotations.is_empty() {
+            return TokenStream::new();
+        }
+        let ty = &self.ty;
+        let firsts = self
+            .rotations
+            .iter()
+            .map(|name| crate::emit::names::index_const(name));
+        quote! {
+            let Some(x0_unit) = stateforge_math::#ty::with_unit_rotations(x0, &[#(index::#firsts),*]) else {
+                return #failed;
+            };
+        }
     }
 
     /// `fn new(x0, p0, q, r, known?) -> Result<Self, Status>`: the constructor,
@@ -122,8 +165,9 @@ impl FilterLayout {
             quote! { #[doc = #text] }
         });
         let doc = quote! { #doc #noise_doc };
-        let p0 = self.initial_estimate(&mut arguments);
-        let k = self.noise.len(self.n);
+        let (x0, p0) = self.initial_estimate(&mut arguments);
+        let unit = self.unit_rotations(&quote! { Err(Status::RejectedInput) });
+        let k = self.noise.len(self.n_p);
         let q = arguments.process_noise("q", k, self.noise.diagonal, &self.ty);
         let r = arguments.covariance("r", self.m, &self.ty);
         let known_init = known.argument(&mut arguments);
@@ -131,8 +175,9 @@ impl FilterLayout {
             &doc,
             REJECTS_NON_FINITE,
             quote! {
+                #unit
                 Ok(#type_name {
-                    x: *x0,
+                    x: #x0,
                     p: #p0,
                     q: #q,
                     r: #r,
@@ -191,7 +236,7 @@ impl FilterVars {
         noise: &ProcessNoise,
         avoid: &[String],
     ) -> FilterVars {
-        let (n, m) = (model.state_len(), model.outputs.len());
+        let (n, m) = (model.tangent_len(), model.outputs.len());
         let p = packed_vars(graph, "p", n, avoid);
         let (q, q_matrix) = noise_vars(graph, "q", n, noise, avoid);
         let r = packed_vars(graph, "r", m, avoid);
@@ -334,11 +379,16 @@ pub fn interleaved_finiteness_probe(
     vector: &[NodeId],
     matrix: &Matrix,
 ) -> NodeId {
-    let diagonal = (0..matrix.len()).map(|i| matrix[i][i]);
-    let terms: Vec<NodeId> = vector
-        .iter()
-        .zip(diagonal)
-        .flat_map(|(&v, d)| [v, d])
+    // A state with a rotation has more entries than variances: the rest follow.
+    let variances = (0..matrix.len()).map(|i| Some(matrix[i][i]));
+    let entries = vector.iter().map(|&v| Some(v));
+    let longest = vector.len().max(matrix.len());
+    let terms: Vec<NodeId> = entries
+        .chain(std::iter::repeat(None))
+        .zip(variances.chain(std::iter::repeat(None)))
+        .take(longest)
+        .flat_map(|(v, d)| [v, d])
+        .flatten()
         .collect();
     pairwise_sum(graph, &terms)
 }

@@ -203,8 +203,12 @@ pub struct Committed {
 /// A new variance that is a sum of known variances (never negative) is not tested: a sum
 /// of non-negative numbers is not negative.
 pub fn commit(lowerer: &mut Lowerer, commit: &Commit<'_>, scalar: Scalar) -> Committed {
-    let (x, p, slots) = (commit.x, commit.p, commit.slots);
-    let n = x.len();
+    let (p, slots) = (commit.p, commit.slots);
+    // The covariance's dimension, from its packed length `n (n + 1) / 2`: a state with a
+    // rotation has more entries than that.
+    let n = (0..=p.len())
+        .find(|&n| n * (n + 1) / 2 >= p.len())
+        .unwrap_or(0);
     let diagonal: Vec<usize> = (0..n).map(|i| packed_index(n, i, i)).collect();
     let variances: Vec<NodeId> = diagonal.iter().map(|&k| p[k]).collect();
     test_divergence(

@@ -305,7 +305,8 @@ fn reset_method(
 ) -> TokenStream {
     let clear = clear_innovation(model, "", scalar);
     let mut arguments = Arguments::default();
-    let p0 = layout.initial_estimate(&mut arguments);
+    let (x0, p0) = layout.initial_estimate(&mut arguments);
+    let unit = layout.unit_rotations(&quote! { Status::RejectedInput });
     arguments.method(
         &ident("reset"),
         &quote! {
@@ -319,7 +320,8 @@ fn reset_method(
             /// unchanged.
         },
         quote! {
-            self.x = *x0;
+            #unit
+            self.x = #x0;
             self.p = #p0;
             #clear
             #also_cleared

@@ -154,13 +154,24 @@ impl ProcessNoise {
         self.on.as_ref().map_or(a, |on| on[a])
     }
 
+    /// The same noise over the tangent space of a state with rotations, where a filter
+    /// keeps its covariance: the entries it enters become their tangent coordinates (a
+    /// rotation's four, its three). Unchanged for a state without a rotation.
+    #[must_use]
+    pub fn in_tangent(&self, model: &Model) -> ProcessNoise {
+        ProcessNoise {
+            diagonal: self.diagonal,
+            on: self.on.as_ref().map(|on| model.tangent_indices(on)),
+        }
+    }
+
     /// A sentence for the documentation of what takes or stores it: which states it
     /// enters, where it is not every state (empty otherwise), starting with a space.
     pub fn states_doc(&self, model: &Model) -> String {
         let Some(on) = &self.on else {
             return String::new();
         };
-        let names: Vec<&str> = model.state_names().collect();
+        let names = model.tangent_names();
         let listed: Vec<String> = on.iter().map(|&i| format!("`{}`", names[i])).collect();
         let listed = match listed.split_last() {
             Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),

@@ -251,7 +251,7 @@ pub fn ekf_predict(
     t_prev: Option<NodeId>,
     coefficients: &mut Coefficients,
 ) -> (Vec<NodeId>, Matrix, Matrix) {
-    let mut a = mg.jacobian_f_wrt_x();
+    let mut a = mg.tangent_jacobian_f_wrt_x();
     let mut f = mg.f.clone();
     if let Some(t_prev) = t_prev {
         let at_prev = AtPoint::new(vec![mg.var_id(mg.t)]);
@@ -292,15 +292,34 @@ pub fn ekf_correct(
         point.push(t);
     }
     let at = AtPoint::new(vars);
-    let c = mg.jacobian_h_wrt_x();
+    let c = mg.tangent_jacobian_h_wrt_x();
     let c: Matrix = outputs.iter().map(|&i| c[i].clone()).collect();
     let c = at.eval_matrix(&mut mg.graph, &point, &c);
     let c = coefficients.bind(&mut mg.graph, &c, "c");
     let h: Vec<NodeId> = outputs.iter().map(|&i| mg.h[i]).collect();
     let h = at.eval(&mut mg.graph, &point, &h);
+    let layout = mg.tangent.clone();
     let graph = &mut mg.graph;
     let residual: Vec<NodeId> = y.iter().zip(&h).map(|(&y, &h)| graph.sub(y, h)).collect();
-    let update = update(graph, x, p, &residual, &c, r, reciprocal);
+    if layout.is_euclidean() {
+        let update = update(graph, x, p, &residual, &c, r, reciprocal);
+        return Correction { residual, update };
+    }
+    // The error state (Solà, sect. 7): the update estimates the error `δx` (zero before
+    // it), which moves into the estimate, and the covariance is reset around it.
+    let zero = graph.zero();
+    let mut update = update(
+        graph,
+        &vec![zero; layout.n_p],
+        p,
+        &residual,
+        &c,
+        r,
+        reciprocal,
+    );
+    let dx = std::mem::take(&mut update.x);
+    update.x = super::error_state::retract(graph, &layout, x, &dx);
+    update.p = super::error_state::reset_covariance(graph, &layout, &update.p, &dx);
     Correction { residual, update }
 }
 

@@ -3,6 +3,7 @@
 
 pub mod continuous;
 pub mod diff;
+pub mod error_state;
 pub mod euler_state;
 pub mod geometry;
 pub mod graph;

@@ -2,6 +2,7 @@
 //! Jacobians, all as nodes over the variables `t`, `x` and `u`.
 
 use super::diff::Differentiator;
+use super::error_state::{self, TangentLayout};
 use super::graph::{Graph, Node, NodeId, VarId};
 use crate::model::{Discretisation, Expr, Method, Model};
 
@@ -24,6 +25,8 @@ pub struct ModelGraph {
     pub f: Vec<NodeId>,
     /// `y = h(t, x, u)`, one node per output.
     pub h: Vec<NodeId>,
+    /// Where the state's rotations are: a filter's covariance is over the tangent space.
+    pub tangent: TangentLayout,
 }
 
 /// The point at which the dynamics are evaluated: a time and physical states. Parameters,
@@ -56,6 +59,7 @@ impl ModelGraph {
             known,
             constants,
             f: Vec::new(),
+            tangent: TangentLayout::of(model),
             h: Vec::new(),
         };
         let states = mg.x[..model.states.len()].to_vec();
@@ -330,6 +334,32 @@ impl ModelGraph {
     pub fn jacobian_f_wrt_u(&mut self) -> Vec<Vec<NodeId>> {
         let (f, u) = (self.f.clone(), self.u.clone());
         self.jacobian(&f, &u)
+    }
+
+    /// The Jacobian of `f` over the tangent space, `F = d(f(x ⊞ δx) ⊟ f(x))/dδx` at
+    /// `δx = 0`: [`ModelGraph::jacobian_f_wrt_x`] between the maps' Jacobians at `f(x)`
+    /// and at `x` (see [`error_state`]); itself for a state without a rotation.
+    pub fn tangent_jacobian_f_wrt_x(&mut self) -> Vec<Vec<NodeId>> {
+        let a = self.jacobian_f_wrt_x();
+        if self.tangent.is_euclidean() {
+            return a;
+        }
+        let (layout, f, x) = (self.tangent.clone(), self.f.clone(), self.x.clone());
+        let local = error_state::local_jacobian(&mut self.graph, &layout, &f);
+        let retraction = error_state::retraction_jacobian(&mut self.graph, &layout, &x);
+        error_state::to_tangent(&mut self.graph, Some(&local), &a, Some(&retraction))
+    }
+
+    /// The Jacobian of `h` over the tangent space, `d h(x ⊞ δx)/dδx` at `δx = 0`; itself
+    /// for a state without a rotation.
+    pub fn tangent_jacobian_h_wrt_x(&mut self) -> Vec<Vec<NodeId>> {
+        let c = self.jacobian_h_wrt_x();
+        if self.tangent.is_euclidean() {
+            return c;
+        }
+        let (layout, x) = (self.tangent.clone(), self.x.clone());
+        let retraction = error_state::retraction_jacobian(&mut self.graph, &layout, &x);
+        error_state::to_tangent(&mut self.graph, None, &c, Some(&retraction))
     }
 
     /// The Jacobian of `h` with respect to the state vector.

@@ -457,7 +457,7 @@ impl EkfNodes {
         let coefficients = Coefficients::new(&avoid);
         let mut nodes = EkfNodes {
             x: g.x.clone(),
-            p: symmetric_from_packed(&vars.p, model.state_len()),
+            p: symmetric_from_packed(&vars.p, model.tangent_len()),
             g,
             avoid,
             vars,
@@ -486,7 +486,7 @@ impl EkfNodes {
         }
         if kind.updates() {
             nodes.correct(model.outputs.len(), &outputs, kind.sensor(model).is_some());
-            nodes.order = in_place::update_order(model.state_len(), outputs.len());
+            nodes.order = in_place::update_order(model.tangent_len(), outputs.len());
         }
         nodes
     }
@@ -583,7 +583,7 @@ impl PredictionTest {
     fn new(nodes: &mut EkfNodes) -> Option<PredictionTest> {
         let (x, p) = nodes.predicted.clone()?;
         let probe = prediction_probe(nodes, &x, &p);
-        let variances = (0..x.len()).map(|i| p[i][i]).collect();
+        let variances = (0..p.len()).map(|i| p[i][i]).collect();
         Some(PredictionTest { probe, variances })
     }
 
@@ -657,7 +657,7 @@ fn lower(
     for &(var, value) in &nodes.coefficients.definitions {
         lowerer.define(var, value);
     }
-    let variances = nodes.vars.variances(model.state_len());
+    let variances = nodes.vars.variances(model.tangent_len());
     if let Some(test) = &prediction_test {
         test.lower(&mut lowerer, (model, nodes), &variances, scalar);
     }

@@ -21,11 +21,7 @@ pub struct Ekf;
 const DESCRIPTION: Description = Description {
     name: "ekf",
     usage: "`ekf`",
-    requirements: &[
-        Requirement::Outputs,
-        Requirement::UnrolledStep,
-        Requirement::EuclideanStates,
-    ],
+    requirements: &[Requirement::Outputs, Requirement::UnrolledStep],
     items: &["Ekf"],
     type_name_option: Some("Ekf"),
 };
@@ -54,8 +50,13 @@ impl Kind for Ekf {
 }
 
 impl Generator for EkfSpec {
-    fn design(&self, _model: &Model, _mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
-        Ok(Box::new(self.clone()))
+    fn design(&self, model: &Model, _mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
+        // The covariance of a state with rotations is over its tangent space.
+        let process_noise = self.process_noise.in_tangent(model);
+        Ok(Box::new(EkfSpec {
+            process_noise,
+            ..self.clone()
+        }))
     }
 
     fn type_names(&self) -> Vec<String> {
