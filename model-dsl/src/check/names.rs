@@ -30,6 +30,8 @@ const MODEL_ITEMS: &[&str] = &[
     "Y_NAMES",
     "KNOWN_LEN",
     "KNOWN_NAMES",
+    "TANGENT_LEN",
+    "TANGENT_NAMES",
     "Status",
 ];
 

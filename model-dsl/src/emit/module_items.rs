@@ -53,6 +53,19 @@ pub fn dimensions(model: &Model) -> TokenStream {
             pub const KNOWN_NAMES: [&str; #len] = [#(#names),*];
         }
     });
+    let tangent = (!model.rotations().is_empty()).then(|| {
+        let len = Literal::usize_unsuffixed(model.tangent_len());
+        let names = model.tangent_names();
+        quote! {
+            /// Dimension of the tangent space of `x`, the filters' covariance: `X_LEN` less
+            /// one per rotation (four entries, three degrees of freedom).
+            pub const TANGENT_LEN: usize = #len;
+            /// Names of the tangent space's coordinates, in order: a rotation `q`'s are
+            /// `q_theta_x`, `q_theta_y`, `q_theta_z`, its error as a rotation vector in the
+            /// earth frame; the other entries' their own.
+            pub const TANGENT_NAMES: [&str; #len] = [#(#names),*];
+        }
+    });
     quote! {
         /// Length of the state vector `x`: the physical states, then the parameters.
         pub const X_LEN: usize = #x_len;
@@ -71,6 +84,7 @@ pub fn dimensions(model: &Model) -> TokenStream {
         /// Names of the entries of `y`, in order.
         pub const Y_NAMES: [&str; #y_len] = [#(#y_names),*];
         #known
+        #tangent
     }
 }
 
