@@ -378,10 +378,13 @@ fn unexpected_token(dotted: &Dotted, i: usize) -> (usize, String) {
     };
     // What `meval` wanted there: a value after an operator, `(` or `,` (the text
     // before is then incomplete), else an operator.
-    let wants_value = matches!(
-        meval::tokenizer::tokenize(read.get(..i).unwrap_or("")),
-        Err(ParseError::MissingArgument)
-    );
+    // (Blanks alone, which `meval`'s tokenizer panics on, want a value too.)
+    let before = read.get(..i).unwrap_or("");
+    let wants_value = before.trim().is_empty()
+        || matches!(
+            meval::tokenizer::tokenize(before),
+            Err(ParseError::MissingArgument)
+        );
     // Characters outside the language were refused before `meval` read the text.
     let message = match token.as_str() {
         ")" => format!("`{text}` has a `)` that closes no `(`: remove it, or add the `(`"),

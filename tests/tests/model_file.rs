@@ -741,3 +741,13 @@ fn dots_past_the_language_limits_are_refused() {
     let errors = errors_of(&geometry_output(&format!("v{}", ".x".repeat(64))));
     assert!(errors.contains("this is a scalar"), "{errors}");
 }
+
+#[test]
+fn a_mistake_after_leading_blanks_is_reported_not_a_panic() {
+    // `meval`'s tokenizer panics on blanks alone, which is what precedes the `)` here.
+    assert_error(
+        &small_with("x2 = \"x2 + TS * u\"", "x2 = \" )\""),
+        "19:8: dynamics.equations.x2: ` )` has a `)` that closes no `(`: remove it, or add the \
+         `(`",
+    );
+}
