@@ -2,6 +2,7 @@
 //! node placed at its first token and each mistake under the token it is about, with what
 //! to write there.
 
+use crate::expression_dots::{self, Dotted};
 use crate::expression_places;
 use meval::tokenizer::{Operation, Token};
 use proc_macro2::Span;
@@ -29,22 +30,73 @@ pub(crate) fn parse_expression(
         diag.error(place.map_or(start, at), format!("{field}: {message}"));
         return zero;
     }
-    let parsed = match meval::Expr::from_str(text) {
+    let dotted = match expression_dots::rewrite(text) {
+        Ok(dotted) => dotted,
+        Err(mistakes) => {
+            for (place, message) in mistakes {
+                diag.error(at(place), format!("{field}: {message}"));
+            }
+            return zero;
+        }
+    };
+    let parsed = match meval::Expr::from_str(&dotted.text) {
         Ok(parsed) => parsed,
         Err(e) => {
-            let (offset, message) = parse_error(text, &e);
+            let (offset, message) = parse_error(&dotted, &e);
             diag.error(at(offset), format!("{field}: {message}"));
             return zero;
         }
     };
-    let offsets = expression_places::rpn_offsets(text, &parsed);
-    let place = |i: usize| {
-        offsets
-            .as_ref()
-            .and_then(|o| o.get(i))
-            .map_or(start, |&o| at(o))
+    let Some(offsets) = expression_places::rpn_offsets(&dotted.text, &parsed) else {
+        if dotted.rewritten() {
+            // Without the tokens' places, `v_x` cannot be told from `v.x`.
+            diag.error(
+                start,
+                format!(
+                    "{field}: cannot read the `.`s of `{text}`: write `norm(a)` for `a.norm()`"
+                ),
+            );
+            return zero;
+        }
+        return read_tokens(
+            &parsed,
+            &|_| None,
+            Written {
+                text,
+                field,
+                dotted: &dotted,
+                at,
+            },
+            diag,
+        );
     };
-    let written = Written { text, field };
+    let place = |i: usize| offsets.get(i).map(|&o| dotted.origin(o));
+    read_tokens(
+        &parsed,
+        &place,
+        Written {
+            text,
+            field,
+            dotted: &dotted,
+            at,
+        },
+        diag,
+    )
+}
+
+/// The surface expression of `meval`'s reverse Polish notation `parsed`, each token `i`
+/// placed at byte `place(i)` of the written text (at its start if unknown).
+fn read_tokens(
+    parsed: &[Token],
+    place: &dyn Fn(usize) -> Option<usize>,
+    written: Written,
+    diag: &mut Diagnostics,
+) -> SurfaceExpr {
+    let start = (written.at)(0);
+    let zero = SurfaceExpr {
+        kind: SurfaceKind::Number(0.0),
+        span: start,
+    };
     // `meval` gives reverse Polish notation: operands come before their operator.
     let mut stack: Vec<SurfaceExpr> = Vec::new();
     for (i, token) in parsed.iter().enumerate() {
@@ -57,6 +109,7 @@ pub(crate) fn parse_expression(
     match (stack.pop(), stack.is_empty()) {
         (Some(e), true) => e,
         _ => {
+            let (text, field) = (written.text, written.field);
             diag.error(
                 start,
                 format!("{field}: cannot read `{text}` as one expression"),
@@ -96,17 +149,23 @@ enum Stop {
 struct Written<'a> {
     text: &'a str,
     field: &'a str,
+    /// Its `.`s, and the text `meval` read.
+    dotted: &'a Dotted<'a>,
+    /// Where byte `i` of `text` stands in the file.
+    at: &'a dyn Fn(usize) -> Span,
 }
 
 impl Written<'_> {
-    /// Applies one token, at `here`, of the reverse Polish notation to `stack`.
+    /// Applies one token, at byte `written_at` of the text, of the reverse Polish notation
+    /// to `stack`.
     fn apply(
         &self,
         token: &Token,
-        here: Span,
+        written_at: Option<usize>,
         stack: &mut Vec<SurfaceExpr>,
         diag: &mut Diagnostics,
     ) -> Result<(), Stop> {
+        let here = (self.at)(written_at.unwrap_or(0));
         let node = |kind| SurfaceExpr { kind, span: here };
         let made = match token {
             Token::Number(v) if !v.is_finite() => {
@@ -118,19 +177,54 @@ impl Written<'_> {
                 return Err(Stop::Reported);
             }
             Token::Number(v) => node(SurfaceKind::Number(*v)),
-            Token::Var(v) if v == "pi" => node(SurfaceKind::Number(std::f64::consts::PI)),
-            Token::Var(v) => node(SurfaceKind::Name(v.clone())),
+            Token::Var(v) => self.variable(v, written_at, here),
             Token::Unary(Operation::Minus) => {
                 let operand = stack.pop().ok_or(Stop::Malformed)?;
                 node(SurfaceKind::Neg(Box::new(operand)))
             }
             Token::Unary(Operation::Plus) => return Ok(()),
             Token::Binary(op) => self.binary(op, here, stack, diag)?,
-            Token::Func(f, arity) => self.call(f, arity.unwrap_or(0), here, stack, diag)?,
+            Token::Func(f, arity) => {
+                let mut call = self.call(f, arity.unwrap_or(0), here, stack, diag)?;
+                // A method call is placed at its receiver, as the macro places it.
+                let receiver = written_at.and_then(|n| self.dotted.receiver_of(n));
+                if let (Some(receiver), SurfaceKind::Call(..)) = (receiver, &call.kind) {
+                    call.span = (self.at)(receiver);
+                }
+                call
+            }
             _ => return Err(Stop::Malformed),
         };
         stack.push(made);
         Ok(())
+    }
+
+    /// The name `v` read at byte `written_at`: a name, `pi`, or with the `.`s written in it
+    /// the components of a name (`v.x`, read as `v_x`).
+    fn variable(&self, v: &str, written_at: Option<usize>, here: Span) -> SurfaceExpr {
+        let start = written_at.unwrap_or(0);
+        let dots = written_at.map_or(&[][..], |s| self.dotted.field_dots(s, v.len()));
+        let piece = |from: usize, to: usize| v.get(from..to).unwrap_or("").to_owned();
+        let ends: Vec<usize> = dots.iter().map(|d| d.saturating_sub(start)).collect();
+        let base = piece(0, ends.first().copied().unwrap_or(v.len()));
+        let kind = if base == "pi" {
+            SurfaceKind::Number(std::f64::consts::PI)
+        } else {
+            SurfaceKind::Name(base)
+        };
+        let mut read = SurfaceExpr { kind, span: here };
+        for (k, (&dot, &end)) in dots.iter().zip(&ends).enumerate() {
+            let next = ends.get(k + 1).copied().unwrap_or(v.len());
+            let component = Name {
+                text: piece(end + 1, next),
+                span: (self.at)(dot + 1),
+            };
+            read = SurfaceExpr {
+                kind: SurfaceKind::Field(Box::new(read), component),
+                span: here,
+            };
+        }
+        read
     }
 
     /// The binary operation `op` of the two operands on top of `stack`, placed at the
@@ -216,21 +310,23 @@ impl Written<'_> {
     }
 }
 
-/// Where `meval` stopped reading `text` (a byte of it), and what to write there.
-fn parse_error(text: &str, error: &meval::Error) -> (usize, String) {
+/// Where `meval` stopped reading `dotted` (a byte of the written text), and what to write
+/// there.
+fn parse_error(dotted: &Dotted, error: &meval::Error) -> (usize, String) {
     use meval::tokenizer::ParseError;
     use meval::{Error, RPNError};
+    let (text, read) = (dotted.written, dotted.text.as_str());
     let end = text.len();
-    // The place of the infix token `k` of `text` (parentheses and commas counted).
+    // The place of the infix token `k` of `read` (parentheses and commas counted).
     let token_at = |k: usize| {
-        meval::tokenizer::tokenize(text)
+        meval::tokenizer::tokenize(read)
             .ok()
-            .and_then(|tokens| expression_places::token_offsets(text, &tokens))
-            .and_then(|offsets| offsets.get(k).copied())
+            .and_then(|tokens| expression_places::token_offsets(read, &tokens))
+            .and_then(|offsets| offsets.get(k).map(|&o| dotted.origin(o)))
             .unwrap_or(0)
     };
     match error {
-        Error::ParseError(ParseError::UnexpectedToken(i)) => unexpected_token(text, *i),
+        Error::ParseError(ParseError::UnexpectedToken(i)) => unexpected_token(dotted, *i),
         Error::ParseError(ParseError::MissingRParen(n)) => {
             let n = *n;
             let which = if n == 1 { "a `(`" } else { "`(`s" };
@@ -264,13 +360,15 @@ fn parse_error(text: &str, error: &meval::Error) -> (usize, String) {
     }
 }
 
-/// `meval` met a token it did not expect at byte `i` of `text`: the token's first byte
-/// (past any blanks) and what to write there.
-fn unexpected_token(text: &str, i: usize) -> (usize, String) {
+/// `meval` met a token it did not expect at byte `i` of the text it read: the token's
+/// first byte in the written text (past any blanks) and what to write there.
+fn unexpected_token(dotted: &Dotted, i: usize) -> (usize, String) {
     use meval::tokenizer::ParseError;
-    let i =
-        i + (text.get(i..).unwrap_or("").len() - text.get(i..).unwrap_or("").trim_start().len());
-    let rest = text.get(i..).unwrap_or("");
+    let (text, read) = (dotted.written, dotted.text.as_str());
+    let after = read.get(i..).unwrap_or("");
+    let i = i + (after.len() - after.trim_start().len());
+    let place = dotted.origin(i);
+    let rest = text.get(place..).unwrap_or("");
     let word = rest
         .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == '.'))
         .unwrap_or(rest.len());
@@ -280,16 +378,24 @@ fn unexpected_token(text: &str, i: usize) -> (usize, String) {
     };
     // What `meval` wanted there: a value after an operator, `(` or `,` (the text
     // before is then incomplete), else an operator.
-    let wants_value = matches!(
-        meval::tokenizer::tokenize(&text[..i]),
-        Err(ParseError::MissingArgument)
-    );
+    // (Blanks alone, which `meval`'s tokenizer panics on, want a value too.)
+    let before = read.get(..i).unwrap_or("");
+    let wants_value = before.trim().is_empty()
+        || matches!(
+            meval::tokenizer::tokenize(before),
+            Err(ParseError::MissingArgument)
+        );
     // Characters outside the language were refused before `meval` read the text.
     let message = match token.as_str() {
         ")" => format!("`{text}` has a `)` that closes no `(`: remove it, or add the `(`"),
         "," => format!(
             "`{text}` has a `,` outside a call: commas separate a function's \
              arguments, as in `atan2(y, x)`"
+        ),
+        _ if token.starts_with('.') && !wants_value => format!(
+            "`{text}` has `{token}`: a `.` follows a name, with no blank between, and a \
+             component (`v.x`, `v.y`, `v.z`) or a method (`q.inverse()`, `a.dot(b)`) \
+             follows it"
         ),
         _ if wants_value => format!(
             "`{text}` has `{token}` where a value belongs: write a number, a name, a \
@@ -300,7 +406,7 @@ fn unexpected_token(text: &str, i: usize) -> (usize, String) {
              between two values"
         ),
     };
-    (i, message)
+    (place, message)
 }
 
 /// `if_gt(a, b, then, else)` and its siblings as a piecewise term.

@@ -8,6 +8,7 @@
 
 #![forbid(unsafe_code)]
 
+mod expression_dots;
 mod expression_places;
 mod expression_text;
 mod layout;

@@ -27,6 +27,10 @@
 //! `sin cos tan tanh exp ln sqrt abs`, `atan2(y, x)`, `min(a, b)`, `max(a, b)`,
 //! `clamp(x, lo, hi)` (a saturation), and the piecewise functions `if_gt(a, b, then, else)`,
 //! `if_ge`, `if_lt`, `if_le` for `if a > b { then } else { else }` and so on.
+//! With `type = "Vec3"` or `"Rot3"` on a `[[state]]`, `[[param]]`, `[[input]]` or
+//! `[[known]]`, expressions read vectors and rotations as the macro does: `vec3(a, b, c)`,
+//! `v.x`, `q * v`, `q.inverse()`, `a.dot(b)`, `exp(theta)`, `log(q)` (`expression_dots`:
+//! a `.` follows a name).
 //! `[[known]]` entries (`name`, `doc`) declare constants known only at run time.
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
 

@@ -170,6 +170,9 @@ pub(crate) fn rewrite(message: &str) -> String {
         let name = code.strip_prefix("let ")?.strip_suffix(" = ..;")?;
         Some(format!("[[dynamics.let]]` table of `{name}"))
     });
+    // `(q * vec3(1.0, 0.0, 0.0)).x`, `log(q).x`: a model file reads a component of a
+    // name only, and projects a computed vector.
+    text = rewrite_quoted(&text, component_as_projection);
     // `const k = ..;`: one constant's declaration.
     text = rewrite_quoted(&text, |code| {
         let name = code.strip_prefix("const ")?.strip_suffix(" = ..;")?;
@@ -211,6 +214,39 @@ pub(crate) fn rewrite(message: &str) -> String {
         Some(format!("{option} = {}", toml_value(value)?))
     });
     text
+}
+
+/// `(a).x` or `f(a).x` as `dot(a, vec3(1.0, 0.0, 0.0))` (and `.y`, `.z`).
+fn component_as_projection(code: &str) -> Option<String> {
+    let (value, component) = code.rsplit_once(").")?;
+    let unit = match component {
+        "x" => "1.0, 0.0, 0.0",
+        "y" => "0.0, 1.0, 0.0",
+        "z" => "0.0, 0.0, 1.0",
+        _ => return None,
+    };
+    // `(a)` is the vector `a`; `f(a)`, a call, is the vector itself.
+    let vector = match value.strip_prefix('(') {
+        Some(inside) if balanced(inside) => inside.to_owned(),
+        _ => format!("{value})"),
+    };
+    Some(format!("dot({vector}, vec3({unit}))"))
+}
+
+/// Whether `text` closes every parenthesis it opens, and none before.
+fn balanced(text: &str) -> bool {
+    let mut depth = 0usize;
+    for c in text.chars() {
+        match c {
+            '(' => depth += 1,
+            ')' => match depth.checked_sub(1) {
+                Some(d) => depth = d,
+                None => return false,
+            },
+            _ => {}
+        }
+    }
+    depth == 0
 }
 
 /// The first name between backquotes in `message`.

@@ -92,6 +92,19 @@ const FRAGMENTS: &[&str] = &[
     "[[state]]\nname = \"x1\"",
     "[generate]\nekf = true",
     "((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((",
+    ".x",
+    ".w",
+    ").x",
+    ".norm()",
+    ".dot(",
+    ".inverse()",
+    "vec3(",
+    "exp(",
+    "log(",
+    "type = \"Vec3\"",
+    "type = \"Rot3\"",
+    ": Vec3",
+    ": Rot3",
 ];
 
 #[derive(Clone, Debug)]
@@ -254,6 +267,106 @@ fn mutated_model_files_never_panic_and_accepted_ones_parse() {
     runner(160)
         .run(&case, |edits| {
             let text = edits.iter().fold(toml.clone(), |t, e| apply(&t, e));
+            check(&text, stateforge_cli::expand_model_file)
+        })
+        .unwrap();
+}
+
+/// A small model with vectors and a rotation, as a model file: components, methods (also
+/// after a component), functions, a typed intermediate an output reads.
+const TYPED_FILE: &str = r#"name = "typed"
+scalar = ["f32"]
+
+[[const]]
+name = "DT"
+value = 0.01
+
+[[state]]
+name = "v"
+type = "Vec3"
+
+[[input]]
+name = "q"
+type = "Rot3"
+
+[[input]]
+name = "w"
+type = "Vec3"
+
+[[output]]
+name = "y"
+value = "v.x + v.norm() * 1.5"
+
+[[output]]
+name = "b"
+value = "q.inverse() * v"
+
+[[output]]
+name = "heading"
+value = "turn.z + dot(turn, v.cross(w))"
+
+[dynamics]
+kind = "discrete"
+
+[[dynamics.let]]
+name = "turn"
+value = "log(q * exp(w * DT))"
+
+[dynamics.equations]
+v = "v + (q * w - v.normalize() * v.y.abs()) * DT"
+
+[generate]
+ekf = true
+"#;
+
+/// `TYPED_FILE` as the macro writes it.
+const TYPED_MACRO: &str = "stateforge::model! {
+    pub mod typed {
+        scalar f32;
+        const DT = 0.01;
+        state v: Vec3;
+        input q: Rot3, w: Vec3;
+        output y = v.x + v.norm() * 1.5, b = q.inverse() * v,
+            heading = turn.z + dot(turn, v.cross(w)), r = (q * v).y + log(q).norm();
+        dynamics discrete {
+            let turn = log(q * exp(w * DT));
+            v = v + (q * w - v.normalize() * v.y.abs()) * DT;
+        }
+        generate ekf;
+    }
+}";
+
+#[test]
+fn mutated_typed_models_never_panic_and_accepted_ones_parse() {
+    stateforge_cli::expand_model_file(TYPED_FILE).expect("the typed model file expands");
+    stateforge_compiler::expand_macro_source(TYPED_MACRO).expect("the typed model expands");
+    let case = (any::<bool>(), prop::collection::vec(edit(), 1..4));
+    runner(128)
+        .run(&case, |(file, edits)| {
+            let base = if file { TYPED_FILE } else { TYPED_MACRO };
+            let text = edits.iter().fold(base.to_owned(), |t, e| apply(&t, e));
+            if file {
+                check(&text, stateforge_cli::expand_model_file)
+            } else {
+                check(&text, stateforge_compiler::expand_macro_source)
+            }
+        })
+        .unwrap();
+}
+
+/// Pieces of model-file expressions around `.`: names, components, methods, numbers.
+const DOT_PIECES: &[&str] = &[
+    "v", "q", "w", ".", "x", "z", "(", ")", ",", " ", "*", "+", "-", "1", "2.", "5e-3", "e", "_",
+    "norm", "dot", "inverse", "abs", "vec3", "log", "pi",
+];
+
+#[test]
+fn model_file_expressions_of_dots_never_panic() {
+    let expression = prop::collection::vec(0..DOT_PIECES.len(), 0..24)
+        .prop_map(|pieces| pieces.iter().map(|&i| DOT_PIECES[i]).collect::<String>());
+    runner(512)
+        .run(&expression, |expression| {
+            let text = TYPED_FILE.replace("v.x + v.norm() * 1.5", &expression);
             check(&text, stateforge_cli::expand_model_file)
         })
         .unwrap();

@@ -617,3 +617,137 @@ fn a_requirement_names_the_parameter_to_declare_as_a_constant_in_toml() {
          `name = \"k\"` and its `value`, or estimate it with `ekf`",
     );
 }
+
+#[test]
+fn vectors_and_rotations_in_a_model_file_generate_the_macros_code() {
+    // Components, methods (also chained after a component), functions, typed
+    // intermediates read by outputs, and decimals: the macro's model, written as TOML.
+    let read = |name: &str| std::fs::read_to_string(workspace_path(name)).expect("test model");
+    let from_file = stateforge_cli::expand_model_file(&read("tests/models/vehicle_geometry.toml"))
+        .expect("model file expands");
+    let from_macro =
+        stateforge_compiler::expand_macro_source(&read("tests/models/vehicle_geometry.rs"))
+            .expect("macro expands");
+    assert_eq!(code_without_docs(from_file), code_without_docs(from_macro));
+}
+
+/// A small model file with vectors and a rotation; its output's value, on line 11 from
+/// column 10, is what each case below changes.
+const GEOMETRY: &str = r#"name = "g"
+scalar = "f64"
+[[state]]
+name = "v"
+type = "Vec3"
+[[input]]
+name = "q"
+type = "Rot3"
+[[output]]
+name = "y"
+value = "v.x"
+[dynamics]
+kind = "discrete"
+[dynamics.equations]
+v = "q * v"
+"#;
+
+/// `GEOMETRY` with its output's value `value`.
+fn geometry_output(value: &str) -> String {
+    GEOMETRY.replace("value = \"v.x\"", &format!("value = {value:?}"))
+}
+
+#[test]
+fn a_dot_after_a_parenthesis_says_what_to_write_under_the_dot() {
+    stateforge_cli::expand_model_file(GEOMETRY).expect("the base model expands");
+    assert_error(
+        &geometry_output("2 * (q * v).x"),
+        "11:21: output `y`: in a model file a component is read from a name, as in `v.x`, not \
+         after a `)`: write `dot(q * v, vec3(1.0, 0.0, 0.0))`, or name the vector in a \
+         `[[dynamics.let]]` table and read `.x` of that name (an output may read it too)",
+    );
+    assert_error(
+        &geometry_output("log(q).norm()"),
+        "11:16: output `y`: in a model file a method is called on a name, as in `a.norm()`, not \
+         after a `)`: write the function, `norm(log(q))`",
+    );
+    assert_error(
+        &geometry_output("(v + v).dot(q * v)"),
+        "11:17: output `y`: in a model file a method is called on a name, as in `a.dot(b)`, not \
+         after a `)`: write the function, `dot(v + v, q * v)`",
+    );
+    // What the checks suggest for a rotation's component is written as a model file reads it.
+    assert_error(
+        &geometry_output("q.x"),
+        "11:12: a rotation has no components in a model: measure a vector it rotates, \
+         `dot(q * vec3(1.0, 0.0, 0.0), vec3(1.0, 0.0, 0.0))`, or its rotation vector, \
+         `dot(log(q), vec3(1.0, 0.0, 0.0))`",
+    );
+}
+
+#[test]
+fn components_and_methods_are_placed_and_checked_as_in_the_macro() {
+    assert_error(
+        &geometry_output("v.w"),
+        "11:12: a vector's components are `x`, `y` and `z`, not `w`",
+    );
+    // A chain reads a component of a component: the second is under its own name.
+    assert_error(
+        &geometry_output("v.x.y"),
+        "11:14: this is a scalar: it has no component `y` (only vectors do)",
+    );
+    // A method call is placed at its receiver.
+    assert_error(
+        &geometry_output("1.5 * q.norm()"),
+        "11:16: `q` is a rotation: rotate a vector, `q * v`, or take its rotation vector, \
+         `log(q)`",
+    );
+    let dot = "a `.` follows a name, with no blank between, and a component (`v.x`, `v.y`, \
+               `v.z`) or a method (`q.inverse()`, `a.dot(b)`) follows it";
+    assert_error(
+        &geometry_output("v .x"),
+        &format!("11:12: output `y`: `v .x` has `.x`: {dot}"),
+    );
+    assert_error(
+        &geometry_output("v.0"),
+        &format!("11:11: output `y`: `v.0` has `.0`: {dot}"),
+    );
+    assert_error(
+        &geometry_output("v.x.abs("),
+        "11:18: output `y`: `v.x.abs(` leaves a `(` open: add 1 `)`",
+    );
+    // Numbers keep their `.`: `2.` and `1.5e-3` are numbers, and `x1.5` no component.
+    let checked = stateforge_cli::parse_model_file(&geometry_output("2. * v.x.abs() + 1.5e-3"))
+        .expect("numbers and a chained method");
+    assert_eq!(checked.model.outputs.len(), 1);
+}
+
+#[test]
+fn dots_past_the_language_limits_are_refused() {
+    // The macro counts a `.` as an operator, and a model file too.
+    let sum = vec!["v.x"; 300].join(" + ");
+    let errors = errors_of(&geometry_output(&sum));
+    assert!(
+        errors.contains(
+            "more than 512 operators and `.`s in one expression: name parts of it \
+                         in `[[dynamics.let]]`"
+        ),
+        "{errors}"
+    );
+    // A chain nests as parentheses do, within the same limit.
+    let errors = errors_of(&geometry_output(&format!("v{}", ".x".repeat(65))));
+    assert!(
+        errors.contains("this chain of `.`s nests deeper than 64 levels"),
+        "{errors}"
+    );
+    let errors = errors_of(&geometry_output(&format!("v{}", ".x".repeat(64))));
+    assert!(errors.contains("this is a scalar"), "{errors}");
+}
+
+#[test]
+fn a_mistake_after_leading_blanks_is_reported_not_a_panic() {
+    // `meval`'s tokenizer panics on blanks alone, which is what precedes the `)` here.
+    assert_error(
+        &small_with("x2 = \"x2 + TS * u\"", "x2 = \" )\""),
+        "19:8: dynamics.equations.x2: ` )` has a `)` that closes no `(`: remove it, or add the \
+         `(`",
+    );
+}
