@@ -149,10 +149,14 @@ impl Module<'_> {
             .map(|f| emit_function(model, mg, f, scalar).0);
         let generated = self.generated(scalar, &mut Vec::new(), &mut None);
         let status = (!self.designs.is_empty()).then(|| quote! { pub use super::Status; });
+        // A filter of a model with rotations names where they are (`index::Q_X`).
+        let rotations = !model.rotations().is_empty() && !self.designs.is_empty();
+        let index = rotations.then(|| quote! { use super::index; });
         quote! {
             #[doc = #doc]
             pub mod #module {
                 #status
+                #index
                 #consts
                 #looped
                 #(#fns)*
