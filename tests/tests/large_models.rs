@@ -105,3 +105,30 @@ fn ten_thousand_chained_lets_expand_without_exhausting_the_stack() {
         shape.deepest
     );
 }
+
+/// Expands `source` on a thread with a 2 MiB stack, a test thread's (the macro runs on
+/// rustc's, which is larger): whether it finished without overflowing.
+fn expands_in_two_mebibytes(source: String) -> bool {
+    let expand = move || stateforge_compiler::expand_macro_source(&source).is_ok();
+    let thread = std::thread::Builder::new()
+        .stack_size(2 << 20)
+        .spawn(expand);
+    thread.expect("a thread starts").join().unwrap_or(false)
+}
+
+#[test]
+fn the_longest_sums_the_front_end_accepts_resolve_on_a_small_stack() {
+    // 512 operators, the most one expression may hold, nest 512 deep in the syntax tree:
+    // resolving a name, a sum or a vector's sum recurses once per level, each level's
+    // frame kept small (a frame of 9 KiB per level overflowed at 250 terms).
+    let terms = 511;
+    let scalars = vec!["x"; terms].join(" + ");
+    let vectors = vec!["v"; terms].join(" + ");
+    for (input, rhs) in [("", scalars), ("input v: Vec3;", format!("({vectors}).x"))] {
+        let source = format!(
+            "model! {{ pub mod long {{ scalar f32; state x; {input} output y = x;
+             dynamics discrete {{ x = {rhs}; }} }} }}"
+        );
+        assert!(expands_in_two_mebibytes(source), "a sum of {terms} terms");
+    }
+}

@@ -117,26 +117,31 @@ pub(super) struct Resolver<'a, 'l> {
 impl Resolver<'_, '_> {
     /// The value of `expr`, of whatever type it has.
     pub(super) fn value(&mut self, expr: &SurfaceExpr, diag: &mut Diagnostics) -> Option<Value> {
-        let value = match &expr.kind {
-            SurfaceKind::Number(v) => Value::Scalar(Expr::Number(*v)),
-            SurfaceKind::Name(name) => self.name(expr, name, diag)?,
-            SurfaceKind::Neg(a) => self.negate(a, diag)?,
-            SurfaceKind::Binary(op, a, b) => self.binary(*op, a, b, diag)?,
-            SurfaceKind::Call(func, args) => self.call(expr, func, args, diag)?,
-            SurfaceKind::Field(base, component) => self.field(base, component, diag)?,
+        match self.value_of_kind(expr, diag)? {
+            Value::Scalar(e) => {
+                check_constant_parts(e, expr, self.scope, self.context, diag).map(Value::Scalar)
+            }
+            typed => Some(typed),
+        }
+    }
+
+    /// [`Resolver::value`] before its constant parts are checked. Each arm only calls: a
+    /// sum of 500 terms recurses through here 500 times, so the frame is kept small.
+    fn value_of_kind(&mut self, expr: &SurfaceExpr, diag: &mut Diagnostics) -> Option<Value> {
+        match &expr.kind {
+            SurfaceKind::Number(v) => Some(Value::Scalar(Expr::Number(*v))),
+            SurfaceKind::Name(name) => self.name(expr, name, diag),
+            SurfaceKind::Neg(a) => self.negate(a, diag),
+            SurfaceKind::Binary(op, a, b) => self.binary(*op, a, b, diag),
+            SurfaceKind::Call(func, args) => self.call(expr, func, args, diag),
+            SurfaceKind::Field(base, component) => self.field(base, component, diag),
             SurfaceKind::If {
                 cmp,
                 lhs,
                 rhs,
                 then,
                 otherwise,
-            } => self.piecewise(*cmp, [lhs, rhs, then, otherwise], diag)?,
-        };
-        match value {
-            Value::Scalar(e) => {
-                check_constant_parts(e, expr, self.scope, self.context, diag).map(Value::Scalar)
-            }
-            typed => Some(typed),
+            } => self.piecewise(*cmp, [lhs, rhs, then, otherwise], diag),
         }
     }
 

@@ -39,17 +39,32 @@ impl Resolver<'_, '_> {
         b: &SurfaceExpr,
         diag: &mut Diagnostics,
     ) -> Option<Value> {
-        let (left, right) = (self.value(a, diag), self.value(b, diag));
-        let (left, right) = (left?, right?);
-        if let (Value::Scalar(x), Value::Scalar(y)) = (&left, &right) {
-            let (x, y) = (Box::new(x.clone()), Box::new(y.clone()));
-            return Some(Value::Scalar(match op {
-                BinaryOp::Add => Expr::Add(x, y),
-                BinaryOp::Sub => Expr::Sub(x, y),
-                BinaryOp::Mul => Expr::Mul(x, y),
-                BinaryOp::Div => Expr::Div(x, y),
-            }));
-        }
+        let left = self.value(a, diag);
+        let right = self.value(b, diag);
+        self.combine(op, (left?, a), (right?, b), diag)
+    }
+
+    /// `left op right`, resolved: apart from [`Resolver::binary`], whose frame a long sum
+    /// recurses through.
+    fn combine(
+        &mut self,
+        op: BinaryOp,
+        (left, a): (Value, &SurfaceExpr),
+        (right, b): (Value, &SurfaceExpr),
+        diag: &mut Diagnostics,
+    ) -> Option<Value> {
+        let (left, right) = match (left, right) {
+            (Value::Scalar(x), Value::Scalar(y)) => {
+                let (x, y) = (Box::new(x), Box::new(y));
+                return Some(Value::Scalar(match op {
+                    BinaryOp::Add => Expr::Add(x, y),
+                    BinaryOp::Sub => Expr::Sub(x, y),
+                    BinaryOp::Mul => Expr::Mul(x, y),
+                    BinaryOp::Div => Expr::Div(x, y),
+                }));
+            }
+            pair => pair,
+        };
         match op {
             BinaryOp::Add | BinaryOp::Sub => self.sum(op, (left, a), (right, b), diag),
             BinaryOp::Mul => self.product((left, a), (right, b), diag),
