@@ -149,10 +149,15 @@ impl Module<'_> {
             .map(|f| emit_function(model, mg, f, scalar).0);
         let generated = self.generated(scalar, &mut Vec::new(), &mut None);
         let status = (!self.designs.is_empty()).then(|| quote! { pub use super::Status; });
+        // A filter of a model with rotations (only the EKF takes one) names their
+        // positions in `new` and `reset` as `index::Q_X`, which lives in the outer module.
+        let index = (!self.designs.is_empty() && !model.rotations().is_empty())
+            .then(|| quote! { use super::index; });
         quote! {
             #[doc = #doc]
             pub mod #module {
                 #status
+                #index
                 #consts
                 #looped
                 #(#fns)*
