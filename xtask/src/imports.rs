@@ -22,6 +22,7 @@ const SOURCE_ROOTS: &[&str] = &[
     "xtask/src",
     "targets/src",
     "examples/dc-motor/src",
+    "examples/ahrs/src",
 ];
 
 /// Checks every crate; `Ok` with a summary, or `Err` naming each circle.
