@@ -119,11 +119,13 @@ impl Module<'_> {
             ops_items.insert(0, named_ops_item("F_OPS", "f", ops));
         }
         let consts = constants(model, scalar);
+        let views = crate::emit::typed::typed_views(model, scalar);
         let status = (!self.designs.is_empty()).then(status::status_enum);
         let mut over_budget = None;
         let generated = self.generated(scalar, &mut ops_items, &mut over_budget);
         let tokens = quote! {
             #consts
+            #views
             #(#fns)*
             #status
             #generated
@@ -140,6 +142,7 @@ impl Module<'_> {
             scalar.type_name()
         );
         let consts = constants(model, scalar);
+        let views = crate::emit::typed::typed_views(model, scalar);
         let looped = self
             .looped_f(scalar)
             .map(|(f, _, _)| quote! { use super::F_SUBSTEP_PAIRS; #f });
@@ -158,6 +161,7 @@ impl Module<'_> {
                 #status
                 #index
                 #consts
+                #views
                 #looped
                 #(#fns)*
                 #generated

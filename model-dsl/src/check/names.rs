@@ -31,6 +31,8 @@ const MODEL_ITEMS: &[&str] = &[
     "KNOWN_LEN",
     "KNOWN_NAMES",
     "TANGENT_LEN",
+    "State",
+    "Input",
     "TANGENT_NAMES",
     "Status",
 ];

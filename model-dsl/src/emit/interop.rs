@@ -45,6 +45,26 @@ pub fn nalgebra_module() -> TokenStream {
             ) -> [S; N] {
                 ::core::array::from_fn(|i| vector[i])
             }
+
+            /// A rotation as the model stores it, the unit quaternion `[x, y, z, w]` (a
+            /// `Rot3` field of `State` or `Input`, four entries of a state), as a
+            /// `UnitQuaternion`: the same order as `Quaternion::coords`. Not normalised
+            /// again: the filters keep theirs unit. Not for a `w`-first array.
+            #[must_use]
+            pub fn to_rotation<S: ::nalgebra::RealField + Copy>(
+                q: &[S; 4],
+            ) -> ::nalgebra::UnitQuaternion<S> {
+                let [x, y, z, w] = *q;
+                ::nalgebra::UnitQuaternion::new_unchecked(::nalgebra::Quaternion::new(w, x, y, z))
+            }
+
+            /// A `UnitQuaternion` as the model stores a rotation, `[x, y, z, w]`.
+            #[must_use]
+            pub fn from_rotation<S: ::nalgebra::RealField + Copy>(
+                q: &::nalgebra::UnitQuaternion<S>,
+            ) -> [S; 4] {
+                [q.i, q.j, q.k, q.w]
+            }
         }
     }
 }

@@ -20,3 +20,4 @@ pub mod sensors;
 pub mod status;
 pub mod substeps;
 pub mod tuning;
+pub mod typed;
