@@ -117,7 +117,9 @@ pub fn retract(g: &mut Graph, layout: &TangentLayout, x: &[NodeId], dx: &[NodeId
     }
     for &r in &layout.rotations {
         let theta = [dx[r.tangent], dx[r.tangent + 1], dx[r.tangent + 2]];
+        let theta = geometry::share3(g, theta, "angle_correction");
         let increment = geometry::exp(g, theta);
+        let increment = geometry::share4(g, increment, "increment");
         let turned = geometry::compose(g, increment, quaternion(x, r));
         let unit = geometry::renormalize(g, turned);
         next[r.storage..r.storage + 4].copy_from_slice(&unit);

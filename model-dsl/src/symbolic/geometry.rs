@@ -9,7 +9,8 @@ use crate::geometry::Algebra;
 use crate::model::Func;
 
 /// Each operation is the graph's simplifying constructor. [`Algebra::share`] returns the
-/// node itself: the graph is hash-consed, so a node read twice is computed once already.
+/// node itself, named for the generated code: the graph is hash-consed, so a node read
+/// twice is computed once already.
 impl Algebra for Graph {
     type S = NodeId;
 
@@ -56,7 +57,10 @@ impl Algebra for Graph {
         Graph::select(self, cmp, lhs, rhs, then, otherwise)
     }
 
-    fn share(&mut self, a: NodeId, _hint: &str) -> NodeId {
+    /// The graph computes a node once however often it is read: sharing only names it
+    /// for the generated code, unless it has a name already.
+    fn share(&mut self, a: NodeId, hint: &str) -> NodeId {
+        self.set_name_hint(a, hint);
         a
     }
 }

@@ -273,6 +273,14 @@ impl Graph {
         if let Some(collected) = self.collect_like_terms(a, b, 1.0) {
             return collected;
         }
+        // `(x - b) + b` and `b + (x - b)` are `x`.
+        for (sum, term) in [(a, b), (b, a)] {
+            if let Node::Sub(x, y) = self.node(sum) {
+                if y == term {
+                    return x;
+                }
+            }
+        }
         if let Node::Neg(nb) = self.node(b) {
             return self.sub(a, nb);
         }
@@ -304,6 +312,9 @@ impl Graph {
         }
         if let Some(collected) = self.collect_like_terms(a, b, -1.0) {
             return collected;
+        }
+        if let Some(rest) = self.cancel(a, b) {
+            return rest;
         }
         if let Node::Neg(nb) = self.node(b) {
             return self.add(a, nb);
@@ -566,6 +577,18 @@ impl Graph {
 
     /// `c1 t + sign c2 t = (c1 + sign c2) t` when both sides are literal multiples of one
     /// term `t` (a bare `t` counts as `1 t`).
+    /// `a - b` where `b` is a term of the sum or difference `a`: what is left of `a`
+    /// (`(x + b) - b` is `x`, `(b - y) - b` is `-y`), so that a product of matrices whose
+    /// terms cancel (a Jacobian taken to the tangent space) leaves no `p - p` behind.
+    fn cancel(&mut self, a: NodeId, b: NodeId) -> Option<NodeId> {
+        match self.node(a) {
+            Node::Add(x, y) if y == b => Some(x),
+            Node::Add(x, y) if x == b => Some(y),
+            Node::Sub(x, y) if x == b => Some(self.neg(y)),
+            _ => None,
+        }
+    }
+
     fn collect_like_terms(&mut self, a: NodeId, b: NodeId, sign: f64) -> Option<NodeId> {
         let (ca, ta) = self.literal_multiple(a);
         let (cb, tb) = self.literal_multiple(b);
