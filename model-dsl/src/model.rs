@@ -241,6 +241,11 @@ pub struct Dynamics {
     /// One right-hand side per physical state, in state order: `x[k+1]` for discrete
     /// dynamics, `dx/dt` for continuous ones.
     pub rhs: Vec<Expr>,
+    /// The first entries of the rotation states, whose next values `f` renormalises (one
+    /// Newton step, `q (3 - q·q) / 2`) after the right-hand sides: kept apart from them so
+    /// that an error-state filter's Jacobian need not differentiate it (at a unit
+    /// quaternion the error's map annihilates what it changes).
+    pub renormalised: Vec<usize>,
 }
 
 /// Explicit integration rules for continuous dynamics.

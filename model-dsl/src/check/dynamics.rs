@@ -70,9 +70,11 @@ pub(super) fn check_dynamics(
     }
     let complete = complete_equations(rhs, (states, state_spans), continuous, diag);
     let discretisation = discretisation?;
+    let renormalised = rotation_states(scope);
     (complete.len() == states.len()).then_some(Dynamics {
         discretisation,
         rhs: complete,
+        renormalised,
     })
 }
 
@@ -157,6 +159,24 @@ fn equation_target(
     None
 }
 
+/// The first entries of the rotation states, in order.
+fn rotation_states(scope: &Scope) -> Vec<usize> {
+    let mut firsts: Vec<usize> = scope
+        .typed
+        .iter()
+        .filter_map(|value| match value {
+            Value::Rot3 {
+                q: [Expr::State(first), ..],
+                ..
+            } => Some(*first),
+            _ => None,
+        })
+        .collect();
+    firsts.sort_unstable();
+    firsts.dedup();
+    firsts
+}
+
 /// A typed name's type, and its entries' positions among the states if it is a state.
 fn typed_entries(value: &Value) -> (Type, Option<Vec<usize>>) {
     let entries: Vec<&Expr> = match value {
@@ -172,9 +192,9 @@ fn typed_entries(value: &Value) -> (Type, Option<Vec<usize>>) {
 }
 
 /// The right-hand sides of an equation's entries (each `None` after an error): its value
-/// must have the target's type. A rotation's next value is renormalised by one Newton
-/// step, so that it stays a unit quaternion to rounding however many samples it is
-/// advanced; a rotation state has no derivative (it is advanced on its manifold).
+/// must have the target's type (a rotation's is renormalised by `f`, see
+/// [`Dynamics::renormalised`]); a rotation state has no derivative (it is advanced on its
+/// manifold).
 fn equation_entries(
     (target, value, derivative): (&Name, &SurfaceExpr, bool),
     ty: Type,
@@ -204,7 +224,7 @@ fn equation_entries(
         (Type::Scalar, Value::Scalar(e)) => vec![Some(e)],
         (Type::Vec3, Value::Vec3(v)) => v.map(Some).to_vec(),
         (Type::Rot3, rotation @ Value::Rot3 { .. }) => match materialise(&mut alg, rotation) {
-            Some(q) => geometry::renormalize(&mut alg, q).map(Some).to_vec(),
+            Some(q) => q.map(Some).to_vec(),
             None => failed,
         },
         (_, other) => {

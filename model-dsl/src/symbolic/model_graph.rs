@@ -23,6 +23,9 @@ pub struct ModelGraph {
     pub constants: Vec<NodeId>,
     /// `x[k+1] = f(t, x[k], u[k])`, one node per entry of the state vector.
     pub f: Vec<NodeId>,
+    /// `f` before its rotations are renormalised ([`crate::model::Dynamics::renormalised`]):
+    /// what the error-state Jacobian differentiates. `f` itself for a model without one.
+    pub f_unnormalised: Vec<NodeId>,
     /// `y = h(t, x, u)`, one node per output.
     pub h: Vec<NodeId>,
     /// Where the state's rotations are: a filter's covariance is over the tangent space.
@@ -59,6 +62,7 @@ impl ModelGraph {
             known,
             constants,
             f: Vec::new(),
+            f_unnormalised: Vec::new(),
             tangent: TangentLayout::of(model),
             h: Vec::new(),
         };
@@ -97,7 +101,8 @@ impl ModelGraph {
         // Parameters are random walks: their prediction is themselves.
         let params = mg.x[model.states.len()..].to_vec();
         if !model.dynamics.discretisation.is_looped() {
-            mg.f = next_states.into_iter().chain(params).collect();
+            mg.f_unnormalised = next_states.into_iter().chain(params).collect();
+            mg.f = mg.renormalised(model, &mg.f_unnormalised.clone());
         }
         let states = mg.x[..model.states.len()].to_vec();
         let mut env = Env::at(model, t, states);
@@ -107,6 +112,24 @@ impl ModelGraph {
             .map(|output| mg.lower(model, &output.expr, &mut env))
             .collect();
         mg
+    }
+
+    /// `next` with each rotation state's quaternion renormalised by one Newton step,
+    /// `q (3 - q·q) / 2`: it squares the norm's error, so a rotation advanced every sample
+    /// stays a unit quaternion to rounding.
+    fn renormalised(&mut self, model: &Model, next: &[NodeId]) -> Vec<NodeId> {
+        let mut next = next.to_vec();
+        for &first in &model.dynamics.renormalised {
+            let q = [
+                next[first],
+                next[first + 1],
+                next[first + 2],
+                next[first + 3],
+            ];
+            let unit = crate::geometry::renormalize(&mut self.graph, q);
+            next[first..first + 4].copy_from_slice(&unit);
+        }
+        next
     }
 
     /// The right-hand sides of the dynamics at time `t` and physical states `states`.
@@ -340,11 +363,13 @@ impl ModelGraph {
     /// `δx = 0`: [`ModelGraph::jacobian_f_wrt_x`] between the maps' Jacobians at `f(x)`
     /// and at `x` (see [`error_state`]); itself for a state without a rotation.
     pub fn tangent_jacobian_f_wrt_x(&mut self) -> Vec<Vec<NodeId>> {
-        let a = self.jacobian_f_wrt_x();
         if self.tangent.is_euclidean() {
-            return a;
+            return self.jacobian_f_wrt_x();
         }
+        // The renormalisation is left out: its derivative at a unit quaternion `r` is
+        // `I - r rᵀ` (to rounding), and the error's map at `r` annihilates `r`.
         let (layout, f, x) = (self.tangent.clone(), self.f.clone(), self.x.clone());
+        let a = self.jacobian(&self.f_unnormalised.clone(), &x);
         let local = error_state::local_jacobian(&mut self.graph, &layout, &f);
         let retraction = error_state::retraction_jacobian(&mut self.graph, &layout, &x);
         error_state::to_tangent(&mut self.graph, Some(&local), &a, Some(&retraction))
