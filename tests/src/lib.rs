@@ -7,6 +7,7 @@ use std::path::PathBuf;
 pub mod cantilever_sim;
 pub mod compare;
 pub mod continuous_reference;
+pub mod error_state_reference;
 pub mod predictive_reference;
 pub mod reference;
 pub mod rng;
