@@ -149,10 +149,15 @@ impl Module<'_> {
             .map(|f| emit_function(model, mg, f, scalar).0);
         let generated = self.generated(scalar, &mut Vec::new(), &mut None);
         let status = (!self.designs.is_empty()).then(|| quote! { pub use super::Status; });
+        // A filter over rotations names them in its `new` and `reset` (`index::Q_X`); the
+        // module `index` is beside the first scalar's items.
+        let rotations = !model.rotations().is_empty() && !self.designs.is_empty();
+        let index = rotations.then(|| quote! { use super::index; });
         quote! {
             #[doc = #doc]
             pub mod #module {
                 #status
+                #index
                 #consts
                 #looped
                 #(#fns)*

@@ -32,9 +32,9 @@ pub struct FilterLayout {
     /// The covariance's dimension: `n`, less one per rotation (see
     /// [`Model::tangent_len`]).
     n_p: usize,
-    /// The positions of the state's rotations' first entries (`q_x`): `x0` must hold unit
+    /// The names of the state's rotations' first entries (`q_x`): `x0` must hold unit
     /// quaternions there.
-    rotations: Vec<usize>,
+    rotations: Vec<String>,
     /// `m`, the measurement's length.
     m: usize,
     /// The process noise's shape.
@@ -72,7 +72,14 @@ impl FilterLayout {
             ty: ty.clone(),
             n,
             n_p,
-            rotations: model.rotations().iter().map(|r| r.storage).collect(),
+            rotations: {
+                let names: Vec<&str> = model.state_names().collect();
+                let firsts = model
+                    .rotations()
+                    .into_iter()
+                    .map(|r| names[r.storage].to_owned());
+                firsts.collect()
+            },
             m,
             noise: noise.clone(),
             noise_doc,
@@ -129,11 +136,12 @@ impl FilterLayout {
             return TokenStream::new();
         }
         let ty = &self.ty;
-        // Positions, not `index::Q_X`: the module `index` is beside the first scalar's
-        // items, not inside the others' modules (`in_f64`).
-        let firsts = self.rotations.iter().map(|&i| Literal::usize_unsuffixed(i));
+        let firsts = self
+            .rotations
+            .iter()
+            .map(|name| crate::emit::names::index_const(name));
         quote! {
-            let Some(x0_unit) = stateforge_math::#ty::with_unit_rotations(x0, &[#(#firsts),*]) else {
+            let Some(x0_unit) = stateforge_math::#ty::with_unit_rotations(x0, &[#(index::#firsts),*]) else {
                 return #failed;
             };
         }
