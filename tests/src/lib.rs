@@ -7,6 +7,7 @@ use std::path::PathBuf;
 pub mod cantilever_sim;
 pub mod compare;
 pub mod continuous_reference;
+pub mod error_state_reference;
 pub mod predictive_reference;
 pub mod reference;
 pub mod rng;
@@ -34,7 +35,7 @@ pub const UNSNAPSHOTTED_DEMO_MODELS: [&str; 1] = ["navigation"];
 
 /// Names of the test models in `tests/models/` (`model! { .. }` invocations that exercise
 /// parts of the language the demo models do not use).
-pub const TEST_MODELS: [&str; 2] = ["rover", "rover_known"];
+pub const TEST_MODELS: [&str; 3] = ["rover", "rover_known", "ahrs"];
 
 /// The generated code of a test model, formatted.
 pub fn test_model_code(name: &str) -> String {
