@@ -6,7 +6,12 @@
 use crate::scratch::{workspace_root, Scratch};
 use std::path::{Path, PathBuf};
 
-/// The model sources vendored: the demo models (`model!` invocations) and the model files.
+/// Test models whose generated code no demo model or model file covers: vectors and
+/// rotations, and the error-state EKF.
+const TEST_MODELS: [&str; 2] = ["ahrs", "vehicle_geometry"];
+
+/// The model sources vendored: the demo models (`model!` invocations), the model files and
+/// [`TEST_MODELS`].
 fn models(root: &Path) -> Result<Vec<(String, PathBuf)>, String> {
     let mut models = Vec::new();
     for (dir, prefix) in [
@@ -22,6 +27,10 @@ fn models(root: &Path) -> Result<Vec<(String, PathBuf)>, String> {
                 models.push((format!("{prefix}_{}", stem.to_string_lossy()), path));
             }
         }
+    }
+    for name in TEST_MODELS {
+        let path = root.join("tests/models").join(format!("{name}.rs"));
+        models.push((format!("test_{name}"), path));
     }
     models.sort();
     Ok(models)
