@@ -574,20 +574,28 @@ impl Model {
 }
 
 impl Expr {
+    /// Whether the expression is a literal or a name (of a constant, a symbol, an
+    /// intermediate, the time): nothing to compute, so reading it twice costs nothing.
+    pub fn is_leaf(&self) -> bool {
+        matches!(
+            self,
+            Expr::Number(_)
+                | Expr::Const(_)
+                | Expr::State(_)
+                | Expr::Param(_)
+                | Expr::Input(_)
+                | Expr::Known(_)
+                | Expr::Local(_)
+                | Expr::Time
+        )
+    }
+
     /// Whether `pred` holds for this expression or any part of it (locals not followed).
     pub fn any(&self, pred: &dyn Fn(&Expr) -> bool) -> bool {
         if pred(self) {
             return true;
         }
         match self {
-            Expr::Number(_)
-            | Expr::Const(_)
-            | Expr::State(_)
-            | Expr::Param(_)
-            | Expr::Input(_)
-            | Expr::Known(_)
-            | Expr::Local(_)
-            | Expr::Time => false,
             Expr::Neg(a) | Expr::Powi(a, _) | Expr::Call(_, a) => a.any(pred),
             Expr::Add(a, b)
             | Expr::Sub(a, b)
@@ -601,6 +609,10 @@ impl Expr {
                 otherwise,
                 ..
             } => lhs.any(pred) || rhs.any(pred) || then.any(pred) || otherwise.any(pred),
+            leaf => {
+                debug_assert!(leaf.is_leaf(), "every compound expression is matched above");
+                false
+            }
         }
     }
 

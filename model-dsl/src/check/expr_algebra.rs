@@ -14,21 +14,6 @@ pub(super) struct ExprAlgebra<'l> {
     pub(super) locals: Option<&'l mut Vec<Local>>,
 }
 
-/// Whether reading `e` twice costs nothing: a literal or a name.
-fn is_leaf(e: &Expr) -> bool {
-    matches!(
-        e,
-        Expr::Number(_)
-            | Expr::Const(_)
-            | Expr::State(_)
-            | Expr::Param(_)
-            | Expr::Input(_)
-            | Expr::Known(_)
-            | Expr::Local(_)
-            | Expr::Time
-    )
-}
-
 impl Algebra for ExprAlgebra<'_> {
     type S = Expr;
 
@@ -83,7 +68,7 @@ impl Algebra for ExprAlgebra<'_> {
 
     fn share(&mut self, a: Expr, hint: &str) -> Expr {
         match &mut self.locals {
-            Some(locals) if !is_leaf(&a) => {
+            Some(locals) if !a.is_leaf() => {
                 locals.push(Local {
                     name: hint.to_owned(),
                     expr: a,
