@@ -34,7 +34,7 @@ pub const UNSNAPSHOTTED_DEMO_MODELS: [&str; 1] = ["navigation"];
 
 /// Names of the test models in `tests/models/` (`model! { .. }` invocations that exercise
 /// parts of the language the demo models do not use).
-pub const TEST_MODELS: [&str; 2] = ["rover", "rover_known"];
+pub const TEST_MODELS: [&str; 3] = ["rover", "rover_known", "dead_reckoning"];
 
 /// The generated code of a test model, formatted.
 pub fn test_model_code(name: &str) -> String {
