@@ -68,12 +68,12 @@ pub fn input_noise_setter(k: usize, entries_doc: &str, ty: &proc_macro2::Ident) 
 /// names, in order), which enters the state through the input Jacobian.
 pub fn input_noise_doc(inputs: &[&str]) -> String {
     let listed: Vec<String> = inputs.iter().map(|name| format!("`{name}`")).collect();
+    let listed = crate::diagnostics::phrase(&listed, "and");
     format!(
-        " `qu` holds the variance per sample of each input entry the noise is on, {}, in \
-         the inputs' units squared; it enters the state through the input Jacobian \
-         `G = df/du`, as `G diag(qu) G'`. A white noise of density `s` (per square root of \
-         a hertz) sampled every `dt` seconds has the variance `s^2 / dt` per sample.",
-        listed.join(", ")
+        " `qu` holds the variances of one sample of the inputs {listed} (in this order, in \
+         their units squared), whose noise enters the state through the input Jacobian \
+         `G = df/du` as `G diag(qu) G'`. A white noise of density `s` (per square root of a \
+         hertz) sampled every `dt` seconds has the variance `s^2 / dt` per sample."
     )
 }
 
@@ -217,10 +217,7 @@ impl ProcessNoise {
         };
         let names = model.tangent_names();
         let listed: Vec<String> = on.iter().map(|&i| format!("`{}`", names[i])).collect();
-        let listed = match listed.split_last() {
-            Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
-            _ => listed.concat(),
-        };
+        let listed = crate::diagnostics::phrase(&listed, "and");
         format!(
             " The process noise enters {listed} only (in this order; zero on the other states)."
         )

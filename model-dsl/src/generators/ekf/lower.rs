@@ -311,7 +311,16 @@ impl EkfMethod {
                  [`Status::Ok`].",
             ),
         };
-        (ident(name), doc.to_owned() + self.time_doc(model))
+        let input_noise = if self.predicts() && !spec.input_noise.is_empty() {
+            " The prediction's process noise includes the noise on the inputs \
+             `input_noise` lists, `G diag(qu) G'` with `G = df/du` at the current estimate."
+        } else {
+            ""
+        };
+        (
+            ident(name),
+            doc.to_owned() + input_noise + self.time_doc(model),
+        )
     }
 
     /// What the method's documentation says of its times, for a model that reads `t`.
