@@ -35,7 +35,13 @@ pub const UNSNAPSHOTTED_DEMO_MODELS: [&str; 1] = ["navigation"];
 
 /// Names of the test models in `tests/models/` (`model! { .. }` invocations that exercise
 /// parts of the language the demo models do not use).
-pub const TEST_MODELS: [&str; 4] = ["rover", "rover_known", "ahrs", "vehicle_geometry"];
+pub const TEST_MODELS: [&str; 5] = [
+    "rover",
+    "rover_known",
+    "ahrs",
+    "vehicle_geometry",
+    "dead_reckoning",
+];
 
 /// The generated code of a test model, formatted.
 pub fn test_model_code(name: &str) -> String {

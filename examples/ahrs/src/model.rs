@@ -29,8 +29,8 @@ stateforge::model! {
             accel = q.inverse() * vec3(0.0, 0.0, -GRAVITY),
             /// magnetometer, body [gauss]: the earth's field
             mag = q.inverse() * vec3(MAG_N, 0.0, MAG_D);
-        // Process noise per sample over the tangent coordinates (`TANGENT_NAMES`).
-        generate ekf(process_noise = diagonal);
+        generate ekf(input_noise = [gyro], process_noise = diagonal,
+            process_noise_on = [gyro_bias]);
         dynamics discrete {
             // The exact exponential: the rate held over the sample turns the body.
             q = q * exp((gyro - gyro_bias) * DT);

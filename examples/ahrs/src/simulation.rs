@@ -7,13 +7,13 @@
 //! # The filter's noise, from the sensors'
 //!
 //! The filter's covariance is over `TANGENT_NAMES`: the attitude error `δθ` in the earth
-//! frame (the true attitude is `Exp(δθ) ⊗ q`) and the bias error. A gyro sample's white
-//! noise `n` (standard deviation `GYRO_NOISE` per axis) turns the body by `-n DT` more or
-//! less than the filter believes, in the body frame; in the earth frame that is
-//! `-R(q) n DT`, and an isotropic `n` stays isotropic under the rotation `R(q)`. So the
-//! process noise on each attitude coordinate is `GYRO_NOISE^2 DT^2` per sample. The bias
-//! is a random walk of `BIAS_WALK` rad/s per square root of a second: `BIAS_WALK^2 DT` per
-//! sample on each bias coordinate.
+//! frame (the true attitude is `Exp(δθ) ⊗ q`) and the bias error. The gyro's white noise
+//! is noise on the input (`input_noise = [gyro]`): `new` takes its variance per sample on
+//! each axis, `GYRO_NOISE^2`, and the filter maps it through the input Jacobian onto the
+//! attitude, `G diag(qu) G'` (about `GYRO_NOISE^2 DT^2` per attitude coordinate). The bias
+//! is a random walk of `BIAS_WALK` rad/s per square root of a second, process noise on the
+//! bias alone (`process_noise_on = [gyro_bias]`): `BIAS_WALK^2 DT` per sample on each bias
+//! coordinate.
 
 use crate::ahrs::{index, Ekf, Status, TANGENT_LEN, X_LEN};
 use nalgebra::{Matrix6, Quaternion, UnitQuaternion, Vector3, Vector4, Vector6};
@@ -181,14 +181,11 @@ fn start(noise: &mut Noise) -> Result<(Body, Ekf), Status> {
         INITIAL_BIAS * INITIAL_BIAS,
     );
     let p0 = diagonal([attitude, attitude, attitude, bias, bias, bias]);
-    let (turn, walk) = (
-        GYRO_NOISE * DT * GYRO_NOISE * DT,
-        BIAS_WALK * BIAS_WALK * DT,
-    );
-    let q = [turn, turn, turn, walk, walk, walk].map(|v| v as f32);
+    let walk = (BIAS_WALK * BIAS_WALK * DT) as f32;
+    let gyro = (GYRO_NOISE * GYRO_NOISE) as f32;
     let (accel, mag) = (ACCEL_NOISE * ACCEL_NOISE, MAG_NOISE * MAG_NOISE);
     let r = diagonal([accel, accel, accel, mag, mag, mag]);
-    Ok((body, Ekf::new(&x0, &p0, &q, &r)?))
+    Ok((body, Ekf::new(&x0, &p0, &[walk; 3], &[gyro; 3], &r)?))
 }
 
 fn diagonal(variances: [f64; 6]) -> [[f32; 6]; 6] {

@@ -11,8 +11,8 @@ use crate::emit::lower::Lowerer;
 use crate::emit::names::ident;
 /// The process noise argument, shared by the constructors and the setters.
 pub use crate::emit::tuning::noise_argument;
-use crate::emit::tuning::noise_setters;
 pub use crate::emit::tuning::ProcessNoise;
+use crate::emit::tuning::{input_noise_doc, input_noise_setter, noise_setters};
 use crate::model::Model;
 use crate::symbolic::linalg::{packed_len, Matrix};
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
@@ -41,6 +41,10 @@ pub struct FilterLayout {
     noise: ProcessNoise,
     /// What the constructor's and setter's documentation say of the states it enters.
     noise_doc: String,
+    /// The input entries whose noise enters the state through the input Jacobian (their
+    /// names), empty for none; else the field `qu` holds their variances, which the
+    /// constructor takes after `q` and `set_input_noise` replaces.
+    input_noise: Vec<String>,
     /// `n`, as a literal.
     pub n_len: Literal,
     /// `m`, as a literal.
@@ -83,6 +87,7 @@ impl FilterLayout {
             m,
             noise: noise.clone(),
             noise_doc,
+            input_noise: Vec::new(),
             n_len,
             m_len,
             np,
@@ -93,7 +98,21 @@ impl FilterLayout {
         }
     }
 
-    /// The fields `x`, `p`, `q` and `r` of the filter's struct, each followed by a comma.
+    /// The same layout with noise on the input entries `inputs` (their names; see
+    /// [`FilterLayout::input_noise`]): the field `qu`, the constructor's argument and the
+    /// setter `set_input_noise`.
+    #[must_use]
+    pub fn with_input_noise(mut self, inputs: &[&str]) -> FilterLayout {
+        if !inputs.is_empty() {
+            let setter = input_noise_setter(inputs.len(), &input_noise_doc(inputs), &self.ty);
+            self.setters.extend(setter);
+            self.input_noise = inputs.iter().map(|&name| name.to_owned()).collect();
+        }
+        self
+    }
+
+    /// The fields `x`, `p`, `q`, `qu` (with noise on inputs) and `r` of the filter's
+    /// struct, each followed by a comma.
     pub fn fields(&self) -> TokenStream {
         let FilterLayout {
             ty,
@@ -103,10 +122,15 @@ impl FilterLayout {
             mp,
             ..
         } = self;
+        let qu = (!self.input_noise.is_empty()).then(|| {
+            let ku = Literal::usize_unsuffixed(self.input_noise.len());
+            quote! { qu: [#ty; #ku], }
+        });
         quote! {
             x: [#ty; #n_len],
             p: [#ty; #np],
             q: #q_field,
+            #qu
             r: [#ty; #mp],
         }
     }
@@ -147,10 +171,10 @@ impl FilterLayout {
         }
     }
 
-    /// `fn new(x0, p0, q, r, known?) -> Result<Self, Status>`: the constructor,
+    /// `fn new(x0, p0, q, qu?, r, known?) -> Result<Self, Status>`: the constructor,
     /// documented by the attributes `doc`, rejecting a non-finite entry of what it reads and storing
-    /// `x0` and the packed upper triangles of `p0`, `q` and `r`, and the `known`
-    /// constants if the filter holds them. `extra_init` continues the struct literal
+    /// `x0` and the packed upper triangles of `p0`, `q` and `r`, the input noise variances
+    /// `qu` if the filter has them, and the `known` constants if the filter holds them. `extra_init` continues the struct literal
     /// (each field followed by a comma) with the fields a filter adds.
     pub fn constructor(
         &self,
@@ -164,11 +188,20 @@ impl FilterLayout {
             let text = &self.noise_doc;
             quote! { #[doc = #text] }
         });
-        let doc = quote! { #doc #noise_doc };
+        let names: Vec<&str> = self.input_noise.iter().map(String::as_str).collect();
+        let input_noise_doc = (!names.is_empty()).then(|| {
+            let text = input_noise_doc(&names);
+            quote! { #[doc = #text] }
+        });
+        let doc = quote! { #doc #noise_doc #input_noise_doc };
         let (x0, p0) = self.initial_estimate(&mut arguments);
         let unit = self.unit_rotations(&quote! { Err(Status::RejectedInput) });
         let k = self.noise.len(self.n_p);
         let q = arguments.process_noise("q", k, self.noise.diagonal, &self.ty);
+        let qu = (!names.is_empty()).then(|| {
+            let qu = arguments.process_noise("qu", names.len(), true, &self.ty);
+            quote! { qu: #qu, }
+        });
         let r = arguments.covariance("r", self.m, &self.ty);
         let known_init = known.argument(&mut arguments);
         arguments.constructor(
@@ -180,6 +213,7 @@ impl FilterLayout {
                     x: #x0,
                     p: #p0,
                     q: #q,
+                    #qu
                     r: #r,
                     #extra_init
                     #known_init

@@ -33,13 +33,6 @@ pub fn process_noise_setter(
     diagonal: bool,
     ty: &proc_macro2::Ident,
 ) -> TokenStream {
-    let (param, _, packed) = noise_argument("q", n, diagonal, ty);
-    let finite = if diagonal {
-        quote! { stateforge_math::#ty::all_finite(*q) }
-    } else {
-        quote! { stateforge_math::#ty::upper_triangle_finite(q) }
-    };
-    let body = setter(field, &packed, &finite, &covariance_test("q", diagonal, ty));
     let doc = if diagonal {
         format!(
             " Replaces the process noise variances `{field}` (a diagonal matrix). Rejects a \
@@ -55,10 +48,61 @@ pub fn process_noise_setter(
         )
     };
     let doc = format!("{doc}{states_doc}");
+    noise_setter((method, "q", field), n, diagonal, &doc, ty)
+}
+
+/// `fn set_input_noise(&mut self, qu) -> Status` replacing the field `qu`, the variances
+/// per sample of the `k` input entries whose noise enters the state (`entries_doc` names
+/// them, see [`input_noise_doc`]).
+pub fn input_noise_setter(k: usize, entries_doc: &str, ty: &proc_macro2::Ident) -> TokenStream {
+    let doc = format!(
+        " Replaces the input noise variances `qu`.{entries_doc} Rejects a non-finite entry \
+         with [`Status::RejectedInput`] and a negative variance with \
+         [`Status::InvalidCovariance`], leaving the filter unchanged."
+    );
+    noise_setter(("set_input_noise", "qu", "qu"), k, true, &doc, ty)
+}
+
+/// What the input noise variances `qu` are, for the documentation of what takes or stores
+/// them, starting with a space: the variance per sample of each entry of `inputs` (their
+/// names, in order), which enters the state through the input Jacobian.
+pub fn input_noise_doc(inputs: &[&str]) -> String {
+    let listed: Vec<String> = inputs.iter().map(|name| format!("`{name}`")).collect();
+    let listed = crate::diagnostics::phrase(&listed, "and");
+    format!(
+        " `qu` holds the variances of one sample of the inputs {listed} (in this order, in \
+         their units squared), whose noise enters the state through the input Jacobian \
+         `G = df/du` as `G diag(qu) G'`. A white noise of density `s` (per square root of a \
+         hertz) sampled every `dt` seconds has the variance `s^2 / dt` per sample."
+    )
+}
+
+/// `fn <method>(&mut self, <param>) -> Status` replacing the noise field `field` (packed,
+/// or its `n` variances if `diagonal`), documented by `doc`.
+fn noise_setter(
+    (method, param, field): (&str, &str, &str),
+    n: usize,
+    diagonal: bool,
+    doc: &str,
+    ty: &proc_macro2::Ident,
+) -> TokenStream {
+    let (arg, _, packed) = noise_argument(param, n, diagonal, ty);
+    let param_ident = ident(param);
+    let finite = if diagonal {
+        quote! { stateforge_math::#ty::all_finite(*#param_ident) }
+    } else {
+        quote! { stateforge_math::#ty::upper_triangle_finite(#param_ident) }
+    };
+    let body = setter(
+        field,
+        &packed,
+        &finite,
+        &covariance_test(param, diagonal, ty),
+    );
     let method = ident(method);
     quote! {
         #[doc = #doc]
-        pub fn #method(&mut self, #param) -> Status {
+        pub fn #method(&mut self, #arg) -> Status {
             #body
         }
     }
@@ -173,10 +217,7 @@ impl ProcessNoise {
         };
         let names = model.tangent_names();
         let listed: Vec<String> = on.iter().map(|&i| format!("`{}`", names[i])).collect();
-        let listed = match listed.split_last() {
-            Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
-            _ => listed.concat(),
-        };
+        let listed = crate::diagnostics::phrase(&listed, "and");
         format!(
             " The process noise enters {listed} only (in this order; zero on the other states)."
         )

@@ -118,6 +118,24 @@ impl<'a> Context<'a> {
             .map(|(name, _)| name.as_str())
     }
 
+    /// The names of the inputs, in declaration order (a vector's own, not its entries').
+    pub fn input_names(&self) -> impl Iterator<Item = &str> {
+        let names = self.scope.names.iter();
+        names
+            .filter(|(name, _)| self.input_indices(name).is_some())
+            .map(|(name, _)| name.as_str())
+    }
+
+    /// Whether `name` is a rotation.
+    pub fn is_rotation(&self, name: &str) -> bool {
+        match self.scope.get(name) {
+            Some((Binding::Typed(i), _)) => {
+                matches!(self.scope.typed(*i), Some(Value::Rot3 { .. }))
+            }
+            _ => false,
+        }
+    }
+
     /// The index of the input `name` in the model's inputs, if it is one.
     pub fn input_index(&self, name: &str) -> Option<usize> {
         match self.scope.get(name) {
@@ -423,35 +441,55 @@ impl<'a> Args<'a> {
         if names.is_empty() {
             diag.error(span, PROCESS_NOISE_ON_USAGE);
         }
-        let mut on = Vec::new();
-        let mut listed = 0;
-        for name in &names {
-            match cx.estimate_indices(&name.text) {
-                Some(entries) if entries.iter().any(|i| on.contains(i)) => {
-                    diag.error(name.span, format!("`{}` is listed twice", name.text));
-                }
-                Some(entries) => {
-                    on.extend(entries);
-                    listed += 1;
-                }
-                None => {
-                    let hint = match closest(&name.text, cx.estimate_names()) {
-                        Some(meant) => format!("did you mean `{meant}`? "),
-                        None => String::new(),
-                    };
-                    let text = &name.text;
-                    let message = format!(
-                        "`{text}` is not a state or parameter: {hint}{PROCESS_NOISE_ON_USAGE}"
-                    );
-                    diag.error(name.span, message);
-                }
-            }
-        }
-        let complete = !names.is_empty() && listed == names.len();
+        let on = listed_entries(&names, diag, |name| {
+            cx.estimate_indices(&name.text).ok_or_else(|| {
+                let hint = did_you_mean(&name.text, cx.estimate_names());
+                let text = &name.text;
+                format!("`{text}` is not a state or parameter: {hint}{PROCESS_NOISE_ON_USAGE}")
+            })
+        });
         ProcessNoise {
             diagonal,
-            on: complete.then_some(on),
+            on: on.filter(|_| !names.is_empty()),
         }
+    }
+
+    /// `input_noise = [gyro, accel]`: the inputs whose noise enters the state through the
+    /// input Jacobian, each as its entries (a vector's three) in the order listed; empty
+    /// without the option (or with a mistake in it, reported).
+    pub fn input_noise(&mut self, cx: &Context, diag: &mut Diagnostics) -> Vec<usize> {
+        let Some(arg) = self.take(&["input_noise"]) else {
+            return Vec::new();
+        };
+        let names = match &arg.value {
+            ArgValue::Names(list, _) if !list.is_empty() => list.clone(),
+            ArgValue::Name(n) => vec![n.clone()],
+            other => {
+                diag.error(other.span(), INPUT_NOISE_USAGE);
+                return Vec::new();
+            }
+        };
+        let entries = listed_entries(&names, diag, |name| {
+            let text = &name.text;
+            match cx.input_indices(text) {
+                Some(_) if cx.is_rotation(text) => Err(format!(
+                    "`{text}` is a rotation: noise on a rotation input is not supported; \
+                     {INPUT_NOISE_USAGE}"
+                )),
+                Some(found) => Ok(found),
+                None if cx.estimate_indices(text).is_some() => Err(format!(
+                    "`{text}` is a state or parameter, not an input (noise on it is \
+                     `process_noise_on = [{text}]`); {INPUT_NOISE_USAGE}"
+                )),
+                None => {
+                    let hint = did_you_mean(text, cx.input_names());
+                    Err(format!(
+                        "`{text}` is not an input: {hint}{INPUT_NOISE_USAGE}"
+                    ))
+                }
+            }
+        });
+        entries.unwrap_or_default()
     }
 
     /// Reports every argument no reader took, and options written under two names.
@@ -484,6 +522,40 @@ impl<'a> Args<'a> {
     }
 }
 
+/// The entries (`entries` of each name, or the error to report under it) of a list of
+/// names, in the order listed; a name whose entries were listed before is an error.
+/// `None` if any name was in error.
+fn listed_entries(
+    names: &[Name],
+    diag: &mut Diagnostics,
+    entries: impl Fn(&Name) -> Result<Vec<usize>, String>,
+) -> Option<Vec<usize>> {
+    let mut listed = Vec::new();
+    let mut complete = true;
+    for name in names {
+        match entries(name) {
+            Ok(found) if found.iter().any(|i| listed.contains(i)) => {
+                diag.error(name.span, format!("`{}` is listed twice", name.text));
+                complete = false;
+            }
+            Ok(found) => listed.extend(found),
+            Err(message) => {
+                diag.error(name.span, message);
+                complete = false;
+            }
+        }
+    }
+    complete.then_some(listed)
+}
+
+/// `did you mean `meant`? ` for the name among `names` closest to `text`, if one is.
+fn did_you_mean<'n>(text: &str, names: impl Iterator<Item = &'n str>) -> String {
+    match closest(text, names) {
+        Some(meant) => format!("did you mean `{meant}`? "),
+        None => String::new(),
+    }
+}
+
 fn not_a_constant(name: &Name, diag: &mut Diagnostics) {
     diag.error(
         name.span,
@@ -502,6 +574,11 @@ fn is_type_name(text: &str) -> bool {
 const PROCESS_NOISE_ON_USAGE: &str = "`process_noise_on` lists the states and parameters \
      the process noise enters, `process_noise_on = [x2, k]`; it is zero on the others (by \
      default it enters every state)";
+
+/// What `input_noise` takes.
+const INPUT_NOISE_USAGE: &str = "`input_noise` lists the inputs (numbers or vectors) whose \
+     noise enters the state through the input Jacobian, `input_noise = [gyro, accel]`; their \
+     variances per sample are given at run time, to `new` and `set_input_noise`";
 
 /// The physical states a controller regulates and the inputs it computes, by index
 /// (`states = [x1, x2], input = u`); `example` opens the usage shown when either is missing.

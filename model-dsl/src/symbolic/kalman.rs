@@ -242,25 +242,66 @@ fn scale_columns(g: &mut Graph, m: &Matrix, scales: &[NodeId]) -> Matrix {
 
 /// The EKF's prediction (Alg. 1): `x = f(x, u)` and `P = A P A' + Q` with `A = df/dx` at
 /// the estimate; with `t_prev`, both evaluated at that time (a step predicts from the
-/// previous sample's time, and corrects at the measurement's). `A`'s computed entries are
-/// bound to variables (`a21`) in `coefficients`. Returns `f`, the new `P` and `A`.
+/// previous sample's time, and corrects at the measurement's). With noise on inputs
+/// (`input_noise`, each input's index with the variable of its variance per sample), `Q`
+/// gains `G diag(qu) G'`, `G = df/du` over those inputs (as PX4's EKF2 maps its IMU's
+/// noise). `A`'s and `G`'s computed entries are bound to variables (`a21`, `g21`) in
+/// `coefficients`. Returns `f`, the new `P` and `A`.
 pub fn ekf_predict(
     mg: &mut ModelGraph,
-    p: &Matrix,
-    q: &Matrix,
+    (p, q): (&Matrix, &Matrix),
+    input_noise: &[(usize, NodeId)],
     t_prev: Option<NodeId>,
     coefficients: &mut Coefficients,
 ) -> (Vec<NodeId>, Matrix, Matrix) {
     let mut a = mg.tangent_jacobian_f_wrt_x();
     let mut f = mg.f.clone();
+    // Only a filter with noise on inputs differentiates by them: no other's graph changes.
+    let mut gu = if input_noise.is_empty() {
+        Vec::new()
+    } else {
+        let all = mg.tangent_jacobian_f_wrt_u();
+        let columns = |row: &Vec<NodeId>| input_noise.iter().map(|&(j, _)| row[j]).collect();
+        all.iter().map(columns).collect()
+    };
     if let Some(t_prev) = t_prev {
         let at_prev = AtPoint::new(vec![mg.var_id(mg.t)]);
         f = at_prev.eval(&mut mg.graph, &[t_prev], &f);
         a = at_prev.eval_matrix(&mut mg.graph, &[t_prev], &a);
+        if !gu.is_empty() {
+            gu = at_prev.eval_matrix(&mut mg.graph, &[t_prev], &gu);
+        }
     }
     let a = coefficients.bind(&mut mg.graph, &a, "a");
-    let p = predict_covariance_by_sparse_rows(&mut mg.graph, &a, p, q);
+    let q = if input_noise.is_empty() {
+        q.clone()
+    } else {
+        let gu = coefficients.bind(&mut mg.graph, &gu, "g");
+        let variances: Vec<NodeId> = input_noise.iter().map(|&(_, v)| v).collect();
+        let mapped = input_noise_covariance(&mut mg.graph, &gu, &variances);
+        add(&mut mg.graph, q, &mapped)
+    };
+    let p = predict_covariance_by_sparse_rows(&mut mg.graph, &a, p, &q);
     (f, p, a)
+}
+
+/// `G diag(qu) G'`, the covariance the noise of variances `qu` on `G`'s columns makes:
+/// `G diag(qu)` once, then its rows against `G`'s, upper triangle computed once; `G`'s
+/// structural zeros skipped.
+// `out[i][j]` and its mirror `out[j][i]` are written together: index loops.
+#[allow(clippy::needless_range_loop)]
+pub fn input_noise_covariance(g: &mut Graph, gu: &Matrix, qu: &[NodeId]) -> Matrix {
+    let scaled = scale_columns(g, gu, qu);
+    let n = gu.len();
+    let mut out = vec![vec![g.zero(); n]; n];
+    for i in 0..n {
+        for j in i..n {
+            let v = dot(g, &scaled[i], &gu[j]);
+            out[i][j] = v;
+            out[j][i] = v;
+        }
+    }
+    out
 }
 
 /// A measurement update with the model's `h`, and the innovation it used.

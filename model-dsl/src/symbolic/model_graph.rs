@@ -375,6 +375,21 @@ impl ModelGraph {
         error_state::to_tangent(&mut self.graph, Some(&local), &a, Some(&retraction))
     }
 
+    /// The Jacobian of `f` with respect to the inputs, taken to the tangent space of the
+    /// state, `G = d(f(x, u + δu) ⊟ f(x, u))/dδu` at `δu = 0`:
+    /// [`ModelGraph::jacobian_f_wrt_u`] after the local map's Jacobian at `f(x)` (see
+    /// [`error_state`]); itself for a state without a rotation.
+    pub fn tangent_jacobian_f_wrt_u(&mut self) -> Vec<Vec<NodeId>> {
+        if self.tangent.is_euclidean() {
+            return self.jacobian_f_wrt_u();
+        }
+        // Without the renormalisation, as `tangent_jacobian_f_wrt_x`.
+        let (layout, f, u) = (self.tangent.clone(), self.f.clone(), self.u.clone());
+        let b = self.jacobian(&self.f_unnormalised.clone(), &u);
+        let local = error_state::local_jacobian(&mut self.graph, &layout, &f);
+        error_state::to_tangent(&mut self.graph, Some(&local), &b, None)
+    }
+
     /// The Jacobian of `h` over the tangent space, `d h(x ⊞ δx)/dδx` at `δx = 0`; itself
     /// for a state without a rotation.
     pub fn tangent_jacobian_h_wrt_x(&mut self) -> Vec<Vec<NodeId>> {

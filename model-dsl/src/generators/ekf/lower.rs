@@ -10,7 +10,7 @@ use crate::emit::code::{
 };
 use crate::emit::filter::{
     correction_reads_input, finiteness_probe_of_changes, interleaved_finiteness_probe, model_names,
-    name_estimate, reads_variable, FilterLayout, FilterVars, MEASUREMENT_INPUT_DOC,
+    name_estimate, reads_variable, unclaimed_name, FilterLayout, FilterVars, MEASUREMENT_INPUT_DOC,
 };
 use crate::emit::in_place::{self, CovarianceSlots};
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
@@ -57,7 +57,12 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
         })
         .collect();
     let ty = ident(scalar.type_name());
-    let layout = FilterLayout::new(model, &spec.process_noise, &ty);
+    let noisy_inputs: Vec<&str> = spec
+        .input_noise
+        .iter()
+        .map(|&j| model.inputs[j].name.as_str())
+        .collect();
+    let layout = FilterLayout::new(model, &spec.process_noise, &ty).with_input_noise(&noisy_inputs);
     let methods = quote! {
         #step
 
@@ -306,7 +311,16 @@ impl EkfMethod {
                  [`Status::Ok`].",
             ),
         };
-        (ident(name), doc.to_owned() + self.time_doc(model))
+        let input_noise = if self.predicts() && !spec.input_noise.is_empty() {
+            " The prediction's process noise includes the noise on the inputs \
+             `input_noise` lists, `G diag(qu) G'` with `G = df/du` at the current estimate."
+        } else {
+            ""
+        };
+        (
+            ident(name),
+            doc.to_owned() + input_noise + self.time_doc(model),
+        )
     }
 
     /// What the method's documentation says of its times, for a model that reads `t`.
@@ -404,6 +418,8 @@ struct EkfNodes {
     avoid: Vec<String>,
     /// The covariance, noise and measurement variables.
     vars: FilterVars,
+    /// The variances of the input entries with noise (`spec.input_noise`), `qu1`, ...
+    qu: Vec<NodeId>,
     /// In a prediction, when the model reads `t`: the previous sample's time, which the
     /// prediction runs from.
     t_prev: Option<NodeId>,
@@ -447,6 +463,9 @@ impl EkfNodes {
         let outputs = kind.outputs(model);
         let avoid = model_names(model);
         let vars = FilterVars::declare(&mut g.graph, model, &outputs, &spec.process_noise, &avoid);
+        let qu = (1..=spec.input_noise.len())
+            .map(|i| g.graph.var(&unclaimed_name(format!("qu{i}"), &avoid)))
+            .collect();
         let t_prev = (kind.predicts() && model.uses_time()).then(|| match kind {
             // A step evaluates `h` at another time than `f`: a variable of its own.
             EkfMethod::Step => g.graph.var("t_prev"),
@@ -461,6 +480,7 @@ impl EkfNodes {
             g,
             avoid,
             vars,
+            qu,
             t_prev,
             t_measured,
             predicted: None,
@@ -475,20 +495,32 @@ impl EkfNodes {
             order: Vec::new(),
         };
         if kind.predicts() {
-            let q = &nodes.vars.q_matrix;
-            let coefficients = &mut nodes.coefficients;
-            let (x, p, a) = kalman::ekf_predict(&mut nodes.g, &nodes.p, q, t_prev, coefficients);
-            if kind.updates() {
-                nodes.predicted = Some((x.clone(), p.clone()));
-            }
-            (nodes.x, nodes.p) = (x, p);
-            nodes.order = in_place::prediction_order(&nodes.g.graph, &a);
+            nodes.predict(&spec.input_noise, kind.updates());
         }
         if kind.updates() {
             nodes.correct(model.outputs.len(), &outputs, kind.sensor(model).is_some());
             nodes.order = in_place::update_order(model.tangent_len(), outputs.len());
         }
         nodes
+    }
+
+    /// The prediction through the shared Kalman stage, the noise on the input entries
+    /// `input_noise` included; kept as the prediction a step corrects if `corrected`.
+    fn predict(&mut self, input_noise: &[usize], corrected: bool) {
+        let noisy: Vec<(usize, NodeId)> =
+            input_noise.iter().copied().zip(self.qu.clone()).collect();
+        let (x, p, a) = kalman::ekf_predict(
+            &mut self.g,
+            (&self.p, &self.vars.q_matrix),
+            &noisy,
+            self.t_prev,
+            &mut self.coefficients,
+        );
+        if corrected {
+            self.predicted = Some((x.clone(), p.clone()));
+        }
+        (self.x, self.p) = (x, p);
+        self.order = in_place::prediction_order(&self.g.graph, &a);
     }
 
     /// The Joseph-form correction with `outputs` (of `m`), through the shared Kalman
@@ -652,6 +684,7 @@ fn lower(
     let reread = vars.p.len() > crate::emit::registers::FPU_REGISTERS;
     let slots = CovarianceSlots::read(&mut lowerer, &vars.p, &nodes.avoid, reread);
     lowerer.read_lazily(&quote! { self.q }, &vars.q);
+    lowerer.read_lazily(&quote! { self.qu }, &nodes.qu);
     lowerer.read_lazily(&quote! { self.r }, &vars.r);
     lowerer.read_lazily(&quote! { self.known }, &g.known);
     for &(var, value) in &nodes.coefficients.definitions {

@@ -1,5 +1,6 @@
 //! The extended Kalman filter (Alg. 1 of the double Kalman filter paper), with an
-//! optional innovation gate: `ekf(gate = 10.83, name = GatedEkf, process_noise = diagonal)`.
+//! optional innovation gate: `ekf(gate = 10.83, name = GatedEkf, process_noise = diagonal)`,
+//! and noise on inputs mapped through the input Jacobian: `ekf(input_noise = [gyro])`.
 
 pub mod lower;
 pub mod spec;
@@ -45,6 +46,7 @@ impl Kind for Ekf {
             gate,
             recover_after: args.recover_after(diag),
             process_noise: args.process_noise_shape(cx, diag),
+            input_noise: args.input_noise(cx, diag),
         }))
     }
 }

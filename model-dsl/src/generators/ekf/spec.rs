@@ -10,6 +10,10 @@ pub struct EkfSpec {
     /// The process noise's shape: diagonal (stored and added as its variances) or a full
     /// symmetric matrix, on every state or on those `process_noise_on` lists.
     pub process_noise: ProcessNoise,
+    /// The inputs' entries whose noise enters the state through the input Jacobian
+    /// (`input_noise = [gyro]`, a vector as its three), by index among the model's inputs,
+    /// in the order their variances `qu` are given; empty without the option.
+    pub input_noise: Vec<usize>,
     /// The innovation gate: a measurement whose normalised innovation squared exceeds it
     /// is rejected as an outlier (`None`: no gate is generated).
     pub gate: Option<f64>,
