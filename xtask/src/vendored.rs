@@ -7,8 +7,8 @@ use crate::scratch::{workspace_root, Scratch};
 use std::path::{Path, PathBuf};
 
 /// Test models whose generated code no demo model or model file covers: vectors and
-/// rotations, and the error-state EKF.
-const TEST_MODELS: [&str; 2] = ["ahrs", "vehicle_geometry"];
+/// rotations, the error-state EKF, input noise.
+const TEST_MODELS: [&str; 3] = ["ahrs", "dead_reckoning", "vehicle_geometry"];
 
 /// The model sources vendored: the demo models (`model!` invocations), the model files and
 /// [`TEST_MODELS`].
