@@ -112,7 +112,7 @@ fn ekf_type(
     let known = crate::emit::known::known_items(model, ty);
     let (known_field, known_methods) = (&known.field, &known.methods);
     let type_name = ident(&spec.type_name);
-    let (type_doc, convention_doc) = type_doc(spec);
+    let (type_doc, convention_doc) = type_doc(spec, model);
     let fields = layout.fields();
     let measurement_fields = measurement::fields(model, spec.gate, ty);
     let sensor_fields = sensors::fields(model, spec.gate, ty);
@@ -198,14 +198,25 @@ fn constructor_tokens(
 }
 
 /// The filter type's documentation: what it is (with its gate), then the index convention.
-fn type_doc(spec: &EkfSpec) -> (String, String) {
+fn type_doc(spec: &EkfSpec, model: &Model) -> (String, String) {
     let gate = measurement::gate_doc(spec.gate);
+    let error_state = if model.rotations().is_empty() {
+        ""
+    } else {
+        " The model has rotations, so this is an error-state filter (J. Solà, \"Quaternion \
+         kinematics for the error-state Kalman filter\", section 7): `x` holds each rotation \
+         as a unit quaternion `[x, y, z, w]`, `P` is over the tangent space \
+         (`TANGENT_NAMES`: a rotation's error as a rotation vector `δθ` in the earth frame, \
+         the true rotation `Exp(δθ) ⊗ q`), the Jacobians are those of the error, and each \
+         update moves its estimated error into `x` by the exact retraction and resets `P` \
+         around it."
+    };
     let what = format!(
         " Extended Kalman filter of this model: state estimate `x` (the states, then the \
          parameters, each a constant the filter estimates as a random walk) and covariance \
          `P`, stored once as a packed upper triangle; prediction through `f` and its Jacobian, \
          Joseph-form update (the discrete EKF as Algorithm 1 of the double Kalman filter \
-         paper states it).{gate}"
+         paper states it).{gate}{error_state}"
     );
     let convention = format!(
         " Index convention (all filters of this module): [`{}::step`] at sample `k` takes \
