@@ -92,8 +92,9 @@ fn f32_array(values: impl IntoIterator<Item = f64>) -> String {
 
 /// Embeds the navigation flight as the host's experiment flies it
 /// (`generated_demo::flight`): the filter's initial estimate (from the first magnetometer
-/// sample) and tuning, then the next IMU samples, and the magnetometer and GNSS readings
-/// with the index of the IMU sample they follow, all as `f32`.
+/// sample) and tuning, then the next IMU samples as the model's inputs (rates:
+/// `Readings::rates`), and the magnetometer and GNSS readings with the index of the IMU
+/// sample they follow, all as `f32`.
 fn navigation(out: &std::path::Path) {
     use generated_demo::flight::{initial_estimate, tuning, Flight};
     let mut flight = Flight::new();
@@ -108,9 +109,10 @@ fn navigation(out: &std::path::Path) {
         code,
         "/// The initial estimate (`flight::initial_estimate`).\n\
          pub const X0: [f32; 24] = {};\n\
-         /// The diagonals of `P0`, `Q` and `R` (`flight::tuning`).\n\
-         pub const P0: [f32; 24] = {};\n\
-         pub const Q: [f32; 24] = {};\n\
+         /// The diagonals of `P0` and `Q` (over the 23 tangent coordinates) and `R`\n\
+         /// (`flight::tuning`).\n\
+         pub const P0: [f32; 23] = {};\n\
+         pub const Q: [f32; 23] = {};\n\
          pub const R: [f32; 9] = {};",
         f32_array(initial_estimate(first_magnetometer)),
         f32_array(p0),
@@ -120,7 +122,7 @@ fn navigation(out: &std::path::Path) {
     let (mut imu, mut magnetometer, mut gnss) = (String::new(), Vec::new(), Vec::new());
     for k in 0..NAVIGATION_SAMPLES {
         let readings = flight.advance().1;
-        let _ = writeln!(imu, "    {},", f32_array(readings.imu));
+        let _ = writeln!(imu, "    {},", f32_array(readings.rates()));
         if let Some(m) = readings.magnetometer {
             magnetometer.push(format!("    ({k}, {}),", f32_array(m)));
         }
@@ -135,7 +137,8 @@ fn navigation(out: &std::path::Path) {
          pub const SAMPLES: usize = {NAVIGATION_SAMPLES};\n\
          pub const MAGNETOMETER_READINGS: usize = {};\n\
          pub const GNSS_FIXES: usize = {};\n\
-         /// IMU delta angles and delta velocities, one per sample.\n\
+         /// IMU samples as the model's inputs, gyro (rad/s) and accelerometer (m/s^2):\n\
+         /// the delta angle and delta velocity over the sample divided by `DT`.\n\
          pub static IMU: [[f32; 6]; SAMPLES] = [\n{imu}];\n\
          /// Magnetometer readings, after the IMU sample of the index given.\n\
          pub static MAGNETOMETER: [(usize, [f32; 3]); MAGNETOMETER_READINGS] = [\n{}\n];\n\

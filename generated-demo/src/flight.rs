@@ -184,20 +184,31 @@ pub fn rotate(q: [f64; 4], v: [f64; 3], transpose: bool) -> [f64; 3] {
 pub struct Truth {
     /// Time \[s\].
     pub t: f64,
-    /// The 24 states: quaternion, NED velocity and position, the IMU biases per sample,
-    /// the earth field, the body field bias, the wind.
+    /// The 24 entries: the attitude quaternion `[x, y, z, w]`, NED velocity and position,
+    /// the gyro \[rad/s\] and accelerometer \[m/s^2\] biases, the earth field, the body
+    /// field bias, the wind.
     pub x: [f64; 24],
 }
 
 /// What the sensors read over one IMU sample ending at `truth.t`.
 #[derive(Clone, Copy, Debug)]
 pub struct Readings {
-    /// IMU delta angle \[rad\] and delta velocity \[m/s\] over the sample.
+    /// IMU delta angle \[rad\] and delta velocity \[m/s\] over the sample (the model's
+    /// inputs are these divided by `DT`: [`Readings::rates`]).
     pub imu: [f64; 6],
     /// The GNSS fix (NED velocity, position) when one arrives (5 Hz, not in the outage).
     pub gnss: Option<[f64; 6]>,
     /// The magnetometer (50 Hz).
     pub magnetometer: Option<[f64; 3]>,
+}
+
+impl Readings {
+    /// The IMU sample as the model's inputs: the mean rate \[rad/s\] and specific force
+    /// \[m/s^2\] over the sample, its delta angle and delta velocity divided by `DT`.
+    #[must_use]
+    pub fn rates(&self) -> [f64; 6] {
+        self.imu.map(|v| v / DT)
+    }
 }
 
 /// The flight, sample by sample: the truth and the sensors.
@@ -226,16 +237,15 @@ impl Flight {
 
     /// The true state at time `t` (the position as integrated so far).
     fn truth_at(&self, t: f64) -> Truth {
+        let [w, qx, qy, qz] = attitude(t);
         let mut x = [0.0; 24];
-        x[..4].copy_from_slice(&attitude(t));
+        x[..4].copy_from_slice(&[qx, qy, qz, w]);
         x[4..7].copy_from_slice(&velocity(t));
         x[7..10].copy_from_slice(&self.position);
-        for i in 0..3 {
-            x[10 + i] = GYRO_BIAS[i] * DT;
-            x[13 + i] = ACCEL_BIAS[i] * DT;
-            x[16 + i] = EARTH_FIELD[i];
-            x[19 + i] = BODY_FIELD_BIAS[i];
-        }
+        x[10..13].copy_from_slice(&GYRO_BIAS);
+        x[13..16].copy_from_slice(&ACCEL_BIAS);
+        x[16..19].copy_from_slice(&EARTH_FIELD);
+        x[19..22].copy_from_slice(&BODY_FIELD_BIAS);
         Truth { t, x }
     }
 
@@ -292,8 +302,7 @@ impl Flight {
     /// the bias.
     fn magnetometer(&self, truth: &Truth, k: u64) -> Option<[f64; 3]> {
         k.is_multiple_of(5).then(|| {
-            let q: [f64; 4] = core::array::from_fn(|i| truth.x[i]);
-            let body = rotate(q, EARTH_FIELD, true);
+            let body = rotate(attitude(truth.t), EARTH_FIELD, true);
             core::array::from_fn(|i| body[i] + BODY_FIELD_BIAS[i] + self.mag_noise[i].sample(k))
         })
     }
@@ -311,32 +320,39 @@ pub const MAGNETOMETER_GATE: f64 = 16.27;
 
 /// The initial estimate: level (as the vehicle stands), its heading from the first
 /// magnetometer sample (the bias unknown), at rest at the origin, a nominal earth field.
+/// The quaternion is `[x, y, z, w]`, the model's order.
 #[must_use]
 pub fn initial_estimate(magnetometer: [f64; 3]) -> [f64; 24] {
     let yaw = libm::atan2(-magnetometer[1], magnetometer[0]);
     let mut x = [0.0; 24];
-    x[0] = libm::cos(0.5 * yaw);
-    x[3] = libm::sin(0.5 * yaw);
+    x[2] = libm::sin(0.5 * yaw);
+    x[3] = libm::cos(0.5 * yaw);
     x[16] = 0.2;
     x[18] = 0.4;
     x
 }
 
-/// The tuning: the diagonals of `P0` and of `Q` per IMU sample (the IMU noise; slow
-/// random walks for the biases and fields), and of `R` (the sensors' noise, GNSS then
+/// The tuning: the diagonals of `P0` and of `Q` per IMU sample over the filter's 23
+/// tangent coordinates (attitude error, velocity, position, gyro and accelerometer biases,
+/// earth field, body field bias, wind), and of `R` (the sensors' noise, GNSS then
 /// magnetometer).
+///
+/// `Q` is the IMU's white noise, exactly: the gyro's `GYRO_NOISE` per sample turns the
+/// attitude by `GYRO_NOISE DT` (isotropic, so in the earth frame too), the
+/// accelerometer's changes the velocity by `ACCEL_NOISE DT`; the position has none of its
+/// own. The biases, fields and wind are slow random walks.
 #[must_use]
-pub fn tuning() -> ([f64; 24], [f64; 24], [f64; 9]) {
-    let mut p0 = [0.0; 24];
-    let mut q = [0.0; 24];
+pub fn tuning() -> ([f64; 23], [f64; 23], [f64; 9]) {
+    let mut p0 = [0.0; 23];
+    let mut q = [0.0; 23];
     let groups: [(core::ops::Range<usize>, f64, f64); 7] = [
-        (0..4, 0.05, 0.5 * GYRO_NOISE * DT),
-        (4..7, 0.5, ACCEL_NOISE * DT),
-        (7..10, 1.0, 0.0),
-        (10..13, 0.01 * DT, 1e-8),
-        (13..16, 0.2 * DT, 3e-7),
-        (16..22, 0.05, 3e-5),
-        (22..24, 0.1, 1e-4),
+        (0..3, 0.1, GYRO_NOISE * DT),
+        (3..6, 0.5, ACCEL_NOISE * DT),
+        (6..9, 1.0, 0.0),
+        (9..12, 0.01, 2.5e-6),
+        (12..15, 0.2, 7.5e-5),
+        (15..21, 0.05, 3e-5),
+        (21..23, 0.1, 1e-4),
     ];
     for (range, initial_sigma, noise_sigma) in groups {
         for i in range {

@@ -1,7 +1,7 @@
 //! Firmware for an emulated Cortex-M4F (QEMU `mps2-an386`): runs the adaptive loop of the
 //! cantilever paper in `f32` on the embedded measured sequence, then measures what the
 //! generated code and a plain nalgebra baseline cost per call in the same image (and the
-//! 24-state navigation EKF over the first seconds of the navigation flight: `navigation`).
+//! navigation EKF over the first seconds of the navigation flight: `navigation`).
 //!
 //! Output (semihosting), read by `cargo xtask`:
 //! - `estimate k <EKF x1..x5> <DKF x1..x5> <DKF-from-wrong-guess x1..x5> <K1 K2> <u>`
@@ -32,6 +32,8 @@ mod observers_baseline;
 mod peers;
 #[cfg(feature = "symforce")]
 mod peers_navigation;
+#[cfg(feature = "symforce")]
+mod peers_navigation_model;
 
 use core::hint::black_box;
 use cortex_m_rt::entry;

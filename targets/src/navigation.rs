@@ -1,4 +1,5 @@
-//! The 24-state navigation EKF (`generated_demo::navigation`, `f32`) on the target: the
+//! The navigation EKF (`generated_demo::navigation`, `f32`: PX4 EKF2's error-state
+//! formulation, 24 entries, a covariance over 23 coordinates) on the target: the
 //! first four seconds of the navigation experiment's flight (`generated_demo::flight`,
 //! embedded by the build script), from the experiment's initial estimate and tuning, the
 //! calls in the experiment's order (each IMU sample's prediction, then the magnetometer's
@@ -32,7 +33,8 @@ pub const GNSS_UPDATES: usize = flight::GNSS_FIXES;
 /// One call the flight makes of the filter, with its input or measurement.
 #[derive(Clone, Copy, Debug)]
 pub enum Event {
-    /// The IMU sample's delta angle and delta velocity.
+    /// The IMU sample as the model's inputs: gyro and accelerometer (the delta angle and
+    /// delta velocity over the sample divided by `DT`).
     Predict(&'static [f32; 6]),
     /// A magnetometer reading.
     Magnetometer(&'static [f32; 3]),
@@ -69,8 +71,7 @@ pub fn filter() -> Ekf {
 }
 
 // The kernels measured: one call each, never inlined, so each is one symbol whose size and
-// stack use are its own. The peers' build calls these same wrappers (rustc would merge a
-// second wrapper of the same body into one of them, and the trace would not find it).
+// stack use are its own.
 
 /// `Ekf::predict`.
 #[inline(never)]

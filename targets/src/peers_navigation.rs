@@ -2,8 +2,15 @@
 //! by `cargo xtask peers`, never by the normal build): the prediction and the GNSS and
 //! magnetometer fusions SymForce generates from the same model (`peers/symforce_codegen.py`,
 //! C++ compiled with arm-none-eabi-g++ into `libpeers.a`, called through
-//! `peers/symforce_glue.cpp`), run beside the generated `f32` `navigation::Ekf` over the
+//! `peers/symforce_glue.cpp`), run beside the generated `f32` filter of that model over the
 //! embedded flight of `crate::navigation`.
+//!
+//! That model is the additive 24-state filter (a `w`-first quaternion in the covariance,
+//! the IMU's delta angle and delta velocity as inputs), which the navigation model was
+//! before its error-state rewrite on `Rot3`: the peer keeps its own copy of it
+//! (`crate::peers_navigation_model`), of its initial estimate's layout and of its tuning
+//! (`additive_tuning`), so both sides still run the same filter. The flight's IMU samples
+//! (rates) are turned back into delta angles and velocities (times `DT`) before the calls.
 //!
 //! Before each call of ours, SymForce is handed exactly our filter's state, its covariance
 //! as the packed upper triangle (from `Ekf::covariance`), the same input or measurement,
@@ -21,20 +28,103 @@
 //! <covariance's call>` (the largest differences, and the calls of the flight where they
 //! were).
 
+use crate::matrix::diag;
 use crate::measure::{stack_depth, traced, Calls, Clock};
-use crate::navigation::{
-    events, filter, flight, generated_navigation_predict, generated_navigation_update_gnss,
-    generated_navigation_update_magnetometer, used, Event, GNSS_UPDATES, MAGNETOMETER_UPDATES,
-    PREDICTIONS,
-};
+use crate::navigation::{events, flight, Event, GNSS_UPDATES, MAGNETOMETER_UPDATES, PREDICTIONS};
+use crate::peers_navigation_model::navigation_additive::{Ekf, Status, DT, X_LEN};
 use core::hint::black_box;
 use cortex_m_semihosting::hprintln;
-use generated_demo::navigation::{Ekf, Status};
+use generated_demo::flight::{ACCEL_NOISE, GYRO_NOISE, MAGNETOMETER_GATE};
 
 /// States (the glue's, which `peers/symforce_codegen.py` checks against the model's), and
 /// entries of the covariance's packed upper triangle.
-const STATES: usize = generated_demo::navigation::X_LEN;
+const STATES: usize = X_LEN;
 const PACKED: usize = STATES * (STATES + 1) / 2;
+
+/// The additive filter's tuning, the diagonals of `P0` and of `Q` per IMU sample over its
+/// 24 states (the navigation experiment's before the error-state rewrite): the IMU noise
+/// (half the delta angle's on each quaternion entry), slow random walks for the biases
+/// (per sample) and the fields.
+fn additive_tuning() -> ([f32; STATES], [f32; STATES]) {
+    let dt = f64::from(DT);
+    let mut p0 = [0.0; STATES];
+    let mut q = [0.0; STATES];
+    let groups: [(core::ops::Range<usize>, f64, f64); 7] = [
+        (0..4, 0.05, 0.5 * GYRO_NOISE * dt),
+        (4..7, 0.5, ACCEL_NOISE * dt),
+        (7..10, 1.0, 0.0),
+        (10..13, 0.01 * dt, 1e-8),
+        (13..16, 0.2 * dt, 3e-7),
+        (16..22, 0.05, 3e-5),
+        (22..24, 0.1, 1e-4),
+    ];
+    for (range, initial_sigma, noise_sigma) in groups {
+        for i in range {
+            p0[i] = (initial_sigma * initial_sigma) as f32;
+            q[i] = (noise_sigma * noise_sigma) as f32;
+        }
+    }
+    (p0, q)
+}
+
+/// The additive filter at the flight's start: the flight's initial estimate with its
+/// quaternion `w` first, the additive tuning, the flight's `R` and magnetometer gate.
+fn filter() -> Ekf {
+    let [x, y, z, w] = [0, 1, 2, 3].map(|i| flight::X0[i]);
+    let mut x0 = flight::X0;
+    x0[..4].copy_from_slice(&[w, x, y, z]);
+    let (p0, q) = additive_tuning();
+    let mut ekf = match Ekf::new(&x0, &diag(p0), &q, &diag(flight::R)) {
+        Ok(ekf) => ekf,
+        Err(status) => panic!(
+            "the additive navigation EKF rejected its tuning: {:?}",
+            status
+        ),
+    };
+    let status = ekf.set_magnetometer_innovation_gate(MAGNETOMETER_GATE as f32);
+    assert!(status == Status::Ok, "magnetometer gate: {:?}", status);
+    ekf
+}
+
+/// The additive filter's input: the IMU sample's delta angle and delta velocity.
+fn delta(rates: &[f32; 6]) -> [f32; 6] {
+    rates.map(|v| v * DT)
+}
+
+/// Whether the filter used the measurement (`true`) or rejected it as an outlier
+/// (`false`); panics on any other status, naming the call.
+fn used(status: Status, event: Event, call: usize) -> bool {
+    match status {
+        Status::Ok => true,
+        Status::OutlierRejected => false,
+        other => panic!(
+            "additive navigation EKF, call {} ({:?}): {:?}",
+            call, event, other
+        ),
+    }
+}
+
+// The kernels of ours measured: one call each, never inlined, so each is one symbol whose
+// size and stack use are its own (named apart from the error-state filter's wrappers in
+// `crate::navigation`, which the trace would otherwise confuse with them).
+
+/// `Ekf::predict` of the additive filter.
+#[inline(never)]
+fn generated_navigation_additive_predict(filter: &mut Ekf, imu: &[f32; 6]) -> Status {
+    filter.predict(imu)
+}
+
+/// `Ekf::update_gnss` of the additive filter.
+#[inline(never)]
+fn generated_navigation_additive_update_gnss(filter: &mut Ekf, y: &[f32; 6]) -> Status {
+    filter.update_gnss(y)
+}
+
+/// `Ekf::update_magnetometer` of the additive filter.
+#[inline(never)]
+fn generated_navigation_additive_update_magnetometer(filter: &mut Ekf, y: &[f32; 3]) -> Status {
+    filter.update_magnetometer(y)
+}
 
 /// An array as the glue takes it: 16-byte aligned, the alignment Eigen gives its
 /// fixed-size vectors on this target.
@@ -295,7 +385,7 @@ impl Comparison {
             predict: Kernel::new("predict"),
             gnss: Kernel::new("update_gnss"),
             magnetometer: Kernel::new("update_magnetometer"),
-            q: Aligned(flight::Q),
+            q: Aligned(additive_tuning().1),
             r_gnss: Aligned(core::array::from_fn(|i| flight::R[i])),
             r_magnetometer: Aligned(core::array::from_fn(|i| flight::R[6 + i])),
         }
@@ -308,7 +398,8 @@ impl Comparison {
         let mut posterior = prior;
         let was_used = |status: Status| used(status, event, call);
         match event {
-            Event::Predict(u) => {
+            Event::Predict(rates) => {
+                let u = &delta(rates);
                 let k = &mut self.predict;
                 let (v, q) = (Aligned(*u), &self.q);
                 k.symforce.measure(clock, || {
@@ -316,7 +407,7 @@ impl Comparison {
                 });
                 let status = k
                     .ours
-                    .measure(clock, || generated_navigation_predict(ekf, u));
+                    .measure(clock, || generated_navigation_additive_predict(ekf, u));
                 k.compare(ekf, &posterior, was_used(status), call);
             }
             Event::Gnss(y) => {
@@ -327,7 +418,7 @@ impl Comparison {
                 });
                 let status = k
                     .ours
-                    .measure(clock, || generated_navigation_update_gnss(ekf, y));
+                    .measure(clock, || generated_navigation_additive_update_gnss(ekf, y));
                 k.compare(ekf, &posterior, was_used(status), call);
             }
             Event::Magnetometer(y) => {
@@ -336,9 +427,9 @@ impl Comparison {
                 k.symforce.measure(clock, || {
                     peers_symforce_update_magnetometer(&prior, &v, r, &mut posterior);
                 });
-                let status = k
-                    .ours
-                    .measure(clock, || generated_navigation_update_magnetometer(ekf, y));
+                let status = k.ours.measure(clock, || {
+                    generated_navigation_additive_update_magnetometer(ekf, y)
+                });
                 k.compare(ekf, &posterior, was_used(status), call);
             }
         }
@@ -354,27 +445,30 @@ impl Comparison {
             stack_depth(|| kernel(black_box(&mut copy)))
         };
         let (imu, gnss, magnetometer) = (
-            Aligned(flight::IMU[0]),
+            Aligned(delta(&flight::IMU[0])),
             Aligned(flight::GNSS[0].1),
             Aligned(flight::MAGNETOMETER[0].1),
         );
         let stacks = (
             ours(&|f| {
-                let _ = black_box(generated_navigation_predict(f, &imu.0));
+                let _ = black_box(generated_navigation_additive_predict(f, &imu.0));
             }),
             stack_depth(|| peers_symforce_predict(&prior, &imu, &self.q, &mut out)),
         );
         self.predict.report(stacks);
         let stacks = (
             ours(&|f| {
-                let _ = black_box(generated_navigation_update_gnss(f, &gnss.0));
+                let _ = black_box(generated_navigation_additive_update_gnss(f, &gnss.0));
             }),
             stack_depth(|| peers_symforce_update_gnss(&prior, &gnss, &self.r_gnss, &mut out)),
         );
         self.gnss.report(stacks);
         let stacks = (
             ours(&|f| {
-                let _ = black_box(generated_navigation_update_magnetometer(f, &magnetometer.0));
+                let _ = black_box(generated_navigation_additive_update_magnetometer(
+                    f,
+                    &magnetometer.0,
+                ));
             }),
             stack_depth(|| {
                 peers_symforce_update_magnetometer(

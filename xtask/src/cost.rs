@@ -102,8 +102,9 @@ const KERNELS: &[Kernel] = &[
         c_peer: None,
         paper_ms: None,
     },
-    // The 24-state navigation EKF over the first 4 s of the navigation flight (issue 19;
-    // its SymForce peer is in the peers' table).
+    // The navigation EKF over the first 4 s of the navigation flight (issue 19; since issue
+    // 40 the error-state filter, 24 entries and a covariance over 23; SymForce's peer, in
+    // the peers' table, runs beside the additive filter it was written for).
     Kernel {
         name: "navigation_predict",
         label: "navigation predict (24)",

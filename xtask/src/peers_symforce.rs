@@ -5,9 +5,16 @@
 //! `arm-none-eabi-g++`, the project's flags plus `-fno-exceptions -fno-rtti` and Debian's
 //! Eigen headers (`libeigen3-dev`, installed with apt-get when missing) with the glue
 //! (`peers/symforce_glue.cpp`) into the peers' `libpeers.a`; the firmware built with
-//! `--features symforce` runs it beside the generated `navigation::Ekf`
+//! `--features symforce` runs it beside the generated filter of the same model
 //! (`targets/src/peers_navigation.rs`), and this module reads what it printed and makes
 //! the navigation table.
+//!
+//! That model is the additive 24-state filter the navigation model was before its
+//! error-state rewrite on `Rot3` (issue 40): the firmware keeps its own copy of it
+//! (`targets/src/peers_navigation_model.rs`) for this comparison, while the main job and
+//! the cost table run the error-state `generated_demo::navigation`. Its constants (24
+//! states, `DT`, gravity) are those of `generated_demo::navigation`, which `constants`
+//! reads.
 
 use crate::peers_build;
 use crate::program::Program;
@@ -36,7 +43,8 @@ pub const TERMS: &str = "Both sides from the same estimate at every call: before
      call of ours, SymForce is handed our filter's state and covariance (the packed \
      upper triangle, read through Ekf::covariance), the same IMU sample or measurement, \
      Q's diagonal or the sensor's part of R's (R is diagonal). Ours: the generated f32 \
-     navigation::Ekf's predict, update_gnss and update_magnetometer as generated (each \
+     additive navigation filter's (the navigation model before its error-state rewrite, \
+     the firmware's copy) predict, update_gnss and update_magnetometer as generated (each \
      update a joint update of the sensor's outputs, gated at 22.46 and 16.27, with its \
      input and divergence checks, its innovation and NIS stored). SymForce: x_new = f(x, u), \
      P_new = A P A' + diag(q) on the packed triangle; each sensor fused as sequential \
@@ -93,7 +101,7 @@ pub fn wrappers(program: &Program) -> Vec<String> {
 }
 
 fn ours(kernel: &str) -> String {
-    format!("generated_navigation_{kernel}")
+    format!("generated_navigation_additive_{kernel}")
 }
 
 fn symforce(kernel: &str) -> String {

@@ -1,17 +1,18 @@
-//! The navigation experiment: the generated 24-state EKF (`generated-demo/models/navigation.rs`)
-//! on a simulated multirotor flight ([`generated_demo::flight`]): the IMU at 250 Hz
-//! (`predict`), the magnetometer at 50 Hz (`update_magnetometer`), the GNSS at 5 Hz
-//! (`update_gnss`) with a 10 s outage. Errors of attitude, velocity, position and IMU
-//! biases against the truth, with the filter's own 3-sigma bounds, and each sensor's
-//! normalised innovation squared, for the `f32` filter (what the MCU runs) and the `f64`
-//! one.
+//! The navigation experiment: the generated 24-state error-state EKF
+//! (`generated-demo/models/navigation.rs`, a 23-dimensional covariance) on a simulated
+//! multirotor flight ([`generated_demo::flight`]): the IMU at 250 Hz (`predict`), the
+//! magnetometer at 50 Hz (`update_magnetometer`), the GNSS at 5 Hz (`update_gnss`) with a
+//! 10 s outage. Errors of attitude, velocity, position and IMU biases against the truth,
+//! with the filter's own 3-sigma bounds, each sensor's normalised innovation squared and
+//! the quaternion's largest departure from unit norm, for the `f32` filter (what the MCU
+//! runs) and the `f64` one.
 
 use super::report::{self, Line, Trace};
 use generated_demo::flight::{
-    conjugate, initial_estimate, quaternion_product, rotation_vector, tuning, Flight, Truth,
-    ACCEL_BIAS, DT, END, GNSS_OUTAGE, GYRO_BIAS, MAGNETOMETER_GATE,
+    conjugate, initial_estimate, quaternion_product, rotate, rotation_vector, tuning, Flight,
+    Truth, ACCEL_BIAS, DT, END, GNSS_OUTAGE, GYRO_BIAS, MAGNETOMETER_GATE,
 };
-use generated_demo::navigation;
+use generated_demo::navigation::{self, TANGENT_LEN, X_LEN};
 use std::error::Error;
 use std::path::Path;
 
@@ -27,7 +28,7 @@ struct Quantity {
 }
 
 /// The reported quantities, in the order of [`errors`].
-const QUANTITIES: [Quantity; 15] = {
+const QUANTITIES: [Quantity; 18] = {
     const fn q(name: &'static str, unit: &'static str, index: usize, scale: f64) -> Quantity {
         Quantity {
             name,
@@ -41,48 +42,62 @@ const QUANTITIES: [Quantity; 15] = {
         q("roll", "deg", 0, deg),
         q("pitch", "deg", 1, deg),
         q("yaw", "deg", 2, deg),
-        q("velocity N", "m/s", 3, 1.0),
-        q("velocity E", "m/s", 4, 1.0),
-        q("velocity D", "m/s", 5, 1.0),
-        q("position N", "m", 6, 1.0),
-        q("position E", "m", 7, 1.0),
-        q("position D", "m", 8, 1.0),
-        q("gyro bias x", "deg/s", 9, deg / DT),
-        q("gyro bias y", "deg/s", 10, deg / DT),
-        q("gyro bias z", "deg/s", 11, deg / DT),
-        q("accel bias x", "m/s^2", 12, 1.0 / DT),
-        q("accel bias y", "m/s^2", 13, 1.0 / DT),
-        q("accel bias z", "m/s^2", 14, 1.0 / DT),
+        q("attitude N", "deg", 3, deg),
+        q("attitude E", "deg", 4, deg),
+        q("attitude D", "deg", 5, deg),
+        q("velocity N", "m/s", 6, 1.0),
+        q("velocity E", "m/s", 7, 1.0),
+        q("velocity D", "m/s", 8, 1.0),
+        q("position N", "m", 9, 1.0),
+        q("position E", "m", 10, 1.0),
+        q("position D", "m", 11, 1.0),
+        q("gyro bias x", "deg/s", 12, deg),
+        q("gyro bias y", "deg/s", 13, deg),
+        q("gyro bias z", "deg/s", 14, deg),
+        q("accel bias x", "m/s^2", 15, 1.0),
+        q("accel bias y", "m/s^2", 16, 1.0),
+        q("accel bias z", "m/s^2", 17, 1.0),
     ]
 };
 
-/// The estimate's errors against the truth and their standard deviations from `p`:
-/// attitude as the body-frame rotation vector of `conj(q_est) q_true` (its covariance
-/// `4 G P_qq G'`, `G` the vector part of `conj(q_est) dq`), then velocity, position and the
-/// IMU biases (per sample) as differences.
-fn errors(x: &[f64; 24], p: &[[f64; 24]; 24], truth: &Truth) -> ([f64; 15], [f64; 15]) {
-    let q_est = [x[0], x[1], x[2], x[3]];
-    let q_true = [truth.x[0], truth.x[1], truth.x[2], truth.x[3]];
-    let norm = q_est.iter().map(|v| v * v).sum::<f64>().sqrt();
-    let attitude = rotation_vector(quaternion_product(
-        conjugate(q_est.map(|v| v / norm)),
-        q_true,
-    ));
-    let [w, a, b, c] = q_est;
-    let g = [[-a, w, c, -b], [-b, -c, w, a], [-c, b, -a, w]];
-    let mut error = [0.0; 15];
-    let mut sigma = [0.0; 15];
+/// A state's quaternion `[x, y, z, w]` (the model's order) as `[w, x, y, z]` (the
+/// flight's helpers').
+fn w_first(x: &[f64; X_LEN]) -> [f64; 4] {
+    [x[3], x[0], x[1], x[2]]
+}
+
+/// The estimate's errors against the truth and their standard deviations from `p` (over
+/// the tangent coordinates): the attitude error about the body axes (roll, pitch, yaw:
+/// `Log(conj(q_est) q_true)`, the earth-frame error turned into the body, its covariance
+/// `R' P_θθ R`), the filter's own attitude error about N, E, D (`δθ = Log(q_true
+/// conj(q_est))`, so that the truth is `Exp(δθ) q_est`; its covariance the attitude block),
+/// then velocity, position and the IMU biases as differences.
+fn errors(
+    x: &[f64; X_LEN],
+    p: &[[f64; TANGENT_LEN]; TANGENT_LEN],
+    truth: &Truth,
+) -> ([f64; 18], [f64; 18]) {
+    let (q_est, q_true) = (w_first(x), w_first(&truth.x));
+    let body = rotation_vector(quaternion_product(conjugate(q_est), q_true));
+    let earth = rotation_vector(quaternion_product(q_true, conjugate(q_est)));
+    let mut error = [0.0; 18];
+    let mut sigma = [0.0; 18];
     for i in 0..3 {
-        error[i] = attitude[i];
-        let variance: f64 = (0..4)
-            .flat_map(|j| (0..4).map(move |k| (j, k)))
-            .map(|(j, k)| 4.0 * g[i][j] * p[j][k] * g[i][k])
+        let mut axis = [0.0; 3];
+        axis[i] = 1.0;
+        let r = rotate(q_est, axis, false);
+        let variance: f64 = (0..3)
+            .flat_map(|j| (0..3).map(move |k| (j, k)))
+            .map(|(j, k)| r[j] * p[j][k] * r[k])
             .sum();
-        sigma[i] = variance.max(0.0).sqrt();
+        (error[i], sigma[i]) = (body[i], variance.max(0.0).sqrt());
+        (error[3 + i], sigma[3 + i]) = (earth[i], p[i][i].max(0.0).sqrt());
     }
-    for (slot, state) in (3..15).zip(4..16) {
-        error[slot] = x[state] - truth.x[state];
-        sigma[slot] = p[state][state].max(0.0).sqrt();
+    // After the quaternion's four entries, an entry of `x` is a tangent coordinate one
+    // place earlier.
+    for (slot, entry) in (6..18).zip(4..16) {
+        error[slot] = x[entry] - truth.x[entry];
+        sigma[slot] = p[entry - 1][entry - 1].max(0.0).sqrt();
     }
     (error, sigma)
 }
@@ -96,11 +111,16 @@ enum Outcome {
 
 /// The `f32` and `f64` filters behind one interface, so that one loop runs both.
 trait NavigationFilter: Sized {
-    fn create(x0: &[f64; 24], p0: &[f64; 24], q: &[f64; 24], r: &[f64; 9]) -> Result<Self, String>;
+    fn create(
+        x0: &[f64; X_LEN],
+        p0: &[f64; TANGENT_LEN],
+        q: &[f64; TANGENT_LEN],
+        r: &[f64; 9],
+    ) -> Result<Self, String>;
     fn predict(&mut self, imu: &[f64; 6]) -> Result<Outcome, String>;
     fn update_gnss(&mut self, y: &[f64; 6]) -> Result<Outcome, String>;
     fn update_magnetometer(&mut self, y: &[f64; 3]) -> Result<Outcome, String>;
-    fn estimate(&self) -> ([f64; 24], [[f64; 24]; 24]);
+    fn estimate(&self) -> ([f64; X_LEN], [[f64; TANGENT_LEN]; TANGENT_LEN]);
     fn nis(&self) -> (f64, f64);
 }
 
@@ -119,9 +139,9 @@ macro_rules! navigation_filter {
 
         impl NavigationFilter for $module $(:: $inner)*::Ekf {
             fn create(
-                x0: &[f64; 24],
-                p0: &[f64; 24],
-                q: &[f64; 24],
+                x0: &[f64; X_LEN],
+                p0: &[f64; TANGENT_LEN],
+                q: &[f64; TANGENT_LEN],
                 r: &[f64; 9],
             ) -> Result<Self, String> {
                 let cast = |v: f64| v as $scalar;
@@ -144,7 +164,7 @@ macro_rules! navigation_filter {
             fn update_magnetometer(&mut self, y: &[f64; 3]) -> Result<Outcome, String> {
                 $outcome(<$module $(:: $inner)*::Ekf>::update_magnetometer(self, &y.map(|v| v as $scalar)))
             }
-            fn estimate(&self) -> ([f64; 24], [[f64; 24]; 24]) {
+            fn estimate(&self) -> ([f64; X_LEN], [[f64; TANGENT_LEN]; TANGENT_LEN]) {
                 let p = self.covariance();
                 let x = self.state();
                 (
@@ -196,7 +216,7 @@ impl ErrorStats {
 /// largest departure of the quaternion's norm from 1.
 #[derive(Debug, Default)]
 struct Summary {
-    stats: [ErrorStats; 15],
+    stats: [ErrorStats; 18],
     gnss_nis: Vec<f64>,
     magnetometer_nis: Vec<f64>,
     rejected: [usize; 2],
@@ -220,7 +240,7 @@ fn fly<F: NavigationFilter>(tag: &str, trace: &mut Trace) -> Result<Summary, Str
         let (truth, readings) = flight.advance();
         let at = |what: &str, e: String| format!("{tag} {what} at {:.3} s: {e}", truth.t);
         filter
-            .predict(&readings.imu)
+            .predict(&readings.rates())
             .map_err(|e| at("predict", e))?;
         if let Some(y) = readings.magnetometer {
             let outcome = filter
@@ -250,8 +270,8 @@ fn record(
     tag: &str,
     trace: &mut Trace,
     truth: &Truth,
-    x: &[f64; 24],
-    p: &[[f64; 24]; 24],
+    x: &[f64; X_LEN],
+    p: &[[f64; TANGENT_LEN]; TANGENT_LEN],
     summary: &mut Summary,
 ) {
     let (error, sigma) = errors(x, p, truth);
@@ -306,6 +326,17 @@ fn print_summary(title: &str, summary: &Summary) {
         summary.magnetometer_nis.len(),
         summary.rejected[1]
     );
+    let rms_3d = |first: usize| {
+        let squares: f64 = (first..first + 3)
+            .map(|i| summary.stats[i].rms().powi(2))
+            .sum();
+        (squares / 3.0).sqrt()
+    };
+    println!(
+        "RMS over the three axes: velocity {:.4} m/s, position {:.4} m",
+        rms_3d(6),
+        rms_3d(9)
+    );
     println!(
         "largest |quaternion norm - 1| over the flight: {:.2e}",
         summary.worst_norm_error
@@ -319,20 +350,21 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
     let single = fly::<navigation::Ekf>("f32", &mut trace)?;
     let mut trace64 = Trace::new();
     let double = fly::<navigation::in_f64::Ekf>("f64", &mut trace64)?;
+    println!("\nNavigation: the generated error-state EKF (PX4 EKF2's formulation: 24 entries, a");
     println!(
-        "\nNavigation: the generated 24-state EKF (PX4 ecl EKF2's delta-angle formulation) on"
+        "23-dimensional covariance) on a simulated {END:.0} s multirotor flight: take-off, cruise at"
     );
     println!(
-        "a simulated {END:.0} s multirotor flight: take-off, cruise at 5 m/s with two turns and a climb,"
+        "5 m/s with two turns and a climb, GNSS outage {:.0}-{:.0} s. IMU 250 Hz (gyro bias {:?} rad/s,",
+        GNSS_OUTAGE.0, GNSS_OUTAGE.1, GYRO_BIAS
     );
+    println!("accelerometer bias {ACCEL_BIAS:?} m/s^2), magnetometer 50 Hz (update_magnetometer), GNSS 5 Hz");
     println!(
-        "GNSS outage {:.0}-{:.0} s. IMU 250 Hz (gyro bias {:?} rad/s, accelerometer bias {:?} m/s^2),",
-        GNSS_OUTAGE.0, GNSS_OUTAGE.1, GYRO_BIAS, ACCEL_BIAS
+        "(update_gnss); errors against the truth at 10 Hz, sigma from the filter's covariance."
     );
-    println!("magnetometer 50 Hz (update_magnetometer), GNSS 5 Hz (update_gnss); errors against the truth at 10 Hz,");
-    println!("sigma from the filter's covariance. The quaternion is not normalised: its norm drifts (the");
+    println!("Attitude errors about the body axes (roll, pitch, yaw) and about N, E, D (the filter's own");
     println!(
-        "last line), and normalising the state alone, without its covariance, breaks the filter."
+        "error, true = Exp(dtheta) q_est). The quaternion stays a unit quaternion (the last line)."
     );
     print_summary("f32 filter (the MCU's code)", &single);
     print_summary("f64 filter", &double);
