@@ -129,8 +129,8 @@ fn status_name(s: impl core::fmt::Debug) -> String {
 macro_rules! ekf_subject {
     (
         $name:ident: $ty:ty, $s:ty, gate = $gate:tt, time = $time:expr, noise_time = $noise_time:expr,
-        rotations = $rotations:expr, new = $new:expr, step = $step:expr,
-        predict = $predict:expr $(,)?
+        rotations = $rotations:expr, new = $new:expr, step = $step:expr, predict = $predict:expr
+        $(,)?
     ) => {
         #[derive(Clone)]
         struct $name {
@@ -169,9 +169,7 @@ macro_rules! ekf_subject {
                 let p = self.filter.covariance();
                 (0..p.len()).map(|i| Scalar::to(p[i][i])).collect()
             }
-            fn rotations(&self) -> &'static [usize] {
-                $rotations
-            }
+            fn rotations(&self) -> &'static [usize] { $rotations }
             fn sample(&mut self, s: &Sample) -> Vec<String> {
                 let step: fn(&mut $ty, &Sample) -> String = $step;
                 vec![step(&mut self.filter, s)]
