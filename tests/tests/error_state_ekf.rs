@@ -21,7 +21,8 @@
 //! Beside it: the `f32` filter keeps its quaternion's norm within 1e-6 of one over 1e5
 //! samples of a simulated flight (1.3e-7 measured), `new` and `reset` refuse a rotation
 //! whose norm is more than 1 % from one (1.5, 0.5, 1.011, 0.989) and normalise one within
-//! (1.005, 0.995), and `reset` takes back the filter's own state and covariance.
+//! (1.005, 0.995), and `reset` takes back the filter's own state and covariance, in `f64`
+//! and in `f32`.
 
 use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
 use tests::compare::largest_relative_difference;
@@ -507,6 +508,42 @@ fn reset_takes_back_the_filters_own_state_and_covariance() {
         let difference = largest_relative_difference(&again.state(), &ekf.state());
         assert!(
             difference <= 4.0 * f64::EPSILON,
+            "sample {k}: {difference:e}"
+        );
+    }
+}
+
+/// [`reset_takes_back_the_filters_own_state_and_covariance`] in `f32`: its covariance
+/// checks, in the scalar's rounding, accept what its own updates leave.
+#[test]
+fn the_f32_filter_takes_back_its_own_state_and_covariance() {
+    let mut flight = Flight::new(13);
+    let setup = flight_setup(&flight);
+    let mut ekf = ahrs::Ekf::new(
+        &to_f32(&setup.x0),
+        &matrix_to_f32(&setup.p0),
+        &to_f32(&setup.q),
+        &matrix_to_f32(&setup.r),
+    )
+    .expect("a valid setup");
+    for k in 0..2000 {
+        let (gyro, y) = flight.sample();
+        assert_eq!(
+            ekf.step(&to_f32(&gyro), &to_f32(&y)),
+            Status::Ok,
+            "sample {k}"
+        );
+        let mut again = ekf;
+        assert_eq!(
+            again.reset(&ekf.state(), &ekf.covariance()),
+            Status::Ok,
+            "sample {k}"
+        );
+        assert_eq!(again.covariance(), ekf.covariance(), "sample {k}");
+        let difference =
+            largest_relative_difference(&again.state().map(f64::from), &ekf.state().map(f64::from));
+        assert!(
+            difference <= 4.0 * f64::from(f32::EPSILON),
             "sample {k}: {difference:e}"
         );
     }

@@ -1,7 +1,11 @@
 //! The fault handling the filters share: the innovation gate of the hybrid and the
 //! continuous-time EKF (an outlier rejected, the prediction kept, the filter going on), and
 //! covariance arguments that are not covariances rejected where they enter, by every
-//! filter, leaving it unchanged.
+//! filter, leaving it unchanged. The error-state EKF of a model with a rotation (the AHRS
+//! test model, `tests/models/ahrs.rs`, and the same gated, `tests/models/ahrs_gated.rs`)
+//! in `f32` and `f64`: non-finite entries, rotations that are not unit quaternions and
+//! covariances over its tangent space that are not covariances rejected where they enter,
+//! and each sensor's gate judging that sensor's update alone.
 
 use generated_demo::{blade_identification, cantilever, helicopter, polynomial};
 use nalgebra::SMatrix;
@@ -9,6 +13,9 @@ use std::ops::Range;
 use tests::cantilever_sim::Sample;
 use tests::reference::{self, State};
 use tests::tuning::{diag, p0, Q_DIAG, R, X0_CLOSE};
+
+include!("../models/ahrs.rs");
+include!("../models/ahrs_gated.rs");
 
 /// The blade's identification prior of sect. 4.1 (`x0`, `P0`, `Q = Q~ / T`, `R`).
 mod blade {
@@ -456,4 +463,256 @@ fn covariances_that_are_not_covariances_are_rejected_where_they_enter() {
     assert_hybrid_ekf_rejects_bad_covariances();
     assert_continuous_ekf_rejects_bad_covariances();
     assert_polynomial_kf_rejects_a_bad_covariance();
+}
+
+/// The AHRS's prior: an attitude 1.2 rad from the reference, as a quaternion `[x, y, z, w]`,
+/// and a gyro bias [rad/s].
+fn ahrs_x0() -> [f64; 7] {
+    let attitude =
+        nalgebra::UnitQuaternion::from_scaled_axis(nalgebra::Vector3::new(0.3, -0.2, 1.1));
+    let [qx, qy, qz, qw] = attitude.coords.into();
+    [qx, qy, qz, qw, 0.01, -0.02, 0.015]
+}
+
+/// The AHRS's covariances, over the tangent space (the rotation's 3, the bias's 3): the
+/// prior's variances (0.1 rad, 0.01 rad/s), the process noise variances, the accelerometer's
+/// (0.1 m/s^2) and magnetometer's (5 mgauss) noise variances.
+const AHRS_P0: [f64; 6] = [1e-2, 1e-2, 1e-2, 1e-4, 1e-4, 1e-4];
+const AHRS_Q: [f64; 6] = [2.5e-9, 2.5e-9, 2.5e-9, 1e-10, 1e-10, 1e-10];
+const AHRS_R: [f64; 6] = [1e-2, 1e-2, 1e-2, 2.5e-5, 2.5e-5, 2.5e-5];
+
+/// The AHRS's `(x0, p0, q, r)` in the scalar `$s`.
+macro_rules! ahrs_setup {
+    ($s:ty) => {
+        (
+            ahrs_x0().map(|v| v as $s),
+            diagonal(AHRS_P0.map(|v| v as $s)),
+            AHRS_Q.map(|v| v as $s),
+            diagonal(AHRS_R.map(|v| v as $s)),
+        )
+    };
+}
+
+/// Checks the AHRS's error-state EKF of the module `$m` (scalar `$s`) rejects a non-finite
+/// entry of every argument with `RejectedInput`, in `new` and in every call, the filter
+/// unchanged.
+macro_rules! assert_ahrs_rejects_non_finite_entries {
+    ($s:ty, $($m:ident)::+) => {{
+        use $($m)::+::{h, Ekf, Status};
+        let (x0, p0, q, r) = ahrs_setup!($s);
+        let (nan, inf) = (<$s>::NAN, <$s>::INFINITY);
+        for i in [0, 3, 5] {
+            let mut x = x0;
+            x[i] = nan;
+            assert_eq!(Ekf::new(&x, &p0, &q, &r), Err(Status::RejectedInput), "x0[{i}]");
+        }
+        let (mut p_inf, mut q_nan, mut r_inf) = (p0, q, r);
+        p_inf[1][4] = inf;
+        q_nan[3] = nan;
+        r_inf[2][5] = -inf;
+        assert_eq!(Ekf::new(&x0, &p_inf, &q, &r), Err(Status::RejectedInput));
+        assert_eq!(Ekf::new(&x0, &p0, &q_nan, &r), Err(Status::RejectedInput));
+        assert_eq!(Ekf::new(&x0, &p0, &q, &r_inf), Err(Status::RejectedInput));
+        let mut ekf = Ekf::new(&x0, &p0, &q, &r).unwrap();
+        let u = [0.1, -0.2, 0.3];
+        assert_eq!(ekf.predict(&u), Status::Ok);
+        let y = h(&ekf.state());
+        assert_eq!(ekf.update(&y), Status::Ok);
+        let before = ekf;
+        let [a0, a1, _, _, m1, m2] = y;
+        let mut y_inf = y;
+        y_inf[4] = inf;
+        let mut x_nan = x0;
+        x_nan[6] = nan;
+        let rejected = [
+            ("predict", ekf.predict(&[0.1, nan, 0.3])),
+            ("step, input", ekf.step(&[inf, -0.2, 0.3], &y)),
+            ("step, measurement", ekf.step(&u, &y_inf)),
+            ("update", ekf.update(&y_inf)),
+            ("update_accel", ekf.update_accel(&[a0, a1, nan])),
+            ("update_mag", ekf.update_mag(&[-inf, m1, m2])),
+            ("reset, x0", ekf.reset(&x_nan, &p0)),
+            ("reset, p0", ekf.reset(&x0, &p_inf)),
+            ("set_process_noise", ekf.set_process_noise(&q_nan)),
+            ("set_measurement_noise", ekf.set_measurement_noise(&r_inf)),
+        ];
+        for (call, status) in rejected {
+            assert_eq!(status, Status::RejectedInput, "{call}");
+        }
+        assert_eq!(ekf, before);
+    }};
+}
+
+#[test]
+fn the_error_state_ekf_rejects_non_finite_entries_where_they_enter() {
+    assert_ahrs_rejects_non_finite_entries!(f32, ahrs);
+    assert_ahrs_rejects_non_finite_entries!(f64, ahrs::in_f64);
+}
+
+/// Checks `new` and `reset` of the module `$m` (scalar `$s`) refuse, with `RejectedInput`
+/// and the filter unchanged, quaternions whose norm cannot be divided by: zero, subnormal,
+/// or whose squares overflow; and one of norm 1.5 (`tests/error_state_ekf.rs` checks the
+/// 1 % bound in `new` of both scalars and in `reset` of `f64`).
+macro_rules! assert_ahrs_refuses_non_rotations {
+    ($s:ty, $($m:ident)::+) => {{
+        use $($m)::+::{Ekf, Status};
+        let (x0, p0, q, r) = ahrs_setup!($s);
+        let mut ekf = Ekf::new(&x0, &p0, &q, &r).unwrap();
+        assert_eq!(ekf.predict(&[0.1, -0.2, 0.3]), Status::Ok);
+        let before = ekf;
+        let scaled = x0.map(|v| 1.5 * v);
+        let quaternions = [
+            [0.0; 4],
+            [<$s>::MIN_POSITIVE; 4],
+            [<$s>::MAX / 2.0; 4],
+            [scaled[0], scaled[1], scaled[2], scaled[3]],
+        ];
+        for quaternion in quaternions {
+            let mut x = x0;
+            x[..4].copy_from_slice(&quaternion);
+            assert_eq!(Ekf::new(&x, &p0, &q, &r), Err(Status::RejectedInput), "{x:?}");
+            assert_eq!(ekf.reset(&x, &p0), Status::RejectedInput, "{x:?}");
+            assert_eq!(ekf, before, "{x:?}");
+        }
+    }};
+}
+
+#[test]
+fn the_error_state_ekf_refuses_a_quaternion_it_cannot_normalise() {
+    assert_ahrs_refuses_non_rotations!(f32, ahrs);
+    assert_ahrs_refuses_non_rotations!(f64, ahrs::in_f64);
+}
+
+/// Checks `new` and `reset` of the module `$m` (scalar `$s`) refuse a `p0` over the
+/// tangent space that is not a covariance (indefinite: the attitude's x and the bias's x
+/// correlated by 2; asymmetric; a negative variance), and `new` a `q` and an `r` that are
+/// not, with `InvalidCovariance`, the filter unchanged; `reset` accepts a semi-definite one
+/// (the bias known exactly, two attitude errors perfectly correlated).
+macro_rules! assert_ahrs_rejects_bad_covariances {
+    ($s:ty, $($m:ident)::+) => {{
+        use $($m)::+::{Ekf, Status};
+        let (x0, p0, q, r) = ahrs_setup!($s);
+        let mut indefinite = p0;
+        (indefinite[0][3], indefinite[3][0]) = (2e-3, 2e-3);
+        let mut asymmetric = p0;
+        asymmetric[1][2] = 1e-3;
+        let mut negative = p0;
+        negative[5][5] = -1e-4;
+        let mut ekf = Ekf::new(&x0, &p0, &q, &r).unwrap();
+        assert_eq!(ekf.predict(&[0.1, -0.2, 0.3]), Status::Ok);
+        let before = ekf;
+        for bad in [indefinite, asymmetric, negative] {
+            assert_eq!(Ekf::new(&x0, &bad, &q, &r), Err(Status::InvalidCovariance), "{bad:?}");
+            assert_eq!(ekf.reset(&x0, &bad), Status::InvalidCovariance, "{bad:?}");
+            assert_eq!(ekf, before);
+        }
+        let mut q_negative = q;
+        q_negative[2] = -1e-9;
+        let mut r_indefinite = r;
+        (r_indefinite[2][3], r_indefinite[3][2]) = (1e-3, 1e-3);
+        assert_eq!(Ekf::new(&x0, &p0, &q_negative, &r), Err(Status::InvalidCovariance));
+        assert_eq!(Ekf::new(&x0, &p0, &q, &r_indefinite), Err(Status::InvalidCovariance));
+        let mut semi_definite = diagonal([1e-2, 1e-2, 1e-2, 0.0, 0.0, 0.0]);
+        (semi_definite[0][1], semi_definite[1][0]) = (1e-2, 1e-2);
+        assert_eq!(ekf.reset(&x0, &semi_definite), Status::Ok);
+        assert_eq!(ekf.covariance(), semi_definite);
+    }};
+}
+
+#[test]
+fn the_error_state_ekf_rejects_covariances_that_are_not_covariances() {
+    assert_ahrs_rejects_bad_covariances!(f32, ahrs);
+    assert_ahrs_rejects_bad_covariances!(f64, ahrs::in_f64);
+}
+
+/// The measurement of a sensor of the gated AHRS, `$y` (the sensor's prediction moved
+/// along its first axis), moved so that the sensor's normalised innovation squared is
+/// `$nis`: a probe's, scaled (it grows with the square of the move).
+macro_rules! with_nis {
+    ($ekf:expr, $update:ident, $normalised:ident, $y:expr, $nis:expr) => {{
+        let mut probe = $ekf;
+        let mut y = $y;
+        y[0] += 1.0;
+        let _ = probe.$update(&y);
+        let scale = ($nis / probe.$normalised()).sqrt();
+        y[0] += scale - 1.0;
+        (y, scale)
+    }};
+}
+
+/// Checks the gates of the gated AHRS's error-state EKF (module `$m`, scalar `$s`): each
+/// sensor has its own, generated at the filter's and set alone (`RejectedInput` unless
+/// positive, infinity the divergence bound); an accelerometer measurement of normalised
+/// innovation squared 19 (between the chi-square 99.9 % quantiles of 3 and of 6 outputs,
+/// 16.27 and 22.46) is refused under the sensor's gate at 16.27, the estimate and the
+/// other innovations kept and the refusal counted, and used under its gate at 22.46; the
+/// magnetometer's gate and the joint update's reject their own outliers of 30 standard
+/// deviations, the estimate kept.
+macro_rules! assert_ahrs_gates_are_per_sensor {
+    ($s:ident, $($m:ident)::+) => {{
+        use $($m)::+::{h, GatedEkf, Status};
+        let (x0, p0, q, r) = ahrs_setup!($s);
+        let mut ekf = GatedEkf::new(&x0, &p0, &q, &r).unwrap();
+        let gates = |f: &GatedEkf| {
+            (f.innovation_gate(), f.accel_innovation_gate(), f.mag_innovation_gate())
+        };
+        let (gate, tight) = (22.46 as $s, 16.27 as $s);
+        assert_eq!(gates(&ekf), (gate, gate, gate));
+        for bad in [0.0, -1.0, <$s>::NAN] {
+            assert_eq!(ekf.set_accel_innovation_gate(bad), Status::RejectedInput, "{bad}");
+        }
+        assert_eq!(ekf.set_accel_innovation_gate(<$s>::INFINITY), Status::Ok);
+        assert_eq!(ekf.accel_innovation_gate(), stateforge_math::$s::DIVERGENCE_NIS);
+        assert_eq!(ekf.set_accel_innovation_gate(tight), Status::Ok);
+        assert_eq!(gates(&ekf), (gate, tight, gate));
+        let u = [0.1, -0.2, 0.3];
+        for k in 0..20 {
+            assert_eq!(ekf.predict(&u), Status::Ok);
+            let [a0, a1, a2, m0, m1, m2] = h(&ekf.state());
+            assert_eq!(ekf.update_mag(&[m0, m1, m2]), Status::Ok, "sample {k}");
+            assert_eq!(ekf.update_accel(&[a0, a1, a2]), Status::Ok, "sample {k}");
+        }
+        assert_eq!(ekf.predict(&u), Status::Ok);
+        let before = ekf;
+        let [a0, a1, a2, m0, m1, m2] = h(&ekf.state());
+        let (y, moved) = with_nis!(
+            ekf,
+            update_accel,
+            accel_normalised_innovation_squared,
+            [a0, a1, a2],
+            19.0
+        );
+        assert_eq!(ekf.update_accel(&y), Status::OutlierRejected);
+        assert_eq!((ekf.state(), ekf.covariance()), (before.state(), before.covariance()));
+        let nis = ekf.accel_normalised_innovation_squared();
+        assert!((nis - 19.0).abs() < 1e-3, "{nis}");
+        let innovation = ekf.accel_innovation();
+        assert!((innovation[0] - moved).abs() < 1e-4 * moved, "{innovation:?}");
+        assert!(innovation[1].abs() < 1e-4 * moved && innovation[2].abs() < 1e-4 * moved);
+        let others = |f: &GatedEkf| (f.innovation(), f.mag_innovation());
+        assert_eq!(others(&ekf), others(&before));
+        assert_eq!(
+            (ekf.accel_refusals(), ekf.mag_refusals(), ekf.refusals()),
+            (1, 0, 0)
+        );
+        assert_eq!(ekf.set_accel_innovation_gate(gate), Status::Ok);
+        assert_eq!(ekf.update_accel(&y), Status::Ok);
+        assert_ne!(ekf.state(), before.state());
+        assert_eq!(ekf.accel_refusals(), 0);
+        let mut rejected = before;
+        let sigma = |i: usize| (30.0 as $s) * r[i][i].sqrt();
+        assert_eq!(rejected.update_mag(&[m0 + sigma(3), m1, m2]), Status::OutlierRejected);
+        let joint = [a0 + sigma(0), a1 + sigma(1), a2, m0, m1, m2 + sigma(5)];
+        assert_eq!(rejected.update(&joint), Status::OutlierRejected);
+        let estimate = |f: &GatedEkf| (f.state(), f.covariance());
+        assert_eq!(estimate(&rejected), estimate(&before));
+        let refusals = |f: &GatedEkf| (f.accel_refusals(), f.mag_refusals(), f.refusals());
+        assert_eq!(refusals(&rejected), (0, 1, 1));
+    }};
+}
+
+#[test]
+fn the_error_state_ekf_gates_each_sensor_on_its_own() {
+    assert_ahrs_gates_are_per_sensor!(f32, ahrs_gated);
+    assert_ahrs_gates_are_per_sensor!(f64, ahrs_gated::in_f64);
 }

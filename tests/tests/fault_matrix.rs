@@ -1,4 +1,5 @@
-//! The fault matrix: every filter the demo models generate, in `f32` and `f64`, against
+//! The fault matrix: every filter the demo models generate, and the error-state EKF of the
+//! AHRS test model (ungated and gated), in `f32` and `f64`, against
 //! every fault a sensor or a caller can produce (a NaN, infinite, 1e30 or stuck
 //! measurement; a NaN, infinite or 1e30 input; a spike of 30 standard deviations; a NaN,
 //! infinite or huge time
@@ -7,7 +8,7 @@
 //! What must hold, for each filter and fault:
 //! - no step returns `Ok` with an exploded estimate: every entry finite and within 1e12 in
 //!   magnitude, every variance non-negative (the data are the model's own, of order 1 to
-//!   1e4);
+//!   1e4), every rotation a unit quaternion;
 //! - a step that does not return `Ok` leaves the estimate as it was, except that an outlier
 //!   rejected by a step's gate keeps the prediction;
 //! - NaN and infinity are `RejectedInput`; a gated filter rejects the 30-sigma spike as an
@@ -18,14 +19,24 @@
 //!
 //! The data are noise-free, produced by each model's own `f64` filter predicting from the
 //! prior (its estimate is the truth), so that every step before a fault is `Ok`.
+//!
+//! An error-state EKF's covariance is over the tangent space, smaller than its state (the
+//! AHRS's 6 against 7): covariances and variances here are the filter's, of its own
+//! dimension, and a reset's `x0` is a true state, whose rotations are unit quaternions.
 
 use generated_demo::{
     beam_two_actuators, blade_identification, cantilever, duffing_beam, helicopter,
     mass_spring_damper, piecewise_beam, polynomial,
 };
 
+include!("../models/ahrs.rs");
+include!("../models/ahrs_gated.rs");
+
 /// Entries beyond this are an exploded estimate.
 const EXPLODED: f64 = 1e12;
+/// How far from one a rotation's quaternion norm may be, in `f32` (measured within 1.3e-7
+/// over 1e5 samples of a flight, `tests/error_state_ekf.rs`).
+const UNIT_NORM: f64 = 1e-5;
 /// Good samples before a fault, and after it before recovery is judged.
 const WARM_UP: usize = 40;
 const RECOVERY: usize = 80;
@@ -49,8 +60,13 @@ trait Subject: Clone {
     fn states(&self) -> Vec<f64>;
     /// Everything a rejected step must leave as it was: estimates and full covariances.
     fn snapshot(&self) -> Vec<f64>;
-    /// The variances (covariance diagonals).
+    /// The variances (covariance diagonals), as many as the covariance's dimension (for an
+    /// error-state EKF the tangent space's, not the state's).
     fn variances(&self) -> Vec<f64>;
+    /// Where in the states each rotation's unit quaternion starts (an error-state EKF's).
+    fn rotations(&self) -> &'static [usize] {
+        &[]
+    }
     /// One sample; the status of each stage (one for a filter, two for a DKF).
     fn sample(&mut self, s: &Sample) -> Vec<String>;
     /// The snapshot after the sample's prediction alone, for filters that can predict.
@@ -58,8 +74,8 @@ trait Subject: Clone {
     /// Starts again from `x0` with the prior's variances; false when the filter has no
     /// `reset`.
     fn reset(&mut self, x0: &[f64]) -> bool;
-    /// Starts again from `x0` with the variances `p0`; false when the filter has no
-    /// `reset`.
+    /// Starts again from `x0` with the variances `p0` (of the covariance's dimension);
+    /// false when the filter has no `reset`.
     fn reset_with(&mut self, x0: &[f64], p0: &[f64]) -> bool;
     /// Whether an innovation gate below the divergence bound is set.
     fn gated(&self) -> bool;
@@ -113,7 +129,8 @@ fn status_name(s: impl core::fmt::Debug) -> String {
 macro_rules! ekf_subject {
     (
         $name:ident: $ty:ty, $s:ty, gate = $gate:tt, time = $time:expr, noise_time = $noise_time:expr,
-        new = $new:expr, step = $step:expr, predict = $predict:expr $(,)?
+        rotations = $rotations:expr, new = $new:expr, step = $step:expr, predict = $predict:expr
+        $(,)?
     ) => {
         #[derive(Clone)]
         struct $name {
@@ -152,6 +169,7 @@ macro_rules! ekf_subject {
                 let p = self.filter.covariance();
                 (0..p.len()).map(|i| Scalar::to(p[i][i])).collect()
             }
+            fn rotations(&self) -> &'static [usize] { $rotations }
             fn sample(&mut self, s: &Sample) -> Vec<String> {
                 let step: fn(&mut $ty, &Sample) -> String = $step;
                 vec![step(&mut self.filter, s)]
@@ -191,16 +209,27 @@ macro_rules! ekf_subject {
 
 /// [`ekf_subject!`] for a filter type of `$module`, in `f32` and in `f64`: `q` says whether
 /// its process noise is a vector of variances or a matrix, `call` how its methods take
-/// their arguments (`plain`: `(u_prev, y)`; `no_input`: `(y)`; `timed`: `(t, u_prev, y)`).
+/// their arguments (`plain`: `(u_prev, y)`; `no_input`: `(y)`; `timed`: `(t, u_prev, y)`),
+/// `rotations` where its unit quaternions start in the state (none unless given).
 macro_rules! ekf_family {
-    ($n32:ident, $n64:ident, $module:ident :: $ty:ident, gate = $gate:tt, q = $q:tt, call = $call:tt $(, density = $dt:expr)?) => {
-        ekf_family!(@one $n32, $module::$ty, f32, $gate, $q, $call, 1.0 $(* $dt)?);
-        ekf_family!(@one $n64, $module::in_f64::$ty, f64, $gate, $q, $call, 1.0 $(* $dt)?);
+    (
+        $n32:ident, $n64:ident, $module:ident :: $ty:ident, gate = $gate:tt, q = $q:tt,
+        call = $call:tt $(, density = $dt:expr)? $(, rotations = [$($at:expr),*])?
+    ) => {
+        ekf_family!(
+            @one $n32, $module::$ty, f32, $gate, $q, $call, 1.0 $(* $dt)?, &[$($($at),*)?]
+        );
+        ekf_family!(
+            @one $n64, $module::in_f64::$ty, f64, $gate, $q, $call, 1.0 $(* $dt)?, &[$($($at),*)?]
+        );
     };
-    (@one $name:ident, $path:path, $s:ty, $gate:tt, $q:tt, $call:tt, $noise_time:expr) => {
+    (
+        @one $name:ident, $path:path, $s:ty, $gate:tt, $q:tt, $call:tt, $noise_time:expr,
+        $rotations:expr
+    ) => {
         ekf_subject!(
             $name: $path, $s, gate = $gate, time = ekf_family!(@timed $call), noise_time = $noise_time,
-            new = |x0, p0, q, r| {
+            rotations = $rotations, new = |x0, p0, q, r| {
                 <$path>::new(&arr(x0), &diag(p0), &ekf_family!(@q $q, q), &diag(r)).unwrap()
             },
             step = |f, s| status_name(ekf_family!(@step $call, f, s, $s)),
@@ -301,6 +330,24 @@ ekf_family!(
     q = vector,
     call = timed,
     density = helicopter::in_f64::TS
+);
+ekf_family!(
+    AhrsEkf32,
+    AhrsEkf64,
+    ahrs::Ekf,
+    gate = false,
+    q = vector,
+    call = plain,
+    rotations = [ahrs::index::Q_X]
+);
+ekf_family!(
+    AhrsGated32,
+    AhrsGated64,
+    ahrs_gated::GatedEkf,
+    gate = true,
+    q = vector,
+    call = plain,
+    rotations = [ahrs_gated::index::Q_X]
 );
 
 /// A filter outside the EKF family: how to read, step and build it, and where it has them,
@@ -676,6 +723,12 @@ fn exploded<S: Subject>(subject: &S) -> Option<String> {
         .find(|v| !v.is_finite() || **v < 0.0 || **v > EXPLODED)
     {
         return Some(format!("a variance of {v:e}"));
+    }
+    for &at in subject.rotations() {
+        let norm = states[at..at + 4].iter().map(|v| v * v).sum::<f64>().sqrt();
+        if (norm - 1.0).abs() > UNIT_NORM {
+            return Some(format!("a rotation of norm {norm}"));
+        }
     }
     None
 }
@@ -1182,6 +1235,62 @@ fn helicopter_filters() {
         HelicopterEkf64,
         HelicopterContinuous32,
         HelicopterContinuous64
+    );
+    report(&failures);
+}
+
+/// The AHRS's gyro rates [rad/s]: a slow tumble about every axis.
+fn ahrs_gyro(t: f64) -> Vec<f64> {
+    vec![
+        0.4 * (1.3 * t).sin(),
+        0.3 * (0.9 * t).cos(),
+        0.5 * (0.7 * t + 1.0).sin(),
+    ]
+}
+
+/// The error-state EKF of the AHRS test model (`tests/models/ahrs.rs`: a rotation state,
+/// its covariance over the 3 coordinates of the rotation's tangent and the gyro bias's 3),
+/// ungated and gated (`tests/models/ahrs_gated.rs`).
+#[test]
+fn ahrs_error_state_filters() {
+    use ahrs::in_f64::{Ekf, Status};
+    let attitude =
+        nalgebra::UnitQuaternion::from_scaled_axis(nalgebra::Vector3::new(0.3, -0.2, 1.1));
+    let [qx, qy, qz, qw] = attitude.coords.into();
+    let x0 = [qx, qy, qz, qw, 0.01, -0.02, 0.015];
+    // 0.1 rad of attitude, 0.01 rad/s of bias; the gyro's noise over a sample and a slow
+    // bias walk; the accelerometer's noise (0.1 m/s^2) and the magnetometer's (5 mgauss).
+    let (p0, q, r) = (
+        [1e-2, 1e-2, 1e-2, 1e-4, 1e-4, 1e-4],
+        [2.5e-9, 2.5e-9, 2.5e-9, 1e-10, 1e-10, 1e-10],
+        [1e-2, 1e-2, 1e-2, 2.5e-5, 2.5e-5, 2.5e-5],
+    );
+    let truth = Ekf::new(&x0, &diag(&[0.0; 6]), &[0.0; 6], &diag(&[1e12; 6])).unwrap();
+    let data = data(
+        truth,
+        ahrs::in_f64::DT,
+        ahrs_gyro,
+        truth_predict!(plain, Status::Ok),
+        |f, _| output_of!(f, 6),
+    );
+    let mut failures = Vec::new();
+    check!(
+        failures,
+        data,
+        r,
+        (x0, p0, q),
+        gate = None,
+        AhrsEkf32,
+        AhrsEkf64
+    );
+    check!(
+        failures,
+        data,
+        r,
+        (x0, p0, q),
+        gate = Some(22.46),
+        AhrsGated32,
+        AhrsGated64
     );
     report(&failures);
 }

@@ -1,9 +1,12 @@
 //! Run-time tuning of every generated filter: `Q` and `R` set after construction act as if
 //! given to `new`, and a non-finite entry (or a negative `alpha`) is rejected, leaving the
-//! filter exactly as it was.
+//! filter exactly as it was. The error-state EKF (the AHRS test model, `tests/models/ahrs.rs`)
+//! too, its `Q` over the tangent space.
 
 use generated_demo::{cantilever, helicopter, mass_spring_damper};
 use tests::tuning::{diag, p0, Q_DIAG, R, X0_CLOSE};
+
+include!("../models/ahrs.rs");
 
 #[test]
 fn ekf_and_dkf_noise_setters() {
@@ -116,4 +119,56 @@ fn continuous_ekf_noise_and_alpha_setters() {
         filter.step(0.001, &[f64::NAN, 0.1], &[0.01, 0.0]),
         Status::RejectedInput
     );
+}
+
+/// A square matrix with `d` on its diagonal, of the filter's scalar.
+fn diagonal<const N: usize, T: Copy + Default>(d: [T; N]) -> [[T; N]; N] {
+    std::array::from_fn(|i| std::array::from_fn(|j| if i == j { d[i] } else { T::default() }))
+}
+
+/// Checks the noise setters of the AHRS's error-state EKF (module `$m`, scalar `$s`): a
+/// non-finite entry is `RejectedInput`, a negative variance of `Q` (over the tangent
+/// space) or an indefinite `R` `InvalidCovariance`, the filter unchanged; the noises set
+/// act as if given to `new`, through a predict and an update.
+macro_rules! assert_ahrs_noise_setters {
+    ($s:ty, $($m:ident)::+) => {{
+        use $($m)::+::{h, Ekf, Status};
+        // An attitude of 0.5 rad about z, a gyro bias [rad/s].
+        let (sin, cos) = (0.25_f64.sin(), 0.25_f64.cos());
+        let x0 = [0.0, 0.0, sin, cos, 0.01, -0.02, 0.015].map(|v| v as $s);
+        let p0 = diagonal([1e-2, 1e-2, 1e-2, 1e-4, 1e-4, 1e-4].map(|v| v as $s));
+        let q = [2.5e-9, 2.5e-9, 2.5e-9, 1e-10, 1e-10, 1e-10].map(|v| v as $s);
+        let r = diagonal([1e-2, 1e-2, 1e-2, 2.5e-5, 2.5e-5, 2.5e-5].map(|v| v as $s));
+        let mut ekf = Ekf::new(&x0, &p0, &q, &r).unwrap();
+        let before = ekf;
+        let (mut q_bad, mut r_bad) = (q, r);
+        q_bad[4] = <$s>::NAN;
+        r_bad[0][5] = <$s>::INFINITY;
+        assert_eq!(ekf.set_process_noise(&q_bad), Status::RejectedInput);
+        assert_eq!(ekf.set_measurement_noise(&r_bad), Status::RejectedInput);
+        q_bad[4] = -1e-10;
+        r_bad[0][5] = 0.0;
+        (r_bad[1][4], r_bad[4][1]) = (1e-2, 1e-2);
+        assert_eq!(ekf.set_process_noise(&q_bad), Status::InvalidCovariance);
+        assert_eq!(ekf.set_measurement_noise(&r_bad), Status::InvalidCovariance);
+        assert_eq!(ekf, before);
+        let q2 = q.map(|v| 4.0 * v);
+        let r2 = diagonal([4e-2, 4e-2, 4e-2, 1e-4, 1e-4, 1e-4].map(|v| v as $s));
+        assert_eq!(ekf.set_process_noise(&q2), Status::Ok);
+        assert_eq!(ekf.set_measurement_noise(&r2), Status::Ok);
+        let mut fresh = Ekf::new(&x0, &p0, &q2, &r2).unwrap();
+        assert_eq!(ekf, fresh);
+        let u = [0.1, -0.2, 0.3];
+        let y = h(&x0).map(|v| v + 0.01);
+        for filter in [&mut ekf, &mut fresh] {
+            assert_eq!(filter.step(&u, &y), Status::Ok);
+        }
+        assert_eq!(ekf, fresh);
+    }};
+}
+
+#[test]
+fn error_state_ekf_noise_setters() {
+    assert_ahrs_noise_setters!(f32, ahrs);
+    assert_ahrs_noise_setters!(f64, ahrs::in_f64);
 }
