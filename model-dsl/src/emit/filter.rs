@@ -98,9 +98,9 @@ impl FilterLayout {
         }
     }
 
-    /// The same layout with noise on the input entries `inputs` (their names; see
-    /// [`FilterLayout::input_noise`]): the field `qu`, the constructor's argument and the
-    /// setter `set_input_noise`.
+    /// The same layout with noise on the input entries `inputs` (their names, kept in the
+    /// layout's `input_noise`): the field `qu`, the constructor's argument and the setter
+    /// `set_input_noise`.
     #[must_use]
     pub fn with_input_noise(mut self, inputs: &[&str]) -> FilterLayout {
         if !inputs.is_empty() {
