@@ -1,27 +1,35 @@
-"""SymForce's C++ code generation for the 24-state navigation EKF: the benchmark's peer of
-the generated `navigation::Ekf` (`generated-demo/models/navigation.rs`), run by `cargo
-xtask peers` (and `cargo xtask cost`) in the venv it makes under target/peers.
+"""SymForce's C++ code generation for the 24-entry error-state navigation EKF: the
+benchmark's peer of the generated `navigation::Ekf` (`generated-demo/models/navigation.rs`),
+run by `cargo xtask peers` (and `cargo xtask cost`) in the venv it makes under target/peers.
 
-The same model derived with SymForce (its symbolic API, `codegen.Codegen.function` with
-`codegen.CppConfig()`), three functions of `Scalar`, each reading and writing the
-covariance as its packed upper triangle, row by row (300 entries: (0,0), (0,1), ..,
-(0,23), (1,1), .., (23,23): the generated filter's own order), so that the generated code
-reads and writes only the triangle:
+The same model derived with SymForce's geometry, as PX4 EKF2's current derivation
+(`ekf_derivation/derivation.py`) does: the state a `Values` whose attitude is an `sf.Rot3`
+(stored `[x, y, z, w]`, as ours), the covariance over its 23 tangent coordinates with a
+global angular error (the true attitude is `Rot3.from_tangent(δθ) * q`), each Jacobian
+taken in that tangent space at zero error by perturbing the state (PX4's small-angle
+error quaternion `[δθ/2, 1]`, exact to first order, hence exact at zero). Three
+functions of `Scalar`, each reading and writing the covariance as its packed upper
+triangle, row by row (276 entries: (0,0), (0,1), .., (0,22), (1,1), .., (22,22): the
+generated filter's own order), so that the generated code reads and writes only the
+triangle:
 
-- `NavigationPredict(x, p, u, q)`: `x_new = f(x, u)` as navigation.rs writes `f`, and
-  `P_new = A P A' + diag(q)` with `A = df/dx`;
-- `NavigationUpdateGnss(x, p, y, r)` and `NavigationUpdateMagnetometer(x, p, y, r)`:
-  the sensor's fusion as sequential scalar updates, PX4 EKF2's scheme (`r` the
-  diagonal of the sensor's R): `H = dh/dx` at the prior `x0`; for each output `a` in turn,
-  `r_a = y_a - h_a(x0) - H_a (x_(a-1) - x0)`, `u = P_(a-1) H_a'`, `s = H_a u + R_aa`,
-  `K = u / s`, `x_a = x_(a-1) + K r_a`, `P_a = P_(a-1) - K u'`. With a diagonal R this
-  equals the joint update in exact arithmetic; the residual's linear term makes it so for
-  the nonlinear magnetometer too (every output linearised at the prior, as the joint
-  update does). Of the formulations tried it gave SymForce the fewest operations (a
-  joint update with a symbolic 3x3 inverse took more).
+- `NavigationPredict(x, p, u, q)`: `x_new = f(x, u)`, the attitude turned by the exact
+  `Rot3.from_tangent((gyro - gyro_bias) DT)`, and `P_new = F P F' + diag(q)` with
+  `F = d(f(x ⊞ δx) ⊟ f(x))/dδx` at `δx = 0`;
+- `NavigationUpdateGnss(x, p, y, r)` and `NavigationUpdateMagnetometer(x, p, y, r)`: the
+  sensor's fusion as sequential scalar updates of the error `δx` (zero before them), PX4
+  EKF2's scheme (`r` the diagonal of the sensor's R): `H = d h(x ⊞ δx)/dδx` at `δx = 0`
+  (the chain rule through the rotation's tangent); for each output `a` in turn,
+  `r_a = y_a - h_a(x) - H_a δx_(a-1)`, `u = P_(a-1) H_a'`, `s = H_a u + R_aa`,
+  `K = u / s`, `δx_a = δx_(a-1) + K r_a`, `P_a = P_(a-1) - K u'`. With a diagonal R this
+  equals the joint update in exact arithmetic (every output linearised at the prior, as
+  the joint update does). Then the error moves into the estimate, the attitude as
+  `Rot3.from_tangent(δθ) * q`, and the covariance is reset, `G P G'` with
+  `G = I + [δθ/2]x` on the attitude block (Solà 2017, sect. 7, global errors).
 
-The model's constants (DT, GRAVITY) come from the Rust model through the JSON file xtask
-writes (`navigation.json`), so the two cannot disagree.
+Each new attitude is renormalised by one Newton step, `q (3 - q.q) / 2`, as ours is.
+The model's constants (DT, GRAVITY, the exponential map's epsilon) come from the Rust
+model through the JSON file xtask writes (`navigation.json`), so the two cannot disagree.
 
     python symforce_codegen.py navigation.json out_dir
 
@@ -36,19 +44,33 @@ from pathlib import Path
 
 import symforce
 
-# Before the symbolic API is imported, as SymForce asks; no function here uses epsilon
-# (no division or square root it would guard), so the generated code is the same, and
-# SymForce no longer warns that epsilon is zero.
+# Before the symbolic API is imported, as SymForce asks; every function here passes the
+# model's own epsilon to the exponential map, so none depends on SymForce's.
 symforce.set_epsilon_to_symbol()
 
 import symforce.symbolic as sf  # noqa: E402
 from symforce import codegen  # noqa: E402
+from symforce.values import Values  # noqa: E402
 
-N = 24
+# The state's entries and the tangent's coordinates, in the Rust model's order: a key's
+# storage size and its tangent size (the attitude's 4 and 3).
+KEYS = [
+    ("q", 4, 3),
+    ("v", 3, 3),
+    ("p", 3, 3),
+    ("gyro_bias", 3, 3),
+    ("accel_bias", 3, 3),
+    ("mag_earth", 3, 3),
+    ("mag_body", 3, 3),
+    ("wind", 2, 2),
+]
+N_X = sum(size for _, size, _ in KEYS)
+N = sum(tangent for _, _, tangent in KEYS)
+PACKED = N * (N + 1) // 2
 
 
 def unpacked(p):
-    """The symmetric 24x24 matrix of a packed upper triangle."""
+    """The symmetric NxN matrix of a packed upper triangle."""
     full = sf.Matrix.zeros(N, N)
     k = 0
     for i in range(N):
@@ -59,124 +81,180 @@ def unpacked(p):
 
 
 def packed(m):
-    """The packed upper triangle of a symmetric 24x24 matrix."""
+    """The packed upper triangle of a symmetric NxN matrix."""
     return sf.Matrix([m[i, j] for i in range(N) for j in range(i, N)])
 
 
-def dynamics(constants):
-    """`f(x, u)` exactly as the model's `dynamics discrete` block writes it (every right-hand
-    side in terms of the previous state)."""
-    dt, gravity = constants["dt"], constants["gravity"]
+def state_of(x):
+    """The state vector `x` as `Values`, the attitude an `sf.Rot3` ([x, y, z, w])."""
+    state = Values()
+    at = 0
+    for key, size, _ in KEYS:
+        entries = [x[at + i] for i in range(size)]
+        state[key] = sf.Rot3.from_storage(entries) if key == "q" else sf.Matrix(entries)
+        at += size
+    return state
 
-    def f(x, u):
-        q0, q1, q2, q3, vn, ve, vd, pn, pe, pd = (x[i] for i in range(10))
-        dax_b, day_b, daz_b, dvx_b, dvy_b, dvz_b = (x[10 + i] for i in range(6))
-        dax, day, daz, dvx, dvy, dvz = (u[i] for i in range(6))
-        da_x, da_y, da_z = dax - dax_b, day - day_b, daz - daz_b
-        dv_x, dv_y, dv_z = dvx - dvx_b, dvy - dvy_b, dvz - dvz_b
-        new = [
-            q0 - 0.5 * (q1 * da_x + q2 * da_y + q3 * da_z),
-            q1 + 0.5 * (q0 * da_x + q2 * da_z - q3 * da_y),
-            q2 + 0.5 * (q0 * da_y - q1 * da_z + q3 * da_x),
-            q3 + 0.5 * (q0 * da_z + q1 * da_y - q2 * da_x),
-            vn
-            + (q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3) * dv_x
-            + 2.0 * (q1 * q2 - q0 * q3) * dv_y
-            + 2.0 * (q1 * q3 + q0 * q2) * dv_z,
-            ve
-            + 2.0 * (q1 * q2 + q0 * q3) * dv_x
-            + (q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3) * dv_y
-            + 2.0 * (q2 * q3 - q0 * q1) * dv_z,
-            vd
-            + 2.0 * (q1 * q3 - q0 * q2) * dv_x
-            + 2.0 * (q2 * q3 + q0 * q1) * dv_y
-            + (q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3) * dv_z
-            + gravity * dt,
-            pn + dt * vn,
-            pe + dt * ve,
-            pd + dt * vd,
-        ]
-        # The biases, fields and wind are random walks.
-        return sf.Matrix(new + [x[i] for i in range(10, N)])
+
+def storage(state):
+    """The state vector of `Values` (the attitude's storage is [x, y, z, w])."""
+    return sf.Matrix(state.to_storage())
+
+
+def split(delta):
+    """A tangent vector by key."""
+    parts, at = {}, 0
+    for key, _, tangent in KEYS:
+        parts[key] = sf.Matrix([delta[at + i] for i in range(tangent)])
+        at += tangent
+    return parts
+
+
+def perturbed(state, delta):
+    """`x ⊞ δx` to first order: the attitude `[δθ/2, 1] * q` (PX4's small-angle error
+    quaternion, global), the rest `x + δx`; exact in its value and first derivative at
+    `δx = 0`, which is all a Jacobian there reads."""
+    parts = split(delta)
+    truth = Values()
+    for key, _, _ in KEYS:
+        if key == "q":
+            error = sf.Rot3(sf.Quaternion(xyz=parts["q"] / 2, w=1))
+            truth[key] = error * state[key]
+        else:
+            truth[key] = state[key] + parts[key]
+    return truth
+
+
+def error(truth, nominal):
+    """`truth ⊟ nominal` to first order: the attitude's `2 vec(q_t * conj(q))` (the
+    rotation vector of `q_t q^-1` to first order, PX4's), the rest the difference."""
+    parts = []
+    for key, _, _ in KEYS:
+        if key == "q":
+            turn = truth[key].q * nominal[key].q.conj()
+            parts.extend(2 * turn.xyz)
+        else:
+            parts.extend(truth[key] - nominal[key])
+    return sf.Matrix(parts)
+
+
+def tangent_jacobian(function, state):
+    """`d function(x ⊞ δx)/dδx` at `δx = 0`."""
+    delta = sf.Matrix([sf.Symbol(f"delta{i}") for i in range(N)])
+    value = function(perturbed(state, delta))
+    jacobian = value.jacobian(delta)
+    return jacobian.subs({d: 0 for d in delta})
+
+
+def renormalised(rotation):
+    """One Newton step towards a unit norm, `q (3 - q.q) / 2`, as ours takes."""
+    q = rotation.q
+    factor = (3 - (q.xyz.squared_norm() + q.w * q.w)) / 2
+    return sf.Rot3(sf.Quaternion(xyz=q.xyz * factor, w=q.w * factor))
+
+
+def dynamics(constants):
+    """`f(x, u)` as the model's `dynamics discrete` block writes it (every right-hand side
+    in terms of the previous state), the attitude before its renormalisation."""
+    dt, gravity, epsilon = constants["dt"], constants["gravity"], constants["epsilon"]
+
+    def f(state, u):
+        gyro = sf.V3(u[0], u[1], u[2]) - state["gyro_bias"]
+        accel = sf.V3(u[3], u[4], u[5]) - state["accel_bias"]
+        new = state.copy()
+        q = state["q"]
+        new["q"] = q * sf.Rot3.from_tangent(gyro * dt, epsilon=epsilon)
+        new["v"] = state["v"] + (q * accel + sf.V3(0, 0, gravity)) * dt
+        new["p"] = state["p"] + state["v"] * dt
+        return new
 
     return f
 
 
-def gnss(x):
-    """The GNSS outputs: NED velocity and position (states 4..9)."""
-    return sf.Matrix([x[4 + i] for i in range(6)])
+def gnss(state):
+    """The GNSS outputs: NED velocity and position."""
+    return sf.Matrix(list(state["v"]) + list(state["p"]))
 
 
-def magnetometer(x):
-    """The magnetometer outputs as navigation.rs writes them: the earth field rotated to
-    the body, `R(q)' m_earth`, plus the body bias."""
-    q0, q1, q2, q3 = (x[i] for i in range(4))
-    mag_n, mag_e, mag_d, mag_bx, mag_by, mag_bz = (x[16 + i] for i in range(6))
-    return sf.Matrix(
-        [
-            (q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3) * mag_n
-            + 2.0 * (q1 * q2 + q0 * q3) * mag_e
-            + 2.0 * (q1 * q3 - q0 * q2) * mag_d
-            + mag_bx,
-            2.0 * (q1 * q2 - q0 * q3) * mag_n
-            + (q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3) * mag_e
-            + 2.0 * (q2 * q3 + q0 * q1) * mag_d
-            + mag_by,
-            2.0 * (q1 * q3 + q0 * q2) * mag_n
-            + 2.0 * (q2 * q3 - q0 * q1) * mag_e
-            + (q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3) * mag_d
-            + mag_bz,
-        ]
-    )
+def magnetometer(state):
+    """The magnetometer: the earth field rotated to the body plus the body bias."""
+    return state["q"].inverse() * state["mag_earth"] + state["mag_body"]
 
 
-def sequential_update(x, p, y, r, h):
+def injected(state, dx, epsilon):
+    """The error `dx` moved into the estimate: `Rot3.from_tangent(δθ) * q` (renormalised),
+    the rest `x + δx`."""
+    parts = split(dx)
+    new = Values()
+    for key, _, _ in KEYS:
+        if key == "q":
+            turn = sf.Rot3.from_tangent(parts["q"], epsilon=epsilon)
+            new[key] = renormalised(turn * state[key])
+        else:
+            new[key] = state[key] + parts[key]
+    return new
+
+
+def reset(cov, dx):
+    """`G P G'`, `G` the identity but for the attitude block `I + [δθ/2]x`."""
+    g = sf.Matrix.eye(N)
+    g[0:3, 0:3] = sf.Matrix.eye(3) + sf.Rot3.hat(sf.V3(dx[0], dx[1], dx[2]) / 2)
+    return g * cov * g.T
+
+
+def sequential_update(constants, x, p, y, r, h):
     """The sensor's outputs fused one at a time (see the module's doc)."""
+    state = state_of(x)
     cov = unpacked(p)
-    prior = sf.Matrix(x)
-    estimate = sf.Matrix(x)
-    predicted = h(prior)
-    jacobian = predicted.jacobian(prior)
+    predicted = h(state)
+    jacobian = tangent_jacobian(h, state)
+    dx = sf.Matrix.zeros(N, 1)
     for a in range(y.shape[0]):
         row = jacobian[a, :]
         u = cov * row.T
         s = (row * u)[0, 0] + r[a]
         gain = u / s
-        residual = y[a] - predicted[a] - (row * (estimate - prior))[0, 0]
-        estimate = estimate + gain * residual
+        residual = y[a] - predicted[a] - (row * dx)[0, 0]
+        dx = dx + gain * residual
         cov = cov - gain * u.T
-    return estimate, packed(cov)
+    new = injected(state, dx, constants["epsilon"])
+    return storage(new), packed(reset(cov, dx))
 
 
 def functions(constants):
     """The three functions, with the argument types SymForce generates them for."""
     f = dynamics(constants)
 
-    def navigation_predict(
-        x: sf.M(N, 1), p: sf.M(N * (N + 1) // 2, 1), u: sf.M(6, 1), q: sf.M(N, 1)
-    ):
-        x_new = f(x, u)
-        a = x_new.jacobian(x)
+    def navigation_predict(x: sf.M(N_X, 1), p: sf.M(PACKED, 1), u: sf.M(6, 1), q: sf.M(N, 1)):
+        state = state_of(x)
+        nominal = f(state, u)
+        transition = tangent_jacobian(lambda truth: error(f(truth, u), nominal), state)
         noise = sf.Matrix.diag([q[i] for i in range(N)])
-        return x_new, packed(a * unpacked(p) * a.T + noise)
+        new = nominal.copy()
+        new["q"] = renormalised(nominal["q"])
+        p_new = transition * unpacked(p) * transition.T + noise
+        return storage(new), packed(p_new)
 
     def navigation_update_gnss(
-        x: sf.M(N, 1), p: sf.M(N * (N + 1) // 2, 1), y: sf.M(6, 1), r: sf.M(6, 1)
+        x: sf.M(N_X, 1), p: sf.M(PACKED, 1), y: sf.M(6, 1), r: sf.M(6, 1)
     ):
-        return sequential_update(x, p, y, r, gnss)
+        return sequential_update(constants, x, p, y, r, gnss)
 
     def navigation_update_magnetometer(
-        x: sf.M(N, 1), p: sf.M(N * (N + 1) // 2, 1), y: sf.M(3, 1), r: sf.M(3, 1)
+        x: sf.M(N_X, 1), p: sf.M(PACKED, 1), y: sf.M(3, 1), r: sf.M(3, 1)
     ):
-        return sequential_update(x, p, y, r, magnetometer)
+        return sequential_update(constants, x, p, y, r, magnetometer)
 
     return [navigation_predict, navigation_update_gnss, navigation_update_magnetometer]
 
 
 def main():
     constants = json.load(open(sys.argv[1]))
-    if constants["states"] != N:
-        sys.exit(f"the model has {constants['states']} states; this derivation is for {N}")
+    if (constants["states"], constants["tangent"]) != (N_X, N):
+        sys.exit(
+            f"the model has {constants['states']} entries over {constants['tangent']} "
+            f"tangent coordinates; this derivation is for {N_X} over {N}"
+        )
     out = Path(sys.argv[2]) / "symforce"
     counts = []
     for function in functions(constants):

@@ -1,10 +1,11 @@
-/* The firmware's calls into SymForce's generated navigation EKF (written by the project;
+/* The firmware's calls into SymForce's generated error-state navigation EKF (written by the project;
  * SymForce's code is generated into target/peers/symforce at benchmark time by
  * peers/symforce_codegen.py and never committed).
  *
  * C wrappers over the generated templates for `float`: each takes pointers to float
- * arrays, the state (24), the covariance's packed upper triangle (300, row by row), the
- * input or the measurement, and the noise's diagonal (Q, or the sensor's R), and writes
+ * arrays, the state (24 entries, the attitude [x, y, z, w] first), the covariance's packed
+ * upper triangle over the 23 tangent coordinates (276, row by row), the input or the
+ * measurement, and the noise's diagonal (Q over the tangent, or the sensor's R), and writes
  * the new state and covariance to separate arrays: the generated code reads its inputs
  * while it writes its outputs, so an output must not alias an input.
  *
@@ -23,7 +24,8 @@
 namespace {
 
 constexpr int STATES = 24;
-constexpr int PACKED = STATES * (STATES + 1) / 2;
+constexpr int TANGENT = 23;
+constexpr int PACKED = TANGENT * (TANGENT + 1) / 2;
 
 template <int Rows>
 using Vector = Eigen::Matrix<float, Rows, 1>;
@@ -46,21 +48,23 @@ Vector<Rows>* out(float* data) {
 
 extern "C" {
 
-/* x_new = f(x, u), P_new = A P A' + diag(q). */
+/* x_new = f(x, u), P_new = F P F' + diag(q), F over the tangent space. */
 void symforce_navigation_predict(const float* x, const float* p, const float* u,
                                  const float* q, float* x_new, float* p_new) {
-    sym::NavigationPredict<float>(in<STATES>(x), in<PACKED>(p), in<6>(u), in<STATES>(q),
+    sym::NavigationPredict<float>(in<STATES>(x), in<PACKED>(p), in<6>(u), in<TANGENT>(q),
                                   out<STATES>(x_new), out<PACKED>(p_new));
 }
 
-/* The GNSS fix y (NED velocity, position), R = diag(r), fused one output at a time. */
+/* The GNSS fix y (NED velocity, position), R = diag(r), fused one output at a time,
+ * then injected and the covariance reset. */
 void symforce_navigation_update_gnss(const float* x, const float* p, const float* y,
                                      const float* r, float* x_new, float* p_new) {
     sym::NavigationUpdateGnss<float>(in<STATES>(x), in<PACKED>(p), in<6>(y), in<6>(r),
                                      out<STATES>(x_new), out<PACKED>(p_new));
 }
 
-/* The magnetometer reading y, R = diag(r), fused one output at a time. */
+/* The magnetometer reading y, R = diag(r), fused one output at a time, then injected
+ * and the covariance reset. */
 void symforce_navigation_update_magnetometer(const float* x, const float* p, const float* y,
                                              const float* r, float* x_new, float* p_new) {
     sym::NavigationUpdateMagnetometer<float>(in<STATES>(x), in<PACKED>(p), in<3>(y),

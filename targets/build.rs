@@ -44,6 +44,20 @@ fn peers() {
     let dir = PathBuf::from(dir);
     println!("cargo:rustc-link-search=native={}", dir.display());
     println!("cargo:rustc-link-lib=static=peers");
+    // SymForce's generated C++ calls `sinf` and `cosf`: the ARM toolchain's own C math
+    // library (newlib's `libm.a` for this CPU and ABI, single precision), searched before
+    // Rust's `compiler_builtins`, whose `libm` port widens them to software `f64`.
+    println!("cargo:rerun-if-env-changed=PEERS_LIBM_DIR");
+    if std::env::var_os("CARGO_FEATURE_SYMFORCE").is_some() {
+        let Some(libm) = std::env::var_os("PEERS_LIBM_DIR") else {
+            panic!("the `symforce` feature links newlib's libm.a from $PEERS_LIBM_DIR: run `cargo xtask peers`");
+        };
+        println!(
+            "cargo:rustc-link-search=native={}",
+            PathBuf::from(libm).display()
+        );
+        println!("cargo:rustc-link-lib=static=m");
+    }
     println!(
         "cargo:rerun-if-changed={}",
         dir.join("libpeers.a").display()

@@ -32,8 +32,6 @@ mod observers_baseline;
 mod peers;
 #[cfg(feature = "symforce")]
 mod peers_navigation;
-#[cfg(feature = "symforce")]
-mod peers_navigation_model;
 
 use core::hint::black_box;
 use cortex_m_rt::entry;

@@ -1,25 +1,18 @@
 //! SymForce's peer of the navigation EKF on the same target (`--features symforce`, built
 //! by `cargo xtask peers`, never by the normal build): the prediction and the GNSS and
-//! magnetometer fusions SymForce generates from the same model (`peers/symforce_codegen.py`,
-//! C++ compiled with arm-none-eabi-g++ into `libpeers.a`, called through
-//! `peers/symforce_glue.cpp`), run beside the generated `f32` filter of that model over the
-//! embedded flight of `crate::navigation`.
-//!
-//! That model is the additive 24-state filter (a `w`-first quaternion in the covariance,
-//! the IMU's delta angle and delta velocity as inputs), which the navigation model was
-//! before its error-state rewrite on `Rot3`: the peer keeps its own copy of it
-//! (`crate::peers_navigation_model`), of its initial estimate's layout and of its tuning
-//! (`additive_tuning`), so both sides still run the same filter. The flight's IMU samples
-//! (rates) are turned back into delta angles and velocities (times `DT`) before the calls.
+//! magnetometer fusions SymForce generates from the same error-state model on its own
+//! geometry (`peers/symforce_codegen.py`: the attitude an `sf.Rot3`, the covariance over
+//! the 23 tangent coordinates; C++ compiled with arm-none-eabi-g++ into `libpeers.a`,
+//! called through `peers/symforce_glue.cpp`), run beside the generated `f32` filter
+//! (`generated_demo::navigation`, as `crate::navigation` runs it) over the embedded flight
+//! of `crate::navigation`, from its initial estimate and tuning.
 //!
 //! Before each call of ours, SymForce is handed exactly our filter's state, its covariance
 //! as the packed upper triangle (from `Ekf::covariance`), the same input or measurement,
-//! and the same noise (`Q`'s diagonal, or the sensor's part of `R`'s: the flight's `R` is
-//! diagonal); both calls are read one at a time (`measure::Calls`), SymForce's first, and
-//! their results compared: the largest difference of a state entry scaled by
-//! `max(|x_i|, sqrt(P_ii))` and of a covariance entry scaled by `sqrt(P_ii P_jj)`, `x` and
-//! `P` ours after the call. A measurement ours rejects as an outlier is not compared
-//! (SymForce's code has no gate), only counted.
+//! and the same noise (`Q`'s diagonal over the tangent, or the sensor's part of `R`'s: the
+//! flight's `R` is diagonal); both calls are read one at a time (`measure::Calls`),
+//! SymForce's first, and their results compared (see [`differences`]). A measurement ours
+//! rejects as an outlier is not compared (SymForce's code has no gate), only counted.
 //!
 //! Output, per kernel (`predict`, `update_gnss`, `update_magnetometer`):
 //! `navpeer <side> <kernel> <median> <worst> <mean> <calls>` for `ours` and `symforce`
@@ -28,103 +21,22 @@
 //! <covariance's call>` (the largest differences, and the calls of the flight where they
 //! were).
 
-use crate::matrix::diag;
 use crate::measure::{stack_depth, traced, Calls, Clock};
-use crate::navigation::{events, flight, Event, GNSS_UPDATES, MAGNETOMETER_UPDATES, PREDICTIONS};
-use crate::peers_navigation_model::navigation_additive::{Ekf, Status, DT, X_LEN};
+use crate::navigation::{
+    events, filter, flight, generated_navigation_predict, generated_navigation_update_gnss,
+    generated_navigation_update_magnetometer, used, Event, GNSS_UPDATES, MAGNETOMETER_UPDATES,
+    PREDICTIONS,
+};
 use core::hint::black_box;
 use cortex_m_semihosting::hprintln;
-use generated_demo::flight::{ACCEL_NOISE, GYRO_NOISE, MAGNETOMETER_GATE};
+use generated_demo::navigation::{Ekf, TANGENT_LEN, X_LEN};
 
-/// States (the glue's, which `peers/symforce_codegen.py` checks against the model's), and
-/// entries of the covariance's packed upper triangle.
+/// The state's entries and the covariance's tangent coordinates (the glue's, which
+/// `peers/symforce_codegen.py` checks against the model's), and the entries of the
+/// covariance's packed upper triangle.
 const STATES: usize = X_LEN;
-const PACKED: usize = STATES * (STATES + 1) / 2;
-
-/// The additive filter's tuning, the diagonals of `P0` and of `Q` per IMU sample over its
-/// 24 states (the navigation experiment's before the error-state rewrite): the IMU noise
-/// (half the delta angle's on each quaternion entry), slow random walks for the biases
-/// (per sample) and the fields.
-fn additive_tuning() -> ([f32; STATES], [f32; STATES]) {
-    let dt = f64::from(DT);
-    let mut p0 = [0.0; STATES];
-    let mut q = [0.0; STATES];
-    let groups: [(core::ops::Range<usize>, f64, f64); 7] = [
-        (0..4, 0.05, 0.5 * GYRO_NOISE * dt),
-        (4..7, 0.5, ACCEL_NOISE * dt),
-        (7..10, 1.0, 0.0),
-        (10..13, 0.01 * dt, 1e-8),
-        (13..16, 0.2 * dt, 3e-7),
-        (16..22, 0.05, 3e-5),
-        (22..24, 0.1, 1e-4),
-    ];
-    for (range, initial_sigma, noise_sigma) in groups {
-        for i in range {
-            p0[i] = (initial_sigma * initial_sigma) as f32;
-            q[i] = (noise_sigma * noise_sigma) as f32;
-        }
-    }
-    (p0, q)
-}
-
-/// The additive filter at the flight's start: the flight's initial estimate with its
-/// quaternion `w` first, the additive tuning, the flight's `R` and magnetometer gate.
-fn filter() -> Ekf {
-    let [x, y, z, w] = [0, 1, 2, 3].map(|i| flight::X0[i]);
-    let mut x0 = flight::X0;
-    x0[..4].copy_from_slice(&[w, x, y, z]);
-    let (p0, q) = additive_tuning();
-    let mut ekf = match Ekf::new(&x0, &diag(p0), &q, &diag(flight::R)) {
-        Ok(ekf) => ekf,
-        Err(status) => panic!(
-            "the additive navigation EKF rejected its tuning: {:?}",
-            status
-        ),
-    };
-    let status = ekf.set_magnetometer_innovation_gate(MAGNETOMETER_GATE as f32);
-    assert!(status == Status::Ok, "magnetometer gate: {:?}", status);
-    ekf
-}
-
-/// The additive filter's input: the IMU sample's delta angle and delta velocity.
-fn delta(rates: &[f32; 6]) -> [f32; 6] {
-    rates.map(|v| v * DT)
-}
-
-/// Whether the filter used the measurement (`true`) or rejected it as an outlier
-/// (`false`); panics on any other status, naming the call.
-fn used(status: Status, event: Event, call: usize) -> bool {
-    match status {
-        Status::Ok => true,
-        Status::OutlierRejected => false,
-        other => panic!(
-            "additive navigation EKF, call {} ({:?}): {:?}",
-            call, event, other
-        ),
-    }
-}
-
-// The kernels of ours measured: one call each, never inlined, so each is one symbol whose
-// size and stack use are its own (named apart from the error-state filter's wrappers in
-// `crate::navigation`, which the trace would otherwise confuse with them).
-
-/// `Ekf::predict` of the additive filter.
-#[inline(never)]
-fn generated_navigation_additive_predict(filter: &mut Ekf, imu: &[f32; 6]) -> Status {
-    filter.predict(imu)
-}
-
-/// `Ekf::update_gnss` of the additive filter.
-#[inline(never)]
-fn generated_navigation_additive_update_gnss(filter: &mut Ekf, y: &[f32; 6]) -> Status {
-    filter.update_gnss(y)
-}
-
-/// `Ekf::update_magnetometer` of the additive filter.
-#[inline(never)]
-fn generated_navigation_additive_update_magnetometer(filter: &mut Ekf, y: &[f32; 3]) -> Status {
-    filter.update_magnetometer(y)
-}
+const TANGENT: usize = TANGENT_LEN;
+const PACKED: usize = TANGENT * (TANGENT + 1) / 2;
 
 /// An array as the glue takes it: 16-byte aligned, the alignment Eigen gives its
 /// fixed-size vectors on this target.
@@ -160,7 +72,7 @@ impl Estimate {
 
 #[allow(unsafe_code)]
 mod ffi {
-    use super::{Aligned, Estimate, STATES};
+    use super::{Aligned, Estimate, TANGENT};
 
     /// A function of the glue: the prior's state and packed covariance, the input or
     /// measurement, the noise's diagonal; the posterior's state and packed covariance.
@@ -168,7 +80,7 @@ mod ffi {
         unsafe extern "C" fn(*const f32, *const f32, *const f32, *const f32, *mut f32, *mut f32);
 
     extern "C" {
-        /// `peers/symforce_glue.cpp`: reads 24, 300, 6 and 24 floats.
+        /// `peers/symforce_glue.cpp`: reads 24, 276, 6 and 23 floats.
         fn symforce_navigation_predict(
             x: *const f32,
             p: *const f32,
@@ -177,7 +89,7 @@ mod ffi {
             x_new: *mut f32,
             p_new: *mut f32,
         );
-        /// Reads 24, 300, 6 and 6 floats.
+        /// Reads 24, 276, 6 and 6 floats.
         fn symforce_navigation_update_gnss(
             x: *const f32,
             p: *const f32,
@@ -186,7 +98,7 @@ mod ffi {
             x_new: *mut f32,
             p_new: *mut f32,
         );
-        /// Reads 24, 300, 3 and 3 floats.
+        /// Reads 24, 276, 3 and 3 floats.
         fn symforce_navigation_update_magnetometer(
             x: *const f32,
             p: *const f32,
@@ -207,7 +119,7 @@ mod ffi {
         posterior: &mut Estimate,
     ) {
         // SAFETY: every pointer is to an array of the length `glue` reads or writes (24
-        // states and 300 packed entries by `Estimate`'s types, V and W as its callers
+        // states and 276 packed entries by `Estimate`'s types, V and W as its callers
         // below pair them), 16-byte aligned as Eigen's vectors are; the outputs are
         // `posterior`, a `&mut` distinct from the inputs; the glue keeps no pointer.
         unsafe {
@@ -223,7 +135,7 @@ mod ffi {
     }
 
     /// SymForce's prediction with the IMU sample `u` and the process noise `q`.
-    pub fn predict(prior: &Estimate, u: &Aligned<6>, q: &Aligned<STATES>, out: &mut Estimate) {
+    pub fn predict(prior: &Estimate, u: &Aligned<6>, q: &Aligned<TANGENT>, out: &mut Estimate) {
         call(symforce_navigation_predict, prior, u, q, out);
     }
 
@@ -250,7 +162,7 @@ mod ffi {
 fn peers_symforce_predict(
     prior: &Estimate,
     u: &Aligned<6>,
-    q: &Aligned<STATES>,
+    q: &Aligned<TANGENT>,
     out: &mut Estimate,
 ) {
     ffi::predict(prior, u, q, out);
@@ -277,22 +189,42 @@ fn peers_symforce_update_magnetometer(
 }
 
 /// The largest differences of SymForce's result from ours (ours after the same call): of
-/// a state entry scaled by `max(|x_i|, sqrt(P_ii))`, and of a covariance entry scaled by
-/// `sqrt(P_ii P_jj)`.
+/// a state entry scaled by `max(|x_i|, sigma_k)`, `sigma_k = sqrt(P_kk)` over its tangent
+/// coordinate `k`; of the attitude, the rotation that takes ours to SymForce's, as its
+/// rotation vector `2 vec(q_SF ⊗ q⁻¹)` (to first order; an error in the earth frame, as
+/// the covariance's), each coordinate scaled by its `sigma_k`; of a covariance entry
+/// scaled by `sigma_i sigma_j`.
 fn differences(ekf: &Ekf, symforce: &Estimate) -> (f32, f32) {
     let (x, p) = (ekf.state(), ekf.covariance());
-    let sigma: [f32; STATES] =
-        core::array::from_fn(|i| stateforge_math::f32::sqrt(p[i][i].max(0.0)));
+    let sigma: [f32; TANGENT] =
+        core::array::from_fn(|k| stateforge_math::f32::sqrt(p[k][k].max(0.0)));
     let mut state = 0.0_f32;
-    for (i, (ours, theirs)) in x.iter().zip(&symforce.x.0).enumerate() {
-        state = state.max((ours - theirs).abs() / ours.abs().max(sigma[i]));
+    let turn = rotation_between(&x, &symforce.x.0);
+    for (k, angle) in turn.iter().enumerate() {
+        state = state.max(angle.abs() / sigma[k]);
+    }
+    // The entries after the attitude's four, each with its tangent coordinate.
+    for (i, (ours, theirs)) in x.iter().zip(&symforce.x.0).enumerate().skip(4) {
+        state = state.max((ours - theirs).abs() / ours.abs().max(sigma[i - 1]));
     }
     let mut covariance = 0.0_f32;
-    let upper = (0..STATES).flat_map(|i| (i..STATES).map(move |j| (i, j)));
+    let upper = (0..TANGENT).flat_map(|i| (i..TANGENT).map(move |j| (i, j)));
     for ((i, j), theirs) in upper.zip(&symforce.p.0) {
         covariance = covariance.max((p[i][j] - theirs).abs() / (sigma[i] * sigma[j]));
     }
     (state, covariance)
+}
+
+/// `2 vec(b ⊗ a⁻¹)` of the attitudes `[x, y, z, w]` first in the states `a` and `b`: the
+/// rotation vector, to first order, of the turn in the earth frame that takes `a` to `b`.
+fn rotation_between(a: &[f32; STATES], b: &[f32; STATES]) -> [f32; 3] {
+    let ([ax, ay, az, aw], [bx, by, bz, bw]) = ([a[0], a[1], a[2], a[3]], [b[0], b[1], b[2], b[3]]);
+    // The vector part of b ⊗ conj(a): aw b_v - bw a_v - b_v × a_v.
+    [
+        2.0 * (aw * bx - bw * ax - (by * az - bz * ay)),
+        2.0 * (aw * by - bw * ay - (bz * ax - bx * az)),
+        2.0 * (aw * bz - bw * az - (bx * ay - by * ax)),
+    ]
 }
 
 /// One kernel on both sides: the calls read, what was compared, the stacks.
@@ -374,7 +306,7 @@ struct Comparison {
     predict: Kernel<PREDICTIONS>,
     gnss: Kernel<GNSS_UPDATES>,
     magnetometer: Kernel<MAGNETOMETER_UPDATES>,
-    q: Aligned<STATES>,
+    q: Aligned<TANGENT>,
     r_gnss: Aligned<6>,
     r_magnetometer: Aligned<3>,
 }
@@ -385,7 +317,7 @@ impl Comparison {
             predict: Kernel::new("predict"),
             gnss: Kernel::new("update_gnss"),
             magnetometer: Kernel::new("update_magnetometer"),
-            q: Aligned(additive_tuning().1),
+            q: Aligned(flight::Q),
             r_gnss: Aligned(core::array::from_fn(|i| flight::R[i])),
             r_magnetometer: Aligned(core::array::from_fn(|i| flight::R[6 + i])),
         }
@@ -396,10 +328,9 @@ impl Comparison {
     fn step(&mut self, clock: &Clock, ekf: &mut Ekf, event: Event, call: usize) {
         let prior = Estimate::of(ekf);
         let mut posterior = prior;
-        let was_used = |status: Status| used(status, event, call);
+        let was_used = |status| used(status, event, call);
         match event {
-            Event::Predict(rates) => {
-                let u = &delta(rates);
+            Event::Predict(u) => {
                 let k = &mut self.predict;
                 let (v, q) = (Aligned(*u), &self.q);
                 k.symforce.measure(clock, || {
@@ -407,7 +338,7 @@ impl Comparison {
                 });
                 let status = k
                     .ours
-                    .measure(clock, || generated_navigation_additive_predict(ekf, u));
+                    .measure(clock, || generated_navigation_predict(ekf, u));
                 k.compare(ekf, &posterior, was_used(status), call);
             }
             Event::Gnss(y) => {
@@ -418,7 +349,7 @@ impl Comparison {
                 });
                 let status = k
                     .ours
-                    .measure(clock, || generated_navigation_additive_update_gnss(ekf, y));
+                    .measure(clock, || generated_navigation_update_gnss(ekf, y));
                 k.compare(ekf, &posterior, was_used(status), call);
             }
             Event::Magnetometer(y) => {
@@ -427,9 +358,9 @@ impl Comparison {
                 k.symforce.measure(clock, || {
                     peers_symforce_update_magnetometer(&prior, &v, r, &mut posterior);
                 });
-                let status = k.ours.measure(clock, || {
-                    generated_navigation_additive_update_magnetometer(ekf, y)
-                });
+                let status = k
+                    .ours
+                    .measure(clock, || generated_navigation_update_magnetometer(ekf, y));
                 k.compare(ekf, &posterior, was_used(status), call);
             }
         }
@@ -445,30 +376,27 @@ impl Comparison {
             stack_depth(|| kernel(black_box(&mut copy)))
         };
         let (imu, gnss, magnetometer) = (
-            Aligned(delta(&flight::IMU[0])),
+            Aligned(flight::IMU[0]),
             Aligned(flight::GNSS[0].1),
             Aligned(flight::MAGNETOMETER[0].1),
         );
         let stacks = (
             ours(&|f| {
-                let _ = black_box(generated_navigation_additive_predict(f, &imu.0));
+                let _ = black_box(generated_navigation_predict(f, &imu.0));
             }),
             stack_depth(|| peers_symforce_predict(&prior, &imu, &self.q, &mut out)),
         );
         self.predict.report(stacks);
         let stacks = (
             ours(&|f| {
-                let _ = black_box(generated_navigation_additive_update_gnss(f, &gnss.0));
+                let _ = black_box(generated_navigation_update_gnss(f, &gnss.0));
             }),
             stack_depth(|| peers_symforce_update_gnss(&prior, &gnss, &self.r_gnss, &mut out)),
         );
         self.gnss.report(stacks);
         let stacks = (
             ours(&|f| {
-                let _ = black_box(generated_navigation_additive_update_magnetometer(
-                    f,
-                    &magnetometer.0,
-                ));
+                let _ = black_box(generated_navigation_update_magnetometer(f, &magnetometer.0));
             }),
             stack_depth(|| {
                 peers_symforce_update_magnetometer(

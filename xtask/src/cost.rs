@@ -103,8 +103,8 @@ const KERNELS: &[Kernel] = &[
         paper_ms: None,
     },
     // The navigation EKF over the first 4 s of the navigation flight (issue 19; since issue
-    // 40 the error-state filter, 24 entries and a covariance over 23; SymForce's peer, in
-    // the peers' table, runs beside the additive filter it was written for).
+    // 40 the error-state filter, 24 entries and a covariance over 23; SymForce's peer of
+    // the same error-state filter is in the peers' table).
     Kernel {
         name: "navigation_predict",
         label: "navigation predict (24)",

@@ -213,7 +213,11 @@ fn build_osqp(
 /// Builds and runs the firmware with the peers; its output.
 fn run_firmware(targets: &Path, lib: &Path, features: &str) -> Result<String, String> {
     println!("xtask: the firmware with the peers ({features}) under QEMU");
-    let output = crate::command::cargo()
+    let mut command = crate::command::cargo();
+    if features.contains("symforce") {
+        command.env("PEERS_LIBM_DIR", peers_build::c_math_library()?);
+    }
+    let output = command
         .args(["run", "--release", "--quiet", "--features", features])
         .current_dir(targets)
         .env("CARGO_TARGET_DIR", TARGET_DIR)

@@ -42,6 +42,21 @@ pub fn arm_gcc() -> Result<String, String> {
     version_line(Command::new("arm-none-eabi-gcc").arg("--version"))
 }
 
+/// The directory of the ARM toolchain's C math library (newlib's `libm.a`) for
+/// [`CFLAGS`]' CPU and ABI, which the firmware links SymForce's code against.
+pub fn c_math_library() -> Result<PathBuf, String> {
+    let out = Command::new("arm-none-eabi-gcc")
+        .args(CFLAGS)
+        .arg("-print-file-name=libm.a")
+        .output()
+        .map_err(|e| format!("cannot run arm-none-eabi-gcc: {e}"))?;
+    let path = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim());
+    match path.parent() {
+        Some(dir) if path.is_absolute() && path.exists() => Ok(dir.to_owned()),
+        _ => Err("arm-none-eabi-gcc knows no libm.a for the Cortex-M4F".into()),
+    }
+}
+
 fn version_line(command: &mut Command) -> Result<String, String> {
     let out = command
         .output()

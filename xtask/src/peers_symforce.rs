@@ -9,12 +9,11 @@
 //! (`targets/src/peers_navigation.rs`), and this module reads what it printed and makes
 //! the navigation table.
 //!
-//! That model is the additive 24-state filter the navigation model was before its
-//! error-state rewrite on `Rot3` (issue 40): the firmware keeps its own copy of it
-//! (`targets/src/peers_navigation_model.rs`) for this comparison, while the main job and
-//! the cost table run the error-state `generated_demo::navigation`. Its constants (24
-//! states, `DT`, gravity) are those of `generated_demo::navigation`, which `constants`
-//! reads.
+//! The model is the error-state navigation filter (issue 40): SymForce's derivation keeps
+//! the attitude an `sf.Rot3` and the covariance over its 23 tangent coordinates, as PX4
+//! EKF2's does, and the firmware runs it beside `generated_demo::navigation` itself. Its
+//! constants (24 entries, 23 tangent coordinates, `DT`, gravity) are those of
+//! `generated_demo::navigation`, which `constants` reads.
 
 use crate::peers_build;
 use crate::program::Program;
@@ -41,17 +40,20 @@ const KERNELS: [(&str, &str); 3] = [
 /// What each side was given, printed under the table.
 pub const TERMS: &str = "Both sides from the same estimate at every call: before each \
      call of ours, SymForce is handed our filter's state and covariance (the packed \
-     upper triangle, read through Ekf::covariance), the same IMU sample or measurement, \
-     Q's diagonal or the sensor's part of R's (R is diagonal). Ours: the generated f32 \
-     additive navigation filter's (the navigation model before its error-state rewrite, \
-     the firmware's copy) predict, update_gnss and update_magnetometer as generated (each \
-     update a joint update of the sensor's outputs, gated at 22.46 and 16.27, with its \
-     input and divergence checks, its innovation and NIS stored). SymForce: x_new = f(x, u), \
-     P_new = A P A' + diag(q) on the packed triangle; each sensor fused as sequential \
-     scalar updates linearised at the prior (PX4 EKF2's scheme), no gate and no checks; \
-     generated C++ templates for float, called through extern \"C\" wrappers with \
-     separate output arrays. A measurement ours rejects is not compared, only counted \
-     (skipped)";
+     upper triangle over the 23 tangent coordinates, read through Ekf::covariance), the \
+     same IMU sample or measurement, Q's diagonal or the sensor's part of R's (R is \
+     diagonal). Ours: the generated f32 error-state navigation filter's predict, \
+     update_gnss and update_magnetometer as generated (each update a joint update of the \
+     sensor's outputs through an L D L' factor, gated at 22.46 and 16.27, with its input \
+     and divergence checks, its innovation and NIS stored, then the injection and the \
+     covariance reset). SymForce: the same error-state filter on its Rot3 (global angular \
+     error), x_new = f(x, u) with the exact Rot3.from_tangent, P_new = F P F' + diag(q) on \
+     the packed triangle, F the Jacobian of the tangent error at zero; each sensor fused as \
+     sequential scalar updates of the error linearised at the prior (PX4 EKF2's scheme), \
+     then Rot3.from_tangent(dtheta) * q and G P G', G = I + [dtheta/2]x; each new attitude \
+     renormalised by one Newton step as ours; no gate and no checks; generated C++ \
+     templates for float, called through extern \"C\" wrappers with separate output \
+     arrays. A measurement ours rejects is not compared, only counted (skipped)";
 
 /// Builds SymForce's peer: generates its code and compiles it with the glue; its objects.
 pub fn build(root: &Path, python: &Path, dir: &Path) -> Result<Vec<PathBuf>, String> {
@@ -77,14 +79,22 @@ pub fn build(root: &Path, python: &Path, dir: &Path) -> Result<Vec<PathBuf>, Str
     .map_err(|e| format!("SymForce's code cannot be built here: {e}"))
 }
 
+/// The exponential map's epsilon, `sqrt(|θ|² + ε²)` for the angle: the square root of
+/// the compiler's `geometry::ANGLE_EPSILON_SQUARED` (1e-18), which the generated code
+/// holds only as a literal. It moves no result above rounding unless the angle is near
+/// 1e-9 rad; SymForce's `Rot3.from_tangent` pads the angle the same way.
+const ANGLE_EPSILON: f64 = 1e-9;
+
 /// The model's constants as the generator takes them (`navigation.json`), from the
 /// generated Rust model itself.
 fn constants(dir: &Path) -> Result<PathBuf, String> {
     use generated_demo::navigation;
     let json = serde_json::json!({
         "states": navigation::X_LEN,
+        "tangent": navigation::TANGENT_LEN,
         "dt": navigation::in_f64::DT,
         "gravity": navigation::in_f64::GRAVITY,
+        "epsilon": ANGLE_EPSILON,
     });
     let path = dir.join("navigation.json");
     std::fs::write(&path, json.to_string()).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -101,7 +111,7 @@ pub fn wrappers(program: &Program) -> Vec<String> {
 }
 
 fn ours(kernel: &str) -> String {
-    format!("generated_navigation_additive_{kernel}")
+    format!("generated_navigation_{kernel}")
 }
 
 fn symforce(kernel: &str) -> String {
@@ -193,7 +203,7 @@ pub fn report(
     versions: &str,
 ) -> String {
     let mut out = format!(
-        "SymForce's navigation EKF beside the generated one (24 states), same Cortex-M4F, \
+        "SymForce's error-state navigation EKF beside the generated one (24 entries, 23 tangent coordinates), same Cortex-M4F, \
          same 4 s of the navigation flight ({versions}, {}):\n",
         peers_build::CFLAGS.join(" ")
     );
@@ -255,8 +265,9 @@ const NOTE: &str = "  Instructions per call over the flight (every call read by 
      instruction; text: bytes of code the call can reach; stack: bytes. ours/SF: our \
      median and worst instructions over SymForce's (goal: at most 0.8). d state, d cov: the \
      largest difference of SymForce's result from ours over the calls compared, a state \
-     entry scaled by max(|x_i|, sqrt(P_ii)) and a covariance entry by sqrt(P_ii P_jj), x \
-     and P ours after the call (goal: at most 1e-5). *: the goal is not met. skipped: \
+     entry scaled by max(|x_i|, sigma_k) (sigma_k = sqrt(P_kk) of its tangent coordinate), \
+     the attitude as the rotation vector from ours to SymForce's scaled by sigma_k, and a \
+     covariance entry by sigma_i sigma_j, x and P ours after the call (goal: at most 1e-5). *: the goal is not met. skipped: \
      the calls ours rejected as outliers, of all.\n";
 
 /// A kernel's two rows: ours, with the ratios and the agreement, then SymForce's.
