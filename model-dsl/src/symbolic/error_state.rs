@@ -168,6 +168,51 @@ pub fn reset_covariance(
     gpg
 }
 
+/// Whether the rotation `r` is advanced as `q ⊗ X` with `X` independent of `q` (a body
+/// rate's `q * exp(w DT)`): `next`, its next value before renormalisation, reads `q` only
+/// through `jacobian` (`d next / dq`, the rows and columns of `r` in the state's Jacobian),
+/// which is then `X`'s right-multiplication matrix, reading no entry of `q`, and `next` is
+/// zero at `q = 0`. Its global error then carries over unchanged
+/// (`Exp(δθ) ⊗ q ⊗ X ⊗ (q ⊗ X)⁻¹ = Exp(δθ)`): the error-state Jacobian's block is exactly
+/// the identity, which the chain of matrices computes only to rounding, at a cost.
+pub fn turns_by_right_factor(
+    g: &mut Graph,
+    (x, next): (&[NodeId], &[NodeId]),
+    r: Rotation,
+    jacobian: &Matrix,
+) -> bool {
+    let s = r.storage;
+    let block: Vec<&[NodeId]> = (s..s + 4).map(|i| &jacobian[i][s..s + 4]).collect();
+    // `q ⊗ X` is `R(X) q`, and `R(X)`'s last column (the one of `q_w`) is `X` itself.
+    let [xx, xy, xz, xw] = [0, 1, 2, 3].map(|i| block[i][3]);
+    let (nx, ny, nz) = (g.neg(xx), g.neg(xy), g.neg(xz));
+    let right = [
+        [xw, xz, ny, xx],
+        [nz, xw, xx, xy],
+        [xy, nx, xw, xz],
+        [nx, ny, nz, xw],
+    ];
+    let q_vars: Vec<_> = (s..s + 4)
+        .filter_map(|i| match g.node(x[i]) {
+            super::graph::Node::Var(v) => Some(v),
+            _ => None,
+        })
+        .collect();
+    let matches = block
+        .iter()
+        .zip(&right)
+        .all(|(row, expected)| row == expected);
+    if !matches || q_vars.len() != 4 || right.iter().flatten().any(|&e| g.reads_any(e, &q_vars)) {
+        return false;
+    }
+    let zero = g.zero();
+    let at_zero: Vec<(super::graph::VarId, NodeId)> = q_vars.iter().map(|&v| (v, zero)).collect();
+    (s..s + 4).all(|i| {
+        let value = super::graph::substitute(g, next[i], &at_zero);
+        g.is_zero(value)
+    })
+}
+
 /// `local · m · retraction`: a Jacobian over the state's entries taken to the tangent
 /// space on either side given (`None` for the identity), skipping structural zeros.
 pub fn to_tangent(
@@ -199,6 +244,49 @@ mod tests {
             }],
             n_x: 6,
             n_p: 5,
+        }
+    }
+
+    /// The Jacobian of `next` over the variables `x`.
+    fn jacobian(g: &mut Graph, next: &[NodeId], x: &[NodeId]) -> Matrix {
+        let mut rows = vec![Vec::new(); next.len()];
+        for &v in x {
+            let super::super::graph::Node::Var(var) = g.node(v) else {
+                unreachable!("x holds variables")
+            };
+            let mut d = super::super::diff::Differentiator::new(var);
+            for (row, &n) in rows.iter_mut().zip(next) {
+                row.push(d.diff(g, n));
+            }
+        }
+        rows
+    }
+
+    /// `q ⊗ X` is recognised when `X` reads no entry of `q`; `X ⊗ q` and `q ⊗ q` are not.
+    #[test]
+    fn a_turn_by_a_right_factor_is_recognised() {
+        let mut g = Graph::new();
+        let x: Vec<NodeId> = (0..6).map(|i| g.var(&format!("x{i}"))).collect();
+        let w = g.var("w");
+        let (q, r) = (
+            [x[1], x[2], x[3], x[4]],
+            Rotation {
+                storage: 1,
+                tangent: 1,
+            },
+        );
+        let rate = [x[0], w, x[5]];
+        let increment = crate::geometry::exp(&mut g, rate);
+        let cases = [
+            (crate::geometry::compose(&mut g, q, increment), true),
+            (crate::geometry::compose(&mut g, increment, q), false),
+            (crate::geometry::compose(&mut g, q, q), false),
+        ];
+        for (turned, expected) in cases {
+            let next = [x[0], turned[0], turned[1], turned[2], turned[3], x[5]];
+            let a = jacobian(&mut g, &next, &x);
+            let found = turns_by_right_factor(&mut g, (&x, &next), r, &a);
+            assert_eq!(found, expected);
         }
     }
 

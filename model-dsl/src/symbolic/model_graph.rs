@@ -369,10 +369,27 @@ impl ModelGraph {
         // The renormalisation is left out: its derivative at a unit quaternion `r` is
         // `I - r rᵀ` (to rounding), and the error's map at `r` annihilates `r`.
         let (layout, f, x) = (self.tangent.clone(), self.f.clone(), self.x.clone());
-        let a = self.jacobian(&self.f_unnormalised.clone(), &x);
+        let next = self.f_unnormalised.clone();
+        let a = self.jacobian(&next, &x);
         let local = error_state::local_jacobian(&mut self.graph, &layout, &f);
         let retraction = error_state::retraction_jacobian(&mut self.graph, &layout, &x);
-        error_state::to_tangent(&mut self.graph, Some(&local), &a, Some(&retraction))
+        let mut tangent =
+            error_state::to_tangent(&mut self.graph, Some(&local), &a, Some(&retraction));
+        for &r in &layout.rotations {
+            if error_state::turns_by_right_factor(&mut self.graph, (&x, &next), r, &a) {
+                let t = r.tangent;
+                for (i, row) in tangent[t..t + 3].iter_mut().enumerate() {
+                    for (j, entry) in row[t..t + 3].iter_mut().enumerate() {
+                        *entry = if i == j {
+                            self.graph.one()
+                        } else {
+                            self.graph.zero()
+                        };
+                    }
+                }
+            }
+        }
+        tangent
     }
 
     /// The Jacobian of `f` with respect to the inputs, taken to the tangent space of the
