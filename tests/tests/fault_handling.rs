@@ -2,7 +2,7 @@
 //! continuous-time EKF (an outlier rejected, the prediction kept, the filter going on), and
 //! covariance arguments that are not covariances rejected where they enter, by every
 //! filter, leaving it unchanged. The error-state EKF of a model with a rotation (the AHRS
-//! test model, `tests/models/ahrs.rs`, and the same gated, `tests/models/ahrs_gated.rs`)
+//! test model, `tests/models/ahrs.rs`, with its gated `GatedEkf`)
 //! in `f32` and `f64`: non-finite entries, rotations that are not unit quaternions and
 //! covariances over its tangent space that are not covariances rejected where they enter,
 //! and each sensor's gate judging that sensor's update alone.
@@ -15,7 +15,6 @@ use tests::reference::{self, State};
 use tests::tuning::{diag, p0, Q_DIAG, R, X0_CLOSE};
 
 include!("../models/ahrs.rs");
-include!("../models/ahrs_gated.rs");
 
 /// The blade's identification prior of sect. 4.1 (`x0`, `P0`, `Q = Q~ / T`, `R`).
 mod blade {
@@ -713,6 +712,6 @@ macro_rules! assert_ahrs_gates_are_per_sensor {
 
 #[test]
 fn the_error_state_ekf_gates_each_sensor_on_its_own() {
-    assert_ahrs_gates_are_per_sensor!(f32, ahrs_gated);
-    assert_ahrs_gates_are_per_sensor!(f64, ahrs_gated::in_f64);
+    assert_ahrs_gates_are_per_sensor!(f32, ahrs);
+    assert_ahrs_gates_are_per_sensor!(f64, ahrs::in_f64);
 }

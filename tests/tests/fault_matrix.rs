@@ -30,7 +30,6 @@ use generated_demo::{
 };
 
 include!("../models/ahrs.rs");
-include!("../models/ahrs_gated.rs");
 
 /// Entries beyond this are an exploded estimate.
 const EXPLODED: f64 = 1e12;
@@ -343,11 +342,11 @@ ekf_family!(
 ekf_family!(
     AhrsGated32,
     AhrsGated64,
-    ahrs_gated::GatedEkf,
+    ahrs::GatedEkf,
     gate = true,
     q = vector,
     call = plain,
-    rotations = [ahrs_gated::index::Q_X]
+    rotations = [ahrs::index::Q_X]
 );
 
 /// A filter outside the EKF family: how to read, step and build it, and where it has them,
@@ -1250,7 +1249,7 @@ fn ahrs_gyro(t: f64) -> Vec<f64> {
 
 /// The error-state EKF of the AHRS test model (`tests/models/ahrs.rs`: a rotation state,
 /// its covariance over the 3 coordinates of the rotation's tangent and the gyro bias's 3),
-/// ungated and gated (`tests/models/ahrs_gated.rs`).
+/// ungated and gated (`GatedEkf` of `tests/models/ahrs.rs`).
 #[test]
 fn ahrs_error_state_filters() {
     use ahrs::in_f64::{Ekf, Status};
