@@ -423,17 +423,22 @@ fn attitude_error(x: &[f32; 7], truth: &UnitQuaternion<f64>) -> f64 {
     (reference::rotation(&x, 0) * truth.inverse()).angle()
 }
 
-#[test]
-fn the_f32_filter_keeps_a_unit_quaternion_over_1e5_samples() {
-    let mut flight = Flight::new(7);
-    let setup = flight_setup(&flight);
-    let mut ekf = ahrs::Ekf::new(
+/// The `f32` filter of `setup`.
+fn f32_filter(setup: &Setup) -> ahrs::Ekf {
+    ahrs::Ekf::new(
         &to_f32(&setup.x0),
         &matrix_to_f32(&setup.p0),
         &to_f32(&setup.q),
         &matrix_to_f32(&setup.r),
     )
-    .expect("a valid setup");
+    .expect("a valid setup")
+}
+
+#[test]
+fn the_f32_filter_keeps_a_unit_quaternion_over_1e5_samples() {
+    let mut flight = Flight::new(7);
+    let setup = flight_setup(&flight);
+    let mut ekf = f32_filter(&setup);
     let (mut worst, mut worst_attitude) = (0.0_f64, 0.0_f64);
     for k in 0..100_000 {
         let (gyro, y) = flight.sample();
@@ -519,13 +524,7 @@ fn reset_takes_back_the_filters_own_state_and_covariance() {
 fn the_f32_filter_takes_back_its_own_state_and_covariance() {
     let mut flight = Flight::new(13);
     let setup = flight_setup(&flight);
-    let mut ekf = ahrs::Ekf::new(
-        &to_f32(&setup.x0),
-        &matrix_to_f32(&setup.p0),
-        &to_f32(&setup.q),
-        &matrix_to_f32(&setup.r),
-    )
-    .expect("a valid setup");
+    let mut ekf = f32_filter(&setup);
     for k in 0..2000 {
         let (gyro, y) = flight.sample();
         assert_eq!(
