@@ -510,7 +510,12 @@ impl EkfNodes {
         }
         if kind.updates() {
             nodes.correct(model.outputs.len(), &outputs, kind.sensor(model).is_some());
-            nodes.order = in_place::update_order(model.tangent_len(), outputs.len());
+            let rotations: Vec<_> = model
+                .rotations()
+                .iter()
+                .map(|r| r.tangent..r.tangent + 3)
+                .collect();
+            nodes.order = in_place::update_order(model.tangent_len(), outputs.len(), &rotations);
         }
         nodes
     }
