@@ -94,6 +94,12 @@ impl Arguments {
         quote! { stateforge_math::#ty::pack_upper(#arg) }
     }
 
+    /// A further test of a covariance argument, made with the tests that they are
+    /// covariances (a structural zero it must have).
+    pub fn covariance_structure(&mut self, test: TokenStream) {
+        self.covariances.push(test);
+    }
+
     /// A process noise covariance `name` (`n x n`): its variances if `diagonal`
     /// ([`Arguments::vector`], tested non-negative; the array itself), else a
     /// [`Arguments::covariance`]. Returns the value stored, as an expression.
