@@ -4,7 +4,8 @@
 //! A model file reads into the same [`stateforge_compiler::ast::ModelDecl`] as the macro's
 //! tokens and goes through the same checks and emitters, so both give the same module.
 //! This crate carries what the macro does not need (`serde`, `toml`, `meval`,
-//! `prettyplease`, `clap`), which keeps `stateforge` light to build.
+//! `prettyplease`, `clap`), which keeps `stateforge` light to build, and [`measure`], the
+//! host side of the harness that measures generated code on an emulated Cortex-M4F.
 
 #![forbid(unsafe_code)]
 
@@ -12,6 +13,7 @@ mod expression_dots;
 mod expression_places;
 mod expression_text;
 mod layout;
+pub mod measure;
 pub mod meval_text;
 pub mod model_file;
 mod toml_hints;

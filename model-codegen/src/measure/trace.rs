@@ -3,10 +3,10 @@
 //! this QEMU has no TCG plugins). The firmware brackets its measured calls with
 //! `trace_begin` and `trace_end`; within them, each call of a kernel's wrapper is followed
 //! instruction by instruction while execution stays in the functions the wrapper can
-//! reach, and each executed instruction is weighted by [`crate::timing`].
+//! reach, and each executed instruction is weighted by [`super::timing`].
 
-use crate::program::Program;
-use crate::timing::{self, Class};
+use super::program::Program;
+use super::timing::{self, Class};
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
@@ -99,8 +99,7 @@ fn marker(program: &Program, name: &str) -> Result<u32, String> {
 /// QEMU started on `elf`, logging every executed block (one instruction each) to its stderr.
 fn start_qemu(elf: &Path) -> Result<Child, String> {
     Command::new("qemu-system-arm")
-        .args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
-        .args(["-semihosting-config", "enable=on,target=native"])
+        .args(super::MACHINE)
         .args(["-singlestep", "-d", "exec,nochain", "-kernel"])
         .arg(elf)
         .stdin(Stdio::null())
