@@ -33,8 +33,8 @@ mod vendored;
 
 use clap::{Parser, Subcommand};
 use command::{cargo, run};
-// The measuring harness's host side (the image's instructions, the trace, the TRM's
-// timings, installing what it needs), shared with `stateforge-codegen measure`.
+// The measuring harness's host side (the image's instructions, the trace, installing what
+// it needs), shared with `stateforge-codegen measure`.
 use stateforge_cli::measure::{program, setup, trace};
 use std::path::Path;
 use std::process::ExitCode;

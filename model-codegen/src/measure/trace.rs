@@ -16,7 +16,7 @@ use std::process::{Child, Command, Stdio};
 type Kind = (Class, u32, usize);
 
 /// What the trace saw of one kernel wrapper.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Traced {
     /// Calls seen between the markers.
     pub calls: u64,
@@ -26,6 +26,8 @@ pub struct Traced {
     pub cycles: u64,
     /// Instructions and cycles by group ([`timing::GROUPS`]).
     pub groups: [(u64, u64); timing::GROUPS.len()],
+    /// Instructions and estimated cycles of each call, in order.
+    pub each: Vec<(u64, u64)>,
 }
 
 impl Traced {
@@ -37,6 +39,14 @@ impl Traced {
     /// Estimated cycles per call.
     pub fn cycles_per_call(&self) -> f64 {
         self.cycles as f64 / self.calls.max(1) as f64
+    }
+
+    /// The median and the largest of the calls' instructions (`0`) or cycles (`1`).
+    pub fn median_worst(&self, of: impl Fn(&(u64, u64)) -> u64) -> (u64, u64) {
+        let mut values: Vec<u64> = self.each.iter().map(of).collect();
+        values.sort_unstable();
+        let median = values.get(values.len() / 2).copied().unwrap_or(0);
+        (median, values.last().copied().unwrap_or(0))
     }
 }
 
@@ -193,6 +203,8 @@ struct State {
     pending: Option<u32>,
     /// Whether the instruction before `pending` was a single load.
     after_load: bool,
+    /// The followed wrapper's instructions and cycles when its current call began.
+    call_start: (u64, u64),
 }
 
 impl State {
@@ -217,6 +229,7 @@ impl State {
             self.settle(Some(address), classes, traced);
             self.current = Some(k);
             traced[k].calls += 1;
+            self.call_start = (traced[k].instructions, traced[k].cycles);
         } else if let Some(k) = self.current {
             if !followed[k].contains(address) {
                 // Back in the harness: the call is over.
@@ -258,7 +271,14 @@ impl State {
     /// Ends the call being followed.
     fn settle(&mut self, next: Option<u32>, classes: &BTreeMap<u32, Kind>, traced: &mut [Traced]) {
         self.cost_pending(next, classes, traced);
-        self.current = None;
+        if let Some(k) = self.current.take() {
+            let (instructions, cycles) = self.call_start;
+            let call = (
+                traced[k].instructions - instructions,
+                traced[k].cycles - cycles,
+            );
+            traced[k].each.push(call);
+        }
         self.after_load = false;
     }
 }
