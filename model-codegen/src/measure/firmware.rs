@@ -1,7 +1,7 @@
 //! The measuring firmware as a crate of its own in a work directory: written, built in
 //! release for the Cortex-M4F, and run under QEMU with its instruction counter.
 
-use super::{MACHINE, TARGET};
+use super::board::{MACHINE, TARGET};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};

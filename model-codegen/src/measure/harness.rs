@@ -228,14 +228,16 @@ struct Value {
 }
 
 impl Value {
-    fn owned(expr: impl Into<String>) -> Value {
+    /// A value passed by reference (`&expr`).
+    fn referenced(expr: impl Into<String>) -> Value {
         Value {
             expr: expr.into(),
             by_ref: true,
         }
     }
 
-    fn plain(expr: impl Into<String>) -> Value {
+    /// A value passed as it is (a scalar, an `Option`).
+    fn direct(expr: impl Into<String>) -> Value {
         Value {
             expr: expr.into(),
             by_ref: false,
@@ -262,19 +264,22 @@ fn tuning(type_name: &str, arg: &Arg, is_filter: bool, sizes: Sizes) -> Result<V
         _ => "1.0",
     };
     Ok(match &arg.shape {
-        Shape::Vector(n) if name == "x0" && *n == sizes.x => Value::owned("X0"),
-        Shape::Vector(n) if name == "known" && *n == sizes.known => Value::owned("KNOWN"),
-        Shape::Vector(n) if name == "u_min" => Value::owned(format!("[-1.0; {n}]")),
-        Shape::Vector(n) if name == "u_max" => Value::owned(format!("[1.0; {n}]")),
-        Shape::Vector(n) => Value::owned(format!("[{variance}_f32; {n}]")),
-        Shape::OptionalVector(n) if name == "u_max" => Value::plain(format!("Some(&[1.0; {n}])")),
-        Shape::OptionalVector(n) if name == "u_min" => Value::plain(format!("Some(&[-1.0; {n}])")),
-        Shape::OptionalVector(_) => Value::plain("None"),
+        Shape::Vector(n) if name == "x0" && *n == sizes.x => Value::referenced("X0"),
+        Shape::Vector(n) if name == "known" && *n == sizes.known => Value::referenced("KNOWN"),
+        Shape::Vector(n) if name == "u_min" => Value::referenced(format!("[-1.0; {n}]")),
+        Shape::Vector(n) if name == "u_max" => Value::referenced(format!("[1.0; {n}]")),
+        Shape::Vector(n) => Value::referenced(format!("[{variance}_f32; {n}]")),
+        Shape::OptionalVector(n) if name == "u_max" => Value::direct(format!("Some(&[1.0; {n}])")),
+        Shape::OptionalVector(n) if name == "u_min" => Value::direct(format!("Some(&[-1.0; {n}])")),
+        Shape::OptionalVector(_) => Value::direct("None"),
         Shape::Matrix(rows, cols) if rows == cols => {
-            Value::owned(format!("diag::<{rows}>({variance})"))
+            Value::referenced(format!("diag::<{rows}>({variance})"))
         }
-        Shape::Matrix(rows, cols) => Value::owned(format!("[[0.0_f32; {cols}]; {rows}]")),
-        Shape::Scalar => Value::plain("0.5"),
+        Shape::Matrix(rows, cols) => Value::referenced(format!("[[0.0_f32; {cols}]; {rows}]")),
+        // A gate given at construction: a chi-square quantile no measurement of the run
+        // reaches.
+        Shape::Scalar if name.contains("gate") => Value::direct("1e6"),
+        Shape::Scalar => Value::direct("0.5"),
         Shape::Other(ty) => {
             return Err(format!(
                 "cannot make a `{ty}` for `{type_name}::new`'s argument `{name}`"
@@ -376,20 +381,20 @@ impl Scenario<'_> {
     fn argument(&self, call: &Function, arg: &Arg) -> Result<Value, String> {
         let sizes = self.sizes;
         Ok(match (arg.name.as_str(), &arg.shape) {
-            ("t", Shape::Scalar) => Value::plain("s.t"),
-            ("t_prev", Shape::Scalar) => Value::plain("s.t_prev"),
-            ("dt", Shape::Scalar) => Value::plain("SAMPLE_TIME"),
-            ("u_prev", Shape::Vector(n)) if *n == sizes.u => Value::owned("s.u_prev"),
-            ("u", Shape::Vector(n)) if *n == sizes.u => Value::owned("s.u"),
-            ("x", Shape::Vector(n)) if *n == sizes.x => Value::owned("s.x"),
-            ("known", Shape::Vector(n)) if *n == sizes.known => Value::owned("KNOWN"),
-            ("y", Shape::Scalar) => Value::plain(format!("s.y[{}]", self.measured(call, 1)[0])),
+            ("t", Shape::Scalar) => Value::direct("s.t"),
+            ("t_prev", Shape::Scalar) => Value::direct("s.t_prev"),
+            ("dt", Shape::Scalar) => Value::direct("SAMPLE_TIME"),
+            ("u_prev", Shape::Vector(n)) if *n == sizes.u => Value::referenced("s.u_prev"),
+            ("u", Shape::Vector(n)) if *n == sizes.u => Value::referenced("s.u"),
+            ("x", Shape::Vector(n)) if *n == sizes.x => Value::referenced("s.x"),
+            ("known", Shape::Vector(n)) if *n == sizes.known => Value::referenced("KNOWN"),
+            ("y", Shape::Scalar) => Value::direct(format!("s.y[{}]", self.measured(call, 1)[0])),
             ("y", Shape::Vector(n)) => {
                 let entries = self.measured(call, *n);
                 let all: Vec<usize> = (0..sizes.y).collect();
                 match entries == all {
-                    true => Value::owned("s.y"),
-                    false => Value::owned(format!(
+                    true => Value::referenced("s.y"),
+                    false => Value::referenced(format!(
                         "[{}]",
                         entries
                             .iter()
@@ -399,11 +404,11 @@ impl Scenario<'_> {
                     )),
                 }
             }
-            (_, Shape::Scalar) => Value::plain("0.5"),
-            (_, Shape::Vector(n)) => Value::owned(format!("[0.5_f32; {n}]")),
-            (_, Shape::OptionalVector(_)) => Value::plain("None"),
+            (_, Shape::Scalar) => Value::direct("0.5"),
+            (_, Shape::Vector(n)) => Value::referenced(format!("[0.5_f32; {n}]")),
+            (_, Shape::OptionalVector(_)) => Value::direct("None"),
             (_, Shape::Matrix(rows, cols)) if rows == cols => {
-                Value::owned(format!("diag::<{rows}>(1e-2)"))
+                Value::referenced(format!("diag::<{rows}>(1e-2)"))
             }
             (name, shape) => {
                 return Err(format!(

@@ -11,6 +11,7 @@
 //! Rust target, QEMU and the ARM binutils). Its firmware side is `firmware/measure.rs`.
 
 mod api;
+pub mod board;
 mod firmware;
 mod harness;
 pub mod program;
@@ -19,29 +20,9 @@ mod table;
 pub mod timing;
 pub mod trace;
 
+pub use board::{MACHINE, TARGET, TOOLS};
 use stateforge_compiler::model::Model;
 use std::path::PathBuf;
-
-/// The Rust target of the Cortex-M4F with its FPU.
-pub const TARGET: &str = "thumbv7em-none-eabihf";
-
-/// QEMU's board and core, with semihosting for the firmware's output.
-pub const MACHINE: [&str; 7] = [
-    "-machine",
-    "mps2-an386",
-    "-cpu",
-    "cortex-m4",
-    "-nographic",
-    "-semihosting-config",
-    "enable=on,target=native",
-];
-
-/// The commands measuring runs, with the Debian packages that provide them.
-pub const TOOLS: &[(&str, &str)] = &[
-    ("qemu-system-arm", "qemu-system-arm"),
-    ("arm-none-eabi-nm", "binutils-arm-none-eabi"),
-    ("arm-none-eabi-objdump", "binutils-arm-none-eabi"),
-];
 
 /// How to measure.
 #[derive(Clone, Debug)]

@@ -109,7 +109,7 @@ fn marker(program: &Program, name: &str) -> Result<u32, String> {
 /// QEMU started on `elf`, logging every executed block (one instruction each) to its stderr.
 fn start_qemu(elf: &Path) -> Result<Child, String> {
     Command::new("qemu-system-arm")
-        .args(super::MACHINE)
+        .args(super::board::MACHINE)
         .args(["-singlestep", "-d", "exec,nochain", "-kernel"])
         .arg(elf)
         .stdin(Stdio::null())
