@@ -1,4 +1,5 @@
-//! Puts `memory.x` where the linker finds it, and embeds the measured sequence the host
+//! Puts `memory.x` (the board's, beside the shared measuring harness in
+//! `model-codegen/firmware/`) where the linker finds it, and embeds the measured sequence the host
 //! also uses (`generated_demo::sequence`) as a constant, so target and host filter
 //! exactly the same data; likewise the observers' sequences and the first seconds of the
 //! navigation flight (`generated_demo::flight`).
@@ -11,9 +12,11 @@ const SAMPLES: usize = 1000;
 
 fn main() {
     let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
-    std::fs::copy("memory.x", out.join("memory.x")).expect("memory.x is readable");
+    // The board's memory map, shared with the firmware `stateforge-codegen measure` builds.
+    let memory = "../model-codegen/firmware/memory.x";
+    std::fs::copy(memory, out.join("memory.x")).expect("memory.x is readable");
     println!("cargo:rustc-link-search={}", out.display());
-    println!("cargo:rerun-if-changed=memory.x");
+    println!("cargo:rerun-if-changed={memory}");
 
     let mut code = String::new();
     let _ = writeln!(

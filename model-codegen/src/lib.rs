@@ -4,7 +4,8 @@
 //! A model file reads into the same [`stateforge_compiler::ast::ModelDecl`] as the macro's
 //! tokens and goes through the same checks and emitters, so both give the same module.
 //! This crate carries what the macro does not need (`serde`, `toml`, `meval`,
-//! `prettyplease`, `clap`), which keeps `stateforge` light to build.
+//! `prettyplease`, `clap`), which keeps `stateforge` light to build, and [`measure`]: a
+//! model's calls run on an emulated Cortex-M4F (`stateforge-codegen measure`).
 
 #![forbid(unsafe_code)]
 
@@ -12,6 +13,7 @@ mod expression_dots;
 mod expression_places;
 mod expression_text;
 mod layout;
+pub mod measure;
 pub mod meval_text;
 pub mod model_file;
 mod toml_hints;
@@ -86,4 +88,19 @@ pub fn expand_model_file_with_warnings(source: &str) -> syn::Result<(TokenStream
     let module =
         stateforge_compiler::pipeline::emit_model(&checked).map_err(toml_hints::in_toml_terms)?;
     Ok((module, checked.warnings))
+}
+
+/// A model's checked IR and its generated module, from a TOML model file (`is_toml`, its
+/// errors' hints in the file's syntax) or a Rust source holding one `model! { .. }`.
+pub fn checked_and_module(source: &str, is_toml: bool) -> syn::Result<(Checked, TokenStream)> {
+    if is_toml {
+        let checked = parse_model_file(source)?;
+        let module = stateforge_compiler::pipeline::emit_model(&checked)
+            .map_err(toml_hints::in_toml_terms)?;
+        Ok((checked, module))
+    } else {
+        let checked = stateforge_compiler::parse_macro_source(source)?;
+        let module = stateforge_compiler::pipeline::emit_model(&checked)?;
+        Ok((checked, module))
+    }
 }

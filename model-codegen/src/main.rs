@@ -5,12 +5,17 @@
 //! ```text
 //! stateforge-codegen models/cantilever.toml -o src/cantilever.rs
 //! stateforge-codegen generated-demo/models/cantilever.rs
+//! stateforge-codegen measure models/cantilever.toml
 //! ```
+//!
+//! `measure` runs the model's generated calls on an emulated Cortex-M4F and prints what
+//! each costs (`stateforge_cli::measure`).
 
 #![forbid(unsafe_code)]
 
 use clap::Parser;
-use std::path::PathBuf;
+use stateforge_compiler::check::Checked;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 /// The tool's own allocator (the compiler library picks none): laying out a large model
@@ -22,12 +27,20 @@ use std::process::ExitCode;
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 /// Generate the Rust code of a model (what the `model!` macro generates), formatted, to
-/// vendor or review.
+/// vendor or review; or measure its calls on an emulated Cortex-M4F (`measure`).
 #[derive(Parser)]
-#[command(name = env!("CARGO_BIN_NAME"), version)]
+#[command(
+    name = env!("CARGO_BIN_NAME"),
+    version,
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true
+)]
 struct Args {
+    #[command(subcommand)]
+    command: Option<Command>,
     /// A TOML model file, or a Rust file holding one `model! { .. }` invocation.
-    model: PathBuf,
+    #[arg(required = true)]
+    model: Option<PathBuf>,
     /// Write the code to FILE (replaced only if generation succeeds) instead of standard
     /// output.
     #[arg(short, long, value_name = "FILE")]
@@ -35,6 +48,31 @@ struct Args {
     /// How to lay out the code.
     #[arg(long, value_enum, default_value_t = Formatter::Rustfmt)]
     formatter: Formatter,
+}
+
+#[derive(clap::Subcommand)]
+enum Command {
+    /// Measure the model's calls on an emulated Cortex-M4F (QEMU).
+    ///
+    /// Builds the model's f32 code into a firmware that runs each generated call (`predict`,
+    /// each sensor's update, `step`, `solve`, ..) on the model's own simulated run, and
+    /// prints per call its instructions, its traced cycles beside the static estimate
+    /// (`*_CYCLES`), its stack and its code size. Installs the thumbv7em-none-eabihf target,
+    /// and with apt-get QEMU and the ARM binutils, when they are missing.
+    Measure(Measure),
+}
+
+#[derive(clap::Args)]
+struct Measure {
+    /// A TOML model file, or a Rust file holding one `model! { .. }` invocation.
+    model: PathBuf,
+    /// How many samples of the model's simulated run each call takes (1 to 1000).
+    #[arg(long, default_value_t = 100)]
+    samples: usize,
+    /// Where to write and build the measuring firmware [default: a directory named
+    /// after the model in the system's temporary directory].
+    #[arg(long, value_name = "DIR")]
+    work_dir: Option<PathBuf>,
 }
 
 /// The layout of the printed code.
@@ -49,61 +87,97 @@ enum Formatter {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    let source = match std::fs::read_to_string(&args.model) {
+    match (args.command, args.model) {
+        (Some(Command::Measure(measure)), _) => run_measure(&measure),
+        (None, Some(model)) => generate(&model, args.output.as_deref(), args.formatter),
+        (None, None) => {
+            eprintln!("error: give a model file (see --help)");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The model in `path`, checked, and its generated code laid out by `prettyplease`; its
+/// warnings printed. `None` after printing its errors (or why it cannot be read).
+fn load(path: &Path) -> Option<(Checked, String)> {
+    let source = match std::fs::read_to_string(path) {
         Ok(source) => source,
         Err(e) => {
-            eprintln!("error: cannot read {}: {e}", args.model.display());
-            return ExitCode::FAILURE;
+            eprintln!("error: cannot read {}: {e}", path.display());
+            return None;
         }
     };
-    let is_toml = args.model.extension().is_some_and(|e| e == "toml");
-    let expanded = if is_toml {
-        stateforge_cli::expand_model_file_with_warnings(&source)
-    } else {
-        stateforge_compiler::expand_macro_source_with_warnings(&source)
-    };
-    let generated = expanded.map(|(module, warnings)| {
-        for warning in &warnings {
-            let message = &warning.message;
-            eprint!(
-                "{}",
-                report(&args.model, &source, "warning", warning.span, message)
-            );
-        }
-        module
-    });
-    match generated.and_then(stateforge_cli::format) {
-        Ok(code) => {
-            let code = format!("{}{code}", header(&args.model));
-            let code = match args.formatter {
-                Formatter::Prettyplease => code,
-                Formatter::Rustfmt => match stateforge_cli::rustfmt(&code) {
-                    Ok(code) => code,
-                    Err(e) => {
-                        eprintln!("error: {e} (`--formatter prettyplease` does without)");
-                        return ExitCode::FAILURE;
-                    }
-                },
-            };
-            match &args.output {
-                None => print_code(&code),
-                Some(path) => {
-                    if let Err(e) = std::fs::write(path, code) {
-                        eprintln!("error: cannot write {}: {e}", path.display());
-                        return ExitCode::FAILURE;
-                    }
-                    ExitCode::SUCCESS
-                }
+    let is_toml = path.extension().is_some_and(|e| e == "toml");
+    let generated =
+        stateforge_cli::checked_and_module(&source, is_toml).and_then(|(checked, module)| {
+            for warning in &checked.warnings {
+                let message = &warning.message;
+                eprint!(
+                    "{}",
+                    report(path, &source, "warning", warning.span, message)
+                );
             }
-        }
+            stateforge_cli::format(module).map(|code| (checked, code))
+        });
+    match generated {
+        Ok(generated) => Some(generated),
         Err(errors) => {
             for error in errors {
                 let message = error.to_string();
-                eprint!(
-                    "{}",
-                    report(&args.model, &source, "error", error.span(), &message)
-                );
+                eprint!("{}", report(path, &source, "error", error.span(), &message));
             }
+            None
+        }
+    }
+}
+
+/// `stateforge-codegen <MODEL>`: the code, to standard output or `output`.
+fn generate(model: &Path, output: Option<&Path>, formatter: Formatter) -> ExitCode {
+    let Some((_, code)) = load(model) else {
+        return ExitCode::FAILURE;
+    };
+    let code = format!("{}{code}", header(model));
+    let code = match formatter {
+        Formatter::Prettyplease => code,
+        Formatter::Rustfmt => match stateforge_cli::rustfmt(&code) {
+            Ok(code) => code,
+            Err(e) => {
+                eprintln!("error: {e} (`--formatter prettyplease` does without)");
+                return ExitCode::FAILURE;
+            }
+        },
+    };
+    match output {
+        None => print_code(&code),
+        Some(path) => {
+            if let Err(e) = std::fs::write(path, code) {
+                eprintln!("error: cannot write {}: {e}", path.display());
+                return ExitCode::FAILURE;
+            }
+            ExitCode::SUCCESS
+        }
+    }
+}
+
+/// `stateforge-codegen measure <MODEL>`: the table to standard output, the progress to
+/// standard error.
+fn run_measure(args: &Measure) -> ExitCode {
+    let Some((checked, code)) = load(&args.model) else {
+        return ExitCode::FAILURE;
+    };
+    let work_dir = args.work_dir.clone().unwrap_or_else(|| {
+        std::env::temp_dir()
+            .join("stateforge-measure")
+            .join(&checked.model.name)
+    });
+    let options = stateforge_cli::measure::Options {
+        samples: args.samples,
+        work_dir,
+    };
+    match stateforge_cli::measure::measure(&checked.model, &code, &options) {
+        Ok(table) => print_code(&table),
+        Err(e) => {
+            eprintln!("error: {e}");
             ExitCode::FAILURE
         }
     }

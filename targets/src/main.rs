@@ -23,6 +23,9 @@ mod continuous;
 mod lines;
 mod math;
 mod matrix;
+/// The measuring harness, shared with `stateforge-codegen measure` (which writes it into
+/// the firmware it builds for a user's model): one place for how calls are counted.
+#[path = "../../model-codegen/firmware/measure.rs"]
 mod measure;
 mod mpc;
 mod navigation;

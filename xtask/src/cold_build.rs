@@ -57,7 +57,7 @@ impl Build {
 pub fn navigation_firmware(target: &'static str) -> Result<Build, String> {
     let path = workspace_root().join("generated-demo/models/navigation.rs");
     let model = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    crate::setup::rust_target(target)?;
+    stateforge_cli::measure::setup::rust_target(target)?;
     Ok(Build {
         source: format!(
             "//! The navigation model, built as firmware builds it.\n#![no_std]\n\

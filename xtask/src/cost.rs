@@ -4,10 +4,10 @@
 //! the C peer and the paper.
 
 use crate::firmware::{MpcPaths, Report, Spread};
-use crate::program::Program;
 use crate::static_estimate;
-use crate::timing;
-use crate::trace::Traced;
+use stateforge_cli::measure::program::Program;
+use stateforge_cli::measure::timing;
+use stateforge_cli::measure::trace::Traced;
 use std::collections::BTreeMap;
 
 /// The paper's clock: an STM32F407 at 168 MHz.

@@ -27,16 +27,15 @@ mod peers_build;
 mod peers_problem;
 mod peers_symforce;
 mod peers_tinympc;
-mod program;
 mod scratch;
-mod setup;
 mod static_estimate;
-mod timing;
-mod trace;
 mod vendored;
 
 use clap::{Parser, Subcommand};
 use command::{cargo, run};
+// The measuring harness's host side (the image's instructions, the trace, installing what
+// it needs), shared with `stateforge-codegen measure`.
+use stateforge_cli::measure::{program, setup, trace};
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -55,12 +54,9 @@ const PUBLISHED: [&str; 4] = [
     "stateforge",
     "stateforge-cli",
 ];
-/// Commands the firmware checks run, with the Debian packages that provide them.
-const FIRMWARE_TOOLS: &[(&str, &str)] = &[
-    ("qemu-system-arm", "qemu-system-arm"),
-    ("arm-none-eabi-nm", "binutils-arm-none-eabi"),
-    ("arm-none-eabi-objdump", "binutils-arm-none-eabi"),
-];
+/// Commands the firmware checks run, with the Debian packages that provide them: those
+/// of the shared measuring harness.
+const FIRMWARE_TOOLS: &[(&str, &str)] = stateforge_cli::measure::TOOLS;
 
 #[derive(Parser)]
 #[command(about = "Project automation")]

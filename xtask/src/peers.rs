@@ -13,8 +13,8 @@
 //! a second table reports it (`peers_symforce`).
 
 use crate::peers_build::{self, PACKAGES};
-use crate::program::Program;
 use crate::scratch::workspace_root;
+use stateforge_cli::measure::program::Program;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
@@ -136,7 +136,13 @@ fn trace(
     root: &Path,
     osqp: &[PathBuf],
     symforce: bool,
-) -> Result<(Program, BTreeMap<String, crate::trace::Traced>), String> {
+) -> Result<
+    (
+        Program,
+        BTreeMap<String, stateforge_cli::measure::trace::Traced>,
+    ),
+    String,
+> {
     let elf = root.join(TARGETS).join(ELF);
     let mut program = Program::read(&elf)?;
     // OSQP dispatches to its linear-system solver through function pointers, which the
@@ -161,7 +167,7 @@ fn trace(
         wrappers.extend(crate::peers_symforce::wrappers(&program));
     }
     println!("xtask: the peers' firmware again, traced instruction by instruction");
-    let traced = crate::trace::run(&elf, &program, &wrappers)?;
+    let traced = stateforge_cli::measure::trace::run(&elf, &program, &wrappers)?;
     Ok((program, traced))
 }
 
@@ -179,7 +185,7 @@ fn tinympc(
     let program = Program::read(&elf)?;
     let wrapper = vec!["peers_tinympc_solve".to_owned()];
     println!("xtask: TinyMPC's firmware again, traced instruction by instruction");
-    let traced = crate::trace::run(&elf, &program, &wrapper)?;
+    let traced = stateforge_cli::measure::trace::run(&elf, &program, &wrapper)?;
     let own = crate::peers_tinympc::reference(dir)?;
     row("tinympc", solvers, Some(&own), &program, &traced)
 }
@@ -320,7 +326,7 @@ fn row(
     solvers: &BTreeMap<String, Solver>,
     own: Option<&[Vec<f64>]>,
     program: &Program,
-    traced: &BTreeMap<String, crate::trace::Traced>,
+    traced: &BTreeMap<String, stateforge_cli::measure::trace::Traced>,
 ) -> Result<String, String> {
     let ours = solvers.get("mpc").ok_or("no plans of the generated MPC")?;
     let solver = solvers

@@ -33,7 +33,7 @@ pub const CFLAGS: &[&str] = &[
 
 /// The ARM compiler, installed with apt-get if missing; its version line.
 pub fn arm_gcc() -> Result<String, String> {
-    crate::setup::debian_commands(&[
+    stateforge_cli::measure::setup::debian_commands(&[
         ("arm-none-eabi-gcc", "gcc-arm-none-eabi"),
         ("arm-none-eabi-g++", "libstdc++-arm-none-eabi-newlib"),
         ("arm-none-eabi-ar", "binutils-arm-none-eabi"),

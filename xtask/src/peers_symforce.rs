@@ -16,8 +16,8 @@
 //! `generated_demo::navigation`, which `constants` reads.
 
 use crate::peers_build;
-use crate::program::Program;
-use crate::trace::Traced;
+use stateforge_cli::measure::program::Program;
+use stateforge_cli::measure::trace::Traced;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -66,7 +66,11 @@ pub fn build(root: &Path, python: &Path, dir: &Path) -> Result<Vec<PathBuf>, Str
         .map_err(|e| format!("SymForce's code generation: {e}"))?;
     print!("xtask: {said}");
     let eigen = Path::new(EIGEN);
-    crate::setup::debian_file(&eigen.join("Eigen/Core"), EIGEN_PACKAGE, "SymForce's C++")?;
+    stateforge_cli::measure::setup::debian_file(
+        &eigen.join("Eigen/Core"),
+        EIGEN_PACKAGE,
+        "SymForce's C++",
+    )?;
     let options = vec![
         "-fno-exceptions".to_owned(),
         "-fno-rtti".to_owned(),

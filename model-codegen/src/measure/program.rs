@@ -2,7 +2,7 @@
 //! large, whom they call) and its instructions, for the size and cycle columns of the
 //! cost table.
 
-use crate::timing::{self, Class};
+use super::timing::{self, Class};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 use std::process::Command;

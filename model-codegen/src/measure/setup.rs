@@ -1,7 +1,22 @@
-//! What the checks need on the machine, installed or reported clearly.
+//! What measuring on the emulated Cortex-M4F needs on the machine (a Rust target, QEMU,
+//! the ARM binutils), installed or reported clearly: shared by `stateforge-codegen
+//! measure` and the project's `cargo xtask`.
 
 use std::path::Path;
 use std::process::Command;
+
+/// Runs a command, naming it on standard error as it starts and in the error if it fails.
+pub fn run(what: &str, command: &mut Command) -> Result<(), String> {
+    eprintln!("{what}");
+    let status = command
+        .status()
+        .map_err(|e| format!("{what}: cannot start: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("{what} failed ({status})"))
+    }
+}
 
 /// Installs a rustup target if it is missing.
 pub fn rust_target(target: &str) -> Result<(), String> {
@@ -17,8 +32,8 @@ pub fn rust_target(target: &str) -> Result<(), String> {
     {
         return Ok(());
     }
-    println!("xtask: installing the Rust target {target}");
-    crate::command::run(
+    eprintln!("installing the Rust target {target}");
+    run(
         &format!("`rustup target add {target}`"),
         Command::new("rustup").args(["target", "add", target]),
     )
@@ -32,7 +47,7 @@ pub fn debian_commands(needed: &[(&str, &str)]) -> Result<(), String> {
     }
     let packages: Vec<&str> = missing.iter().map(|(_, package)| *package).collect();
     let hint = format!(
-        "the firmware checks need {}: install them with `apt-get install {}`",
+        "measuring on the emulated Cortex-M4F needs {}: install them with `apt-get install {}`",
         missing
             .iter()
             .map(|(cmd, _)| *cmd)
@@ -64,10 +79,10 @@ fn apt_install(packages: &[&str], hint: &str, installed: impl Fn() -> bool) -> R
     if !exists("apt-get") {
         return Err(hint.to_owned());
     }
-    println!("xtask: installing {}", packages.join(" "));
-    let update = crate::command::run("`apt-get update`", Command::new("apt-get").arg("update"));
+    eprintln!("installing {}", packages.join(" "));
+    let update = run("`apt-get update`", Command::new("apt-get").arg("update"));
     let install = update.and_then(|()| {
-        crate::command::run(
+        run(
             "`apt-get install`",
             Command::new("apt-get")
                 .args(["install", "-y"])

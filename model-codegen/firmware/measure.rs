@@ -2,6 +2,11 @@
 //! QEMU's `-icount shift=0` (one instruction per virtual nanosecond, SysTick at 25 MHz:
 //! 40 instructions per tick, checked against a loop of known length), and the deepest
 //! stack a call uses, by painting the free stack and looking for the first overwritten word.
+//!
+//! One harness for every firmware that measures: the project's own (`targets/`, which
+//! includes this file) and the one `stateforge-codegen measure` writes for a user's model
+//! (which embeds it). The host side, which reads what it prints and traces the calls
+//! between its markers, is `stateforge_cli::measure`.
 
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
 

@@ -3,10 +3,10 @@
 //! this QEMU has no TCG plugins). The firmware brackets its measured calls with
 //! `trace_begin` and `trace_end`; within them, each call of a kernel's wrapper is followed
 //! instruction by instruction while execution stays in the functions the wrapper can
-//! reach, and each executed instruction is weighted by [`crate::timing`].
+//! reach, and each executed instruction is weighted by [`super::timing`].
 
-use crate::program::Program;
-use crate::timing::{self, Class};
+use super::program::Program;
+use super::timing::{self, Class};
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
@@ -16,7 +16,7 @@ use std::process::{Child, Command, Stdio};
 type Kind = (Class, u32, usize);
 
 /// What the trace saw of one kernel wrapper.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Traced {
     /// Calls seen between the markers.
     pub calls: u64,
@@ -26,6 +26,8 @@ pub struct Traced {
     pub cycles: u64,
     /// Instructions and cycles by group ([`timing::GROUPS`]).
     pub groups: [(u64, u64); timing::GROUPS.len()],
+    /// Instructions and estimated cycles of each call, in order.
+    pub each: Vec<(u64, u64)>,
 }
 
 impl Traced {
@@ -37,6 +39,14 @@ impl Traced {
     /// Estimated cycles per call.
     pub fn cycles_per_call(&self) -> f64 {
         self.cycles as f64 / self.calls.max(1) as f64
+    }
+
+    /// The median and the largest of the calls' instructions (`0`) or cycles (`1`).
+    pub fn median_worst(&self, of: impl Fn(&(u64, u64)) -> u64) -> (u64, u64) {
+        let mut values: Vec<u64> = self.each.iter().map(of).collect();
+        values.sort_unstable();
+        let median = values.get(values.len() / 2).copied().unwrap_or(0);
+        (median, values.last().copied().unwrap_or(0))
     }
 }
 
@@ -99,8 +109,7 @@ fn marker(program: &Program, name: &str) -> Result<u32, String> {
 /// QEMU started on `elf`, logging every executed block (one instruction each) to its stderr.
 fn start_qemu(elf: &Path) -> Result<Child, String> {
     Command::new("qemu-system-arm")
-        .args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
-        .args(["-semihosting-config", "enable=on,target=native"])
+        .args(super::board::MACHINE)
         .args(["-singlestep", "-d", "exec,nochain", "-kernel"])
         .arg(elf)
         .stdin(Stdio::null())
@@ -194,6 +203,8 @@ struct State {
     pending: Option<u32>,
     /// Whether the instruction before `pending` was a single load.
     after_load: bool,
+    /// The followed wrapper's instructions and cycles when its current call began.
+    call_start: (u64, u64),
 }
 
 impl State {
@@ -218,6 +229,7 @@ impl State {
             self.settle(Some(address), classes, traced);
             self.current = Some(k);
             traced[k].calls += 1;
+            self.call_start = (traced[k].instructions, traced[k].cycles);
         } else if let Some(k) = self.current {
             if !followed[k].contains(address) {
                 // Back in the harness: the call is over.
@@ -259,7 +271,14 @@ impl State {
     /// Ends the call being followed.
     fn settle(&mut self, next: Option<u32>, classes: &BTreeMap<u32, Kind>, traced: &mut [Traced]) {
         self.cost_pending(next, classes, traced);
-        self.current = None;
+        if let Some(k) = self.current.take() {
+            let (instructions, cycles) = self.call_start;
+            let call = (
+                traced[k].instructions - instructions,
+                traced[k].cycles - cycles,
+            );
+            traced[k].each.push(call);
+        }
         self.after_load = false;
     }
 }
