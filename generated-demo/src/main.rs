@@ -111,7 +111,8 @@ fn main() -> Result<(), Box<dyn Error>> {
 
     experiment::outliers::run(out)?;
     experiment::blade::run(out)?;
-    experiment::blade_control::run(out)?;
+    let (designs, baseline) = experiment::blade_control::run(out)?;
+    experiment::blade_ablation::run(out, &designs, baseline)?;
     experiment::trms::run(out)?;
     experiment::flight::run(out)?;
 
