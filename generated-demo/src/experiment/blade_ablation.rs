@@ -10,7 +10,7 @@ use super::blade_control::{
     cell, plot, relative_rss, simulate, trace, Designs, Run, PAPER_RSS, PHASES, RSS_WINDOWS,
 };
 use super::blade_modes::{coupling_ratio, first_mode_of_bare_blade, frequency_ratio};
-use super::blade_plant::{END, FIRST_HIT, HIT_FORCE, IDENTIFICATION_END, K, M};
+use super::blade_plant::{ADDED_MASS, END, FIRST_HIT, HIT_FORCE, IDENTIFICATION_END, K, M};
 use super::blade_rig::{Features, LowPass, RigDesign, MEAN_WINDOW, SUBSTEPS};
 use super::controllers::{Kind, U_MAX};
 use super::metrics::mean;
@@ -157,12 +157,39 @@ fn relative_table(rows: &[Row]) -> String {
 /// the resting stinger.
 fn limits_table(rows: &[Row]) -> String {
     let mut text = format!(
-        "\nplant                 EKF-MPC q [mm]  MPC m [kg]  MPC solves  max |u|  RMS u 20-22 s [V]  \
-         open loop  stinger\n\
-         \x20                     nominal loaded  loaded     failed       [V]   MPC    LQ   PPF  \
-         swing [mm]  touches\n\
-         (limits, truth)                        (0.254)                ({U_MAX})\n",
+        "\n{:<20} {:>15} {:>11} {:>13} {:>7} {:>17} {:>11} {:>8}\n",
+        "plant",
+        "EKF-MPC q [mm]",
+        "MPC m [kg]",
+        "MPC solves",
+        "max |u|",
+        "RMS u 20-22 s [V]",
+        "open loop",
+        "stinger"
     );
+    text.push_str(&format!(
+        "{:<20} {:>8} {:>6} {:>11} {:>13} {:>7} {:>5} {:>5} {:>5} {:>11} {:>8}\n",
+        "",
+        "nominal",
+        "loaded",
+        "loaded",
+        "failed",
+        "[V]",
+        "MPC",
+        "LQ",
+        "PPF",
+        "swing [mm]",
+        "touches"
+    ));
+    text.push_str(&format!(
+        "{:<20} {:>8} {:>6} {:>11} {:>13} {:>7}\n",
+        "(truth, limit)",
+        "",
+        "",
+        format!("({:.3})", M + ADDED_MASS),
+        "",
+        format!("({U_MAX})")
+    ));
     for row in rows {
         let mpc = &row.runs[0];
         let (nominal, _) = mpc.rms(RSS_WINDOWS[0]);
@@ -192,4 +219,43 @@ fn limits_table(rows: &[Row]) -> String {
         ));
     }
     text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::experiment::blade_rig::{Rig, AMPLIFIER_GAIN, DAC_RANGE};
+    use generated_demo::mass_spring_damper::in_f64::{Mpc, TS};
+
+    /// The full plant, with and without the weight's sag, over the whole 80 s run: every
+    /// closed loop's input within +-100 V (and the patches' voltage within the amplifier's
+    /// rails), every MPC solve `Ok` within its iteration bound, no filter step rejected.
+    #[test]
+    fn the_full_plants_closed_loops_keep_their_limits_and_every_solve() {
+        let designs = Designs::new().unwrap();
+        let design = RigDesign::new(Features::NONE, HIT_FORCE);
+        for features in [Features::ALL, Features::ALL_AND_SAG] {
+            let rig = design.with(features);
+            let patches = Rig::new(&rig);
+            for kind in [Kind::Mpc, Kind::Lq, Kind::Ppf] {
+                let run = simulate(kind, &designs, &rig, END).unwrap();
+                assert_eq!(run.u.len(), (END / TS).round() as usize);
+                for &u in &run.u {
+                    assert!(u.abs() <= U_MAX, "{kind:?}: {u} V");
+                    assert!(patches.applied(u).abs() <= AMPLIFIER_GAIN * DAC_RANGE);
+                }
+                assert_eq!(run.rejected_steps, 0, "{kind:?}");
+                assert_eq!(run.stinger_touches, 0, "{kind:?}");
+                if kind == Kind::Mpc {
+                    let stats = run.mpc.unwrap();
+                    assert_eq!(stats.failures, 0);
+                    assert_eq!(
+                        stats.solves,
+                        ((END - IDENTIFICATION_END) / TS).round() as u64
+                    );
+                    assert!(stats.worst_iterations <= Mpc::MAX_ITERATIONS);
+                }
+            }
+        }
+    }
 }

@@ -320,12 +320,20 @@ impl Rig {
     pub fn step(&mut self, u: f64) -> f64 {
         let t = self.k as f64 * TS;
         let applied = self.applied(u);
+        // The weight goes on and off at sample boundaries: read at the sample's middle.
+        let loaded = mass(t + 0.5 * TS) > M;
+        // The contact's onset and release are kinks in the force, where RK4 loses its
+        // order: eight times finer steps over a stroke (a fortieth of the run).
+        let stroke = self.design.stinger.stroke;
+        let striking = self.design.features.stinger
+            && since_hit(t + 0.5 * TS).is_some_and(|since| since < stroke + TS);
+        let substeps = self.design.substeps * if striking { 8 } else { 1 };
         self.z = rk4(
-            |t, z| self.rate(t, z, applied),
+            |t, z| self.rate(t, z, applied, loaded),
             t,
             self.z,
             TS,
-            self.design.substeps,
+            substeps,
         );
         self.k += 1;
         let t = self.k as f64 * TS;
@@ -367,14 +375,13 @@ impl Rig {
     }
 
     /// The force at the tip \[N\]: the hit, and the weight's gravity when simulated.
-    fn tip_force(&self, t: f64, tip: f64) -> f64 {
+    fn tip_force(&self, t: f64, tip: f64, loaded: bool) -> f64 {
         let features = self.design.features;
         let hit = if features.stinger {
             self.design.stinger.force(since_hit(t).unwrap_or(-1.0), tip)
         } else {
             hit_force(t, self.design.hit_peak)
         };
-        let loaded = mass(t) > M;
         let sag = if features.sag && loaded {
             -ADDED_MASS * GRAVITY
         } else {
@@ -385,14 +392,14 @@ impl Rig {
 
     /// The state's rate: the modes under the input and the tip force, the filter on the
     /// tip position.
-    fn rate(&self, t: f64, z: [f64; N], u: f64) -> [f64; N] {
+    fn rate(&self, t: f64, z: [f64; N], u: f64, loaded: bool) -> [f64; N] {
         let m = &self.modes;
         let tip = z[0] + z[1];
-        let force = self.tip_force(t, tip);
+        let force = self.tip_force(t, tip, loaded);
         let f: [f64; 2] = std::array::from_fn(|i| {
             m.input[i] * u + force - m.stiffness[i] * z[i] - m.damping[i] * z[2 + i]
         });
-        let inverse = &m.inverse_mass[usize::from(mass(t) > M)];
+        let inverse = &m.inverse_mass[usize::from(loaded)];
         let mut dz = [0.0; N];
         dz[0] = z[2];
         dz[1] = z[3];
@@ -418,4 +425,153 @@ impl Rig {
 /// Seconds since the last hit began, or `None` before the first.
 fn since_hit(t: f64) -> Option<f64> {
     (t >= FIRST_HIT).then(|| (t - FIRST_HIT) % HIT_EVERY)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::experiment::blade_modes::wavenumber;
+    use crate::experiment::blade_plant::{plant_step, HIT_FORCE};
+
+    /// A deterministic input that swings over the actuator's range.
+    fn input(k: u64) -> f64 {
+        let t = k as f64 * TS;
+        100.0 * (7.0 * t).sin() * (0.3 * t).cos()
+    }
+
+    #[test]
+    fn with_no_feature_it_is_the_single_mode_blade() {
+        let mut rig = Rig::new(&RigDesign::new(Features::NONE, HIT_FORCE));
+        let noise = GaussianNoise::new(NOISE_SIGMA, 12);
+        let mut x = [0.0; 2];
+        let mut largest: f64 = 0.0;
+        for k in 1..=4500 {
+            let t = (k - 1) as f64 * TS;
+            let u = input(k);
+            x = plant_step(t, x, u, TS, HIT_FORCE);
+            let y = rig.step(u);
+            largest = largest.max(x[0].abs());
+            assert!(
+                (rig.tip() - x[0]).abs() <= 1e-12 * largest.max(1e-3),
+                "sample {k}"
+            );
+            assert!((y - x[0] - noise.sample(k)).abs() <= 1e-12 * largest.max(1e-3));
+        }
+        // Hits at 22, 26, .. 42 s and the weight from 40 s were in the run.
+        assert!(largest > 5e-3, "{largest}");
+    }
+
+    #[test]
+    fn the_full_plants_integration_has_converged() {
+        let design = RigDesign::new(Features::ALL_AND_SAG, HIT_FORCE);
+        let fine = RigDesign {
+            substeps: 4 * SUBSTEPS,
+            ..design.clone()
+        };
+        let (mut rig, mut reference) = (Rig::new(&design), Rig::new(&fine));
+        let (mut difference, mut largest): (f64, f64) = (0.0, 0.0);
+        for k in 1..=4500 {
+            rig.step(input(k));
+            reference.step(input(k));
+            difference = difference.max((rig.tip() - reference.tip()).abs());
+            largest = largest.max(reference.tip().abs());
+        }
+        // The difference is the coarse run's error, through five stinger contacts and the
+        // weight's step: 3.5e-5 of the largest swing (without the stinger, where RK4 keeps
+        // its order, 1e-6).
+        assert!(difference < 1e-4 * largest, "{difference} of {largest}");
+    }
+
+    #[test]
+    fn the_running_mean_removes_the_last_ten_seconds_mean() {
+        let design = RigDesign::new(
+            Features {
+                running_mean: true,
+                ..Features::NONE
+            },
+            HIT_FORCE,
+        );
+        let mut rig = Rig::new(&design);
+        let signal = |k: usize| 1.0 + 1e-3 * k as f64 + (0.1 * k as f64).sin();
+        for k in 1..=2500 {
+            rig.k = k as u64;
+            let y = rig.remove_running_mean(signal(k));
+            let first = k.saturating_sub(MEAN_WINDOW) + 1;
+            let mean = (first..=k).map(signal).sum::<f64>() / (k - first + 1) as f64;
+            assert!((y - (signal(k) - mean)).abs() < 1e-9, "sample {k}");
+        }
+    }
+
+    #[test]
+    fn the_amplifier_steps_by_the_cards_resolution_within_its_rails() {
+        let rig = Rig::new(&RigDesign::new(
+            Features {
+                amplifier: true,
+                ..Features::NONE
+            },
+            HIT_FORCE,
+        ));
+        let step = AMPLIFIER_GAIN * 2.0 * DAC_RANGE / 65536.0;
+        for u in [-100.0, -37.123, 0.0, 0.004, 55.5, 100.0] {
+            let applied = rig.applied(u);
+            assert!(
+                (applied - u).abs() <= 0.5 * step + 1e-12,
+                "{u} -> {applied}"
+            );
+            assert!((applied / step - (applied / step).round()).abs() < 1e-9);
+        }
+        assert_eq!(rig.applied(1e3), AMPLIFIER_GAIN * DAC_RANGE);
+        assert_eq!(rig.applied(-1e3), -AMPLIFIER_GAIN * DAC_RANGE);
+        let plain = Rig::new(&RigDesign::new(Features::NONE, HIT_FORCE));
+        assert_eq!(plain.applied(-37.123), -37.123);
+    }
+
+    /// The wavenumber `beta L` of mode `mode` of a uniform cantilever with a tip mass
+    /// `ratio` times its own: the root of `1 + cos x cosh x + ratio x (cos x sinh x -
+    /// sin x cosh x) = 0` below the bare beam's (the continuous beam, not our two modes).
+    fn with_tip_mass(mode: usize, ratio: f64) -> f64 {
+        let f = |x: f64| {
+            1.0 + x.cos() * x.cosh() + ratio * x * (x.cos() * x.sinh() - x.sin() * x.cosh())
+        };
+        let bare = wavenumber(mode);
+        let (mut lo, mut hi) = (bare - 1.0, bare);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if f(lo).signum() == f(mid).signum() {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        0.5 * (lo + hi)
+    }
+
+    #[test]
+    fn the_modes_and_the_weights_effect_agree_with_the_continuous_blade() {
+        // Natural frequencies of M^-1 K (2 x 2), from its trace and determinant.
+        let frequencies = |modes: &Modes, loaded: usize| {
+            let inv = modes.inverse_mass[loaded];
+            let a: [[f64; 2]; 2] =
+                std::array::from_fn(|i| std::array::from_fn(|j| inv[i][j] * modes.stiffness[j]));
+            let (tr, det) = (a[0][0] + a[1][1], a[0][0] * a[1][1] - a[0][1] * a[1][0]);
+            let root = (tr * tr / 4.0 - det).sqrt();
+            [(tr / 2.0 - root).sqrt(), (tr / 2.0 + root).sqrt()]
+        };
+        let modes = Modes::new(true);
+        let [w1, w2] = frequencies(&modes, 0);
+        assert!((w1 - (K / M).sqrt()).abs() < 1e-9);
+        assert!((w2 / w1 - frequency_ratio()).abs() < 1e-9);
+        // The weight at the tip: the beam's mass is four tip-normalised modal masses.
+        let ratio = ADDED_MASS / (4.0 * M);
+        let [l1, l2] = frequencies(&modes, 1);
+        for (mode, (loaded, bare)) in [(l1, w1), (l2, w2)].into_iter().enumerate() {
+            let exact = (with_tip_mass(mode, ratio) / wavenumber(mode)).powi(2);
+            let ours = loaded / bare;
+            // Two modes, a Ritz model: from above, within 0.5 %.
+            assert!(
+                ours >= exact && ours < 1.005 * exact,
+                "mode {mode}: {ours} vs {exact}"
+            );
+        }
+    }
 }
