@@ -12,6 +12,7 @@ use super::blade_control::{
 use super::blade_modes::{coupling_ratio, first_mode_of_bare_blade, frequency_ratio};
 use super::blade_plant::{ADDED_MASS, END, FIRST_HIT, HIT_FORCE, IDENTIFICATION_END, K, M};
 use super::blade_rig::{Features, LowPass, RigDesign, MEAN_WINDOW, SUBSTEPS};
+use super::butterworth::Butterworth;
 use super::controllers::{Kind, U_MAX};
 use super::metrics::mean;
 use super::report;
@@ -85,44 +86,61 @@ pub fn run(out: &Path, designs: &Designs, baseline: Vec<Run>) -> Result<(), Box<
     )
 }
 
-/// What the rig simulates, each value with its source.
+/// What the rig simulates, each value with its source ("ours": an assumption).
 fn describe(design: &RigDesign) -> String {
     let gentle = LowPass::Gentle.design().expect("a filter");
     let steep = LowPass::Steep.design().expect("a filter");
+    let filter = |f: Butterworth| {
+        format!(
+            "order {} at {:.1} Hz ({:.1} dB at 50 Hz, {:.0} deg lag at 8.2 Hz)",
+            f.order,
+            f.corner_hz,
+            f.loss_db(50.0),
+            f.phase_lag(8.2).to_degrees()
+        )
+    };
     let stinger = design.stinger;
-    format!(
-        "\nThe blade like the experiment (ablation): the same controllers and filters (single-mode\n\
-         models, the paper's tuning) on a blade with, each alone and all together:\n\
-         - the paper's k/m is the blade's first mode ({:.1} rad/s; {:.1} from its dimensions for aluminium);\n\
-         - second mode at {:.3} x the first (Euler-Bernoulli), input gain {:.2} x the first's\n\
-           (patches over the first 50.8 mm; our span), same damping ratio (ours), 54 g at the tip on both;\n\
-         - laser low-pass, edges 30 / 50 Hz (the paper), losses ours: Butterworth order {} at {:.0} Hz\n\
-           ({:.1} dB at 50 Hz, {:.0} deg lag at 8.2 Hz); steeper: order {} at {:.1} Hz ({:.1} dB, {:.0} deg);\n\
-         - the paper's running mean over {} samples (0.1 Hz) subtracted from the measurement; with\n\
-           the 54 g weight's static sag at the tip (the blade bending vertically: ours) or without;\n\
-         - amplifier: 16-bit card over +-10 V times the paper's 20x gain (rails +-200 V);\n\
-         - stinger: raised-cosine stroke of {:.2} s (the paper's T_e) reaching {:.1} mm past the blade\n\
-           from {:.0} mm behind it, contact {:.0} N/m (gap and stiffness ours), hitting the blade at rest\n\
-           as the paper's F_e = 4 N half-sine over T_e does.\n\
-         RK4 with {SUBSTEPS} steps a sample; hits of 4 N every 4 s from 22 s, +54 g over 40-60 s.\n",
-        (K / M).sqrt(),
-        first_mode_of_bare_blade(),
-        frequency_ratio(),
-        coupling_ratio(),
-        gentle.order,
-        gentle.corner_hz,
-        gentle.loss_db(50.0),
-        gentle.phase_lag(8.2).to_degrees(),
-        steep.order,
-        steep.corner_hz,
-        steep.loss_db(50.0),
-        steep.phase_lag(8.2).to_degrees(),
-        MEAN_WINDOW,
-        stinger.stroke,
-        1e3 * stinger.reach,
-        1e3 * stinger.gap,
-        stinger.stiffness,
-    )
+    let lines = [
+        "The blade like the experiment (ablation): the same controllers and filters (single-mode"
+            .to_owned(),
+        "models, the paper's tuning) on a blade with, each alone and all together:".to_owned(),
+        format!(
+            "- first mode: the paper's k/m, {:.1} rad/s ({:.1} from the blade's dimensions for aluminium);",
+            (K / M).sqrt(),
+            first_mode_of_bare_blade()
+        ),
+        format!(
+            "- second mode at {:.3} x the first (Euler-Bernoulli), input gain {:.2} x the first's",
+            frequency_ratio(),
+            coupling_ratio()
+        ),
+        "  (patches over the first 50.8 mm: ours), same damping ratio (ours), 54 g at the tip on both;"
+            .to_owned(),
+        "- laser low-pass, edges 30 / 50 Hz (the paper), losses ours: a Butterworth of".to_owned(),
+        format!("  {};", filter(gentle)),
+        format!("  steeper: {};", filter(steep)),
+        format!(
+            "- the paper's running mean over {MEAN_WINDOW} samples (0.1 Hz) subtracted from the measurement;"
+        ),
+        "  with or without the 54 g weight's sag at the tip (the blade bending vertically: ours);"
+            .to_owned(),
+        "- amplifier: 16-bit card over +-10 V times the paper's 20x gain (rails +-200 V);".to_owned(),
+        format!(
+            "- stinger: raised-cosine stroke of {:.2} s (the paper's T_e) reaching {:.1} mm past the blade",
+            stinger.stroke,
+            1e3 * stinger.reach
+        ),
+        format!(
+            "  from {:.0} mm behind it, contact {:.0} N/m (gap and stiffness ours), hitting the blade",
+            1e3 * stinger.gap,
+            stinger.stiffness
+        ),
+        "  at rest as the paper's F_e = 4 N half-sine over T_e does.".to_owned(),
+        format!(
+            "RK4 with {SUBSTEPS} steps a sample; hits every 4 s from 22 s, +54 g over 40-60 s."
+        ),
+    ];
+    format!("\n{}\n", lines.join("\n"))
 }
 
 /// Each plant's LQ, PPF and open loop relative to its EKF-MPC, the paper's in brackets.

@@ -15,22 +15,23 @@
 //!   stop band edge at 50 Hz" (sect. 4.1), an analog Butterworth before sampling
 //!   (`butterworth`) whose losses at the edges the paper leaves open: order 2 (3 dB, 9.4
 //!   dB), or the conventional 3 dB / 20 dB (order 5), see `LowPass`.
-//! - `running_mean`: the static deflection and its removal: "a windowed running mean
-//!   filter with a 0.1 Hz fundamental frequency, in order to remove the static deformation
-//!   component of the beam position" (sect. 4.1), the mean over the last 10 s (1000
-//!   samples) subtracted from each sample. The static deflection it removes is the 54 g
-//!   weight's, `m_w g` at the tip while it is on (the blade bending in the vertical plane:
-//!   our assumption); a constant offset (the blade's own sag, the laser's zero) the mean
-//!   removes exactly and is left out.
+//! - `running_mean`: "a windowed running mean filter with a 0.1 Hz fundamental frequency,
+//!   in order to remove the static deformation component of the beam position" (sect.
+//!   4.1): the mean over the last 10 s (1000 samples) subtracted from each sample. A
+//!   constant offset (the blade's own sag, the laser's zero) it removes exactly, so none
+//!   is simulated; the hits' mean it removes too.
+//! - `sag`: the static deflection that changes, the 54 g weight's, `m_w g` at the tip
+//!   while it is on (the blade bending in the vertical plane: our assumption).
 //! - `amplifier`: the chain to the patches: the card's 16-bit output over +-10 V (NI
 //!   PCI-6030E) times the amplifier's 20x gain (sect. 2), so rails at +-200 V and steps
 //!   of 6.1 mV; the controllers' own +-100 V limit is inside it.
 //! - `stinger`: the hit as the stinger's stroke and contact (`stinger`) instead of a
 //!   half-sine force.
 //!
-//! Integrated by classical RK4, `SUBSTEPS` steps a sample, with the input held over the
-//! sample; the laser noise (sigma 1e-5 m,
-//! sect. 4.1) is added to each sample before the running mean.
+//! Integrated by classical RK4, `SUBSTEPS` steps a sample (eight times as many over a
+//! stinger's stroke), with the input held over the sample; the weight goes on and off at
+//! sample boundaries. The laser noise (sigma 1e-5 m, sect. 4.1) is added to each sample
+//! before the running mean.
 
 use super::blade_modes::{coupling_ratio, frequency_ratio};
 use super::blade_plant::{
@@ -336,12 +337,7 @@ impl Rig {
             substeps,
         );
         self.k += 1;
-        let t = self.k as f64 * TS;
-        let stroke = self.design.stinger.stroke;
-        let in_stroke = since_hit(t).is_some_and(|since| since < stroke);
-        if self.design.features.stinger && !in_stroke && self.stinger_force(t) > 0.0 {
-            self.touches_at_rest += 1;
-        }
+        self.count_touch_at_rest();
         let laser = if self.sections.is_empty() {
             self.tip()
         } else {
@@ -367,11 +363,16 @@ impl Rig {
         y - self.window_sum / self.window.len() as f64
     }
 
-    /// The stinger's contact force at `t` for the present tip position.
-    fn stinger_force(&self, t: f64) -> f64 {
-        self.design
-            .stinger
-            .force(since_hit(t).unwrap_or(-1.0), self.tip())
+    /// Counts the sample if the blade touches the stinger outside a stroke, at rest,
+    /// where the experiment's stinger leaves it "to vibrate freely".
+    fn count_touch_at_rest(&mut self) {
+        let stinger = &self.design.stinger;
+        let since = since_hit(self.k as f64 * TS);
+        let in_stroke = since.is_some_and(|since| since < stinger.stroke);
+        let force = stinger.force(since.unwrap_or(-1.0), self.tip());
+        if self.design.features.stinger && !in_stroke && force > 0.0 {
+            self.touches_at_rest += 1;
+        }
     }
 
     /// The force at the tip \[N\]: the hit, and the weight's gravity when simulated.

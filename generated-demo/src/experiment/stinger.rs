@@ -14,16 +14,17 @@
 //! half-sine force. The stroke lasts `T_e`, and its reach is calibrated so that the hit
 //! leaves the nominal blade at rest vibrating as that force does
 //! (`like_the_force_estimate`): the same hit, as a contact. (Calibrated instead to a
-//! contact force peaking at `F_e`, a stiff contact is over in milliseconds and leaves a
-//! sixth of the vibration: the hit's size is the paper's least known quantity, and
-//! `blade_control` shows what a smaller one does.) The gap at rest and the contact
-//! stiffness are our assumptions (`GAP`, `CONTACT_STIFFNESS`).
+//! contact force that peaks at `F_e` and lasts `T_e`, the stroke is slow, the blade rides
+//! the stinger back, and the open loop's largest swing is 3 mm against 20: the hit's size
+//! is the paper's least known quantity, and `blade_control` shows what a smaller one
+//! does.) The gap at rest and the contact stiffness are our assumptions (`GAP`,
+//! `CONTACT_STIFFNESS`).
 
 use super::blade_plant::{hit_force, rk4, B, FIRST_HIT, HIT_DURATION, K, M};
 
 /// Where the stinger rests, behind the blade's rest position \[m\]: clear of the open
-/// loop's largest swing (31 mm) so that it "leaves the beam to vibrate freely" (our
-/// assumption; touches of the resting stinger are counted in the ablation).
+/// loop's largest swing (37 mm with the stinger's hits) so that it "leaves the beam to
+/// vibrate freely" (our assumption; the ablation counts touches of the resting stinger).
 pub const GAP: f64 = 0.040;
 /// Contact stiffness \[N/m\] in the paper's equivalent scale: stiff against the blade's
 /// `k = 533 N/m` (our assumption).
