@@ -153,15 +153,17 @@ fn relative_table(rows: &[Row]) -> String {
     for row in rows {
         for (i, (run, paper)) in row.runs.iter().zip(PAPER_RSS).enumerate().skip(1) {
             let label = if i == 1 { row.label } else { "" };
-            text.push_str(&format!("{label:<20} {:<11}", run.kind.label()));
+            let mut line = format!("{label:<20} {:<11}", run.kind.label());
             for (value, paper) in relative_rss(run, &row.runs[0]).into_iter().zip(paper) {
+                // The open loop has no input to compare.
                 let shown = if run.kind == Kind::OpenLoop && paper.is_nan() {
                     String::new()
                 } else {
                     cell(value, paper)
                 };
-                text.push_str(&format!(" {shown:>11}"));
+                line.push_str(&format!(" {shown:>11}"));
             }
+            text.push_str(line.trim_end());
             text.push('\n');
         }
     }
