@@ -244,27 +244,26 @@ fn limits_table(rows: &[Row]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::experiment::blade_rig::{Rig, AMPLIFIER_GAIN, DAC_RANGE};
     use generated_demo::mass_spring_damper::in_f64::{Mpc, TS};
 
     /// The full plant, with and without the weight's sag, over the whole 80 s run: every
-    /// closed loop's input within +-100 V (and the patches' voltage within the amplifier's
-    /// rails), every MPC solve `Ok` within its iteration bound, no filter step rejected.
+    /// closed loop's input within +-100 V, every MPC solve `Ok` within its iteration bound, no step of the filter the
+    /// MPC and LQ act on rejected, the resting stinger never touched.
     #[test]
     fn the_full_plants_closed_loops_keep_their_limits_and_every_solve() {
         let designs = Designs::new().unwrap();
         let design = RigDesign::new(Features::NONE, HIT_FORCE);
         for features in [Features::ALL, Features::ALL_AND_SAG] {
             let rig = design.with(features);
-            let patches = Rig::new(&rig);
             for kind in [Kind::Mpc, Kind::Lq, Kind::Ppf] {
                 let run = simulate(kind, &designs, &rig, END).unwrap();
                 assert_eq!(run.u.len(), (END / TS).round() as usize);
                 for &u in &run.u {
                     assert!(u.abs() <= U_MAX, "{kind:?}: {u} V");
-                    assert!(patches.applied(u).abs() <= AMPLIFIER_GAIN * DAC_RANGE);
                 }
-                assert_eq!(run.rejected_steps, 0, "{kind:?}");
+                if kind.uses_estimate() {
+                    assert_eq!(run.rejected_steps, 0, "{kind:?}");
+                }
                 assert_eq!(run.stinger_touches, 0, "{kind:?}");
                 if kind == Kind::Mpc {
                     let stats = run.mpc.unwrap();
