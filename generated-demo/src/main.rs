@@ -11,7 +11,8 @@
 //! 4. The blade of Takács, Polóni and Rohal-Ilkiv ("Adaptive predictive control of
 //!    transient vibrations of cantilevers with changing weight") with the generated hybrid
 //!    EKFs (`experiment::blade`), its controller comparison (adaptive EKF-MPC, nominal LQ,
-//!    PPF, open loop: `experiment::blade_control`), and the helicopter of Kulkarni and
+//!    PPF, open loop: `experiment::blade_control`) repeated on a blade more like the
+//!    experiment, feature by feature (`experiment::blade_ablation`), and the helicopter of Kulkarni and
 //!    Purwar ("Nonlinear experimental estimation and verification of a MIMO system through
 //!    EKF") with the continuous-time EKF, standard and with a prescribed degree of
 //!    stability (`experiment::trms`).
@@ -111,7 +112,8 @@ fn main() -> Result<(), Box<dyn Error>> {
 
     experiment::outliers::run(out)?;
     experiment::blade::run(out)?;
-    experiment::blade_control::run(out)?;
+    let (designs, baseline) = experiment::blade_control::run(out)?;
+    experiment::blade_ablation::run(out, &designs, baseline)?;
     experiment::trms::run(out)?;
     experiment::flight::run(out)?;
 
@@ -122,7 +124,9 @@ fn main() -> Result<(), Box<dyn Error>> {
         "\nWrote out/estimation.csv, out/closed_loop.csv, out/wn.svg, out/displacement.svg, \
          out/outliers.csv, out/outliers.svg, out/blade.csv, out/blade_mass.svg, out/blade_identification.svg, \
          out/blade_control.csv, out/blade_control_table.txt, out/blade_control_position.svg, \
-         out/blade_control_voltage.svg, out/blade_control_run.svg, out/helicopter.csv, \
+         out/blade_control_voltage.svg, out/blade_control_run.svg, out/blade_ablation.txt, \
+         out/blade_full_plant.csv, out/blade_full_plant_position.svg, \
+         out/blade_full_plant_voltage.svg, out/blade_full_plant_run.svg, out/helicopter.csv, \
          out/helicopter_surge.csv, out/helicopter_pitch.svg, out/helicopter_surge.svg, \
          out/beam_20hz.csv, out/beam_35hz.csv, out/beam_velocity.svg, \
          out/switching_example.csv, out/switching_example.svg, out/hub_estimates.csv, \

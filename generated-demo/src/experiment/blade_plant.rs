@@ -50,12 +50,15 @@ pub fn hit_force(t: f64, peak: f64) -> f64 {
 }
 
 /// eq. (1), `m q'' + b q' + k q = c u + F_e`, over one sample with `u` held; hits of
-/// `hit_peak` \[N\].
+/// `hit_peak` \[N\]. The weight goes on and off at sample boundaries: the mass is the
+/// sample's, read at its middle (read at each RK4 stage, the rounding of the stages'
+/// times decides on which side of the boundary the last one falls).
 pub fn plant_step(t: f64, x: [f64; 2], u: f64, dt: f64, hit_peak: f64) -> [f64; 2] {
+    let m = mass(t + 0.5 * dt);
     let rate = |t: f64, x: [f64; 2]| {
         [
             x[1],
-            (C * u + hit_force(t, hit_peak) - K * x[0] - B * x[1]) / mass(t),
+            (C * u + hit_force(t, hit_peak) - K * x[0] - B * x[1]) / m,
         ]
     };
     rk4(rate, t, x, dt, PLANT_STEPS)

@@ -33,6 +33,12 @@ impl Kind {
     /// All four, in the paper's order.
     pub const ALL: [Kind; 4] = [Kind::Mpc, Kind::Lq, Kind::Ppf, Kind::OpenLoop];
 
+    /// Whether the controller acts on the control filter's estimate (PPF acts on the
+    /// measurement).
+    pub fn uses_estimate(self) -> bool {
+        matches!(self, Kind::Mpc | Kind::Lq)
+    }
+
     /// The label in tables and plots.
     pub fn label(self) -> &'static str {
         match self {

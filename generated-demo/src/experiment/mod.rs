@@ -6,8 +6,12 @@
 //! Units throughout: mm, mm/s, V, s (the notes, "Simulating the cantilever").
 
 pub mod blade;
+pub mod blade_ablation;
 pub mod blade_control;
+pub mod blade_modes;
 pub mod blade_plant;
+pub mod blade_rig;
+pub mod butterworth;
 pub mod controllers;
 pub mod excitation;
 pub mod flight;
@@ -19,6 +23,7 @@ pub mod ppf;
 pub mod readout;
 pub mod report;
 pub mod sensitivity;
+pub mod stinger;
 pub mod switched_beam;
 pub mod trms;
 pub mod tuning;
