@@ -59,11 +59,13 @@ stateforge::model! {
             gnss_p = p,
             /// magnetometer: the earth field in the body plus the bias \[gauss\]
             mag = q.inverse() * mag_earth + mag_body;
-        /// The GNSS receiver's NED velocity and position fix (5 Hz).
-        sensor gnss = [gnss_v, gnss_p];
-        /// The three-axis magnetometer (50 Hz).
-        sensor magnetometer = [mag];
-        generate ekf(process_noise = diagonal, gate = 22.46);
+        /// The GNSS receiver's NED velocity and position fix (5 Hz), gated at the
+        /// chi-square 99.9 % quantile for its 6 outputs.
+        sensor gnss(gate = 22.46) = [gnss_v, gnss_p];
+        /// The three-axis magnetometer (50 Hz), gated at the 99.9 % quantile for 3.
+        sensor magnetometer(gate = 16.27) = [mag];
+        // The joint update's gate: the 99.9 % quantile for all 9 outputs.
+        generate ekf(process_noise = diagonal, gate = 27.88);
         dynamics discrete {
             q = q * exp((gyro - gyro_bias) * DT);
             v = v + (q * (accel - accel_bias) + vec3(0.0, 0.0, GRAVITY)) * DT;

@@ -72,7 +72,7 @@ struct ModelFile {
     known: Vec<Symbol>,
     #[serde(default, rename = "output")]
     outputs: Vec<Entry>,
-    /// `[[sensor]] name = "gnss", outputs = ["gnss_pn", "gnss_pe"]`.
+    /// `[[sensor]] name = "gnss", outputs = ["gnss_pn", "gnss_pe"]`, optionally `gate = 22.46`.
     #[serde(default, rename = "sensor")]
     sensors: Vec<Sensor>,
     dynamics: Option<Dynamics>,
@@ -152,7 +152,8 @@ struct Symbol {
     ty: Option<Spanned<String>>,
 }
 
-/// Outputs measured together by one sensor, listed by name.
+/// Outputs measured together by one sensor, listed by name, and its options (the macro's
+/// `sensor gnss(gate = 22.46) = [..]`).
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Sensor {
@@ -160,6 +161,9 @@ struct Sensor {
     outputs: Vec<Spanned<String>>,
     #[serde(default)]
     doc: String,
+    /// `gate = 22.46` or `gate = "off"`: the sensor's own innovation gate.
+    #[serde(default)]
+    gate: Option<Spanned<OptionValue>>,
 }
 
 /// A named expression: a constant, output or intermediate.
@@ -597,15 +601,47 @@ impl Reader<'_> {
             .collect()
     }
 
-    fn sensors(&self, sensors: &[Sensor]) -> Vec<SensorDecl> {
+    fn sensors(&mut self, sensors: &[Sensor]) -> Vec<SensorDecl> {
         sensors
             .iter()
             .map(|s| SensorDecl {
                 docs: docs(&s.doc),
                 name: self.name(&s.name),
+                options: s.gate.iter().filter_map(|g| self.sensor_gate(g)).collect(),
                 outputs: s.outputs.iter().map(|o| self.name(o)).collect(),
             })
             .collect()
+    }
+
+    /// A sensor's `gate`, as the macro's option `gate = ..` (checked with it): a number,
+    /// or a name (`"off"`); anything else is an error here.
+    fn sensor_gate(&mut self, gate: &Spanned<OptionValue>) -> Option<GenerateArg> {
+        let here = self.places.inside(self.source, gate);
+        let value = match gate.get_ref() {
+            OptionValue::Number(v) => ArgValue::Number(*v, here),
+            OptionValue::Text(text) => ArgValue::Name(Name {
+                text: text.clone(),
+                span: here,
+            }),
+            other => {
+                self.diag.error(
+                    here,
+                    format!(
+                        "sensor.gate: {} is not a gate, which is a positive number (a \
+                         chi-square quantile, `gate = 16.27`) or `\"off\"`",
+                        other.describe()
+                    ),
+                );
+                return None;
+            }
+        };
+        Some(GenerateArg {
+            name: Name {
+                text: "gate".to_owned(),
+                span: here,
+            },
+            value,
+        })
     }
 
     /// `[dynamics]`: its kind, its `[[dynamics.let]]` intermediates in order, then one

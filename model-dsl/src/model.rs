@@ -222,6 +222,11 @@ pub struct Sensor {
     /// Indices of its outputs in [`Model::outputs`], in the order written: the order of
     /// the measurement its update takes.
     pub outputs: Vec<usize>,
+    /// Its own innovation gate (`sensor gnss(gate = 22.46) = [..]`): a chi-square
+    /// quantile for its outputs' number of degrees of freedom, infinite for `gate = off`
+    /// (a gate generated open); `None` when it declares none (a filter's `gate`, if any,
+    /// then judges its update).
+    pub gate: Option<f64>,
 }
 
 /// A named intermediate of the dynamics block.

@@ -152,9 +152,9 @@ impl Module<'_> {
             .map(|f| emit_function(model, mg, f, scalar).0);
         let generated = self.generated(scalar, &mut Vec::new(), &mut None);
         let status = (!self.designs.is_empty()).then(|| quote! { pub use super::Status; });
-        // A filter of a model with rotations names where they are (`index::Q_X`).
-        let rotations = !model.rotations().is_empty() && !self.designs.is_empty();
-        let index = rotations.then(|| quote! { use super::index; });
+        // A filter may name places in `x` or `y` (`index::Q_X`: a rotation's; a sensor's
+        // outputs), as the items at the module's top do.
+        let index = names_index(&generated).then(|| quote! { use super::index; });
         quote! {
             #[doc = #doc]
             pub mod #module {
@@ -203,6 +203,26 @@ impl Module<'_> {
         }
         tokens
     }
+}
+
+/// Whether `tokens` name a place of the `index` module (`index::Q_X`).
+fn names_index(tokens: &TokenStream) -> bool {
+    let mut previous_index = false;
+    for tree in tokens.clone() {
+        match tree {
+            proc_macro2::TokenTree::Group(group) if names_index(&group.stream()) => return true,
+            proc_macro2::TokenTree::Ident(ident) => {
+                previous_index = ident == "index";
+                continue;
+            }
+            proc_macro2::TokenTree::Punct(punct) if previous_index && punct.as_char() == ':' => {
+                return true
+            }
+            _ => {}
+        }
+        previous_index = false;
+    }
+    false
 }
 
 /// The `*_OPS` items of a generator's costs and, in `f32` (the microcontroller's code),

@@ -94,6 +94,12 @@ impl Arguments {
         quote! { stateforge_math::#ty::pack_upper(#arg) }
     }
 
+    /// A further test that the covariance arguments are usable, made with the others once
+    /// they are known finite (a whole `R` that leaves the sensors independent).
+    pub fn covariance_condition(&mut self, test: TokenStream) {
+        self.covariances.push(test);
+    }
+
     /// A process noise covariance `name` (`n x n`): its variances if `diagonal`
     /// ([`Arguments::vector`], tested non-negative; the array itself), else a
     /// [`Arguments::covariance`]. Returns the value stored, as an expression.

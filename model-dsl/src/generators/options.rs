@@ -253,7 +253,9 @@ impl<'a> Args<'a> {
             None => Vec::new(),
             Some(ArgValue::Name(n)) => vec![n.clone()],
             Some(ArgValue::Names(list, _)) => list.clone(),
-            Some(ArgValue::Number(_, span) | ArgValue::Numbers(_, span)) => {
+            Some(
+                ArgValue::Number(_, span) | ArgValue::Numbers(_, span) | ArgValue::Table(_, span),
+            ) => {
                 diag.error(
                     *span,
                     format!("`{}` takes a name or a list of names", names[0]),
@@ -279,7 +281,7 @@ impl<'a> Args<'a> {
                     None
                 }
             },
-            ArgValue::Names(_, span) | ArgValue::Numbers(_, span) => {
+            ArgValue::Names(_, span) | ArgValue::Numbers(_, span) | ArgValue::Table(_, span) => {
                 diag.error(*span, format!("`{name}` takes a number or a constant"));
                 None
             }
@@ -404,7 +406,10 @@ impl<'a> Args<'a> {
             Some(ArgValue::Name(n)) if n.text == "full" => false,
             Some(other) => {
                 let values = match other {
-                    ArgValue::Names(..) | ArgValue::Numbers(..) | ArgValue::Number(..) => {
+                    ArgValue::Names(..)
+                    | ArgValue::Numbers(..)
+                    | ArgValue::Number(..)
+                    | ArgValue::Table(..) => {
                         "; the noise values themselves are given at run time, to `new` and \
                          `set_process_noise`"
                     }
