@@ -33,6 +33,8 @@
 //! a `.` follows a name).
 //! `[[known]]` entries (`name`, `doc`) declare constants known only at run time.
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
+//! `[[sensor]]` entries (`name`, `outputs`, `doc`, and optionally `gate = 22.46` or
+//! `gate = "off"`, the macro's `sensor gnss(gate = 22.46) = [..]`) group outputs.
 
 use crate::expression_places;
 pub use crate::expression_text::comparison_of;

@@ -146,10 +146,10 @@ pub fn noise_blocks(model: &Model) -> Vec<NoiseBlock> {
     blocks
 }
 
-/// Whether the blocks are the whole `R` as the model orders its outputs: one block of every
-/// output in order, stored as `pack_upper` stores a matrix.
-fn whole(blocks: &[NoiseBlock], m: usize) -> bool {
-    matches!(blocks, [only] if only.outputs.iter().copied().eq(0..m))
+/// Whether a block is the whole `R` as the model orders its outputs (stored as
+/// `pack_upper` stores a matrix).
+fn whole(block: &NoiseBlock, m: usize) -> bool {
+    block.outputs.iter().copied().eq(0..m)
 }
 
 /// `&[index::GNSS_V_X, ..]`: a block's outputs, by their places in `y`.
@@ -162,18 +162,19 @@ fn output_indices(model: &Model, outputs: &[usize]) -> TokenStream {
 
 /// How a constructor or `set_measurement_noise` stores the whole `R` argument `r` (`m x
 /// m`, a covariance): in each block's field (`gnss_r: .., magnetometer_r: ..`), tested
-/// zero between the blocks when there are several; as today's `r` in a model without
-/// sensors.
+/// zero between the blocks when there are several; in `r`, as before sensors had blocks,
+/// in a model without sensors.
 pub fn stored_noise(model: &Model, ty: &proc_macro2::Ident) -> StoredNoise {
     let blocks = noise_blocks(model);
-    if whole(&blocks, model.outputs.len()) {
-        return StoredNoise::whole(ty);
-    }
     let fields = blocks
         .iter()
         .map(|block| {
-            let rows = output_indices(model, &block.outputs);
-            let packed = quote! { stateforge_math::#ty::pack_upper_of(r, #rows) };
+            let packed = if whole(block, model.outputs.len()) {
+                quote! { stateforge_math::#ty::pack_upper(r) }
+            } else {
+                let rows = output_indices(model, &block.outputs);
+                quote! { stateforge_math::#ty::pack_upper_of(r, #rows) }
+            };
             (ident(&block.field), packed)
         })
         .collect();

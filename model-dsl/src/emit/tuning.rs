@@ -36,7 +36,7 @@ pub struct StoredNoise {
 
 impl StoredNoise {
     /// The whole `r` in the one packed field `r`.
-    pub fn whole(ty: &proc_macro2::Ident) -> StoredNoise {
+    fn whole(ty: &proc_macro2::Ident) -> StoredNoise {
         StoredNoise {
             fields: vec![(super::names::ident("r"), pack_upper("r", ty))],
             condition: None,
