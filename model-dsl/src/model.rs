@@ -211,6 +211,13 @@ pub struct Output {
     pub expr: Expr,
 }
 
+/// The chi-square distribution's 99.9 % quantiles for 1 to 12 degrees of freedom: the gate
+/// that rejects one in a thousand consistent measurements of a sensor of that many outputs
+/// (what errors propose and generated documentation quotes).
+pub const CHI_SQUARE_999: [f64; 12] = [
+    10.83, 13.82, 16.27, 18.47, 20.52, 22.46, 24.32, 26.12, 27.88, 29.59, 31.26, 32.91,
+];
+
 /// Outputs sampled together by one sensor (a GNSS receiver's position and velocity, a
 /// magnetometer's three axes).
 #[derive(Clone, Debug)]

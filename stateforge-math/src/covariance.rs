@@ -191,7 +191,10 @@ pub(crate) fn pack_upper_of<T: Real, const N: usize, const K: usize, const L: us
     };
     let entry = |i: usize, j: usize| {
         let (i, j) = (i.min(j), i.max(j));
-        m.get(i).and_then(|row| row.get(j)).copied().unwrap_or(T::ZERO)
+        m.get(i)
+            .and_then(|row| row.get(j))
+            .copied()
+            .unwrap_or(T::ZERO)
     };
     let mut packed = [T::ZERO; L];
     let upper = rows

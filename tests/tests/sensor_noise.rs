@@ -94,7 +94,11 @@ fn dense_update(ekf: &Ekf, rows: &[usize], r: &DMatrix<f64>, y: &[f64]) -> (Vec<
     let flat = x_new
         .iter()
         .copied()
-        .chain((0..4).flat_map(|i| (0..4).map(move |j| (i, j))).map(|(i, j)| p_new[(i, j)]))
+        .chain(
+            (0..4)
+                .flat_map(|i| (0..4).map(move |j| (i, j)))
+                .map(|(i, j)| p_new[(i, j)]),
+        )
         .collect();
     (flat, nis)
 }

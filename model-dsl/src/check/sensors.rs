@@ -4,7 +4,7 @@
 use super::names::check_identifier;
 use crate::ast::{ArgValue, GenerateArg, ModelDecl, Name, SensorDecl};
 use crate::diagnostics::{closest, Diagnostics};
-use crate::model::Sensor;
+use crate::model::{Sensor, CHI_SQUARE_999};
 use std::collections::{HashMap, HashSet};
 
 /// How many output names an error lists before it stops.
@@ -16,13 +16,6 @@ const SENSOR_OPTIONS: [&str; 1] = ["gate"];
 /// Names a sensor may not take: its noise setter, `set_<sensor>_noise`, would be a filter's
 /// own (`set_process_noise`, `set_measurement_noise`, `set_input_noise`).
 const RESERVED: [&str; 3] = ["process", "measurement", "input"];
-
-/// The chi-square distribution's 99.9 % quantiles for 1 to 12 degrees of freedom: the gate
-/// that rejects one in a thousand consistent measurements of a sensor of that many outputs,
-/// which an error about a sensor's gate proposes.
-const CHI_SQUARE_999: [f64; 12] = [
-    10.83, 13.82, 16.27, 18.47, 20.52, 22.46, 24.32, 26.12, 27.88, 29.59, 31.26, 32.91,
-];
 
 /// Resolves each sensor's outputs by name and reads its options. A sensor needs a name of
 /// its own (not an output's, whose update would share it; a vector output's own sensor,

@@ -9,10 +9,10 @@ use crate::emit::code::{estimate_accessors, packed_names};
 use crate::emit::known::KnownItems;
 use crate::emit::lower::Lowerer;
 use crate::emit::names::ident;
+use crate::emit::sensors::{block_fields, noise_blocks, noise_methods, stored_noise};
 /// The process noise argument, shared by the constructors and the setters.
 pub use crate::emit::tuning::noise_argument;
 pub use crate::emit::tuning::ProcessNoise;
-use crate::emit::sensors::{block_fields, noise_blocks, noise_methods, stored_noise};
 use crate::emit::tuning::{input_noise_doc, input_noise_setter, noise_setters, StoredNoise};
 use crate::model::Model;
 use crate::symbolic::linalg::{packed_len, Matrix};

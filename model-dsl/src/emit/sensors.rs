@@ -82,7 +82,8 @@ pub fn methods(model: &Model, gate: Option<f64>, scalar: Scalar) -> TokenStream 
         .map(|sensor| {
             let prefix = prefix(sensor);
             let of = format!(" by the sensor `{}`", sensor.name);
-            let len = sensor.outputs.len().to_string();
+            let len_usize = sensor.outputs.len();
+            let len = len_usize.to_string();
             let measured = Measured {
                 outputs: &sensor.outputs,
                 prefix: &prefix,
@@ -91,11 +92,14 @@ pub fn methods(model: &Model, gate: Option<f64>, scalar: Scalar) -> TokenStream 
             };
             let accessors = measurement::accessors_of(model, &measured, scalar);
             let gate = gate_of(sensor, gate).map(|gate| {
+                let quantile = match crate::model::CHI_SQUARE_999.get(len_usize.wrapping_sub(1)) {
+                    Some(q) => format!(" (the 99.9 % quantile, {q}, rejects one in a thousand consistent measurements)"),
+                    None => String::new(),
+                };
                 let setter_doc = format!(
                     " Sets the innovation gate of the sensor `{}`'s updates, apart from the \
                      filter's: a chi-square quantile for its {len} degrees of freedom, as \
-                     many as it has outputs (the 99.9 % quantile rejects one in a thousand \
-                     consistent measurements: 10.83 for 1, 16.27 for 3, 22.46 for 6).",
+                     many as it has outputs{quantile}.",
                     sensor.name
                 );
                 measurement::gate_items_of(gate, &prefix, &setter_doc, scalar)
