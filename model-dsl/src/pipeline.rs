@@ -226,8 +226,8 @@ fn names_index(tokens: &TokenStream) -> bool {
 }
 
 /// The `*_OPS` items of a generator's costs and, in `f32` (the microcontroller's code),
-/// their `*_CYCLES` items; returns the errors of the calls over `budget`, each naming the
-/// generator's other costs as its parts.
+/// their `*_CYCLES` items; returns the errors of the calls over `budget` (and of its
+/// schedule's load).
 fn cost_items(
     costs: &[Cost],
     budget: Option<&Budget>,
@@ -241,26 +241,19 @@ fn cost_items(
             false => CORTEX_M4F.estimate(&cost.ops),
         })
         .collect();
-    let parts: Vec<(&str, u64)> = costs
-        .iter()
-        .zip(&estimates)
-        .filter(|(cost, estimate)| !cost.is_budgeted && estimate.cycles > 0)
-        .map(|(cost, estimate)| (cost.what.as_str(), estimate.cycles))
-        .collect();
-    let mut errors = Vec::new();
     for (cost, estimate) in costs.iter().zip(&estimates) {
         items.push(named_ops_item(&cost.constant, &cost.what, cost.ops));
-        if scalar != Scalar::F32 {
-            continue;
-        }
-        items.push(cycles_item(
-            (&cost.constant, &cost.what, cost.is_part),
-            estimate,
-            &CORTEX_M4F,
-        ));
-        if let Some(budget) = budget.filter(|_| cost.is_budgeted) {
-            errors.extend(budget.check(&cost.what, estimate, &parts, &CORTEX_M4F));
+        if scalar == Scalar::F32 {
+            items.push(cycles_item(
+                (&cost.constant, &cost.what, cost.is_part),
+                estimate,
+                &CORTEX_M4F,
+            ));
         }
     }
-    errors
+    let estimated: Vec<(&Cost, &Estimate)> = costs.iter().zip(&estimates).collect();
+    match budget {
+        Some(budget) if scalar == Scalar::F32 => budget.check(&estimated, &CORTEX_M4F),
+        _ => Vec::new(),
+    }
 }

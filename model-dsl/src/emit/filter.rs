@@ -9,7 +9,7 @@ use crate::emit::code::{estimate_accessors, packed_names};
 use crate::emit::known::KnownItems;
 use crate::emit::lower::Lowerer;
 use crate::emit::names::ident;
-use crate::emit::sensors::{block_fields, noise_blocks, noise_methods, stored_noise};
+use crate::emit::noise_blocks::{block_fields, noise_blocks, noise_methods, stored_noise};
 /// The process noise argument, shared by the constructors and the setters.
 pub use crate::emit::tuning::noise_argument;
 pub use crate::emit::tuning::ProcessNoise;
@@ -24,7 +24,7 @@ use quote::quote;
 /// estimate `x` (`n` entries), its covariance `p` (packed upper triangle), the process
 /// noise `q` (packed, or its variances when diagonal) and the measurement noise `R`
 /// (`m x m`: packed in `r`, or in a model with sensors each sensor's block apart, see
-/// [`crate::emit::sensors::NoiseBlock`]); their dimension literals, the constructor, the
+/// [`crate::emit::noise_blocks::NoiseBlock`]); their dimension literals, the constructor, the
 /// estimate's accessors and the noise setters.
 pub struct FilterLayout {
     /// The scalar type, `f32` or `f64`.

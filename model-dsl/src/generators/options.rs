@@ -17,9 +17,9 @@ pub struct Context<'a> {
     pub decl: &'a ModelDecl,
     scope: &'a Scope,
     /// The cycle budget of the `generate` item whose options are read, if it gives one
-    /// (`max_cycles = ..`), with where it was given: a generator whose work varies from
-    /// call to call may bound it at run time to stay within.
-    pub cycle_budget: Option<(u64, Span)>,
+    /// (`max_cycles = ..`): a generator whose work varies from call to call may bound it
+    /// at run time to stay within its call's ([`super::budget::Budget::limit_of`]).
+    pub cycle_budget: Option<super::budget::Budget>,
 }
 
 impl<'a> Context<'a> {
@@ -33,7 +33,7 @@ impl<'a> Context<'a> {
     }
 
     /// The same context for a `generate` item with the cycle budget `cycle_budget`.
-    pub(crate) fn with_budget(&self, cycle_budget: Option<(u64, Span)>) -> Context<'a> {
+    pub(crate) fn with_budget(&self, cycle_budget: Option<super::budget::Budget>) -> Context<'a> {
         Context {
             decl: self.decl,
             scope: self.scope,
