@@ -41,7 +41,9 @@ stateforge::model! {
             mag_body: Vec3,
             /// wind velocity, north \[m/s\]
             // Carried for EKF2's 24-entry layout: it enters airspeed and drag fusion,
-            // which this model does not have.
+            // which this model does not have. Nothing couples it to the rest, so the
+            // filter keeps its covariance with them zero without computing it
+            // (`Ekf::COVARIANCE_BLOCKS`).
             #[allow(unused)]
             wind_n,
             /// wind velocity, east \[m/s\]

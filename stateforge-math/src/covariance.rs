@@ -157,6 +157,21 @@ pub(crate) fn upper_triangle_finite<T: Real, const N: usize>(m: &[[T; N]; N]) ->
         .all(|(i, row)| row.iter().skip(i).all(|&v| v.finite()))
 }
 
+/// Whether every entry of the upper triangle of `m` between two blocks (`block[i] !=
+/// block[j]`) is zero: the structural zeros of a filter's covariance whose coordinates
+/// nothing in the model couples.
+pub(crate) fn zero_between_blocks<T: Real, const N: usize>(
+    m: &[[T; N]; N],
+    block: &[usize; N],
+) -> bool {
+    m.iter().zip(block).enumerate().all(|(i, (row, a))| {
+        row.iter()
+            .zip(block)
+            .skip(i)
+            .all(|(&v, b)| a == b || v == T::ZERO)
+    })
+}
+
 /// The upper triangle of `m` row by row, `L = N (N + 1) / 2` entries: how a filter stores
 /// a symmetric matrix. A loop, so that storing a 100-state covariance is a few
 /// instructions of code, not 5050 moves.

@@ -394,6 +394,15 @@ pub fn is_covariance<const N: usize>(m: &[[f32; N]; N]) -> bool {
     crate::covariance::is_covariance(m)
 }
 
+/// Whether every entry of the upper triangle of `m` between two blocks (`block[i] !=
+/// block[j]`) is zero (a negative zero is zero): what a filter whose covariance has
+/// blocks that nothing couples (its `COVARIANCE_BLOCKS`) requires of an initial
+/// covariance, whose entries there it never computes again.
+#[must_use]
+pub fn zero_between_blocks<const N: usize>(m: &[[f32; N]; N], block: &[usize; N]) -> bool {
+    crate::covariance::zero_between_blocks(m, block)
+}
+
 /// Whether every entry of the upper triangle of `m` (diagonal included) is finite: what a
 /// generated filter reads of a symmetric matrix argument, tested by a loop.
 #[must_use]

@@ -35,12 +35,13 @@ pub const UNSNAPSHOTTED_DEMO_MODELS: [&str; 1] = ["navigation"];
 
 /// Names of the test models in `tests/models/` (`model! { .. }` invocations that exercise
 /// parts of the language the demo models do not use).
-pub const TEST_MODELS: [&str; 5] = [
+pub const TEST_MODELS: [&str; 6] = [
     "rover",
     "rover_known",
     "ahrs",
     "vehicle_geometry",
     "dead_reckoning",
+    "carried_state",
 ];
 
 /// The generated code of a test model, formatted.

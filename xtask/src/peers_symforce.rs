@@ -46,7 +46,10 @@ pub const TERMS: &str = "Both sides from the same estimate at every call: before
      update_gnss and update_magnetometer as generated (each update a joint update of the \
      sensor's outputs through an L D L' factor, gated at 22.46 and 16.27, with its input \
      and divergence checks, its innovation and NIS stored, then the injection and the \
-     covariance reset). SymForce: the same error-state filter on its Rot3 (global angular \
+     covariance reset; the wind's covariance with the other coordinates, zero by the \
+     model's structure, neither computed nor stored, COVARIANCE_BLOCKS: with it computed, \
+     ours were 2708, 5840 and 4259, 0.78, 0.84 and 0.82 of SymForce's). SymForce: the \
+     same error-state filter (every entry of the covariance computed) on its Rot3 (global angular \
      error), x_new = f(x, u) with the exact Rot3.from_tangent, P_new = F P F' + diag(q) on \
      the packed triangle, F the Jacobian of the tangent error at zero; each sensor fused as \
      sequential scalar updates of the error linearised at the prior (PX4 EKF2's scheme), \

@@ -94,9 +94,10 @@ impl Arguments {
         quote! { stateforge_math::#ty::pack_upper(#arg) }
     }
 
-    /// A further test that the covariance arguments are usable, made with the others once
-    /// they are known finite (a whole `R` that leaves the sensors independent).
-    pub fn covariance_condition(&mut self, test: TokenStream) {
+    /// A further test of a covariance argument, made with the tests that they are
+    /// covariances (a structural zero it must have: between two blocks of the covariance,
+    /// between two sensors' noise).
+    pub fn covariance_structure(&mut self, test: TokenStream) {
         self.covariances.push(test);
     }
 

@@ -47,6 +47,10 @@ pub struct FilterLayout {
     /// names), empty for none; else the field `qu` holds their variances, which the
     /// constructor takes after `q` and `set_input_noise` replaces.
     input_noise: Vec<String>,
+    /// Whether the covariance's coordinates fall into blocks that nothing couples (see
+    /// [`crate::symbolic::covariance_blocks`]), numbered in the const
+    /// `COVARIANCE_BLOCKS`: `p0` must be zero between two of them.
+    blocks: bool,
     /// `n`, as a literal.
     pub n_len: Literal,
     /// `m`, as a literal.
@@ -94,6 +98,7 @@ impl FilterLayout {
             noise: noise.clone(),
             noise_doc,
             input_noise: Vec::new(),
+            blocks: false,
             n_len,
             m_len,
             np,
@@ -114,6 +119,29 @@ impl FilterLayout {
             let setter = input_noise_setter(inputs.len(), &input_noise_doc(inputs), &self.ty);
             self.setters.extend(setter);
             self.input_noise = inputs.iter().map(|&name| name.to_owned()).collect();
+        }
+        self
+    }
+
+    /// The same layout with the covariance's coordinates in the blocks `blocks` (each
+    /// coordinate's, `None` for one block): the associated const `COVARIANCE_BLOCKS`, and
+    /// the test that an initial covariance is zero between two blocks.
+    #[must_use]
+    pub fn with_covariance_blocks(mut self, blocks: Option<&[usize]>) -> FilterLayout {
+        if let Some(blocks) = blocks {
+            let n_p = Literal::usize_unsuffixed(self.n_p);
+            let ids = blocks.iter().map(|&b| Literal::usize_unsuffixed(b));
+            self.accessors.extend(quote! {
+                /// The block of the covariance each of its coordinates belongs to (in the
+                /// order of `TANGENT_NAMES`, or of the state for a state without
+                /// rotations): nothing in the model couples two blocks (neither the
+                /// dynamics, nor the process noise, nor a measurement), so the covariance
+                /// between them stays zero. The filter neither computes nor stores it, and
+                /// its constructor and `reset` refuse an initial covariance that is not
+                /// zero there ([`Status::InvalidCovariance`]).
+                pub const COVARIANCE_BLOCKS: [usize; #n_p] = [#(#ids),*];
+            });
+            self.blocks = true;
         }
         self
     }
@@ -149,6 +177,12 @@ impl FilterLayout {
     pub fn initial_estimate(&self, arguments: &mut Arguments) -> (TokenStream, TokenStream) {
         arguments.vector("x0", self.n, &self.ty);
         let p0 = arguments.covariance("p0", self.n_p, &self.ty);
+        if self.blocks {
+            let ty = &self.ty;
+            arguments.covariance_structure(quote! {
+                stateforge_math::#ty::zero_between_blocks(p0, &Self::COVARIANCE_BLOCKS)
+            });
+        }
         let x0 = if self.rotations.is_empty() {
             quote! { *x0 }
         } else {
@@ -219,7 +253,7 @@ impl FilterLayout {
         // Stored whole, or each sensor's block (zero between them, tested with `r`).
         let _ = arguments.covariance("r", self.m, &self.ty);
         if let Some(condition) = &self.stored_r.condition {
-            arguments.covariance_condition(condition.clone());
+            arguments.covariance_structure(condition.clone());
         }
         let r = self
             .stored_r

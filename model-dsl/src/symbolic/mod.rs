@@ -2,6 +2,7 @@
 //! differentiation and substitution, and the lowering of a model into it.
 
 pub mod continuous;
+pub mod covariance_blocks;
 pub mod diff;
 pub mod error_state;
 pub mod euler_state;

@@ -19,6 +19,7 @@ use crate::emit::names::{ident, TempNamer};
 use crate::emit::recovery;
 use crate::emit::sensors;
 use crate::model::{Model, Scalar};
+use crate::symbolic::covariance_blocks::{Couplings, CovarianceBlocks};
 use crate::symbolic::kalman;
 use crate::symbolic::linalg::{packed_upper, symmetric_from_packed, Coefficients, Matrix};
 use crate::symbolic::{ModelGraph, NodeId, VarId};
@@ -42,27 +43,74 @@ pub struct EkfCode {
 
 /// The EKF of `model` in `scalar`.
 pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) -> EkfCode {
-    let (predict, predict_ops) = method(model, mg, scalar, EkfMethod::Predict, spec);
-    let (update, update_ops) = method(model, mg, scalar, EkfMethod::Update, spec);
-    let (step, step_ops) = method(model, mg, scalar, EkfMethod::Step, spec);
-    let mut sensor_update_ops = Vec::new();
-    let partial_updates: Vec<TokenStream> = partial_updates(model)
-        .into_iter()
-        .map(|kind| {
-            let (tokens, ops) = method(model, mg, scalar, kind, spec);
-            if let Some(sensor) = kind.sensor(model) {
-                sensor_update_ops.push((format!("update_{}", sensor.name), ops));
-            }
-            tokens
-        })
+    let mut blocks = covariance_blocks(model, spec, mg);
+    loop {
+        if let Some(code) = emit_with_blocks(model, spec, mg, scalar, &blocks) {
+            return code;
+        }
+        // Not reached while the analysis holds (each method checks that its entries
+        // between two blocks come out zero): the filter of one block, which always holds.
+        blocks = CovarianceBlocks::one(model.tangent_len());
+    }
+}
+
+/// The blocks of the filter's covariance (see [`CovarianceBlocks`]): what couples its
+/// coordinates is the model's Jacobians, the process noise if it is a full matrix, the
+/// noise on inputs, and each rotation's reset.
+fn covariance_blocks(model: &Model, spec: &EkfSpec, mg: &ModelGraph) -> CovarianceBlocks {
+    let n = model.tangent_len();
+    let correlated_noise: Vec<usize> = match (&spec.process_noise.diagonal, &spec.process_noise.on)
+    {
+        (true, _) => Vec::new(),
+        (false, Some(on)) => on.clone(),
+        (false, None) => (0..n).collect(),
+    };
+    let together: Vec<std::ops::Range<usize>> = model
+        .rotations()
+        .iter()
+        .map(|r| r.tangent..r.tangent + 3)
         .collect();
+    CovarianceBlocks::of_ekf(
+        mg,
+        &Couplings {
+            correlated_noise: &correlated_noise,
+            noisy_inputs: &spec.input_noise,
+            together: &together,
+        },
+    )
+}
+
+/// The EKF of `model` in `scalar` whose covariance is zero between the `blocks`; `None` if
+/// a method would make an entry between two blocks non-zero.
+fn emit_with_blocks(
+    model: &Model,
+    spec: &EkfSpec,
+    mg: &ModelGraph,
+    scalar: Scalar,
+    blocks: &CovarianceBlocks,
+) -> Option<EkfCode> {
+    let (predict, predict_ops) = method(model, mg, scalar, (EkfMethod::Predict, blocks), spec)?;
+    let (update, update_ops) = method(model, mg, scalar, (EkfMethod::Update, blocks), spec)?;
+    let (step, step_ops) = method(model, mg, scalar, (EkfMethod::Step, blocks), spec)?;
+    let mut sensor_update_ops = Vec::new();
+    let mut partial = Vec::new();
+    for kind in partial_updates(model) {
+        let (tokens, ops) = method(model, mg, scalar, (kind, blocks), spec)?;
+        if let Some(sensor) = kind.sensor(model) {
+            sensor_update_ops.push((format!("update_{}", sensor.name), ops));
+        }
+        partial.push(tokens);
+    }
+    let partial_updates = partial;
     let ty = ident(scalar.type_name());
     let noisy_inputs: Vec<&str> = spec
         .input_noise
         .iter()
         .map(|&j| model.inputs[j].name.as_str())
         .collect();
-    let layout = FilterLayout::new(model, &spec.process_noise, &ty).with_input_noise(&noisy_inputs);
+    let layout = FilterLayout::new(model, &spec.process_noise, &ty)
+        .with_input_noise(&noisy_inputs)
+        .with_covariance_blocks(blocks.is_split().then(|| blocks.ids()));
     let methods = quote! {
         #step
 
@@ -72,13 +120,13 @@ pub fn emit_ekf(model: &Model, spec: &EkfSpec, mg: &ModelGraph, scalar: Scalar) 
 
         #(#partial_updates)*
     };
-    EkfCode {
+    Some(EkfCode {
         tokens: ekf_type(model, spec, scalar, &layout, &methods),
         predict_ops,
         update_ops,
         step_ops,
         sensor_update_ops,
-    }
+    })
 }
 
 /// The updates with some of the outputs, for sensors sampled at different rates: one per
@@ -406,10 +454,10 @@ fn method(
     model: &Model,
     mg: &ModelGraph,
     scalar: Scalar,
-    kind: EkfMethod,
+    (kind, blocks): (EkfMethod, &CovarianceBlocks),
     spec: &EkfSpec,
-) -> (TokenStream, OpCount) {
-    let mut nodes = EkfNodes::build(model, mg, kind, spec);
+) -> Option<(TokenStream, OpCount)> {
+    let mut nodes = EkfNodes::build(model, mg, kind, spec, blocks)?;
     let (body, used_vars, ops) = lower(&mut nodes, model, scalar, kind);
     let ty = ident(scalar.type_name());
     let graph = &nodes.g.graph;
@@ -421,10 +469,10 @@ fn method(
     }
     // A line per attribute: a sensor's own documentation comes before what the update does.
     let doc = doc.lines();
-    (
+    Some((
         arguments.method(&name, &quote! { #(#[doc = #doc])* }, body),
         ops,
-    )
+    ))
 }
 
 /// One EKF method before lowering: the model's graph with the method's variables, and
@@ -471,12 +519,23 @@ struct EkfNodes {
     /// The order the new covariance's entries are computed and stored in (positions in
     /// the packed triangle).
     order: Vec<usize>,
+    /// The covariance's entries between two of its blocks (packed position, row and
+    /// column; see [`CovarianceBlocks`]): read as zeros, left as they are.
+    uncoupled: Vec<(usize, usize, usize)>,
 }
 
 impl EkfNodes {
     /// Declares the method's variables, then predicts (`x = f(x, u)`, `P = A P A' + Q`)
     /// and/or corrects (Joseph form) as `kind` asks.
-    fn build(model: &Model, mg: &ModelGraph, kind: EkfMethod, spec: &EkfSpec) -> EkfNodes {
+    /// `None` if the method makes an entry between two of `blocks` non-zero (see
+    /// [`CovarianceBlocks`]): such entries are read as zeros, and left as they are.
+    fn build(
+        model: &Model,
+        mg: &ModelGraph,
+        kind: EkfMethod,
+        spec: &EkfSpec,
+        blocks: &CovarianceBlocks,
+    ) -> Option<EkfNodes> {
         let mut g = mg.clone();
         let outputs = kind.outputs(model);
         let avoid = model_names(model);
@@ -492,9 +551,15 @@ impl EkfNodes {
         });
         let t_measured = measurement_time(model, &mut g, kind, t_prev);
         let coefficients = Coefficients::new(&avoid);
+        let uncoupled = blocks.uncoupled_entries();
+        let mut p = symmetric_from_packed(&vars.p, model.tangent_len());
+        let zero = g.graph.zero();
+        for &(_, i, j) in &uncoupled {
+            (p[i][j], p[j][i]) = (zero, zero);
+        }
         let mut nodes = EkfNodes {
             x: g.x.clone(),
-            p: symmetric_from_packed(&vars.p, model.tangent_len()),
+            p,
             g,
             avoid,
             vars,
@@ -514,15 +579,30 @@ impl EkfNodes {
             recovers: spec.recover_after.is_some(),
             coefficients,
             order: Vec::new(),
+            uncoupled,
         };
         if kind.predicts() {
             nodes.predict(&spec.input_noise, kind.updates());
         }
         if kind.updates() {
             nodes.correct(model.outputs.len(), &outputs, kind.sensor(model).is_some());
-            nodes.order = in_place::update_order(model.tangent_len(), outputs.len());
+            let rotations: Vec<_> = model
+                .rotations()
+                .iter()
+                .map(|r| r.tangent..r.tangent + 3)
+                .collect();
+            nodes.order = in_place::update_order(model.tangent_len(), outputs.len(), &rotations);
         }
-        nodes
+        let graph = &nodes.g.graph;
+        let zero_between_blocks = |p: &Matrix| {
+            let zero = |&(_, i, j): &(usize, usize, usize)| graph.is_zero(p[i][j]);
+            nodes.uncoupled.iter().all(zero)
+        };
+        let predicted_holds = nodes
+            .predicted
+            .as_ref()
+            .is_none_or(|(_, p)| zero_between_blocks(p));
+        (predicted_holds && zero_between_blocks(&nodes.p)).then_some(nodes)
     }
 
     /// The prediction through the shared Kalman stage, the noise on the input entries
@@ -695,7 +775,11 @@ fn lower(
 ) -> (TokenStream, BTreeSet<VarId>, OpCount) {
     let probe = divergence_probe(nodes, kind);
     let prediction_test = PredictionTest::new(nodes);
-    let p_packed = packed_upper(&nodes.p);
+    let mut p_packed = packed_upper(&nodes.p);
+    // Zero before and after: the entry is left as it is, neither read nor written.
+    for &(k, _, _) in &nodes.uncoupled {
+        p_packed[k] = nodes.vars.p[k];
+    }
     let all_roots = roots(nodes, &p_packed, probe, prediction_test.as_ref());
     let (g, vars) = (&nodes.g, &nodes.vars);
     let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
