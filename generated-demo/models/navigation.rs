@@ -68,7 +68,7 @@ stateforge::model! {
         sensor magnetometer(gate = 16.27) = [mag];
         // The joint update's gate: the 99.9 % quantile for all 9 outputs. The calls as the
         // flight runs them on a 168 MHz Cortex-M4F: each within 15000 cycles, the three at
-        // their rates within 2 % of the core (about 1.2 % by the static estimates).
+        // their rates within 2 % of the core (about 1.1 % by the static estimates).
         generate ekf(process_noise = diagonal, gate = 27.88, max_cycles = 15000,
             schedule = [predict = 250, update_gnss = 5, update_magnetometer = 50],
             mhz = 168, max_load = 2);
