@@ -33,13 +33,15 @@
 //! a `.` follows a name).
 //! `[[known]]` entries (`name`, `doc`) declare constants known only at run time.
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
+//! `[[sensor]]` entries (`name`, `outputs`, `doc`, and optionally `gate = 22.46` or
+//! `gate = "off"`, the macro's `sensor gnss(gate = 22.46) = [..]`) group outputs.
 
 use crate::expression_places;
 pub use crate::expression_text::comparison_of;
 use crate::expression_text::parse_expression;
-use crate::toml_hints;
+use crate::toml_hints::{self, TABLE_OPTIONS};
 use proc_macro2::{Span, TokenStream};
-use serde::de::{Deserializer, IgnoredAny, MapAccess, SeqAccess, Unexpected, Visitor};
+use serde::de::{Deserializer, MapAccess, SeqAccess, Unexpected, Visitor};
 use serde::Deserialize;
 use stateforge_compiler::ast::{
     ArgValue, ConstDecl, DynamicsDecl, DynamicsKind, GenerateArg, GenerateDecl, ModelDecl, Name,
@@ -72,7 +74,7 @@ struct ModelFile {
     known: Vec<Symbol>,
     #[serde(default, rename = "output")]
     outputs: Vec<Entry>,
-    /// `[[sensor]] name = "gnss", outputs = ["gnss_pn", "gnss_pe"]`.
+    /// `[[sensor]] name = "gnss", outputs = ["gnss_pn", "gnss_pe"]`, optionally `gate = 22.46`.
     #[serde(default, rename = "sensor")]
     sensors: Vec<Sensor>,
     dynamics: Option<Dynamics>,
@@ -152,7 +154,8 @@ struct Symbol {
     ty: Option<Spanned<String>>,
 }
 
-/// Outputs measured together by one sensor, listed by name.
+/// Outputs measured together by one sensor, listed by name, and its options (the macro's
+/// `sensor gnss(gate = 22.46) = [..]`).
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Sensor {
@@ -160,6 +163,9 @@ struct Sensor {
     outputs: Vec<Spanned<String>>,
     #[serde(default)]
     doc: String,
+    /// `gate = 22.46` or `gate = "off"`: the sensor's own innovation gate.
+    #[serde(default)]
+    gate: Option<Spanned<OptionValue>>,
 }
 
 /// A named expression: a constant, output or intermediate.
@@ -278,12 +284,14 @@ impl<'de> Deserialize<'de> for Generator {
     }
 }
 
-/// A generator option's value as written: a number, a name (a string), a list; or what the
-/// model language has no reading of (`true`, a table), described for the error.
+/// A generator option's value as written: a number, a name (a string), a list, a table
+/// (numbers by call: `schedule = { predict = 250 }`); or what the model language has no
+/// reading of (`true`), described for the error.
 enum OptionValue {
     Number(f64),
     Text(String),
     List(Vec<Spanned<OptionValue>>),
+    Table(InFileOrder<Spanned<OptionValue>>),
     Other(String),
 }
 
@@ -294,6 +302,7 @@ impl OptionValue {
             OptionValue::Number(v) => format!("`{v}`"),
             OptionValue::Text(s) => format!("`{s:?}`"),
             OptionValue::List(_) => "a list".to_owned(),
+            OptionValue::Table(_) => "a table".to_owned(),
             OptionValue::Other(what) => what.clone(),
         }
     }
@@ -329,9 +338,8 @@ impl<'de> Deserialize<'de> for OptionValue {
                 }
                 Ok(OptionValue::List(list))
             }
-            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<OptionValue, A::Error> {
-                while map.next_entry::<IgnoredAny, IgnoredAny>()?.is_some() {}
-                Ok(OptionValue::Other("a table".to_owned()))
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<OptionValue, A::Error> {
+                Ok(OptionValue::Table(InFileOrder::read(map)?))
             }
         }
         deserializer.deserialize_any(Written)
@@ -597,15 +605,47 @@ impl Reader<'_> {
             .collect()
     }
 
-    fn sensors(&self, sensors: &[Sensor]) -> Vec<SensorDecl> {
+    fn sensors(&mut self, sensors: &[Sensor]) -> Vec<SensorDecl> {
         sensors
             .iter()
             .map(|s| SensorDecl {
                 docs: docs(&s.doc),
                 name: self.name(&s.name),
+                options: s.gate.iter().filter_map(|g| self.sensor_gate(g)).collect(),
                 outputs: s.outputs.iter().map(|o| self.name(o)).collect(),
             })
             .collect()
+    }
+
+    /// A sensor's `gate`, as the macro's option `gate = ..` (checked with it): a number,
+    /// or a name (`"off"`); anything else is an error here.
+    fn sensor_gate(&mut self, gate: &Spanned<OptionValue>) -> Option<GenerateArg> {
+        let here = self.places.inside(self.source, gate);
+        let value = match gate.get_ref() {
+            OptionValue::Number(v) => ArgValue::Number(*v, here),
+            OptionValue::Text(text) => ArgValue::Name(Name {
+                text: text.clone(),
+                span: here,
+            }),
+            other => {
+                self.diag.error(
+                    here,
+                    format!(
+                        "sensor.gate: {} is not a gate, which is a positive number (a \
+                         chi-square quantile, `gate = 16.27`) or `\"off\"`",
+                        other.describe()
+                    ),
+                );
+                return None;
+            }
+        };
+        Some(GenerateArg {
+            name: Name {
+                text: "gate".to_owned(),
+                span: here,
+            },
+            value,
+        })
     }
 
     /// `[dynamics]`: its kind, its `[[dynamics.let]]` intermediates in order, then one
@@ -772,12 +812,26 @@ fn generate_args(
                 }
                 ArgValue::Names(names, here)
             }
-            OptionValue::Other(what) => {
+            OptionValue::Table(entries) if TABLE_OPTIONS.contains(&option_name.as_str()) => {
+                let Some(table) = numbers_by_name(entries, source, places) else {
+                    diag.error(
+                        here,
+                        format!(
+                            "generate.{generator}.{option_name}: a table of numbers, one per \
+                             call: `{option_name}` takes {takes}"
+                        ),
+                    );
+                    continue;
+                };
+                ArgValue::Table(table, here)
+            }
+            other @ (OptionValue::Other(_) | OptionValue::Table(_)) => {
                 diag.error(
                     here,
                     format!(
-                        "generate.{generator}.{option_name}: {what} is not a value of \
-                         `{option_name}`, which takes {takes}"
+                        "generate.{generator}.{option_name}: {} is not a value of \
+                         `{option_name}`, which takes {takes}",
+                        other.describe()
                     ),
                 );
                 continue;
@@ -792,6 +846,30 @@ fn generate_args(
         });
     }
     args
+}
+
+/// A table of numbers by name (`{ predict = 250, update_gnss = 5 }`) as the macro's
+/// `[predict = 250, update_gnss = 5]`, each key and number placed; `None` if a value is no
+/// number.
+fn numbers_by_name(
+    entries: &InFileOrder<Spanned<OptionValue>>,
+    source: &str,
+    places: &Places,
+) -> Option<Vec<(Name, f64, Span)>> {
+    entries
+        .iter()
+        .map(|(key, value)| match value.get_ref() {
+            OptionValue::Number(v) => Some((
+                Name {
+                    text: key.get_ref().clone(),
+                    span: places.of_field(key),
+                },
+                *v,
+                places.inside(source, value),
+            )),
+            _ => None,
+        })
+        .collect()
 }
 
 /// The `toml` crate's `message` about the file from `at` on, with what to write.

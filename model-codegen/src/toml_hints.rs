@@ -132,6 +132,10 @@ pub(crate) fn in_toml_terms(errors: syn::Error) -> syn::Error {
     }
 }
 
+/// Options that take numbers by name, a table (`schedule = { predict = 250 }`), written
+/// by the macro as a list (`schedule = [predict = 250]`).
+pub(crate) const TABLE_OPTIONS: [&str; 3] = ["schedule", "max_cycles", "max_us"];
+
 /// Options whose values the checks' hints write as bare names (`name = GatedEkf`).
 const NAMED_OPTIONS: [&str; 11] = [
     "name",
@@ -206,6 +210,15 @@ pub(crate) fn rewrite(message: &str) -> String {
             .any(|k| k.name() == generator);
         registered.then_some(())?;
         Some(format!("{generator} = {{ {} }}", toml_options(options)?))
+    });
+    // `schedule = [predict = 250, update_gnss = 5]`: numbers by call, an inline table.
+    text = rewrite_quoted(&text, |code| {
+        let (option, value) = code.split_once(" = ")?;
+        TABLE_OPTIONS.contains(&option).then_some(())?;
+        let inside = value.strip_prefix('[')?.strip_suffix(']')?;
+        inside
+            .contains('=')
+            .then(|| format!("{option} = {{ {inside} }}"))
     });
     // `name = GatedEkf`, `discretisation = zoh`, `k1 = [A, B]`: one option.
     text = rewrite_quoted(&text, |code| {
@@ -370,6 +383,12 @@ pub(crate) fn option_takes(generator: &str, option: &str) -> &'static str {
             "a positive number (a chi-square quantile), `gate = 10.83`, or `gate = \"off\"`"
         }
         ("ekf", "name") => "a type name in UpperCamelCase as a string, `name = \"GatedEkf\"`",
+        (_, "schedule") => {
+            "a table of each call's rate in hertz, `schedule = { predict = 250, update_gnss = 5 }`"
+        }
+        (_, "max_cycles" | "max_us") => {
+            "a positive number, or a table of one per call, `max_cycles = { predict = 2000 }`"
+        }
         ("switched_observer", _) => {
             "a list of the model's constants' names, `process_noise = [\"Q1\", \"Q2\"]`"
         }

@@ -50,7 +50,8 @@ pub struct GenerateDecl {
     pub args: Vec<GenerateArg>,
 }
 
-/// `name = value` in a `generate` item.
+/// `name = value` in a `generate` item, or among a sensor's options
+/// (`sensor gnss(gate = 22.46) = [..]`).
 #[derive(Clone, Debug)]
 pub struct GenerateArg {
     /// The argument's name.
@@ -71,15 +72,19 @@ pub enum ArgValue {
     /// `[1e-6, 1e-4]`, a list of numbers, with where it was written: no option takes one,
     /// but its error can then say what the option takes instead.
     Numbers(Vec<f64>, Span),
+    /// `[predict = 250, update_gnss = 5]`, numbers by name (a TOML inline table), with
+    /// where each number and the whole list were written: a budget or rate per call.
+    Table(Vec<(Name, f64, Span)>, Span),
 }
 
 impl ArgValue {
     /// Where the value was written.
     pub fn span(&self) -> Span {
         match self {
-            ArgValue::Number(_, span) | ArgValue::Names(_, span) | ArgValue::Numbers(_, span) => {
-                *span
-            }
+            ArgValue::Number(_, span)
+            | ArgValue::Names(_, span)
+            | ArgValue::Numbers(_, span)
+            | ArgValue::Table(_, span) => *span,
             ArgValue::Name(name) => name.span,
         }
     }
@@ -138,13 +143,16 @@ pub struct OutputDecl {
 }
 
 /// `sensor gnss = [gnss_pn, gnss_pe];`: outputs sampled together by one sensor, which a
-/// filter corrects with in one update of their own (`update_gnss`).
+/// filter corrects with in one update of their own (`update_gnss`); with options,
+/// `sensor gnss(gate = 13.82) = [..];`.
 #[derive(Clone, Debug)]
 pub struct SensorDecl {
     /// Doc comment lines.
     pub docs: Vec<String>,
     /// The sensor's name.
     pub name: Name,
+    /// Its options as written (`gate = 13.82`), in order.
+    pub options: Vec<GenerateArg>,
     /// The outputs it measures, as written.
     pub outputs: Vec<Name>,
 }

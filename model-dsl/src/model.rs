@@ -211,6 +211,13 @@ pub struct Output {
     pub expr: Expr,
 }
 
+/// The chi-square distribution's 99.9 % quantiles for 1 to 12 degrees of freedom: the gate
+/// that rejects one in a thousand consistent measurements of a sensor of that many outputs
+/// (what errors propose and generated documentation quotes).
+pub const CHI_SQUARE_999: [f64; 12] = [
+    10.83, 13.82, 16.27, 18.47, 20.52, 22.46, 24.32, 26.12, 27.88, 29.59, 31.26, 32.91,
+];
+
 /// Outputs sampled together by one sensor (a GNSS receiver's position and velocity, a
 /// magnetometer's three axes).
 #[derive(Clone, Debug)]
@@ -222,6 +229,11 @@ pub struct Sensor {
     /// Indices of its outputs in [`Model::outputs`], in the order written: the order of
     /// the measurement its update takes.
     pub outputs: Vec<usize>,
+    /// Its own innovation gate (`sensor gnss(gate = 22.46) = [..]`): a chi-square
+    /// quantile for its outputs' number of degrees of freedom, infinite for `gate = off`
+    /// (a gate generated open); `None` when it declares none (a filter's `gate`, if any,
+    /// then judges its update).
+    pub gate: Option<f64>,
 }
 
 /// A named intermediate of the dynamics block.

@@ -152,9 +152,9 @@ impl Module<'_> {
             .map(|f| emit_function(model, mg, f, scalar).0);
         let generated = self.generated(scalar, &mut Vec::new(), &mut None);
         let status = (!self.designs.is_empty()).then(|| quote! { pub use super::Status; });
-        // A filter of a model with rotations names where they are (`index::Q_X`).
-        let rotations = !model.rotations().is_empty() && !self.designs.is_empty();
-        let index = rotations.then(|| quote! { use super::index; });
+        // A filter may name places in `x` or `y` (`index::Q_X`: a rotation's; a sensor's
+        // outputs), as the items at the module's top do.
+        let index = names_index(&generated).then(|| quote! { use super::index; });
         quote! {
             #[doc = #doc]
             pub mod #module {
@@ -205,9 +205,29 @@ impl Module<'_> {
     }
 }
 
+/// Whether `tokens` name a place of the `index` module (`index::Q_X`).
+fn names_index(tokens: &TokenStream) -> bool {
+    let mut previous_index = false;
+    for tree in tokens.clone() {
+        match tree {
+            proc_macro2::TokenTree::Group(group) if names_index(&group.stream()) => return true,
+            proc_macro2::TokenTree::Ident(ident) => {
+                previous_index = ident == "index";
+                continue;
+            }
+            proc_macro2::TokenTree::Punct(punct) if previous_index && punct.as_char() == ':' => {
+                return true
+            }
+            _ => {}
+        }
+        previous_index = false;
+    }
+    false
+}
+
 /// The `*_OPS` items of a generator's costs and, in `f32` (the microcontroller's code),
-/// their `*_CYCLES` items; returns the errors of the calls over `budget`, each naming the
-/// generator's other costs as its parts.
+/// their `*_CYCLES` items; returns the errors of the calls over `budget` (and of its
+/// schedule's load).
 fn cost_items(
     costs: &[Cost],
     budget: Option<&Budget>,
@@ -221,26 +241,19 @@ fn cost_items(
             false => CORTEX_M4F.estimate(&cost.ops),
         })
         .collect();
-    let parts: Vec<(&str, u64)> = costs
-        .iter()
-        .zip(&estimates)
-        .filter(|(cost, estimate)| !cost.is_budgeted && estimate.cycles > 0)
-        .map(|(cost, estimate)| (cost.what.as_str(), estimate.cycles))
-        .collect();
-    let mut errors = Vec::new();
     for (cost, estimate) in costs.iter().zip(&estimates) {
         items.push(named_ops_item(&cost.constant, &cost.what, cost.ops));
-        if scalar != Scalar::F32 {
-            continue;
-        }
-        items.push(cycles_item(
-            (&cost.constant, &cost.what, cost.is_part),
-            estimate,
-            &CORTEX_M4F,
-        ));
-        if let Some(budget) = budget.filter(|_| cost.is_budgeted) {
-            errors.extend(budget.check(&cost.what, estimate, &parts, &CORTEX_M4F));
+        if scalar == Scalar::F32 {
+            items.push(cycles_item(
+                (&cost.constant, &cost.what, cost.is_part),
+                estimate,
+                &CORTEX_M4F,
+            ));
         }
     }
-    errors
+    let estimated: Vec<(&Cost, &Estimate)> = costs.iter().zip(&estimates).collect();
+    match budget {
+        Some(budget) if scalar == Scalar::F32 => budget.check(&estimated, &CORTEX_M4F),
+        _ => Vec::new(),
+    }
 }

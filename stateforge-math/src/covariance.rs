@@ -190,6 +190,59 @@ pub(crate) fn pack_upper<T: Real, const N: usize, const L: usize>(m: &[[T; N]; N
     packed
 }
 
+/// The upper triangle, row by row, of the `K x K` block of `m` on the rows and columns
+/// `rows` (in that order): how a filter stores one sensor's measurement noise out of a
+/// whole `R`. Each entry is read from `m`'s upper triangle (a sensor may list its outputs
+/// in another order than the model's); an index beyond `m` reads zero.
+pub(crate) fn pack_upper_of<T: Real, const N: usize, const K: usize, const L: usize>(
+    m: &[[T; N]; N],
+    rows: &[usize; K],
+) -> [T; L] {
+    const {
+        assert!(
+            L == K * (K + 1) / 2,
+            "L is the length of the packed triangle"
+        )
+    };
+    let entry = |i: usize, j: usize| {
+        let (i, j) = (i.min(j), i.max(j));
+        m.get(i)
+            .and_then(|row| row.get(j))
+            .copied()
+            .unwrap_or(T::ZERO)
+    };
+    let mut packed = [T::ZERO; L];
+    let upper = rows
+        .iter()
+        .enumerate()
+        .flat_map(|(a, &i)| rows.iter().skip(a).map(move |&j| (i, j)));
+    for (slot, (i, j)) in packed.iter_mut().zip(upper) {
+        *slot = entry(i, j);
+    }
+    packed
+}
+
+/// Whether every entry of `m` between two of the `blocks` (lists of row and column
+/// indices) is zero: the noise of two sensors is independent, so a filter that stores each
+/// sensor's own `R` rejects a whole `R` that correlates them. Both triangles are read.
+pub(crate) fn is_block_diagonal<T: Real, const N: usize>(
+    m: &[[T; N]; N],
+    blocks: &[&[usize]],
+) -> bool {
+    let entry = |i: usize, j: usize| m.get(i).and_then(|row| row.get(j)).copied();
+    blocks.iter().enumerate().all(|(a, rows)| {
+        blocks.iter().skip(a + 1).all(|columns| {
+            rows.iter().all(|&i| {
+                columns.iter().all(|&j| {
+                    [entry(i, j), entry(j, i)]
+                        .iter()
+                        .all(|v| v.is_none_or(|v| v == T::ZERO))
+                })
+            })
+        })
+    })
+}
+
 /// The symmetric matrix whose upper triangle, row by row, is `packed` (see
 /// [`pack_upper`]).
 pub(crate) fn unpack_symmetric<T: Real, const N: usize, const L: usize>(

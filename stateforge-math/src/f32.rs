@@ -417,6 +417,26 @@ pub fn pack_upper<const N: usize, const L: usize>(m: &[[f32; N]; N]) -> [f32; L]
     crate::covariance::pack_upper(m)
 }
 
+/// The upper triangle, row by row, of the `K x K` block of the symmetric `m` on the rows
+/// and columns `rows`, in that order (`L = K (K + 1) / 2` entries, each read from `m`'s
+/// upper triangle): how a generated filter stores one sensor's measurement noise out of a
+/// whole `R`.
+#[must_use]
+pub fn pack_upper_of<const N: usize, const K: usize, const L: usize>(
+    m: &[[f32; N]; N],
+    rows: &[usize; K],
+) -> [f32; L] {
+    crate::covariance::pack_upper_of(m, rows)
+}
+
+/// Whether every entry of `m` between two of `blocks` (lists of its rows and columns) is
+/// zero: a generated filter's test that a whole measurement noise `R` leaves its sensors
+/// independent, each sensor's outputs one block.
+#[must_use]
+pub fn is_block_diagonal<const N: usize>(m: &[[f32; N]; N], blocks: &[&[usize]]) -> bool {
+    crate::covariance::is_block_diagonal(m, blocks)
+}
+
 /// The symmetric matrix whose upper triangle, row by row, is `packed` (see [`pack_upper`]).
 #[must_use]
 pub fn unpack_symmetric<const N: usize, const L: usize>(packed: &[f32; L]) -> [[f32; N]; N] {

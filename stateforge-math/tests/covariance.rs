@@ -129,3 +129,55 @@ fn negative_variances_asymmetry_and_nan_are_rejected() {
     assert!(!stateforge_math::f32::all_non_negative(&[0.0, -1e-30]));
     assert!(!stateforge_math::f64::all_non_negative(&[f64::NAN]));
 }
+
+/// A 4 x 4 measurement noise with two sensors, outputs `[0, 2]` and `[3, 1]` (the second
+/// listing its outputs out of the model's order).
+const SENSOR_NOISE: [[f64; 4]; 4] = [
+    [1.0, 0.0, 0.5, 0.0],
+    [0.0, 4.0, 0.0, 0.25],
+    [0.5, 0.0, 9.0, 0.0],
+    [0.0, 0.25, 0.0, 16.0],
+];
+
+#[test]
+fn a_sensor_block_is_packed_in_the_sensor_order() {
+    let first: [f64; 3] = stateforge_math::f64::pack_upper_of(&SENSOR_NOISE, &[0, 2]);
+    assert_eq!(first, [1.0, 0.5, 9.0]);
+    let second: [f64; 3] = stateforge_math::f64::pack_upper_of(&SENSOR_NOISE, &[3, 1]);
+    assert_eq!(second, [16.0, 0.25, 4.0]);
+    // Read from the upper triangle: a lower entry that differs is not read.
+    let mut lower_differs = SENSOR_NOISE.map(|row| row.map(|v| v as f32));
+    lower_differs[3][1] = 7.0;
+    let second: [f32; 3] = stateforge_math::f32::pack_upper_of(&lower_differs, &[3, 1]);
+    assert_eq!(second, [16.0, 0.25, 4.0]);
+    // The whole matrix, by its own rows, is `pack_upper`.
+    let all: [f64; 10] = stateforge_math::f64::pack_upper_of(&SENSOR_NOISE, &[0, 1, 2, 3]);
+    let packed: [f64; 10] = stateforge_math::f64::pack_upper(&SENSOR_NOISE);
+    assert_eq!(all, packed);
+}
+
+#[test]
+fn a_correlation_between_two_sensors_is_not_block_diagonal() {
+    let blocks: [&[usize]; 2] = [&[0, 2], &[3, 1]];
+    assert!(stateforge_math::f64::is_block_diagonal(
+        &SENSOR_NOISE,
+        &blocks
+    ));
+    // Any entry between the sensors, in either triangle.
+    for (i, j) in [(0, 1), (1, 0), (2, 3), (3, 2), (0, 3), (1, 2)] {
+        let mut correlated = SENSOR_NOISE.map(|row| row.map(|v| v as f32));
+        correlated[i][j] = 1e-6;
+        assert!(
+            !stateforge_math::f32::is_block_diagonal(&correlated, &blocks),
+            "({i}, {j})"
+        );
+    }
+    // Within a sensor it is its own noise's correlation; NaN between them is not zero.
+    assert!(stateforge_math::f64::is_block_diagonal(
+        &SENSOR_NOISE,
+        &[&[0, 1, 2, 3]]
+    ));
+    let mut nan = SENSOR_NOISE;
+    nan[0][1] = f64::NAN;
+    assert!(!stateforge_math::f64::is_block_diagonal(&nan, &blocks));
+}

@@ -21,8 +21,9 @@ stateforge::model! {
             bearing = atan2(py, px),
             /// range of the rover from the beacon [m]
             range = sqrt(px * px + py * py);
-        /// the beacon's direction finder, which measures both at once
-        sensor beacon = [bearing, range];
+        /// the beacon's direction finder, which measures both at once, gated at the chi-square
+        /// 99.9 % quantile for its two outputs
+        sensor beacon(gate = 13.82) = [bearing, range];
         dynamics discrete {
             let delta = clamp(steer, -STEER_MAX, STEER_MAX);
             let push = throttle.max(0.0);

@@ -751,3 +751,77 @@ fn a_mistake_after_leading_blanks_is_reported_not_a_panic() {
          `(`",
     );
 }
+
+/// `SMALL` as the macro writes it, with `generate` items `generate`.
+fn small_macro(generate: &str) -> String {
+    format!(
+        "stateforge::model! {{ pub mod m {{ scalar f32; const TS = 0.01; state x1, x2; \
+         input u; output y = x1; generate {generate}; dynamics discrete {{ \
+         x1 = x1 + TS * x2; x2 = x2 + TS * u; }} }} }}"
+    )
+}
+
+#[test]
+fn a_schedule_and_budgets_per_call_are_tables_in_a_model_file() {
+    let toml = format!(
+        "{SMALL}[generate.ekf]\nmax_cycles = {{ predict = 4000, update = 5000 }}\n\
+         schedule = {{ predict = 100, update = 10 }}\nmhz = 168\nmax_load = 50\n"
+    );
+    let from_file = stateforge_cli::expand_model_file(&toml).expect("model file expands");
+    let from_macro = stateforge_compiler::expand_macro_source(&small_macro(
+        "ekf(max_cycles = [predict = 4000, update = 5000], \
+         schedule = [predict = 100, update = 10], mhz = 168, max_load = 50)",
+    ))
+    .expect("macro expands");
+    assert_eq!(code_without_docs(from_file), code_without_docs(from_macro));
+    // A table of other than numbers, a table where none belongs, and the checks' hints in
+    // TOML's form.
+    let text = format!("{SMALL}[generate.ekf]\nschedule = {{ predict = \"fast\" }}\nmhz = 168\n");
+    assert_error(
+        &text,
+        "21:12: generate.ekf.schedule: a table of numbers, one per call: `schedule` takes a \
+         table of each call's rate in hertz, `schedule = { predict = 250, update_gnss = 5 }`",
+    );
+    let gate = format!("{SMALL}[generate.ekf]\ngate = {{ predict = 2 }}\n");
+    assert_error(
+        &gate,
+        "21:8: generate.ekf.gate: a table is not a value of `gate`, which takes a positive \
+         number (a chi-square quantile), `gate = 10.83`, or `gate = \"off\"`",
+    );
+    let load = format!("{SMALL}[generate.ekf]\nmax_load = 50\n");
+    assert_error(
+        &load,
+        "21:12: `max_load` bounds a `schedule`'s load: give the schedule, `schedule = { \
+         predict = 250, update_gnss = 5 }`, or drop it",
+    );
+}
+
+#[test]
+fn a_sensors_gate_is_a_key_of_its_table() {
+    let sensor = |gate: &str| {
+        SMALL.replace(
+            "[dynamics]",
+            &format!("[[sensor]]\nname = \"position\"\noutputs = [\"y\"]\n{gate}\n[dynamics]"),
+        ) + "[generate]\nekf = true\n"
+    };
+    let from_file =
+        stateforge_cli::expand_model_file(&sensor("gate = 10.83")).expect("model file expands");
+    let from_macro = stateforge_compiler::expand_macro_source(&small_macro("ekf").replace(
+        "output y = x1;",
+        "output y = x1; sensor position(gate = 10.83) = [y];",
+    ))
+    .expect("macro expands");
+    assert_eq!(code_without_docs(from_file), code_without_docs(from_macro));
+    assert_error(
+        &sensor("gate = -1"),
+        "18:8: a sensor's `gate` is a threshold on its normalised innovation squared, a \
+         positive number: the chi-square quantile for as many degrees of freedom as it has \
+         outputs (for this sensor's 1 output, 10.83 rejects one in a thousand consistent \
+         measurements), or `\"off\"` to set it at run time",
+    );
+    assert_error(
+        &sensor("gate = [1, 2]"),
+        "18:8: sensor.gate: a list is not a gate, which is a positive number (a chi-square \
+         quantile, `gate = 16.27`) or `\"off\"`",
+    );
+}

@@ -10,7 +10,7 @@
 use super::report::{self, Line, Trace};
 use generated_demo::flight::{
     conjugate, initial_estimate, quaternion_product, rotate, rotation_vector, tuning, Flight,
-    Truth, ACCEL_BIAS, DT, END, GNSS_OUTAGE, GYRO_BIAS, MAGNETOMETER_GATE,
+    Truth, ACCEL_BIAS, DT, END, GNSS_OUTAGE, GYRO_BIAS,
 };
 use generated_demo::navigation::{self, TANGENT_LEN, X_LEN};
 use std::error::Error;
@@ -145,15 +145,15 @@ macro_rules! navigation_filter {
                 r: &[f64; 9],
             ) -> Result<Self, String> {
                 let cast = |v: f64| v as $scalar;
-                let mut ekf = <$module $(:: $inner)*::Ekf>::new(
+                // Each sensor's gate is the model's (`sensor gnss(gate = 22.46)`,
+                // `sensor magnetometer(gate = 16.27)`).
+                <$module $(:: $inner)*::Ekf>::new(
                     &x0.map(cast),
                     &super::diag(p0.map(cast)),
                     &q.map(cast),
                     &super::diag(r.map(cast)),
                 )
-                .map_err(|status| format!("tuning rejected: {status:?}"))?;
-                let gate = ekf.set_magnetometer_innovation_gate(cast(MAGNETOMETER_GATE));
-                $outcome(gate).map(|_| ekf)
+                .map_err(|status| format!("tuning rejected: {status:?}"))
             }
             fn predict(&mut self, imu: &[f64; 6]) -> Result<Outcome, String> {
                 $outcome(<$module $(:: $inner)*::Ekf>::predict(self, &imu.map(|v| v as $scalar)))

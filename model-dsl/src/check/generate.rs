@@ -33,8 +33,11 @@ pub(super) fn check_generate(
             continue;
         }
         let mut args = Args::new(item, diag);
-        let budget = Budget::read(&mut args, diag);
-        let cx = cx.with_budget(budget.as_ref().map(|b| (b.cycles, b.span)));
+        let budget = Budget::read(
+            &mut |name| args.take(&[name]).map(|a| a.value.clone()),
+            diag,
+        );
+        let cx = cx.with_budget(budget.clone());
         let generator = kind.options(item, &mut args, &cx, diag);
         args.report_unused(diag);
         if let Some(generator) = generator {

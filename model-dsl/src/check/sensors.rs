@@ -1,17 +1,25 @@
 //! The sensors: named, disjoint groups of the declared outputs, which a filter corrects
-//! with in one update each.
+//! with in one update each, and their options (`sensor gnss(gate = 22.46) = [..]`).
 
 use super::names::check_identifier;
-use crate::ast::{ModelDecl, Name, SensorDecl};
-use crate::diagnostics::Diagnostics;
-use crate::model::Sensor;
+use crate::ast::{ArgValue, GenerateArg, ModelDecl, Name, SensorDecl};
+use crate::diagnostics::{closest, Diagnostics};
+use crate::model::{Sensor, CHI_SQUARE_999};
 use std::collections::{HashMap, HashSet};
 
 /// How many output names an error lists before it stops.
 const LISTED_OUTPUTS: usize = 12;
 
-/// Resolves each sensor's outputs by name. A sensor needs a name of its own (not an
-/// output's, whose update would share it) and at least one output that exists; an output
+/// The options a sensor takes.
+const SENSOR_OPTIONS: [&str; 1] = ["gate"];
+
+/// Names a sensor may not take: its noise setter, `set_<sensor>_noise`, would be a filter's
+/// own (`set_process_noise`, `set_measurement_noise`, `set_input_noise`).
+const RESERVED: [&str; 3] = ["process", "measurement", "input"];
+
+/// Resolves each sensor's outputs by name and reads its options. A sensor needs a name of
+/// its own (not an output's, whose update would share it; a vector output's own sensor,
+/// which lists it alone, excepted) and at least one output that exists; an output
 /// belongs to one sensor at most, and appears in it once. Outputs are found among the
 /// declared ones, so that one whose expression is wrong (reported already) is not also
 /// unknown here. `entries[i]` are the positions of the `i`-th declared output's entries
@@ -29,16 +37,13 @@ pub(super) fn check_sensors(
     for sensor in &decl.sensors {
         let name = &sensor.name;
         check_identifier(name, diag);
-        if outputs.contains(&name.text.as_str()) {
-            diag.error(
-                name.span,
-                format!(
-                    "`{}` names an output: give the sensor a name of its own (its update is \
-                     `update_<sensor>`, an output's `update_<output>`)",
-                    name.text
-                ),
-            );
-        } else if !sensor_names.insert(&name.text) {
+        check_not_reserved(name, diag);
+        if let Some(i) = outputs.iter().position(|&o| o == name.text) {
+            if !is_own_sensor(sensor, entries.get(i)) {
+                diag.error(name.span, names_an_output(sensor, entries.get(i)));
+            }
+        }
+        if !sensor_names.insert(&name.text) {
             diag.error(
                 name.span,
                 format!(
@@ -53,13 +58,15 @@ pub(super) fn check_sensors(
                 "a sensor measures at least one output: list them, `[y1, y2]`",
             );
         }
+        let outputs: Vec<usize> = members(sensor, &outputs, &mut owners, diag)
+            .into_iter()
+            .flat_map(|i| entries.get(i).cloned().unwrap_or_default())
+            .collect();
         sensors.push(Sensor {
             docs: sensor.docs.clone(),
             name: name.text.clone(),
-            outputs: members(sensor, &outputs, &mut owners, diag)
-                .into_iter()
-                .flat_map(|i| entries.get(i).cloned().unwrap_or_default())
-                .collect(),
+            gate: options(sensor, outputs.len(), diag),
+            outputs,
         });
     }
     for (i, (output, entries)) in decl.outputs.iter().zip(entries).enumerate() {
@@ -67,14 +74,119 @@ pub(super) fn check_sensors(
             && !owners.contains_key(&i)
             && !sensor_names.contains(output.name.text.as_str())
         {
+            check_not_reserved(&output.name, diag);
             sensors.push(Sensor {
                 docs: output.docs.clone(),
                 name: output.name.text.clone(),
                 outputs: entries.clone().collect(),
+                gate: None,
             });
         }
     }
     sensors
+}
+
+/// A sensor's name (a vector output's, which is its own sensor) must leave its setter,
+/// `set_<sensor>_noise`, to itself.
+fn check_not_reserved(name: &Name, diag: &mut Diagnostics) {
+    if RESERVED.contains(&name.text.as_str()) {
+        diag.error(
+            name.span,
+            format!(
+                "a sensor named `{0}` would set its measurement noise with \
+                 `set_{0}_noise`, a method every filter has already: choose another name",
+                name.text
+            ),
+        );
+    }
+}
+
+/// Whether `sensor` is a vector output's own sensor, declared to give it options: named as
+/// that output (whose entries are `entries`), which it lists alone. Its update is the one
+/// the output has anyway, `update_<output>` with its three entries.
+fn is_own_sensor(sensor: &SensorDecl, entries: Option<&std::ops::Range<usize>>) -> bool {
+    let vector = entries.is_some_and(|e| e.len() > 1);
+    vector && matches!(sensor.outputs.as_slice(), [only] if only.text == sensor.name.text)
+}
+
+/// Why a sensor may not be named as an output (whose entries are `entries`), and what to
+/// write.
+fn names_an_output(sensor: &SensorDecl, entries: Option<&std::ops::Range<usize>>) -> String {
+    let name = &sensor.name.text;
+    if entries.is_some_and(|e| e.len() > 1) {
+        return format!(
+            "`{name}` names a vector output, whose own sensor lists it alone: write `sensor \
+             {name} = [{name}];` for that sensor's options, or give a sensor of several \
+             outputs a name of its own (its update is `update_<sensor>`)"
+        );
+    }
+    format!(
+        "`{name}` names a scalar output, which is no sensor: `update_{name}(y)` corrects \
+         with it alone, judged by the filter's gate. A sensor of it needs a name of its own \
+         (its update is `update_<sensor>`), `sensor {name}_sensor(gate = 10.83) = [{name}];`"
+    )
+}
+
+/// The options of `sensor`, of `len` outputs: its gate, if it declares one. A value that
+/// is not a gate, an option given twice or one a sensor does not take is reported.
+fn options(sensor: &SensorDecl, len: usize, diag: &mut Diagnostics) -> Option<f64> {
+    let mut gate = None;
+    let mut seen: HashSet<&str> = HashSet::new();
+    for option in &sensor.options {
+        let key = option.name.text.as_str();
+        if !seen.insert(key) {
+            diag.error(option.name.span, format!("`{key}` is given twice"));
+            continue;
+        }
+        if key == "gate" {
+            gate = read_gate(option, len, diag);
+        } else {
+            diag.error(option.name.span, unknown_option(key));
+        }
+    }
+    gate
+}
+
+/// `gate = 22.46` (a positive finite number) or `gate = off` (generated open, infinite).
+fn read_gate(option: &GenerateArg, len: usize, diag: &mut Diagnostics) -> Option<f64> {
+    match &option.value {
+        ArgValue::Number(v, _) if *v > 0.0 && v.is_finite() => Some(*v),
+        ArgValue::Name(n) if n.text == "off" => Some(f64::INFINITY),
+        other => {
+            let quantile = match CHI_SQUARE_999.get(len.wrapping_sub(1)) {
+                Some(q) => format!(
+                    "for this sensor's {len} output{}, {q} rejects one in a thousand \
+                     consistent measurements",
+                    if len == 1 { "" } else { "s" }
+                ),
+                None => "16.27 rejects one in a thousand consistent measurements of 3 \
+                         outputs, 22.46 of 6"
+                    .to_owned(),
+            };
+            diag.error(
+                other.span(),
+                format!(
+                    "a sensor's `gate` is a threshold on its normalised innovation squared, \
+                     a positive number: the chi-square quantile for as many degrees of \
+                     freedom as it has outputs ({quantile}), or `off` to set it at run time"
+                ),
+            );
+            None
+        }
+    }
+}
+
+/// What an option a sensor does not take is told.
+fn unknown_option(key: &str) -> String {
+    let listed: Vec<String> = SENSOR_OPTIONS.iter().map(|o| format!("`{o}`")).collect();
+    match closest(key, SENSOR_OPTIONS) {
+        Some(near) => format!("a sensor takes no option `{key}`: did you mean `{near}`?"),
+        None => format!(
+            "a sensor takes no option `{key}`; its options are {} (its measurement noise \
+             is given at run time, to the filter's `new` and `set_<sensor>_noise`)",
+            crate::diagnostics::phrase(&listed, "and")
+        ),
+    }
 }
 
 /// The indices of `sensor`'s outputs, each claimed for it in `owners`; an output that does

@@ -88,7 +88,7 @@ fn names_read(decl: &ModelDecl) -> HashSet<&str> {
                 read.insert(name.text.as_str());
             }
             ArgValue::Names(names, _) => read.extend(names.iter().map(|n| n.text.as_str())),
-            ArgValue::Number(..) | ArgValue::Numbers(..) => {}
+            ArgValue::Number(..) | ArgValue::Numbers(..) | ArgValue::Table(..) => {}
         }
     }
     read

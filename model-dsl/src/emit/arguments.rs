@@ -95,7 +95,8 @@ impl Arguments {
     }
 
     /// A further test of a covariance argument, made with the tests that they are
-    /// covariances (a structural zero it must have).
+    /// covariances (a structural zero it must have: between two blocks of the covariance,
+    /// between two sensors' noise).
     pub fn covariance_structure(&mut self, test: TokenStream) {
         self.covariances.push(test);
     }

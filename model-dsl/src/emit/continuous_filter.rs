@@ -329,7 +329,7 @@ const NOISE_PIVOTS: ((&str, &str), &str) = (("measurement_variance", "inv_r"), "
 impl MeasurementTerms {
     /// `R^-1` of the measurement noise density's variables and `h`, `H` over `[t, x..]`.
     fn new(g: &mut ModelGraph, vars: &FilterVars, m: usize) -> MeasurementTerms {
-        let r = symmetric_from_packed(&vars.r, m);
+        let r = vars.r_matrix.clone();
         let (prefixes, suffix) = NOISE_PIVOTS;
         let ldl = crate::symbolic::linalg::ldl_inverse(&mut g.graph, &r, |gr, j| {
             gr.var(&pivot_names(m, j, prefixes, suffix).1)
@@ -834,7 +834,7 @@ impl MethodNodes {
         (t, noise_duration): (Option<NodeId>, Option<NodeId>),
         suffix: &'static str,
     ) -> kalman::Correction {
-        let mut r = symmetric_from_packed(&self.vars.r, m);
+        let mut r = self.vars.r_matrix.clone();
         if let Some(duration) = noise_duration {
             let graph = &mut self.g.graph;
             r = r
@@ -1098,7 +1098,7 @@ fn read_noise_and_alpha(lowerer: &mut Lowerer, nodes: &MethodNodes) {
         lowerer.define(var, value);
     }
     lowerer.read_lazily(&quote! { self.q }, &nodes.vars.q);
-    lowerer.read_lazily(&quote! { self.r }, &nodes.vars.r);
+    nodes.vars.read_measurement_noise(lowerer);
     if let Some(alpha) = nodes.dynamics.alpha {
         let name = var_idents(&nodes.g.graph, &[alpha]).remove(0);
         lowerer.statement(quote! { let #name = self.alpha; });

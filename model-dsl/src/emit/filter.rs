@@ -9,10 +9,11 @@ use crate::emit::code::{estimate_accessors, packed_names};
 use crate::emit::known::KnownItems;
 use crate::emit::lower::Lowerer;
 use crate::emit::names::ident;
+use crate::emit::noise_blocks::{block_fields, noise_blocks, noise_methods, stored_noise};
 /// The process noise argument, shared by the constructors and the setters.
 pub use crate::emit::tuning::noise_argument;
 pub use crate::emit::tuning::ProcessNoise;
-use crate::emit::tuning::{input_noise_doc, input_noise_setter, noise_setters};
+use crate::emit::tuning::{input_noise_doc, input_noise_setter, noise_setters, StoredNoise};
 use crate::model::Model;
 use crate::symbolic::linalg::{packed_len, Matrix};
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
@@ -21,9 +22,10 @@ use quote::quote;
 
 /// What the EKF, the hybrid EKF and the continuous-time EKF store and assemble alike: the
 /// estimate `x` (`n` entries), its covariance `p` (packed upper triangle), the process
-/// noise `q` (packed, or its variances when diagonal) and the measurement noise `r`
-/// (packed, `m x m`); their dimension literals, the constructor, the estimate's accessors
-/// and the noise setters.
+/// noise `q` (packed, or its variances when diagonal) and the measurement noise `R`
+/// (`m x m`: packed in `r`, or in a model with sensors each sensor's block apart, see
+/// [`crate::emit::noise_blocks::NoiseBlock`]); their dimension literals, the constructor, the
+/// estimate's accessors and the noise setters.
 pub struct FilterLayout {
     /// The scalar type, `f32` or `f64`.
     pub ty: Ident,
@@ -55,13 +57,16 @@ pub struct FilterLayout {
     pub m_len: Literal,
     /// `n (n + 1) / 2`, the packed covariance's length.
     pub np: Literal,
-    /// `m (m + 1) / 2`, the packed measurement noise's length.
-    pub mp: Literal,
+    /// How the whole measurement noise argument `r` is stored: its fields and their test.
+    stored_r: StoredNoise,
+    /// The fields holding the measurement noise, each followed by a comma.
+    r_fields: TokenStream,
     /// The type of the field `q`.
     pub q_field: TokenStream,
     /// `state()` and `covariance()`.
     pub accessors: TokenStream,
-    /// `set_process_noise` and `set_measurement_noise`.
+    /// `set_process_noise`, `set_measurement_noise` and each sensor's `<sensor>_noise` and
+    /// `set_<sensor>_noise`.
     pub setters: TokenStream,
 }
 
@@ -70,12 +75,13 @@ impl FilterLayout {
     /// shaped as `noise`.
     pub fn new(model: &Model, noise: &ProcessNoise, ty: &Ident) -> FilterLayout {
         let (n, n_p, m) = (model.state_len(), model.tangent_len(), model.outputs.len());
-        let [n_len, m_len, np, mp] =
-            [n, m, packed_len(n_p), packed_len(m)].map(Literal::usize_unsuffixed);
+        let [n_len, m_len, np] = [n, m, packed_len(n_p)].map(Literal::usize_unsuffixed);
         let k = noise.len(n_p);
         let (_, q_field, _) = noise_argument("q", k, noise.diagonal, ty);
         let noise_doc = noise.states_doc(model);
-        let setters = noise_setters((k, &noise_doc), m, noise.diagonal, ty);
+        let stored_r = stored_noise(model, ty);
+        let mut setters = noise_setters((k, &noise_doc), (m, &stored_r), noise.diagonal, ty);
+        setters.extend(noise_methods(model, ty));
         FilterLayout {
             ty: ty.clone(),
             n,
@@ -96,7 +102,8 @@ impl FilterLayout {
             n_len,
             m_len,
             np,
-            mp,
+            stored_r,
+            r_fields: block_fields(model, ty),
             q_field,
             accessors: estimate_accessors((n, n_p), ty),
             setters,
@@ -139,15 +146,15 @@ impl FilterLayout {
         self
     }
 
-    /// The fields `x`, `p`, `q`, `qu` (with noise on inputs) and `r` of the filter's
-    /// struct, each followed by a comma.
+    /// The fields `x`, `p`, `q`, `qu` (with noise on inputs) and `r` (or each sensor's
+    /// block of it) of the filter's struct, each followed by a comma.
     pub fn fields(&self) -> TokenStream {
         let FilterLayout {
             ty,
             n_len,
             np,
             q_field,
-            mp,
+            r_fields,
             ..
         } = self;
         let qu = (!self.input_noise.is_empty()).then(|| {
@@ -159,7 +166,7 @@ impl FilterLayout {
             p: [#ty; #np],
             q: #q_field,
             #qu
-            r: [#ty; #mp],
+            #r_fields
         }
     }
 
@@ -227,7 +234,14 @@ impl FilterLayout {
             let text = input_noise_doc(&names);
             quote! { #[doc = #text] }
         });
-        let doc = quote! { #doc #noise_doc #input_noise_doc };
+        let sensors_doc = self.stored_r.condition.as_ref().map(|_| {
+            quote! {
+                ///
+                /// The noise of two sensors is independent: `r`'s entries between two sensors
+                /// must be zero, and each sensor keeps its own block (`set_<sensor>_noise`).
+            }
+        });
+        let doc = quote! { #doc #noise_doc #input_noise_doc #sensors_doc };
         let (x0, p0) = self.initial_estimate(&mut arguments);
         let unit = self.unit_rotations(&quote! { Err(Status::RejectedInput) });
         let k = self.noise.len(self.n_p);
@@ -236,7 +250,16 @@ impl FilterLayout {
             let qu = arguments.process_noise("qu", names.len(), true, &self.ty);
             quote! { qu: #qu, }
         });
-        let r = arguments.covariance("r", self.m, &self.ty);
+        // Stored whole, or each sensor's block (zero between them, tested with `r`).
+        let _ = arguments.covariance("r", self.m, &self.ty);
+        if let Some(condition) = &self.stored_r.condition {
+            arguments.covariance_structure(condition.clone());
+        }
+        let r = self
+            .stored_r
+            .fields
+            .iter()
+            .map(|(field, value)| quote! { #field: #value, });
         let known_init = known.argument(&mut arguments);
         arguments.constructor(
             &doc,
@@ -248,7 +271,7 @@ impl FilterLayout {
                     p: #p0,
                     q: #q,
                     #qu
-                    r: #r,
+                    #(#r)*
                     #extra_init
                     #known_init
                 })
@@ -278,9 +301,9 @@ pub fn substeps_constant(model: &Model, mg: &ModelGraph, doc: &TokenStream) -> T
 }
 
 /// The variables a filter's method reads: the packed covariance `p`, the process noise
-/// `q` (and the matrix it makes), the packed measurement noise `r` (all outputs), and the
-/// measurement of the outputs the method corrects with, `<output>_measured`. Declared in
-/// this order, so every filter's graph numbers them alike.
+/// `q` (and the matrix it makes), the measurement noise `R` (all outputs, by its blocks),
+/// and the measurement of the outputs the method corrects with, `<output>_measured`.
+/// Declared in this order, so every filter's graph numbers them alike.
 pub struct FilterVars {
     /// The packed covariance's variables.
     pub p: Vec<NodeId>,
@@ -288,8 +311,11 @@ pub struct FilterVars {
     pub q: Vec<NodeId>,
     /// The process noise covariance they make.
     pub q_matrix: Matrix,
-    /// The packed measurement noise's variables.
-    pub r: Vec<NodeId>,
+    /// The measurement noise covariance `R` (`m x m`): its blocks' variables, structural
+    /// zeros between two sensors.
+    pub r_matrix: Matrix,
+    /// Each block's field and its variables, packed in the field's order.
+    pub r_blocks: Vec<(Ident, Vec<NodeId>)>,
     /// The measurement's variables, one per output corrected with.
     pub y: Vec<NodeId>,
 }
@@ -304,10 +330,10 @@ impl FilterVars {
         noise: &ProcessNoise,
         avoid: &[String],
     ) -> FilterVars {
-        let (n, m) = (model.tangent_len(), model.outputs.len());
+        let n = model.tangent_len();
         let p = packed_vars(graph, "p", n, avoid);
         let (q, q_matrix) = noise_vars(graph, "q", n, noise, avoid);
-        let r = packed_vars(graph, "r", m, avoid);
+        let (r_matrix, r_blocks) = measurement_noise_vars(graph, model, avoid);
         let y = outputs
             .iter()
             .map(|&j| {
@@ -321,10 +347,52 @@ impl FilterVars {
             p,
             q,
             q_matrix,
-            r,
+            r_matrix,
+            r_blocks,
             y,
         }
     }
+
+    /// Reads the measurement noise the code uses from its fields, each entry once.
+    pub fn read_measurement_noise(&self, lowerer: &mut Lowerer) {
+        for (field, vars) in &self.r_blocks {
+            lowerer.read_lazily(&quote! { self.#field }, vars);
+        }
+    }
+}
+
+/// The measurement noise `R` of `model`'s outputs over the variables `r11`, `r12`, .. (named
+/// by their places in the whole `R`, declared for all of it), each block's entries from
+/// its own field and structural zeros between two blocks; and each block's field with its
+/// variables, packed in the block's order.
+fn measurement_noise_vars(
+    graph: &mut Graph,
+    model: &Model,
+    avoid: &[String],
+) -> (Matrix, Vec<(Ident, Vec<NodeId>)>) {
+    let m = model.outputs.len();
+    let all = crate::symbolic::linalg::symmetric_from_packed(&packed_vars(graph, "r", m, avoid), m);
+    let zero = graph.zero();
+    let mut matrix = vec![vec![zero; m]; m];
+    let blocks = noise_blocks(model)
+        .into_iter()
+        .map(|block| {
+            let rows = &block.outputs;
+            for &i in rows {
+                for &j in rows {
+                    matrix[i][j] = all[i][j];
+                }
+            }
+            let packed = rows
+                .iter()
+                .enumerate()
+                .flat_map(|(a, &i)| rows[a..].iter().map(move |&j| (i, j)))
+                .map(|(i, j)| all[i][j])
+                .collect();
+            (ident(&block.field), packed)
+        })
+        .collect();
+    (matrix, blocks)
 }
 
 impl FilterVars {

@@ -13,6 +13,7 @@ pub mod measurement;
 pub mod model_fns;
 pub mod module_items;
 pub mod names;
+pub mod noise_blocks;
 pub mod recovery;
 pub mod registers;
 pub mod scopes;

@@ -12,16 +12,36 @@ use quote::quote;
 
 /// `set_process_noise` and `set_measurement_noise` for a filter whose fields `q` (packed,
 /// or its `k` variances if `diagonal_q`; `states_doc` says which states they are, see
-/// [`ProcessNoise::states_doc`]) and `r` (packed, `m x m`) hold the noise.
+/// [`ProcessNoise::states_doc`]) and `r` (`m x m`, stored as `stored` says) hold the noise.
 pub fn noise_setters(
     (k, states_doc): (usize, &str),
-    m: usize,
+    (m, stored): (usize, &StoredNoise),
     diagonal_q: bool,
     ty: &proc_macro2::Ident,
 ) -> TokenStream {
     let set_q = process_noise_setter("set_process_noise", "q", (k, states_doc), diagonal_q, ty);
-    let set_r = measurement_noise_setter(m, ty);
+    let set_r = stored_measurement_noise_setter(m, stored, ty);
     quote! { #set_q #set_r }
+}
+
+/// How a filter stores a whole measurement noise argument `r`: the fields it fills and
+/// their values (`r: pack_upper(r)`, or a sensor's block each), and the test, besides
+/// being a covariance, that `r` must pass to be stored so (zero between the sensors).
+pub struct StoredNoise {
+    /// Each field and its value, an expression of `r`.
+    pub fields: Vec<(proc_macro2::Ident, TokenStream)>,
+    /// The further test of `r`, if there is one.
+    pub condition: Option<TokenStream>,
+}
+
+impl StoredNoise {
+    /// The whole `r` in the one packed field `r`.
+    fn whole(ty: &proc_macro2::Ident) -> StoredNoise {
+        StoredNoise {
+            fields: vec![(super::names::ident("r"), pack_upper("r", ty))],
+            condition: None,
+        }
+    }
 }
 
 /// `fn <method>(&mut self, q) -> Status` replacing the process noise field `field` (packed,
@@ -79,7 +99,7 @@ pub fn input_noise_doc(inputs: &[&str]) -> String {
 
 /// `fn <method>(&mut self, <param>) -> Status` replacing the noise field `field` (packed,
 /// or its `n` variances if `diagonal`), documented by `doc`.
-fn noise_setter(
+pub fn noise_setter(
     (method, param, field): (&str, &str, &str),
     n: usize,
     diagonal: bool,
@@ -110,20 +130,45 @@ fn noise_setter(
 
 /// `fn set_measurement_noise(&mut self, r) -> Status` for the packed field `r` (`m x m`).
 pub fn measurement_noise_setter(m: usize, ty: &proc_macro2::Ident) -> TokenStream {
+    stored_measurement_noise_setter(m, &StoredNoise::whole(ty), ty)
+}
+
+/// `fn set_measurement_noise(&mut self, r) -> Status` storing `r` (`m x m`) as `stored`
+/// says: whole, or each sensor's block apart (rejecting a covariance between two sensors).
+fn stored_measurement_noise_setter(
+    m: usize,
+    stored: &StoredNoise,
+    ty: &proc_macro2::Ident,
+) -> TokenStream {
     let m_len = Literal::usize_unsuffixed(m);
-    let body = setter(
-        "r",
-        &pack_upper("r", ty),
-        &quote! { stateforge_math::#ty::upper_triangle_finite(r) },
-        &covariance_test("r", false, ty),
-    );
+    let mut tests = vec![covariance_test("r", false, ty)];
+    tests.extend(stored.condition.clone());
+    let covariance_check = reject_non_covariance(&tests, false);
+    let stores = stored
+        .fields
+        .iter()
+        .map(|(field, value)| quote! { self.#field = #value; });
+    let independent = stored.condition.as_ref().map(|_| {
+        quote! {
+            ///
+            /// The noise of two sensors is independent: each sensor keeps its own block of
+            /// `R` (see its `set_<sensor>_noise`), and an `r` whose entries between two
+            /// sensors are not zero is rejected with [`Status::InvalidCovariance`].
+        }
+    });
     quote! {
         /// Replaces the measurement noise covariance `R` (its upper triangle is read).
         /// Rejects a non-finite entry with [`Status::RejectedInput`], and a matrix that is
         /// not symmetric and positive semi-definite with [`Status::InvalidCovariance`],
         /// leaving the filter unchanged.
+        #independent
         pub fn set_measurement_noise(&mut self, r: &[[#ty; #m_len]; #m_len]) -> Status {
-            #body
+            if !stateforge_math::#ty::upper_triangle_finite(r) {
+                return Status::RejectedInput;
+            }
+            #covariance_check
+            #(#stores)*
+            Status::Ok
         }
     }
 }

@@ -6,10 +6,11 @@
 //!                     | 'const' IDENT '=' expr ';'
 //!                     | ('state' | 'param' | 'input' | 'known') (doc* IDENT [':' TYPE]),+ ';'
 //!                     | 'output' (doc* IDENT '=' expr),+ ';'
-//!                     | 'sensor' IDENT '=' '[' IDENT,+ ']' ';'
+//!                     | 'sensor' IDENT ['(' (IDENT '=' value),* ')'] '=' '[' IDENT,+ ']' ';'
 //!                     | 'dynamics' ('discrete' | 'continuous' ['(' method [',' 'dt' '=' expr] [',' 'substeps' '=' INT] ')'])
 //!                       '{' (('let' IDENT | IDENT | 'der' '(' IDENT ')') '=' expr ';')* '}'
-//!                     | 'generate' (IDENT ['(' (IDENT '=' (number | IDENT | '[' IDENT,* ']' | '[' number,* ']')),* ')']),+ ';' )
+//!                     | 'generate' (IDENT ['(' (IDENT '=' value),* ')']),+ ';' )
+//! value       := number | IDENT | '[' IDENT,* ']' | '[' number,* ']' | '[' (IDENT '=' number),+ ']'
 //! ```
 //! Expressions are Rust expressions restricted to arithmetic, calls of the model
 //! functions (`sin cos tan tanh exp ln sqrt abs powi atan2 min max clamp`, also as methods,
@@ -250,7 +251,8 @@ fn parse_outputs(
     Ok(outputs.collect())
 }
 
-/// `sensor gnss = [gnss_pn, gnss_pe];`: outputs measured together, by name.
+/// `sensor gnss = [gnss_pn, gnss_pe];`: outputs measured together, by name; options
+/// after the name as a generator's are, `sensor gnss(gate = 13.82) = [..];`.
 fn parse_sensor(
     input: ParseStream,
     docs: Vec<String>,
@@ -259,6 +261,7 @@ fn parse_sensor(
     let start = input.cursor();
     input.parse::<kw::sensor>()?;
     let sensor = name(&input.parse::<Ident>()?);
+    let options = parse_options(input)?;
     input.parse::<Token![=]>()?;
     let content;
     syn::bracketed!(content in input);
@@ -267,6 +270,7 @@ fn parse_sensor(
     Ok(SensorDecl {
         docs,
         name: sensor,
+        options,
         outputs: outputs.iter().map(name).collect(),
     })
 }
@@ -294,6 +298,9 @@ fn parse_list(content: ParseStream) -> syn::Result<ArgValue> {
     let list;
     let bracket = syn::bracketed!(list in content);
     let span = bracket.span.join();
+    if list.peek(Ident) && list.peek2(Token![=]) {
+        return parse_table(&list, span);
+    }
     if list.peek(Ident) || list.is_empty() {
         let names = list.parse_terminated(Ident::parse, Token![,])?;
         return Ok(ArgValue::Names(names.iter().map(name).collect(), span));
@@ -314,6 +321,28 @@ fn parse_list(content: ParseStream) -> syn::Result<ArgValue> {
     Ok(ArgValue::Numbers(numbers, span))
 }
 
+/// `[predict = 250, update_gnss = 5]`, the inside of a list whose first entry is
+/// `name = number`: numbers by name (every entry so written).
+fn parse_table(list: ParseStream, span: Span) -> syn::Result<ArgValue> {
+    let mut entries = Vec::new();
+    while !list.is_empty() {
+        let key = name(&list.parse::<Ident>()?);
+        if !list.peek(Token![=]) {
+            return Err(list.error(
+                "a list of `name = number` entries gives every entry so: `[predict = 250, \
+                 update_gnss = 5]`",
+            ));
+        }
+        list.parse::<Token![=]>()?;
+        let (value, at) = parse_number(list)?;
+        entries.push((key, value, at));
+        if !list.is_empty() {
+            list.parse::<Token![,]>()?;
+        }
+    }
+    Ok(ArgValue::Table(entries, span))
+}
+
 /// A number, with an optional minus sign, and where its literal was written.
 fn parse_number(input: ParseStream) -> syn::Result<(f64, proc_macro2::Span)> {
     let negative = input.parse::<Option<Token![-]>>()?.is_some();
@@ -329,6 +358,15 @@ fn parse_number(input: ParseStream) -> syn::Result<(f64, proc_macro2::Span)> {
 /// `ekf`, `dkf(eta = 0.5)`, `lqr(horizon = 50, states = [x1, x2], input = u)`
 fn parse_generate_item(input: ParseStream) -> syn::Result<GenerateDecl> {
     let generator = name(&input.parse::<Ident>()?);
+    Ok(GenerateDecl {
+        name: generator,
+        args: parse_options(input)?,
+    })
+}
+
+/// `(name = value, ..)` after a generator's or a sensor's name, if it is there (no
+/// options without it).
+fn parse_options(input: ParseStream) -> syn::Result<Vec<GenerateArg>> {
     let mut args = Vec::new();
     if input.peek(syn::token::Paren) {
         let content;
@@ -353,10 +391,7 @@ fn parse_generate_item(input: ParseStream) -> syn::Result<GenerateDecl> {
             }
         }
     }
-    Ok(GenerateDecl {
-        name: generator,
-        args,
-    })
+    Ok(args)
 }
 
 fn parse_dynamics_kind(input: ParseStream, diag: &mut Diagnostics) -> syn::Result<DynamicsKind> {

@@ -25,6 +25,7 @@
 //!    of a model that uses it, and tests against an independent reference.
 
 pub mod budget;
+pub mod cost;
 pub mod options;
 pub mod unit;
 

@@ -17,9 +17,9 @@ pub struct Context<'a> {
     pub decl: &'a ModelDecl,
     scope: &'a Scope,
     /// The cycle budget of the `generate` item whose options are read, if it gives one
-    /// (`max_cycles = ..`), with where it was given: a generator whose work varies from
-    /// call to call may bound it at run time to stay within.
-    pub cycle_budget: Option<(u64, Span)>,
+    /// (`max_cycles = ..`): a generator whose work varies from call to call may bound it
+    /// at run time to stay within its call's ([`super::budget::Budget::limit_of`]).
+    pub cycle_budget: Option<super::budget::Budget>,
 }
 
 impl<'a> Context<'a> {
@@ -33,7 +33,7 @@ impl<'a> Context<'a> {
     }
 
     /// The same context for a `generate` item with the cycle budget `cycle_budget`.
-    pub(crate) fn with_budget(&self, cycle_budget: Option<(u64, Span)>) -> Context<'a> {
+    pub(crate) fn with_budget(&self, cycle_budget: Option<super::budget::Budget>) -> Context<'a> {
         Context {
             decl: self.decl,
             scope: self.scope,
@@ -253,7 +253,9 @@ impl<'a> Args<'a> {
             None => Vec::new(),
             Some(ArgValue::Name(n)) => vec![n.clone()],
             Some(ArgValue::Names(list, _)) => list.clone(),
-            Some(ArgValue::Number(_, span) | ArgValue::Numbers(_, span)) => {
+            Some(
+                ArgValue::Number(_, span) | ArgValue::Numbers(_, span) | ArgValue::Table(_, span),
+            ) => {
                 diag.error(
                     *span,
                     format!("`{}` takes a name or a list of names", names[0]),
@@ -279,7 +281,7 @@ impl<'a> Args<'a> {
                     None
                 }
             },
-            ArgValue::Names(_, span) | ArgValue::Numbers(_, span) => {
+            ArgValue::Names(_, span) | ArgValue::Numbers(_, span) | ArgValue::Table(_, span) => {
                 diag.error(*span, format!("`{name}` takes a number or a constant"));
                 None
             }
@@ -404,7 +406,10 @@ impl<'a> Args<'a> {
             Some(ArgValue::Name(n)) if n.text == "full" => false,
             Some(other) => {
                 let values = match other {
-                    ArgValue::Names(..) | ArgValue::Numbers(..) | ArgValue::Number(..) => {
+                    ArgValue::Names(..)
+                    | ArgValue::Numbers(..)
+                    | ArgValue::Number(..)
+                    | ArgValue::Table(..) => {
                         "; the noise values themselves are given at run time, to `new` and \
                          `set_process_noise`"
                     }

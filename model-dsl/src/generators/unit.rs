@@ -13,7 +13,6 @@
 use super::options::{Args, Context};
 use crate::ast::{DynamicsKind, GenerateDecl, ModelDecl, SymbolKind};
 use crate::diagnostics::Diagnostics;
-use crate::emit::lower::OpCount;
 use crate::model::{Model, Scalar, UNROLLED_SUBSTEPS_MAX};
 use crate::symbolic::ModelGraph;
 use proc_macro2::TokenStream;
@@ -97,50 +96,7 @@ pub struct Code {
     pub costs: Vec<Cost>,
 }
 
-/// The arithmetic of one generated call.
-pub struct Cost {
-    /// The constant's name, `EKF_STEP_OPS`.
-    pub constant: String,
-    /// What it counts, for the constant's doc (`Ekf::step`).
-    pub what: String,
-    /// The operation counts.
-    pub ops: OpCount,
-    /// Whether it is the call a budget (`max_cycles = ..`) bounds: a filter's step, a
-    /// controller's solve at its worst.
-    pub is_budgeted: bool,
-    /// Whether it counts part of a call (a sub-step, an iteration), whose estimate has no
-    /// entry and return of its own.
-    pub is_part: bool,
-}
-
-impl Cost {
-    /// A cost named `constant`, counting `what`.
-    pub fn new(constant: &str, what: &str, ops: OpCount) -> Cost {
-        Cost {
-            constant: constant.to_owned(),
-            what: what.to_owned(),
-            ops,
-            is_budgeted: false,
-            is_part: false,
-        }
-    }
-
-    /// The same cost, as part of a call.
-    pub fn part(self) -> Cost {
-        Cost {
-            is_part: true,
-            ..self
-        }
-    }
-
-    /// The same cost, as the one a budget bounds.
-    pub fn budgeted(self) -> Cost {
-        Cost {
-            is_budgeted: true,
-            ..self
-        }
-    }
-}
+pub use super::cost::Cost;
 
 /// What a generator may require of the model. Each is checked on the declaration, before
 /// the generator's options are read, and reported under the `generate` item with what to

@@ -414,24 +414,31 @@ fn sensor_update_doc(model: &Model, sensor: &crate::model::Sensor, spec: &EkfSpe
         .collect();
     let own: String = sensor.docs.iter().map(|line| format!("{line}\n")).collect();
     let name = &sensor.name;
-    let gate = if spec.gate.is_some() {
-        format!(
-            "its own innovation gate ([`{}::{name}_innovation_gate`])",
+    let k = sensor.outputs.len();
+    let gate = match (sensor.gate, spec.gate) {
+        (Some(_), _) => format!(
+            "its own innovation gate ([`{}::{name}_innovation_gate`], declared with the \
+             sensor: a chi-square quantile for its {k} degrees of freedom)",
             spec.type_name
-        )
-    } else {
-        "the divergence bound, `DIVERGENCE_NIS`".to_owned()
+        ),
+        (None, Some(_)) => format!(
+            "its own innovation gate ([`{}::{name}_innovation_gate`], generated at the \
+             filter's gate, a quantile for every output's degrees of freedom: set it to \
+             one for {k})",
+            spec.type_name
+        ),
+        (None, None) => "the divergence bound, `DIVERGENCE_NIS`".to_owned(),
     };
     format!(
         "{own}\n Corrects the estimate with the sensor `{name}`'s measurement `y` (of {}, in \
          that order; Joseph \
-         form, one `L D L'` solve of its innovation covariance, `R` restricted to its \
-         outputs). Stores its innovation in the sensor's own fields \
+         form, one `L D L'` solve of its innovation covariance, with the sensor's own block \
+         of `R`, [`{ty}::{name}_noise`]). Stores its innovation in the sensor's own fields \
          ([`{ty}::{name}_innovation`], [`{ty}::{name}_normalised_innovation_squared`]) and \
          tests its normalised square against {gate}. Rejects a non-finite measurement and an innovation covariance that is \
          not positive definite (never divided by); leaves the filter unchanged unless it \
          returns [`Status::Ok`] (or [`Status::OutlierRejected`], which records the \
-         innovation). With measurement noise uncorrelated between sensors, updating with \
+         innovation). The noise of two sensors is independent, so updating with \
          each sensor in turn equals [`{ty}::update`] with all of them where `h` is linear; \
          a nonlinear sensor's update linearises `h` at the estimate it is given, so update \
          with it before the others to match the joint update, after them to use their \
@@ -565,7 +572,10 @@ impl EkfNodes {
             innovation: Vec::new(),
             innovation_covariance: Vec::new(),
             nis: None,
-            gated: spec.gate.is_some(),
+            gated: match kind.sensor(model) {
+                Some(sensor) => sensors::gate_of(sensor, spec.gate).is_some(),
+                None => spec.gate.is_some(),
+            },
             recovers: spec.recover_after.is_some(),
             coefficients,
             order: Vec::new(),
@@ -618,7 +628,7 @@ impl EkfNodes {
     /// stage, and what it stores: the innovation, its covariance and the normalised
     /// innovation squared; a sensor's (`own_fields`) in fields of their own size.
     fn correct(&mut self, m: usize, outputs: &[usize], own_fields: bool) {
-        let r_all = symmetric_from_packed(&self.vars.r, m);
+        let r_all = &self.vars.r_matrix;
         let r: Matrix = outputs
             .iter()
             .map(|&i| outputs.iter().map(|&j| r_all[i][j]).collect())
@@ -780,7 +790,7 @@ fn lower(
     let slots = CovarianceSlots::read(&mut lowerer, &vars.p, &nodes.avoid, reread);
     lowerer.read_lazily(&quote! { self.q }, &vars.q);
     lowerer.read_lazily(&quote! { self.qu }, &nodes.qu);
-    lowerer.read_lazily(&quote! { self.r }, &vars.r);
+    vars.read_measurement_noise(&mut lowerer);
     lowerer.read_lazily(&quote! { self.known }, &g.known);
     for &(var, value) in &nodes.coefficients.definitions {
         lowerer.define(var, value);

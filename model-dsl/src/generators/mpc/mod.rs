@@ -80,7 +80,12 @@ impl Kind for Mpc {
             max_iterations,
             riccati_iterations,
             model_tolerance,
-            cycle_budget: cx.cycle_budget,
+            // Its solve's budget bounds the iterations (the MPC's one call).
+            cycle_budget: cx
+                .cycle_budget
+                .as_ref()
+                .and_then(|budget| budget.limit_of("solve", true))
+                .map(|limit| (limit.cycles, limit.span)),
             iterations_within_budget: None,
         }))
     }
@@ -213,7 +218,9 @@ impl Lowering for MpcSpec {
                 ops.iteration,
             )
             .part(),
-            Cost::new("MPC_SOLVE_WORST_OPS", worst_what, worst).budgeted(),
+            Cost::new("MPC_SOLVE_WORST_OPS", worst_what, worst)
+                .of_call("solve")
+                .budgeted(),
         ];
         Code {
             tokens: mpc.tokens,

@@ -166,12 +166,14 @@ impl Lowering for PolynomialKfSpec {
                     "PolynomialKf::step (recursive)",
                     kf.step_ops,
                 )
+                .of_call("step")
                 .budgeted(),
                 Cost::new(
                     "POLYNOMIAL_KF_FIT_OPS",
                     "PolynomialKf::step (re-initialising)",
                     kf.fit_ops,
                 )
+                .of_call("step")
                 .budgeted(),
             ],
         }

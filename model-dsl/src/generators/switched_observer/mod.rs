@@ -133,6 +133,7 @@ impl Lowering for Designed {
                 "the switched observers' step",
                 code.step_ops,
             )
+            .of_call("step")
             .budgeted()],
         }
     }
