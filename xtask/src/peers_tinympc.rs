@@ -17,19 +17,9 @@ use crate::peers_build;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-/// The QEMU machine and clock of the Rust firmware's runner (`targets/.cargo/config.toml`).
-pub const QEMU: &[&str] = &[
-    "-machine",
-    "mps2-an386",
-    "-cpu",
-    "cortex-m4",
-    "-nographic",
-    "-semihosting-config",
-    "enable=on,target=native",
-    "-icount",
-    "shift=0,align=off,sleep=off",
-    "-kernel",
-];
+/// The clock of the Rust firmware's runner (`targets/.cargo/config.toml`), after the
+/// board's machine (`stateforge_cli::measure::MACHINE`): one nanosecond per instruction.
+const ICOUNT: [&str; 2] = ["-icount", "shift=0,align=off,sleep=off"];
 
 /// What TinyMPC was handed and how it was tuned, printed under the rows.
 pub const TERMS: &str = "TinyMPC: a fixed model, the generated MPC's prediction model \
@@ -155,7 +145,8 @@ fn patch(generated: &Path) -> Result<(), String> {
 pub fn run(elf: &Path) -> Result<String, String> {
     println!("xtask: TinyMPC's firmware under QEMU");
     let output = Command::new("qemu-system-arm")
-        .args(QEMU)
+        .args(stateforge_cli::measure::MACHINE)
+        .args(ICOUNT)
         .arg(elf)
         .stdin(Stdio::null())
         .output()

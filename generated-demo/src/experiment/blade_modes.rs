@@ -38,9 +38,13 @@ pub const PATCH: (f64, f64) = (0.0, 0.0508);
 /// `beta_i L` of bending mode `mode` (0-based) of a clamped-free beam: the root of
 /// `cos x cosh x + 1 = 0` within 1 of `(mode + 1/2) pi`, by bisection.
 pub fn wavenumber(mode: usize) -> f64 {
-    let f = |x: f64| x.cos() * x.cosh() + 1.0;
     let centre = (mode as f64 + 0.5) * std::f64::consts::PI;
-    let (mut lo, mut hi) = (centre - 1.0, centre + 1.0);
+    bisection(|x| x.cos() * x.cosh() + 1.0, centre - 1.0, centre + 1.0)
+}
+
+/// A root of `f` between `lo` and `hi`, where `f` changes sign, by 200 bisections (to the
+/// last bit of an `f64` of the size of a wavenumber).
+pub fn bisection(f: impl Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 {
     for _ in 0..200 {
         let mid = 0.5 * (lo + hi);
         if f(lo).signum() == f(mid).signum() {

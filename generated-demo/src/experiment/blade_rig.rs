@@ -431,7 +431,7 @@ fn since_hit(t: f64) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::experiment::blade_modes::wavenumber;
+    use crate::experiment::blade_modes::{bisection, wavenumber};
     use crate::experiment::blade_plant::{plant_step, HIT_FORCE};
 
     /// A deterministic input that swings over the actuator's range.
@@ -535,16 +535,7 @@ mod tests {
             1.0 + x.cos() * x.cosh() + ratio * x * (x.cos() * x.sinh() - x.sin() * x.cosh())
         };
         let bare = wavenumber(mode);
-        let (mut lo, mut hi) = (bare - 1.0, bare);
-        for _ in 0..200 {
-            let mid = 0.5 * (lo + hi);
-            if f(lo).signum() == f(mid).signum() {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        0.5 * (lo + hi)
+        bisection(f, bare - 1.0, bare)
     }
 
     #[test]
