@@ -107,8 +107,8 @@ fn the_unsafe_code_is_in_the_wrapper_only_each_block_with_its_reason() {
         .env_remove("CARGO_ENCODED_RUSTFLAGS"));
 }
 
-/// The C program built against the static library, with the sanitizers; its output.
-fn c_program_output() -> String {
+/// The host's static library, built in release: its path.
+fn host_library() -> PathBuf {
     let dir = companion();
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     run(Command::new(cargo)
@@ -117,6 +117,13 @@ fn c_program_output() -> String {
         .current_dir(&dir)
         .env_remove("RUSTFLAGS")
         .env_remove("CARGO_ENCODED_RUSTFLAGS"));
+    dir.join("target/release/libcantilever_c.a")
+}
+
+/// The C program built against the static library, with the sanitizers; its output.
+fn c_program_output() -> String {
+    let library = host_library();
+    let dir = companion();
     let program = dir.join("cantilever_test");
     run(Command::new("gcc")
         .args([
@@ -131,7 +138,7 @@ fn c_program_output() -> String {
         .arg("-I")
         .arg(dir.join("include"))
         .arg(workspace_path("tests/c/cantilever.c"))
-        .arg(dir.join("target/release/libcantilever_c.a"))
+        .arg(library)
         .args(["-lm", "-o"])
         .arg(&program));
     run(&mut Command::new(&program))
@@ -339,4 +346,76 @@ fn the_c_program_calls_every_function_of_the_types_it_covers() {
         }
     }
     assert!(checked >= 40, "only {checked} functions covered");
+}
+
+/// The symbols of an object file or image, as `nm` lists them.
+fn symbols(nm: &str, file: &Path) -> String {
+    run(Command::new(nm).arg(file))
+}
+
+#[test]
+fn no_panic_is_reachable_from_the_host_library() {
+    let library = symbols("nm", &host_library());
+    assert!(library.contains(" T cantilever_ekf_step\n"), "{library}");
+    // The handler is linked only if a call can reach it; release builds with LTO drop it.
+    assert!(
+        !library.to_lowercase().contains("panic"),
+        "a panic is reachable:\n{library}"
+    );
+}
+
+#[test]
+fn the_cortex_m4f_library_links_into_a_c_program_without_a_rust_runtime() {
+    use stateforge_cli::measure::{setup, TARGET};
+    setup::rust_target(TARGET).expect("the Cortex-M4F target");
+    setup::debian_commands(&[
+        ("arm-none-eabi-gcc", "gcc-arm-none-eabi"),
+        ("arm-none-eabi-nm", "binutils-arm-none-eabi"),
+    ])
+    .expect("the ARM compiler");
+    let dir = companion();
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    run(Command::new(cargo)
+        .args([
+            "build",
+            "--release",
+            "--quiet",
+            "--target",
+            TARGET,
+            "--target-dir",
+        ])
+        .arg(dir.join("target"))
+        .current_dir(&dir)
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_ENCODED_RUSTFLAGS"));
+    let image = dir.join("cantilever_m4f.elf");
+    // The whole test program, against newlib without an operating system: every symbol
+    // the library needs is the C library's (`memcpy` and friends) or its own.
+    run(Command::new("arm-none-eabi-gcc")
+        .args([
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-Wpedantic",
+            "-Werror",
+            "-O2",
+        ])
+        .args([
+            "-mcpu=cortex-m4",
+            "-mthumb",
+            "-mfloat-abi=hard",
+            "-mfpu=fpv4-sp-d16",
+        ])
+        .arg("-I")
+        .arg(dir.join("include"))
+        .arg(workspace_path("tests/c/cantilever.c"))
+        .arg(dir.join(format!("target/{TARGET}/release/libcantilever_c.a")))
+        .args(["--specs=nosys.specs", "-lm", "-o"])
+        .arg(&image));
+    let linked = symbols("arm-none-eabi-nm", &image);
+    assert!(linked.contains(" T cantilever_lqr_solve\n"), "{linked}");
+    assert!(
+        !linked.to_lowercase().contains("panic"),
+        "a panic is reachable:\n{linked}"
+    );
 }
