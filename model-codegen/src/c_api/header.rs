@@ -2,9 +2,9 @@
 //! generated type its storage (a union of the size and alignment the crate asserts) and
 //! its functions, each documented from the model's own docs. C99 and C++ alike.
 
+use super::names::{prefix, snake, REFUSALS};
 use super::reading::{Api, Method, Output, Param, Scope, Type, Value};
-use super::wrapper::REFUSALS;
-use super::{prefix, snake, storage};
+use super::storage;
 use std::fmt::Write;
 
 /// The header's text.

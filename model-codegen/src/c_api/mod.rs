@@ -10,11 +10,12 @@
 //! <dir>/include/<model>.h   the header
 //! ```
 //!
-//! [`reading`] reads what C can call from the generated code, [`storage`] sizes the
-//! storage a C program reserves, [`wrapper`] writes the Rust functions, [`header`] the C
-//! declarations.
+//! `reading` reads what C can call from the generated code, `names` names it in C,
+//! `storage` sizes the storage a C program reserves, `wrapper` writes the Rust functions,
+//! `header` the C declarations.
 
 mod header;
+mod names;
 mod reading;
 mod storage;
 mod wrapper;
@@ -89,52 +90,4 @@ fn manifest(model: &str, math_dependency: &str) -> String {
          # Its own workspace, wherever the C program keeps it.\n[workspace]\n",
         model.replace('_', "-")
     )
-}
-
-/// `GatedEkf` -> `gated_ekf`: a type's name as the C functions spell it.
-pub fn snake(name: &str) -> String {
-    let mut out = String::new();
-    let mut previous_lower = false;
-    for c in name.chars() {
-        if c.is_ascii_uppercase() && previous_lower {
-            out.push('_');
-        }
-        previous_lower = c.is_ascii_lowercase() || c.is_ascii_digit();
-        out.push(c.to_ascii_lowercase());
-    }
-    out
-}
-
-/// `cantilever_f64` -> `CantileverF64`: a C name as a Rust type's.
-pub fn camel(name: &str) -> String {
-    name.split('_')
-        .map(|word| {
-            let mut chars = word.chars();
-            chars.next().map_or_else(String::new, |first| {
-                first.to_ascii_uppercase().to_string() + chars.as_str()
-            })
-        })
-        .collect()
-}
-
-/// The prefix of a scope's C names: the model's name, then the scalar for every scalar
-/// type but the first (`cantilever`, `cantilever_f64`).
-pub fn prefix(model: &str, scope: &reading::Scope) -> String {
-    match scope.first {
-        true => model.to_owned(),
-        false => format!("{model}_{}", scope.scalar.rust()),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn names_in_c() {
-        assert_eq!(snake("GatedEkf"), "gated_ekf");
-        assert_eq!(snake("Lqr"), "lqr");
-        assert_eq!(snake("Ekf2"), "ekf2");
-        assert_eq!(camel("cantilever_f64_gated_ekf"), "CantileverF64GatedEkf");
-    }
 }

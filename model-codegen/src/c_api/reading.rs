@@ -306,8 +306,11 @@ fn generated_type(
                 }
             }
             ImplItem::Const(c) if matches!(c.vis, syn::Visibility::Public(_)) => {
-                let constant_name =
-                    format!("{}_{}", super::snake(&name).to_ascii_uppercase(), c.ident);
+                let constant_name = format!(
+                    "{}_{}",
+                    super::names::snake(&name).to_ascii_uppercase(),
+                    c.ident
+                );
                 constants.extend(constant(
                     &constant_name,
                     &doc(&c.attrs),

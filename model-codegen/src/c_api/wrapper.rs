@@ -4,25 +4,10 @@
 //! and returns the status as a C enum. Its `unsafe` blocks are the crate's only ones,
 //! each with the reason it is sound.
 
+use super::names::{camel, prefix, snake, REFUSALS};
 use super::reading::{Api, Method, Output, Param, Scalar, Scope, Type, Value};
-use super::{camel, prefix, snake, storage};
+use super::storage;
 use std::fmt::Write;
-
-/// The status variants the wrapper adds to the model's, after them: a pointer refused.
-pub const REFUSALS: [(&str, &str, &str); 3] = [
-    ("NullPointer", "Null", "A pointer argument was null."),
-    (
-        "MisalignedPointer",
-        "Misaligned",
-        "A pointer argument was not aligned for its type (4 bytes for `float`, 8 for \
-         `double` and the storage types).",
-    ),
-    (
-        "NotInitialised",
-        "NotInitialised",
-        "The storage passed was not written by a successful constructor (`*_new`).",
-    ),
-];
 
 /// The code of `lib.rs`.
 pub fn lib(api: &Api, provenance: &str) -> String {
