@@ -419,3 +419,30 @@ fn the_cortex_m4f_library_links_into_a_c_program_without_a_rust_runtime() {
         "a panic is reachable:\n{linked}"
     );
 }
+
+#[test]
+fn every_demo_models_header_compiles_as_c99_and_cpp17() {
+    for name in tests::DEMO_MODELS {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("c-api-header-{name}"));
+        let options = stateforge_cli::c_api::Options {
+            math_dependency: stateforge_cli::math_dependency(),
+            provenance: format!("// Generated for the tests from {name}."),
+        };
+        stateforge_cli::c_api::write(&tests::demo_model_code(name), &dir, &options)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let header = dir.join(format!("include/{name}.h"));
+        let text = std::fs::read_to_string(&header).expect("header");
+        assert!(
+            text.contains(&format!("{name}_status_t {name}_")),
+            "{name}: no function"
+        );
+        for (compiler, standard, language) in
+            [("gcc", "-std=c99", "c"), ("g++", "-std=c++17", "c++")]
+        {
+            run(Command::new(compiler)
+                .args([standard, "-Wall", "-Wextra", "-Wpedantic", "-Werror"])
+                .args(["-fsyntax-only", "-x", language])
+                .arg(&header));
+        }
+    }
+}

@@ -86,10 +86,16 @@ fn statuses(api: &Api, out: &mut String) {
 
 /// A type's storage, its size and alignment, and its functions.
 fn generated_type(api: &Api, scope: &Scope, ty: &Type, out: &mut String) {
+    let c_name = format!("{}_{}", prefix(&api.model, scope), snake(&ty.name));
     let Some(size) = storage::size(&ty.fields) else {
+        let _ = writeln!(
+            out,
+            "/* {c_name}: not in the C API (the Rust type `{}` has a field whose layout the \
+             tool cannot bound yet). */\n",
+            ty.name
+        );
         return;
     };
-    let c_name = format!("{}_{}", prefix(&api.model, scope), snake(&ty.name));
     let upper = c_name.to_ascii_uppercase();
     let mut doc = translate(&ty.doc, api, scope);
     doc.extend([
