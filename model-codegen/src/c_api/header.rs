@@ -24,6 +24,7 @@ pub fn header(api: &Api, provenance: &str) -> String {
         "Arrays are passed as pointers to their first element, matrices row by row.".to_owned(),
     ]);
     doc_block(&model_doc, "", &mut out);
+    out.push('\n');
     statuses(api, &mut out);
     for scope in &api.scopes {
         let prefix = prefix(&api.model, scope);
@@ -215,7 +216,8 @@ fn translate(lines: &[String], api: &Api, scope: &Scope) -> Vec<String> {
     lines
         .iter()
         .map(|line| {
-            let mut line = line.clone();
+            // Rustdoc's escaped brackets (`\[s\]`) are plain ones in C.
+            let mut line = line.replace("\\[", "[").replace("\\]", "]");
             for (variant, _) in &api.statuses {
                 let c = format!("{status}_{}", snake(variant).to_ascii_uppercase());
                 line = line

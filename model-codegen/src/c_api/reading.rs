@@ -482,7 +482,7 @@ fn constant(
                 let what = member.to_string();
                 Some(Constant {
                     name: format!("{name}_{}", what.to_ascii_uppercase()),
-                    doc: vec![format!("`{what}` of {name}: {}", doc.join(" "))],
+                    doc: vec![format!("The `{what}` count of `{name}`: {}", doc.join(" "))],
                     value: format!("{}u", i.base10_digits()),
                 })
             })
