@@ -1,11 +1,12 @@
 // The `model!` macro. All the work happens in `stateforge-compiler`; this crate only adapts
 // the compiler's types to `proc_macro`'s. The crate's documentation is the guide, in
 // `doc/` (a proc-macro crate exports nothing but its macros, so no documentation-only
-// modules): using the crates, the generators, model files and the tool, the limits. The
-// language reference is the macro's own documentation, `doc/model.md`.
+// modules): using the crates, the generators, model files and the tool, the C API, the
+// limits. The language reference is the macro's own documentation, `doc/model.md`.
 
 #![doc = include_str!("../doc/guide.md")]
 #![doc = include_str!("../doc/model-files.md")]
+#![doc = include_str!("../doc/c-api.md")]
 #![doc = include_str!("../doc/robustness.md")]
 #![forbid(unsafe_code)]
 

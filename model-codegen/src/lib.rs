@@ -9,6 +9,7 @@
 
 #![forbid(unsafe_code)]
 
+pub mod c_api;
 mod expression_dots;
 mod expression_places;
 mod expression_text;
@@ -63,6 +64,24 @@ pub fn rustfmt(code: &str) -> Result<String, String> {
             "rustfmt failed: {}",
             String::from_utf8_lossy(&output.stderr).trim()
         )),
+    }
+}
+
+/// The `stateforge-math` the generated code calls: this checkout's, when the tool was
+/// built from one (`cargo install --path model-codegen`, a test), else the release of the
+/// tool's own version.
+pub fn math_dependency() -> String {
+    let checkout = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../stateforge-math");
+    match checkout.join("Cargo.toml").exists() {
+        true => format!(
+            "{{ path = {:?} }}",
+            checkout.canonicalize().unwrap_or(checkout).display()
+        ),
+        false => {
+            let version = env!("CARGO_PKG_VERSION");
+            let minor = version.rsplit_once('.').map_or(version, |(m, _)| m);
+            format!("\"{minor}\"")
+        }
     }
 }
 

@@ -292,3 +292,77 @@ fn a_reader_that_stops_early_ends_the_output_quietly() {
     assert!(output.status.success(), "{:?}: {stderr}", output.status);
     assert!(stderr.is_empty(), "{stderr}");
 }
+
+#[test]
+fn c_api_writes_the_companion_crate_around_the_same_code() {
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/models/cantilever.toml");
+    let dir = std::env::temp_dir().join(format!("stateforge-codegen-c-api-{}", std::process::id()));
+    let c_api = |out: &std::path::Path| {
+        Command::new(env!("CARGO_BIN_EXE_stateforge-codegen"))
+            .args(["c-api", model, "--out-dir"])
+            .arg(out)
+            .output()
+            .expect("stateforge-codegen runs")
+    };
+    let written = c_api(&dir);
+    assert!(written.status.success(), "{written:?}");
+    let read = |name: &str| std::fs::read_to_string(dir.join(name)).expect(name);
+    // The generated module is the one `stateforge-codegen <model>` prints, its unsafe
+    // code forbidden.
+    let printed = Command::new(env!("CARGO_BIN_EXE_stateforge-codegen"))
+        .arg(model)
+        .output()
+        .expect("stateforge-codegen runs");
+    let code = String::from_utf8_lossy(&printed.stdout).into_owned();
+    assert_eq!(
+        read("src/model.rs"),
+        format!("#![forbid(unsafe_code)]\n{code}")
+    );
+    let manifest = read("Cargo.toml");
+    assert!(
+        manifest.contains("crate-type = [\"staticlib\"]"),
+        "{manifest}"
+    );
+    assert!(manifest.contains("panic = \"abort\""), "{manifest}");
+    let header = read("include/cantilever.h");
+    for declaration in [
+        "cantilever_status_t cantilever_ekf_step(cantilever_ekf_t *ekf, const float u_prev[1], const float y[1]);",
+        "cantilever_status_t cantilever_lqr_new(cantilever_lqr_t *lqr, const float q[2][2], const float r[1][1], const float u_max[1]);",
+        "cantilever_status_t cantilever_f64_ekf_state(const cantilever_f64_ekf_t *ekf, double out[5]);",
+        "#define CANTILEVER_EKF_STEP_CYCLES 418u",
+        "#define CANTILEVER_TS 0.015f",
+        "    CANTILEVER_STATUS_NULL_POINTER = 100,",
+    ] {
+        assert!(header.contains(declaration), "no `{declaration}` in\n{header}");
+    }
+    let lib = read("src/lib.rs");
+    assert!(
+        lib.contains("pub unsafe extern \"C\" fn cantilever_gated_ekf_update("),
+        "{lib}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn c_api_of_a_model_without_a_filter_says_what_to_add() {
+    let dir = std::env::temp_dir().join(format!(
+        "stateforge-codegen-c-api-none-{}",
+        std::process::id()
+    ));
+    std::fs::create_dir_all(&dir).expect("temporary directory");
+    let model = dir.join("plain.toml");
+    let source = "name = \"plain\"\nscalar = \"f32\"\n\n[[state]]\nname = \"x\"\n\n\
+                  [dynamics]\nkind = \"discrete\"\n\n[dynamics.equations]\nx = \"0.5*x\"\n";
+    std::fs::write(&model, source).expect("model written");
+    let output = Command::new(env!("CARGO_BIN_EXE_stateforge-codegen"))
+        .arg("c-api")
+        .arg(&model)
+        .arg("--out-dir")
+        .arg(dir.join("plain-c"))
+        .output()
+        .expect("stateforge-codegen runs");
+    assert!(!output.status.success());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("add a `generate` item"), "{stderr}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -35,24 +35,6 @@ pub struct Counted {
     pub first_refused: Option<String>,
 }
 
-/// The `stateforge-math` the generated code calls: this checkout's, when the tool was
-/// built from one (`cargo install --path model-codegen`, a test), else the release of the
-/// tool's own version.
-fn math_dependency() -> String {
-    let checkout = Path::new(env!("CARGO_MANIFEST_DIR")).join("../stateforge-math");
-    match checkout.join("Cargo.toml").exists() {
-        true => format!(
-            "{{ path = {:?} }}",
-            checkout.canonicalize().unwrap_or(checkout).display()
-        ),
-        false => {
-            let version = env!("CARGO_PKG_VERSION");
-            let minor = version.rsplit_once('.').map_or(version, |(m, _)| m);
-            format!("\"{minor}\"")
-        }
-    }
-}
-
 /// The crate's manifest: the runtime crates, and the release profile the cost table's
 /// firmware uses (opt-level 3, fat LTO, one codegen unit; symbols for the trace).
 fn manifest() -> String {
@@ -66,7 +48,7 @@ fn manifest() -> String {
          stateforge-math = {}\n\n\
          [profile.release]\nopt-level = 3\nlto = \"fat\"\ncodegen-units = 1\ndebug = true\n\n\
          # Its own workspace, wherever the work directory is.\n[workspace]\n",
-        math_dependency()
+        crate::math_dependency()
     )
 }
 

@@ -1,0 +1,588 @@
+//! What the C API offers, read from the generated module's code: per scalar type (the
+//! module's own, then each `in_<scalar>` module), the types that have a constructor, their
+//! public methods whose arguments and results C can pass, and the constants. The generated
+//! API's conventions (the language reference's "The generated API") make this a reading of
+//! signatures: arrays by reference, a constructor `new(..) -> Result<Self, Status>`.
+
+use syn::{FnArg, ImplItem, Item, ReturnType, Type as SynType};
+
+/// The floating-point type of a scope's code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scalar {
+    /// `f32`, C's `float`.
+    F32,
+    /// `f64`, C's `double`.
+    F64,
+}
+
+impl Scalar {
+    /// Its Rust name.
+    pub fn rust(self) -> &'static str {
+        match self {
+            Scalar::F32 => "f32",
+            Scalar::F64 => "f64",
+        }
+    }
+
+    /// Its C name.
+    pub fn c(self) -> &'static str {
+        match self {
+            Scalar::F32 => "float",
+            Scalar::F64 => "double",
+        }
+    }
+}
+
+/// The shape of a value C passes: a scalar, or an array of one or two dimensions.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Value {
+    /// The scope's scalar.
+    Scalar,
+    /// `[s; n]`.
+    Vector(usize),
+    /// `[[s; cols]; rows]`.
+    Matrix(usize, usize),
+    /// `u32`.
+    Count,
+}
+
+/// An argument of a method.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Param {
+    /// Passed by value (`s`) or by reference (`&[s; n]`).
+    Required(String, Value),
+    /// `Option<&[s; n]>`: a null pointer is `None`.
+    Optional(String, Value),
+}
+
+/// What a method returns, and so how its C function returns it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Output {
+    /// Nothing (`()`).
+    Nothing,
+    /// A `Status`, returned as it is.
+    Status,
+    /// A value, written through an output pointer.
+    Value(Value),
+    /// `Result<value, Status>`: the value written on `Ok`.
+    Fallible(Value),
+    /// `Self` or (`fallible`) `Result<Self, Status>`: the constructor, written into the
+    /// storage.
+    Constructed {
+        /// Whether it returns a `Result`.
+        fallible: bool,
+    },
+}
+
+/// A method of a generated type.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Method {
+    /// Its name.
+    pub name: String,
+    /// Its doc comment's lines.
+    pub doc: Vec<String>,
+    /// `None` for an associated function, `Some(true)` for `&mut self`.
+    pub receiver: Option<bool>,
+    /// Its arguments, `self` excluded.
+    pub params: Vec<Param>,
+    /// Its result.
+    pub output: Output,
+}
+
+/// A public constant C can hold: an integer or a float.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Constant {
+    /// Its name in the C header's terms, without the prefix (`EKF_STEP_CYCLES`,
+    /// `EKF_STEP_OPS_ADD`, `INDEX_X1`).
+    pub name: String,
+    /// Its doc comment's lines.
+    pub doc: Vec<String>,
+    /// Its value as C writes it (`418u`, `0.015f`).
+    pub value: String,
+}
+
+/// A generated type (a filter or controller).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Type {
+    /// Its Rust name (`GatedEkf`).
+    pub name: String,
+    /// Its doc comment's lines.
+    pub doc: Vec<String>,
+    /// Its fields' types, as the code writes them (for the size of its storage).
+    pub fields: Vec<String>,
+    /// The methods C can call, in the code's order, the constructor first.
+    pub methods: Vec<Method>,
+    /// The public methods C cannot call (an argument or result it cannot pass).
+    pub left_out: Vec<String>,
+}
+
+/// The items of one scalar type.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Scope {
+    /// The module's path from the file's root (`cantilever`, `cantilever::in_f64`).
+    pub module: String,
+    /// The scalar of its code.
+    pub scalar: Scalar,
+    /// Whether it is the model's first scalar type (its names carry no scalar).
+    pub first: bool,
+    /// Its types that have a constructor.
+    pub types: Vec<Type>,
+    /// Its free functions C can call (`f`, `h`, the Jacobians).
+    pub functions: Vec<Method>,
+    /// Its constants C can hold.
+    pub constants: Vec<Constant>,
+}
+
+/// What the C API offers.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Api {
+    /// The model's name (`cantilever`).
+    pub model: String,
+    /// The model's doc comment's lines.
+    pub doc: Vec<String>,
+    /// The variants of `Status` and their docs, in order.
+    pub statuses: Vec<(String, Vec<String>)>,
+    /// Per scalar type.
+    pub scopes: Vec<Scope>,
+}
+
+/// The C API of `code`, a generated file (`pub mod <name> { .. }`).
+pub fn read(code: &str) -> Result<Api, String> {
+    let file = syn::parse_file(code).map_err(|e| format!("the generated code: {e}"))?;
+    let Some(Item::Mod(top)) = file.items.iter().find(|i| matches!(i, Item::Mod(_))) else {
+        return Err("the generated code holds no module".into());
+    };
+    let model = top.ident.to_string();
+    let items = inline_items(top);
+    let statuses = items
+        .iter()
+        .find_map(|item| match item {
+            Item::Enum(e) if e.ident == "Status" => Some(
+                e.variants
+                    .iter()
+                    .map(|v| (v.ident.to_string(), doc(&v.attrs)))
+                    .collect::<Vec<_>>(),
+            ),
+            _ => None,
+        })
+        .ok_or("the generated code has no `Status`: the model generates no filter or controller (add a `generate` item)")?;
+    let inner = items.iter().filter_map(|item| match item {
+        Item::Mod(m) if m.ident.to_string().starts_with("in_f") => Some(m),
+        _ => None,
+    });
+    let second: Vec<_> = inner
+        .map(|m| {
+            let scalar = scalar_named(&m.ident.to_string()["in_".len()..])?;
+            Some((format!("{model}::{}", m.ident), scalar, inline_items(m)))
+        })
+        .collect::<Option<_>>()
+        .ok_or("an `in_*` module of an unknown scalar")?;
+    let first_scalar = match second.first() {
+        Some((_, Scalar::F64, _)) => Scalar::F32,
+        Some((_, Scalar::F32, _)) => Scalar::F64,
+        None => scalar_of(items).ok_or("the generated code has no floating-point type")?,
+    };
+    let mut scopes = vec![scope(model.clone(), first_scalar, true, items)];
+    for (module, scalar, inner_items) in second {
+        scopes.push(scope(module, scalar, false, inner_items));
+    }
+    if scopes.iter().all(|s| s.types.is_empty()) {
+        return Err("the model generates no filter or controller (add a `generate` item)".into());
+    }
+    Ok(Api {
+        model,
+        doc: doc(&top.attrs),
+        statuses,
+        scopes,
+    })
+}
+
+/// An inline module's items.
+fn inline_items(module: &syn::ItemMod) -> &[Item] {
+    module.content.as_ref().map_or(&[], |(_, items)| items)
+}
+
+/// `f32` or `f64`.
+fn scalar_named(name: &str) -> Option<Scalar> {
+    match name {
+        "f32" => Some(Scalar::F32),
+        "f64" => Some(Scalar::F64),
+        _ => None,
+    }
+}
+
+/// The scalar of a module with one: the first one its functions' signatures name.
+fn scalar_of(items: &[Item]) -> Option<Scalar> {
+    let text = items
+        .iter()
+        .filter_map(|item| match item {
+            Item::Fn(f) => Some(signature_text(&f.sig)),
+            Item::Impl(block) => Some(quote::quote!(#block).to_string()),
+            _ => None,
+        })
+        .collect::<String>();
+    match (text.find("f32"), text.find("f64")) {
+        (Some(a), Some(b)) => Some(if a < b { Scalar::F32 } else { Scalar::F64 }),
+        (Some(_), None) => Some(Scalar::F32),
+        (None, Some(_)) => Some(Scalar::F64),
+        (None, None) => None,
+    }
+}
+
+/// A signature's text.
+fn signature_text(sig: &syn::Signature) -> String {
+    quote::quote!(#sig).to_string()
+}
+
+/// The items of one module as the C API offers them.
+fn scope(module: String, scalar: Scalar, first: bool, items: &[Item]) -> Scope {
+    let mut constants = Vec::new();
+    let mut types = Vec::new();
+    let mut functions = Vec::new();
+    for item in items {
+        match item {
+            Item::Const(c) if matches!(c.vis, syn::Visibility::Public(_)) => {
+                constants.extend(constant(
+                    &c.ident.to_string(),
+                    &doc(&c.attrs),
+                    &c.ty,
+                    &c.expr,
+                    scalar,
+                ));
+            }
+            Item::Mod(m) if m.ident == "index" => {
+                for inner in inline_items(m) {
+                    if let Item::Const(c) = inner {
+                        let name = format!("INDEX_{}", c.ident);
+                        constants.extend(constant(&name, &doc(&c.attrs), &c.ty, &c.expr, scalar));
+                    }
+                }
+            }
+            Item::Fn(f) if matches!(f.vis, syn::Visibility::Public(_)) => {
+                if let Some(method) = method(&f.sig, &doc(&f.attrs), scalar) {
+                    functions.push(method);
+                }
+            }
+            Item::Impl(block) if block.trait_.is_none() => {
+                types.extend(generated_type(block, items, scalar, &mut constants));
+            }
+            _ => {}
+        }
+    }
+    Scope {
+        module,
+        scalar,
+        first,
+        types,
+        functions,
+        constants,
+    }
+}
+
+/// The type an `impl` block is for, with its methods, if it has a constructor; its
+/// constants join `constants`.
+fn generated_type(
+    block: &syn::ItemImpl,
+    items: &[Item],
+    scalar: Scalar,
+    constants: &mut Vec<Constant>,
+) -> Option<Type> {
+    let SynType::Path(path) = &*block.self_ty else {
+        return None;
+    };
+    let name = path.path.segments.last()?.ident.to_string();
+    let fields = items.iter().find_map(|item| match item {
+        Item::Struct(s) if s.ident == name => Some(s),
+        _ => None,
+    })?;
+    let mut methods = Vec::new();
+    let mut left_out = Vec::new();
+    for item in &block.items {
+        match item {
+            ImplItem::Fn(f) if matches!(f.vis, syn::Visibility::Public(_)) => {
+                match method(&f.sig, &doc(&f.attrs), scalar) {
+                    Some(m) => methods.push(m),
+                    None => left_out.push(f.sig.ident.to_string()),
+                }
+            }
+            ImplItem::Const(c) if matches!(c.vis, syn::Visibility::Public(_)) => {
+                let constant_name = format!(
+                    "{}_{}",
+                    super::names::snake(&name).to_ascii_uppercase(),
+                    c.ident
+                );
+                constants.extend(constant(
+                    &constant_name,
+                    &doc(&c.attrs),
+                    &c.ty,
+                    &c.expr,
+                    scalar,
+                ));
+            }
+            _ => {}
+        }
+    }
+    let new = methods
+        .iter()
+        .position(|m| m.name == "new" && matches!(m.output, Output::Constructed { .. }))?;
+    let constructor = methods.remove(new);
+    methods.insert(0, constructor);
+    Some(Type {
+        doc: doc(&fields.attrs),
+        fields: fields.fields.iter().map(|f| type_text(&f.ty)).collect(),
+        name,
+        methods,
+        left_out,
+    })
+}
+
+/// A method or function C can call, `None` if an argument or its result is of a kind C
+/// cannot pass.
+fn method(sig: &syn::Signature, doc: &[String], scalar: Scalar) -> Option<Method> {
+    let mut receiver = None;
+    let mut params = Vec::new();
+    for input in &sig.inputs {
+        match input {
+            FnArg::Receiver(r) => {
+                let syn::ReceiverKind::Reference(_, _, mutability) = &r.kind else {
+                    return None;
+                };
+                receiver = Some(mutability.is_some());
+            }
+            FnArg::Typed(t) => {
+                let syn::Pat::Ident(ident) = &*t.pat else {
+                    return None;
+                };
+                let name = ident.ident.to_string().trim_start_matches('_').to_owned();
+                params.push(param(name, &type_text(&t.ty), scalar)?);
+            }
+        }
+    }
+    let output = match &sig.output {
+        ReturnType::Default => Output::Nothing,
+        ReturnType::Type(_, t) => output(&type_text(t), scalar)?,
+    };
+    if matches!(output, Output::Constructed { .. }) && receiver.is_some() {
+        return None;
+    }
+    Some(Method {
+        name: sig.ident.to_string(),
+        doc: doc.to_vec(),
+        receiver,
+        params,
+        output,
+    })
+}
+
+/// An argument's kind, from its type's text.
+fn param(name: String, ty: &str, scalar: Scalar) -> Option<Param> {
+    if let Some(inner) = ty
+        .strip_prefix("Option<&")
+        .and_then(|t| t.strip_suffix('>'))
+    {
+        return Some(Param::Optional(name, array(inner, scalar)?));
+    }
+    match ty.strip_prefix('&') {
+        Some(inner) => Some(Param::Required(name, array(inner, scalar)?)),
+        None if ty == scalar.rust() => Some(Param::Required(name, Value::Scalar)),
+        None => None,
+    }
+}
+
+/// A result's kind, from its type's text.
+fn output(ty: &str, scalar: Scalar) -> Option<Output> {
+    if ty == "Status" {
+        return Some(Output::Status);
+    }
+    if ty == "Self" || ty == "Result<Self, Status>" {
+        return Some(Output::Constructed {
+            fallible: ty != "Self",
+        });
+    }
+    if let Some(inner) = ty
+        .strip_prefix("Result<")
+        .and_then(|t| t.strip_suffix(", Status>"))
+    {
+        return Some(Output::Fallible(value(inner, scalar)?));
+    }
+    Some(Output::Value(value(ty, scalar)?))
+}
+
+/// A value's shape: the scalar, `u32`, or an array of the scalar.
+fn value(ty: &str, scalar: Scalar) -> Option<Value> {
+    match ty {
+        "u32" => Some(Value::Count),
+        _ if ty == scalar.rust() => Some(Value::Scalar),
+        _ => array(ty, scalar),
+    }
+}
+
+/// `[s; n]` or `[[s; cols]; rows]`.
+fn array(ty: &str, scalar: Scalar) -> Option<Value> {
+    let length = |s: &str| s.trim().parse::<usize>().ok().filter(|&n| n > 0);
+    let s = scalar.rust();
+    if let Some(rest) = ty
+        .strip_prefix(&format!("[{s};"))
+        .and_then(|r| r.strip_suffix(']'))
+    {
+        return Some(Value::Vector(length(rest)?));
+    }
+    let rest = ty.strip_prefix(&format!("[[{s};"))?.strip_suffix(']')?;
+    let (cols, rows) = rest.split_once("];")?;
+    Some(Value::Matrix(length(rows)?, length(cols)?))
+}
+
+/// A constant C can hold: an integer (`usize`, `u32`) or the scalar; an `OpCount`, one
+/// constant per field (`EKF_STEP_OPS_ADD`). Other constants (names, sparsity patterns)
+/// have no C form here.
+fn constant(
+    name: &str,
+    doc: &[String],
+    ty: &SynType,
+    expr: &syn::Expr,
+    scalar: Scalar,
+) -> Vec<Constant> {
+    let ty = type_text(ty);
+    let one = |value: String| {
+        vec![Constant {
+            name: name.to_owned(),
+            doc: doc.to_vec(),
+            value,
+        }]
+    };
+    match (ty.as_str(), expr) {
+        (
+            "usize" | "u32",
+            syn::Expr::Lit(syn::ExprLit {
+                lit: syn::Lit::Int(i),
+                ..
+            }),
+        ) => one(format!("{}u", i.base10_digits())),
+        (
+            _,
+            syn::Expr::Lit(syn::ExprLit {
+                lit: syn::Lit::Float(f),
+                ..
+            }),
+        ) if ty == scalar.rust() => one(c_float(f.base10_digits(), scalar)),
+        ("OpCount", syn::Expr::Struct(s)) => s
+            .fields
+            .iter()
+            .filter_map(|field| {
+                let syn::Member::Named(member) = &field.member else {
+                    return None;
+                };
+                let syn::Expr::Lit(syn::ExprLit {
+                    lit: syn::Lit::Int(i),
+                    ..
+                }) = &field.expr
+                else {
+                    return None;
+                };
+                let what = member.to_string();
+                Some(Constant {
+                    name: format!("{name}_{}", what.to_ascii_uppercase()),
+                    doc: vec![format!("The `{what}` count of `{name}`: {}", doc.join(" "))],
+                    value: format!("{}u", i.base10_digits()),
+                })
+            })
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// A float literal's digits as C writes a constant of the scalar (`0.015f`, `1e-6`).
+fn c_float(digits: &str, scalar: Scalar) -> String {
+    let digits = if digits.contains(['.', 'e', 'E']) {
+        digits.to_owned()
+    } else {
+        format!("{digits}.0")
+    };
+    match scalar {
+        Scalar::F32 => format!("{digits}f"),
+        Scalar::F64 => digits,
+    }
+}
+
+/// The lines of the `///` comments among `attrs`.
+fn doc(attrs: &[syn::Attribute]) -> Vec<String> {
+    attrs
+        .iter()
+        .filter_map(|a| match &a.meta {
+            syn::Meta::NameValue(nv) if nv.path.is_ident("doc") => match &nv.value {
+                syn::Expr::Lit(syn::ExprLit {
+                    lit: syn::Lit::Str(s),
+                    ..
+                }) => Some(s.value()),
+                _ => None,
+            },
+            _ => None,
+        })
+        .flat_map(|text| {
+            // An empty `///` line is a paragraph break: kept.
+            let lines: Vec<String> = text
+                .lines()
+                .map(|l| l.strip_prefix(' ').unwrap_or(l).to_owned())
+                .collect();
+            if lines.is_empty() {
+                vec![String::new()]
+            } else {
+                lines
+            }
+        })
+        .collect()
+}
+
+/// A type as the code writes it, without the blanks `quote` puts around punctuation.
+pub fn type_text(ty: &SynType) -> String {
+    let text = quote::quote!(#ty).to_string();
+    text.replace(" ;", ";")
+        .replace("& ", "&")
+        .replace("[ ", "[")
+        .replace(" ]", "]")
+        .replace(" <", "<")
+        .replace("< ", "<")
+        .replace(" >", ">")
+        .replace(" ,", ",")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kinds_of_arguments_and_results() {
+        let s = Scalar::F32;
+        assert_eq!(
+            param("x".into(), "&[f32; 5]", s),
+            Some(Param::Required("x".into(), Value::Vector(5)))
+        );
+        assert_eq!(
+            param("p".into(), "&[[f32; 3]; 2]", s),
+            Some(Param::Required("p".into(), Value::Matrix(2, 3)))
+        );
+        assert_eq!(
+            param("u".into(), "Option<&[f32; 1]>", s),
+            Some(Param::Optional("u".into(), Value::Vector(1)))
+        );
+        assert_eq!(
+            param("g".into(), "f32", s),
+            Some(Param::Required("g".into(), Value::Scalar))
+        );
+        assert_eq!(param("g".into(), "f64", s), None);
+        assert_eq!(
+            output("Result<Self, Status>", s),
+            Some(Output::Constructed { fallible: true })
+        );
+        assert_eq!(
+            output("Result<[f32; 1], Status>", s),
+            Some(Output::Fallible(Value::Vector(1)))
+        );
+        assert_eq!(output("u32", s), Some(Output::Value(Value::Count)));
+        assert_eq!(output("([f32; 5], WindowStatus)", s), None);
+        assert_eq!(output("Option<usize>", s), None);
+        assert_eq!(c_float("0.015", Scalar::F32), "0.015f");
+        assert_eq!(c_float("1e-6", Scalar::F64), "1e-6");
+        assert_eq!(c_float("2", Scalar::F64), "2.0");
+    }
+}

@@ -1,0 +1,263 @@
+//! The companion crate's `lib.rs`: per generated type, the storage C reserves (its size
+//! and alignment asserted against the Rust type's at compile time), and one `extern "C"`
+//! function per method, which checks every pointer before it reads or writes through it
+//! and returns the status as a C enum. Its `unsafe` blocks are the crate's only ones,
+//! each with the reason it is sound.
+
+use super::names::{camel, prefix, snake, REFUSALS};
+use super::reading::{Api, Method, Output, Param, Scalar, Scope, Type, Value};
+use super::storage;
+use std::fmt::Write;
+
+/// The code of `lib.rs`.
+pub fn lib(api: &Api, provenance: &str) -> String {
+    let mut out = format!(
+        "{provenance}\n//! The C API of the `{model}` model: `extern \"C\"` functions over its \
+         generated filters and controllers (`model`), declared in `include/{model}.h`.\n\n\
+         #![no_std]\n#![deny(unsafe_op_in_unsafe_fn, clippy::undocumented_unsafe_blocks)]\n\n\
+         #[macro_use]\nmod support;\npub mod model;\n\n\
+         use support::Slot;\n\n",
+        model = api.model
+    );
+    status(api, &mut out);
+    let status = status_type(api);
+    for scope in &api.scopes {
+        let path = format!("model::{}", scope.module);
+        for ty in &scope.types {
+            generated_type(api, scope, &path, ty, &mut out);
+        }
+        let prefix = prefix(&api.model, scope);
+        for function in &scope.functions {
+            let wrapped = Wrapped {
+                c_name: format!("{prefix}_{}", function.name),
+                status: &status,
+                this: None,
+                call: format!("{path}::{}", function.name),
+                scalar: scope.scalar,
+            };
+            method(&wrapped, function, &mut out);
+        }
+    }
+    out.push_str(PANIC_HANDLER);
+    out
+}
+
+/// Never called: no wrapper can panic (the generated code has no indexing and no
+/// arithmetic that checks, and every refusal is a status), but a `no_std` library must
+/// name a handler.
+const PANIC_HANDLER: &str =
+    "\n/// Never called: no function of this crate panics (the generated code has no \
+    indexing, and every refusal is a status), but a `no_std` library names a handler.\n\
+    #[cfg(not(test))]\n#[panic_handler]\nfn panic(_: &core::panic::PanicInfo) -> ! {\n    \
+    loop {}\n}\n";
+
+/// The Rust name of the C status enum (`CantileverStatus`).
+fn status_type(api: &Api) -> String {
+    format!("{}Status", camel(&api.model))
+}
+
+/// The C status enum, and its conversions from the model's `Status` and a refusal.
+fn status(api: &Api, out: &mut String) {
+    let name = status_type(api);
+    let _ = writeln!(
+        out,
+        "/// What a C function did: the model's `Status`, or why it refused a pointer.\n\
+         #[repr(C)]\n#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum {name} {{"
+    );
+    for (i, (variant, doc)) in api.statuses.iter().enumerate() {
+        let _ = writeln!(out, "    /// {}\n    {variant} = {i},", doc.join(" "));
+    }
+    for (i, (variant, _, doc)) in REFUSALS.iter().enumerate() {
+        let _ = writeln!(out, "    /// {doc}\n    {variant} = {},", 100 + i);
+    }
+    let status_path = format!("model::{}::Status", api.model);
+    let _ = writeln!(
+        out,
+        "}}\n\nimpl From<{status_path}> for {name} {{\n    \
+         fn from(status: {status_path}) -> Self {{\n        match status {{"
+    );
+    for (variant, _) in &api.statuses {
+        let _ = writeln!(
+            out,
+            "            {status_path}::{variant} => {name}::{variant},"
+        );
+    }
+    let _ = writeln!(
+        out,
+        "        }}\n    }}\n}}\n\nimpl From<support::Refused> for {name} {{\n    \
+         fn from(refused: support::Refused) -> Self {{\n        match refused {{"
+    );
+    for (variant, refused, _) in REFUSALS {
+        let _ = writeln!(
+            out,
+            "            support::Refused::{refused} => {name}::{variant},"
+        );
+    }
+    let _ = writeln!(out, "        }}\n    }}\n}}\n");
+}
+
+/// A type's storage, its size check and its functions.
+fn generated_type(api: &Api, scope: &Scope, path: &str, ty: &Type, out: &mut String) {
+    let Some(size) = storage::size(&ty.fields) else {
+        let _ = writeln!(
+            out,
+            "// `{}` has a field of a type whose layout the tool cannot bound: no C API.\n",
+            ty.name
+        );
+        return;
+    };
+    let c_name = format!("{}_{}", prefix(&api.model, scope), snake(&ty.name));
+    let storage_name = camel(&c_name);
+    let rust_type = format!("{path}::{}", ty.name);
+    let align = storage::ALIGN;
+    let _ = writeln!(
+        out,
+        "/// The storage of a [`{rust_type}`], `{c_name}_t` in C: {size} bytes aligned to \
+         {align}, which a C program reserves (statically) and `{c_name}_new` writes.\n\
+         #[repr(C, align({align}))]\npub struct {storage_name} {{\n    bytes: [u8; {size}],\n}}\n\n\
+         // The storage holds the Rust type with its tag: checked when this crate builds.\n\
+         const _: () = assert!(\n    \
+         core::mem::size_of::<Slot<{rust_type}>>() <= core::mem::size_of::<{storage_name}>()\n        \
+         && core::mem::align_of::<Slot<{rust_type}>>() <= core::mem::align_of::<{storage_name}>()\n        \
+         && core::mem::size_of::<{storage_name}>() == {size}\n);\n"
+    );
+    let status = status_type(api);
+    for m in &ty.methods {
+        let wrapped = Wrapped {
+            c_name: format!("{c_name}_{}", m.name),
+            status: &status,
+            this: Some((snake(&ty.name), &storage_name, &rust_type)),
+            call: format!("{rust_type}::{}", m.name),
+            scalar: scope.scalar,
+        };
+        method(&wrapped, m, out);
+    }
+}
+
+/// What one `extern "C"` function wraps.
+struct Wrapped<'a> {
+    /// Its C name (`cantilever_ekf_step`).
+    c_name: String,
+    /// The Rust name of the status enum.
+    status: &'a str,
+    /// The storage argument's name, its Rust type and the generated type's path; `None`
+    /// for a free function.
+    this: Option<(String, &'a str, &'a str)>,
+    /// The path of the wrapped function (`model::cantilever::Ekf::step`).
+    call: String,
+    /// The scalar of its scope.
+    scalar: Scalar,
+}
+
+/// One `extern "C"` function.
+fn method(w: &Wrapped, m: &Method, out: &mut String) {
+    let (params, body, args) = arguments(w, m);
+    let receiver = w.this.as_ref().map(|(name, _, _)| name.as_str());
+    let invocation = match (receiver, m.receiver) {
+        (Some(name), Some(_)) => format!("{name}.{}({})", m.name, args.join(", ")),
+        _ => format!("{}({})", w.call, args.join(", ")),
+    };
+    let tail = tail(&invocation, receiver.unwrap_or("out"), w.status, &m.output);
+    let _ = writeln!(
+        out,
+        "/// The C form of [`{call}`]: its status, or why it refused a pointer; see the \
+         header.\n///\n/// # Safety\n///\n/// Each pointer is null or valid for reading (a \
+         `const` one) or writing what it points to during the call, and none overlaps \
+         another.\n#[no_mangle]\npub unsafe extern \"C\" fn {c_name}({}) -> {status} {{\n{body}    {tail}\n}}\n",
+        params.join(", "),
+        call = w.call,
+        c_name = w.c_name,
+        status = w.status,
+    );
+}
+
+/// A function's parameters, the checks of its pointers, and the arguments of the call.
+fn arguments(w: &Wrapped, m: &Method) -> (Vec<String>, String, Vec<String>) {
+    let mut params = Vec::new();
+    let mut body = String::new();
+    if let Some((name, storage_name, rust_type)) = &w.this {
+        let (mutability, check, what) = match m.receiver {
+            None => ("mut", "slot", "valid for writes of its storage"),
+            Some(true) => (
+                "mut",
+                "value_mut",
+                "valid for reads and writes of its storage, its tag initialised",
+            ),
+            Some(false) => (
+                "const",
+                "value",
+                "valid for reads of its storage, its tag initialised",
+            ),
+        };
+        params.push(format!("{name}: *{mutability} {storage_name}"));
+        let _ = writeln!(
+            body,
+            "    // SAFETY: `{name}` is null or {what}, unaliased, as `# Safety` requires; \
+             `support::{check}` checks the rest.\n    \
+             let {name} = take!(unsafe {{ support::{check}::<_, {rust_type}>({name}) }});"
+        );
+    }
+    let mut args = Vec::new();
+    for param in &m.params {
+        let (name, value, read) = match param {
+            Param::Required(name, value) => (name, value, "read"),
+            Param::Optional(name, value) => (name, value, "read_optional"),
+        };
+        let ty = rust_value(value, w.scalar);
+        args.push(name.clone());
+        if *value == Value::Scalar {
+            params.push(format!("{name}: {ty}"));
+            continue;
+        }
+        params.push(format!("{name}: *const {ty}"));
+        let _ = writeln!(
+            body,
+            "    // SAFETY: `{name}` is null or valid for reads of `{ty}` during the call, as \
+             `# Safety` requires; `support::{read}` checks the rest.\n    \
+             let {name} = take!(unsafe {{ support::{read}({name}) }});"
+        );
+    }
+    if let Output::Value(v) | Output::Fallible(v) = &m.output {
+        let ty = rust_value(v, w.scalar);
+        params.push(format!("out: *mut {ty}"));
+        let _ = writeln!(
+            body,
+            "    // SAFETY: `out` is null or valid for writes of `{ty}`, unaliased, during the \
+             call, as `# Safety` requires; `support::out` checks the rest.\n    \
+             let out = take!(unsafe {{ support::out(out) }});"
+        );
+    }
+    (params, body, args)
+}
+
+/// The end of a function: the call, its result written, its status returned.
+fn tail(invocation: &str, storage: &str, status: &str, output: &Output) -> String {
+    let ok = format!("{status}::Ok");
+    let written = |target: &str, value: &str| {
+        format!(
+            "match {invocation} {{\n        Ok(value) => {{\n            {target}.write({value});\n            \
+             {ok}\n        }}\n        Err(status) => status.into(),\n    }}"
+        )
+    };
+    match output {
+        Output::Status => format!("{invocation}.into()"),
+        Output::Nothing => format!("{invocation};\n    {ok}"),
+        Output::Value(_) => format!("out.write({invocation});\n    {ok}"),
+        Output::Fallible(_) => written("out", "value"),
+        Output::Constructed { fallible: true } => written(storage, "Slot::new(value)"),
+        Output::Constructed { fallible: false } => {
+            format!("{storage}.write(Slot::new({invocation}));\n    {ok}")
+        }
+    }
+}
+
+/// A value's Rust type.
+fn rust_value(value: &Value, scalar: Scalar) -> String {
+    let scalar = scalar.rust();
+    match value {
+        Value::Scalar => scalar.to_owned(),
+        Value::Count => "u32".to_owned(),
+        Value::Vector(n) => format!("[{scalar}; {n}]"),
+        Value::Matrix(rows, cols) => format!("[[{scalar}; {cols}]; {rows}]"),
+    }
+}

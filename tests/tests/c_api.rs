@@ -1,0 +1,448 @@
+//! The C API (`stateforge-codegen c-api`) as a C program uses it: the cantilever's
+//! companion crate written, its header compiled as C99 and C++17 with every warning an
+//! error, its static library built, and `tests/c/cantilever.c` linked against it under
+//! AddressSanitizer and UndefinedBehaviorSanitizer and run. The program checks every
+//! function of the EKF, the gated EKF, the LQR, the model functions and the f64 EKF,
+//! their refusals included; its results must be the generated Rust code's, bit for bit.
+//! Needs the host's `gcc` and `g++`.
+
+use generated_demo::cantilever;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use tests::workspace_path;
+
+/// The companion crate of the cantilever, written once for the tests of this file.
+fn companion() -> PathBuf {
+    static WRITTEN: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    WRITTEN
+        .get_or_init(|| {
+            let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("c-api-cantilever");
+            let options = stateforge_cli::c_api::Options {
+                math_dependency: stateforge_cli::math_dependency(),
+                provenance: "// Generated for the tests from generated-demo/models/cantilever.rs."
+                    .to_owned(),
+            };
+            let code = tests::demo_model_code("cantilever");
+            stateforge_cli::c_api::write(&code, &dir, &options).expect("the C API is written");
+            dir
+        })
+        .clone()
+}
+
+/// Runs `command`, panicking with its output unless it succeeds; its standard output.
+fn run(command: &mut Command) -> String {
+    let output = command
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {command:?}: {e} (install gcc and g++)"));
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    assert!(
+        output.status.success(),
+        "{command:?} failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    stdout
+}
+
+#[test]
+fn the_header_compiles_as_c99_and_cpp17_without_a_warning() {
+    let header = companion().join("include/cantilever.h");
+    for (compiler, standard, language) in [("gcc", "-std=c99", "c"), ("g++", "-std=c++17", "c++")] {
+        run(Command::new(compiler)
+            .args([
+                standard,
+                "-Wall",
+                "-Wextra",
+                "-Wpedantic",
+                "-Werror",
+                "-fsyntax-only",
+                "-x",
+            ])
+            .arg(language)
+            .arg(&header));
+    }
+}
+
+#[test]
+fn every_function_and_constant_of_the_header_is_documented() {
+    let header = std::fs::read_to_string(companion().join("include/cantilever.h")).expect("header");
+    let lines: Vec<&str> = header.lines().collect();
+    let mut declarations = 0;
+    for (i, line) in lines.iter().enumerate() {
+        let declares = (line.starts_with("#define CANTILEVER_") && *line != "#define CANTILEVER_H")
+            || line.starts_with("cantilever_status_t ");
+        if declares {
+            declarations += 1;
+            assert!(
+                i > 0 && lines[i - 1].trim_end().ends_with("*/"),
+                "undocumented: {line}"
+            );
+        }
+    }
+    assert!(declarations > 100, "only {declarations} declarations");
+}
+
+#[test]
+fn the_unsafe_code_is_in_the_wrapper_only_each_block_with_its_reason() {
+    let dir = companion();
+    let model = std::fs::read_to_string(dir.join("src/model.rs")).expect("model.rs");
+    assert!(model.starts_with("#![forbid(unsafe_code)]"));
+    for file in ["src/lib.rs", "src/support.rs"] {
+        let text = std::fs::read_to_string(dir.join(file)).expect("wrapper");
+        let blocks = text.matches("unsafe {").count();
+        assert!(blocks > 0);
+        assert_eq!(
+            text.matches("// SAFETY:").count(),
+            blocks,
+            "{file}: an unsafe block without its reason"
+        );
+    }
+    // Clippy places each reason (the crate denies `clippy::undocumented_unsafe_blocks`).
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    run(Command::new(cargo)
+        .args(["clippy", "--release", "--quiet", "--target-dir"])
+        .arg(dir.join("target"))
+        .args(["--", "-D", "warnings"])
+        .current_dir(&dir)
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_ENCODED_RUSTFLAGS"));
+}
+
+/// The host's static library, built in release: its path.
+fn host_library() -> PathBuf {
+    let dir = companion();
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    run(Command::new(cargo)
+        .args(["build", "--release", "--quiet", "--target-dir"])
+        .arg(dir.join("target"))
+        .current_dir(&dir)
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_ENCODED_RUSTFLAGS"));
+    dir.join("target/release/libcantilever_c.a")
+}
+
+/// The C program built against the static library, with the sanitizers; its output.
+fn c_program_output() -> String {
+    let library = host_library();
+    let dir = companion();
+    let program = dir.join("cantilever_test");
+    run(Command::new("gcc")
+        .args([
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-Wpedantic",
+            "-Werror",
+            "-g",
+        ])
+        .args(["-fsanitize=address,undefined", "-fno-sanitize-recover=all"])
+        .arg("-I")
+        .arg(dir.join("include"))
+        .arg(workspace_path("tests/c/cantilever.c"))
+        .arg(library)
+        .args(["-lm", "-o"])
+        .arg(&program));
+    run(&mut Command::new(&program))
+}
+
+/// The printed line `name bits..`, as floats.
+fn printed_f32(output: &str, name: &str) -> Vec<u32> {
+    printed(output, name)
+        .iter()
+        .map(|&b| u32::try_from(b).expect("32 bits"))
+        .collect()
+}
+
+/// The printed line `name bits..`.
+fn printed(output: &str, name: &str) -> Vec<u64> {
+    let line = output
+        .lines()
+        .find(|l| l.split(' ').next() == Some(name))
+        .unwrap_or_else(|| panic!("the program printed no `{name}`:\n{output}"));
+    line.split(' ')
+        .skip(1)
+        .map(|hex| u64::from_str_radix(hex, 16).expect("hexadecimal bits"))
+        .collect()
+}
+
+/// The run's input and measurement at sample `k`, as the C program computes them.
+#[allow(clippy::cast_precision_loss)]
+fn input_at(k: i32) -> f32 {
+    0.25 * (k % 7) as f32 - 0.75
+}
+
+#[allow(clippy::cast_precision_loss)]
+fn measurement_at(k: i32) -> f32 {
+    0.01 * ((k * 37) % 19) as f32 - 0.09
+}
+
+const X0: [f32; 5] = [0.0, 0.0, -400.0, -1.0, 50.0];
+const P0: [[f32; 5]; 5] = [
+    [1.0, 0.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0, 0.0],
+    [0.0, 0.0, 100.0, 0.0, 0.0],
+    [0.0, 0.0, 0.0, 1.0, 0.0],
+    [0.0, 0.0, 0.0, 0.0, 10.0],
+];
+const Q: [f32; 5] = [1e-6, 1e-4, 1e-2, 1e-4, 1e-3];
+const R: [[f32; 1]; 1] = [[1e-4]];
+
+fn bits(values: &[f32]) -> Vec<u32> {
+    values.iter().map(|v| v.to_bits()).collect()
+}
+
+#[test]
+fn the_sanitised_c_program_passes_and_computes_what_rust_computes() {
+    let output = c_program_output();
+    assert!(
+        output.contains("failures 0\n"),
+        "the C program's checks failed:\n{output}"
+    );
+    // The EKF's run.
+    let mut ekf = cantilever::Ekf::new(&X0, &P0, &Q, &R).expect("a filter");
+    for k in 1..=40 {
+        assert_eq!(
+            ekf.step(&[input_at(k - 1)], &[measurement_at(k)]),
+            cantilever::Status::Ok
+        );
+    }
+    assert_eq!(ekf.predict(&[input_at(40)]), cantilever::Status::Ok);
+    assert_eq!(ekf.update(&[measurement_at(41)]), cantilever::Status::Ok);
+    assert_eq!(printed_f32(&output, "ekf_state"), bits(&ekf.state()));
+    assert_eq!(
+        printed_f32(&output, "ekf_covariance"),
+        bits(ekf.covariance().as_flattened())
+    );
+    assert_eq!(
+        printed_f32(&output, "ekf_innovation"),
+        bits(&ekf.innovation())
+    );
+    assert_eq!(
+        printed_f32(&output, "ekf_nis"),
+        bits(&[ekf.normalised_innovation_squared()])
+    );
+    // The LQR's.
+    let (q, r, u_max) = ([[100.0, 0.0], [0.0, 1.0]], [[0.1]], [2.0]);
+    let x = [0.5, -1.0, -400.0, -1.0, 50.0];
+    let x_ref = [0.2, 0.0, -400.0, -1.0, 50.0];
+    let mut unlimited = cantilever::Lqr::new(&q, &r, None).expect("an LQR");
+    assert_eq!(unlimited.solve(&x, &[0.0]), cantilever::Status::Ok);
+    assert_eq!(
+        printed_f32(&output, "lqr_unlimited_control"),
+        bits(&unlimited.control(&x))
+    );
+    let mut lqr = cantilever::Lqr::new(&q, &r, Some(&u_max)).expect("an LQR");
+    assert_eq!(lqr.solve(&x, &[0.0]), cantilever::Status::Ok);
+    let u_ref = lqr.steady_state_input(&x_ref, &[0.0]).expect("an input");
+    assert_eq!(
+        printed_f32(&output, "lqr_gain"),
+        bits(lqr.gain().as_flattened())
+    );
+    assert_eq!(printed_f32(&output, "lqr_control"), bits(&lqr.control(&x)));
+    assert_eq!(printed_f32(&output, "lqr_u_ref"), bits(&u_ref));
+    assert_eq!(
+        printed_f32(&output, "lqr_track"),
+        bits(&lqr.track(&x, &x_ref, &u_ref))
+    );
+    model_functions_agree(&output);
+    f64_ekf_agrees(&output);
+    let constants = format!(
+        "constants {} {} {} {}\n",
+        cantilever::X_LEN,
+        cantilever::EKF_STEP_CYCLES,
+        cantilever::Lqr::HORIZON,
+        cantilever::EKF_STEP_OPS.mul
+    );
+    assert!(output.contains(&constants), "{constants} not in\n{output}");
+    assert_eq!(printed_f32(&output, "ts"), bits(&[cantilever::TS]));
+}
+
+fn model_functions_agree(output: &str) {
+    let (x, u) = ([0.5, -1.0, -400.0, -1.0, 50.0], [0.25]);
+    assert_eq!(printed_f32(output, "f"), bits(&cantilever::f(&x, &u)));
+    assert_eq!(printed_f32(output, "h"), bits(&cantilever::h(&x)));
+    let a = cantilever::jacobian_f_wrt_x(&x, &u);
+    assert_eq!(
+        printed_f32(output, "jacobian_f_wrt_x"),
+        bits(a.as_flattened())
+    );
+    let b = cantilever::jacobian_f_wrt_u(&x, &u);
+    assert_eq!(
+        printed_f32(output, "jacobian_f_wrt_u"),
+        bits(b.as_flattened())
+    );
+    let c = cantilever::jacobian_h_wrt_x(&x);
+    assert_eq!(
+        printed_f32(output, "jacobian_h_wrt_x"),
+        bits(c.as_flattened())
+    );
+}
+
+fn f64_ekf_agrees(output: &str) {
+    // The C program's double constants (not the f32 ones widened).
+    let p0 = [
+        [1.0, 0.0, 0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0, 0.0],
+        [0.0, 0.0, 100.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 0.0, 10.0],
+    ];
+    let (x0, q, r) = (
+        [0.0, 0.0, -400.0, -1.0, 50.0],
+        [1e-6, 1e-4, 1e-2, 1e-4, 1e-3],
+        [[1e-4]],
+    );
+    let mut ekf = cantilever::in_f64::Ekf::new(&x0, &p0, &q, &r).expect("a filter");
+    for k in 1..=40 {
+        let status = ekf.step(
+            &[f64::from(input_at(k - 1))],
+            &[f64::from(measurement_at(k))],
+        );
+        assert_eq!(status, cantilever::Status::Ok);
+    }
+    assert_eq!(
+        ekf.predict(&[f64::from(input_at(40))]),
+        cantilever::Status::Ok
+    );
+    assert_eq!(
+        ekf.update(&[f64::from(measurement_at(41))]),
+        cantilever::Status::Ok
+    );
+    let state: Vec<u64> = ekf.state().iter().map(|v| v.to_bits()).collect();
+    assert_eq!(printed(output, "f64_ekf_state"), state);
+    let covariance: Vec<u64> = ekf
+        .covariance()
+        .as_flattened()
+        .iter()
+        .map(|v| v.to_bits())
+        .collect();
+    assert_eq!(printed(output, "f64_ekf_covariance"), covariance);
+}
+
+#[test]
+fn the_c_program_calls_every_function_of_the_types_it_covers() {
+    let header = std::fs::read_to_string(companion().join("include/cantilever.h")).expect("header");
+    let program = std::fs::read_to_string(workspace_path("tests/c/cantilever.c")).expect("program");
+    let covered = [
+        "cantilever_ekf_",
+        "cantilever_gated_ekf_",
+        "cantilever_lqr_",
+        "cantilever_f64_ekf_",
+    ];
+    let free = ["cantilever_f(", "cantilever_h(", "cantilever_jacobian_"];
+    let mut checked = 0;
+    for line in header
+        .lines()
+        .filter(|l| l.starts_with("cantilever_status_t "))
+    {
+        let name = &line["cantilever_status_t ".len()..line.find('(').expect("a declaration")];
+        let is_covered = covered.iter().any(|p| name.starts_with(p))
+            || free.iter().any(|p| format!("{name}(").starts_with(p));
+        if is_covered {
+            checked += 1;
+            assert!(
+                program.contains(&format!("{name}(")),
+                "tests/c/cantilever.c never calls {name}"
+            );
+        }
+    }
+    assert!(checked >= 40, "only {checked} functions covered");
+}
+
+/// The symbols of an object file or image, as `nm` lists them.
+fn symbols(nm: &str, file: &Path) -> String {
+    run(Command::new(nm).arg(file))
+}
+
+#[test]
+fn no_panic_is_reachable_from_the_host_library() {
+    let library = symbols("nm", &host_library());
+    assert!(library.contains(" T cantilever_ekf_step\n"), "{library}");
+    // The handler is linked only if a call can reach it; release builds with LTO drop it.
+    assert!(
+        !library.to_lowercase().contains("panic"),
+        "a panic is reachable:\n{library}"
+    );
+}
+
+#[test]
+fn the_cortex_m4f_library_links_into_a_c_program_without_a_rust_runtime() {
+    use stateforge_cli::measure::{setup, TARGET};
+    setup::rust_target(TARGET).expect("the Cortex-M4F target");
+    setup::debian_commands(&[
+        ("arm-none-eabi-gcc", "gcc-arm-none-eabi"),
+        ("arm-none-eabi-nm", "binutils-arm-none-eabi"),
+    ])
+    .expect("the ARM compiler");
+    let dir = companion();
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    run(Command::new(cargo)
+        .args([
+            "build",
+            "--release",
+            "--quiet",
+            "--target",
+            TARGET,
+            "--target-dir",
+        ])
+        .arg(dir.join("target"))
+        .current_dir(&dir)
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_ENCODED_RUSTFLAGS"));
+    let image = dir.join("cantilever_m4f.elf");
+    // The whole test program, against newlib without an operating system: every symbol
+    // the library needs is the C library's (`memcpy` and friends) or its own.
+    run(Command::new("arm-none-eabi-gcc")
+        .args([
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-Wpedantic",
+            "-Werror",
+            "-O2",
+        ])
+        .args([
+            "-mcpu=cortex-m4",
+            "-mthumb",
+            "-mfloat-abi=hard",
+            "-mfpu=fpv4-sp-d16",
+        ])
+        .arg("-I")
+        .arg(dir.join("include"))
+        .arg(workspace_path("tests/c/cantilever.c"))
+        .arg(dir.join(format!("target/{TARGET}/release/libcantilever_c.a")))
+        .args(["--specs=nosys.specs", "-lm", "-o"])
+        .arg(&image));
+    let linked = symbols("arm-none-eabi-nm", &image);
+    assert!(linked.contains(" T cantilever_lqr_solve\n"), "{linked}");
+    assert!(
+        !linked.to_lowercase().contains("panic"),
+        "a panic is reachable:\n{linked}"
+    );
+}
+
+#[test]
+fn every_demo_models_header_compiles_as_c99_and_cpp17() {
+    for name in tests::DEMO_MODELS {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("c-api-header-{name}"));
+        let options = stateforge_cli::c_api::Options {
+            math_dependency: stateforge_cli::math_dependency(),
+            provenance: format!("// Generated for the tests from {name}."),
+        };
+        stateforge_cli::c_api::write(&tests::demo_model_code(name), &dir, &options)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let header = dir.join(format!("include/{name}.h"));
+        let text = std::fs::read_to_string(&header).expect("header");
+        assert!(
+            text.contains(&format!("{name}_status_t {name}_")),
+            "{name}: no function"
+        );
+        for (compiler, standard, language) in
+            [("gcc", "-std=c99", "c"), ("g++", "-std=c++17", "c++")]
+        {
+            run(Command::new(compiler)
+                .args([standard, "-Wall", "-Wextra", "-Wpedantic", "-Werror"])
+                .args(["-fsyntax-only", "-x", language])
+                .arg(&header));
+        }
+    }
+}
