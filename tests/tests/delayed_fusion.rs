@@ -158,3 +158,35 @@ fn reset_empties_the_buffer() {
         delayed_fix::in_f64::Status::RejectedInput
     );
 }
+
+#[test]
+fn a_step_is_a_prediction_then_an_update_on_the_horizon() {
+    use delayed_fix::in_f64::{Ekf, Status};
+    let p0 = [[1.0, 0.2, 0.0], [0.2, 1.0, 0.0], [0.0, 0.0, 0.1]];
+    let q = [[0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.001]];
+    let r = [[0.5, 0.0], [0.0, 0.5]];
+    let mut stepped = Ekf::new(&[0.0, 1.0, 0.2], &p0, &q, &r).unwrap();
+    let mut split = stepped;
+    for k in 0..12 {
+        let t = f64::from(k) * DT;
+        let u = [1.0 + t, 0.1];
+        let y = [t, 1.0 - t];
+        assert_eq!(stepped.step(&u, &y), Status::Ok);
+        assert_eq!(split.predict(&u), Status::Ok);
+        assert_eq!(split.update(&y), Status::Ok);
+        assert_close("delayed estimate", 0, &stepped.state(), &split.state());
+        assert_close(
+            "current state",
+            0,
+            &stepped.current_state(),
+            &split.current_state(),
+        );
+    }
+    // A step refused for its measurement leaves the buffer and the horizon as they were.
+    let before = stepped;
+    assert_eq!(
+        stepped.step(&[1.0, 0.0], &[f64::NAN, 0.0]),
+        Status::RejectedInput
+    );
+    assert_eq!(stepped, before);
+}

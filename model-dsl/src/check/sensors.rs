@@ -111,8 +111,8 @@ fn check_one_horizon(decl: &ModelDecl, sensors: &[Sensor], diag: &mut Diagnostic
                 format!(
                     "the sensor `{}` arrives {} samples late and `{}` {}: a filter runs \
                      on one delayed horizon, so every sensor declares the same delay, \
-                     `delay = {}` (a sensor that arrives sooner is fused there too, its \
-                     measurement as late as the others')",
+                     `delay = {}` (sensors of different delays would need a buffer of \
+                     their measurements as well, which is not generated)",
                     delayed.name,
                     delayed.delay,
                     sensor.name,

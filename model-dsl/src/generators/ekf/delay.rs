@@ -103,6 +103,19 @@ pub fn wrap(
     let step = arguments.private_method(&inner, &quote! { #[doc = #horizon_doc] }, body);
     let run = if predicts {
         let buffer = buffer_input(model, ty);
+        // A step's measurement is checked before the input is buffered: a step refused
+        // for it leaves the buffer and the horizon as they were.
+        let measurement = update_alone.map(|_| {
+            let entries: Vec<Ident> = (0..model.outputs.len())
+                .map(|i| ident(&format!("y_{i}")))
+                .collect();
+            quote! {
+                let [#(#entries),*] = *y;
+                if !stateforge_math::#ty::all_finite([#(#entries),*]) {
+                    return Status::RejectedInput;
+                }
+            }
+        });
         let otherwise = match update_alone {
             Some(update) => {
                 let update = at_horizon(update);
@@ -111,16 +124,31 @@ pub fn wrap(
             None => quote! { Status::Ok },
         };
         quote! {
+            #measurement
             #buffer
             let status = if oldest_buffered { self.#inner(#(#passed),*) } else { #otherwise };
         }
     } else {
         quote! { let status = self.#inner(#(#passed),*); }
     };
+    let horizon_doc = if predicts {
+        " On the delayed horizon: the input is buffered, and the estimate and covariance, \
+         `DELAY` samples behind, are predicted with the input of `DELAY` samples ago once \
+         the buffer is full (a prediction there refused as non-finite leaves that sample \
+         out of the horizon: reset the filter); the output predictor then brings \
+         [`Self::current_state`] to the present."
+    } else {
+        " On the delayed horizon: the measurement, `DELAY` samples late, is fused at the \
+         sample it describes (before the buffer is full, at the start, where the horizon \
+         still is); the output predictor then brings [`Self::current_state`] to the \
+         present."
+    };
     quote! {
         #step
 
         #doc
+        ///
+        #[doc = #horizon_doc]
         pub fn #name(&mut self, #(#params),*) -> Status {
             #run
             self.predict_output();
