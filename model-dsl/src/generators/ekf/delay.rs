@@ -9,7 +9,9 @@
 //! covariance's `O(n^3)` for the delays of a few tens of samples a GNSS fix has.
 
 use crate::emit::arguments::Arguments;
-use crate::emit::lower::literal;
+use crate::emit::lower::{literal, OpCount};
+use crate::emit::model_fns::{emit_function, model_functions};
+use crate::symbolic::ModelGraph;
 use crate::emit::names::ident;
 use crate::model::{Model, Scalar};
 use proc_macro2::{Ident, Literal, TokenStream};
@@ -267,4 +269,24 @@ pub fn buffer_bytes(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream 
         #[doc = #doc]
         pub const #name: usize = #bytes;
     }
+}
+
+/// What the output predictor adds to each public call, at most: `f` once for each
+/// buffered sample, a branch each, and the current state stored. Zero without a delay.
+pub fn output_predictor_ops(model: &Model, mg: &ModelGraph, scalar: Scalar) -> OpCount {
+    let delay = model.delay();
+    if delay == 0 {
+        return OpCount::default();
+    }
+    let mut mg = mg.clone();
+    let f_ops = model_functions(model, &mut mg)
+        .iter()
+        .find(|function| function.name == "f")
+        .map(|f| emit_function(model, &mg, f, scalar).1)
+        .unwrap_or_default();
+    let samples = u32::try_from(delay).unwrap_or(u32::MAX);
+    f_ops
+        .plus(OpCount::branches(1))
+        .times(samples)
+        .plus(OpCount::stores(model.state_len()))
 }

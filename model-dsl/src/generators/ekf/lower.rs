@@ -90,13 +90,19 @@ fn emit_with_blocks(
     scalar: Scalar,
     blocks: &CovarianceBlocks,
 ) -> Option<EkfCode> {
-    let (predict, predict_ops) = method(model, mg, scalar, (EkfMethod::Predict, blocks), spec)?;
-    let (update, update_ops) = method(model, mg, scalar, (EkfMethod::Update, blocks), spec)?;
-    let (step, step_ops) = method(model, mg, scalar, (EkfMethod::Step, blocks), spec)?;
+    // With a delayed horizon, each call runs the output predictor after its step.
+    let predictor = delay::output_predictor_ops(model, mg, scalar);
+    let method = |kind| {
+        method(model, mg, scalar, (kind, blocks), spec)
+            .map(|(tokens, ops)| (tokens, ops.plus(predictor)))
+    };
+    let (predict, predict_ops) = method(EkfMethod::Predict)?;
+    let (update, update_ops) = method(EkfMethod::Update)?;
+    let (step, step_ops) = method(EkfMethod::Step)?;
     let mut sensor_update_ops = Vec::new();
     let mut partial = Vec::new();
     for kind in partial_updates(model) {
-        let (tokens, ops) = method(model, mg, scalar, (kind, blocks), spec)?;
+        let (tokens, ops) = method(kind)?;
         if let Some(sensor) = kind.sensor(model) {
             sensor_update_ops.push((format!("update_{}", sensor.name), ops));
         }
