@@ -11,9 +11,9 @@
 use crate::emit::arguments::Arguments;
 use crate::emit::lower::{literal, OpCount};
 use crate::emit::model_fns::{emit_function, model_functions};
-use crate::symbolic::ModelGraph;
 use crate::emit::names::ident;
 use crate::model::{Model, Scalar};
+use crate::symbolic::ModelGraph;
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
 
