@@ -77,7 +77,7 @@ fn at_horizon(name: &Ident) -> Ident {
 }
 
 /// A method of the filter on the delayed horizon: the generated step, private and named
-/// [`at_horizon`], and the public method, which buffers the input (`predicts`: a
+/// `<name>_at_horizon`, and the public method, which buffers the input (`predicts`: a
 /// prediction or a step), runs the step on the horizon, and then the output predictor.
 /// A step whose horizon has not moved yet (the buffer still filling, its measurement of
 /// the start) is the correction alone.
