@@ -34,7 +34,8 @@
 //! `[[known]]` entries (`name`, `doc`) declare constants known only at run time.
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
 //! `[[sensor]]` entries (`name`, `outputs`, `doc`, and optionally `gate = 22.46` or
-//! `gate = "off"`, the macro's `sensor gnss(gate = 22.46) = [..]`) group outputs.
+//! `gate = "off"` and `delay = 38`, the macro's `sensor gnss(gate = 22.46, delay = 38) =
+//! [..]`) group outputs.
 
 use crate::expression_places;
 pub use crate::expression_text::comparison_of;
@@ -166,6 +167,9 @@ struct Sensor {
     /// `gate = 22.46` or `gate = "off"`: the sensor's own innovation gate.
     #[serde(default)]
     gate: Option<Spanned<OptionValue>>,
+    /// `delay = 38`: how many samples late its measurements arrive.
+    #[serde(default)]
+    delay: Option<Spanned<OptionValue>>,
 }
 
 /// A named expression: a constant, output or intermediate.
@@ -606,15 +610,18 @@ impl Reader<'_> {
     }
 
     fn sensors(&mut self, sensors: &[Sensor]) -> Vec<SensorDecl> {
-        sensors
-            .iter()
-            .map(|s| SensorDecl {
+        let mut decls = Vec::new();
+        for s in sensors {
+            let gate = s.gate.as_ref().and_then(|g| self.sensor_gate(g));
+            let delay = s.delay.as_ref().and_then(|d| self.sensor_delay(d));
+            decls.push(SensorDecl {
                 docs: docs(&s.doc),
                 name: self.name(&s.name),
-                options: s.gate.iter().filter_map(|g| self.sensor_gate(g)).collect(),
+                options: gate.into_iter().chain(delay).collect(),
                 outputs: s.outputs.iter().map(|o| self.name(o)).collect(),
-            })
-            .collect()
+            });
+        }
+        decls
     }
 
     /// A sensor's `gate`, as the macro's option `gate = ..` (checked with it): a number,
@@ -645,6 +652,30 @@ impl Reader<'_> {
                 span: here,
             },
             value,
+        })
+    }
+
+    /// A sensor's `delay`, as the macro's option `delay = ..` (checked with it): a number;
+    /// anything else is an error here.
+    fn sensor_delay(&mut self, delay: &Spanned<OptionValue>) -> Option<GenerateArg> {
+        let here = self.places.inside(self.source, delay);
+        let OptionValue::Number(v) = delay.get_ref() else {
+            self.diag.error(
+                here,
+                format!(
+                    "sensor.delay: {} is not a delay, which is how many samples late the \
+                     sensor's measurements arrive (`delay = 38`)",
+                    delay.get_ref().describe()
+                ),
+            );
+            return None;
+        };
+        Some(GenerateArg {
+            name: Name {
+                text: "delay".to_owned(),
+                span: here,
+            },
+            value: ArgValue::Number(*v, here),
         })
     }
 

@@ -234,6 +234,10 @@ pub struct Sensor {
     /// (a gate generated open); `None` when it declares none (a filter's `gate`, if any,
     /// then judges its update).
     pub gate: Option<f64>,
+    /// How many samples (calls of `predict`) late its measurements arrive
+    /// (`sensor gnss(delay = 38) = [..]`): a measurement given now describes the state
+    /// `delay` samples ago. Zero when it declares none.
+    pub delay: usize,
 }
 
 /// A named intermediate of the dynamics block.
@@ -582,6 +586,12 @@ impl Model {
             .chain(self.outputs.iter().map(|o| &o.expr))
             .chain(self.locals.iter().map(|l| &l.expr));
         exprs.any(|e| e.any(&|e| matches!(e, Expr::Time)))
+    }
+
+    /// The samples a filter's delayed horizon lags the present by: the sensors' declared
+    /// delay (one for all, checked), zero if none declares one.
+    pub fn delay(&self) -> usize {
+        self.sensors.iter().map(|s| s.delay).max().unwrap_or(0)
     }
 }
 

@@ -35,13 +35,14 @@ pub const UNSNAPSHOTTED_DEMO_MODELS: [&str; 1] = ["navigation"];
 
 /// Names of the test models in `tests/models/` (`model! { .. }` invocations that exercise
 /// parts of the language the demo models do not use).
-pub const TEST_MODELS: [&str; 6] = [
+pub const TEST_MODELS: [&str; 7] = [
     "rover",
     "rover_known",
     "ahrs",
     "vehicle_geometry",
     "dead_reckoning",
     "carried_state",
+    "delayed_fix",
 ];
 
 /// The generated code of a test model, formatted.

@@ -825,3 +825,37 @@ fn a_sensors_gate_is_a_key_of_its_table() {
          quantile, `gate = 16.27`) or `\"off\"`",
     );
 }
+
+#[test]
+fn a_sensors_delay_is_a_key_of_its_table() {
+    let sensor = |delay: &str| {
+        SMALL.replace(
+            "[dynamics]",
+            &format!("[[sensor]]\nname = \"position\"\noutputs = [\"y\"]\n{delay}\n[dynamics]"),
+        ) + "[generate]\nekf = true\n"
+    };
+    let from_file =
+        stateforge_cli::expand_model_file(&sensor("delay = 4")).expect("model file expands");
+    let from_macro = stateforge_compiler::expand_macro_source(&small_macro("ekf").replace(
+        "output y = x1;",
+        "output y = x1; sensor position(delay = 4) = [y];",
+    ))
+    .expect("macro expands");
+    let from_file = code_without_docs(from_file);
+    assert!(
+        from_file.contains("inputs_buffered"),
+        "no buffer in {from_file}"
+    );
+    assert_eq!(from_file, code_without_docs(from_macro));
+    assert_error(
+        &sensor("delay = 0.15"),
+        "18:9: a sensor's `delay` is how many samples (calls of `predict`) late its \
+         measurements arrive, a whole number from 1 to 1000: a GNSS fix 150 ms late in a \
+         filter sampled at 250 Hz is `delay = 38` (0.15 s times 250 Hz, rounded)",
+    );
+    assert_error(
+        &sensor("delay = \"150 ms\""),
+        "18:10: sensor.delay: `\"150 ms\"` is not a delay, which is how many samples late the \
+         sensor's measurements arrive (`delay = 38`)",
+    );
+}

@@ -7,8 +7,8 @@ use crate::scratch::{workspace_root, Scratch};
 use std::path::{Path, PathBuf};
 
 /// Test models whose generated code no demo model or model file covers: vectors and
-/// rotations, the error-state EKF, input noise.
-const TEST_MODELS: [&str; 3] = ["ahrs", "dead_reckoning", "vehicle_geometry"];
+/// rotations, the error-state EKF, input noise, the delayed fusion horizon.
+const TEST_MODELS: [&str; 4] = ["ahrs", "dead_reckoning", "vehicle_geometry", "delayed_fix"];
 
 /// The model sources vendored: the demo models (`model!` invocations), the model files and
 /// [`TEST_MODELS`].

@@ -32,6 +32,10 @@ pub(super) fn check_generate(
         if !requirements_met(kind, decl, item, diag) {
             continue;
         }
+        if !kind.runs_delayed() && declares_delay(decl) {
+            diag.error(item.name.span, no_delayed_horizon(kind));
+            continue;
+        }
         let mut args = Args::new(item, diag);
         let budget = Budget::read(
             &mut |name| args.take(&[name]).map(|a| a.value.clone()),
@@ -132,6 +136,28 @@ fn requirements_met(
         }
     }
     met
+}
+
+/// Whether a sensor of the model declares a `delay`.
+fn declares_delay(decl: &ModelDecl) -> bool {
+    decl.sensors
+        .iter()
+        .any(|s| s.options.iter().any(|o| o.name.text == "delay"))
+}
+
+/// What a generator with no delayed horizon says of a model with a delayed sensor.
+fn no_delayed_horizon(kind: &dyn Kind) -> String {
+    let names: Vec<String> = REGISTRY
+        .iter()
+        .filter(|k| k.runs_delayed())
+        .map(|k| format!("`{}`", k.name()))
+        .collect();
+    format!(
+        "`{}` does not run on a delayed horizon, which a sensor's `delay` asks for: {} \
+         does, or drop the `delay`",
+        kind.name(),
+        phrase(&names, "or")
+    )
 }
 
 /// The generators that do not have `requirement`, as a phrase: "`ekf` and `lqr`".

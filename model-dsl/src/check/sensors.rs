@@ -11,7 +11,11 @@ use std::collections::{HashMap, HashSet};
 const LISTED_OUTPUTS: usize = 12;
 
 /// The options a sensor takes.
-const SENSOR_OPTIONS: [&str; 1] = ["gate"];
+const SENSOR_OPTIONS: [&str; 2] = ["gate", "delay"];
+
+/// The longest delay a sensor may declare, in samples: its filter keeps a buffer of as
+/// many inputs, and re-propagates the estimate through them each sample.
+pub const MAX_DELAY: usize = 1000;
 
 /// Names a sensor may not take: its noise setter, `set_<sensor>_noise`, would be a filter's
 /// own (`set_process_noise`, `set_measurement_noise`, `set_input_noise`).
@@ -62,10 +66,12 @@ pub(super) fn check_sensors(
             .into_iter()
             .flat_map(|i| entries.get(i).cloned().unwrap_or_default())
             .collect();
+        let (gate, delay) = options(sensor, outputs.len(), diag);
         sensors.push(Sensor {
             docs: sensor.docs.clone(),
             name: name.text.clone(),
-            gate: options(sensor, outputs.len(), diag),
+            gate,
+            delay,
             outputs,
         });
     }
@@ -80,10 +86,75 @@ pub(super) fn check_sensors(
                 name: output.name.text.clone(),
                 outputs: entries.clone().collect(),
                 gate: None,
+                delay: 0,
             });
         }
     }
+    check_one_horizon(decl, &sensors, diag);
     sensors
+}
+
+/// A filter with a delayed sensor runs on one delayed horizon, where every measurement
+/// is fused: so every sensor declares the same delay, and every output is in a sensor
+/// (a measurement that arrives sooner would need a buffer of its own, which is not
+/// generated).
+fn check_one_horizon(decl: &ModelDecl, sensors: &[Sensor], diag: &mut Diagnostics) {
+    let Some(delayed) = sensors.iter().find(|s| s.delay > 0) else {
+        return;
+    };
+    // The declared sensors come first, in order; a vector output's own sensor after them
+    // is an output in no declared sensor.
+    for (sensor, declared) in sensors.iter().zip(&decl.sensors) {
+        if sensor.delay != delayed.delay {
+            diag.error(
+                declared.name.span,
+                format!(
+                    "the sensor `{}` arrives {} samples late and `{}` {}: a filter runs \
+                     on one delayed horizon, so every sensor declares the same delay, \
+                     `delay = {}` (sensors of different delays would need a buffer of \
+                     their measurements as well, which is not generated)",
+                    delayed.name,
+                    delayed.delay,
+                    sensor.name,
+                    if sensor.delay == 0 {
+                        "is current".to_owned()
+                    } else {
+                        format!("{} samples late", sensor.delay)
+                    },
+                    delayed.delay
+                ),
+            );
+        }
+    }
+    let Some(first) = decl.sensors.iter().find(|s| s.name.text == delayed.name) else {
+        return;
+    };
+    let in_a_sensor = |name: &str| {
+        decl.sensors
+            .iter()
+            .any(|s| s.outputs.iter().any(|o| o.text == name))
+    };
+    let undelayed: Vec<String> = decl
+        .outputs
+        .iter()
+        .filter(|o| !in_a_sensor(&o.name.text))
+        .map(|o| format!("`{}`", o.name.text))
+        .collect();
+    if !undelayed.is_empty() {
+        diag.error(
+            first.name.span,
+            format!(
+                "the sensor `{}` is {} samples late, so the filter runs on a delayed \
+                 horizon, where every measurement is fused: the output{} {} must be in a \
+                 sensor of that delay too, `sensor <name>(delay = {}) = [..];`",
+                delayed.name,
+                delayed.delay,
+                if undelayed.len() == 1 { "" } else { "s" },
+                crate::diagnostics::phrase(&undelayed, "and"),
+                delayed.delay
+            ),
+        );
+    }
 }
 
 /// A sensor's name (a vector output's, which is its own sensor) must leave its setter,
@@ -127,10 +198,12 @@ fn names_an_output(sensor: &SensorDecl, entries: Option<&std::ops::Range<usize>>
     )
 }
 
-/// The options of `sensor`, of `len` outputs: its gate, if it declares one. A value that
-/// is not a gate, an option given twice or one a sensor does not take is reported.
-fn options(sensor: &SensorDecl, len: usize, diag: &mut Diagnostics) -> Option<f64> {
+/// The options of `sensor`, of `len` outputs: its gate, if it declares one, and its delay
+/// (zero if none). A value that is not a gate or a delay, an option given twice or one a
+/// sensor does not take is reported.
+fn options(sensor: &SensorDecl, len: usize, diag: &mut Diagnostics) -> (Option<f64>, usize) {
     let mut gate = None;
+    let mut delay = 0;
     let mut seen: HashSet<&str> = HashSet::new();
     for option in &sensor.options {
         let key = option.name.text.as_str();
@@ -140,11 +213,38 @@ fn options(sensor: &SensorDecl, len: usize, diag: &mut Diagnostics) -> Option<f6
         }
         if key == "gate" {
             gate = read_gate(option, len, diag);
+        } else if key == "delay" {
+            delay = read_delay(option, diag);
         } else {
             diag.error(option.name.span, unknown_option(key));
         }
     }
-    gate
+    (gate, delay)
+}
+
+/// `delay = 38`: how many samples (calls of `predict`) late the sensor's measurements
+/// arrive, a whole number from 1 to [`MAX_DELAY`]; 0 (reported otherwise) on error.
+fn read_delay(option: &GenerateArg, diag: &mut Diagnostics) -> usize {
+    match &option.value {
+        ArgValue::Number(v, _) if v.fract() == 0.0 && *v >= 1.0 && *v <= MAX_DELAY as f64 => {
+            // A whole number in range: exact as a usize.
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let samples = *v as usize;
+            samples
+        }
+        other => {
+            diag.error(
+                other.span(),
+                format!(
+                    "a sensor's `delay` is how many samples (calls of `predict`) late its \
+                     measurements arrive, a whole number from 1 to {MAX_DELAY}: a GNSS fix \
+                     150 ms late in a filter sampled at 250 Hz is `delay = 38` (0.15 s \
+                     times 250 Hz, rounded)"
+                ),
+            );
+            0
+        }
+    }
 }
 
 /// `gate = 22.46` (a positive finite number) or `gate = off` (generated open, infinite).

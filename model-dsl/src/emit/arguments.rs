@@ -150,6 +150,11 @@ impl Arguments {
         self.method_with(quote! { pub }, name, doc, body)
     }
 
+    /// The parameters, `name: type`, in order.
+    pub fn params(&self) -> &[TokenStream] {
+        &self.params
+    }
+
     /// [`Arguments::method`] with `visibility` (and attributes) in place of `pub`.
     fn method_with(
         self,

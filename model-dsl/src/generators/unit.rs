@@ -52,6 +52,12 @@ pub trait Kind: Sync {
         cx: &Context,
         diag: &mut Diagnostics,
     ) -> Option<Box<dyn Generator>>;
+
+    /// Whether it runs on a delayed horizon when the model's sensors declare a `delay`
+    /// (else such a model is an error under its `generate` item).
+    fn runs_delayed(&self) -> bool {
+        false
+    }
 }
 
 impl dyn Kind + '_ {

@@ -3,6 +3,7 @@
 //! measurement handled with one guarded reciprocal, several with an unrolled `L D L'` solve,
 //! and the Joseph-form covariance update.
 
+use super::delay;
 use super::spec::EkfSpec;
 use crate::emit::arguments::Arguments;
 use crate::emit::code::{
@@ -89,13 +90,19 @@ fn emit_with_blocks(
     scalar: Scalar,
     blocks: &CovarianceBlocks,
 ) -> Option<EkfCode> {
-    let (predict, predict_ops) = method(model, mg, scalar, (EkfMethod::Predict, blocks), spec)?;
-    let (update, update_ops) = method(model, mg, scalar, (EkfMethod::Update, blocks), spec)?;
-    let (step, step_ops) = method(model, mg, scalar, (EkfMethod::Step, blocks), spec)?;
+    // With a delayed horizon, each call runs the output predictor after its step.
+    let predictor = delay::output_predictor_ops(model, mg, scalar);
+    let method = |kind| {
+        method(model, mg, scalar, (kind, blocks), spec)
+            .map(|(tokens, ops)| (tokens, ops.plus(predictor)))
+    };
+    let (predict, predict_ops) = method(EkfMethod::Predict)?;
+    let (update, update_ops) = method(EkfMethod::Update)?;
+    let (step, step_ops) = method(EkfMethod::Step)?;
     let mut sensor_update_ops = Vec::new();
     let mut partial = Vec::new();
     for kind in partial_updates(model) {
-        let (tokens, ops) = method(model, mg, scalar, (kind, blocks), spec)?;
+        let (tokens, ops) = method(kind)?;
         if let Some(sensor) = kind.sensor(model) {
             sensor_update_ops.push((format!("update_{}", sensor.name), ops));
         }
@@ -164,12 +171,15 @@ fn ekf_type(
     let fields = layout.fields();
     let measurement_fields = measurement::fields(model, spec.gate, ty);
     let sensor_fields = sensors::fields(model, spec.gate, ty);
+    let buffer_fields = delay::fields(model, ty);
+    let buffer_items = delay::items(model, ty);
     let recovery = recovery_items(model, spec, scalar);
     let (recovery_fields, recovery_methods) = (&recovery.fields, &recovery.methods);
     let constructor = constructor_tokens(spec, layout, model, scalar, &known, &recovery.initial);
     let clear_sensors = sensors::clear(model, scalar);
     let recovery_clear = &recovery.clear;
-    let also_cleared = quote! { #clear_sensors #recovery_clear };
+    let clear_buffer = delay::clear(model);
+    let also_cleared = quote! { #clear_sensors #recovery_clear #clear_buffer };
     let measurement_methods =
         measurement::methods(model, layout, (spec.gate, &also_cleared), scalar);
     let sensor_methods = sensors::methods(model, spec.gate, scalar);
@@ -182,6 +192,7 @@ fn ekf_type(
             #fields
             #measurement_fields
             #sensor_fields
+            #buffer_fields
             #recovery_fields
             #known_field
         }
@@ -200,6 +211,8 @@ fn ekf_type(
             #known_methods
 
             #recovery_methods
+
+            #buffer_items
 
             #methods
         }
@@ -237,11 +250,12 @@ fn constructor_tokens(
     };
     let measurement = measurement::initial_values(model, spec.gate, scalar);
     let sensors = sensors::initial_values(model, spec.gate, scalar);
+    let buffer = delay::initial_values(model, scalar);
     layout.constructor(
         &ident(&spec.type_name),
         &quote! { #[doc = #new_doc] },
         known,
-        &quote! { #measurement #sensors #recovery_init },
+        &quote! { #measurement #sensors #buffer #recovery_init },
     )
 }
 
@@ -469,10 +483,14 @@ fn method(
     }
     // A line per attribute: a sensor's own documentation comes before what the update does.
     let doc = doc.lines();
-    Some((
-        arguments.method(&name, &quote! { #(#[doc = #doc])* }, body),
-        ops,
-    ))
+    let doc = quote! { #(#[doc = #doc])* };
+    if model.delay() > 0 {
+        let update = (kind == EkfMethod::Step).then(|| ident("update"));
+        let horizon = (kind.predicts(), update.as_ref());
+        let code = delay::wrap((&name, &doc), arguments, body, horizon, (model, &ty));
+        return Some((code, ops));
+    }
+    Some((arguments.method(&name, &doc, body), ops))
 }
 
 /// One EKF method before lowering: the model's graph with the method's variables, and

@@ -2,6 +2,7 @@
 //! optional innovation gate: `ekf(gate = 10.83, name = GatedEkf, process_noise = diagonal)`,
 //! and noise on inputs mapped through the input Jacobian: `ekf(input_noise = [gyro])`.
 
+pub mod delay;
 pub mod lower;
 pub mod spec;
 
@@ -34,7 +35,7 @@ impl Kind for Ekf {
 
     fn options(
         &self,
-        _item: &GenerateDecl,
+        item: &GenerateDecl,
         args: &mut Args,
         cx: &Context,
         diag: &mut Diagnostics,
@@ -47,12 +48,25 @@ impl Kind for Ekf {
             recover_after: args.recover_after(diag),
             process_noise: args.process_noise_shape(cx, diag),
             input_noise: args.input_noise(cx, diag),
+            item: Some(item.name.span),
         }))
+    }
+
+    fn runs_delayed(&self) -> bool {
+        true
     }
 }
 
 impl Generator for EkfSpec {
     fn design(&self, model: &Model, _mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
+        if model.delay() > 0 && model.uses_time() {
+            return Err(syn::Error::new(
+                self.item.unwrap_or_else(proc_macro2::Span::call_site),
+                "`ekf`: a model that reads the time `t` has no delayed horizon yet (its \
+                 buffer would hold the times as well as the inputs): drop the sensors' \
+                 `delay`, or `t` from the model",
+            ));
+        }
         // The covariance of a state with rotations is over its tangent space.
         let process_noise = self.process_noise.in_tangent(model);
         Ok(Box::new(EkfSpec {
@@ -94,8 +108,10 @@ impl Lowering for EkfSpec {
                 }
             })
             .collect();
+        let buffer_bytes = delay::buffer_bytes(model, &prefix, scalar);
+        let tokens = ekf.tokens;
         Code {
-            tokens: ekf.tokens,
+            tokens: quote::quote! { #buffer_bytes #tokens },
             costs,
         }
     }

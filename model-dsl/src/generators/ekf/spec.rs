@@ -21,4 +21,6 @@ pub struct EkfSpec {
     /// takes them again (`recover_after = N`; `None` for `off`), see
     /// [`crate::emit::recovery`].
     pub recover_after: Option<u32>,
+    /// Where the `generate ekf` item is, for the design's errors.
+    pub item: Option<proc_macro2::Span>,
 }

@@ -1,0 +1,18 @@
+stateforge::model! {
+    /// Two sensors of different delays.
+    pub mod m {
+        scalar f32;
+        state x1, x2, x3;
+        output pair_a = x1, pair_b = x2, range = x1 + x3;
+        sensor pair(delay = 3) = [pair_a, pair_b];
+        sensor ranger(delay = 2) = [range];
+        generate ekf;
+        dynamics discrete {
+            x1 = x1 + x2;
+            x2 = x2;
+            x3 = x3;
+        }
+    }
+}
+
+fn main() {}
