@@ -783,6 +783,17 @@ fn roots(
     all_roots
 }
 
+/// The new covariance as the method stores it, packed: an entry between two blocks (zero
+/// before and after, see [`CovarianceBlocks`]) is its old variable, left as it is, neither
+/// read nor written.
+fn committed_covariance(nodes: &EkfNodes) -> Vec<NodeId> {
+    let mut p_packed = packed_upper(&nodes.p);
+    for &(k, _, _) in &nodes.uncoupled {
+        p_packed[k] = nodes.vars.p[k];
+    }
+    p_packed
+}
+
 /// Lowers an EKF method: its statements, ending in the commit of the new estimate (with
 /// the innovation when it stores one), the variables they read, and their arithmetic.
 fn lower(
@@ -793,11 +804,7 @@ fn lower(
 ) -> (TokenStream, BTreeSet<VarId>, OpCount) {
     let probe = divergence_probe(nodes, kind);
     let prediction_test = PredictionTest::new(nodes);
-    let mut p_packed = packed_upper(&nodes.p);
-    // Zero before and after: the entry is left as it is, neither read nor written.
-    for &(k, _, _) in &nodes.uncoupled {
-        p_packed[k] = nodes.vars.p[k];
-    }
+    let p_packed = committed_covariance(nodes);
     let all_roots = roots(nodes, &p_packed, probe, prediction_test.as_ref());
     let (g, vars) = (&nodes.g, &nodes.vars);
     let namer = TempNamer::new(nodes.avoid.iter().map(String::as_str));
