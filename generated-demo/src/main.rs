@@ -116,6 +116,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     experiment::blade_ablation::run(out, &designs, baseline)?;
     experiment::trms::run(out)?;
     experiment::flight::run(out)?;
+    experiment::flight_delay::run()?;
 
     print_generated_costs();
     experiment::switched_beam::experiment(out)?;

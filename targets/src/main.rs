@@ -29,6 +29,7 @@ mod matrix;
 mod measure;
 mod mpc;
 mod navigation;
+mod navigation_delayed;
 mod observers;
 mod observers_baseline;
 #[cfg(feature = "peers")]
@@ -102,6 +103,7 @@ fn main() -> ! {
     observers::costs(&clock);
     mpc::costs(&clock);
     navigation::costs(&clock);
+    navigation_delayed::costs(&clock);
     math::costs(&clock);
     fused_multiply_add();
     hprintln!("done");

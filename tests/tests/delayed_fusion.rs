@@ -1,8 +1,9 @@
-//! The delayed fusion horizon (`sensor fix(delay = 3)`): the generated filter, which fuses
-//! a late fix on a horizon `DELAY` samples behind and predicts the current state through
-//! its buffered inputs, against an independent nalgebra filter that keeps its whole
-//! history and, when a fix arrives, fuses it at the sample it describes and replays the
-//! inputs since (estimate and covariance), to 1e-9 in `f64`.
+//! The delayed fusion horizon (`sensor fix(delay = 3)` beside a current compass): the
+//! generated filter, which fuses a late fix on a horizon `DELAY` samples behind, holds the
+//! compass's headings until the horizon reaches them, and predicts the current state
+//! through its buffered inputs, against an independent nalgebra filter that keeps every
+//! input and measurement and replays them from the start, each measurement fused at the
+//! sample it describes (estimate and covariance), to 1e-9 in `f64`.
 
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
 
@@ -37,41 +38,75 @@ fn jacobian(x: &Vector3<f64>, u: [f64; 2]) -> Matrix3<f64> {
     )
 }
 
-/// The replaying filter: the posterior at every sample so far, and the inputs between.
+/// A measurement, as the reference keeps it.
+#[derive(Clone, Copy)]
+enum Measurement {
+    Fix([f64; 2]),
+    Compass(f64),
+}
+
+/// The reference: keeps every input and measurement (with the sample it describes) and,
+/// at each sample, runs a plain EKF from the start to the horizon, fusing at each sample
+/// the measurements that describe it in the order they arrived; the current state is the
+/// horizon's estimate propagated through the inputs since.
 struct Replaying {
-    history: Vec<(Vector3<f64>, Matrix3<f64>)>,
+    x0: Vector3<f64>,
+    p0: Matrix3<f64>,
     inputs: Vec<[f64; 2]>,
+    measurements: Vec<(usize, Measurement)>,
     q: Matrix3<f64>,
-    r: Matrix2<f64>,
+    r_fix: Matrix2<f64>,
+    r_compass: f64,
 }
 
 impl Replaying {
-    fn predict_from(&self, k: usize) -> (Vector3<f64>, Matrix3<f64>) {
-        let (x, p) = self.history[k];
-        let u = self.inputs[k];
-        let a = jacobian(&x, u);
-        (f(&x, u), a * p * a.transpose() + self.q)
-    }
-
-    fn predict(&mut self, u: [f64; 2]) {
-        self.inputs.push(u);
-        let next = self.predict_from(self.history.len() - 1);
-        self.history.push(next);
-    }
-
-    /// Fuses `y`, a fix of the sample `at`, there (textbook form), then replays the
-    /// predictions from it to the present.
-    fn fuse(&mut self, y: [f64; 2], at: usize) {
-        let (x, p) = self.history[at];
-        let h = Matrix2x3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0);
-        let s = h * p * h.transpose() + self.r;
-        let k = p * h.transpose() * s.try_inverse().unwrap();
-        let x = x + k * (Vector2::new(y[0], y[1]) - h * x);
-        let p = (Matrix3::identity() - k * h) * p;
-        self.history[at] = (x, 0.5 * (p + p.transpose()));
-        for j in at..self.history.len() - 1 {
-            self.history[j + 1] = self.predict_from(j);
+    /// The estimate and covariance at sample `at`, every measurement of it and before
+    /// fused.
+    fn at(&self, at: usize) -> (Vector3<f64>, Matrix3<f64>) {
+        let (mut x, mut p) = (self.x0, self.p0);
+        for j in 0..=at {
+            if j > 0 {
+                let u = self.inputs[j - 1];
+                let a = jacobian(&x, u);
+                (x, p) = (f(&x, u), a * p * a.transpose() + self.q);
+            }
+            for &(_, y) in self.measurements.iter().filter(|(of, _)| *of == j) {
+                (x, p) = self.fuse(x, p, y);
+            }
         }
+        (x, p)
+    }
+
+    /// One measurement fused (textbook form).
+    fn fuse(
+        &self,
+        x: Vector3<f64>,
+        p: Matrix3<f64>,
+        y: Measurement,
+    ) -> (Vector3<f64>, Matrix3<f64>) {
+        let (x, p) = match y {
+            Measurement::Fix(y) => {
+                let h = Matrix2x3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0);
+                let s = h * p * h.transpose() + self.r_fix;
+                let k = p * h.transpose() * s.try_inverse().unwrap();
+                (
+                    x + k * (Vector2::new(y[0], y[1]) - h * x),
+                    (Matrix3::identity() - k * h) * p,
+                )
+            }
+            Measurement::Compass(y) => {
+                let h = Vector3::new(0.0, 0.0, 1.0).transpose();
+                let k = p * h.transpose() / ((h * p * h.transpose())[(0, 0)] + self.r_compass);
+                (x + k * (y - x[2]), (Matrix3::identity() - k * h) * p)
+            }
+        };
+        (x, 0.5 * (p + p.transpose()))
+    }
+
+    /// The current state at sample `k`, from the horizon `horizon`.
+    fn current(&self, horizon: usize, k: usize) -> Vector3<f64> {
+        let (x, _) = self.at(horizon);
+        self.inputs[horizon..k].iter().fold(x, |x, &u| f(&x, u))
     }
 }
 
@@ -89,46 +124,61 @@ fn assert_close(what: &str, k: usize, generated: &[f64], reference: &[f64]) {
 }
 
 #[test]
-fn delayed_fusion_equals_fusing_at_the_fix_time_and_replaying() {
-    use delayed_fix::in_f64::Ekf;
+fn delayed_fusion_equals_fusing_at_the_described_sample_and_replaying() {
+    use delayed_fix::in_f64::{Ekf, Status};
     assert_eq!(Ekf::DELAY, DELAY);
     let x0 = Vector3::new(1.0, -2.0, 0.3);
     let p0 = Matrix3::new(4.0, 0.5, 0.1, 0.5, 3.0, -0.2, 0.1, -0.2, 0.5);
     let q = Matrix3::new(0.02, 0.001, 0.0, 0.001, 0.03, 0.002, 0.0, 0.002, 0.01);
-    let r = Matrix2::new(0.5, 0.1, 0.1, 0.7);
-    let r_array = [[0.5, 0.1], [0.1, 0.7]];
-    let mut ekf = Ekf::new(&x0.into(), &as_array(&p0), &as_array(&q), &r_array).unwrap();
+    let r = [[0.5, 0.1, 0.0], [0.1, 0.7, 0.0], [0.0, 0.0, 0.04]];
+    let mut ekf = Ekf::new(&x0.into(), &as_array(&p0), &as_array(&q), &r).unwrap();
     let mut replaying = Replaying {
-        history: vec![(x0, p0)],
+        x0,
+        p0,
         inputs: Vec::new(),
+        measurements: Vec::new(),
         q,
-        r,
+        r_fix: Matrix2::new(0.5, 0.1, 0.1, 0.7),
+        r_compass: 0.04,
     };
-    let mut fixes = 0;
+    let (mut fixes, mut headings) = (0, 0);
     for k in 1..=60_usize {
         let t = k as f64 * DT;
         let u = [2.0 + (0.7 * t).sin(), 0.3 * (0.4 * t).cos()];
-        assert_eq!(ekf.predict(&u), delayed_fix::in_f64::Status::Ok);
-        replaying.predict(u);
+        // A prediction fuses the compass headings the horizon reaches.
+        assert_eq!(ekf.predict(&u), Status::Ok);
+        replaying.inputs.push(u);
         // Fixes from the second sample on, some before the buffer is full (they describe
-        // the start, where the horizon still is).
+        // the start, where the horizon still is); the current compass every third sample.
         if k % 2 == 0 {
             let y = [2.0 * t + (1.3 * t).cos(), 0.5 * t - (0.9 * t).sin()];
-            assert_eq!(ekf.update_fix(&y), delayed_fix::in_f64::Status::Ok);
-            replaying.fuse(y, k.saturating_sub(DELAY));
+            assert_eq!(ekf.update_fix(&y), Status::Ok);
+            replaying
+                .measurements
+                .push((k.saturating_sub(DELAY), Measurement::Fix(y)));
             fixes += 1;
         }
-        let (x_delayed, p_delayed) = replaying.history[k.saturating_sub(DELAY)];
-        let (x_now, _) = replaying.history[k];
+        if k % 3 == 0 {
+            let y = 0.3 + 0.1 * (0.5 * t).sin();
+            assert_eq!(ekf.update_compass_sensor(&[y]), Status::Ok);
+            replaying.measurements.push((k, Measurement::Compass(y)));
+            headings += 1;
+        }
+        let horizon = k.saturating_sub(DELAY);
+        let (x_delayed, p_delayed) = replaying.at(horizon);
         assert_close("delayed estimate", k, &ekf.state(), x_delayed.as_slice());
         let p: Vec<f64> = ekf.covariance().iter().flatten().copied().collect();
         let p_reference: Vec<f64> = (0..9).map(|i| p_delayed[(i / 3, i % 3)]).collect();
         assert_close("delayed covariance", k, &p, &p_reference);
+        let x_now = replaying.current(horizon, k);
         assert_close("current state", k, &ekf.current_state(), x_now.as_slice());
     }
-    assert_eq!(fixes, 30);
+    assert_eq!((fixes, headings), (30, 20));
     // The output predictor moved the estimate: the current state is not the delayed one.
     assert!((ekf.current_state()[0] - ekf.state()[0]).abs() > 0.1);
+    // The compass measurements fused so far moved the heading's variance below what the
+    // fixes alone leave: the waiting ones were fused, not dropped.
+    assert!(ekf.covariance()[2][2] < 0.04);
 }
 
 #[test]
@@ -136,7 +186,8 @@ fn reset_empties_the_buffer() {
     use delayed_fix::in_f64::Ekf;
     let p0 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.1]];
     let q = [[0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.001]];
-    let mut ekf = Ekf::new(&[0.0; 3], &p0, &q, &[[0.5, 0.0], [0.0, 0.5]]).unwrap();
+    let r = [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, 0.1]];
+    let mut ekf = Ekf::new(&[0.0; 3], &p0, &q, &r).unwrap();
     for _ in 0..10 {
         assert_eq!(ekf.predict(&[1.0, 0.0]), delayed_fix::in_f64::Status::Ok);
     }
@@ -164,13 +215,13 @@ fn a_step_is_a_prediction_then_an_update_on_the_horizon() {
     use delayed_fix::in_f64::{Ekf, Status};
     let p0 = [[1.0, 0.2, 0.0], [0.2, 1.0, 0.0], [0.0, 0.0, 0.1]];
     let q = [[0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.001]];
-    let r = [[0.5, 0.0], [0.0, 0.5]];
+    let r = [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, 0.1]];
     let mut stepped = Ekf::new(&[0.0, 1.0, 0.2], &p0, &q, &r).unwrap();
     let mut split = stepped;
     for k in 0..12 {
         let t = f64::from(k) * DT;
         let u = [1.0 + t, 0.1];
-        let y = [t, 1.0 - t];
+        let y = [t, 1.0 - t, 0.2];
         assert_eq!(stepped.step(&u, &y), Status::Ok);
         assert_eq!(split.predict(&u), Status::Ok);
         assert_eq!(split.update(&y), Status::Ok);
@@ -185,7 +236,7 @@ fn a_step_is_a_prediction_then_an_update_on_the_horizon() {
     // A step refused for its measurement leaves the buffer and the horizon as they were.
     let before = stepped;
     assert_eq!(
-        stepped.step(&[1.0, 0.0], &[f64::NAN, 0.0]),
+        stepped.step(&[1.0, 0.0], &[f64::NAN, 0.0, 0.0]),
         Status::RejectedInput
     );
     assert_eq!(stepped, before);

@@ -104,13 +104,13 @@ fn errors(
 
 /// What a filter did with a sample.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Outcome {
+pub(super) enum Outcome {
     Used,
     Rejected,
 }
 
 /// The `f32` and `f64` filters behind one interface, so that one loop runs both.
-trait NavigationFilter: Sized {
+pub(super) trait NavigationFilter: Sized {
     fn create(
         x0: &[f64; X_LEN],
         p0: &[f64; TANGENT_LEN],
@@ -121,23 +121,28 @@ trait NavigationFilter: Sized {
     fn update_gnss(&mut self, y: &[f64; 6]) -> Result<Outcome, String>;
     fn update_magnetometer(&mut self, y: &[f64; 3]) -> Result<Outcome, String>;
     fn estimate(&self) -> ([f64; X_LEN], [[f64; TANGENT_LEN]; TANGENT_LEN]);
+    /// The state at the current sample: the estimate, or a delayed filter's output
+    /// predictor's.
+    fn current(&self) -> [f64; X_LEN];
     fn nis(&self) -> (f64, f64);
 }
 
-/// Implements [`NavigationFilter`] for the filter of one scalar type's module.
-macro_rules! navigation_filter {
-    ($module:ident $(:: $inner:ident)*, $scalar:ty, $outcome:ident) => {
-        /// A status as an outcome: used, rejected as an outlier, or a failure named.
-        fn $outcome(status: $module $(:: $inner)*::Status) -> Result<Outcome, String> {
-            use $module $(:: $inner)*::Status;
-            match status {
-                Status::Ok => Ok(Outcome::Used),
-                Status::OutlierRejected => Ok(Outcome::Rejected),
-                other => Err(format!("{other:?}")),
-            }
-        }
+/// A status as an outcome: used, rejected as an outlier, or a failure named (one `Status`
+/// serves the module's filters of both scalar types).
+fn outcome(status: navigation::Status) -> Result<Outcome, String> {
+    use navigation::Status;
+    match status {
+        Status::Ok => Ok(Outcome::Used),
+        Status::OutlierRejected => Ok(Outcome::Rejected),
+        other => Err(format!("{other:?}")),
+    }
+}
 
-        impl NavigationFilter for $module $(:: $inner)*::Ekf {
+/// Implements [`NavigationFilter`] for a filter type of the navigation module, whose
+/// current state `current` gives.
+macro_rules! navigation_filter {
+    ($filter:ty, $scalar:ty, $current:ident) => {
+        impl NavigationFilter for $filter {
             fn create(
                 x0: &[f64; X_LEN],
                 p0: &[f64; TANGENT_LEN],
@@ -147,7 +152,7 @@ macro_rules! navigation_filter {
                 let cast = |v: f64| v as $scalar;
                 // Each sensor's gate is the model's (`sensor gnss(gate = 22.46)`,
                 // `sensor magnetometer(gate = 16.27)`).
-                <$module $(:: $inner)*::Ekf>::new(
+                <$filter>::new(
                     &x0.map(cast),
                     &super::diag(p0.map(cast)),
                     &q.map(cast),
@@ -156,13 +161,16 @@ macro_rules! navigation_filter {
                 .map_err(|status| format!("tuning rejected: {status:?}"))
             }
             fn predict(&mut self, imu: &[f64; 6]) -> Result<Outcome, String> {
-                $outcome(<$module $(:: $inner)*::Ekf>::predict(self, &imu.map(|v| v as $scalar)))
+                outcome(<$filter>::predict(self, &imu.map(|v| v as $scalar)))
             }
             fn update_gnss(&mut self, y: &[f64; 6]) -> Result<Outcome, String> {
-                $outcome(<$module $(:: $inner)*::Ekf>::update_gnss(self, &y.map(|v| v as $scalar)))
+                outcome(<$filter>::update_gnss(self, &y.map(|v| v as $scalar)))
             }
             fn update_magnetometer(&mut self, y: &[f64; 3]) -> Result<Outcome, String> {
-                $outcome(<$module $(:: $inner)*::Ekf>::update_magnetometer(self, &y.map(|v| v as $scalar)))
+                outcome(<$filter>::update_magnetometer(
+                    self,
+                    &y.map(|v| v as $scalar),
+                ))
             }
             fn estimate(&self) -> ([f64; X_LEN], [[f64; TANGENT_LEN]; TANGENT_LEN]) {
                 let p = self.covariance();
@@ -171,6 +179,9 @@ macro_rules! navigation_filter {
                     std::array::from_fn(|i| f64::from(x[i])),
                     std::array::from_fn(|i| std::array::from_fn(|j| f64::from(p[i][j]))),
                 )
+            }
+            fn current(&self) -> [f64; X_LEN] {
+                self.$current().map(f64::from)
             }
             fn nis(&self) -> (f64, f64) {
                 (
@@ -182,8 +193,9 @@ macro_rules! navigation_filter {
     };
 }
 
-navigation_filter!(navigation, f32, outcome_f32);
-navigation_filter!(navigation::in_f64, f64, outcome_f64);
+navigation_filter!(navigation::Ekf, f32, state);
+navigation_filter!(navigation::in_f64::Ekf, f64, state);
+navigation_filter!(navigation::DelayedEkf, f32, current_state);
 
 /// How one quantity's error behaved over the flight.
 #[derive(Clone, Copy, Debug, Default)]

@@ -15,6 +15,7 @@ pub mod butterworth;
 pub mod controllers;
 pub mod excitation;
 pub mod flight;
+pub mod flight_delay;
 pub mod hub_polynomial;
 pub mod metrics;
 pub mod outliers;

@@ -95,37 +95,12 @@ pub(super) fn check_sensors(
 }
 
 /// A filter with a delayed sensor runs on one delayed horizon, where every measurement
-/// is fused: so every sensor declares the same delay, and every output is in a sensor
-/// (a measurement that arrives sooner would need a buffer of its own, which is not
-/// generated).
+/// is fused: a sensor that arrives sooner (of a shorter delay, or none) waits in a buffer
+/// of its own until the horizon reaches it, so every output is in a sensor.
 fn check_one_horizon(decl: &ModelDecl, sensors: &[Sensor], diag: &mut Diagnostics) {
     let Some(delayed) = sensors.iter().find(|s| s.delay > 0) else {
         return;
     };
-    // The declared sensors come first, in order; a vector output's own sensor after them
-    // is an output in no declared sensor.
-    for (sensor, declared) in sensors.iter().zip(&decl.sensors) {
-        if sensor.delay != delayed.delay {
-            diag.error(
-                declared.name.span,
-                format!(
-                    "the sensor `{}` arrives {} samples late and `{}` {}: a filter runs \
-                     on one delayed horizon, so every sensor declares the same delay, \
-                     `delay = {}` (sensors of different delays would need a buffer of \
-                     their measurements as well, which is not generated)",
-                    delayed.name,
-                    delayed.delay,
-                    sensor.name,
-                    if sensor.delay == 0 {
-                        "is current".to_owned()
-                    } else {
-                        format!("{} samples late", sensor.delay)
-                    },
-                    delayed.delay
-                ),
-            );
-        }
-    }
     let Some(first) = decl.sensors.iter().find(|s| s.name.text == delayed.name) else {
         return;
     };
@@ -145,13 +120,14 @@ fn check_one_horizon(decl: &ModelDecl, sensors: &[Sensor], diag: &mut Diagnostic
             first.name.span,
             format!(
                 "the sensor `{}` is {} samples late, so the filter runs on a delayed \
-                 horizon, where every measurement is fused: the output{} {} must be in a \
-                 sensor of that delay too, `sensor <name>(delay = {}) = [..];`",
+                 horizon, where every measurement is fused, each sensor's waiting in a \
+                 buffer of its own until the horizon reaches it: the output{} {} must be \
+                 in a sensor too, `sensor <name> = [..];` (current) or `sensor \
+                 <name>(delay = N) = [..];` (N samples late)",
                 delayed.name,
                 delayed.delay,
                 if undelayed.len() == 1 { "" } else { "s" },
-                crate::diagnostics::phrase(&undelayed, "and"),
-                delayed.delay
+                crate::diagnostics::phrase(&undelayed, "and")
             ),
         );
     }

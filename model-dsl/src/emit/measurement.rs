@@ -132,7 +132,10 @@ pub fn methods(
 ) -> TokenStream {
     let reset = reset_method(model, layout, also_cleared, scalar);
     let innovation = accessors(model, "", scalar);
-    let gate_methods = gate_methods(model, gate, scalar);
+    let gate_methods = gate_methods(model, gate, scalar).map(|(accessors, keep)| {
+        let keep = (!joint_update_in_turn(model)).then_some(keep);
+        quote! { #accessors #keep }
+    });
     quote! {
         #reset
 
@@ -142,16 +145,27 @@ pub fn methods(
     }
 }
 
-/// With a gate, its getter and setter and the cold `keep_prediction` of a step that
+/// With a gate, its getter and setter, and the cold `keep_prediction` of a step that
 /// calls `predict` (the EKF family's, the polynomial Kalman filter's); nothing without one.
-pub fn gate_methods(model: &Model, gate: Option<f64>, scalar: Scalar) -> Option<TokenStream> {
+pub fn gate_methods(
+    model: &Model,
+    gate: Option<f64>,
+    scalar: Scalar,
+) -> Option<(TokenStream, TokenStream)> {
     let ty = ident(scalar.type_name());
     gate.map(|gate| {
         let accessors = gate_items(gate, scalar);
         let keeper = prediction_keeper(model, &ty);
-        let keep = keep_prediction_method(model, &keeper, "", &ty);
-        quote! { #accessors #keep }
+        (accessors, keep_prediction_method(model, &keeper, "", &ty))
     })
+}
+
+/// Whether a filter's joint update is its sensors' updates in turn, with no stage of its
+/// own: on a delayed horizon whose sensors arrive with different delays (each
+/// measurement fused at the sample it describes).
+pub fn joint_update_in_turn(model: &Model) -> bool {
+    let delay = model.delay();
+    model.sensors.iter().any(|s| s.delay < delay)
 }
 
 /// What a filter type's documentation says of its gate: a sentence, or nothing without

@@ -117,23 +117,24 @@ pub fn method_name(prefix: &str) -> proc_macro2::Ident {
     ident(&format!("{prefix}refused"))
 }
 
-/// The recovery of an EKF-family filter (covariance `p`): its own stage,
-/// and each sensor's update in `sensors` (its fields' prefix, `gnss_`, and its name),
-/// which counts its own refusals.
+/// The recovery of an EKF-family filter (covariance `p`): its own stage (unless `own` is
+/// false: a joint update that is its sensors' in turn has none), and each sensor's update
+/// in `sensors` (its fields' prefix, `gnss_`, and its name), which counts its own
+/// refusals.
 pub fn filter_items(
     recover_after: Option<u32>,
-    sensors: &[(String, String)],
+    (own, sensors): (bool, &[(String, String)]),
     scalar: Scalar,
 ) -> RecoveryItems {
     let what: Vec<String> = sensors
         .iter()
         .map(|(_, name)| format!("the sensor `{name}`'s update"))
         .collect();
-    let own = Recovery {
+    let own = own.then_some(Recovery {
         prefix: "",
         covariance: "p",
         what: "the filter",
-    };
+    });
     let of_sensors = sensors
         .iter()
         .zip(&what)
@@ -142,7 +143,7 @@ pub fn filter_items(
             covariance: "p",
             what,
         });
-    let stages: Vec<Recovery<'_>> = std::iter::once(own).chain(of_sensors).collect();
+    let stages: Vec<Recovery<'_>> = own.into_iter().chain(of_sensors).collect();
     items(recover_after, &stages, scalar)
 }
 

@@ -47,7 +47,7 @@ pub fn emit_continuous_ekf(
     let predict_kind = FilterMethod::ContinuousPredict { alpha };
     let (predict, ..) = method(model, mg, scalar, predict_kind, &options);
     let ty = ident(scalar.type_name());
-    let recovery = recovery::filter_items(spec.recover_after, &[], scalar);
+    let recovery = recovery::filter_items(spec.recover_after, (true, &[]), scalar);
     let layout = FilterLayout::new(model, &spec.process_noise, &ty);
     let fields = layout.fields();
     let measurement_fields = recovery.after_fields(measurement::fields(model, spec.gate, &ty));

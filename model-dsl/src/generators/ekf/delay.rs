@@ -1,24 +1,73 @@
 //! The delayed fusion horizon of a filter whose sensors arrive late (`sensor gnss(delay =
 //! 38) = [..]`), as PX4's EKF2 runs it: the filter's estimate and covariance describe the
-//! state `delay` samples ago, where a late measurement is fused at the time it describes;
-//! a fixed-size buffer holds the inputs since, and an output predictor gives the current
-//! state by propagating the delayed estimate through them. EKF2's output predictor is a
-//! complementary observer (a few operations a sample, tracking the delayed estimate with a
-//! lag); this one re-propagates the estimate, not the covariance, through the buffered
-//! inputs after each call, `delay` evaluations of `f`: exact, and cheap beside the
-//! covariance's `O(n^3)` for the delays of a few tens of samples a GNSS fix has.
+//! state `DELAY` samples ago (the longest delay of its sensors), where a late measurement
+//! is fused at the time it describes; a fixed-size buffer holds the inputs since, and an
+//! output predictor gives the current state by propagating the delayed estimate through
+//! them. A sensor that arrives sooner (`delay` below `DELAY`, or none) waits in a buffer of
+//! its own until the horizon reaches the sample it describes, so the horizon fuses every
+//! measurement in the order of the samples they describe.
+//!
+//! EKF2's output predictor is a complementary observer (a few operations a sample,
+//! tracking the delayed estimate with a lag); this one is exact: a prediction that fuses
+//! nothing moves the current state by one evaluation of `f` with the new input (the
+//! horizon and the present move along the same path), and a call that fuses a measurement
+//! re-propagates the estimate, not the covariance, through the buffered inputs, `DELAY`
+//! evaluations of `f`.
 
-use crate::emit::arguments::Arguments;
 use crate::emit::lower::{literal, OpCount};
 use crate::emit::model_fns::{emit_function, model_functions};
 use crate::emit::names::ident;
-use crate::model::{Model, Scalar};
+use crate::model::{Model, Scalar, Sensor};
 use crate::symbolic::ModelGraph;
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
 
-/// The buffer's fields: the inputs of the last `delay` samples (oldest first) with a flag
-/// each, set once the sample is buffered, and the output predictor's current state.
+/// A sensor whose measurements wait for the horizon: its delay is below the horizon's.
+pub struct Pending<'a> {
+    /// The sensor.
+    pub sensor: &'a Sensor,
+    /// The predictions its measurement waits for: the horizon's delay less its own.
+    pub slots: usize,
+}
+
+impl Pending<'_> {
+    /// The field of its waiting measurements, oldest first: `pending_magnetometer`.
+    pub fn field(&self) -> Ident {
+        ident(&format!("pending_{}", self.sensor.name))
+    }
+
+    /// The field's type, `[Option<[f32; 3]>; 38]`.
+    fn field_type(&self, ty: &Ident) -> TokenStream {
+        let m = Literal::usize_unsuffixed(self.sensor.outputs.len());
+        let slots = Literal::usize_unsuffixed(self.slots);
+        quote! { [Option<[#ty; #m]>; #slots] }
+    }
+
+    /// The field's value with no measurement waiting.
+    fn empty(&self) -> TokenStream {
+        let slots = Literal::usize_unsuffixed(self.slots);
+        quote! { [None; #slots] }
+    }
+}
+
+/// The sensors of `model` whose measurements wait for the horizon, in declaration order;
+/// none without a delay.
+pub fn pending(model: &Model) -> Vec<Pending<'_>> {
+    let delay = model.delay();
+    model
+        .sensors
+        .iter()
+        .filter(|s| s.delay < delay)
+        .map(|sensor| Pending {
+            sensor,
+            slots: delay - sensor.delay,
+        })
+        .collect()
+}
+
+/// The buffer's fields: the inputs of the last `DELAY` samples (oldest first) with a flag
+/// each, set once the sample is buffered, the output predictor's current state, and the
+/// waiting measurements of each sensor that arrives sooner than the horizon.
 pub fn fields(model: &Model, ty: &Ident) -> TokenStream {
     let delay = model.delay();
     if delay == 0 {
@@ -30,14 +79,19 @@ pub fn fields(model: &Model, ty: &Ident) -> TokenStream {
         let nu = Literal::usize_unsuffixed(model.inputs.len());
         quote! { inputs: [[#ty; #nu]; #d], }
     });
+    let waiting = pending(model).into_iter().map(|p| {
+        let (field, field_type) = (p.field(), p.field_type(ty));
+        quote! { #field: #field_type, }
+    });
     quote! {
         #inputs
         inputs_buffered: [bool; #d],
         current_x: [#ty; #n],
+        #(#waiting)*
     }
 }
 
-/// The constructor's values of [`fields`]: an empty buffer, and the initial estimate `x0`
+/// The constructor's values of [`fields`]: empty buffers, and the initial estimate `x0`
 /// as the current state.
 pub fn initial_values(model: &Model, scalar: Scalar) -> TokenStream {
     let delay = model.delay();
@@ -50,144 +104,35 @@ pub fn initial_values(model: &Model, scalar: Scalar) -> TokenStream {
         let nu = Literal::usize_unsuffixed(model.inputs.len());
         quote! { inputs: [[#zero; #nu]; #d], }
     });
+    let waiting = pending(model).into_iter().map(|p| {
+        let (field, empty) = (p.field(), p.empty());
+        quote! { #field: #empty, }
+    });
     quote! {
         #inputs
         inputs_buffered: [false; #d],
         current_x: *x0,
+        #(#waiting)*
     }
 }
 
-/// What `reset` does to the buffer, after setting the estimate: empties it (the horizon
-/// starts again at the new estimate), the current state the new estimate.
+/// What `reset` does to the buffers, after setting the estimate: empties them (the
+/// horizon starts again at the new estimate, and a measurement of the time before is
+/// dropped), the current state the new estimate.
 pub fn clear(model: &Model) -> TokenStream {
     let delay = model.delay();
     if delay == 0 {
         return TokenStream::new();
     }
     let d = Literal::usize_unsuffixed(delay);
+    let waiting = pending(model).into_iter().map(|p| {
+        let (field, empty) = (p.field(), p.empty());
+        quote! { self.#field = #empty; }
+    });
     quote! {
         self.inputs_buffered = [false; #d];
         self.current_x = self.x;
-    }
-}
-
-/// The name of a method's step on the delayed horizon: `update_gnss_at_horizon`.
-fn at_horizon(name: &Ident) -> Ident {
-    ident(&format!("{name}_at_horizon"))
-}
-
-/// A method of the filter on the delayed horizon: the generated step, private and named
-/// `<name>_at_horizon`, and the public method, which buffers the input (`predicts`: a
-/// prediction or a step), runs the step on the horizon, and then the output predictor.
-/// A step whose horizon has not moved yet (the buffer still filling, its measurement of
-/// the start) is the correction alone.
-pub fn wrap(
-    (name, doc): (&Ident, &TokenStream),
-    arguments: Arguments,
-    body: TokenStream,
-    (predicts, update_alone): (bool, Option<&Ident>),
-    (model, ty): (&Model, &Ident),
-) -> TokenStream {
-    let inner = at_horizon(name);
-    let params = arguments.params().to_vec();
-    let passed: Vec<TokenStream> = params
-        .iter()
-        .filter_map(|p| p.clone().into_iter().next())
-        .map(|first| {
-            if first.to_string() == "u_prev" {
-                quote! { &oldest }
-            } else {
-                quote! { #first }
-            }
-        })
-        .collect();
-    let horizon_doc = format!(" [`Self::{name}`] on the delayed horizon.");
-    let step = arguments.private_method(&inner, &quote! { #[doc = #horizon_doc] }, body);
-    let run = if predicts {
-        let buffer = buffer_input(model, ty);
-        // A step's measurement is checked before the input is buffered: a step refused
-        // for it leaves the buffer and the horizon as they were.
-        let measurement = update_alone.map(|_| {
-            let entries: Vec<Ident> = (0..model.outputs.len())
-                .map(|i| ident(&format!("y_{i}")))
-                .collect();
-            quote! {
-                let [#(#entries),*] = *y;
-                if !stateforge_math::#ty::all_finite([#(#entries),*]) {
-                    return Status::RejectedInput;
-                }
-            }
-        });
-        let otherwise = match update_alone {
-            Some(update) => {
-                let update = at_horizon(update);
-                quote! { self.#update(y) }
-            }
-            None => quote! { Status::Ok },
-        };
-        quote! {
-            #measurement
-            #buffer
-            let status = if oldest_buffered { self.#inner(#(#passed),*) } else { #otherwise };
-        }
-    } else {
-        quote! { let status = self.#inner(#(#passed),*); }
-    };
-    let horizon_doc = if predicts {
-        " On the delayed horizon: the input is buffered, and the estimate and covariance, \
-         `DELAY` samples behind, are predicted with the input of `DELAY` samples ago once \
-         the buffer is full (a prediction there refused as non-finite leaves that sample \
-         out of the horizon: reset the filter); the output predictor then brings \
-         [`Self::current_state`] to the present."
-    } else {
-        " On the delayed horizon: the measurement, `DELAY` samples late, is fused at the \
-         sample it describes (before the buffer is full, at the start, where the horizon \
-         still is); the output predictor then brings [`Self::current_state`] to the \
-         present."
-    };
-    quote! {
-        #step
-
-        #doc
-        ///
-        #[doc = #horizon_doc]
-        pub fn #name(&mut self, #(#params),*) -> Status {
-            #run
-            self.predict_output();
-            status
-        }
-    }
-}
-
-/// Checks the new input `u_prev` finite, then shifts it into the buffer: binds the
-/// oldest sample, `oldest` (its input) and `oldest_buffered` (whether it was).
-fn buffer_input(model: &Model, ty: &Ident) -> TokenStream {
-    let delay = model.delay();
-    let later = |prefix: &str| -> Vec<Ident> {
-        (1..delay)
-            .map(|i| ident(&format!("{prefix}_{i}")))
-            .collect()
-    };
-    let buffered = later("buffered");
-    let flags = quote! {
-        let [oldest_buffered, #(#buffered),*] = self.inputs_buffered;
-        self.inputs_buffered = [#(#buffered,)* true];
-    };
-    if model.inputs.is_empty() {
-        return flags;
-    }
-    let entries: Vec<Ident> = (0..model.inputs.len())
-        .map(|i| ident(&format!("u_prev_{i}")))
-        .collect();
-    let inputs = later("input");
-    quote! {
-        let [#(#entries),*] = *u_prev;
-        if !stateforge_math::#ty::all_finite([#(#entries),*]) {
-            return Status::RejectedInput;
-        }
-        #flags
-        let [oldest, #(#inputs),*] = self.inputs;
-        self.inputs = [#(#inputs,)* *u_prev];
+        #(#waiting)*
     }
 }
 
@@ -212,15 +157,16 @@ pub fn items(model: &Model, ty: &Ident) -> TokenStream {
         let steps = flags
             .iter()
             .zip(&inputs)
-            .map(|(b, u)| quote! { let x = if #b { f(&x, &#u #known) } else { x }; })
+            .map(|(b, u)| quote! { let x = if #b { f(&x, #u #known) } else { x }; })
             .collect();
-        (quote! { let [#(#inputs),*] = self.inputs; }, steps)
+        (quote! { let [#(#inputs),*] = &self.inputs; }, steps)
     };
     let n = Literal::usize_unsuffixed(model.state_len());
     let d = Literal::usize_unsuffixed(delay);
     let delay_doc = format!(
-        " How many samples late the sensors' measurements arrive (`delay = {delay}`): the \
-         estimate and covariance describe the state this many samples ago."
+        " How many samples the delayed horizon lags the present (`delay = {delay}`, the \
+         longest of the sensors' delays): the estimate and covariance describe the state \
+         this many samples ago."
     );
     quote! {
         #[doc = #delay_doc]
@@ -247,33 +193,114 @@ pub fn items(model: &Model, ty: &Ident) -> TokenStream {
     }
 }
 
-/// The RAM the buffer takes, in bytes (the inputs, their flags and the current state), as
-/// a constant beside the cost constants: `EKF_BUFFER_BYTES`.
+/// The RAM the buffers take, in bytes (the inputs, their flags, the current state and
+/// the waiting measurements), as a constant beside the cost constants:
+/// `EKF_BUFFER_BYTES`, the sizes of the fields' types as the target lays them out.
 pub fn buffer_bytes(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream {
     let delay = model.delay();
     if delay == 0 {
         return TokenStream::new();
     }
-    let width = match scalar {
-        Scalar::F32 => 4,
-        Scalar::F64 => 8,
-    };
-    let bytes = delay * model.inputs.len() * width + delay + model.state_len() * width;
+    let ty = ident(scalar.type_name());
+    let d = Literal::usize_unsuffixed(delay);
+    let n = Literal::usize_unsuffixed(model.state_len());
+    let nu = Literal::usize_unsuffixed(model.inputs.len());
+    let waiting: Vec<TokenStream> = pending(model)
+        .iter()
+        .map(|p| {
+            let field_type = p.field_type(&ty);
+            quote! { + core::mem::size_of::<#field_type>() }
+        })
+        .collect();
     let name = ident(&format!("{prefix}_BUFFER_BYTES"));
     let doc = format!(
-        " The RAM the delayed horizon's buffer takes, in bytes: {delay} samples of the \
-         inputs and their flags, and the output predictor's current state."
+        " The RAM the delayed horizon's buffers take, in bytes: {delay} samples of the \
+         inputs and their flags, the output predictor's current state{}.",
+        if waiting.is_empty() {
+            ""
+        } else {
+            ", and the measurements of the sensors that arrive sooner, waiting for the horizon"
+        }
     );
-    let bytes = Literal::usize_unsuffixed(bytes);
     quote! {
         #[doc = #doc]
-        pub const #name: usize = #bytes;
+        pub const #name: usize = core::mem::size_of::<[[#ty; #nu]; #d]>()
+            + core::mem::size_of::<[bool; #d]>()
+            + core::mem::size_of::<[#ty; #n]>()
+            #(#waiting)*;
     }
 }
 
-/// What the output predictor adds to each public call, at most: `f` once for each
-/// buffered sample, a branch each, and the current state stored. Zero without a delay.
-pub fn output_predictor_ops(model: &Model, mg: &ModelGraph, scalar: Scalar) -> OpCount {
+/// The arithmetic of a filter's calls: `predict`, `update`, `step` and each sensor's
+/// update, in the order of the model's sensors.
+pub struct CallOps {
+    /// `predict`.
+    pub predict: OpCount,
+    /// The joint `update`.
+    pub update: OpCount,
+    /// `step`.
+    pub step: OpCount,
+    /// `update_<sensor>`, with the method's name.
+    pub sensors: Vec<(String, OpCount)>,
+}
+
+impl CallOps {
+    /// The public calls' arithmetic, at most, from their steps' on the horizon (`self`):
+    /// each call that fuses runs the whole output predictor after its step; a prediction
+    /// fuses, at most, a waiting measurement of each sensor that arrives sooner; such a
+    /// sensor's update only buffers its measurement; and with sensors of different delays,
+    /// `update` is the sensors' updates in turn, `step` a prediction and then them.
+    pub fn on_horizon(self, model: &Model, mg: &ModelGraph, scalar: Scalar) -> CallOps {
+        let delay = model.delay();
+        if delay == 0 {
+            return self;
+        }
+        let predictor = output_predictor_ops(model, mg, scalar);
+        let waiting = pending(model);
+        let is_waiting = |name: &str| {
+            waiting
+                .iter()
+                .any(|p| format!("update_{}", p.sensor.name) == name)
+        };
+        let fused_in_predict = self
+            .sensors
+            .iter()
+            .filter(|(name, _)| is_waiting(name))
+            .fold(OpCount::default(), |sum, (_, ops)| sum.plus(*ops));
+        let predict = self.predict.plus(fused_in_predict).plus(predictor);
+        let sensors: Vec<(String, OpCount)> = self
+            .sensors
+            .into_iter()
+            .zip(&model.sensors)
+            .map(|((name, ops), sensor)| {
+                let public = if is_waiting(&name) {
+                    OpCount::stores(sensor.outputs.len()).plus(OpCount::branches(1))
+                } else {
+                    ops.plus(predictor)
+                };
+                (name, public)
+            })
+            .collect();
+        let (update, step) = if waiting.is_empty() {
+            (self.update.plus(predictor), self.step.plus(predictor))
+        } else {
+            let in_turn = sensors
+                .iter()
+                .fold(OpCount::branches(1), |sum, (_, ops)| sum.plus(*ops));
+            (in_turn, predict.plus(in_turn))
+        };
+        CallOps {
+            predict,
+            update,
+            step,
+            sensors,
+        }
+    }
+}
+
+/// What the whole output predictor costs, at most: `f` once for each buffered sample, a
+/// branch each, and the current state stored. Zero without a delay.
+fn output_predictor_ops(model: &Model, mg: &ModelGraph, scalar: Scalar) -> OpCount {
     let delay = model.delay();
     if delay == 0 {
         return OpCount::default();

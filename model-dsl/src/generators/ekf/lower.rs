@@ -4,6 +4,7 @@
 //! and the Joseph-form covariance update.
 
 use super::delay;
+use super::horizon_calls::{self, Call};
 use super::spec::EkfSpec;
 use crate::emit::arguments::Arguments;
 use crate::emit::code::{
@@ -90,12 +91,7 @@ fn emit_with_blocks(
     scalar: Scalar,
     blocks: &CovarianceBlocks,
 ) -> Option<EkfCode> {
-    // With a delayed horizon, each call runs the output predictor after its step.
-    let predictor = delay::output_predictor_ops(model, mg, scalar);
-    let method = |kind| {
-        method(model, mg, scalar, (kind, blocks), spec)
-            .map(|(tokens, ops)| (tokens, ops.plus(predictor)))
-    };
+    let method = |kind| method(model, mg, scalar, (kind, blocks), spec);
     let (predict, predict_ops) = method(EkfMethod::Predict)?;
     let (update, update_ops) = method(EkfMethod::Update)?;
     let (step, step_ops) = method(EkfMethod::Step)?;
@@ -108,6 +104,14 @@ fn emit_with_blocks(
         }
         partial.push(tokens);
     }
+    // With a delayed horizon, the public calls around the steps.
+    let ops = delay::CallOps {
+        predict: predict_ops,
+        update: update_ops,
+        step: step_ops,
+        sensors: sensor_update_ops,
+    }
+    .on_horizon(model, mg, scalar);
     let partial_updates = partial;
     let ty = ident(scalar.type_name());
     let noisy_inputs: Vec<&str> = spec
@@ -129,10 +133,10 @@ fn emit_with_blocks(
     };
     Some(EkfCode {
         tokens: ekf_type(model, spec, scalar, &layout, &methods),
-        predict_ops,
-        update_ops,
-        step_ops,
-        sensor_update_ops,
+        predict_ops: ops.predict,
+        update_ops: ops.update,
+        step_ops: ops.step,
+        sensor_update_ops: ops.sensors,
     })
 }
 
@@ -226,7 +230,8 @@ fn recovery_items(model: &Model, spec: &EkfSpec, scalar: Scalar) -> recovery::Re
         .iter()
         .map(|sensor| (sensors::prefix(sensor), sensor.name.clone()))
         .collect();
-    recovery::filter_items(spec.recover_after, &sensor_stages, scalar)
+    let own = !measurement::joint_update_in_turn(model);
+    recovery::filter_items(spec.recover_after, (own, &sensor_stages), scalar)
 }
 
 /// `fn new`: the shared layout's constructor, with the measurement stage's initial values
@@ -485,9 +490,13 @@ fn method(
     let doc = doc.lines();
     let doc = quote! { #(#[doc = #doc])* };
     if model.delay() > 0 {
-        let update = (kind == EkfMethod::Step).then(|| ident("update"));
-        let horizon = (kind.predicts(), update.as_ref());
-        let code = delay::wrap((&name, &doc), arguments, body, horizon, (model, &ty));
+        let call = match kind {
+            EkfMethod::Predict => Call::Predict,
+            EkfMethod::Step => Call::Step,
+            EkfMethod::Update | EkfMethod::UpdateOutput(_) => Call::Update,
+            EkfMethod::UpdateSensor(s) => Call::Sensor(&model.sensors[s]),
+        };
+        let code = horizon_calls::wrap(call, (&name, &doc), arguments, body, (model, &ty));
         return Some((code, ops));
     }
     Some((arguments.method(&name, &doc, body), ops))

@@ -3,18 +3,20 @@
 //! and noise on inputs mapped through the input Jacobian: `ekf(input_noise = [gyro])`.
 
 pub mod delay;
+pub mod horizon_calls;
 pub mod lower;
 pub mod spec;
 
 use super::options::{Args, Context};
 use super::unit::{Code, Cost, Description, Generator, Kind, Lowering, Requirement};
-use crate::ast::GenerateDecl;
+use crate::ast::{ArgValue, GenerateDecl};
 use crate::diagnostics::Diagnostics;
 use crate::emit::names::screaming_snake;
-use crate::model::{Model, Scalar};
+use crate::model::{Expr, Model, Scalar};
 use crate::symbolic::ModelGraph;
 pub use spec::EkfSpec;
 use std::any::Any;
+use std::borrow::Cow;
 
 /// The `ekf` generator.
 pub struct Ekf;
@@ -48,6 +50,7 @@ impl Kind for Ekf {
             recover_after: args.recover_after(diag),
             process_noise: args.process_noise_shape(cx, diag),
             input_noise: args.input_noise(cx, diag),
+            fuses_late_as_current: horizon(args, cx, diag),
             item: Some(item.name.span),
         }))
     }
@@ -57,18 +60,85 @@ impl Kind for Ekf {
     }
 }
 
+/// `horizon = delayed` (the default) or `current`: whether the filter fuses a late
+/// sensor's measurements on the delayed horizon or as if they were current. `current`
+/// needs a sensor that declares a delay.
+fn horizon(args: &mut Args, cx: &Context, diag: &mut Diagnostics) -> bool {
+    let Some(arg) = args.take(&["horizon"]) else {
+        return false;
+    };
+    match &arg.value {
+        ArgValue::Name(n) if n.text == "delayed" => false,
+        ArgValue::Name(n) if n.text == "current" => {
+            let delayed = cx
+                .decl
+                .sensors
+                .iter()
+                .any(|s| s.options.iter().any(|o| o.name.text == "delay"));
+            if !delayed {
+                diag.error(
+                    n.span,
+                    "`horizon = current` fuses late measurements as if they were current, \
+                     but no sensor of the model declares a delay: drop the option, or \
+                     declare the sensor's, `sensor gnss(delay = 38) = [..];`",
+                );
+            }
+            true
+        }
+        other => {
+            diag.error(
+                other.span(),
+                "`horizon` is `delayed` (the default: a late sensor's measurements are fused \
+                 at the sample they describe) or `current` (fused as if they were current, \
+                 for comparison)",
+            );
+            false
+        }
+    }
+}
+
+impl EkfSpec {
+    /// The model as the filter runs it: with `horizon = current`, its sensors' delays
+    /// dropped.
+    fn horizon_model<'a>(&self, model: &'a Model) -> Cow<'a, Model> {
+        if !self.fuses_late_as_current {
+            return Cow::Borrowed(model);
+        }
+        let mut current = model.clone();
+        for sensor in &mut current.sensors {
+            sensor.delay = 0;
+        }
+        Cow::Owned(current)
+    }
+}
+
 impl Generator for EkfSpec {
     fn design(&self, model: &Model, _mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
+        let model = self.horizon_model(model);
+        let at = self.item.unwrap_or_else(proc_macro2::Span::call_site);
         if model.delay() > 0 && model.uses_time() {
             return Err(syn::Error::new(
-                self.item.unwrap_or_else(proc_macro2::Span::call_site),
+                at,
                 "`ekf`: a model that reads the time `t` has no delayed horizon yet (its \
                  buffer would hold the times as well as the inputs): drop the sensors' \
                  `delay`, or `t` from the model",
             ));
         }
+        if model.delay() > 0
+            && model
+                .outputs
+                .iter()
+                .any(|o| model.reads(&o.expr, &|e| matches!(e, Expr::Input(_))))
+        {
+            return Err(syn::Error::new(
+                at,
+                "`ekf`: an output that reads an input has no delayed horizon yet (a late \
+                 measurement would need the input of the sample it describes): drop the \
+                 sensors' `delay`, or the input from the outputs",
+            ));
+        }
         // The covariance of a state with rotations is over its tangent space.
-        let process_noise = self.process_noise.in_tangent(model);
+        let process_noise = self.process_noise.in_tangent(&model);
         Ok(Box::new(EkfSpec {
             process_noise,
             ..self.clone()
@@ -86,6 +156,7 @@ impl Generator for EkfSpec {
 
 impl Lowering for EkfSpec {
     fn lower(&self, model: &Model, mg: &ModelGraph, scalar: Scalar) -> Code {
+        let model = &*self.horizon_model(model);
         let ekf = lower::emit_ekf(model, self, mg, scalar);
         // `Ekf` gives `EKF_STEP_OPS`, `GatedEkf` `GATED_EKF_STEP_OPS`.
         let prefix = screaming_snake(&self.type_name);

@@ -21,6 +21,11 @@ pub struct EkfSpec {
     /// takes them again (`recover_after = N`; `None` for `off`), see
     /// [`crate::emit::recovery`].
     pub recover_after: Option<u32>,
+    /// `horizon = current`: the filter fuses each measurement when it is given, as if it
+    /// were current, whatever delay its sensor declares (what a filter without a delayed
+    /// horizon does; for comparison). `false` by default: a model with a delayed sensor
+    /// gets the delayed horizon.
+    pub fuses_late_as_current: bool,
     /// Where the `generate ekf` item is, for the design's errors.
     pub item: Option<proc_macro2::Span>,
 }

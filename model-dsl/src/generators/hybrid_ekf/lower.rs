@@ -37,7 +37,7 @@ pub fn emit_hybrid_ekf(
     let (step, step_ops, substep_ops) = method(model, mg, scalar, FilterMethod::Step, &options);
     let (predict, ..) = method(model, mg, scalar, FilterMethod::Predict, &options);
     let (update, ..) = method(model, mg, scalar, FilterMethod::Update, &options);
-    let recovery = recovery::filter_items(spec.recover_after, &[], scalar);
+    let recovery = recovery::filter_items(spec.recover_after, (true, &[]), scalar);
     let layout = FilterLayout::new(model, &spec.process_noise, &ident(scalar.type_name()));
     let fields = layout.fields();
     let measurement_fields =

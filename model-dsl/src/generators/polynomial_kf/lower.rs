@@ -247,7 +247,8 @@ fn reset_method(model: &Model, spec: &PolynomialKfSpec, scalar: Scalar) -> Token
         },
     );
     let innovation = measurement::accessors(model, "", scalar);
-    let gate = measurement::gate_methods(model, spec.gate, scalar);
+    let gate = measurement::gate_methods(model, spec.gate, scalar)
+        .map(|(accessors, keep)| quote::quote! { #accessors #keep });
     quote! {
         #reset
 

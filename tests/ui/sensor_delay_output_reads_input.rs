@@ -1,16 +1,15 @@
 stateforge::model! {
-    /// Two sensors of different delays.
+    /// A delayed sensor whose output reads an input.
     pub mod m {
         scalar f32;
-        state x1, x2, x3;
-        output pair_a = x1, pair_b = x2, range = x1 + x3;
+        state x1, x2;
+        input u;
+        output pair_a = x1 + u, pair_b = x2;
         sensor pair(delay = 3) = [pair_a, pair_b];
-        sensor ranger(delay = 2) = [range];
         generate ekf;
         dynamics discrete {
             x1 = x1 + x2;
-            x2 = x2;
-            x3 = x3;
+            x2 = x2 + 0.1 * u;
         }
     }
 }
