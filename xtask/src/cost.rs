@@ -126,6 +126,37 @@ const KERNELS: &[Kernel] = &[
         c_peer: None,
         paper_ms: None,
     },
+    // The same filter on a delayed horizon (issue 41): the GNSS 38 samples late, the
+    // magnetometer's samples waiting for the horizon; a prediction that fuses one of them
+    // re-propagates the current state through the buffered inputs.
+    Kernel {
+        name: "navigation_delayed_predict",
+        label: "delayed nav predict",
+        goal: None,
+        c_peer: None,
+        paper_ms: None,
+    },
+    Kernel {
+        name: "navigation_delayed_predict_fusing",
+        label: "delayed nav predict+mag",
+        goal: None,
+        c_peer: None,
+        paper_ms: None,
+    },
+    Kernel {
+        name: "navigation_delayed_update_gnss",
+        label: "delayed nav GNSS update",
+        goal: None,
+        c_peer: None,
+        paper_ms: None,
+    },
+    Kernel {
+        name: "navigation_delayed_update_magnetometer",
+        label: "delayed nav mag (buffered)",
+        goal: None,
+        c_peer: None,
+        paper_ms: None,
+    },
     // stateforge_math::f32, with libm's f32 function in the baseline column.
     math_kernel("sin_cos_f32", "sin_cos f32 (nalg: libm)"),
     math_kernel("tan_f32", "tan f32 (nalg: libm)"),
@@ -225,7 +256,10 @@ pub fn table(
             (r.kernel.name, g.cycles / f64::from(g.instructions.max(1)))
         })
         .collect();
-    let spread = spread_lines(spreads, &cpi, &paths);
+    let mut spread = spread_lines(spreads, &cpi, &paths);
+    for (what, bytes) in &report.ram {
+        spread.push_str(&format!("RAM of {what}: {bytes} bytes\n"));
+    }
     if full {
         // The static estimate assumes the build without FMA (a `vmla` per multiply-add).
         let traced: Vec<(&str, &str, f64)> = rows

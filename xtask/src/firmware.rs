@@ -128,6 +128,9 @@ pub struct Report {
     pub spreads: Vec<Spread>,
     /// `paths mpc_solve <solves> <model rebuilds> <problem rebuilds> <iterations>`.
     pub mpc_paths: Option<MpcPaths>,
+    /// `ram <what> <bytes>`: RAM a filter takes beside its estimate and covariance (a
+    /// delayed horizon's buffers).
+    pub ram: Vec<(String, u32)>,
     /// Of the multiply-adds compared with `libm::fmaf`: how many differed, of how many.
     pub fused: Option<(u32, u32)>,
     /// `math <function> <argument bits> <result bits>`: `stateforge_math::f32` on the
@@ -242,6 +245,9 @@ fn read_line(report: &mut Report, line: &str) -> Result<bool, String> {
                 None => return Err(format!("stack before cost for `{kernel}`")),
             }
         }
+        ["ram", what, bytes] => report
+            .ram
+            .push(((*what).to_owned(), whole(line, bytes, "size")?)),
         ["spread", kernel, median, worst, iterations] => report.spreads.push(Spread {
             kernel: (*kernel).to_owned(),
             median: count(median)?,

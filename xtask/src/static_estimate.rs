@@ -36,6 +36,13 @@ pub fn cycles(name: &str, paths: &MpcPaths) -> Option<f64> {
         "navigation_predict" => navigation::EKF_PREDICT_CYCLES,
         "navigation_update_gnss" => navigation::EKF_UPDATE_GNSS_CYCLES,
         "navigation_update_magnetometer" => navigation::EKF_UPDATE_MAGNETOMETER_CYCLES,
+        // The worst prediction: one that fuses a waiting magnetometer sample (a prediction
+        // that fuses nothing has no constant of its own).
+        "navigation_delayed_predict_fusing" => navigation::DELAYED_EKF_PREDICT_CYCLES,
+        "navigation_delayed_update_gnss" => navigation::DELAYED_EKF_UPDATE_GNSS_CYCLES,
+        "navigation_delayed_update_magnetometer" => {
+            navigation::DELAYED_EKF_UPDATE_MAGNETOMETER_CYCLES
+        }
         _ => return None,
     };
     Some(f64::from(cycles))
