@@ -148,7 +148,11 @@ impl Target {
                 ops.branch,
                 self.branch,
             ),
-            ("entry and return".to_owned(), u32::from(call), self.entry),
+            (
+                "entry and return".to_owned(),
+                u32::from(call).saturating_add(ops.entry),
+                self.entry,
+            ),
         ];
         for (i, &n) in ops.calls.iter().enumerate() {
             let name = Callee(i).name();

@@ -46,6 +46,9 @@ pub struct OpCount {
     pub store: u32,
     /// Branches taken: a loop's iterations.
     pub branch: u32,
+    /// Calls of generated functions the code makes (the output predictor's of `f`), an
+    /// entry and return each, beside its own.
+    pub entry: u32,
 }
 
 /// A library function generated code calls, as [`OpCount::calls`] counts it: the
@@ -95,6 +98,7 @@ impl OpCount {
             literal: f(self.literal, other.literal),
             store: f(self.store, other.store),
             branch: f(self.branch, other.branch),
+            entry: f(self.entry, other.entry),
         }
     }
 
@@ -127,6 +131,22 @@ impl OpCount {
     pub fn branches(n: u32) -> OpCount {
         OpCount {
             branch: n,
+            ..OpCount::default()
+        }
+    }
+
+    /// `n` scalars read from memory.
+    pub fn loads(n: usize) -> OpCount {
+        OpCount {
+            load: u32::try_from(n).unwrap_or(u32::MAX),
+            ..OpCount::default()
+        }
+    }
+
+    /// `n` calls of generated functions: an entry and return each.
+    pub fn entries(n: u32) -> OpCount {
+        OpCount {
+            entry: n,
             ..OpCount::default()
         }
     }

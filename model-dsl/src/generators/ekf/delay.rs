@@ -273,8 +273,17 @@ impl CallOps {
             .into_iter()
             .zip(&model.sensors)
             .map(|((name, ops), sensor)| {
+                // Read, checked finite, stored with its tag.
                 let public = if is_waiting(&name) {
-                    OpCount::stores(sensor.outputs.len()).plus(OpCount::branches(1))
+                    let m = sensor.outputs.len();
+                    let compare = OpCount {
+                        compare: 1,
+                        ..OpCount::default()
+                    };
+                    OpCount::loads(m)
+                        .plus(OpCount::stores(m + 1))
+                        .plus(compare)
+                        .plus(OpCount::branches(1))
                 } else {
                     ops.plus(predictor)
                 };
@@ -298,7 +307,8 @@ impl CallOps {
     }
 }
 
-/// What the whole output predictor costs, at most: `f` once for each buffered sample, a
+/// What the whole output predictor costs, at most: `f` called once for each buffered
+/// sample (its entry and return, its result stored and copied into the running state), a
 /// branch each, and the current state stored. Zero without a delay.
 fn output_predictor_ops(model: &Model, mg: &ModelGraph, scalar: Scalar) -> OpCount {
     let delay = model.delay();
@@ -312,7 +322,11 @@ fn output_predictor_ops(model: &Model, mg: &ModelGraph, scalar: Scalar) -> OpCou
         .map(|f| emit_function(model, &mg, f, scalar).1)
         .unwrap_or_default();
     let samples = u32::try_from(delay).unwrap_or(u32::MAX);
+    let n = model.state_len();
     f_ops
+        .plus(OpCount::entries(1))
+        .plus(OpCount::loads(n))
+        .plus(OpCount::stores(2 * n))
         .plus(OpCount::branches(1))
         .times(samples)
         .plus(OpCount::stores(model.state_len()))
