@@ -560,6 +560,7 @@ impl Reader<'_> {
         constants
             .iter()
             .map(|c| ConstDecl {
+                interval: None,
                 docs: docs(&c.doc),
                 name: self.name(&c.name),
                 value: self.expr(&c.value, &format!("const `{}`", c.name.get_ref())),

@@ -90,7 +90,8 @@ impl ArgValue {
     }
 }
 
-/// `const NAME = expr;`
+/// `const NAME = expr;`, or `interval NAME = expr;`: the sample interval, given to each
+/// prediction at run time, `expr` its nominal value.
 #[derive(Clone, Debug)]
 pub struct ConstDecl {
     /// Doc comment lines.
@@ -99,6 +100,8 @@ pub struct ConstDecl {
     pub name: Name,
     /// Its value: an expression of literals and earlier constants.
     pub value: SurfaceExpr,
+    /// Where `interval` was written, if this is the sample interval.
+    pub interval: Option<proc_macro2::Span>,
 }
 
 /// What role a declared symbol plays.

@@ -187,8 +187,11 @@ pub struct Constant {
     pub docs: Vec<String>,
     /// Name as declared.
     pub name: String,
-    /// Value, evaluated in `f64` at generation time.
+    /// Value, evaluated in `f64` at generation time; the sample interval's nominal value.
     pub value: f64,
+    /// Whether this is the sample interval (`interval DT = 0.004;`): given to each
+    /// prediction at run time, its value only the nominal one.
+    pub interval: bool,
 }
 
 /// A state, parameter or input.
@@ -586,6 +589,19 @@ impl Model {
             .chain(self.outputs.iter().map(|o| &o.expr))
             .chain(self.locals.iter().map(|l| &l.expr));
         exprs.any(|e| e.any(&|e| matches!(e, Expr::Time)))
+    }
+
+    /// The sample interval's index among the constants, if the model declares one
+    /// (`interval DT = 0.004;`): each prediction takes it at run time.
+    pub fn interval(&self) -> Option<usize> {
+        self.constants.iter().position(|c| c.interval)
+    }
+
+    /// The sample interval's name as the functions' and predictions' parameter, lower
+    /// case (`DT` is `dt`), if the model declares one.
+    pub fn interval_parameter(&self) -> Option<String> {
+        self.interval()
+            .map(|i| self.constants[i].name.to_lowercase())
     }
 
     /// The samples a filter's delayed horizon lags the present by: the sensors' declared

@@ -36,6 +36,10 @@ pub(super) fn check_generate(
             diag.error(item.name.span, no_delayed_horizon(kind));
             continue;
         }
+        if !kind.takes_interval() && decl.constants.iter().any(|c| c.interval.is_some()) {
+            diag.error(item.name.span, no_interval(kind));
+            continue;
+        }
         let mut args = Args::new(item, diag);
         let budget = Budget::read(
             &mut |name| args.take(&[name]).map(|a| a.value.clone()),
@@ -155,6 +159,21 @@ fn no_delayed_horizon(kind: &dyn Kind) -> String {
     format!(
         "`{}` does not run on a delayed horizon, which a sensor's `delay` asks for: {} \
          does, or drop the `delay`",
+        kind.name(),
+        phrase(&names, "or")
+    )
+}
+
+/// What a generator whose predictions take no interval says of a model that declares one.
+fn no_interval(kind: &dyn Kind) -> String {
+    let names: Vec<String> = REGISTRY
+        .iter()
+        .filter(|k| k.takes_interval())
+        .map(|k| format!("`{}`", k.name()))
+        .collect();
+    format!(
+        "`{}` is designed for a fixed sample time, and the model's is an `interval`, given \
+         at run time: {} takes it, or declare the sample time `const`",
         kind.name(),
         phrase(&names, "or")
     )

@@ -8,6 +8,7 @@ mod expr;
 mod expr_algebra;
 mod generate;
 mod geometry_calls;
+mod interval;
 mod names;
 mod sensors;
 mod typed;
@@ -112,6 +113,7 @@ pub fn check(decl: &ModelDecl, mut diag: Diagnostics) -> syn::Result<Checked> {
         locals,
         groups: symbols.groups,
     };
+    interval::check_interval_use(decl, &model, &mut diag);
     let (generators, budgets) = generators.into_iter().unzip();
     diag.finish(Checked {
         model,
@@ -363,10 +365,19 @@ fn check_scalars(decl: &ModelDecl, diag: &mut Diagnostics) -> Vec<Scalar> {
 }
 
 fn check_constants(decl: &ModelDecl, scope: &mut Scope, diag: &mut Diagnostics) -> Vec<Constant> {
-    let mut constants = Vec::new();
+    let mut constants: Vec<Constant> = Vec::new();
     for c in &decl.constants {
         let context = Reader::Constant(&c.name.text);
+        let reads_interval = |expr: &Expr| {
+            expr.any(
+                &|e| matches!(e, Expr::Const(j) if constants.get(*j).is_some_and(|c| c.interval)),
+            )
+        };
         let value = resolve(&c.value, scope, None, context, diag).and_then(|expr| {
+            if reads_interval(&expr) {
+                diag.error(c.value.span, INTERVAL_IN_A_CONSTANT);
+                return None;
+            }
             let value = expr.fold(&|i| scope.const_values.get(i).copied());
             if value.is_none() {
                 diag.error(
@@ -376,10 +387,13 @@ fn check_constants(decl: &ModelDecl, scope: &mut Scope, diag: &mut Diagnostics) 
             }
             value
         });
+        let value =
+            value.filter(|&v| c.interval.is_none() || check_interval(c, v, &constants, diag));
         constants.push(Constant {
             docs: c.docs.clone(),
             name: c.name.text.clone(),
             value: value.unwrap_or(0.0),
+            interval: c.interval.is_some(),
         });
         scope.const_values.push(value.unwrap_or(0.0));
         let fresh = !scope.contains_key(&c.name.text) && !scope.failed.contains(&c.name.text);
@@ -391,4 +405,40 @@ fn check_constants(decl: &ModelDecl, scope: &mut Scope, diag: &mut Diagnostics) 
         }
     }
     constants
+}
+
+/// What a constant that reads the sample interval is told.
+const INTERVAL_IN_A_CONSTANT: &str = "a constant is fixed, and the sample interval is given to \
+     each prediction at run time: write the expression where it is used, in `dynamics`";
+
+/// The sample interval `c` of nominal value `value`: one per model, positive. Whether it
+/// holds.
+fn check_interval(
+    c: &crate::ast::ConstDecl,
+    value: f64,
+    earlier: &[Constant],
+    diag: &mut Diagnostics,
+) -> bool {
+    if let Some(first) = earlier.iter().find(|e| e.interval) {
+        diag.error(
+            c.name.span,
+            format!(
+                "the sample interval is `{}` already: a model has one, given to each prediction",
+                first.name
+            ),
+        );
+        return false;
+    }
+    if !(value > 0.0 && value.is_finite()) {
+        diag.error(
+            c.value.span,
+            format!(
+                "the sample interval's nominal value is positive and finite, in seconds, not \
+                 {value}: `interval {} = 0.004;`",
+                c.name.text
+            ),
+        );
+        return false;
+    }
+    true
 }

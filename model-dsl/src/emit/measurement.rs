@@ -581,12 +581,16 @@ pub fn keep_prediction_call(model: &Model) -> (proc_macro2::Ident, Vec<TokenStre
     (ident("keep_prediction"), prediction_arguments(model))
 }
 
-/// The arguments a step passes on to `predict`: `t_prev` and `u_prev` where the model has
-/// them.
+/// The arguments a step passes on to `predict`: `t_prev`, the sample interval (`dt`) and
+/// `u_prev` where the model has them.
 fn prediction_arguments(model: &Model) -> Vec<TokenStream> {
     let mut args = Vec::new();
     if model.uses_time() {
         args.push(quote! { t_prev });
+    }
+    if let Some(dt) = model.interval_parameter() {
+        let dt = ident(&dt);
+        args.push(quote! { #dt });
     }
     if !model.inputs.is_empty() {
         args.push(quote! { u_prev });
@@ -612,6 +616,10 @@ fn prediction_keeper(model: &Model, ty: &proc_macro2::Ident) -> PredictionKeeper
     let mut params = Vec::new();
     if model.uses_time() {
         params.push(quote! { t_prev: #ty });
+    }
+    if let Some(dt) = model.interval_parameter() {
+        let dt = ident(&dt);
+        params.push(quote! { #dt: #ty });
     }
     if !model.inputs.is_empty() {
         let u = proc_macro2::Literal::usize_unsuffixed(model.inputs.len());

@@ -150,7 +150,10 @@ pub fn emit_function(
     scalar: Scalar,
 ) -> (TokenStream, OpCount) {
     let known = model.known.iter().map(|s| s.name.as_str());
-    let reserved = argument_names(model).chain(known).chain(["known"]);
+    let interval = model.interval_parameter().unwrap_or_default();
+    let reserved = argument_names(model)
+        .chain(known)
+        .chain(["known", interval.as_str()]);
     let namer = TempNamer::new(reserved);
     let mut lowerer = Lowerer::new(&mg.graph, scalar, namer, &function.roots);
     let roots = lowerer.segment(&function.roots);
@@ -202,6 +205,13 @@ fn parameters(
     if model.uses_time() {
         let t = if used(mg.t) { ident("t") } else { ident("_t") };
         params.push(quote! { #t: #ty });
+    }
+    // The sample interval, for the functions that read it (`f` and its Jacobians).
+    if let (Some(dt), Some(name)) = (mg.interval, model.interval_parameter()) {
+        if used(dt) {
+            let dt = ident(&name);
+            params.push(quote! { #dt: #ty });
+        }
     }
     for (arg, vars, names) in [
         ("x", &mg.x, model.state_names().collect::<Vec<_>>()),

@@ -37,6 +37,7 @@ mod kw {
     syn::custom_keyword!(param);
     syn::custom_keyword!(input);
     syn::custom_keyword!(known);
+    syn::custom_keyword!(interval);
     syn::custom_keyword!(output);
     syn::custom_keyword!(sensor);
     syn::custom_keyword!(dynamics);
@@ -107,7 +108,7 @@ fn parse_item(input: ParseStream, decl: &mut ModelDecl, diag: &mut Diagnostics) 
     let look = input.lookahead1();
     if look.peek(kw::scalar) {
         parse_scalar(input, decl, diag)?;
-    } else if look.peek(Token![const]) {
+    } else if look.peek(Token![const]) || look.peek(kw::interval) {
         let constant = parse_const(input, docs, diag)?;
         decl.constants.push(constant);
     } else if look.peek(kw::state)
@@ -157,14 +158,20 @@ fn parse_scalar(
     Ok(())
 }
 
-/// `const NAME = expr;`
+/// `const NAME = expr;`, or `interval NAME = expr;`.
 fn parse_const(
     input: ParseStream,
     docs: Vec<String>,
     diag: &mut Diagnostics,
 ) -> syn::Result<ConstDecl> {
     let start = input.cursor();
-    input.parse::<Token![const]>()?;
+    let interval = match input.parse::<Option<kw::interval>>()? {
+        Some(keyword) => Some(keyword.span),
+        None => {
+            input.parse::<Token![const]>()?;
+            None
+        }
+    };
     let ident: Ident = input.parse()?;
     input.parse::<Token![=]>()?;
     let value = expr(&input.parse()?, diag);
@@ -173,6 +180,7 @@ fn parse_const(
         docs,
         name: name(&ident),
         value,
+        interval,
     })
 }
 

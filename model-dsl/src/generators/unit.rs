@@ -58,6 +58,13 @@ pub trait Kind: Sync {
     fn runs_delayed(&self) -> bool {
         false
     }
+
+    /// Whether its predictions take the sample interval at run time when the model
+    /// declares one (`interval DT = 0.004;`; else such a model is an error under its
+    /// `generate` item).
+    fn takes_interval(&self) -> bool {
+        false
+    }
 }
 
 impl dyn Kind + '_ {

@@ -19,8 +19,11 @@ pub struct ModelGraph {
     pub u: Vec<NodeId>,
     /// The variables of the constants known at run time.
     pub known: Vec<NodeId>,
-    /// Named constants, by index into the model's constants.
+    /// Named constants, by index into the model's constants: the sample interval's
+    /// (`interval DT = ..`) a variable, [`ModelGraph::interval`].
     pub constants: Vec<NodeId>,
+    /// The sample interval's variable (`dt`), if the model declares one.
+    pub interval: Option<NodeId>,
     /// `x[k+1] = f(t, x[k], u[k])`, one node per entry of the state vector.
     pub f: Vec<NodeId>,
     /// `f` before its rotations are renormalised ([`crate::model::Dynamics::renormalised`]):
@@ -52,8 +55,15 @@ impl ModelGraph {
         let constants: Vec<NodeId> = model
             .constants
             .iter()
-            .map(|c| graph.named_const(&c.name, c.value))
+            .map(|c| {
+                if c.interval {
+                    graph.var(&c.name.to_lowercase())
+                } else {
+                    graph.named_const(&c.name, c.value)
+                }
+            })
             .collect();
+        let interval = model.interval().map(|i| constants[i]);
         let mut mg = ModelGraph {
             graph,
             t,
@@ -61,6 +71,7 @@ impl ModelGraph {
             u,
             known,
             constants,
+            interval,
             f: Vec::new(),
             f_unnormalised: Vec::new(),
             tangent: TangentLayout::of(model),

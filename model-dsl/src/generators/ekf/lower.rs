@@ -467,6 +467,16 @@ fn sensor_update_doc(model: &Model, sensor: &crate::model::Sensor, spec: &EkfSpe
     )
 }
 
+/// What a prediction's documentation adds when it takes the sample interval `dt`.
+fn interval_doc(dt: &str) -> String {
+    format!(
+        " `{dt}` is the sample interval in seconds, the time since the previous sample (an IMU \
+         sample's own, with its jitter): the model's step is a function of it, and the \
+         process noise `Q` is a density, the noise of the interval `Q {dt}`. A `{dt}` that is \
+         not positive and finite is refused as [`Status::RejectedInput`]."
+    )
+}
+
 /// One EKF method (Alg. 1): the prediction and/or the correction, built symbolically so
 /// products skip the Jacobians' structural zeros, then lowered with its guards.
 fn method(
@@ -486,6 +496,20 @@ fn method(
     if reads_input {
         doc.push_str(MEASUREMENT_INPUT_DOC);
     }
+    let body = match (nodes.g.interval, model.interval_parameter()) {
+        (Some(dt), Some(parameter)) if kind.predicts() && reads_variable(graph, dt, &used_vars) => {
+            doc.push_str(&interval_doc(&parameter));
+            let dt = ident(&parameter);
+            let zero = crate::emit::lower::literal(0.0, scalar);
+            quote! {
+                if #dt <= #zero {
+                    return Status::RejectedInput;
+                }
+                #body
+            }
+        }
+        _ => body,
+    };
     // A line per attribute: a sensor's own documentation comes before what the update does.
     let doc = doc.lines();
     let doc = quote! { #(#[doc = #doc])* };
@@ -637,9 +661,19 @@ impl EkfNodes {
     fn predict(&mut self, input_noise: &[usize], corrected: bool) {
         let noisy: Vec<(usize, NodeId)> =
             input_noise.iter().copied().zip(self.qu.clone()).collect();
+        // With a sample interval, `Q` is a density: the noise of an interval `dt` is `Q dt`.
+        let q = match self.g.interval {
+            Some(dt) => {
+                let graph = &mut self.g.graph;
+                let rows = self.vars.q_matrix.iter();
+                rows.map(|row| row.iter().map(|&q| graph.mul(q, dt)).collect())
+                    .collect()
+            }
+            None => self.vars.q_matrix.clone(),
+        };
         let (x, p, a) = kalman::ekf_predict(
             &mut self.g,
-            (&self.p, &self.vars.q_matrix),
+            (&self.p, &q),
             &noisy,
             self.t_prev,
             &mut self.coefficients,
@@ -908,6 +942,12 @@ fn arguments(
     }
     if model.uses_time() && kind.updates() && nodes.t_measured.is_none() {
         arguments.time("t", reads_variable(graph, g.t, used_vars), ty);
+    }
+    if let (true, Some(dt), Some(name)) = (kind.predicts(), g.interval, model.interval_parameter())
+    {
+        // A gated step passes it on to `predict` when it keeps the prediction.
+        let passed_on = nodes.gated && kind == EkfMethod::Step;
+        arguments.time(&name, passed_on || reads_variable(graph, dt, used_vars), ty);
     }
     if kind.predicts() && !g.u.is_empty() {
         arguments.array("u_prev", var_idents(graph, &g.u), ty);

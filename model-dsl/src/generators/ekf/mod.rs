@@ -58,6 +58,10 @@ impl Kind for Ekf {
     fn runs_delayed(&self) -> bool {
         true
     }
+
+    fn takes_interval(&self) -> bool {
+        true
+    }
 }
 
 /// `horizon = delayed` (the default) or `current`: whether the filter fuses a late
@@ -116,6 +120,22 @@ impl Generator for EkfSpec {
     fn design(&self, model: &Model, _mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
         let model = self.horizon_model(model);
         let at = self.item.unwrap_or_else(proc_macro2::Span::call_site);
+        if model.interval().is_some() && !self.input_noise.is_empty() {
+            return Err(syn::Error::new(
+                at,
+                "`ekf`: noise on inputs with a sample interval is not generated yet (an \
+                 input's noise density would enter as `G qu G' / dt`): drop `input_noise`, \
+                 or declare the sample time `const`",
+            ));
+        }
+        if model.interval().is_some() && model.delay() > 0 {
+            return Err(syn::Error::new(
+                at,
+                "`ekf`: a delayed horizon with a sample interval is not generated yet (its \
+                 buffer would hold the intervals as well as the inputs): drop the sensors' \
+                 `delay`, or declare the sample time `const`",
+            ));
+        }
         if model.delay() > 0 && model.uses_time() {
             return Err(syn::Error::new(
                 at,
