@@ -35,7 +35,7 @@ pub const UNSNAPSHOTTED_DEMO_MODELS: [&str; 1] = ["navigation"];
 
 /// Names of the test models in `tests/models/` (`model! { .. }` invocations that exercise
 /// parts of the language the demo models do not use).
-pub const TEST_MODELS: [&str; 8] = [
+pub const TEST_MODELS: [&str; 9] = [
     "rover",
     "rover_known",
     "ahrs",
@@ -44,6 +44,7 @@ pub const TEST_MODELS: [&str; 8] = [
     "carried_state",
     "delayed_fix",
     "jittered",
+    "jittered_late",
 ];
 
 /// The generated code of a test model, formatted.

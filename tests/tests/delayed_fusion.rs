@@ -8,30 +8,31 @@
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
 
 include!("../models/delayed_fix.rs");
+include!("../models/jittered_late.rs");
 
 const DT: f64 = 0.1;
 const DELAY: usize = 3;
 
-/// `f` of the model, written out.
-fn f(x: &Vector3<f64>, u: [f64; 2]) -> Vector3<f64> {
-    let turned = x[2] + DT * u[1];
+/// `f` of the models over the interval `dt`, written out.
+fn f(dt: f64, x: &Vector3<f64>, u: [f64; 2]) -> Vector3<f64> {
+    let turned = x[2] + dt * u[1];
     Vector3::new(
-        x[0] + DT * u[0] * turned.cos(),
-        x[1] + DT * u[0] * turned.sin(),
+        x[0] + dt * u[0] * turned.cos(),
+        x[1] + dt * u[0] * turned.sin(),
         turned,
     )
 }
 
 /// Its Jacobian `df/dx`.
-fn jacobian(x: &Vector3<f64>, u: [f64; 2]) -> Matrix3<f64> {
-    let turned = x[2] + DT * u[1];
+fn jacobian(dt: f64, x: &Vector3<f64>, u: [f64; 2]) -> Matrix3<f64> {
+    let turned = x[2] + dt * u[1];
     Matrix3::new(
         1.0,
         0.0,
-        -DT * u[0] * turned.sin(),
+        -dt * u[0] * turned.sin(),
         0.0,
         1.0,
-        DT * u[0] * turned.cos(),
+        dt * u[0] * turned.cos(),
         0.0,
         0.0,
         1.0,
@@ -52,7 +53,10 @@ enum Measurement {
 struct Replaying {
     x0: Vector3<f64>,
     p0: Matrix3<f64>,
-    inputs: Vec<[f64; 2]>,
+    /// Each sample's interval and input.
+    inputs: Vec<(f64, [f64; 2])>,
+    /// Whether `q` is a density (a model with a sample interval: `Q dt`), else per sample.
+    q_density: bool,
     measurements: Vec<(usize, Measurement)>,
     q: Matrix3<f64>,
     r_fix: Matrix2<f64>,
@@ -66,9 +70,10 @@ impl Replaying {
         let (mut x, mut p) = (self.x0, self.p0);
         for j in 0..=at {
             if j > 0 {
-                let u = self.inputs[j - 1];
-                let a = jacobian(&x, u);
-                (x, p) = (f(&x, u), a * p * a.transpose() + self.q);
+                let (dt, u) = self.inputs[j - 1];
+                let a = jacobian(dt, &x, u);
+                let q = if self.q_density { self.q * dt } else { self.q };
+                (x, p) = (f(dt, &x, u), a * p * a.transpose() + q);
             }
             for &(_, y) in self.measurements.iter().filter(|(of, _)| *of == j) {
                 (x, p) = self.fuse(x, p, y);
@@ -106,7 +111,9 @@ impl Replaying {
     /// The current state at sample `k`, from the horizon `horizon`.
     fn current(&self, horizon: usize, k: usize) -> Vector3<f64> {
         let (x, _) = self.at(horizon);
-        self.inputs[horizon..k].iter().fold(x, |x, &u| f(&x, u))
+        self.inputs[horizon..k]
+            .iter()
+            .fold(x, |x, &(dt, u)| f(dt, &x, u))
     }
 }
 
@@ -136,6 +143,7 @@ fn delayed_fusion_equals_fusing_at_the_described_sample_and_replaying() {
         x0,
         p0,
         inputs: Vec::new(),
+        q_density: false,
         measurements: Vec::new(),
         q,
         r_fix: Matrix2::new(0.5, 0.1, 0.1, 0.7),
@@ -147,7 +155,7 @@ fn delayed_fusion_equals_fusing_at_the_described_sample_and_replaying() {
         let u = [2.0 + (0.7 * t).sin(), 0.3 * (0.4 * t).cos()];
         // A prediction fuses the compass headings the horizon reaches.
         assert_eq!(ekf.predict(&u), Status::Ok);
-        replaying.inputs.push(u);
+        replaying.inputs.push((DT, u));
         // Fixes from the second sample on, some before the buffer is full (they describe
         // the start, where the horizon still is); the current compass every third sample.
         if k % 2 == 0 {
@@ -240,4 +248,60 @@ fn a_step_is_a_prediction_then_an_update_on_the_horizon() {
         Status::RejectedInput
     );
     assert_eq!(stepped, before);
+}
+
+#[test]
+fn with_a_sample_interval_the_buffer_holds_each_sample_s() {
+    use jittered_late::in_f64::{Ekf, Status};
+    const LATE: usize = 2;
+    assert_eq!(Ekf::DELAY, LATE);
+    let x0 = Vector3::new(1.0, -2.0, 0.3);
+    let p0 = Matrix3::new(4.0, 0.5, 0.1, 0.5, 3.0, -0.2, 0.1, -0.2, 0.5);
+    // Densities: per second.
+    let q = Matrix3::new(0.2, 0.01, 0.0, 0.01, 0.3, 0.02, 0.0, 0.02, 0.1);
+    let r = [[0.5, 0.1, 0.0], [0.1, 0.7, 0.0], [0.0, 0.0, 0.04]];
+    let mut ekf = Ekf::new(&x0.into(), &as_array(&p0), &as_array(&q), &r).unwrap();
+    let mut replaying = Replaying {
+        x0,
+        p0,
+        inputs: Vec::new(),
+        q_density: true,
+        measurements: Vec::new(),
+        q,
+        r_fix: Matrix2::new(0.5, 0.1, 0.1, 0.7),
+        r_compass: 0.04,
+    };
+    let mut t = 0.0;
+    for k in 1..=50_usize {
+        let dt = 0.1 * (1.0 + 0.33 * (1.7 * k as f64).sin());
+        t += dt;
+        let u = [2.0 + (0.7 * t).sin(), 0.3 * (0.4 * t).cos()];
+        assert_eq!(ekf.predict(dt, &u), Status::Ok);
+        replaying.inputs.push((dt, u));
+        if k % 2 == 0 {
+            let y = [2.0 * t + (1.3 * t).cos(), 0.5 * t - (0.9 * t).sin()];
+            assert_eq!(ekf.update_fix(&y), Status::Ok);
+            replaying
+                .measurements
+                .push((k.saturating_sub(LATE), Measurement::Fix(y)));
+        }
+        if k % 3 == 0 {
+            let y = 0.3 + 0.1 * (0.5 * t).sin();
+            assert_eq!(ekf.update_compass_sensor(&[y]), Status::Ok);
+            replaying.measurements.push((k, Measurement::Compass(y)));
+        }
+        let horizon = k.saturating_sub(LATE);
+        let (x_delayed, p_delayed) = replaying.at(horizon);
+        assert_close("delayed estimate", k, &ekf.state(), x_delayed.as_slice());
+        let p: Vec<f64> = ekf.covariance().iter().flatten().copied().collect();
+        let p_reference: Vec<f64> = (0..9).map(|i| p_delayed[(i / 3, i % 3)]).collect();
+        assert_close("delayed covariance", k, &p, &p_reference);
+        let x_now = replaying.current(horizon, k);
+        assert_close("current state", k, &ekf.current_state(), x_now.as_slice());
+    }
+    // An interval that is not positive is refused before anything is buffered.
+    let before = ekf;
+    assert_eq!(ekf.predict(0.0, &[1.0, 0.0]), Status::RejectedInput);
+    assert_eq!(ekf.predict(f64::NAN, &[1.0, 0.0]), Status::RejectedInput);
+    assert_eq!(ekf, before);
 }

@@ -17,7 +17,7 @@
 use crate::emit::lower::{literal, OpCount};
 use crate::emit::model_fns::{emit_function, model_functions};
 use crate::emit::names::ident;
-use crate::model::{Model, Scalar, Sensor};
+use crate::model::{Expr, Model, Scalar, Sensor};
 use crate::symbolic::ModelGraph;
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
@@ -48,6 +48,18 @@ impl Pending<'_> {
         let slots = Literal::usize_unsuffixed(self.slots);
         quote! { [None; #slots] }
     }
+}
+
+/// The sample interval's parameter (`dt`), if the model's step reads one: the buffer then
+/// holds each sample's interval beside its input.
+pub fn buffered_interval(model: &Model) -> Option<Ident> {
+    let i = model.interval()?;
+    let reads = |e: &Expr| matches!(e, Expr::Const(j) if *j == i);
+    let step_reads = model.dynamics.rhs.iter().any(|e| model.reads(e, &reads));
+    step_reads
+        .then(|| model.interval_parameter())
+        .flatten()
+        .map(|name| ident(&name))
 }
 
 /// The sensors of `model` whose measurements wait for the horizon, in declaration order;
@@ -83,8 +95,10 @@ pub fn fields(model: &Model, ty: &Ident) -> TokenStream {
         let (field, field_type) = (p.field(), p.field_type(ty));
         quote! { #field: #field_type, }
     });
+    let intervals = buffered_interval(model).map(|_| quote! { intervals: [#ty; #d], });
     quote! {
         #inputs
+        #intervals
         inputs_buffered: [bool; #d],
         current_x: [#ty; #n],
         #(#waiting)*
@@ -108,8 +122,10 @@ pub fn initial_values(model: &Model, scalar: Scalar) -> TokenStream {
         let (field, empty) = (p.field(), p.empty());
         quote! { #field: #empty, }
     });
+    let intervals = buffered_interval(model).map(|_| quote! { intervals: [#zero; #d], });
     quote! {
         #inputs
+        #intervals
         inputs_buffered: [false; #d],
         current_x: *x0,
         #(#waiting)*
@@ -146,21 +162,29 @@ pub fn items(model: &Model, ty: &Ident) -> TokenStream {
         .map(|i| ident(&format!("buffered_{i}")))
         .collect();
     let known = (!model.known.is_empty()).then(|| quote! { , &self.known });
-    let (unpack_inputs, steps): (TokenStream, Vec<TokenStream>) = if model.inputs.is_empty() {
-        let steps = flags
-            .iter()
-            .map(|b| quote! { let x = if #b { f(&x #known) } else { x }; })
-            .collect();
-        (TokenStream::new(), steps)
-    } else {
-        let inputs: Vec<Ident> = (0..delay).map(|i| ident(&format!("input_{i}"))).collect();
-        let steps = flags
-            .iter()
-            .zip(&inputs)
-            .map(|(b, u)| quote! { let x = if #b { f(&x, #u #known) } else { x }; })
-            .collect();
-        (quote! { let [#(#inputs),*] = &self.inputs; }, steps)
-    };
+    let inputs: Vec<Ident> = (0..delay).map(|i| ident(&format!("input_{i}"))).collect();
+    let intervals: Vec<Ident> = (0..delay)
+        .map(|i| ident(&format!("interval_{i}")))
+        .collect();
+    let interval = buffered_interval(model).is_some();
+    let steps: Vec<TokenStream> = (0..delay)
+        .map(|i| {
+            let b = &flags[i];
+            let dt = interval.then(|| {
+                let dt = &intervals[i];
+                quote! { #dt, }
+            });
+            let u = (!model.inputs.is_empty()).then(|| {
+                let u = &inputs[i];
+                quote! { , #u }
+            });
+            quote! { let x = if #b { f(#dt &x #u #known) } else { x }; }
+        })
+        .collect();
+    let unpack_inputs =
+        (!model.inputs.is_empty()).then(|| quote! { let [#(#inputs),*] = &self.inputs; });
+    let unpack_intervals = interval.then(|| quote! { let [#(#intervals),*] = self.intervals; });
+    let unpack_inputs = quote! { #unpack_inputs #unpack_intervals };
     let n = Literal::usize_unsuffixed(model.state_len());
     let d = Literal::usize_unsuffixed(delay);
     let delay_doc = format!(
@@ -212,6 +236,8 @@ pub fn buffer_bytes(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream 
             quote! { + core::mem::size_of::<#field_type>() }
         })
         .collect();
+    let intervals =
+        buffered_interval(model).map(|_| quote! { + core::mem::size_of::<[#ty; #d]>() });
     let name = ident(&format!("{prefix}_BUFFER_BYTES"));
     let doc = format!(
         " The RAM the delayed horizon's buffers take, in bytes: {delay} samples of the \
@@ -227,6 +253,7 @@ pub fn buffer_bytes(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream 
         pub const #name: usize = core::mem::size_of::<[[#ty; #nu]; #d]>()
             + core::mem::size_of::<[bool; #d]>()
             + core::mem::size_of::<[#ty; #n]>()
+            #intervals
             #(#waiting)*;
     }
 }

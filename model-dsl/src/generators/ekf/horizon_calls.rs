@@ -4,10 +4,11 @@
 //! the horizon has reached; a sensor that arrives sooner than the horizon buffers its
 //! measurement; with sensors of different delays, the joint update is theirs in turn.
 
-use super::delay::{pending, Pending};
+use super::delay::{buffered_interval, pending, Pending};
 use crate::emit::arguments::Arguments;
+use crate::emit::lower::literal;
 use crate::emit::names::ident;
-use crate::model::{Model, Sensor};
+use crate::model::{Model, Scalar, Sensor};
 use proc_macro2::{Ident, TokenStream};
 use quote::quote;
 
@@ -146,6 +147,7 @@ fn buffered_update(sensor: &Sensor, delay: usize, ty: &Ident) -> TokenStream {
 /// oldest sample, `oldest` (its input) and `oldest_buffered` (whether it was).
 fn buffer_input(model: &Model, ty: &Ident) -> TokenStream {
     let delay = model.delay();
+    let intervals = buffer_interval(model, ty);
     let later = |prefix: &str| -> Vec<Ident> {
         (1..delay)
             .map(|i| ident(&format!("{prefix}_{i}")))
@@ -157,7 +159,7 @@ fn buffer_input(model: &Model, ty: &Ident) -> TokenStream {
         self.inputs_buffered = [#(#buffered,)* true];
     };
     if model.inputs.is_empty() {
-        return flags;
+        return quote! { #intervals #flags };
     }
     let entries: Vec<Ident> = (0..model.inputs.len())
         .map(|i| ident(&format!("u_prev_{i}")))
@@ -168,19 +170,46 @@ fn buffer_input(model: &Model, ty: &Ident) -> TokenStream {
         if !stateforge_math::#ty::all_finite([#(#entries),*]) {
             return Status::RejectedInput;
         }
+        #intervals
         #flags
         let [oldest, #(#inputs),*] = self.inputs;
         self.inputs = [#(#inputs,)* *u_prev];
     }
 }
 
-/// The arguments of the step on the horizon: the buffer's oldest input for `u_prev`.
-fn on_horizon(names: &[TokenStream]) -> Vec<TokenStream> {
+/// With a sample interval the step reads: checks it positive and finite, then shifts it
+/// into its buffer, binding the oldest sample's, `oldest_interval`.
+fn buffer_interval(model: &Model, ty: &Ident) -> Option<TokenStream> {
+    let dt = buffered_interval(model)?;
+    let later: Vec<Ident> = (1..model.delay())
+        .map(|i| ident(&format!("interval_{i}")))
+        .collect();
+    let scalar = if ty == "f32" {
+        Scalar::F32
+    } else {
+        Scalar::F64
+    };
+    let zero = literal(0.0, scalar);
+    Some(quote! {
+        if !stateforge_math::#ty::all_finite([#dt]) || #dt <= #zero {
+            return Status::RejectedInput;
+        }
+        let [oldest_interval, #(#later),*] = self.intervals;
+        self.intervals = [#(#later,)* #dt];
+    })
+}
+
+/// The arguments of the step on the horizon: the buffer's oldest input for `u_prev`, and
+/// its oldest interval for the sample interval's parameter.
+fn on_horizon(names: &[TokenStream], model: &Model) -> Vec<TokenStream> {
+    let dt = buffered_interval(model).map(|dt| dt.to_string());
     names
         .iter()
         .map(|n| {
             if n.to_string() == "u_prev" {
                 quote! { &oldest }
+            } else if Some(n.to_string()) == dt {
+                quote! { oldest_interval }
             } else {
                 n.clone()
             }
@@ -199,7 +228,7 @@ fn prediction(
 ) -> TokenStream {
     let buffer = buffer_input(model, ty);
     let inner = at_horizon(&ident("predict"));
-    let passed = on_horizon(names);
+    let passed = on_horizon(names, model);
     let mut fused = Vec::new();
     let mut fusions = TokenStream::new();
     for p in waiting {
@@ -222,7 +251,8 @@ fn prediction(
     }
     let known = (!model.known.is_empty()).then(|| quote! { , &self.known });
     let input = (!model.inputs.is_empty()).then(|| quote! { , u_prev });
-    let one_step = quote! { self.current_x = f(&self.current_x #input #known); };
+    let dt = buffered_interval(model).map(|dt| quote! { #dt, });
+    let one_step = quote! { self.current_x = f(#dt &self.current_x #input #known); };
     let statuses = first_refusal(&fused.iter().map(|(_, s)| quote! { #s }).collect::<Vec<_>>());
     let flags = fused.iter().map(|(flag, _)| flag);
     quote! {
@@ -267,7 +297,7 @@ fn first_refusal(later: &[TokenStream]) -> TokenStream {
 fn step(model: &Model, name: &Ident, names: &[TokenStream], ty: &Ident) -> TokenStream {
     let inner = at_horizon(name);
     let update = at_horizon(&ident("update"));
-    let passed = on_horizon(names);
+    let passed = on_horizon(names, model);
     let entries: Vec<Ident> = (0..model.outputs.len())
         .map(|i| ident(&format!("y_{i}")))
         .collect();

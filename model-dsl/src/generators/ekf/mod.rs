@@ -128,14 +128,6 @@ impl Generator for EkfSpec {
                  or declare the sample time `const`",
             ));
         }
-        if model.interval().is_some() && model.delay() > 0 {
-            return Err(syn::Error::new(
-                at,
-                "`ekf`: a delayed horizon with a sample interval is not generated yet (its \
-                 buffer would hold the intervals as well as the inputs): drop the sensors' \
-                 `delay`, or declare the sample time `const`",
-            ));
-        }
         if model.delay() > 0 && model.uses_time() {
             return Err(syn::Error::new(
                 at,
