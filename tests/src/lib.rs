@@ -8,6 +8,7 @@ pub mod cantilever_sim;
 pub mod compare;
 pub mod continuous_reference;
 pub mod error_state_reference;
+pub mod plane;
 pub mod predictive_reference;
 pub mod reference;
 pub mod rng;

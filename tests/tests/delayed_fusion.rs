@@ -6,38 +6,13 @@
 //! sample it describes (estimate and covariance), to 1e-9 in `f64`.
 
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
+use tests::plane::{f, jacobian};
 
 include!("../models/delayed_fix.rs");
 include!("../models/jittered_late.rs");
 
 const DT: f64 = 0.1;
 const DELAY: usize = 3;
-
-/// `f` of the models over the interval `dt`, written out.
-fn f(dt: f64, x: &Vector3<f64>, u: [f64; 2]) -> Vector3<f64> {
-    let turned = x[2] + dt * u[1];
-    Vector3::new(
-        x[0] + dt * u[0] * turned.cos(),
-        x[1] + dt * u[0] * turned.sin(),
-        turned,
-    )
-}
-
-/// Its Jacobian `df/dx`.
-fn jacobian(dt: f64, x: &Vector3<f64>, u: [f64; 2]) -> Matrix3<f64> {
-    let turned = x[2] + dt * u[1];
-    Matrix3::new(
-        1.0,
-        0.0,
-        -dt * u[0] * turned.sin(),
-        0.0,
-        1.0,
-        dt * u[0] * turned.cos(),
-        0.0,
-        0.0,
-        1.0,
-    )
-}
 
 /// A measurement, as the reference keeps it.
 #[derive(Clone, Copy)]
@@ -108,6 +83,21 @@ impl Replaying {
         (x, 0.5 * (p + p.transpose()))
     }
 
+    /// That a filter on a horizon `late` samples behind, at sample `k`, holds the estimate
+    /// and covariance of the horizon and the current state of sample `k` (its `state()`,
+    /// `covariance()` and `current_state()`).
+    fn assert_matches(&self, k: usize, late: usize, filter: ([f64; 3], [[f64; 3]; 3], [f64; 3])) {
+        let (state, covariance, current) = filter;
+        let horizon = k.saturating_sub(late);
+        let (x_delayed, p_delayed) = self.at(horizon);
+        assert_close("delayed estimate", k, &state, x_delayed.as_slice());
+        let p: Vec<f64> = covariance.iter().flatten().copied().collect();
+        let p_reference: Vec<f64> = (0..9).map(|i| p_delayed[(i / 3, i % 3)]).collect();
+        assert_close("delayed covariance", k, &p, &p_reference);
+        let x_now = self.current(horizon, k);
+        assert_close("current state", k, &current, x_now.as_slice());
+    }
+
     /// The current state at sample `k`, from the horizon `horizon`.
     fn current(&self, horizon: usize, k: usize) -> Vector3<f64> {
         let (x, _) = self.at(horizon);
@@ -172,14 +162,8 @@ fn delayed_fusion_equals_fusing_at_the_described_sample_and_replaying() {
             replaying.measurements.push((k, Measurement::Compass(y)));
             headings += 1;
         }
-        let horizon = k.saturating_sub(DELAY);
-        let (x_delayed, p_delayed) = replaying.at(horizon);
-        assert_close("delayed estimate", k, &ekf.state(), x_delayed.as_slice());
-        let p: Vec<f64> = ekf.covariance().iter().flatten().copied().collect();
-        let p_reference: Vec<f64> = (0..9).map(|i| p_delayed[(i / 3, i % 3)]).collect();
-        assert_close("delayed covariance", k, &p, &p_reference);
-        let x_now = replaying.current(horizon, k);
-        assert_close("current state", k, &ekf.current_state(), x_now.as_slice());
+        let filter = (ekf.state(), ekf.covariance(), ekf.current_state());
+        replaying.assert_matches(k, DELAY, filter);
     }
     assert_eq!((fixes, headings), (30, 20));
     // The output predictor moved the estimate: the current state is not the delayed one.
@@ -290,14 +274,8 @@ fn with_a_sample_interval_the_buffer_holds_each_sample_s() {
             assert_eq!(ekf.update_compass_sensor(&[y]), Status::Ok);
             replaying.measurements.push((k, Measurement::Compass(y)));
         }
-        let horizon = k.saturating_sub(LATE);
-        let (x_delayed, p_delayed) = replaying.at(horizon);
-        assert_close("delayed estimate", k, &ekf.state(), x_delayed.as_slice());
-        let p: Vec<f64> = ekf.covariance().iter().flatten().copied().collect();
-        let p_reference: Vec<f64> = (0..9).map(|i| p_delayed[(i / 3, i % 3)]).collect();
-        assert_close("delayed covariance", k, &p, &p_reference);
-        let x_now = replaying.current(horizon, k);
-        assert_close("current state", k, &ekf.current_state(), x_now.as_slice());
+        let filter = (ekf.state(), ekf.covariance(), ekf.current_state());
+        replaying.assert_matches(k, LATE, filter);
     }
     // An interval that is not positive is refused before anything is buffered.
     let before = ekf;

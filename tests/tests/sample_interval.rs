@@ -5,29 +5,11 @@
 //! by up to a third, to 1e-12 in `f64`; and the intervals it refuses.
 
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
+use tests::plane::{f, jacobian};
 
 include!("../models/jittered.rs");
 
 use jittered::in_f64::{Ekf, Status};
-
-/// `f` of the model over the interval `dt`, written out.
-fn f(dt: f64, x: &Vector3<f64>, u: [f64; 2]) -> Vector3<f64> {
-    let turned = x[2] + dt * u[1];
-    Vector3::new(
-        x[0] + dt * u[0] * turned.cos(),
-        x[1] + dt * u[0] * turned.sin(),
-        turned,
-    )
-}
-
-/// Its Jacobian `df/dx`.
-fn jacobian(dt: f64, x: &Vector3<f64>, u: [f64; 2]) -> Matrix3<f64> {
-    let turned = x[2] + dt * u[1];
-    let mut a = Matrix3::identity();
-    a[(0, 2)] = -dt * u[0] * turned.sin();
-    a[(1, 2)] = dt * u[0] * turned.cos();
-    a
-}
 
 fn as_array(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
     std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)]))
