@@ -238,14 +238,7 @@ struct Summary {
 /// Flies the flight with a filter of type `F`; records errors and 3-sigma bounds at 10 Hz
 /// into `trace` under `tag`.
 fn fly<F: NavigationFilter>(tag: &str, trace: &mut Trace) -> Result<Summary, String> {
-    let mut flight = Flight::new();
-    let first_magnetometer = loop {
-        if let Some(m) = flight.advance().1.magnetometer {
-            break m;
-        }
-    };
-    let (p0, q, r) = tuning();
-    let mut filter = F::create(&initial_estimate(first_magnetometer), &p0, &q, &r)?;
+    let (mut flight, mut filter) = start::<F>()?;
     let mut summary = Summary::default();
     let samples = (END / DT).round() as usize;
     for k in 0..samples {
@@ -274,6 +267,20 @@ fn fly<F: NavigationFilter>(tag: &str, trace: &mut Trace) -> Result<Summary, Str
         }
     }
     Ok(summary)
+}
+
+/// The flight up to its first magnetometer sample, and a filter of type `F` started there
+/// from the experiment's initial estimate and tuning.
+pub(super) fn start<F: NavigationFilter>() -> Result<(Flight, F), String> {
+    let mut flight = Flight::new();
+    let first_magnetometer = loop {
+        if let Some(m) = flight.advance().1.magnetometer {
+            break m;
+        }
+    };
+    let (p0, q, r) = tuning();
+    let filter = F::create(&initial_estimate(first_magnetometer), &p0, &q, &r)?;
+    Ok((flight, filter))
 }
 
 /// One 10 Hz row: every quantity's error and 3-sigma bound into `trace`, and into the

@@ -7,8 +7,8 @@
 //! (`navigation::DelayedEkf`, PX4 EKF2's delayed fusion horizon, its current state from
 //! the output predictor). Errors are those of the state the filter gives for the present.
 
-use super::flight::{NavigationFilter, Outcome};
-use generated_demo::flight::{initial_estimate, tuning, Flight, DT, END};
+use super::flight::{start, NavigationFilter, Outcome};
+use generated_demo::flight::{DT, END};
 use generated_demo::navigation;
 use std::collections::VecDeque;
 
@@ -27,14 +27,7 @@ pub struct LateFixErrors {
 /// Flies the flight with a filter of type `F`, each GNSS fix given `late` samples after the
 /// sample it describes.
 fn fly_late<F: NavigationFilter>(late: usize) -> Result<LateFixErrors, String> {
-    let mut flight = Flight::new();
-    let first_magnetometer = loop {
-        if let Some(m) = flight.advance().1.magnetometer {
-            break m;
-        }
-    };
-    let (p0, q, r) = tuning();
-    let mut filter = F::create(&initial_estimate(first_magnetometer), &p0, &q, &r)?;
+    let (mut flight, mut filter) = start::<F>()?;
     let mut in_transit: VecDeque<(usize, [f64; 6])> = VecDeque::new();
     let (mut velocity, mut position, mut rows, mut rejected) = (0.0, 0.0, 0, 0);
     for k in 0..(END / DT).round() as usize {
