@@ -172,11 +172,16 @@ fn method(w: &Wrapped, m: &Method, out: &mut String) {
 }
 
 /// A function's parameters, the checks of its pointers, and the arguments of the call.
+///
+/// Every pointer that may not be null is checked first, all together
+/// (`support::checked`: one branch for any null, one for any misaligned), then the
+/// storage's tag; only then is each read.
 fn arguments(w: &Wrapped, m: &Method) -> (Vec<String>, String, Vec<String>) {
     let mut params = Vec::new();
-    let mut body = String::new();
+    let mut checked = Vec::new();
+    let mut reads = String::new();
     if let Some((name, storage_name, rust_type)) = &w.this {
-        let (mutability, check, what) = match m.receiver {
+        let (mutability, access, what) = match m.receiver {
             None => ("mut", "slot", "valid for writes of its storage"),
             Some(true) => (
                 "mut",
@@ -190,18 +195,27 @@ fn arguments(w: &Wrapped, m: &Method) -> (Vec<String>, String, Vec<String>) {
             ),
         };
         params.push(format!("{name}: *{mutability} {storage_name}"));
+        checked.push(format!(
+            "({name} as usize, core::mem::align_of::<{storage_name}>())"
+        ));
+        let value = format!("unsafe {{ support::{access}::<_, {rust_type}>({name}) }}");
+        let value = if m.receiver.is_some() {
+            format!("take!({value})")
+        } else {
+            value
+        };
         let _ = writeln!(
-            body,
-            "    // SAFETY: `{name}` is null or {what}, unaliased, as `# Safety` requires; \
-             `support::{check}` checks the rest.\n    \
-             let {name} = take!(unsafe {{ support::{check}::<_, {rust_type}>({name}) }});"
+            reads,
+            "    // SAFETY: `{name}` is {what}, unaliased, as `# Safety` requires, and \
+             neither null nor misaligned (checked above).\n    \
+             let {name} = {value};"
         );
     }
     let mut args = Vec::new();
     for param in &m.params {
-        let (name, value, read) = match param {
-            Param::Required(name, value) => (name, value, "read"),
-            Param::Optional(name, value) => (name, value, "read_optional"),
+        let (name, value, optional) = match param {
+            Param::Required(name, value) => (name, value, false),
+            Param::Optional(name, value) => (name, value, true),
         };
         let ty = rust_value(value, w.scalar);
         args.push(name.clone());
@@ -210,23 +224,42 @@ fn arguments(w: &Wrapped, m: &Method) -> (Vec<String>, String, Vec<String>) {
             continue;
         }
         params.push(format!("{name}: *const {ty}"));
-        let _ = writeln!(
-            body,
-            "    // SAFETY: `{name}` is null or valid for reads of `{ty}` during the call, as \
-             `# Safety` requires; `support::{read}` checks the rest.\n    \
-             let {name} = take!(unsafe {{ support::{read}({name}) }});"
-        );
+        let _ = if optional {
+            writeln!(
+                reads,
+                "    // SAFETY: `{name}` is null or valid for reads of `{ty}` during the call, \
+                 as `# Safety` requires; `support::read_optional` checks the rest.\n    \
+                 let {name} = take!(unsafe {{ support::read_optional({name}) }});"
+            )
+        } else {
+            checked.push(format!("({name} as usize, core::mem::align_of::<{ty}>())"));
+            writeln!(
+                reads,
+                "    // SAFETY: `{name}` is valid for reads of `{ty}` during the call, as \
+                 `# Safety` requires, and neither null nor misaligned (checked above).\n    \
+                 let {name} = unsafe {{ support::read({name}) }};"
+            )
+        };
     }
     if let Output::Value(v) | Output::Fallible(v) = &m.output {
         let ty = rust_value(v, w.scalar);
         params.push(format!("out: *mut {ty}"));
+        checked.push(format!("(out as usize, core::mem::align_of::<{ty}>())"));
         let _ = writeln!(
-            body,
-            "    // SAFETY: `out` is null or valid for writes of `{ty}`, unaliased, during the \
-             call, as `# Safety` requires; `support::out` checks the rest.\n    \
-             let out = take!(unsafe {{ support::out(out) }});"
+            reads,
+            "    // SAFETY: `out` is valid for writes of `{ty}`, unaliased, during the call, as \
+             `# Safety` requires, and neither null nor misaligned (checked above).\n    \
+             let out = unsafe {{ support::out(out) }};"
         );
     }
+    let body = if checked.is_empty() {
+        reads
+    } else {
+        format!(
+            "    take!(support::checked([{}]));\n{reads}",
+            checked.join(", ")
+        )
+    };
     (params, body, args)
 }
 
