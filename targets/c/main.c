@@ -87,12 +87,17 @@ static void cantilever_run(void) {
     for (int k = 1; k < SEQUENCE_SAMPLES; k++) {
         /* The statuses are the Rust run's too: a refused sample is part of the run. */
         (void)cantilever_ekf_step(&ekf, &sequence_u[k - 1], &sequence_y[k]);
-        float line[8];
-        int status = cantilever_ekf_state(&ekf, line);
-        (void)cantilever_lqr_solve(&lqr, line, &sequence_u[k - 1]);
-        status |= cantilever_lqr_gain(&lqr, (float(*)[2])&line[5]);
-        status |= cantilever_lqr_control(&lqr, line, &line[7]);
+        float x[5], gain[1][2], u[1];
+        int status = cantilever_ekf_state(&ekf, x);
+        (void)cantilever_lqr_solve(&lqr, x, &sequence_u[k - 1]);
+        status |= cantilever_lqr_gain(&lqr, gain);
+        status |= cantilever_lqr_control(&lqr, x, u);
         expect(status == CANTILEVER_STATUS_OK, "reading the cantilever's filters", status);
+        /* The estimate, the gain and the control, as the Rust firmware's line. */
+        float line[8];
+        memcpy(line, x, sizeof x);
+        memcpy(&line[5], gain, sizeof gain);
+        line[7] = u[0];
         if (k % 10 == 0) {
             bits_line("cantilever", k, line, 8);
         }

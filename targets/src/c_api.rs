@@ -12,7 +12,7 @@
 //!   navigation_covariance 1000 <P row by row>` at its end.
 
 use crate::navigation::{self, Event};
-use crate::{ekf, lqr, SEQUENCE, P0_CLOSE, X0_CLOSE};
+use crate::{ekf, lqr, P0_CLOSE, SEQUENCE, X0_CLOSE};
 use cortex_m_semihosting::{hprint, hprintln};
 
 /// `bits <run> <k> <bits..>`.
