@@ -12,8 +12,8 @@
 //!   navigation_covariance 1000 <P row by row>` at its end.
 
 use crate::navigation::{self, Event};
-use crate::{ekf, lqr, P0_CLOSE, SEQUENCE, X0_CLOSE};
 use cortex_m_semihosting::{hprint, hprintln};
+use generated_demo::cantilever::{Ekf, Lqr};
 
 /// `bits <run> <k> <bits..>`.
 fn bits_line<'a>(run: &str, k: usize, values: impl IntoIterator<Item = &'a f32>) {
@@ -24,18 +24,17 @@ fn bits_line<'a>(run: &str, k: usize, values: impl IntoIterator<Item = &'a f32>)
     hprintln!();
 }
 
-/// Both runs.
-pub fn runs() {
-    cantilever();
+/// Both runs: the cantilever's from `filter` and `controller` (the EKF from the close
+/// guess, the LQR) on `sequence`, then the navigation flight's.
+pub fn runs(filter: Ekf, controller: Lqr, sequence: &[(f32, f32)]) {
+    cantilever(filter, controller, sequence);
     navigation_flight();
 }
 
 /// The EKF on the measured sequence, and the LQR at its estimate.
-fn cantilever() {
-    let mut filter = ekf(X0_CLOSE, P0_CLOSE);
-    let mut controller = lqr();
-    for k in 1..SEQUENCE.len() {
-        let (u_prev, y) = (SEQUENCE[k - 1].0, SEQUENCE[k].1);
+fn cantilever(mut filter: Ekf, mut controller: Lqr, sequence: &[(f32, f32)]) {
+    for k in 1..sequence.len() {
+        let (u_prev, y) = (sequence[k - 1].0, sequence[k].1);
         let _ = filter.step(&[u_prev], &[y]);
         let estimate = filter.state();
         let _ = controller.solve(&estimate, &[u_prev]);

@@ -94,7 +94,7 @@ fn main() -> ! {
         debug::exit(debug::EXIT_SUCCESS);
     }
     estimates();
-    c_api::runs();
+    c_api::runs(ekf(X0_CLOSE, P0_CLOSE), lqr(), &SEQUENCE);
     continuous::estimates();
     observers::estimates();
     mpc::plans();
