@@ -310,3 +310,46 @@ fn first_difference(c: &str, rust: &str) -> String {
         ),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn report(bits: &[&str]) -> Report {
+        Report {
+            bits: bits.iter().map(|l| (*l).to_owned()).collect(),
+            costs: vec![("ekf_step".to_owned(), 238)],
+        }
+    }
+
+    #[test]
+    fn equal_lines_pass_and_a_differing_value_is_named() {
+        let rust = ["bits cantilever 10 3c23d70a 00000000".to_owned()];
+        assert!(check(&report(&["bits cantilever 10 3c23d70a 00000000"]), &rust).is_ok());
+        let error = check(&report(&["bits cantilever 10 3c23d70a 80000000"]), &rust)
+            .expect_err("-0 is not 0, bit for bit");
+        assert!(
+            error.contains("`cantilever 10`, value 1: C 80000000, Rust 00000000"),
+            "{error}"
+        );
+        let error = check(&report(&[]), &rust).expect_err("a line missing");
+        assert!(error.contains("0 `bits` lines"), "{error}");
+    }
+
+    #[test]
+    fn the_data_reads_back_as_the_same_floats() {
+        assert_eq!(floats(&[0.001, -400.0, 1e-10]), "{0.001f, -400.0f, 1e-10f}");
+        let header = data_header();
+        assert!(header.contains("#define SEQUENCE_SAMPLES 1000"));
+        assert!(header.contains("#define FLIGHT_SAMPLES 1000"));
+    }
+
+    #[test]
+    fn the_firmware_lines_are_read() {
+        let text = "bits navigation 100 3f800000\ncapi ekf_step 238\nprose\ndone\n";
+        let report = parse(text).expect("a report");
+        assert_eq!(report.bits, ["bits navigation 100 3f800000"]);
+        assert_eq!(report.costs, [("ekf_step".to_owned(), 238)]);
+        assert!(parse("done\n").is_err());
+    }
+}
