@@ -181,35 +181,10 @@ fn arguments(w: &Wrapped, m: &Method) -> (Vec<String>, String, Vec<String>) {
     let mut checked = Vec::new();
     let mut reads = String::new();
     if let Some((name, storage_name, rust_type)) = &w.this {
-        let (mutability, access, what) = match m.receiver {
-            None => ("mut", "slot", "valid for writes of its storage"),
-            Some(true) => (
-                "mut",
-                "value_mut",
-                "valid for reads and writes of its storage, its tag initialised",
-            ),
-            Some(false) => (
-                "const",
-                "value",
-                "valid for reads of its storage, its tag initialised",
-            ),
-        };
-        params.push(format!("{name}: *{mutability} {storage_name}"));
-        checked.push(format!(
-            "({name} as usize, core::mem::align_of::<{storage_name}>())"
-        ));
-        let value = format!("unsafe {{ support::{access}::<_, {rust_type}>({name}) }}");
-        let value = if m.receiver.is_some() {
-            format!("take!({value})")
-        } else {
-            value
-        };
-        let _ = writeln!(
-            reads,
-            "    // SAFETY: `{name}` is {what}, unaliased, as `# Safety` requires, and \
-             neither null nor misaligned (checked above).\n    \
-             let {name} = {value};"
-        );
+        let (param, check, read) = storage(name, storage_name, rust_type, m.receiver);
+        params.push(param);
+        checked.push(check);
+        reads.push_str(&read);
     }
     let mut args = Vec::new();
     for param in &m.params {
@@ -261,6 +236,44 @@ fn arguments(w: &Wrapped, m: &Method) -> (Vec<String>, String, Vec<String>) {
         )
     };
     (params, body, args)
+}
+
+/// The storage argument of a generated type's function: its parameter, its entry in the
+/// checks, and how it is read (its tag checked first for a method).
+fn storage(
+    name: &str,
+    storage_name: &str,
+    rust_type: &str,
+    receiver: Option<bool>,
+) -> (String, String, String) {
+    let (mutability, access, what) = match receiver {
+        None => ("mut", "slot", "valid for writes of its storage"),
+        Some(true) => (
+            "mut",
+            "value_mut",
+            "valid for reads and writes of its storage, its tag initialised",
+        ),
+        Some(false) => (
+            "const",
+            "value",
+            "valid for reads of its storage, its tag initialised",
+        ),
+    };
+    let value = format!("unsafe {{ support::{access}::<_, {rust_type}>({name}) }}");
+    let value = if receiver.is_some() {
+        format!("take!({value})")
+    } else {
+        value
+    };
+    (
+        format!("{name}: *{mutability} {storage_name}"),
+        format!("({name} as usize, core::mem::align_of::<{storage_name}>())"),
+        format!(
+            "    // SAFETY: `{name}` is {what}, unaliased, as `# Safety` requires, and \
+             neither null nor misaligned (checked above).\n    \
+             let {name} = {value};\n"
+        ),
+    )
 }
 
 /// The end of a function: the call, its result written, its status returned.
