@@ -2,13 +2,15 @@
 //! `model-codegen/firmware/`) where the linker finds it, and embeds the measured sequence the host
 //! also uses (`generated_demo::sequence`) as a constant, so target and host filter
 //! exactly the same data; likewise the observers' sequences and the first seconds of the
-//! navigation flight (`generated_demo::flight`).
+//! navigation flight (`generated_demo::flight`), both read through `data.rs`, which the
+//! C firmware's data is written from too.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-/// Samples in the embedded sequence (15 s at 15 ms).
-const SAMPLES: usize = 1000;
+/// The data both firmwares run on.
+#[path = "data.rs"]
+mod data;
 
 fn main() {
     let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
@@ -17,15 +19,17 @@ fn main() {
     std::fs::copy(memory, out.join("memory.x")).expect("memory.x is readable");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed={memory}");
+    println!("cargo:rerun-if-changed=data.rs");
 
     let mut code = String::new();
     let _ = writeln!(
         code,
         "/// The measured sequence: `(u[k], y[k])`, from `generated_demo::sequence`.\n\
-         pub const SEQUENCE: [(f32, f32); {SAMPLES}] = ["
+         pub const SEQUENCE: [(f32, f32); {}] = [",
+        data::SAMPLES
     );
-    for sample in generated_demo::sequence::Measured::new().take(SAMPLES) {
-        let _ = writeln!(code, "    ({:?}, {:?}),", sample.u, sample.y);
+    for (u, y) in data::sequence() {
+        let _ = writeln!(code, "    ({u:?}, {y:?}),");
     }
     code.push_str("];\n");
     std::fs::write(out.join("sequence.rs"), code).expect("OUT_DIR is writable");
@@ -94,33 +98,17 @@ pub fn observer_sequences(out: &std::path::Path) {
     std::fs::write(out.join("observer_sequences.rs"), code).expect("OUT_DIR is writable");
 }
 
-/// IMU samples of the embedded navigation flight (4 s at 250 Hz: 200 magnetometer samples,
-/// 20 GNSS fixes).
-const NAVIGATION_SAMPLES: usize = 1000;
-
 /// Writes `values` as a Rust array literal of `f32` (`{:?}`: every `f32` read back exactly).
-fn f32_array(values: impl IntoIterator<Item = f64>) -> String {
-    let items: Vec<String> = values
-        .into_iter()
-        .map(|v| format!("{:?}", v as f32))
-        .collect();
+fn f32_array(values: &[f32]) -> String {
+    let items: Vec<String> = values.iter().map(|v| format!("{v:?}")).collect();
     format!("[{}]", items.join(", "))
 }
 
-/// Embeds the navigation flight as the host's experiment flies it
-/// (`generated_demo::flight`): the filter's initial estimate (from the first magnetometer
-/// sample) and tuning, then the next IMU samples as the model's inputs (rates:
-/// `Readings::rates`), and the magnetometer and GNSS readings with the index of the IMU
-/// sample they follow, all as `f32`.
+/// Embeds the navigation flight as the host's experiment flies it (`data::flight`): the
+/// filter's initial estimate and tuning, then the IMU samples as the model's inputs, and
+/// the magnetometer and GNSS readings with the index of the IMU sample they follow.
 fn navigation(out: &std::path::Path) {
-    use generated_demo::flight::{initial_estimate, tuning, Flight};
-    let mut flight = Flight::new();
-    let first_magnetometer = loop {
-        if let Some(m) = flight.advance().1.magnetometer {
-            break m;
-        }
-    };
-    let (p0, q, r) = tuning();
+    let flight = data::flight();
     let mut code = String::new();
     let _ = writeln!(
         code,
@@ -131,27 +119,29 @@ fn navigation(out: &std::path::Path) {
          pub const P0: [f32; 23] = {};\n\
          pub const Q: [f32; 23] = {};\n\
          pub const R: [f32; 9] = {};",
-        f32_array(initial_estimate(first_magnetometer)),
-        f32_array(p0),
-        f32_array(q),
-        f32_array(r),
+        f32_array(&flight.x0),
+        f32_array(&flight.p0),
+        f32_array(&flight.q),
+        f32_array(&flight.r),
     );
-    let (mut imu, mut magnetometer, mut gnss) = (String::new(), Vec::new(), Vec::new());
-    for k in 0..NAVIGATION_SAMPLES {
-        let readings = flight.advance().1;
-        let _ = writeln!(imu, "    {},", f32_array(readings.rates()));
-        if let Some(m) = readings.magnetometer {
-            magnetometer.push(format!("    ({k}, {}),", f32_array(m)));
-        }
-        if let Some(g) = readings.gnss {
-            gnss.push(format!("    ({k}, {}),", f32_array(g)));
-        }
-    }
+    let imu: String = flight
+        .imu
+        .iter()
+        .map(|sample| format!("    {},\n", f32_array(sample)))
+        .collect();
+    let indexed = |readings: &[(usize, Vec<f32>)]| -> Vec<String> {
+        readings
+            .iter()
+            .map(|(k, y)| format!("    ({k}, {}),", f32_array(y)))
+            .collect()
+    };
+    let (magnetometer, gnss) = (indexed(&flight.magnetometer), indexed(&flight.gnss));
+    let samples = data::NAVIGATION_SAMPLES;
     // Statics, not constants: the IMU samples are 24 KB.
     let _ = writeln!(
         code,
         "/// IMU samples, magnetometer readings and GNSS fixes.\n\
-         pub const SAMPLES: usize = {NAVIGATION_SAMPLES};\n\
+         pub const SAMPLES: usize = {samples};\n\
          pub const MAGNETOMETER_READINGS: usize = {};\n\
          pub const GNSS_FIXES: usize = {};\n\
          /// IMU samples as the model's inputs, gyro (rad/s) and accelerometer (m/s^2):\n\

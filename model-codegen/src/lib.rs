@@ -13,6 +13,7 @@ pub mod c_api;
 mod expression_dots;
 mod expression_places;
 mod expression_text;
+mod generated_api;
 mod layout;
 pub mod measure;
 pub mod meval_text;

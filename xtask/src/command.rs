@@ -7,15 +7,8 @@ pub fn cargo() -> Command {
     Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
 }
 
-/// Runs a command, naming it in progress and error messages.
+/// Runs a command, naming it in progress (on standard error, after `xtask: `) and error
+/// messages: the measuring harness's runner (`stateforge_cli::measure::setup`).
 pub fn run(what: &str, command: &mut Command) -> Result<(), String> {
-    println!("xtask: {what}");
-    let status = command
-        .status()
-        .map_err(|e| format!("{what}: cannot start: {e}"))?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!("{what} failed ({status})"))
-    }
+    stateforge_cli::measure::setup::run_announced("xtask: ", what, command)
 }

@@ -488,3 +488,46 @@ fn render(build: &str, rows: &[Row], program: &Program, paths: &MpcPaths) -> Str
     }
     out
 }
+
+/// The instructions a call through the C API should take at most beyond the Rust call it
+/// wraps (issue 42): the wrapper checks its pointers (null, alignment, all at once) and
+/// the storage's tag, and copies nothing. Rows above it are marked, not failed: beyond the
+/// checks, what is left is how the compiler allocates the registers of the same Rust code
+/// inlined into the C function, which the wrapper does not control.
+const C_API_OVERHEAD: i64 = 12;
+
+/// The instructions per call through the C API (the C firmware's) beside the Rust calls'
+/// (the Rust firmware's, without FMA: the static libraries are built without it), and the
+/// wrapper's overhead; fails if the Rust firmware did not measure a kernel.
+pub fn c_api_table(rust: &[crate::firmware::Cost], c: &[(String, u32)]) -> Result<String, String> {
+    let mut out = format!(
+        "Through the C API (targets/c/main.c, arm-none-eabi-gcc -O2, against the static \
+         libraries of stateforge-codegen c-api): instructions per call, measured as the Rust \
+         firmware measures its calls, on the same data; the goal is an overhead of at most \
+         {C_API_OVERHEAD}.\n"
+    );
+    out.push_str(&format!(
+        "{:<32} {:>7} {:>7} {:>9}\n",
+        "kernel", "Rust", "C API", "overhead"
+    ));
+    for (kernel, through_c) in c {
+        let label = KERNELS
+            .iter()
+            .find(|k| k.name == kernel)
+            .map_or(kernel.as_str(), |k| k.label);
+        let Some(native) = rust.iter().find(|r| &r.kernel == kernel) else {
+            return Err(format!("the Rust firmware did not measure `{kernel}`"));
+        };
+        let overhead = i64::from(*through_c) - i64::from(native.instructions.0);
+        let verdict = if overhead > C_API_OVERHEAD {
+            "  (above the goal)"
+        } else {
+            ""
+        };
+        out.push_str(&format!(
+            "{label:<32} {:>7} {through_c:>7} {overhead:>+9}{verdict}\n",
+            native.instructions.0
+        ));
+    }
+    Ok(out)
+}

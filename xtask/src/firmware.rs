@@ -136,6 +136,9 @@ pub struct Report {
     /// `math <function> <argument bits> <result bits>`: `stateforge_math::f32` on the
     /// target, for the host to compare bit for bit.
     pub math: Vec<(String, u32, u32)>,
+    /// `bits <run> <k> <bits..>`: the runs the C firmware repeats through the C API, as
+    /// printed, compared line for line.
+    pub bits: Vec<String>,
 }
 
 /// Builds the firmware in release mode and runs it under QEMU (the runner in
@@ -280,6 +283,7 @@ fn read_line(report: &mut Report, line: &str) -> Result<bool, String> {
                 .math
                 .push(((*function).to_owned(), bits(x)?, bits(y)?));
         }
+        ["bits", ..] => report.bits.push(line.to_owned()),
         ["done"] => return Ok(true),
         _ => {}
     }

@@ -10,6 +10,7 @@
 #![forbid(unsafe_code)]
 
 mod accuracy;
+mod c_firmware;
 mod cold_build;
 mod command;
 mod compare;
@@ -76,6 +77,9 @@ enum Task {
     /// Run the firmware under QEMU and print what the generated filters cost on the
     /// Cortex-M4F, beside the nalgebra baseline.
     Cost,
+    /// The C firmware (`targets/c/main.c`, through the C API) beside the Rust firmware
+    /// without FMA: results bit for bit and the calls' cost (part of `test` and `cost`).
+    CApi,
     /// Benchmark: the blade's MPC QP solved by embedded-QP peers (OSQP's and TinyMPC's
     /// generated C/C++, built with arm-none-eabi-gcc) on the same emulated Cortex-M4F, beside
     /// the generated MPC; and SymForce's navigation EKF beside the generated one (part of
@@ -138,6 +142,7 @@ fn main() -> ExitCode {
         Task::Msrv => msrv::check(&PUBLISHED).map(|summary| format!("xtask: {summary}\n")),
         Task::Vendored => vendored::check().map(|summary| format!("xtask: {summary}\n")),
         Task::Cost => cost(),
+        Task::CApi => c_api(),
         Task::Peers => peers::report(),
         Task::MathUlps { functions } => math_ulps(&functions),
         Task::Test => test().map(|()| "xtask: every check passed\n".to_string()),
@@ -245,9 +250,35 @@ fn test() -> Result<(), String> {
         let report = firmware::run(Path::new(TARGETS), build)?;
         firmware_checks(&report, build, &host)?;
         tables.push(cost_table(&report, build)?);
+        if !build.fused {
+            tables.push(c_api_firmware(&report)?);
+        }
     }
     print!("{}", tables.join("\n"));
     Ok(())
+}
+
+/// `cargo xtask c-api`: the Rust firmware without FMA, then the C firmware beside it.
+fn c_api() -> Result<String, String> {
+    setup::rust_target(MCU_TARGET)?;
+    setup::debian_commands(FIRMWARE_TOOLS)?;
+    let build = firmware::BUILDS[0];
+    println!("xtask: the firmware {} under QEMU", build.name);
+    c_api_firmware(&firmware::run(Path::new(TARGETS), build)?)
+}
+
+/// The C firmware (`targets/c/main.c`, through the C API) beside the Rust firmware's build
+/// without FMA: its results checked against the Rust firmware's bit for bit, and its calls'
+/// cost beside the Rust calls'. Where the ARM compiler cannot be installed, skipped with a
+/// line saying why.
+fn c_api_firmware(rust: &firmware::Report) -> Result<String, String> {
+    if let Err(e) = c_firmware::toolchain() {
+        println!("xtask: the C firmware is skipped: {e}");
+        return Ok(format!("Through the C API: not run here: {e}\n"));
+    }
+    let c = c_firmware::run_firmware(&scratch::workspace_root())?;
+    println!("xtask: {}", c_firmware::check(&c, &rust.bits)?);
+    cost::c_api_table(&rust.costs, &c.costs)
 }
 
 /// The firmware's agreement checks: its estimates against the host's runs, its
@@ -343,6 +374,9 @@ fn cost() -> Result<String, String> {
         let report = firmware::run(Path::new(TARGETS), build)?;
         firmware_checks(&report, build, &host)?;
         tables.push(cost_table(&report, build)?);
+        if !build.fused {
+            tables.push(c_api_firmware(&report)?);
+        }
     }
     // The embedded-QP peers: their packages and compiler are the benchmark's to install;
     // where that or their build is impossible, the table says why instead.

@@ -20,19 +20,9 @@ pub const REFUSALS: [(&str, &str, &str); 3] = [
     ),
 ];
 
-/// `GatedEkf` -> `gated_ekf`: a type's name as the C functions spell it.
-pub fn snake(name: &str) -> String {
-    let mut out = String::new();
-    let mut previous_lower = false;
-    for c in name.chars() {
-        if c.is_ascii_uppercase() && previous_lower {
-            out.push('_');
-        }
-        previous_lower = c.is_ascii_lowercase() || c.is_ascii_digit();
-        out.push(c.to_ascii_lowercase());
-    }
-    out
-}
+/// `GatedEkf` -> `gated_ekf`: a type's name as the C functions spell it, as the
+/// generated code's own names do.
+pub use crate::generated_api::snake;
 
 /// `cantilever_f64` -> `CantileverF64`: a C name as a Rust type's.
 pub fn camel(name: &str) -> String {

@@ -4,7 +4,8 @@
 //! API's conventions (the language reference's "The generated API") make this a reading of
 //! signatures: arrays by reference, a constructor `new(..) -> Result<Self, Status>`.
 
-use syn::{FnArg, ImplItem, Item, ReturnType, Type as SynType};
+use crate::generated_api::{self, doc, inline_items, type_text, Receiver, Signature};
+use syn::{Item, Type as SynType};
 
 /// The floating-point type of a scope's code.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -148,10 +149,8 @@ pub struct Api {
 
 /// The C API of `code`, a generated file (`pub mod <name> { .. }`).
 pub fn read(code: &str) -> Result<Api, String> {
-    let file = syn::parse_file(code).map_err(|e| format!("the generated code: {e}"))?;
-    let Some(Item::Mod(top)) = file.items.iter().find(|i| matches!(i, Item::Mod(_))) else {
-        return Err("the generated code holds no module".into());
-    };
+    let file = generated_api::parse(code)?;
+    let top = generated_api::model_module(&file)?;
     let model = top.ident.to_string();
     let items = inline_items(top);
     let statuses = items
@@ -166,10 +165,7 @@ pub fn read(code: &str) -> Result<Api, String> {
             _ => None,
         })
         .ok_or("the generated code has no `Status`: the model generates no filter or controller (add a `generate` item)")?;
-    let inner = items.iter().filter_map(|item| match item {
-        Item::Mod(m) if m.ident.to_string().starts_with("in_f") => Some(m),
-        _ => None,
-    });
+    let inner = generated_api::modules(items).filter(|m| m.ident.to_string().starts_with("in_f"));
     let second: Vec<_> = inner
         .map(|m| {
             let scalar = scalar_named(&m.ident.to_string()["in_".len()..])?;
@@ -195,11 +191,6 @@ pub fn read(code: &str) -> Result<Api, String> {
         statuses,
         scopes,
     })
-}
-
-/// An inline module's items.
-fn inline_items(module: &syn::ItemMod) -> &[Item] {
-    module.content.as_ref().map_or(&[], |(_, items)| items)
 }
 
 /// `f32` or `f64`.
@@ -258,13 +249,16 @@ fn scope(module: String, scalar: Scalar, first: bool, items: &[Item]) -> Scope {
                     }
                 }
             }
-            Item::Fn(f) if matches!(f.vis, syn::Visibility::Public(_)) => {
-                if let Some(method) = method(&f.sig, &doc(&f.attrs), scalar) {
+            Item::Fn(f) if generated_api::public(&f.vis) => {
+                let signature = generated_api::signature(&f.sig, &f.attrs);
+                if let Some(method) = method(&signature, scalar) {
                     functions.push(method);
                 }
             }
-            Item::Impl(block) if block.trait_.is_none() => {
-                types.extend(generated_type(block, items, scalar, &mut constants));
+            Item::Impl(block) => {
+                if let Some(block) = generated_api::inherent_impl(block) {
+                    types.extend(generated_type(&block, items, scalar, &mut constants));
+                }
             }
             _ => {}
         }
@@ -282,45 +276,37 @@ fn scope(module: String, scalar: Scalar, first: bool, items: &[Item]) -> Scope {
 /// The type an `impl` block is for, with its methods, if it has a constructor; its
 /// constants join `constants`.
 fn generated_type(
-    block: &syn::ItemImpl,
+    block: &generated_api::Impl,
     items: &[Item],
     scalar: Scalar,
     constants: &mut Vec<Constant>,
 ) -> Option<Type> {
-    let SynType::Path(path) = &*block.self_ty else {
-        return None;
-    };
-    let name = path.path.segments.last()?.ident.to_string();
+    let name = block.name.clone();
     let fields = items.iter().find_map(|item| match item {
         Item::Struct(s) if s.ident == name => Some(s),
         _ => None,
     })?;
     let mut methods = Vec::new();
     let mut left_out = Vec::new();
-    for item in &block.items {
-        match item {
-            ImplItem::Fn(f) if matches!(f.vis, syn::Visibility::Public(_)) => {
-                match method(&f.sig, &doc(&f.attrs), scalar) {
-                    Some(m) => methods.push(m),
-                    None => left_out.push(f.sig.ident.to_string()),
-                }
-            }
-            ImplItem::Const(c) if matches!(c.vis, syn::Visibility::Public(_)) => {
-                let constant_name = format!(
-                    "{}_{}",
-                    super::names::snake(&name).to_ascii_uppercase(),
-                    c.ident
-                );
-                constants.extend(constant(
-                    &constant_name,
-                    &doc(&c.attrs),
-                    &c.ty,
-                    &c.expr,
-                    scalar,
-                ));
-            }
-            _ => {}
+    for signature in &block.methods {
+        match method(signature, scalar) {
+            Some(m) => methods.push(m),
+            None => left_out.push(signature.name.clone()),
         }
+    }
+    for c in &block.constants {
+        let constant_name = format!(
+            "{}_{}",
+            generated_api::snake(&name).to_ascii_uppercase(),
+            c.ident
+        );
+        constants.extend(constant(
+            &constant_name,
+            &doc(&c.attrs),
+            &c.ty,
+            &c.expr,
+            scalar,
+        ));
     }
     let new = methods
         .iter()
@@ -336,38 +322,30 @@ fn generated_type(
     })
 }
 
-/// A method or function C can call, `None` if an argument or its result is of a kind C
-/// cannot pass.
-fn method(sig: &syn::Signature, doc: &[String], scalar: Scalar) -> Option<Method> {
-    let mut receiver = None;
-    let mut params = Vec::new();
-    for input in &sig.inputs {
-        match input {
-            FnArg::Receiver(r) => {
-                let syn::ReceiverKind::Reference(_, _, mutability) = &r.kind else {
-                    return None;
-                };
-                receiver = Some(mutability.is_some());
-            }
-            FnArg::Typed(t) => {
-                let syn::Pat::Ident(ident) = &*t.pat else {
-                    return None;
-                };
-                let name = ident.ident.to_string().trim_start_matches('_').to_owned();
-                params.push(param(name, &type_text(&t.ty), scalar)?);
-            }
-        }
-    }
-    let output = match &sig.output {
-        ReturnType::Default => Output::Nothing,
-        ReturnType::Type(_, t) => output(&type_text(t), scalar)?,
+/// A method or function C can call, `None` if it takes `self` by value or an argument or
+/// its result is of a kind C cannot pass.
+fn method(signature: &Signature, scalar: Scalar) -> Option<Method> {
+    let receiver = match signature.receiver {
+        Receiver::None => None,
+        Receiver::Shared => Some(false),
+        Receiver::Mutable => Some(true),
+        Receiver::Value => return None,
+    };
+    let params = signature
+        .params
+        .iter()
+        .map(|(name, ty)| param(name.clone(), ty, scalar))
+        .collect::<Option<Vec<_>>>()?;
+    let output = match &signature.output {
+        None => Output::Nothing,
+        Some(t) => output(t, scalar)?,
     };
     if matches!(output, Output::Constructed { .. }) && receiver.is_some() {
         return None;
     }
     Some(Method {
-        name: sig.ident.to_string(),
-        doc: doc.to_vec(),
+        name: signature.name.clone(),
+        doc: signature.doc.clone(),
         receiver,
         params,
         output,
@@ -502,48 +480,6 @@ fn c_float(digits: &str, scalar: Scalar) -> String {
         Scalar::F32 => format!("{digits}f"),
         Scalar::F64 => digits,
     }
-}
-
-/// The lines of the `///` comments among `attrs`.
-fn doc(attrs: &[syn::Attribute]) -> Vec<String> {
-    attrs
-        .iter()
-        .filter_map(|a| match &a.meta {
-            syn::Meta::NameValue(nv) if nv.path.is_ident("doc") => match &nv.value {
-                syn::Expr::Lit(syn::ExprLit {
-                    lit: syn::Lit::Str(s),
-                    ..
-                }) => Some(s.value()),
-                _ => None,
-            },
-            _ => None,
-        })
-        .flat_map(|text| {
-            // An empty `///` line is a paragraph break: kept.
-            let lines: Vec<String> = text
-                .lines()
-                .map(|l| l.strip_prefix(' ').unwrap_or(l).to_owned())
-                .collect();
-            if lines.is_empty() {
-                vec![String::new()]
-            } else {
-                lines
-            }
-        })
-        .collect()
-}
-
-/// A type as the code writes it, without the blanks `quote` puts around punctuation.
-pub fn type_text(ty: &SynType) -> String {
-    let text = quote::quote!(#ty).to_string();
-    text.replace(" ;", ";")
-        .replace("& ", "&")
-        .replace("[ ", "[")
-        .replace(" ]", "]")
-        .replace(" <", "<")
-        .replace("< ", "<")
-        .replace(" >", ">")
-        .replace(" ,", ",")
 }
 
 #[cfg(test)]

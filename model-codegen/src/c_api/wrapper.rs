@@ -172,36 +172,25 @@ fn method(w: &Wrapped, m: &Method, out: &mut String) {
 }
 
 /// A function's parameters, the checks of its pointers, and the arguments of the call.
+///
+/// Every pointer that may not be null is checked first, all together
+/// (`support::checked`: one branch for any null, one for any misaligned), then the
+/// storage's tag; only then is each read.
 fn arguments(w: &Wrapped, m: &Method) -> (Vec<String>, String, Vec<String>) {
     let mut params = Vec::new();
-    let mut body = String::new();
+    let mut checked = Vec::new();
+    let mut reads = String::new();
     if let Some((name, storage_name, rust_type)) = &w.this {
-        let (mutability, check, what) = match m.receiver {
-            None => ("mut", "slot", "valid for writes of its storage"),
-            Some(true) => (
-                "mut",
-                "value_mut",
-                "valid for reads and writes of its storage, its tag initialised",
-            ),
-            Some(false) => (
-                "const",
-                "value",
-                "valid for reads of its storage, its tag initialised",
-            ),
-        };
-        params.push(format!("{name}: *{mutability} {storage_name}"));
-        let _ = writeln!(
-            body,
-            "    // SAFETY: `{name}` is null or {what}, unaliased, as `# Safety` requires; \
-             `support::{check}` checks the rest.\n    \
-             let {name} = take!(unsafe {{ support::{check}::<_, {rust_type}>({name}) }});"
-        );
+        let (param, check, read) = storage(name, storage_name, rust_type, m.receiver);
+        params.push(param);
+        checked.push(check);
+        reads.push_str(&read);
     }
     let mut args = Vec::new();
     for param in &m.params {
-        let (name, value, read) = match param {
-            Param::Required(name, value) => (name, value, "read"),
-            Param::Optional(name, value) => (name, value, "read_optional"),
+        let (name, value, optional) = match param {
+            Param::Required(name, value) => (name, value, false),
+            Param::Optional(name, value) => (name, value, true),
         };
         let ty = rust_value(value, w.scalar);
         args.push(name.clone());
@@ -210,24 +199,81 @@ fn arguments(w: &Wrapped, m: &Method) -> (Vec<String>, String, Vec<String>) {
             continue;
         }
         params.push(format!("{name}: *const {ty}"));
-        let _ = writeln!(
-            body,
-            "    // SAFETY: `{name}` is null or valid for reads of `{ty}` during the call, as \
-             `# Safety` requires; `support::{read}` checks the rest.\n    \
-             let {name} = take!(unsafe {{ support::{read}({name}) }});"
-        );
+        let _ = if optional {
+            writeln!(
+                reads,
+                "    // SAFETY: `{name}` is null or valid for reads of `{ty}` during the call, \
+                 as `# Safety` requires; `support::read_optional` checks the rest.\n    \
+                 let {name} = take!(unsafe {{ support::read_optional({name}) }});"
+            )
+        } else {
+            checked.push(format!("({name} as usize, core::mem::align_of::<{ty}>())"));
+            writeln!(
+                reads,
+                "    // SAFETY: `{name}` is valid for reads of `{ty}` during the call, as \
+                 `# Safety` requires, and neither null nor misaligned (checked above).\n    \
+                 let {name} = unsafe {{ support::read({name}) }};"
+            )
+        };
     }
     if let Output::Value(v) | Output::Fallible(v) = &m.output {
         let ty = rust_value(v, w.scalar);
         params.push(format!("out: *mut {ty}"));
+        checked.push(format!("(out as usize, core::mem::align_of::<{ty}>())"));
         let _ = writeln!(
-            body,
-            "    // SAFETY: `out` is null or valid for writes of `{ty}`, unaliased, during the \
-             call, as `# Safety` requires; `support::out` checks the rest.\n    \
-             let out = take!(unsafe {{ support::out(out) }});"
+            reads,
+            "    // SAFETY: `out` is valid for writes of `{ty}`, unaliased, during the call, as \
+             `# Safety` requires, and neither null nor misaligned (checked above).\n    \
+             let out = unsafe {{ support::out(out) }};"
         );
     }
+    let body = if checked.is_empty() {
+        reads
+    } else {
+        format!(
+            "    take!(support::checked([{}]));\n{reads}",
+            checked.join(", ")
+        )
+    };
     (params, body, args)
+}
+
+/// The storage argument of a generated type's function: its parameter, its entry in the
+/// checks, and how it is read (its tag checked first for a method).
+fn storage(
+    name: &str,
+    storage_name: &str,
+    rust_type: &str,
+    receiver: Option<bool>,
+) -> (String, String, String) {
+    let (mutability, access, what) = match receiver {
+        None => ("mut", "slot", "valid for writes of its storage"),
+        Some(true) => (
+            "mut",
+            "value_mut",
+            "valid for reads and writes of its storage, its tag initialised",
+        ),
+        Some(false) => (
+            "const",
+            "value",
+            "valid for reads of its storage, its tag initialised",
+        ),
+    };
+    let value = format!("unsafe {{ support::{access}::<_, {rust_type}>({name}) }}");
+    let value = if receiver.is_some() {
+        format!("take!({value})")
+    } else {
+        value
+    };
+    (
+        format!("{name}: *{mutability} {storage_name}"),
+        format!("({name} as usize, core::mem::align_of::<{storage_name}>())"),
+        format!(
+            "    // SAFETY: `{name}` is {what}, unaliased, as `# Safety` requires, and \
+             neither null nor misaligned (checked above).\n    \
+             let {name} = {value};\n"
+        ),
+    )
 }
 
 /// The end of a function: the call, its result written, its status returned.

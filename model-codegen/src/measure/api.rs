@@ -4,8 +4,9 @@
 //! reference's "The generated API") make this a reading of signatures: every array is
 //! passed by reference, every constructor is `new(..) -> Result<Self, Status>`.
 
+use crate::generated_api::{self, inline_items, Receiver, Signature};
 use std::collections::BTreeMap;
-use syn::{FnArg, ImplItem, Item, ReturnType, Type as SynType};
+use syn::Item;
 
 /// The shape of an argument or a result, in `f32`.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -97,47 +98,39 @@ impl Api {
     /// update_gnss`: `EKF_UPDATE_GNSS_CYCLES`), else `TYPE_CALL_WORST_CYCLES`, the estimate
     /// of its costliest call (the MPC's solve).
     pub fn static_estimate(&self, type_name: &str, call: &str) -> Option<(String, u32)> {
-        let base = format!("{}_{}", screaming(type_name), call.to_ascii_uppercase());
+        let base = format!(
+            "{}_{}",
+            generated_api::snake(type_name).to_ascii_uppercase(),
+            call.to_ascii_uppercase()
+        );
         [format!("{base}_CYCLES"), format!("{base}_WORST_CYCLES")]
             .into_iter()
             .find_map(|name| Some((name.clone(), *self.cycles.get(&name)?)))
     }
 }
 
-/// `GatedEkf` -> `GATED_EKF`: a type's name as its constants spell it.
-pub fn screaming(name: &str) -> String {
-    let mut out = String::new();
-    let mut previous_lower = false;
-    for c in name.chars() {
-        if c.is_ascii_uppercase() && previous_lower {
-            out.push('_');
-        }
-        previous_lower = c.is_ascii_lowercase() || c.is_ascii_digit();
-        out.push(c.to_ascii_uppercase());
-    }
-    out
-}
-
 /// The API of `code`, a generated file (`pub mod <name> { .. }`).
 pub fn read(code: &str) -> Result<Api, String> {
-    let file = syn::parse_file(code).map_err(|e| format!("the generated code: {e}"))?;
-    let Some((name, items)) = file.items.iter().find_map(module) else {
-        return Err("the generated code holds no module".into());
-    };
-    let (module, items) = match items.iter().find_map(module) {
-        Some((inner, inner_items)) if inner == "in_f32" => (format!("{name}::in_f32"), inner_items),
-        _ => (name, items),
+    let file = generated_api::parse(code)?;
+    let top = generated_api::model_module(&file)?;
+    let name = top.ident.to_string();
+    let top_items = inline_items(top);
+    let (module, items) = match generated_api::modules(top_items).find(|m| m.ident == "in_f32") {
+        Some(inner) => (format!("{name}::in_f32"), inline_items(inner)),
+        None => (name, top_items),
     };
     let outcomes = outcomes(items);
-    let function = |f: &syn::Signature| signature(f, &outcomes);
     let free = |wanted: &str| {
         items.iter().find_map(|item| match item {
-            Item::Fn(f) if f.sig.ident == wanted => Some(function(&f.sig)),
+            Item::Fn(f) if f.sig.ident == wanted => Some(function(
+                &generated_api::signature(&f.sig, &f.attrs),
+                &outcomes,
+            )),
             _ => None,
         })
     };
     let (f, h) = (free("f"), free("h"));
-    let types = types(items, &function);
+    let types = types(items, &outcomes);
     if types.is_empty() {
         return Err(
             "the model generates no filter or controller: nothing to measure (add a \
@@ -157,8 +150,9 @@ pub fn read(code: &str) -> Result<Api, String> {
                 .into(),
         );
     }
+    // The static estimates are in the model's module, whichever module holds the f32 code.
     let mut cycles = BTreeMap::new();
-    for scope in [items, &file_module_items(&file)] {
+    for scope in [items, top_items] {
         cycles.extend(cycle_constants(scope));
     }
     Ok(Api {
@@ -168,24 +162,6 @@ pub fn read(code: &str) -> Result<Api, String> {
         h,
         cycles,
     })
-}
-
-/// The items of the file's top module (the static estimates are there, whichever module
-/// holds the `f32` code).
-fn file_module_items(file: &syn::File) -> Vec<Item> {
-    file.items
-        .iter()
-        .find_map(module)
-        .map(|(_, items)| items.to_vec())
-        .unwrap_or_default()
-}
-
-/// An inline module's name and items.
-fn module(item: &Item) -> Option<(String, &[Item])> {
-    match item {
-        Item::Mod(m) => Some((m.ident.to_string(), &m.content.as_ref()?.1)),
-        _ => None,
-    }
 }
 
 /// `pub const NAME_CYCLES: u32 = n;` items.
@@ -220,18 +196,22 @@ fn outcomes(items: &[Item]) -> BTreeMap<String, Outcome> {
             }
             Item::Struct(s) => {
                 let has_status = s.fields.iter().any(|f| {
-                    f.ident.as_ref().is_some_and(|i| i == "status") && type_text(&f.ty) == "Status"
+                    f.ident.as_ref().is_some_and(|i| i == "status")
+                        && generated_api::type_text(&f.ty) == "Status"
                 });
                 if has_status {
                     outcomes.insert(s.ident.to_string(), Outcome::StatusField);
                 }
             }
             Item::Impl(block) => {
-                let has_is_ok = block.items.iter().any(
-                    |i| matches!(i, ImplItem::Fn(f) if f.sig.ident == "is_ok" && f.sig.inputs.len() == 1),
-                );
-                if let (true, Some(name)) = (has_is_ok, self_type(block)) {
-                    outcomes.insert(name, Outcome::IsOk);
+                let Some(block) = generated_api::inherent_impl(block) else {
+                    continue;
+                };
+                let has_is_ok = block.methods.iter().any(|m| {
+                    m.name == "is_ok" && m.receiver == Receiver::Shared && m.params.is_empty()
+                });
+                if has_is_ok {
+                    outcomes.insert(block.name, Outcome::IsOk);
                 }
             }
             _ => {}
@@ -240,46 +220,33 @@ fn outcomes(items: &[Item]) -> BTreeMap<String, Outcome> {
     outcomes
 }
 
-/// The name of the type an `impl` block is for.
-fn self_type(block: &syn::ItemImpl) -> Option<String> {
-    match &*block.self_ty {
-        SynType::Path(p) => Some(p.path.segments.last()?.ident.to_string()),
-        _ => None,
-    }
-}
-
 /// The types with a constructor and calls, in the order the code declares them.
-fn types(items: &[Item], function: &dyn Fn(&syn::Signature) -> Function) -> Vec<Type> {
+fn types(items: &[Item], outcomes: &BTreeMap<String, Outcome>) -> Vec<Type> {
     let mut types = Vec::new();
     for item in items {
         let Item::Impl(block) = item else { continue };
-        let (Some(name), None) = (self_type(block), &block.trait_) else {
+        let Some(block) = generated_api::inherent_impl(block) else {
             continue;
         };
-        let methods = block.items.iter().filter_map(|i| match i {
-            ImplItem::Fn(f) if matches!(f.vis, syn::Visibility::Public(_)) => Some(&f.sig),
-            _ => None,
-        });
         let (mut new, mut fallible, mut calls) = (None, false, Vec::new());
-        for sig in methods {
-            let receiver = sig.inputs.first().and_then(|a| match a {
-                FnArg::Receiver(r) => Some(matches!(
-                    r.kind,
-                    syn::ReceiverKind::Reference(_, _, Some(_))
-                )),
-                FnArg::Typed(_) => None,
-            });
-            let method = sig.ident.to_string();
-            if method == "new" && receiver.is_none() {
-                fallible = matches!(&sig.output, ReturnType::Type(_, t) if type_text(t).starts_with("Result"));
-                new = Some(function(sig));
-            } else if receiver == Some(true) && method != "reset" && !method.starts_with("set_") {
-                calls.push(function(sig));
+        for signature in &block.methods {
+            let method = signature.name.as_str();
+            if method == "new" && signature.receiver == Receiver::None {
+                fallible = signature
+                    .output
+                    .as_deref()
+                    .is_some_and(|t| t.starts_with("Result"));
+                new = Some(function(signature, outcomes));
+            } else if signature.receiver == Receiver::Mutable
+                && method != "reset"
+                && !method.starts_with("set_")
+            {
+                calls.push(function(signature, outcomes));
             }
         }
         if let (Some(new), false) = (new, calls.is_empty()) {
             types.push(Type {
-                name,
+                name: block.name,
                 new,
                 new_is_fallible: fallible,
                 calls,
@@ -290,42 +257,31 @@ fn types(items: &[Item], function: &dyn Fn(&syn::Signature) -> Function) -> Vec<
 }
 
 /// A signature's arguments and result.
-fn signature(sig: &syn::Signature, outcomes: &BTreeMap<String, Outcome>) -> Function {
-    let args = sig
-        .inputs
+fn function(signature: &Signature, outcomes: &BTreeMap<String, Outcome>) -> Function {
+    let args = signature
+        .params
         .iter()
-        .filter_map(|a| match a {
-            FnArg::Typed(t) => Some(t),
-            FnArg::Receiver(_) => None,
-        })
-        .map(|t| {
-            let name = match &*t.pat {
-                syn::Pat::Ident(i) => i.ident.to_string(),
-                other => quote::quote!(#other).to_string(),
-            };
-            Arg {
-                name: name.trim_start_matches('_').to_owned(),
-                ty: type_text(&t.ty),
-                shape: shape(&t.ty),
-            }
+        .map(|(name, ty)| Arg {
+            name: name.clone(),
+            ty: ty.clone(),
+            shape: shape(ty),
         })
         .collect();
-    let (output, output_shape, outcome) = match &sig.output {
-        ReturnType::Default => (None, None, Outcome::Always),
-        ReturnType::Type(_, t) => {
-            let text = type_text(t);
-            let outcome = outcomes.get(&text).copied().unwrap_or(Outcome::Always);
-            let qualified = match &**t {
-                SynType::Path(p) if p.path.segments.len() == 1 && outcomes.contains_key(&text) => {
-                    format!("model::{text}")
-                }
-                _ => text,
+    let (output, output_shape, outcome) = match &signature.output {
+        None => (None, None, Outcome::Always),
+        Some(text) => {
+            let outcome = outcomes.get(text).copied().unwrap_or(Outcome::Always);
+            // The module's own types, named through `model::` from the firmware's code.
+            let qualified = if outcomes.contains_key(text) {
+                format!("model::{text}")
+            } else {
+                text.clone()
             };
-            (Some(qualified), Some(shape(t)), outcome)
+            (Some(qualified), Some(shape(text)), outcome)
         }
     };
     Function {
-        name: sig.ident.to_string(),
+        name: signature.name.clone(),
         args,
         output,
         output_shape,
@@ -333,23 +289,11 @@ fn signature(sig: &syn::Signature, outcomes: &BTreeMap<String, Outcome>) -> Func
     }
 }
 
-/// A type as the code writes it, without the blanks `quote` puts around punctuation.
-fn type_text(ty: &SynType) -> String {
-    let text = quote::quote!(#ty).to_string();
-    text.replace(" ;", ";")
-        .replace("& ", "&")
-        .replace("[ ", "[")
-        .replace(" ]", "]")
-        .replace(" <", "<")
-        .replace("< ", "<")
-        .replace(" >", ">")
-}
-
-/// The shape of an `f32` argument or result.
-fn shape(ty: &SynType) -> Shape {
-    let text = type_text(ty);
+/// The shape of an `f32` argument or result, from its type's text.
+fn shape(text: &str) -> Shape {
     let inner = text.trim_start_matches('&');
     let length = |s: &str| s.trim().parse::<usize>().ok();
+    let other = || Shape::Other(text.to_owned());
     if inner == "f32" {
         return Shape::Scalar;
     }
@@ -357,13 +301,13 @@ fn shape(ty: &SynType) -> Shape {
         .strip_prefix("Option<&[f32;")
         .and_then(|r| r.strip_suffix("]>"))
     {
-        return length(rest).map_or(Shape::Other(text.clone()), Shape::OptionalVector);
+        return length(rest).map_or_else(other, Shape::OptionalVector);
     }
     if let Some(rest) = inner
         .strip_prefix("[f32;")
         .and_then(|r| r.strip_suffix(']'))
     {
-        return length(rest).map_or(Shape::Other(text.clone()), Shape::Vector);
+        return length(rest).map_or_else(other, Shape::Vector);
     }
     if let Some(rest) = inner
         .strip_prefix("[[f32;")
@@ -375,7 +319,7 @@ fn shape(ty: &SynType) -> Shape {
             }
         }
     }
-    Shape::Other(text)
+    other()
 }
 
 #[cfg(test)]
@@ -383,21 +327,12 @@ mod tests {
     use super::*;
 
     #[test]
-    fn type_names_spell_their_constants() {
-        assert_eq!(screaming("Ekf"), "EKF");
-        assert_eq!(screaming("GatedEkf"), "GATED_EKF");
-        assert_eq!(screaming("PolynomialKf"), "POLYNOMIAL_KF");
-        assert_eq!(screaming("Ekf2"), "EKF2");
-    }
-
-    #[test]
     fn shapes_of_the_generated_arguments() {
-        let of = |text: &str| shape(&syn::parse_str::<SynType>(text).expect("a type"));
-        assert_eq!(of("f32"), Shape::Scalar);
-        assert_eq!(of("&[f32; 5]"), Shape::Vector(5));
-        assert_eq!(of("[f32; 2]"), Shape::Vector(2));
-        assert_eq!(of("&[[f32; 3]; 2]"), Shape::Matrix(2, 3));
-        assert_eq!(of("Option<&[f32; 1]>"), Shape::OptionalVector(1));
-        assert_eq!(of("u32"), Shape::Other("u32".into()));
+        assert_eq!(shape("f32"), Shape::Scalar);
+        assert_eq!(shape("&[f32; 5]"), Shape::Vector(5));
+        assert_eq!(shape("[f32; 2]"), Shape::Vector(2));
+        assert_eq!(shape("&[[f32; 3]; 2]"), Shape::Matrix(2, 3));
+        assert_eq!(shape("Option<&[f32; 1]>"), Shape::OptionalVector(1));
+        assert_eq!(shape("u32"), Shape::Other("u32".into()));
     }
 }

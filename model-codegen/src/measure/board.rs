@@ -15,6 +15,10 @@ pub const MACHINE: [&str; 7] = [
     "enable=on,target=native",
 ];
 
+/// QEMU's clock for measuring: one instruction per virtual nanosecond, which the
+/// firmwares' SysTick counters need (40 instructions per tick).
+pub const ICOUNT: [&str; 2] = ["-icount", "shift=0,align=off,sleep=off"];
+
 /// The commands measuring runs, with the Debian packages that provide them.
 pub const TOOLS: &[(&str, &str)] = &[
     ("qemu-system-arm", "qemu-system-arm"),

@@ -1,7 +1,7 @@
 //! The measuring firmware as a crate of its own in a work directory: written, built in
 //! release for the Cortex-M4F, and run under QEMU with its instruction counter.
 
-use super::board::{MACHINE, TARGET};
+use super::board::{ICOUNT, MACHINE, TARGET};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -112,7 +112,8 @@ pub fn build(dir: &Path) -> Result<PathBuf, String> {
 pub fn run(elf: &Path) -> Result<Vec<Counted>, String> {
     let mut child = Command::new("qemu-system-arm")
         .args(MACHINE)
-        .args(["-icount", "shift=0,align=off,sleep=off", "-kernel"])
+        .args(ICOUNT)
+        .arg("-kernel")
         .arg(elf)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())

@@ -97,7 +97,7 @@ pub fn write(api: &Api, model: &Model, samples: usize) -> Result<Harness, String
 
 /// `GatedEkf` -> `gated_ekf`.
 fn snake(name: &str) -> String {
-    super::api::screaming(name).to_ascii_lowercase()
+    crate::generated_api::snake(name)
 }
 
 /// The sizes of `x`, `u`, `y` and `known`, from `f`, `h` and the constructors.

@@ -20,7 +20,7 @@ mod table;
 pub mod timing;
 pub mod trace;
 
-pub use board::{MACHINE, TARGET, TOOLS};
+pub use board::{ICOUNT, MACHINE, TARGET, TOOLS};
 use stateforge_compiler::model::Model;
 use std::path::PathBuf;
 

@@ -7,7 +7,12 @@ use std::process::Command;
 
 /// Runs a command, naming it on standard error as it starts and in the error if it fails.
 pub fn run(what: &str, command: &mut Command) -> Result<(), String> {
-    eprintln!("{what}");
+    run_announced("", what, command)
+}
+
+/// [`run`], its progress line after `prefix` (`cargo xtask`'s `"xtask: "`).
+pub fn run_announced(prefix: &str, what: &str, command: &mut Command) -> Result<(), String> {
+    eprintln!("{prefix}{what}");
     let status = command
         .status()
         .map_err(|e| format!("{what}: cannot start: {e}"))?;
