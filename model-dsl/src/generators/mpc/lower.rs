@@ -21,6 +21,7 @@ use crate::emit::code::{
 use crate::emit::filter::{packed_vars, time_param};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
+use crate::emit::scopes::scoped;
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::{add, matmul, packed_len, symmetric_from_packed, Matrix};
 use crate::symbolic::loop_invariant_operands;
@@ -892,8 +893,16 @@ fn terminal_code(
         .iter()
         .zip(&first)
         .map(|(p, first)| quote! { #abs(#p - #first) });
-    let (hoisted, body, p_next) = (&code.hoisted, &code.body, &code.p_next);
-    let (gain_statements, gain_values) = (&code.gain_statements, &code.gain_values);
+    let (body, p_next) = (&code.body, &code.p_next);
+    let gain_values = &code.gain_values;
+    let read_later = quote! { #(#body)* #(#p_next)* #(#gain_values)* };
+    // Long runs in blocks (`scoped`), each handing on what the code after it reads.
+    let gain_statements = scoped(code.gain_statements.clone(), &read_later);
+    let hoisted = scoped(
+        code.hoisted.clone(),
+        &quote! { #read_later #(#gain_statements)* },
+    );
+    let body = scoped(body.clone(), &quote! { #(#p_next)* });
     quote! {
         // The terminal weight P_f (eq. 35) by Riccati steps from the last solve's.
         let [#(#q_idents),*] = self.q;
@@ -989,7 +998,14 @@ impl CondensedNodes {
             bind_matrix(&mut lowerer, w, names);
         }
         let ops = lowerer.ops();
-        let statements = lowerer.take_statements();
+        // What the solve reads later: H and the weighted responses, by name.
+        let handed: Vec<Ident> = moves
+            .hessian
+            .iter()
+            .chain(self.weighted_names.iter().flatten().flatten())
+            .map(|n| ident(n))
+            .collect();
+        let statements = scoped(lowerer.take_statements(), &quote! { #(#handed)* });
         Stage {
             code: quote! {
                 // The condensed Hessian (eqs. 42-43) and the weighted responses of eq. 44.
@@ -1037,7 +1053,8 @@ fn linear_term(
         bind_as(&mut lowerer, node, name);
     }
     let ops = lowerer.ops();
-    let statements = lowerer.take_statements();
+    let handed = moves.linear.iter().map(|n| ident(n));
+    let statements = scoped(lowerer.take_statements(), &quote! { #(#handed)* });
     let used = lowerer.finish().used_vars;
     let references = references.iter().map(|n| ident(n));
     let code = quote! {

@@ -17,6 +17,7 @@ use super::spec::MpcSpec;
 use crate::emit::code::{all_is_finite, packed_names};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
+use crate::emit::scopes::scoped;
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::{matmul, packed_index, symmetric_from_packed, Matrix};
 use crate::symbolic::Graph;
@@ -321,7 +322,8 @@ fn gradient(
         .collect();
     let mut lowerer = Lowerer::new(g, scalar, names.namer(), &gradient);
     let values = lowerer.segment(&gradient);
-    (lowerer.take_statements(), values, lowerer.ops())
+    let statements = scoped(lowerer.take_statements(), &quote! { #(#values)* });
+    (statements, values, lowerer.ops())
 }
 
 /// Bounds of the deviations from `u_ref`, and the warm start: the last plan shifted by
