@@ -1,6 +1,7 @@
 //! The generated MPC on a problem of TinyMPC's quadrotor hover size (12 states, 4 inputs,
 //! 10 moves: 40 unknowns), its plans against the box-constrained QP solved by Clarabel
-//! from the explicit prediction matrices, on random states that saturate several inputs.
+//! from the explicit prediction matrices, on random states that saturate several inputs,
+//! and after its weights and input limits are changed on the running controller.
 
 use nalgebra::{DMatrix, DVector};
 use quadrotor::Status;
@@ -140,4 +141,55 @@ fn the_quadrotor_plan_agrees_with_clarabel_on_random_states() {
         saturated >= 10,
         "only {saturated} of 20 cases hold 2+ bounds"
     );
+}
+
+#[test]
+fn new_weights_and_limits_on_a_running_controller_give_the_new_problems_plan() {
+    let (q, r) = weights();
+    let limits = ([-0.05; NU], [0.08; NU]);
+    let mut mpc = quadrotor::Mpc::new(&q, &r, &limits.0, &limits.1).expect("valid");
+    let mut rng = Lcg(4301);
+    let x = random_state(&mut rng);
+    let _ = converge(&mut mpc, &x);
+    // Settled: the kept model, terminal weight and Hessian serve the next solve.
+    let before = mpc.solve(&x, &[0.0; NU]);
+    let before = match before.rebuilt {
+        // The terminal weight settles a solve after it converges.
+        quadrotor::MpcRebuild::Problem => mpc.solve(&x, &[0.0; NU]),
+        _ => before,
+    };
+    assert_eq!(before.rebuilt, quadrotor::MpcRebuild::Nothing);
+
+    // Heavier inputs and tighter, asymmetric limits, set between two solves.
+    let (mut q2, mut r2) = (q, r);
+    q2[2][2] = 400.0;
+    for (i, row) in r2.iter_mut().enumerate() {
+        row[i] = 20.0;
+    }
+    assert_eq!(mpc.set_weights(&q2, &r2), Status::Ok);
+    let tighter = ([-0.02, -0.03, -0.02, -0.03], [0.03, 0.02, 0.03, 0.02]);
+    assert_eq!(mpc.set_input_limits(&tighter.0, &tighter.1), Status::Ok);
+    let after = mpc.solve(&x, &[0.0; NU]);
+    assert_eq!(after.status, Status::Ok);
+    // The kept model serves; the terminal weight and Hessian are rebuilt for the weights.
+    assert_eq!(after.rebuilt, quadrotor::MpcRebuild::Problem);
+    let _ = converge(&mut mpc, &x);
+    let (error, held) = compare_with_clarabel(&mpc, (q2, r2), tighter, &x);
+    assert!(error < 1e-6, "{error:e} of the input range");
+    assert!(held >= 2, "the tighter limits hold only {held} moves");
+
+    // Rejected values leave the controller as it was.
+    let kept = mpc;
+    let mut bad = r2;
+    bad[1][3] = f64::NAN;
+    assert_eq!(mpc.set_weights(&q2, &bad), Status::RejectedInput);
+    assert_eq!(
+        mpc.set_input_limits(&[0.0; NU], &[0.01, 0.01, 0.0, 0.01]),
+        Status::RejectedInput
+    );
+    assert_eq!(
+        mpc.set_input_limits(&[f64::NEG_INFINITY; NU], &[0.01; NU]),
+        Status::RejectedInput
+    );
+    assert_eq!(mpc, kept);
 }

@@ -105,13 +105,14 @@ impl MoveNames {
         (self.per_input("minimum"), self.per_input("maximum"))
     }
 
-    /// The rejection of bounds that leave no room (not `u_min < u_max`), for `new`, after
-    /// the check that they are finite.
-    pub fn bounds_order_check(&self) -> TokenStream {
+    /// The rejection of bounds that leave no room (not `u_min < u_max`), after the check
+    /// that they are finite: `rejected` is what the function returns then (`new`'s
+    /// `Err(Status::RejectedInput)`, a setter's `Status::RejectedInput`).
+    pub fn bounds_order_check(&self, rejected: &TokenStream) -> TokenStream {
         let (min, max) = self.bounds();
         quote! {
             if #(#min >= #max)||* {
-                return Err(Status::RejectedInput);
+                return #rejected;
             }
         }
     }
