@@ -157,7 +157,11 @@ pub fn box_qp(h: &DMatrix<f64>, c: &DVector<f64>, low: &[f64], high: &[f64]) -> 
 
 /// An interior-point solution is accurate to its tolerances, about `1e-8` of the scale:
 /// take the bounds it (nearly) touches as active, solve the equality-constrained problem
-/// on the rest exactly, and check the result's optimality conditions.
+/// on the rest exactly, and check the result's optimality conditions. On an
+/// ill-conditioned problem a bound the solution lies just beyond `1e-6` of is taken as
+/// free: the exact solve then crosses it, and is corrected by holding the bound most
+/// crossed (or releasing the one with the most negative multiplier) and solving again,
+/// a few steps of a primal active-set method from Clarabel's guess.
 fn polish(
     h: &DMatrix<f64>,
     c: &DVector<f64>,
@@ -178,18 +182,40 @@ fn polish(
             free.push(i);
         }
     }
-    if !free.is_empty() {
-        // H_FF v_F = -(c_F + H_FA v_A)
-        let h_ff = DMatrix::from_fn(free.len(), free.len(), |a, b| h[(free[a], free[b])]);
-        let mut rhs = DVector::from_fn(free.len(), |a, _| -c[free[a]]);
-        for (a, &i) in free.iter().enumerate() {
-            for j in (0..k).filter(|j| !free.contains(j)) {
-                rhs[a] -= h[(i, j)] * v[j];
-            }
+    for _ in 0..k {
+        solve_free(h, c, &free, &mut v);
+        let crossed = free
+            .iter()
+            .map(|&i| (i, (low[i] - v[i]).max(v[i] - high[i]) / width(i)))
+            .filter(|&(_, beyond)| beyond > 1e-12)
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((i, _)) = crossed {
+            v[i] = v[i].clamp(low[i], high[i]);
+            free.retain(|&j| j != i);
+            continue;
         }
-        let v_free = h_ff.cholesky().expect("H_FF positive definite").solve(&rhs);
-        for (a, &i) in free.iter().enumerate() {
-            v[i] = v_free[a];
+        let gradient = h * &v + c;
+        let wrong = (0..k)
+            .filter(|i| !free.contains(i))
+            .map(|i| {
+                (
+                    i,
+                    if v[i] == low[i] {
+                        gradient[i]
+                    } else {
+                        -gradient[i]
+                    },
+                )
+            })
+            .filter(|&(_, multiplier)| multiplier < 0.0)
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        let scale = h.diagonal().amax() * width(0);
+        match wrong {
+            Some((i, multiplier)) if multiplier < -1e-12 * scale => {
+                free.push(i);
+                free.sort_unstable();
+            }
+            _ => break,
         }
     }
     // Optimality: within the bounds, and each held bound's multiplier non-negative.
@@ -217,4 +243,24 @@ fn polish(
         }
     }
     v
+}
+
+/// `H_FF v_F = -(c_F + H_FA v_A)`: the free entries of `v` minimising the cost with the
+/// others held.
+fn solve_free(h: &DMatrix<f64>, c: &DVector<f64>, free: &[usize], v: &mut DVector<f64>) {
+    if free.is_empty() {
+        return;
+    }
+    let k = h.nrows();
+    let h_ff = DMatrix::from_fn(free.len(), free.len(), |a, b| h[(free[a], free[b])]);
+    let mut rhs = DVector::from_fn(free.len(), |a, _| -c[free[a]]);
+    for (a, &i) in free.iter().enumerate() {
+        for j in (0..k).filter(|j| !free.contains(j)) {
+            rhs[a] -= h[(i, j)] * v[j];
+        }
+    }
+    let v_free = h_ff.cholesky().expect("H_FF positive definite").solve(&rhs);
+    for (a, &i) in free.iter().enumerate() {
+        v[i] = v_free[a];
+    }
 }

@@ -10,7 +10,7 @@ stateforge::model! {
             x1 = x1 + TS * x2;
             x2 = x2 + TS * u;
         }
-        generate mpc(horizon = 40, states = [x1, y], input = u, discretisation = zoh,
+        generate mpc(horizon = 50, states = [x1, y], input = u, discretisation = zoh,
             max_iterations = 0, model_tolerance = 1.5);
     }
 }

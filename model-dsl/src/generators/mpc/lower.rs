@@ -21,6 +21,7 @@ use crate::emit::code::{
 use crate::emit::filter::{packed_vars, time_param};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
+use crate::emit::scopes::scoped;
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::{add, matmul, packed_len, symmetric_from_packed, Matrix};
 use crate::symbolic::loop_invariant_operands;
@@ -892,8 +893,16 @@ fn terminal_code(
         .iter()
         .zip(&first)
         .map(|(p, first)| quote! { #abs(#p - #first) });
-    let (hoisted, body, p_next) = (&code.hoisted, &code.body, &code.p_next);
-    let (gain_statements, gain_values) = (&code.gain_statements, &code.gain_values);
+    let (body, p_next) = (&code.body, &code.p_next);
+    let gain_values = &code.gain_values;
+    let read_later = quote! { #(#body)* #(#p_next)* #(#gain_values)* };
+    // Long runs in blocks (`scoped`), each handing on what the code after it reads.
+    let gain_statements = scoped(code.gain_statements.clone(), &read_later);
+    let hoisted = scoped(
+        code.hoisted.clone(),
+        &quote! { #read_later #(#gain_statements)* },
+    );
+    let body = scoped(body.clone(), &quote! { #(#p_next)* });
     quote! {
         // The terminal weight P_f (eq. 35) by Riccati steps from the last solve's.
         let [#(#q_idents),*] = self.q;
@@ -989,7 +998,14 @@ impl CondensedNodes {
             bind_matrix(&mut lowerer, w, names);
         }
         let ops = lowerer.ops();
-        let statements = lowerer.take_statements();
+        // What the solve reads later: H and the weighted responses, by name.
+        let handed: Vec<Ident> = moves
+            .hessian
+            .iter()
+            .chain(self.weighted_names.iter().flatten().flatten())
+            .map(|n| ident(n))
+            .collect();
+        let statements = scoped(lowerer.take_statements(), &quote! { #(#handed)* });
         Stage {
             code: quote! {
                 // The condensed Hessian (eqs. 42-43) and the weighted responses of eq. 44.
@@ -1037,7 +1053,8 @@ fn linear_term(
         bind_as(&mut lowerer, node, name);
     }
     let ops = lowerer.ops();
-    let statements = lowerer.take_statements();
+    let handed = moves.linear.iter().map(|n| ident(n));
+    let statements = scoped(lowerer.take_statements(), &quote! { #(#handed)* });
     let used = lowerer.finish().used_vars;
     let references = references.iter().map(|n| ident(n));
     let code = quote! {
@@ -1229,6 +1246,7 @@ fn type_tokens(
     let constructor = constructor(spec, (moves, cache), &dims, scalar);
     let kept = cache.fields(&dims.ty);
     let set_reference = set_reference(model, spec, moves, &dims);
+    let setters = setters(spec, moves, &dims);
     let accessors = accessors(&dims);
     let Dims {
         ty,
@@ -1262,6 +1280,8 @@ fn type_tokens(
             #constructor
 
             #set_reference
+
+            #setters
 
             #solve
 
@@ -1448,7 +1468,7 @@ fn constructor(
     let (min, max) = moves.bounds();
     arguments.array("u_min", min.clone(), ty);
     arguments.array("u_max", max.clone(), ty);
-    let bounds_order_check = moves.bounds_order_check();
+    let bounds_order_check = moves.bounds_order_check(&quote! { Err(Status::RejectedInput) });
     let start_move = moves.start_move(&zero);
     let nothing_kept = cache.initial(&zero, ns_len, nu_len);
     arguments.constructor(
@@ -1478,6 +1498,59 @@ fn constructor(
             })
         },
     )
+}
+
+/// `fn set_weights` and `fn set_input_limits`: the values a user tunes on a running
+/// controller, checked as `new` checks them. New weights change the terminal weight and
+/// the condensed Hessian the controller keeps, so the next solve rebuilds them (on the
+/// kept prediction model, from the last terminal weight); the limits are read afresh by
+/// every solve, which clips its warm start to them.
+fn setters(spec: &MpcSpec, moves: &MoveNames, dims: &Dims) -> TokenStream {
+    let ty = &dims.ty;
+    let (ns, nu) = (spec.states.len(), spec.inputs.len());
+    let mut weights = Arguments::default();
+    let q = weights.symmetric("q", ns, ty);
+    let r = weights.symmetric("r", nu, ty);
+    let set_weights = weights.method(
+        &ident("set_weights"),
+        &quote! {
+            /// Replaces the state weight `q` and the input weight `r` (symmetric: upper
+            /// triangles are read; `r` positive definite). The next solve takes its
+            /// Riccati steps from the last terminal weight towards the new one and
+            /// rebuilds the condensed Hessian. [`Status::RejectedInput`] if an entry read
+            /// is not finite, the weights then as they were.
+        },
+        quote! {
+            self.q = [#(#q),*];
+            self.r = [#(#r),*];
+            self.terminal_weight_settled = false;
+            Status::Ok
+        },
+    );
+    let mut limits = Arguments::default();
+    let (min, max) = moves.bounds();
+    limits.array("u_min", min.clone(), ty);
+    limits.array("u_max", max.clone(), ty);
+    let order = moves.bounds_order_check(&quote! { Status::RejectedInput });
+    let set_limits = limits.method(
+        &ident("set_input_limits"),
+        &quote! {
+            /// Replaces the input bounds `u_min < u_max`, from the next solve on (which
+            /// clips its warm start to them). [`Status::RejectedInput`] if an entry is not
+            /// finite or the bounds leave no room, the bounds then as they were.
+        },
+        quote! {
+            #order
+            self.u_min = [#(#min),*];
+            self.u_max = [#(#max),*];
+            Status::Ok
+        },
+    );
+    quote! {
+        #set_weights
+
+        #set_limits
+    }
 }
 
 /// `fn set_reference`: a finite set-point `x_ref` and input `u_ref` stored.

@@ -17,6 +17,7 @@ use super::spec::MpcSpec;
 use crate::emit::code::{all_is_finite, packed_names};
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
+use crate::emit::scopes::scoped;
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::{matmul, packed_index, symmetric_from_packed, Matrix};
 use crate::symbolic::Graph;
@@ -104,13 +105,14 @@ impl MoveNames {
         (self.per_input("minimum"), self.per_input("maximum"))
     }
 
-    /// The rejection of bounds that leave no room (not `u_min < u_max`), for `new`, after
-    /// the check that they are finite.
-    pub fn bounds_order_check(&self) -> TokenStream {
+    /// The rejection of bounds that leave no room (not `u_min < u_max`), after the check
+    /// that they are finite: `rejected` is what the function returns then (`new`'s
+    /// `Err(Status::RejectedInput)`, a setter's `Status::RejectedInput`).
+    pub fn bounds_order_check(&self, rejected: &TokenStream) -> TokenStream {
         let (min, max) = self.bounds();
         quote! {
             if #(#min >= #max)||* {
-                return Err(Status::RejectedInput);
+                return #rejected;
             }
         }
     }
@@ -321,7 +323,8 @@ fn gradient(
         .collect();
     let mut lowerer = Lowerer::new(g, scalar, names.namer(), &gradient);
     let values = lowerer.segment(&gradient);
-    (lowerer.take_statements(), values, lowerer.ops())
+    let statements = scoped(lowerer.take_statements(), &quote! { #(#values)* });
+    (statements, values, lowerer.ops())
 }
 
 /// Bounds of the deviations from `u_ref`, and the warm start: the last plan shifted by
