@@ -70,15 +70,16 @@ stateforge::model! {
         // `Ekf` fuses the GNSS fix as if it were current, as a filter without a delayed
         // horizon does (the comparison the flight makes, and the filter SymForce's code is
         // measured against); `DelayedEkf` at the sample it describes, on a horizon 38
-        // samples behind, the magnetometer's samples waiting for it there. The joint
-        // update's gate: the 99.9 % quantile for all 9 outputs. The calls as the flight
+        // samples behind, the magnetometer's samples waiting for it there (its updates are
+        // the sensors' in turn, each with its own gate). `Ekf`'s joint update's gate: the
+        // 99.9 % quantile for all 9 outputs. The calls as the flight
         // runs them on a 168 MHz Cortex-M4F: each within 15000 cycles, the three at their
         // rates within 2 % of the core (about 1.1 % by the static estimates).
         generate ekf(process_noise = diagonal, gate = 27.88, horizon = current,
             max_cycles = 15000,
             schedule = [predict = 250, update_gnss = 5, update_magnetometer = 50],
             mhz = 168, max_load = 2);
-        generate ekf(name = DelayedEkf, process_noise = diagonal, gate = 27.88);
+        generate ekf(name = DelayedEkf, process_noise = diagonal);
         dynamics discrete {
             q = q * exp((gyro - gyro_bias) * DT);
             v = v + (q * (accel - accel_bias) + vec3(0.0, 0.0, GRAVITY)) * DT;

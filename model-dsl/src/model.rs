@@ -180,6 +180,9 @@ impl Scalar {
     }
 }
 
+/// The sample interval's parameter in generated code.
+pub const INTERVAL_PARAMETER: &str = "dt";
+
 /// A named constant.
 #[derive(Clone, Debug)]
 pub struct Constant {
@@ -597,15 +600,23 @@ impl Model {
         self.constants.iter().position(|c| c.interval)
     }
 
-    /// The sample interval's name as the functions' and predictions' parameter, lower
-    /// case (`DT` is `dt`), if the model declares one.
+    /// The sample interval's parameter in the functions and predictions, `dt`, if the
+    /// model declares one (one name whatever the declared one, so that it never meets a
+    /// name the generated code gives).
     pub fn interval_parameter(&self) -> Option<String> {
-        self.interval()
-            .map(|i| self.constants[i].name.to_lowercase())
+        self.interval().map(|_| INTERVAL_PARAMETER.to_owned())
     }
 
-    /// The samples a filter's delayed horizon lags the present by: the sensors' declared
-    /// delay (one for all, checked), zero if none declares one.
+    /// Whether the dynamics read the sample interval: `f` then takes it.
+    pub fn dynamics_read_interval(&self) -> bool {
+        self.interval().is_some_and(|i| {
+            let reads = |e: &Expr| matches!(e, Expr::Const(j) if *j == i);
+            self.dynamics.rhs.iter().any(|e| self.reads(e, &reads))
+        })
+    }
+
+    /// The samples a filter's delayed horizon lags the present by: the longest of the
+    /// sensors' declared delays, zero if none declares one.
     pub fn delay(&self) -> usize {
         self.sensors.iter().map(|s| s.delay).max().unwrap_or(0)
     }

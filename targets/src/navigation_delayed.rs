@@ -128,6 +128,12 @@ pub fn costs(clock: &Clock) {
             &flight::GNSS[0].1,
         ));
     });
+    let magnetometer_stack = stack(&|f| {
+        let _ = black_box(generated_navigation_delayed_update_magnetometer(
+            f,
+            &flight::MAGNETOMETER[0].1,
+        ));
+    });
     report(
         "navigation_delayed_predict",
         (predict.mean(), 0),
@@ -146,7 +152,7 @@ pub fn costs(clock: &Clock) {
     report(
         "navigation_delayed_update_magnetometer",
         (magnetometer.mean(), 0),
-        (0, 0),
+        (magnetometer_stack, 0),
     );
     cortex_m_semihosting::hprintln!(
         "ram navigation_delayed_buffers {}",

@@ -283,3 +283,57 @@ fn with_a_sample_interval_the_buffer_holds_each_sample_s() {
     assert_eq!(ekf.predict(f64::NAN, &[1.0, 0.0]), Status::RejectedInput);
     assert_eq!(ekf, before);
 }
+
+stateforge::model! {
+    /// A cart with a gated fix two samples late: a step that refuses an outlier keeps the
+    /// horizon's prediction.
+    pub mod gated_late {
+        scalar f64;
+        const DT = 0.1;
+        state p, v;
+        input a;
+        output fix = p;
+        sensor gnss(delay = 2) = [fix];
+        generate ekf(gate = 9.0);
+        dynamics discrete {
+            p = p + DT * v;
+            v = v + DT * a;
+        }
+    }
+}
+
+#[test]
+fn a_gated_step_that_refuses_an_outlier_keeps_the_horizon_s_prediction() {
+    use gated_late::{Ekf, Status};
+    let p0 = [[1.0, 0.0], [0.0, 1.0]];
+    let q = [[1e-4, 0.0], [0.0, 1e-4]];
+    let mut stepped = Ekf::new(&[0.0, 1.0], &p0, &q, &[[0.01]]).unwrap();
+    let mut split = stepped;
+    for k in 0..8_u32 {
+        // The horizon moves from the third sample on; the fifth fix is an outlier.
+        let y = if k == 4 {
+            [100.0]
+        } else {
+            [0.1 * f64::from(k)]
+        };
+        let expected = if k == 4 {
+            Status::OutlierRejected
+        } else {
+            Status::Ok
+        };
+        let u = [0.3 * f64::from(k)];
+        assert_eq!(stepped.step(&u, &y), expected, "sample {k}");
+        assert_eq!(split.predict(&u), Status::Ok);
+        assert_eq!(split.update(&y), expected, "sample {k}");
+        assert_close(
+            "delayed estimate",
+            k as usize,
+            &stepped.state(),
+            &split.state(),
+        );
+        let p = |f: &Ekf| -> Vec<f64> { f.covariance().iter().flatten().copied().collect() };
+        assert_close("delayed covariance", k as usize, &p(&stepped), &p(&split));
+        let (now, reference) = (stepped.current_state(), split.current_state());
+        assert_close("current state", k as usize, &now, &reference);
+    }
+}

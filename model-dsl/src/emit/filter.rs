@@ -435,6 +435,7 @@ pub fn model_names(model: &Model) -> Vec<String> {
         .chain(model.known.iter().map(|s| s.name.clone()))
         .chain(model.outputs.iter().map(|o| o.name.clone()))
         .chain(["t", "x", "u", "y", "self", "status", "known"].map(String::from))
+        .chain(model.interval_parameter())
         .collect()
 }
 

@@ -626,10 +626,17 @@ fn prediction_keeper(model: &Model, ty: &proc_macro2::Ident) -> PredictionKeeper
         params.push(quote! { u_prev: &[#ty; #u] });
     }
     let (name, args) = keep_prediction_call(model);
+    // On a delayed horizon, a step keeps the horizon's prediction: the public `predict`
+    // would buffer its input a second time.
+    let predict = if model.delay() > 0 {
+        quote! { self.predict_at_horizon(#(#args),*) }
+    } else {
+        quote! { self.predict(#(#args),*) }
+    };
     PredictionKeeper {
         name,
         params,
-        predict: quote! { self.predict(#(#args),*) },
+        predict,
     }
 }
 

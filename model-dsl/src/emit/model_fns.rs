@@ -206,10 +206,14 @@ fn parameters(
         let t = if used(mg.t) { ident("t") } else { ident("_t") };
         params.push(quote! { #t: #ty });
     }
-    // The sample interval, for the functions that read it (`f` and its Jacobians).
+    // The sample interval, for the functions that read it (its Jacobians), and for `f`
+    // whenever the dynamics do (a delayed horizon's output predictor passes it).
     if let (Some(dt), Some(name)) = (mg.interval, model.interval_parameter()) {
         if used(dt) {
             let dt = ident(&name);
+            params.push(quote! { #dt: #ty });
+        } else if function.name == "f" && model.dynamics_read_interval() {
+            let dt = ident(&format!("_{name}"));
             params.push(quote! { #dt: #ty });
         }
     }

@@ -57,7 +57,7 @@ impl ModelGraph {
             .iter()
             .map(|c| {
                 if c.interval {
-                    graph.var(&c.name.to_lowercase())
+                    graph.var(crate::model::INTERVAL_PARAMETER)
                 } else {
                     graph.named_const(&c.name, c.value)
                 }

@@ -17,7 +17,7 @@
 use crate::emit::lower::{literal, OpCount};
 use crate::emit::model_fns::{emit_function, model_functions};
 use crate::emit::names::ident;
-use crate::model::{Expr, Model, Scalar, Sensor};
+use crate::model::{Model, Scalar, Sensor};
 use crate::symbolic::ModelGraph;
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
@@ -50,16 +50,11 @@ impl Pending<'_> {
     }
 }
 
-/// The sample interval's parameter (`dt`), if the model's step reads one: the buffer then
-/// holds each sample's interval beside its input.
+/// The sample interval's parameter (`dt`), if the model declares one: every prediction
+/// reads it (its process noise is `Q dt`), so the buffer holds each sample's interval
+/// beside its input.
 pub fn buffered_interval(model: &Model) -> Option<Ident> {
-    let i = model.interval()?;
-    let reads = |e: &Expr| matches!(e, Expr::Const(j) if *j == i);
-    let step_reads = model.dynamics.rhs.iter().any(|e| model.reads(e, &reads));
-    step_reads
-        .then(|| model.interval_parameter())
-        .flatten()
-        .map(|name| ident(&name))
+    model.interval_parameter().map(|name| ident(&name))
 }
 
 /// The sensors of `model` whose measurements wait for the horizon, in declaration order;
@@ -166,7 +161,7 @@ pub fn items(model: &Model, ty: &Ident) -> TokenStream {
     let intervals: Vec<Ident> = (0..delay)
         .map(|i| ident(&format!("interval_{i}")))
         .collect();
-    let interval = buffered_interval(model).is_some();
+    let interval = model.dynamics_read_interval();
     let steps: Vec<TokenStream> = (0..delay)
         .map(|i| {
             let b = &flags[i];
@@ -241,7 +236,12 @@ pub fn buffer_bytes(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream 
     let name = ident(&format!("{prefix}_BUFFER_BYTES"));
     let doc = format!(
         " The RAM the delayed horizon's buffers take, in bytes: {delay} samples of the \
-         inputs and their flags, the output predictor's current state{}.",
+         inputs{} and their flags, the output predictor's current state{}.",
+        if intervals.is_some() {
+            ", their intervals"
+        } else {
+            ""
+        },
         if waiting.is_empty() {
             ""
         } else {

@@ -38,8 +38,9 @@ pub fn wrap(
     (name, doc): (&Ident, &TokenStream),
     arguments: Arguments,
     body: TokenStream,
-    (model, ty): (&Model, &Ident),
+    (model, scalar): (&Model, Scalar),
 ) -> TokenStream {
+    let ty = &ident(scalar.type_name());
     let params = arguments.params().to_vec();
     let names: Vec<TokenStream> = params
         .iter()
@@ -51,7 +52,7 @@ pub fn wrap(
         Call::Sensor(sensor) if sensor.delay < model.delay() => {
             buffered_update(sensor, model.delay(), ty)
         }
-        Call::Predict => prediction(model, &names, &waiting, ty),
+        Call::Predict => prediction(model, &names, &waiting, scalar),
         Call::Update | Call::Step if !waiting.is_empty() => {
             let turn_doc = in_turn_doc(model, matches!(call, Call::Step));
             let body = in_turn(model, &names, matches!(call, Call::Step), ty);
@@ -62,7 +63,7 @@ pub fn wrap(
                 }
             };
         }
-        Call::Step => step(model, name, &names, ty),
+        Call::Step => step(model, name, &names, scalar),
         Call::Update | Call::Sensor(_) => {
             let inner = at_horizon(name);
             quote! { let status = self.#inner(#(#names),*); self.predict_output(); status }
@@ -103,7 +104,8 @@ fn horizon_doc(call: Call, model: &Model) -> String {
              the input of `DELAY` samples ago once the buffer is full (a prediction there \
              refused as non-finite leaves that sample out of the horizon: reset the filter); \
              the waiting measurements of the sensors that arrive sooner, which the horizon \
-             has now reached, are fused there, in the order the sensors are declared; the \
+             has now reached, are fused there, in the order the sensors are declared (dropped \
+             if the horizon's prediction was refused); the \
              output predictor then brings [`Self::current_state`] to the present. Returns the \
              first status that is not `Ok`: the prediction's, or a fused measurement's."
             .to_owned(),
@@ -145,9 +147,10 @@ fn buffered_update(sensor: &Sensor, delay: usize, ty: &Ident) -> TokenStream {
 
 /// Checks the new input `u_prev` finite, then shifts it into the buffer: binds the
 /// oldest sample, `oldest` (its input) and `oldest_buffered` (whether it was).
-fn buffer_input(model: &Model, ty: &Ident) -> TokenStream {
+fn buffer_input(model: &Model, scalar: Scalar) -> TokenStream {
     let delay = model.delay();
-    let intervals = buffer_interval(model, ty);
+    let ty = &ident(scalar.type_name());
+    let intervals = buffer_interval(model, scalar);
     let later = |prefix: &str| -> Vec<Ident> {
         (1..delay)
             .map(|i| ident(&format!("{prefix}_{i}")))
@@ -179,16 +182,12 @@ fn buffer_input(model: &Model, ty: &Ident) -> TokenStream {
 
 /// With a sample interval the step reads: checks it positive and finite, then shifts it
 /// into its buffer, binding the oldest sample's, `oldest_interval`.
-fn buffer_interval(model: &Model, ty: &Ident) -> Option<TokenStream> {
+fn buffer_interval(model: &Model, scalar: Scalar) -> Option<TokenStream> {
     let dt = buffered_interval(model)?;
     let later: Vec<Ident> = (1..model.delay())
         .map(|i| ident(&format!("interval_{i}")))
         .collect();
-    let scalar = if ty == "f32" {
-        Scalar::F32
-    } else {
-        Scalar::F64
-    };
+    let ty = ident(scalar.type_name());
     let zero = literal(0.0, scalar);
     Some(quote! {
         if !stateforge_math::#ty::all_finite([#dt]) || #dt <= #zero {
@@ -224,9 +223,9 @@ fn prediction(
     model: &Model,
     names: &[TokenStream],
     waiting: &[Pending],
-    ty: &Ident,
+    scalar: Scalar,
 ) -> TokenStream {
-    let buffer = buffer_input(model, ty);
+    let buffer = buffer_input(model, scalar);
     let inner = at_horizon(&ident("predict"));
     let passed = on_horizon(names, model);
     let mut fused = Vec::new();
@@ -243,15 +242,17 @@ fn prediction(
             let [due, #(#later),*] = self.#field;
             self.#field = [#(#later,)* None];
             let (#flag, #status) = match due {
-                Some(y) => (true, self.#update(&y)),
-                None => (false, Status::Ok),
+                Some(y) if status == Status::Ok => (true, self.#update(&y)),
+                _ => (false, Status::Ok),
             };
         });
         fused.push((flag, status));
     }
     let known = (!model.known.is_empty()).then(|| quote! { , &self.known });
     let input = (!model.inputs.is_empty()).then(|| quote! { , u_prev });
-    let dt = buffered_interval(model).map(|dt| quote! { #dt, });
+    let dt = buffered_interval(model)
+        .filter(|_| model.dynamics_read_interval())
+        .map(|dt| quote! { #dt, });
     let one_step = quote! { self.current_x = f(#dt &self.current_x #input #known); };
     let statuses = first_refusal(&fused.iter().map(|(_, s)| quote! { #s }).collect::<Vec<_>>());
     let flags = fused.iter().map(|(flag, _)| flag);
@@ -294,14 +295,15 @@ fn first_refusal(later: &[TokenStream]) -> TokenStream {
 /// were), then the step on the horizon, or the correction alone while the horizon has not
 /// moved (the buffer still filling, its measurement of the start), then the output
 /// predictor.
-fn step(model: &Model, name: &Ident, names: &[TokenStream], ty: &Ident) -> TokenStream {
+fn step(model: &Model, name: &Ident, names: &[TokenStream], scalar: Scalar) -> TokenStream {
+    let ty = &ident(scalar.type_name());
     let inner = at_horizon(name);
     let update = at_horizon(&ident("update"));
     let passed = on_horizon(names, model);
     let entries: Vec<Ident> = (0..model.outputs.len())
         .map(|i| ident(&format!("y_{i}")))
         .collect();
-    let buffer = buffer_input(model, ty);
+    let buffer = buffer_input(model, scalar);
     quote! {
         let [#(#entries),*] = *y;
         if !stateforge_math::#ty::all_finite([#(#entries),*]) {
@@ -364,7 +366,9 @@ fn in_turn_doc(model: &Model, predicts: bool) -> String {
         " On the delayed horizon, whose sensors arrive with different delays: {}{}, each \
          measurement at the sample it describes. A non-finite measurement is refused before \
          anything is done; otherwise each call is applied or refused on its own, and this \
-         returns the first status that is not `Ok`.",
+         returns the first status that is not `Ok`. Each sensor stores its own innovation and \
+         is judged by its own gate (or the filter's); the joint innovation \
+         ([`Self::innovation`]) is not stored.",
         if predicts {
             "[`Self::predict`], then "
         } else {

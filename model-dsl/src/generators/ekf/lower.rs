@@ -520,7 +520,7 @@ fn method(
             EkfMethod::Update | EkfMethod::UpdateOutput(_) => Call::Update,
             EkfMethod::UpdateSensor(s) => Call::Sensor(&model.sensors[s]),
         };
-        let code = horizon_calls::wrap(call, (&name, &doc), arguments, body, (model, &ty));
+        let code = horizon_calls::wrap(call, (&name, &doc), arguments, body, (model, scalar));
         return Some((code, ops));
     }
     Some((arguments.method(&name, &doc, body), ops))
