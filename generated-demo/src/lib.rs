@@ -52,3 +52,4 @@ include!("../models/beam_two_actuators.rs");
 include!("../models/duffing_beam.rs");
 include!("../models/cantilever_long_window.rs");
 include!("../models/navigation.rs");
+include!("../models/quadrotor.rs");
