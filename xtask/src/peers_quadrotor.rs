@@ -96,37 +96,7 @@ pub fn report(
         traced,
         None,
     )?];
-    match peers_firmware(root, python, dir) {
-        Ok((elf, text, statics)) => {
-            let solvers = parse(&text)?;
-            let program = Program::read(&elf)?;
-            let wrappers: Vec<String> = PEERS
-                .iter()
-                .filter_map(|(n, _)| program.function(&format!("peers_{n}_solve")))
-                .collect();
-            println!(
-                "xtask: the quadrotor peers' firmware again, traced instruction by instruction"
-            );
-            let traced = stateforge_cli::measure::trace::run(&elf, &program, &wrappers)?;
-            for (name, label) in PEERS {
-                let own = (name == "tinympc").then_some(reference.tinympc.as_slice());
-                rows.push(
-                    row(
-                        name,
-                        label,
-                        &solvers,
-                        own.unwrap_or(&reference.common),
-                        own.map(|_| reference.common.as_slice()),
-                        &program,
-                        &traced,
-                        statics.get(name).copied(),
-                    )
-                    .unwrap_or_else(|e| format!("{label:<22} cannot run here: {e}\n")),
-                );
-            }
-        }
-        Err(e) => rows.push(format!("{:<22} cannot run here: {e}\n", "the peers")),
-    }
+    rows.extend(peer_rows(root, python, dir, &reference));
     let horizon = ours
         .get("quadmpc")
         .and_then(|s| s.plans.values().next())
@@ -138,17 +108,66 @@ pub fn report(
     );
     out.push_str(&header());
     out.push_str(&rows.concat());
-    out.push_str(&format!(
+    out.push_str(&note(&reference, &rebuilds(&problem)?));
+    Ok(out)
+}
+
+/// The peers' rows: their firmware built, run and traced; a firmware that cannot be built
+/// or run is one row with its error, a peer whose lines are missing its own.
+fn peer_rows(root: &Path, python: &Path, dir: &Path, reference: &Reference) -> Vec<String> {
+    let firmware = peers_firmware(root, python, dir).and_then(|(elf, text, statics)| {
+        let solvers = parse(&text)?;
+        let program = Program::read(&elf)?;
+        let wrappers: Vec<String> = PEERS
+            .iter()
+            .filter_map(|(n, _)| program.function(&format!("peers_{n}_solve")))
+            .collect();
+        println!("xtask: the quadrotor peers' firmware again, traced instruction by instruction");
+        let traced = stateforge_cli::measure::trace::run(&elf, &program, &wrappers)?;
+        Ok((solvers, program, traced, statics))
+    });
+    let (solvers, program, traced, statics) = match firmware {
+        Ok(run) => run,
+        Err(e) => return vec![format!("{:<22} cannot run here: {e}\n", "the peers")],
+    };
+    PEERS
+        .iter()
+        .map(|&(name, label)| {
+            // TinyMPC's own QP differs from the common one in its terminal weight.
+            let own = (name == "tinympc").then_some(reference.tinympc.as_slice());
+            row(
+                name,
+                label,
+                &solvers,
+                own.unwrap_or(&reference.common),
+                own.map(|_| reference.common.as_slice()),
+                &program,
+                &traced,
+                statics.get(name).copied(),
+            )
+            .unwrap_or_else(|e| format!("{label:<22} cannot run here: {e}\n"))
+        })
+        .collect()
+}
+
+/// What the columns mean, and how the problem was handed over.
+fn note(reference: &Reference, rebuilt: &str) -> String {
+    let state_box = if reference.state_peak < 5.0 {
+        "inactive"
+    } else {
+        "active: every solver here solves without it"
+    };
+    format!(
         "  Instructions per solve (SysTick under -icount, the call of an empty function \
          subtracted); cycles estimated at each solver's traced cycles per instruction; us at \
          168 MHz; text: bytes of code the call can reach; d exact: largest difference of a \
          plan's moves from the exact solution of the solver's QP (desktop OSQP, f64, \
-         1e-10, polished: optimality residual {:.0e}), relative to the input range 1; \
-         the largest predicted |x| of the exact plans is {:.2}, so TinyMPC's example's \
-         state box |x| <= 5 would be inactive.\n  {TERMS}.\n\n",
+         1e-10, polished: optimality residual {:.0e}), relative to the input range 1; d \
+         common: from the common QP's. The largest |x| the exact plans predict is {:.2}, \
+         so TinyMPC's example's state box |x| <= 5 would be {state_box}. The generated \
+         MPC's solves (on the host) rebuilt {rebuilt}.\n  {TERMS}.\n\n",
         reference.residual, reference.state_peak
-    ));
-    Ok(out)
+    )
 }
 
 /// The table's header.
@@ -347,6 +366,25 @@ fn daqp_sources(python: &Path, dir: &Path) -> Result<PathBuf, String> {
     Ok(unpacked)
 }
 
+/// What the generated MPC's solves of the run rebuilt (`MpcStatus::rebuilt`), counted.
+fn rebuilds(problem: &Path) -> Result<String, String> {
+    let text =
+        std::fs::read_to_string(problem).map_err(|e| format!("{}: {e}", problem.display()))?;
+    let value: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", problem.display()))?;
+    let mut counts: BTreeMap<String, usize> = BTreeMap::new();
+    for step in value["steps"].as_array().into_iter().flatten() {
+        *counts
+            .entry(step["rebuilt"].as_str().unwrap_or("?").to_owned())
+            .or_default() += 1;
+    }
+    let said: Vec<String> = counts
+        .iter()
+        .map(|(k, n)| format!("{k} {n} times"))
+        .collect();
+    Ok(said.join(", "))
+}
+
 /// Bytes of static data (`.data`, `.bss`) the objects define.
 fn static_bytes(objects: &[PathBuf]) -> Result<u64, String> {
     let out = Command::new("arm-none-eabi-size")
@@ -372,85 +410,14 @@ fn peers_firmware(
     python: &Path,
     dir: &Path,
 ) -> Result<(PathBuf, String, BTreeMap<&'static str, u64>), String> {
-    let generated = dir.join("quadrotor");
-    let daqp = daqp_sources(python, dir)?;
-    let tinympc = generated.join("tinympc");
-    crate::peers_tinympc::patch(&tinympc)?;
-    let osqp = generated.join("osqp");
-    let objects = dir.join("obj/quadrotor");
-    let gcc = |sources: &[PathBuf], options: &[String], into: &str| {
-        peers_build::compile("arm-none-eabi-gcc", sources, options, &objects.join(into))
-    };
-    let include = |d: &Path| format!("-I{}", d.display());
-    let mut osqp_sources = peers_build::sources(&osqp.join("src"), "c")?;
-    osqp_sources.push(osqp.join("quad_workspace.c"));
-    let osqp_includes: Vec<String> = [
-        osqp.join("inc/public"),
-        osqp.join("inc/private"),
-        osqp.clone(),
-    ]
-    .iter()
-    .map(|d| include(d))
-    .collect();
-    let osqp_objects = gcc(&osqp_sources, &osqp_includes, "osqp")?;
-    let single = "-DDAQP_SINGLE_PRECISION".to_owned();
-    let daqp_objects = gcc(
-        &peers_build::sources(&daqp.join("src"), "c")?,
-        &[include(&daqp.join("include")), single.clone()],
-        "daqp",
-    )?;
-    let tinympc_sources: Vec<PathBuf> = [
-        "src/tiny_data.cpp",
-        "tinympc/admm.cpp",
-        "tinympc/rho_benchmark.cpp",
-    ]
-    .iter()
-    .map(|f| tinympc.join(f))
-    .collect();
-    let mut cxx: Vec<String> = ["include", "include/Eigen", "tinympc", ""]
-        .map(|sub| include(&tinympc.join(sub)))
-        .to_vec();
-    cxx.extend(["-fno-exceptions".into(), "-fno-rtti".into()]);
-    let tinympc_objects = peers_build::compile(
-        "arm-none-eabi-g++",
-        &tinympc_sources,
-        &cxx,
-        &objects.join("tinympc"),
-    )?;
-    let firmware = root.join("peers/firmware");
-    let mut main_options = vec![
-        include(&daqp.join("include")),
-        single,
-        include(&osqp.join("inc/public")),
-        include(&osqp),
-        include(&generated),
-    ];
-    main_options.extend(cxx);
-    let main = peers_build::compile(
-        "arm-none-eabi-g++",
-        &[firmware.join("quadrotor_main.cpp")],
-        &main_options,
-        &objects.join("main"),
-    )?;
-    let startup = gcc(&[firmware.join("startup.c")], &[], "startup")?;
-    let all: Vec<PathBuf> = [
-        &osqp_objects,
-        &daqp_objects,
-        &tinympc_objects,
-        &main,
-        &startup,
-    ]
-    .into_iter()
-    .flatten()
-    .cloned()
-    .collect();
+    let (peers, harness) = compile_peers(root, python, dir)?;
+    let all: Vec<PathBuf> = peers.values().flatten().chain(&harness).cloned().collect();
     let elf = dir.join("quadrotor.elf");
-    crate::peers_tinympc::link(&firmware, &all, &elf)?;
-    let statics = BTreeMap::from([
-        ("tinympc", static_bytes(&tinympc_objects)?),
-        ("osqp", static_bytes(&osqp_objects)?),
-        ("daqp", static_bytes(&daqp_objects)?),
-    ]);
+    crate::peers_tinympc::link(&root.join("peers/firmware"), &all, &elf)?;
+    let mut statics = BTreeMap::new();
+    for (name, objects) in &peers {
+        statics.insert(*name, static_bytes(objects)?);
+    }
     println!("xtask: the quadrotor peers' firmware under QEMU");
     let output = Command::new("qemu-system-arm")
         .args(stateforge_cli::measure::MACHINE)
@@ -461,4 +428,82 @@ fn peers_firmware(
         .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
     let text = peers_build::firmware_lines(&output, "the quadrotor peers' firmware under QEMU")?;
     Ok((elf, text, statics))
+}
+
+/// Each peer's objects, by the name the firmware prints.
+type Objects = BTreeMap<&'static str, Vec<PathBuf>>;
+
+/// Compiles each peer's code (TinyMPC's patched as for the blade: `peers_tinympc::patch`)
+/// and the harness; the peers' objects by name, and the harness's.
+fn compile_peers(
+    root: &Path,
+    python: &Path,
+    dir: &Path,
+) -> Result<(Objects, Vec<PathBuf>), String> {
+    let generated = dir.join("quadrotor");
+    let daqp = daqp_sources(python, dir)?;
+    let tinympc = generated.join("tinympc");
+    crate::peers_tinympc::patch(&tinympc)?;
+    let osqp = generated.join("osqp");
+    let objects = dir.join("obj/quadrotor");
+    let compile = |compiler: &str, sources: &[PathBuf], options: &[String], into: &str| {
+        peers_build::compile(compiler, sources, options, &objects.join(into))
+    };
+    let include = |d: &Path| format!("-I{}", d.display());
+    let mut osqp_sources = peers_build::sources(&osqp.join("src"), "c")?;
+    osqp_sources.push(osqp.join("quad_workspace.c"));
+    let osqp_includes = ["inc/public", "inc/private", ""].map(|sub| include(&osqp.join(sub)));
+    let single = "-DDAQP_SINGLE_PRECISION".to_owned();
+    let daqp_options = [include(&daqp.join("include")), single.clone()];
+    let tinympc_sources = [
+        "src/tiny_data.cpp",
+        "tinympc/admm.cpp",
+        "tinympc/rho_benchmark.cpp",
+    ]
+    .map(|f| tinympc.join(f));
+    let mut cxx: Vec<String> = ["include", "include/Eigen", "tinympc", ""]
+        .map(|sub| include(&tinympc.join(sub)))
+        .to_vec();
+    cxx.extend(["-fno-exceptions".into(), "-fno-rtti".into()]);
+    let peers = BTreeMap::from([
+        (
+            "osqp",
+            compile("arm-none-eabi-gcc", &osqp_sources, &osqp_includes, "osqp")?,
+        ),
+        (
+            "daqp",
+            compile(
+                "arm-none-eabi-gcc",
+                &peers_build::sources(&daqp.join("src"), "c")?,
+                &daqp_options,
+                "daqp",
+            )?,
+        ),
+        (
+            "tinympc",
+            compile("arm-none-eabi-g++", &tinympc_sources, &cxx, "tinympc")?,
+        ),
+    ]);
+    let firmware = root.join("peers/firmware");
+    let mut main_options = vec![
+        include(&daqp.join("include")),
+        single,
+        include(&osqp.join("inc/public")),
+        include(&osqp),
+        include(&generated),
+    ];
+    main_options.extend(cxx);
+    let mut harness = compile(
+        "arm-none-eabi-g++",
+        &[firmware.join("quadrotor_main.cpp")],
+        &main_options,
+        "main",
+    )?;
+    harness.extend(compile(
+        "arm-none-eabi-gcc",
+        &[firmware.join("startup.c")],
+        &[],
+        "startup",
+    )?);
+    Ok((peers, harness))
 }
