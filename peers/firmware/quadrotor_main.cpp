@@ -49,6 +49,12 @@ static uint32_t elapsed(uint32_t start, uint32_t end) {
 
 enum { N = QUAD_UNKNOWNS };
 
+/* The steps run: all of them, or (the build xtask traces instruction by instruction, whose
+ * logged run would take long over every step) the first QUAD_RUN_STEPS. */
+#ifndef QUAD_RUN_STEPS
+#define QUAD_RUN_STEPS QUAD_STEPS
+#endif
+
 /* DAQP's problem: H and the bounds fixed, f rewritten each step. */
 static c_float daqp_h[N * N];
 static c_float daqp_f[N];
@@ -188,7 +194,7 @@ static void run(const char *name, PeerSolve peer_solve, uint32_t heap) {
     peers_nothing(&quad_states[0], plans[0]);
     uint32_t empty = elapsed(start, systick());
     trace_begin();
-    for (int k = 0; k < QUAD_STEPS; k++) {
+    for (int k = 0; k < QUAD_RUN_STEPS; k++) {
         start = systick();
         iterations[k] = peer_solve(&quad_states[k * QUAD_NX], plans[k]);
         uint32_t count = elapsed(start, systick());
@@ -197,7 +203,7 @@ static void run(const char *name, PeerSolve peer_solve, uint32_t heap) {
     trace_end();
     int most = 0;
     uint64_t total = 0;
-    for (int k = 0; k < QUAD_STEPS; k++) {
+    for (int k = 0; k < QUAD_RUN_STEPS; k++) {
         printf("peer %s %d %d", name, k + 1, iterations[k]);
         for (int i = 0; i < N; i++) {
             printf(" %.9g", (double)plans[k][i]);
@@ -206,9 +212,9 @@ static void run(const char *name, PeerSolve peer_solve, uint32_t heap) {
         most = iterations[k] > most ? iterations[k] : most;
         total += each[k];
     }
-    qsort(each, QUAD_STEPS, sizeof each[0], by_value);
-    printf("peerspread %s %lu %lu %d %.3f\n", name, (unsigned long)each[QUAD_STEPS / 2],
-           (unsigned long)each[QUAD_STEPS - 1], most, (double)total / QUAD_STEPS);
+    qsort(each, QUAD_RUN_STEPS, sizeof each[0], by_value);
+    printf("peerspread %s %lu %lu %d %.3f\n", name, (unsigned long)each[QUAD_RUN_STEPS / 2],
+           (unsigned long)each[QUAD_RUN_STEPS - 1], most, (double)total / QUAD_RUN_STEPS);
     float plan[N];
     uint32_t stack = stack_depth(peer_solve, &quad_states[(QUAD_STEPS - 1) * QUAD_NX], plan);
     printf("peerram %s %lu %lu\n", name, (unsigned long)heap, (unsigned long)stack);

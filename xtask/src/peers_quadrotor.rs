@@ -93,7 +93,7 @@ pub fn report(
         &reference.common,
         None,
         program,
-        traced,
+        (traced, &ours),
         None,
     )?];
     rows.extend(peer_rows(root, python, dir, &reference));
@@ -115,8 +115,10 @@ pub fn report(
 /// The peers' rows: their firmware built, run and traced; a firmware that cannot be built
 /// or run is one row with its error, a peer whose lines are missing its own.
 fn peer_rows(root: &Path, python: &Path, dir: &Path, reference: &Reference) -> Vec<String> {
-    let firmware = peers_firmware(root, python, dir).and_then(|(elf, text, statics)| {
-        let solvers = parse(&text)?;
+    let firmware = peers_firmware(root, python, dir).and_then(|runs| {
+        let solvers = parse(&runs.full)?;
+        let counted = parse(&runs.traced)?;
+        let (elf, statics) = (runs.traced_elf, runs.statics);
         let program = Program::read(&elf)?;
         let wrappers: Vec<String> = PEERS
             .iter()
@@ -124,9 +126,9 @@ fn peer_rows(root: &Path, python: &Path, dir: &Path, reference: &Reference) -> V
             .collect();
         println!("xtask: the quadrotor peers' firmware again, traced instruction by instruction");
         let traced = stateforge_cli::measure::trace::run(&elf, &program, &wrappers)?;
-        Ok((solvers, program, traced, statics))
+        Ok((solvers, counted, program, traced, statics))
     });
-    let (solvers, program, traced, statics) = match firmware {
+    let (solvers, counted, program, traced, statics) = match firmware {
         Ok(run) => run,
         Err(e) => return vec![format!("{:<22} cannot run here: {e}\n", "the peers")],
     };
@@ -142,7 +144,7 @@ fn peer_rows(root: &Path, python: &Path, dir: &Path, reference: &Reference) -> V
                 own.unwrap_or(&reference.common),
                 own.map(|_| reference.common.as_slice()),
                 &program,
-                &traced,
+                (&traced, &counted),
                 statics.get(name).copied(),
             )
             .unwrap_or_else(|e| format!("{label:<22} cannot run here: {e}\n"))
@@ -224,15 +226,22 @@ fn row(
     exact: &[Vec<f64>],
     common: Option<&[Vec<f64>]>,
     program: &Program,
-    traced: &BTreeMap<String, Traced>,
+    traced: (&BTreeMap<String, Traced>, &BTreeMap<String, Solver>),
     statics: Option<u64>,
 ) -> Result<String, String> {
     let solver = solvers
         .get(name)
         .ok_or_else(|| format!("no plans of {name}"))?;
-    let [median, worst, most, mean] = solver
+    let [median, worst, most, _] = solver
         .spread
         .ok_or_else(|| format!("no spread line for {name}"))?;
+    // The trace's run (`traced.1`: the run traced, this one or a shorter one) and its
+    // counter must agree on the instructions per call.
+    let (traced, counted) = traced;
+    let mean = counted
+        .get(name)
+        .and_then(|s| s.spread)
+        .ok_or_else(|| format!("no spread line for {name} in the traced run"))?[3];
     let wrapper = program
         .function(&format!("peers_{name}_solve"))
         .ok_or_else(|| format!("no `peers_{name}_solve` in the firmware"))?;
@@ -404,42 +413,79 @@ fn static_bytes(objects: &[PathBuf]) -> Result<u64, String> {
         .sum())
 }
 
-/// Builds and runs the peers' firmware; its ELF, output, and each peer's static bytes.
-fn peers_firmware(
-    root: &Path,
-    python: &Path,
-    dir: &Path,
-) -> Result<(PathBuf, String, BTreeMap<&'static str, u64>), String> {
-    let (peers, harness) = compile_peers(root, python, dir)?;
-    let all: Vec<PathBuf> = peers.values().flatten().chain(&harness).cloned().collect();
-    let elf = dir.join("quadrotor.elf");
-    crate::peers_tinympc::link(&root.join("peers/firmware"), &all, &elf)?;
+/// Steps of the build whose run is traced instruction by instruction (QEMU logging every
+/// instruction of OSQP's slowest steps over the whole run would take most of an hour);
+/// its cycles per instruction stand for the whole run's.
+const TRACED_STEPS: usize = 20;
+
+/// Builds and runs the peers' firmware: its output over every step; the build that runs
+/// the first [`TRACED_STEPS`], for the trace, and its output; each peer's static bytes.
+fn peers_firmware(root: &Path, python: &Path, dir: &Path) -> Result<PeerRuns, String> {
+    let (peers, harness, short) = compile_peers(root, python, dir)?;
     let mut statics = BTreeMap::new();
     for (name, objects) in &peers {
         statics.insert(*name, static_bytes(objects)?);
     }
-    println!("xtask: the quadrotor peers' firmware under QEMU");
-    let output = Command::new("qemu-system-arm")
-        .args(stateforge_cli::measure::MACHINE)
-        .args(crate::peers_tinympc::ICOUNT)
-        .arg(&elf)
-        .stdin(Stdio::null())
-        .output()
-        .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
-    let text = peers_build::firmware_lines(&output, "the quadrotor peers' firmware under QEMU")?;
-    Ok((elf, text, statics))
+    let mut runs = Vec::new();
+    for (main, elf) in [
+        (&harness[0], "quadrotor.elf"),
+        (&short, "quadrotor_traced.elf"),
+    ] {
+        let all: Vec<PathBuf> = peers
+            .values()
+            .flatten()
+            .chain([main, &harness[1]])
+            .cloned()
+            .collect();
+        let elf = dir.join(elf);
+        crate::peers_tinympc::link(&root.join("peers/firmware"), &all, &elf)?;
+        println!(
+            "xtask: the quadrotor peers' firmware under QEMU ({})",
+            elf.display()
+        );
+        let output = Command::new("qemu-system-arm")
+            .args(stateforge_cli::measure::MACHINE)
+            .args(crate::peers_tinympc::ICOUNT)
+            .arg(&elf)
+            .stdin(Stdio::null())
+            .output()
+            .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
+        let text =
+            peers_build::firmware_lines(&output, "the quadrotor peers' firmware under QEMU")?;
+        runs.push((elf, text));
+    }
+    let (traced_elf, traced) = runs.pop().ok_or("no traced run")?;
+    let (_, full) = runs.pop().ok_or("no run")?;
+    Ok(PeerRuns {
+        full,
+        traced_elf,
+        traced,
+        statics,
+    })
+}
+
+/// The peers' firmware's runs (`peers_firmware`).
+struct PeerRuns {
+    /// The output over every step.
+    full: String,
+    /// The build of the first [`TRACED_STEPS`], and its output.
+    traced_elf: PathBuf,
+    traced: String,
+    /// Each peer's static bytes.
+    statics: BTreeMap<&'static str, u64>,
 }
 
 /// Each peer's objects, by the name the firmware prints.
 type Objects = BTreeMap<&'static str, Vec<PathBuf>>;
 
 /// Compiles each peer's code (TinyMPC's patched as for the blade: `peers_tinympc::patch`)
-/// and the harness; the peers' objects by name, and the harness's.
+/// and the harness; the peers' objects by name, the harness's (main, startup), and the
+/// main of the traced build.
 fn compile_peers(
     root: &Path,
     python: &Path,
     dir: &Path,
-) -> Result<(Objects, Vec<PathBuf>), String> {
+) -> Result<(Objects, Vec<PathBuf>, PathBuf), String> {
     let generated = dir.join("quadrotor");
     let daqp = daqp_sources(python, dir)?;
     let tinympc = generated.join("tinympc");
@@ -493,17 +539,15 @@ fn compile_peers(
         include(&generated),
     ];
     main_options.extend(cxx);
-    let mut harness = compile(
-        "arm-none-eabi-g++",
-        &[firmware.join("quadrotor_main.cpp")],
-        &main_options,
-        "main",
-    )?;
+    let main = [firmware.join("quadrotor_main.cpp")];
+    let mut harness = compile("arm-none-eabi-g++", &main, &main_options, "main")?;
     harness.extend(compile(
         "arm-none-eabi-gcc",
         &[firmware.join("startup.c")],
         &[],
         "startup",
     )?);
-    Ok((peers, harness))
+    main_options.push(format!("-DQUAD_RUN_STEPS={TRACED_STEPS}"));
+    let short = compile("arm-none-eabi-g++", &main, &main_options, "main_traced")?;
+    Ok((peers, harness, short[0].clone()))
 }
