@@ -58,7 +58,9 @@ struct Reference {
     common: Vec<Vec<f64>>,
     tinympc: Vec<Vec<f64>>,
     residual: f64,
+    /// The largest |x| the exact plans predict: the common QP's, TinyMPC's own QP's.
     state_peak: f64,
+    tinympc_state_peak: f64,
 }
 
 /// The quadrotor's table: the generated MPC's row from the Rust firmware's output
@@ -154,21 +156,22 @@ fn peer_rows(root: &Path, python: &Path, dir: &Path, reference: &Reference) -> V
 
 /// What the columns mean, and how the problem was handed over.
 fn note(reference: &Reference, rebuilt: &str) -> String {
-    let state_box = if reference.state_peak < 5.0 {
-        "inactive"
-    } else {
-        "active: every solver here solves without it"
-    };
+    let state_box = |peak: f64| if peak < 5.0 { "inactive" } else { "active" };
     format!(
         "  Instructions per solve (SysTick under -icount, the call of an empty function \
          subtracted); cycles estimated at each solver's traced cycles per instruction; us at \
          168 MHz; text: bytes of code the call can reach; d exact: largest difference of a \
          plan's moves from the exact solution of the solver's QP (desktop OSQP, f64, \
          1e-10, polished: optimality residual {:.0e}), relative to the input range 1; d \
-         common: from the common QP's. The largest |x| the exact plans predict is {:.2}, \
-         so TinyMPC's example's state box |x| <= 5 would be {state_box}. The generated \
-         MPC's solves (on the host) rebuilt {rebuilt}.\n  {TERMS}.\n\n",
-        reference.residual, reference.state_peak
+         common: from the common QP's. The largest |x| the exact plans predict is {:.2} \
+         (TinyMPC's own QP's {:.2}): TinyMPC's example's state box |x| <= 5, which no \
+         solver here is given, would be {} ({} in TinyMPC's QP). The generated MPC's \
+         solves (on the host) rebuilt {rebuilt}.\n  {TERMS}.\n\n",
+        reference.residual,
+        reference.state_peak,
+        reference.tinympc_state_peak,
+        state_box(reference.state_peak),
+        state_box(reference.tinympc_state_peak),
     )
 }
 
@@ -332,6 +335,7 @@ fn reference(path: &Path) -> Result<Reference, String> {
         tinympc: plans("tinympc_plans")?,
         residual: value["residual"].as_f64().unwrap_or(f64::NAN),
         state_peak: value["state_peak"].as_f64().unwrap_or(f64::NAN),
+        tinympc_state_peak: value["tinympc_state_peak"].as_f64().unwrap_or(f64::NAN),
     })
 }
 

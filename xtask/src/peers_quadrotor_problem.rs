@@ -10,7 +10,7 @@
 //!   `x0 = (0, 1, 0, 0.2, 0, 0, 0.1, 0, ..)` held to the reference `z = 2`, of its
 //!   `examples/quadrotor_hovering.cpp` (here as the error `x0 - xref`, regulated to zero);
 //!   that example's state box `|x| <= 5` is left out (our MPC cannot state state limits
-//!   yet), and the reference solutions check that it is never reached (`state_peak`);
+//!   yet): the table says the largest `|x|` the exact plans predict;
 //! - the horizon: that example's NHORIZON = 10 knot points are 9 moves; the run takes
 //!   `quadrotor::Mpc::HORIZON` (8 until the generator takes more than 32 unknowns).
 //!
