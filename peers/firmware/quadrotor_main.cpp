@@ -50,10 +50,11 @@ static uint32_t elapsed(uint32_t start, uint32_t end) {
 enum { N = QUAD_UNKNOWNS };
 
 /* The steps run: all of them, or (the build xtask traces instruction by instruction, whose
- * logged run would take long over every step) the first QUAD_RUN_STEPS. */
-#ifndef QUAD_RUN_STEPS
-#define QUAD_RUN_STEPS QUAD_STEPS
+ * logged run would take long over OSQP's slowest steps) those from QUAD_RUN_FROM on. */
+#ifndef QUAD_RUN_FROM
+#define QUAD_RUN_FROM 0
 #endif
+enum { RUN = QUAD_STEPS - QUAD_RUN_FROM };
 
 /* DAQP's problem: H and the bounds fixed, f rewritten each step. */
 static c_float daqp_h[N * N];
@@ -194,27 +195,27 @@ static void run(const char *name, PeerSolve peer_solve, uint32_t heap) {
     peers_nothing(&quad_states[0], plans[0]);
     uint32_t empty = elapsed(start, systick());
     trace_begin();
-    for (int k = 0; k < QUAD_RUN_STEPS; k++) {
+    for (int k = QUAD_RUN_FROM; k < QUAD_STEPS; k++) {
         start = systick();
         iterations[k] = peer_solve(&quad_states[k * QUAD_NX], plans[k]);
         uint32_t count = elapsed(start, systick());
-        each[k] = count > empty ? count - empty : 0;
+        each[k - QUAD_RUN_FROM] = count > empty ? count - empty : 0;
     }
     trace_end();
     int most = 0;
     uint64_t total = 0;
-    for (int k = 0; k < QUAD_RUN_STEPS; k++) {
+    for (int k = QUAD_RUN_FROM; k < QUAD_STEPS; k++) {
         printf("peer %s %d %d", name, k + 1, iterations[k]);
         for (int i = 0; i < N; i++) {
             printf(" %.9g", (double)plans[k][i]);
         }
         printf("\n");
         most = iterations[k] > most ? iterations[k] : most;
-        total += each[k];
+        total += each[k - QUAD_RUN_FROM];
     }
-    qsort(each, QUAD_RUN_STEPS, sizeof each[0], by_value);
-    printf("peerspread %s %lu %lu %d %.3f\n", name, (unsigned long)each[QUAD_RUN_STEPS / 2],
-           (unsigned long)each[QUAD_RUN_STEPS - 1], most, (double)total / QUAD_RUN_STEPS);
+    qsort(each, RUN, sizeof each[0], by_value);
+    printf("peerspread %s %lu %lu %d %.3f\n", name, (unsigned long)each[RUN / 2],
+           (unsigned long)each[RUN - 1], most, (double)total / RUN);
     float plan[N];
     uint32_t stack = stack_depth(peer_solve, &quad_states[(QUAD_STEPS - 1) * QUAD_NX], plan);
     printf("peerram %s %lu %lu\n", name, (unsigned long)heap, (unsigned long)stack);

@@ -417,13 +417,14 @@ fn static_bytes(objects: &[PathBuf]) -> Result<u64, String> {
         .sum())
 }
 
-/// Steps of the build whose run is traced instruction by instruction (QEMU logging every
-/// instruction of OSQP's slowest steps over the whole run would take most of an hour);
-/// its cycles per instruction stand for the whole run's.
+/// Steps of the build whose run is traced instruction by instruction: the run's last, in
+/// hover after the gust (QEMU logging every instruction of OSQP's slowest steps, 3600
+/// iterations and more, would take hours); their cycles per instruction stand for the
+/// whole run's.
 const TRACED_STEPS: usize = 20;
 
 /// Builds and runs the peers' firmware: its output over every step; the build that runs
-/// the first [`TRACED_STEPS`], for the trace, and its output; each peer's static bytes.
+/// the last [`TRACED_STEPS`], for the trace, and its output; each peer's static bytes.
 fn peers_firmware(root: &Path, python: &Path, dir: &Path) -> Result<PeerRuns, String> {
     let (peers, harness, short) = compile_peers(root, python, dir)?;
     let mut statics = BTreeMap::new();
@@ -472,7 +473,7 @@ fn peers_firmware(root: &Path, python: &Path, dir: &Path) -> Result<PeerRuns, St
 struct PeerRuns {
     /// The output over every step.
     full: String,
-    /// The build of the first [`TRACED_STEPS`], and its output.
+    /// The build of the last [`TRACED_STEPS`], and its output.
     traced_elf: PathBuf,
     traced: String,
     /// Each peer's static bytes.
@@ -551,7 +552,8 @@ fn compile_peers(
         &[],
         "startup",
     )?);
-    main_options.push(format!("-DQUAD_RUN_STEPS={TRACED_STEPS}"));
+    let steps = crate::peers_quadrotor_problem::STEPS;
+    main_options.push(format!("-DQUAD_RUN_FROM={}", steps - TRACED_STEPS));
     let short = compile("arm-none-eabi-g++", &main, &main_options, "main_traced")?;
     Ok((peers, harness, short[0].clone()))
 }
