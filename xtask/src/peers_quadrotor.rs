@@ -315,11 +315,19 @@ fn row(
     let ram = solver.ram.map_or("?".into(), |[state, stack]| {
         (state + statics.unwrap_or(0) + stack).to_string()
     });
+    // Cycles, or `?` where the trace estimated none.
+    let cycles = |v: f64, digits: usize| {
+        if v.is_nan() {
+            "?".to_owned()
+        } else {
+            format!("{v:.digits$}")
+        }
+    };
     Ok(format!(
-        "{label:<22} {median:>8.0} {worst:>8.0} {:>9.0} {:>9.0} {:>8.1} {:>8} {ram:>8} {most:>6.0} {d_exact:>10.2e} {d_common:>10} {failed:>6}{lost}\n",
-        median * cpi,
-        worst * cpi,
-        worst * cpi / 168.0,
+        "{label:<22} {median:>8.0} {worst:>8.0} {:>9} {:>9} {:>8} {:>8} {ram:>8} {most:>6.0} {d_exact:>10.2e} {d_common:>10} {failed:>6}{lost}\n",
+        cycles(median * cpi, 0),
+        cycles(worst * cpi, 0),
+        cycles(worst * cpi / 168.0, 1),
         program.reachable_size(&wrapper).map_or("?".into(), |b| b.to_string()),
     ))
 }
