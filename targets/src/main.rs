@@ -38,6 +38,8 @@ mod observers_baseline;
 mod peers;
 #[cfg(feature = "symforce")]
 mod peers_navigation;
+#[cfg(feature = "peers")]
+mod peers_quadrotor;
 
 use core::hint::black_box;
 use cortex_m_rt::entry;
@@ -89,6 +91,7 @@ fn main() -> ! {
     #[cfg(feature = "peers")]
     {
         peers::run(&clock);
+        peers_quadrotor::run(&clock);
         #[cfg(feature = "symforce")]
         peers_navigation::run(&clock);
         hprintln!("done");

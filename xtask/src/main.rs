@@ -26,6 +26,8 @@ mod msrv;
 mod peers;
 mod peers_build;
 mod peers_problem;
+mod peers_quadrotor;
+mod peers_quadrotor_problem;
 mod peers_symforce;
 mod peers_tinympc;
 mod scratch;

@@ -52,6 +52,11 @@ pub fn report() -> Result<String, String> {
     let problem_path = dir.join("problem.json");
     std::fs::write(&problem_path, problem.to_string())
         .map_err(|e| format!("{}: {e}", problem_path.display()))?;
+    // The quadrotor's run (its states are the firmware's, written beside the JSON).
+    let quadrotor = crate::peers_quadrotor_problem::problem(&dir)?;
+    let quadrotor_path = dir.join("quadrotor.json");
+    std::fs::write(&quadrotor_path, quadrotor.to_string())
+        .map_err(|e| format!("{}: {e}", quadrotor_path.display()))?;
     let gcc = peers_build::arm_gcc()?;
     let python = peers_build::python(&dir)?;
     let versions = |names: &[&str]| -> String {
@@ -95,6 +100,18 @@ pub fn report() -> Result<String, String> {
         "  {OSQP_TERMS}.\n  {}.\n\n",
         crate::peers_tinympc::TERMS
     ));
+    out.push_str(
+        &crate::peers_quadrotor::report(
+            &root,
+            &python,
+            &dir,
+            &text,
+            &program,
+            &traced,
+            &versions(&["osqp", "tinympc", "daqp"]),
+        )
+        .unwrap_or_else(|e| format!("TinyMPC's quadrotor benchmark: cannot run here: {e}\n\n")),
+    );
     out.push_str(&crate::peers_symforce::report(
         &symforce,
         &text,
@@ -159,7 +176,7 @@ fn trace(
         }
         program.add_calls(&wrapper, linked);
     }
-    let mut wrappers: Vec<String> = ["mpc", "osqp"]
+    let mut wrappers: Vec<String> = ["mpc", "osqp", "quadmpc"]
         .iter()
         .filter_map(|n| program.function(&format!("peers_{n}_solve")))
         .collect();

@@ -10,10 +10,11 @@ use std::process::Command;
 
 /// The peers' Python packages, pinned: their code generators' interfaces change between
 /// versions.
-pub const PACKAGES: [(&str, &str); 3] = [
+pub const PACKAGES: [(&str, &str); 4] = [
     ("osqp", "1.1.3"),
     ("tinympc", "0.0.8"),
     ("symforce", "0.12.0"),
+    ("daqp", "0.11.0"),
 ];
 
 /// The compiler's options for the Cortex-M4F, as the issue states them (single-precision

@@ -18,8 +18,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
 /// The clock of the Rust firmware's runner (`targets/.cargo/config.toml`), after the
-/// board's machine (`stateforge_cli::measure::MACHINE`): one nanosecond per instruction.
-const ICOUNT: [&str; 2] = ["-icount", "shift=0,align=off,sleep=off"];
+/// board's machine (`stateforge_cli::measure::MACHINE`): one nanosecond per instruction;
+/// then the image (`MACHINE` no longer ends with `-kernel`: without it QEMU takes the ELF
+/// for a disk and runs nothing).
+pub const ICOUNT: [&str; 3] = ["-icount", "shift=0,align=off,sleep=off", "-kernel"];
 
 /// What TinyMPC was handed and how it was tuned, printed under the rows.
 pub const TERMS: &str = "TinyMPC: a fixed model, the generated MPC's prediction model \
@@ -82,6 +84,13 @@ pub fn build(root: &Path, python: &Path, problem: &Path, dir: &Path) -> Result<P
     )?;
     objects.extend(startup);
     let elf = dir.join("tinympc.elf");
+    link(&firmware, &objects, &elf)?;
+    Ok(elf)
+}
+
+/// Links the peers' C/C++ firmware from `objects` with newlib-nano and the firmware's
+/// linker script (`firmware`/link.ld) into `elf`.
+pub fn link(firmware: &Path, objects: &[PathBuf], elf: &Path) -> Result<(), String> {
     let output = Command::new("arm-none-eabi-g++")
         .args(peers_build::CFLAGS)
         .args([
@@ -91,9 +100,9 @@ pub fn build(root: &Path, python: &Path, problem: &Path, dir: &Path) -> Result<P
         ])
         .args(["-Wl,--gc-sections", "-u", "_printf_float", "-T"])
         .arg(firmware.join("link.ld"))
-        .args(&objects)
+        .args(objects)
         .arg("-o")
-        .arg(&elf)
+        .arg(elf)
         .output()
         .map_err(|e| format!("cannot run arm-none-eabi-g++: {e}"))?;
     if !output.status.success() {
@@ -105,11 +114,11 @@ pub fn build(root: &Path, python: &Path, problem: &Path, dir: &Path) -> Result<P
             lines.join("\n  ")
         ));
     }
-    Ok(elf)
+    Ok(())
 }
 
 /// The two edits of the generated code (see the module's doc).
-fn patch(generated: &Path) -> Result<(), String> {
+pub fn patch(generated: &Path) -> Result<(), String> {
     let edit = |file: &Path, from: &str, to: &str| -> Result<(), String> {
         let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
         if !text.contains(from) {
