@@ -39,6 +39,25 @@ struct Replaying {
 }
 
 impl Replaying {
+    /// The reference from the initial estimate and covariance, with the process noise `q`
+    /// (a density if `q_density`) and the measurement noise of `r` below, before any
+    /// sample: the fix's block `[[0.5, 0.1], [0.1, 0.7]]`, the compass's 0.04.
+    fn new(
+        (x0, p0): (Vector3<f64>, Matrix3<f64>),
+        (q, q_density): (Matrix3<f64>, bool),
+    ) -> Replaying {
+        Replaying {
+            x0,
+            p0,
+            inputs: Vec::new(),
+            q_density,
+            measurements: Vec::new(),
+            q,
+            r_fix: Matrix2::new(0.5, 0.1, 0.1, 0.7),
+            r_compass: 0.04,
+        }
+    }
+
     /// The estimate and covariance at sample `at`, every measurement of it and before
     /// fused.
     fn at(&self, at: usize) -> (Vector3<f64>, Matrix3<f64>) {
@@ -129,16 +148,7 @@ fn delayed_fusion_equals_fusing_at_the_described_sample_and_replaying() {
     let q = Matrix3::new(0.02, 0.001, 0.0, 0.001, 0.03, 0.002, 0.0, 0.002, 0.01);
     let r = [[0.5, 0.1, 0.0], [0.1, 0.7, 0.0], [0.0, 0.0, 0.04]];
     let mut ekf = Ekf::new(&x0.into(), &as_array(&p0), &as_array(&q), &r).unwrap();
-    let mut replaying = Replaying {
-        x0,
-        p0,
-        inputs: Vec::new(),
-        q_density: false,
-        measurements: Vec::new(),
-        q,
-        r_fix: Matrix2::new(0.5, 0.1, 0.1, 0.7),
-        r_compass: 0.04,
-    };
+    let mut replaying = Replaying::new((x0, p0), (q, false));
     let (mut fixes, mut headings) = (0, 0);
     for k in 1..=60_usize {
         let t = k as f64 * DT;
@@ -245,16 +255,7 @@ fn with_a_sample_interval_the_buffer_holds_each_sample_s() {
     let q = Matrix3::new(0.2, 0.01, 0.0, 0.01, 0.3, 0.02, 0.0, 0.02, 0.1);
     let r = [[0.5, 0.1, 0.0], [0.1, 0.7, 0.0], [0.0, 0.0, 0.04]];
     let mut ekf = Ekf::new(&x0.into(), &as_array(&p0), &as_array(&q), &r).unwrap();
-    let mut replaying = Replaying {
-        x0,
-        p0,
-        inputs: Vec::new(),
-        q_density: true,
-        measurements: Vec::new(),
-        q,
-        r_fix: Matrix2::new(0.5, 0.1, 0.1, 0.7),
-        r_compass: 0.04,
-    };
+    let mut replaying = Replaying::new((x0, p0), (q, true));
     let mut t = 0.0;
     for k in 1..=50_usize {
         let dt = 0.1 * (1.0 + 0.33 * (1.7 * k as f64).sin());
