@@ -34,8 +34,8 @@
 //! `[[known]]` entries (`name`, `doc`) declare constants known only at run time.
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
 //! `[[sensor]]` entries (`name`, `outputs`, `doc`, and optionally `gate = 22.46` or
-//! `gate = "off"` and `delay = 38`, the macro's `sensor gnss(gate = 22.46, delay = 38) =
-//! [..]`) group outputs.
+//! `gate = "off"` and `delay = 38` or `max_delay = 25`, the macro's `sensor gnss(gate =
+//! 22.46, delay = 38) = [..]`) group outputs.
 
 use crate::expression_places;
 pub use crate::expression_text::comparison_of;
@@ -170,6 +170,10 @@ struct Sensor {
     /// `delay = 38`: how many samples late its measurements arrive.
     #[serde(default)]
     delay: Option<Spanned<OptionValue>>,
+    /// `max_delay = 25`: the most samples late its measurements may arrive, each one's
+    /// delay given to its update at run time.
+    #[serde(default)]
+    max_delay: Option<Spanned<OptionValue>>,
 }
 
 /// A named expression: a constant, output or intermediate.
@@ -614,11 +618,12 @@ impl Reader<'_> {
         let mut decls = Vec::new();
         for s in sensors {
             let gate = s.gate.as_ref().and_then(|g| self.sensor_gate(g));
-            let delay = s.delay.as_ref().and_then(|d| self.sensor_delay(d));
+            let delay = s.delay.as_ref().and_then(|d| self.sensor_delay("delay", d));
+            let max_delay = (s.max_delay.as_ref()).and_then(|d| self.sensor_delay("max_delay", d));
             decls.push(SensorDecl {
                 docs: docs(&s.doc),
                 name: self.name(&s.name),
-                options: gate.into_iter().chain(delay).collect(),
+                options: gate.into_iter().chain(delay).chain(max_delay).collect(),
                 outputs: s.outputs.iter().map(|o| self.name(o)).collect(),
             });
         }
@@ -656,16 +661,21 @@ impl Reader<'_> {
         })
     }
 
-    /// A sensor's `delay`, as the macro's option `delay = ..` (checked with it): a number;
-    /// anything else is an error here.
-    fn sensor_delay(&mut self, delay: &Spanned<OptionValue>) -> Option<GenerateArg> {
+    /// A sensor's `delay` or `max_delay` (`key`), as the macro's option of that name
+    /// (checked with it): a number; anything else is an error here.
+    fn sensor_delay(&mut self, key: &str, delay: &Spanned<OptionValue>) -> Option<GenerateArg> {
         let here = self.places.inside(self.source, delay);
         let OptionValue::Number(v) = delay.get_ref() else {
+            let what = if key == "delay" {
+                "how many samples late the sensor's measurements arrive (`delay = 38`)"
+            } else {
+                "the most samples late the sensor's measurements may arrive, each one's \
+                 delay given at run time (`max_delay = 25`)"
+            };
             self.diag.error(
                 here,
                 format!(
-                    "sensor.delay: {} is not a delay, which is how many samples late the \
-                     sensor's measurements arrive (`delay = 38`)",
+                    "sensor.{key}: {} is not a delay, which is {what}",
                     delay.get_ref().describe()
                 ),
             );
@@ -673,7 +683,7 @@ impl Reader<'_> {
         };
         Some(GenerateArg {
             name: Name {
-                text: "delay".to_owned(),
+                text: key.to_owned(),
                 span: here,
             },
             value: ArgValue::Number(*v, here),

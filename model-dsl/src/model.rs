@@ -242,8 +242,12 @@ pub struct Sensor {
     pub gate: Option<f64>,
     /// How many samples (calls of `predict`) late its measurements arrive
     /// (`sensor gnss(delay = 38) = [..]`): a measurement given now describes the state
-    /// `delay` samples ago. Zero when it declares none.
+    /// `delay` samples ago. Zero when it declares none. With a delay given at run time
+    /// (`sensor flow(max_delay = 25) = [..]`), the most it may be.
     pub delay: usize,
+    /// Whether each measurement comes with its own delay, from 0 to [`Sensor::delay`],
+    /// given to the sensor's update at run time (`sensor flow(max_delay = 25) = [..]`).
+    pub delay_at_run_time: bool,
 }
 
 /// A named intermediate of the dynamics block.

@@ -3,13 +3,16 @@
 //! compass's headings until the horizon reaches them, and predicts the current state
 //! through its buffered inputs, against an independent nalgebra filter that keeps every
 //! input and measurement and replays them from the start, each measurement fused at the
-//! sample it describes (estimate and covariance), to 1e-9 in `f64`.
+//! sample it describes (estimate and covariance), to 1e-9 in `f64`; and the same with
+//! each measurement's delay given at run time (`sensor fix(max_delay = 4)`), varying from
+//! one measurement to the next.
 
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
 use tests::plane::{f, jacobian};
 
 include!("../models/delayed_fix.rs");
 include!("../models/jittered_late.rs");
+include!("../models/varying_delay.rs");
 
 const DT: f64 = 0.1;
 const DELAY: usize = 3;
@@ -23,7 +26,8 @@ enum Measurement {
 
 /// The reference: keeps every input and measurement (with the sample it describes) and,
 /// at each sample, runs a plain EKF from the start to the horizon, fusing at each sample
-/// the measurements that describe it in the order they arrived; the current state is the
+/// the measurements that describe it (those before the start at the start, once they have
+/// waited as the filter makes them) in the order they arrived; the current state is the
 /// horizon's estimate propagated through the inputs since.
 struct Replaying {
     x0: Vector3<f64>,
@@ -32,7 +36,11 @@ struct Replaying {
     inputs: Vec<(f64, [f64; 2])>,
     /// Whether `q` is a density (a model with a sample interval: `Q dt`), else per sample.
     q_density: bool,
-    measurements: Vec<(usize, Measurement)>,
+    /// Each measurement with the sample it describes (the start for one before it) and the
+    /// prediction from which the filter has fused it: a measurement `d` samples late on a
+    /// horizon `late` behind waits `late - d` predictions, so one that describes a sample
+    /// before the start is fused there once it has waited.
+    measurements: Vec<(usize, usize, Measurement)>,
     q: Matrix3<f64>,
     r_fix: Matrix2<f64>,
     r_compass: f64,
@@ -60,7 +68,7 @@ impl Replaying {
 
     /// The estimate and covariance at sample `at`, every measurement of it and before
     /// fused.
-    fn at(&self, at: usize) -> (Vector3<f64>, Matrix3<f64>) {
+    fn at(&self, at: usize, now: usize) -> (Vector3<f64>, Matrix3<f64>) {
         let (mut x, mut p) = (self.x0, self.p0);
         for j in 0..=at {
             if j > 0 {
@@ -69,7 +77,8 @@ impl Replaying {
                 let q = if self.q_density { self.q * dt } else { self.q };
                 (x, p) = (f(dt, &x, u), a * p * a.transpose() + q);
             }
-            for &(_, y) in self.measurements.iter().filter(|(of, _)| *of == j) {
+            let fused = |&&(of, from, _): &&(usize, usize, Measurement)| of == j && from <= now;
+            for &(_, _, y) in self.measurements.iter().filter(fused) {
                 (x, p) = self.fuse(x, p, y);
             }
         }
@@ -108,7 +117,7 @@ impl Replaying {
     fn assert_matches(&self, k: usize, late: usize, filter: ([f64; 3], [[f64; 3]; 3], [f64; 3])) {
         let (state, covariance, current) = filter;
         let horizon = k.saturating_sub(late);
-        let (x_delayed, p_delayed) = self.at(horizon);
+        let (x_delayed, p_delayed) = self.at(horizon, k);
         assert_close("delayed estimate", k, &state, x_delayed.as_slice());
         let p: Vec<f64> = covariance.iter().flatten().copied().collect();
         let p_reference: Vec<f64> = (0..9).map(|i| p_delayed[(i / 3, i % 3)]).collect();
@@ -117,9 +126,16 @@ impl Replaying {
         assert_close("current state", k, &current, x_now.as_slice());
     }
 
+    /// A measurement given after the `k`-th prediction, `d` samples late, to a filter on a
+    /// horizon `late` samples behind.
+    fn given(&mut self, (k, d, late): (usize, usize, usize), y: Measurement) {
+        self.measurements
+            .push((k.saturating_sub(d), k + late - d, y));
+    }
+
     /// The current state at sample `k`, from the horizon `horizon`.
     fn current(&self, horizon: usize, k: usize) -> Vector3<f64> {
-        let (x, _) = self.at(horizon);
+        let (x, _) = self.at(horizon, k);
         self.inputs[horizon..k]
             .iter()
             .fold(x, |x, &(dt, u)| f(dt, &x, u))
@@ -161,15 +177,13 @@ fn delayed_fusion_equals_fusing_at_the_described_sample_and_replaying() {
         if k % 2 == 0 {
             let y = [2.0 * t + (1.3 * t).cos(), 0.5 * t - (0.9 * t).sin()];
             assert_eq!(ekf.update_fix(&y), Status::Ok);
-            replaying
-                .measurements
-                .push((k.saturating_sub(DELAY), Measurement::Fix(y)));
+            replaying.given((k, DELAY, DELAY), Measurement::Fix(y));
             fixes += 1;
         }
         if k % 3 == 0 {
             let y = 0.3 + 0.1 * (0.5 * t).sin();
             assert_eq!(ekf.update_compass_sensor(&[y]), Status::Ok);
-            replaying.measurements.push((k, Measurement::Compass(y)));
+            replaying.given((k, 0, DELAY), Measurement::Compass(y));
             headings += 1;
         }
         let filter = (ekf.state(), ekf.covariance(), ekf.current_state());
@@ -266,14 +280,12 @@ fn with_a_sample_interval_the_buffer_holds_each_sample_s() {
         if k % 2 == 0 {
             let y = [2.0 * t + (1.3 * t).cos(), 0.5 * t - (0.9 * t).sin()];
             assert_eq!(ekf.update_fix(&y), Status::Ok);
-            replaying
-                .measurements
-                .push((k.saturating_sub(LATE), Measurement::Fix(y)));
+            replaying.given((k, LATE, LATE), Measurement::Fix(y));
         }
         if k % 3 == 0 {
             let y = 0.3 + 0.1 * (0.5 * t).sin();
             assert_eq!(ekf.update_compass_sensor(&[y]), Status::Ok);
-            replaying.measurements.push((k, Measurement::Compass(y)));
+            replaying.given((k, 0, LATE), Measurement::Compass(y));
         }
         let filter = (ekf.state(), ekf.covariance(), ekf.current_state());
         replaying.assert_matches(k, LATE, filter);
@@ -337,4 +349,247 @@ fn a_gated_step_that_refuses_an_outlier_keeps_the_horizon_s_prediction() {
         let (now, reference) = (stepped.current_state(), split.current_state());
         assert_close("current state", k as usize, &now, &reference);
     }
+}
+
+/// The slots of a sensor whose delay is given at run time, as the reference sees them: the
+/// samples its waiting measurements describe (before the start, negative), so that a
+/// second measurement for a sample one already waits for is expected refused.
+struct Slots {
+    /// The samples the horizon lags.
+    late: usize,
+    waiting: Vec<i64>,
+}
+
+impl Slots {
+    fn new(late: usize) -> Slots {
+        Slots {
+            late,
+            waiting: Vec::new(),
+        }
+    }
+
+    /// Whether a measurement given after the `k`-th prediction, `d` samples late, is
+    /// taken: fused at once at the horizon's delay; else stored unless its sample's slot
+    /// is taken (the predictions since fused what the horizon reached).
+    fn take(&mut self, k: usize, d: usize) -> bool {
+        let (k, d, late) = (k as i64, d as i64, self.late as i64);
+        self.waiting.retain(|&sample| sample > k - late);
+        if d == late {
+            return true;
+        }
+        if self.waiting.contains(&(k - d)) {
+            return false;
+        }
+        self.waiting.push(k - d);
+        true
+    }
+}
+
+/// Runs a filter of the plane with a fix and a compass whose delays are given at run time
+/// (or the fix's fixed, at the horizon's), `late` samples behind, against the replaying
+/// reference: `$fix(ekf, delay, y)` and `$compass(ekf, delay, y)` update it; the fix's
+/// delay follows `fix_delay(k)`. Each sample's delays differ from the last's, from 0 to
+/// each maximum; a measurement for a sample whose slot is taken must be refused and leave
+/// the filter as it was, and so must a delay beyond the maximum and a non-finite
+/// measurement. Returns the delays taken, fix's and compass's, and how many were refused
+/// for a taken slot.
+macro_rules! run_against_replaying {
+    ($module:ident, $late:expr, $fix_max:expr, $fix_delay:expr, $fix:expr, $compass:expr) => {{
+        use $module::in_f64::{Ekf, Status};
+        let late: usize = $late;
+        let fix_delay: fn(usize) -> usize = $fix_delay;
+        let fix: fn(&mut Ekf, usize, &[f64; 2]) -> Status = $fix;
+        let compass: fn(&mut Ekf, usize, &[f64; 1]) -> Status = $compass;
+        assert_eq!(Ekf::DELAY, late);
+        let x0 = Vector3::new(1.0, -2.0, 0.3);
+        let p0 = Matrix3::new(4.0, 0.5, 0.1, 0.5, 3.0, -0.2, 0.1, -0.2, 0.5);
+        let q = Matrix3::new(0.02, 0.001, 0.0, 0.001, 0.03, 0.002, 0.0, 0.002, 0.01);
+        let r = [[0.5, 0.1, 0.0], [0.1, 0.7, 0.0], [0.0, 0.0, 0.04]];
+        let mut ekf = Ekf::new(&x0.into(), &as_array(&p0), &as_array(&q), &r).unwrap();
+        let mut replaying = Replaying::new((x0, p0), (q, false));
+        let (mut fix_slots, mut compass_slots) = (Slots::new(late), Slots::new(late));
+        let (mut fix_delays, mut compass_delays, mut refused) = (Vec::new(), Vec::new(), 0);
+        for k in 1..=90_usize {
+            let t = k as f64 * DT;
+            let u = [2.0 + (0.7 * t).sin(), 0.3 * (0.4 * t).cos()];
+            assert_eq!(ekf.predict(&u), Status::Ok);
+            replaying.inputs.push((DT, u));
+            if k % 2 == 0 || k % 5 == 1 {
+                let d = fix_delay(k);
+                let s = (k as f64 - d as f64) * DT;
+                let y = [2.0 * s + (1.3 * s).cos(), 0.5 * s - (0.9 * s).sin()];
+                let before = ekf;
+                if fix_slots.take(k, d) {
+                    assert_eq!(fix(&mut ekf, d, &y), Status::Ok, "fix at {k}, {d} late");
+                    replaying.given((k, d, late), Measurement::Fix(y));
+                    fix_delays.push(d);
+                } else {
+                    assert_eq!(fix(&mut ekf, d, &y), Status::RejectedInput, "at {k}");
+                    assert_eq!(ekf, before, "a refused fix changed the filter at {k}");
+                    refused += 1;
+                }
+            }
+            if k % 3 != 1 {
+                let d = (k / 2 + k / 7) % 3;
+                let s = (k as f64 - d as f64) * DT;
+                let y = [0.3 + 0.1 * (0.5 * s).sin()];
+                let before = ekf;
+                if compass_slots.take(k, d) {
+                    assert_eq!(compass(&mut ekf, d, &y), Status::Ok, "compass at {k}");
+                    replaying.given((k, d, late), Measurement::Compass(y[0]));
+                    compass_delays.push(d);
+                } else {
+                    assert_eq!(compass(&mut ekf, d, &y), Status::RejectedInput, "at {k}");
+                    assert_eq!(ekf, before, "a refused heading changed the filter at {k}");
+                    refused += 1;
+                }
+            }
+            // Refused, the filter left as it was: a delay beyond the maximum, and a
+            // non-finite measurement.
+            let before = ekf;
+            assert_eq!(compass(&mut ekf, 3, &[0.3]), Status::RejectedInput);
+            assert_eq!(compass(&mut ekf, usize::MAX, &[0.3]), Status::RejectedInput);
+            assert_eq!(compass(&mut ekf, 0, &[f64::NAN]), Status::RejectedInput);
+            if let Some(max) = $fix_max {
+                assert_eq!(fix(&mut ekf, max + 1, &[1.0, 2.0]), Status::RejectedInput);
+            }
+            assert_eq!(
+                fix(&mut ekf, 0, &[f64::INFINITY, 2.0]),
+                Status::RejectedInput
+            );
+            assert_eq!(
+                ekf, before,
+                "a refused measurement changed the filter at {k}"
+            );
+            let filter = (ekf.state(), ekf.covariance(), ekf.current_state());
+            replaying.assert_matches(k, late, filter);
+        }
+        (fix_delays, compass_delays, refused)
+    }};
+}
+
+/// That `delays` holds every delay from 0 to `max`.
+fn assert_every_delay(what: &str, delays: &[usize], max: usize) {
+    for d in 0..=max {
+        assert!(
+            delays.contains(&d),
+            "no {what} {d} samples late in {delays:?}"
+        );
+    }
+}
+
+#[test]
+fn run_time_delays_equal_fusing_each_at_the_described_sample_and_replaying() {
+    let (fixes, headings, refused) = run_against_replaying!(
+        varying_delay,
+        4,
+        Some(4_usize),
+        |k| (3 * k + k / 7) % 5,
+        |ekf, d, y| ekf.update_fix(d, y),
+        |ekf, d, y| ekf.update_compass_sensor(d, y)
+    );
+    // Every delay taken, the horizon's (fused at once) and none (waiting longest)
+    // included, and some measurements refused for a slot taken.
+    assert_every_delay("fix", &fixes, 4);
+    assert_every_delay("heading", &headings, 2);
+    assert!(refused > 0);
+    // Consecutive measurements of a sensor had different delays.
+    assert!(fixes.windows(2).filter(|w| w[0] != w[1]).count() > fixes.len() / 2);
+}
+
+stateforge::model! {
+    /// The plane with a fix of a fixed delay, which sets the horizon, and a compass whose
+    /// delay is given at run time, shorter.
+    pub mod fixed_and_varying {
+        scalar f64;
+        const DT = 0.1;
+        state px, py, heading;
+        input speed, yaw_rate;
+        output fix_x = px, fix_y = py, compass = heading;
+        sensor fix(delay = 3) = [fix_x, fix_y];
+        sensor compass_sensor(max_delay = 2) = [compass];
+        dynamics discrete {
+            let turned = heading + DT * yaw_rate;
+            px = px + DT * speed * cos(turned);
+            py = py + DT * speed * sin(turned);
+            heading = turned;
+        }
+        generate ekf;
+    }
+}
+
+#[test]
+fn a_run_time_delay_beside_a_fixed_one_equals_replaying() {
+    mod fixed_and_varying {
+        pub use super::fixed_and_varying::{Ekf, Status};
+        pub mod in_f64 {
+            pub use super::{Ekf, Status};
+        }
+    }
+    let (fixes, headings, refused) = run_against_replaying!(
+        fixed_and_varying,
+        3,
+        None::<usize>,
+        |_| 3,
+        // The fix's delay is fixed, always 3.
+        |ekf, _, y| ekf.update_fix(y),
+        |ekf, d, y| ekf.update_compass_sensor(d, y)
+    );
+    assert_eq!(fixes.len(), 54);
+    assert_every_delay("heading", &headings, 2);
+    assert!(refused > 0);
+}
+
+#[test]
+fn a_joint_update_and_step_take_each_sensor_s_delay() {
+    use varying_delay::in_f64::{Ekf, Status};
+    let p0 = [[1.0, 0.2, 0.0], [0.2, 1.0, 0.0], [0.0, 0.0, 0.1]];
+    let q = [[0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.001]];
+    let r = [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, 0.1]];
+    let mut stepped = Ekf::new(&[0.0, 1.0, 0.2], &p0, &q, &r).unwrap();
+    let (mut joint, mut split) = (stepped, stepped);
+    for k in 0..20_usize {
+        let t = k as f64 * DT;
+        let (u, y) = ([1.0 + t, 0.1], [t, 1.0 - t, 0.2]);
+        let (d_fix, d_compass) = (k % 5, (k / 3) % 3);
+        let expected = stepped.step(d_fix, d_compass, &u, &y);
+        assert_eq!(joint.predict(&u), Status::Ok);
+        assert_eq!(joint.update(d_fix, d_compass, &y), expected, "sample {k}");
+        assert_eq!(split.predict(&u), Status::Ok);
+        let fix = split.update_fix(d_fix, &[y[0], y[1]]);
+        let compass = split.update_compass_sensor(d_compass, &[y[2]]);
+        let first = if fix == Status::Ok { compass } else { fix };
+        assert_eq!(first, expected, "sample {k}");
+        assert_eq!(stepped, joint, "sample {k}");
+        assert_eq!(stepped, split, "sample {k}");
+    }
+    // A joint update refused for its measurement leaves the filter as it was.
+    let before = joint;
+    assert_eq!(
+        joint.update(0, 0, &[f64::NAN, 0.0, 0.0]),
+        Status::RejectedInput
+    );
+    assert_eq!(joint, before);
+}
+
+#[test]
+fn reset_empties_the_slots() {
+    use varying_delay::in_f64::{Ekf, Status};
+    let p0 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.1]];
+    let q = [[0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.001]];
+    let r = [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, 0.1]];
+    let mut ekf = Ekf::new(&[0.0; 3], &p0, &q, &r).unwrap();
+    assert_eq!(ekf.update_fix(1, &[3.0, 3.0]), Status::Ok);
+    assert_eq!(ekf.update_fix(1, &[3.0, 3.0]), Status::RejectedInput);
+    assert_eq!(ekf.reset(&[5.0, 5.0, 0.0], &p0), Status::Ok);
+    // The slot is free again, and the fix given before the reset is never fused.
+    assert_eq!(ekf.update_fix(1, &[5.0, 5.0]), Status::Ok);
+    let mut unfused = Ekf::new(&[0.0; 3], &p0, &q, &r).unwrap();
+    assert_eq!(unfused.reset(&[5.0, 5.0, 0.0], &p0), Status::Ok);
+    assert_eq!(unfused.update_fix(1, &[5.0, 5.0]), Status::Ok);
+    for _ in 0..6 {
+        assert_eq!(ekf.predict(&[1.0, 0.0]), Status::Ok);
+        assert_eq!(unfused.predict(&[1.0, 0.0]), Status::Ok);
+    }
+    assert_eq!(ekf, unfused);
 }

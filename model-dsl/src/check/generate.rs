@@ -32,8 +32,8 @@ pub(super) fn check_generate(
         if !requirements_met(kind, decl, item, diag) {
             continue;
         }
-        if !kind.runs_delayed() && declares_delay(decl) {
-            diag.error(item.name.span, no_delayed_horizon(kind));
+        if let Some(option) = declared_delay(decl).filter(|_| !kind.runs_delayed()) {
+            diag.error(item.name.span, no_delayed_horizon(kind, option));
             continue;
         }
         if !kind.takes_interval() && decl.constants.iter().any(|c| c.interval.is_some()) {
@@ -142,24 +142,33 @@ fn requirements_met(
     met
 }
 
-/// Whether a sensor of the model declares a `delay`.
-fn declares_delay(decl: &ModelDecl) -> bool {
+/// The delay option a sensor of the model declares first, if any: `delay` (fixed) or
+/// `max_delay` (given at run time).
+fn declared_delay(decl: &ModelDecl) -> Option<&str> {
     decl.sensors
         .iter()
-        .any(|s| s.options.iter().any(|o| o.name.text == "delay"))
+        .flat_map(|s| &s.options)
+        .map(|o| o.name.text.as_str())
+        .find(|&name| name == "delay" || name == "max_delay")
 }
 
-/// What a generator with no delayed horizon says of a model with a delayed sensor.
-fn no_delayed_horizon(kind: &dyn Kind) -> String {
+/// What a generator with no delayed horizon says of a model with a delayed sensor, whose
+/// `option` (`delay` or `max_delay`) asks for one.
+fn no_delayed_horizon(kind: &dyn Kind, option: &str) -> String {
     let names: Vec<String> = REGISTRY
         .iter()
         .filter(|k| k.runs_delayed())
         .map(|k| format!("`{}`", k.name()))
         .collect();
     format!(
-        "`{}` does not run on a delayed horizon, which a sensor's `delay` asks for: {} \
-         does, or drop the `delay`",
+        "`{}` does not run on a delayed horizon, which a sensor's `{option}` asks for{}: \
+         {} does, or drop the `{option}`",
         kind.name(),
+        if option == "max_delay" {
+            " (each measurement's delay given to its update at run time)"
+        } else {
+            ""
+        },
         phrase(&names, "or")
     )
 }

@@ -1,5 +1,6 @@
 //! The sensors: named, disjoint groups of the declared outputs, which a filter corrects
-//! with in one update each, and their options (`sensor gnss(gate = 22.46) = [..]`).
+//! with in one update each, and their options (`sensor gnss(gate = 22.46) = [..]`, a fixed
+//! `delay = 38` or a `max_delay = 25` with each measurement's own delay given at run time).
 
 use super::names::check_identifier;
 use crate::ast::{ArgValue, GenerateArg, ModelDecl, Name, SensorDecl};
@@ -11,7 +12,7 @@ use std::collections::{HashMap, HashSet};
 const LISTED_OUTPUTS: usize = 12;
 
 /// The options a sensor takes.
-const SENSOR_OPTIONS: [&str; 2] = ["gate", "delay"];
+const SENSOR_OPTIONS: [&str; 3] = ["gate", "delay", "max_delay"];
 
 /// The longest delay a sensor may declare, in samples: its filter keeps a buffer of as
 /// many inputs, and re-propagates the estimate through them each sample.
@@ -66,12 +67,17 @@ pub(super) fn check_sensors(
             .into_iter()
             .flat_map(|i| entries.get(i).cloned().unwrap_or_default())
             .collect();
-        let (gate, delay) = options(sensor, outputs.len(), diag);
+        let Options {
+            gate,
+            delay,
+            delay_at_run_time,
+        } = options(sensor, outputs.len(), diag);
         sensors.push(Sensor {
             docs: sensor.docs.clone(),
             name: name.text.clone(),
             gate,
             delay,
+            delay_at_run_time,
             outputs,
         });
     }
@@ -87,6 +93,7 @@ pub(super) fn check_sensors(
                 outputs: entries.clone().collect(),
                 gate: None,
                 delay: 0,
+                delay_at_run_time: false,
             });
         }
     }
@@ -119,12 +126,17 @@ fn check_one_horizon(decl: &ModelDecl, sensors: &[Sensor], diag: &mut Diagnostic
         diag.error(
             first.name.span,
             format!(
-                "the sensor `{}` is {} samples late, so the filter runs on a delayed \
+                "the sensor `{}` is {}{} samples late, so the filter runs on a delayed \
                  horizon, where every measurement is fused, each sensor's waiting in a \
                  buffer of its own until the horizon reaches it: the output{} {} must be \
                  in a sensor too, `sensor <name> = [..];` (current) or `sensor \
                  <name>(delay = N) = [..];` (N samples late)",
                 delayed.name,
+                if delayed.delay_at_run_time {
+                    "up to "
+                } else {
+                    ""
+                },
                 delayed.delay,
                 if undelayed.len() == 1 { "" } else { "s" },
                 crate::diagnostics::phrase(&undelayed, "and")
@@ -174,12 +186,26 @@ fn names_an_output(sensor: &SensorDecl, entries: Option<&std::ops::Range<usize>>
     )
 }
 
+/// A sensor's options, as read.
+struct Options {
+    /// Its own gate, if it declares one.
+    gate: Option<f64>,
+    /// Its delay (`delay = 38`), or the most it may be (`max_delay = 25`); zero if none.
+    delay: usize,
+    /// Whether each measurement's delay is given at run time (`max_delay`).
+    delay_at_run_time: bool,
+}
+
 /// The options of `sensor`, of `len` outputs: its gate, if it declares one, and its delay
-/// (zero if none). A value that is not a gate or a delay, an option given twice or one a
-/// sensor does not take is reported.
-fn options(sensor: &SensorDecl, len: usize, diag: &mut Diagnostics) -> (Option<f64>, usize) {
-    let mut gate = None;
-    let mut delay = 0;
+/// (zero if none), fixed or at most (`max_delay`). A value that is not a gate or a delay,
+/// an option given twice, both kinds of delay, or an option a sensor does not take is
+/// reported.
+fn options(sensor: &SensorDecl, len: usize, diag: &mut Diagnostics) -> Options {
+    let mut read = Options {
+        gate: None,
+        delay: 0,
+        delay_at_run_time: false,
+    };
     let mut seen: HashSet<&str> = HashSet::new();
     for option in &sensor.options {
         let key = option.name.text.as_str();
@@ -187,26 +213,56 @@ fn options(sensor: &SensorDecl, len: usize, diag: &mut Diagnostics) -> (Option<f
             diag.error(option.name.span, format!("`{key}` is given twice"));
             continue;
         }
-        if key == "gate" {
-            gate = read_gate(option, len, diag);
-        } else if key == "delay" {
-            delay = read_delay(option, diag);
-        } else {
-            diag.error(option.name.span, unknown_option(key));
+        match key {
+            "gate" => read.gate = read_gate(option, len, diag),
+            "delay" | "max_delay" if seen.contains("delay") && seen.contains("max_delay") => {
+                diag.error(option.name.span, both_delays(&sensor.name.text));
+            }
+            "delay" => read.delay = read_delay(option, false, diag),
+            "max_delay" => {
+                read.delay = read_delay(option, true, diag);
+                read.delay_at_run_time = read.delay > 0;
+            }
+            _ => diag.error(option.name.span, unknown_option(key)),
         }
     }
-    (gate, delay)
+    read
 }
 
-/// `delay = 38`: how many samples (calls of `predict`) late the sensor's measurements
-/// arrive, a whole number from 1 to [`MAX_DELAY`]; 0 (reported otherwise) on error.
-fn read_delay(option: &GenerateArg, diag: &mut Diagnostics) -> usize {
+/// A sensor's delay is fixed (`delay`) or given at run time up to a maximum
+/// (`max_delay`), not both.
+fn both_delays(sensor: &str) -> String {
+    format!(
+        "a sensor's delay is fixed, `delay = 38` (every measurement that many samples \
+         late), or given with each measurement up to a maximum, `max_delay = 25` \
+         (`update_{sensor}(delay, y)`): keep one"
+    )
+}
+
+/// `delay = 38` (`at_run_time` false): how many samples (calls of `predict`) late the
+/// sensor's measurements arrive; `max_delay = 25`: the most they may be, each
+/// measurement's own given to its update at run time. A whole number from 1 to
+/// [`MAX_DELAY`]; 0 (reported otherwise) on error.
+fn read_delay(option: &GenerateArg, at_run_time: bool, diag: &mut Diagnostics) -> usize {
     match &option.value {
         ArgValue::Number(v, _) if v.fract() == 0.0 && *v >= 1.0 && *v <= MAX_DELAY as f64 => {
             // A whole number in range: exact as a usize.
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             let samples = *v as usize;
             samples
+        }
+        other if at_run_time => {
+            diag.error(
+                other.span(),
+                format!(
+                    "a sensor's `max_delay` is the most samples (calls of `predict`) late \
+                     its measurements may arrive, each one's own delay given to its update \
+                     at run time; a whole number from 1 to {MAX_DELAY} (the filter's \
+                     buffers hold as many samples): an optical-flow fix up to 100 ms late \
+                     in a filter sampled at 250 Hz is `max_delay = 25`"
+                ),
+            );
+            0
         }
         other => {
             diag.error(

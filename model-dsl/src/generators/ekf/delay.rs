@@ -7,6 +7,20 @@
 //! its own until the horizon reaches the sample it describes, so the horizon fuses every
 //! measurement in the order of the samples they describe.
 //!
+//! A sensor whose delay is given with each measurement (`sensor flow(max_delay = 25) =
+//! [..]`, `update_flow(delay, y)`) has a buffer of one slot per sample the horizon lags
+//! (`DELAY`), its measurement put in the slot of the sample it describes: a match over the
+//! delay picks the slot, so storing costs the same whatever the delay, measurements that
+//! arrive out of order are fused in the order of the samples they describe, and the
+//! buffer is never full. EKF2 keeps a ring buffer of time-stamped samples instead, sized
+//! from the delay and the sensor's rate, and refuses a sample not newer than the newest it
+//! holds by its minimum observation interval; here the one refusal of that kind is a
+//! second measurement of the sensor for a sample whose slot is taken (the first is kept,
+//! and the filter is left as it was). A slot a sample costs a sensor of `m` outputs
+//! `DELAY (m + 1)` scalars of RAM and their shift at each prediction; a queue of
+//! time-stamped entries would take less RAM at a low rate, but needs a declared capacity,
+//! counters decremented at each prediction, and a search (unrolled) for the due entry.
+//!
 //! EKF2's output predictor is a complementary observer (a few operations a sample,
 //! tracking the delayed estimate with a lag); this one is exact: a prediction that fuses
 //! nothing moves the current state by one evaluation of `f` with the new input (the
@@ -57,19 +71,38 @@ pub fn buffered_interval(model: &Model) -> Option<Ident> {
     model.interval_parameter().map(|name| ident(&name))
 }
 
-/// The sensors of `model` whose measurements wait for the horizon, in declaration order;
-/// none without a delay.
+/// The sensors of `model` whose measurements wait for the horizon, in declaration order:
+/// those of a shorter delay, and those whose delay is given at run time (one slot a sample
+/// the horizon lags, a measurement of no delay waiting longest); none without a delay.
 pub fn pending(model: &Model) -> Vec<Pending<'_>> {
     let delay = model.delay();
     model
         .sensors
         .iter()
-        .filter(|s| s.delay < delay)
+        .filter(|s| s.delay_at_run_time || s.delay < delay)
         .map(|sensor| Pending {
             sensor,
-            slots: delay - sensor.delay,
+            slots: if sensor.delay_at_run_time {
+                delay
+            } else {
+                delay - sensor.delay
+            },
         })
         .collect()
+}
+
+/// Why `horizon = current` refuses a model whose sensor `sensor` takes its delay at run
+/// time: a filter on the current horizon fuses each measurement as it arrives, so its
+/// update would take a delay it does not use, and its calls would not be the delayed
+/// filter's, which the comparison needs.
+pub fn current_with_run_time_delay(sensor: &str) -> String {
+    format!(
+        "`horizon = current` fuses late measurements as if they were current, for \
+         comparison with the delayed horizon; the sensor `{sensor}` takes each \
+         measurement's delay at run time (`max_delay`), which such a filter would ignore: \
+         compare with a fixed delay, `sensor {sensor}(delay = N) = [..];`, or drop the \
+         option"
+    )
 }
 
 /// The buffer's fields: the inputs of the last `DELAY` samples (oldest first) with a flag
@@ -274,8 +307,11 @@ pub struct CallOps {
 impl CallOps {
     /// The public calls' arithmetic, at most, from their steps' on the horizon (`self`):
     /// each call that fuses runs the whole output predictor after its step; a prediction
-    /// fuses, at most, a waiting measurement of each sensor that arrives sooner; such a
-    /// sensor's update only buffers its measurement; and with sensors of different delays,
+    /// shifts the waiting measurements' slots and fuses, at most, one of each sensor that
+    /// arrives sooner; such a
+    /// sensor's update only buffers its measurement (one whose delay is given at run time
+    /// matches it to its slot first, and at the horizon's delay fuses it at once, the
+    /// dearer of the two counted); and with sensors of different delays,
     /// `update` is the sensors' updates in turn, `step` a prediction and then them.
     pub fn on_horizon(self, model: &Model, mg: &ModelGraph, scalar: Scalar) -> CallOps {
         let delay = model.delay();
@@ -294,23 +330,42 @@ impl CallOps {
             .iter()
             .filter(|(name, _)| is_waiting(name))
             .fold(OpCount::default(), |sum, (_, ops)| sum.plus(*ops));
-        let predict = self.predict.plus(fused_in_predict).plus(predictor);
+        // Each waiting sensor's slots shifted by one (its measurement and tag each).
+        let shifted = waiting.iter().fold(OpCount::default(), |sum, p| {
+            let scalars = p.slots * (p.sensor.outputs.len() + 1);
+            sum.plus(OpCount::loads(scalars))
+                .plus(OpCount::stores(scalars))
+        });
+        let predict = (self.predict)
+            .plus(fused_in_predict)
+            .plus(shifted)
+            .plus(predictor);
         let sensors: Vec<(String, OpCount)> = self
             .sensors
             .into_iter()
             .zip(&model.sensors)
             .map(|((name, ops), sensor)| {
                 // Read, checked finite, stored with its tag.
-                let public = if is_waiting(&name) {
-                    let m = sensor.outputs.len();
-                    let compare = OpCount {
-                        compare: 1,
-                        ..OpCount::default()
-                    };
-                    OpCount::loads(m)
-                        .plus(OpCount::stores(m + 1))
-                        .plus(compare)
-                        .plus(OpCount::branches(1))
+                let compare = OpCount {
+                    compare: 1,
+                    ..OpCount::default()
+                };
+                let m = sensor.outputs.len();
+                let stored = OpCount::loads(m)
+                    .plus(OpCount::stores(m + 1))
+                    .plus(compare)
+                    .plus(OpCount::branches(1));
+                let public = if sensor.delay_at_run_time {
+                    // The delay matched to its slot (a compare and a jump), the slot's tag
+                    // read and tested; or, at the horizon's delay, fused there.
+                    let matched = compare
+                        .plus(OpCount::branches(2))
+                        .plus(OpCount::loads(1))
+                        .plus(compare);
+                    let at_horizon = (sensor.delay == delay).then(|| ops.plus(predictor));
+                    matched.plus(at_horizon.unwrap_or(stored))
+                } else if is_waiting(&name) {
+                    stored
                 } else {
                     ops.plus(predictor)
                 };

@@ -2,7 +2,9 @@
 //! its step on the horizon, privately, as `<name>_at_horizon`, and then the output
 //! predictor; a prediction first buffers its input, and then fuses the measurements that
 //! the horizon has reached; a sensor that arrives sooner than the horizon buffers its
-//! measurement; with sensors of different delays, the joint update is theirs in turn.
+//! measurement; one whose delay is given at run time puts it in the slot of the sample it
+//! describes (or fuses it at once at the horizon's delay); with sensors of different
+//! delays, the joint update is theirs in turn.
 
 use super::delay::{buffered_interval, pending, Pending};
 use crate::emit::arguments::Arguments;
@@ -41,7 +43,7 @@ pub fn wrap(
     (model, scalar): (&Model, Scalar),
 ) -> TokenStream {
     let ty = &ident(scalar.type_name());
-    let params = arguments.params().to_vec();
+    let mut params = arguments.params().to_vec();
     let names: Vec<TokenStream> = params
         .iter()
         .filter_map(|p| p.clone().into_iter().next())
@@ -49,6 +51,10 @@ pub fn wrap(
         .collect();
     let waiting = pending(model);
     let public = match call {
+        Call::Sensor(sensor) if sensor.delay_at_run_time => {
+            params.insert(0, quote! { delay: usize });
+            slotted_update(sensor, model.delay(), (name, &names), ty)
+        }
         Call::Sensor(sensor) if sensor.delay < model.delay() => {
             buffered_update(sensor, model.delay(), ty)
         }
@@ -56,9 +62,12 @@ pub fn wrap(
         Call::Update | Call::Step if !waiting.is_empty() => {
             let turn_doc = in_turn_doc(model, matches!(call, Call::Step));
             let body = in_turn(model, &names, matches!(call, Call::Step), ty);
+            let delays = run_time_delays(model)
+                .into_iter()
+                .map(|(_, delay)| quote! { #delay: usize });
             return quote! {
                 #[doc = #turn_doc]
-                pub fn #name(&mut self, #(#params),*) -> Status {
+                pub fn #name(&mut self, #(#delays,)* #(#params),*) -> Status {
                     #body
                 }
             };
@@ -87,6 +96,7 @@ pub fn wrap(
 /// What a public call on the horizon does, for its documentation.
 fn horizon_doc(call: Call, model: &Model) -> String {
     match call {
+        Call::Sensor(sensor) if sensor.delay_at_run_time => slotted_doc(sensor, model.delay()),
         Call::Sensor(sensor) if sensor.delay < model.delay() => format!(
             " On the delayed horizon: the measurement ({}) waits in a buffer until the \
              horizon reaches the sample it describes, {} predictions from now, and the \
@@ -142,6 +152,113 @@ fn buffered_update(sensor: &Sensor, delay: usize, ty: &Ident) -> TokenStream {
         let [.., newest] = &mut self.#field;
         *newest = Some(*y);
         Status::Ok
+    }
+}
+
+/// The sensors whose delay is given at run time, each with the joint update's parameter
+/// of it, `gnss_delay`.
+fn run_time_delays(model: &Model) -> Vec<(&Sensor, Ident)> {
+    model
+        .sensors
+        .iter()
+        .filter(|s| s.delay_at_run_time)
+        .map(|s| (s, ident(&format!("{}_delay", s.name))))
+        .collect()
+}
+
+/// What the update of a sensor whose delay is given at run time does, for its
+/// documentation (the horizon `delay` samples behind).
+fn slotted_doc(sensor: &Sensor, delay: usize) -> String {
+    let at_horizon = if sensor.delay == delay {
+        format!(
+            " A measurement {delay} samples late describes the horizon's sample: it is fused \
+             there at once, the output predictor then bringing [`Self::current_state`] to the \
+             present, and this returns its status."
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        " On the delayed horizon, `DELAY` samples behind: `delay` is how many samples \
+         (calls of [`Self::predict`]) late this measurement is, from 0 to {max} (`max_delay`); \
+         the measurement waits in a buffer of one slot a sample until the horizon reaches \
+         the sample it describes, and the [`Self::predict`] that fuses it there returns its \
+         status; this call returns [`Status::Ok`] once it is stored. Measurements arriving \
+         out of order are fused in the order of the samples they describe.{at_horizon} \
+         Refused as [`Status::RejectedInput`], the filter left as it was: a non-finite \
+         measurement, a `delay` beyond {max}, and a second measurement of the sensor for a \
+         sample one already waits for (the first is kept, as a flight stack refuses a \
+         sensor's samples that come faster than its buffer takes them).",
+        max = sensor.delay
+    )
+}
+
+/// The update of a sensor whose delay is given at run time (`delay: usize`, at most the
+/// sensor's `max_delay`) on a horizon `delay` samples behind: checks the measurement
+/// finite, then a match over the delay picks the slot of the sample it describes (the
+/// slot `DELAY - d - 1` from the oldest, which `DELAY - d` predictions bring to the
+/// horizon), refusing a delay beyond the maximum and a slot already taken; at the
+/// horizon's own delay the measurement is fused at once (`name` on the horizon with
+/// `names`, then the output predictor).
+fn slotted_update(
+    sensor: &Sensor,
+    delay: usize,
+    (name, names): (&Ident, &[TokenStream]),
+    ty: &Ident,
+) -> TokenStream {
+    let field = Pending {
+        sensor,
+        slots: delay,
+    }
+    .field();
+    let entries: Vec<Ident> = (0..sensor.outputs.len())
+        .map(|i| ident(&format!("y_{i}")))
+        .collect();
+    let inner = at_horizon(name);
+    let arms = (0..=sensor.delay).map(|late| {
+        let pattern = proc_macro2::Literal::usize_unsuffixed(late);
+        if late == delay {
+            return quote! {
+                #pattern => {
+                    let status = self.#inner(#(#names),*);
+                    self.predict_output();
+                    return status;
+                }
+            };
+        }
+        // The slot `delay - late - 1` from the oldest, written from the nearer end.
+        let from_oldest = delay - late - 1;
+        let from_newest = late;
+        let slot = if from_oldest <= from_newest {
+            let before = (0..from_oldest).map(|_| quote! { _ });
+            quote! { [#(#before,)* slot, ..] }
+        } else {
+            let after = (0..from_newest).map(|_| quote! { _ });
+            quote! { [.., slot #(, #after)*] }
+        };
+        quote! {
+            #pattern => {
+                let #slot = &mut self.#field;
+                slot
+            }
+        }
+    });
+    quote! {
+        let [#(#entries),*] = *y;
+        if !stateforge_math::#ty::all_finite([#(#entries),*]) {
+            return Status::RejectedInput;
+        }
+        let slot = match delay {
+            #(#arms)*
+            _ => return Status::RejectedInput,
+        };
+        match slot {
+            Some(_) => Status::RejectedInput,
+            None => {
+                *slot = Some(*y);
+                Status::Ok
+            }
+        }
     }
 }
 
@@ -333,7 +450,11 @@ fn in_turn(model: &Model, names: &[TokenStream], predicts: bool, ty: &Ident) -> 
                 .iter()
                 .filter_map(|&j| entries.get(j))
                 .collect();
-            quote! { self.#update(&[#(#own),*]) }
+            let delay = sensor.delay_at_run_time.then(|| {
+                let delay = ident(&format!("{}_delay", sensor.name));
+                quote! { #delay, }
+            });
+            quote! { self.#update(#delay &[#(#own),*]) }
         })
         .collect();
     let (first, later) = if predicts {
@@ -362,12 +483,30 @@ fn in_turn_doc(model: &Model, predicts: bool) -> String {
         .iter()
         .map(|s| format!("[`Self::update_{}`]", s.name))
         .collect();
+    let (sensors, delays): (Vec<String>, Vec<String>) = run_time_delays(model)
+        .iter()
+        .map(|(sensor, delay)| (format!("`{}`", sensor.name), format!("`{delay}`")))
+        .unzip();
+    let delays = match delays.len() {
+        0 => String::new(),
+        1 => format!(
+            " {} is the delay of {}'s measurement, in samples, as its update takes it.",
+            delays.join(""),
+            sensors.join("")
+        ),
+        _ => format!(
+            " {} are the delays of the measurements of {}, in samples, as their updates \
+             take them.",
+            crate::diagnostics::phrase(&delays, "and"),
+            crate::diagnostics::phrase(&sensors, "and")
+        ),
+    };
     format!(
         " On the delayed horizon, whose sensors arrive with different delays: {}{}, each \
-         measurement at the sample it describes. A non-finite measurement is refused before \
-         anything is done; otherwise each call is applied or refused on its own, and this \
-         returns the first status that is not `Ok`. Each sensor stores its own innovation and \
-         is judged by its own gate (or the filter's); the joint innovation \
+         measurement at the sample it describes.{delays} A non-finite measurement is refused \
+         before anything is done; otherwise each call is applied or refused on its own, and \
+         this returns the first status that is not `Ok`. Each sensor stores its own \
+         innovation and is judged by its own gate (or the filter's); the joint innovation \
          ([`Self::innovation`]) is not stored.",
         if predicts {
             "[`Self::predict`], then "

@@ -74,12 +74,18 @@ fn horizon(args: &mut Args, cx: &Context, diag: &mut Diagnostics) -> bool {
     match &arg.value {
         ArgValue::Name(n) if n.text == "delayed" => false,
         ArgValue::Name(n) if n.text == "current" => {
-            let delayed = cx
-                .decl
-                .sensors
-                .iter()
-                .any(|s| s.options.iter().any(|o| o.name.text == "delay"));
-            if !delayed {
+            let declares = |option: &str| {
+                cx.decl
+                    .sensors
+                    .iter()
+                    .find(|s| s.options.iter().any(|o| o.name.text == option))
+            };
+            if let Some(sensor) = declares("max_delay") {
+                diag.error(
+                    n.span,
+                    delay::current_with_run_time_delay(&sensor.name.text),
+                );
+            } else if declares("delay").is_none() {
                 diag.error(
                     n.span,
                     "`horizon = current` fuses late measurements as if they were current, \
