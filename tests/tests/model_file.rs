@@ -859,3 +859,38 @@ fn a_sensors_delay_is_a_key_of_its_table() {
          sensor's measurements arrive (`delay = 38`)",
     );
 }
+
+#[test]
+fn a_sensors_max_delay_is_a_key_of_its_table() {
+    let sensor = |delay: &str| {
+        SMALL.replace(
+            "[dynamics]",
+            &format!("[[sensor]]\nname = \"position\"\noutputs = [\"y\"]\n{delay}\n[dynamics]"),
+        ) + "[generate]\nekf = true\n"
+    };
+    let from_file =
+        stateforge_cli::expand_model_file(&sensor("max_delay = 4")).expect("model file expands");
+    let from_macro = stateforge_compiler::expand_macro_source(&small_macro("ekf").replace(
+        "output y = x1;",
+        "output y = x1; sensor position(max_delay = 4) = [y];",
+    ))
+    .expect("macro expands");
+    let from_file = code_without_docs(from_file);
+    assert!(
+        from_file.contains("pending_position"),
+        "no slots in {from_file}"
+    );
+    assert_eq!(from_file, code_without_docs(from_macro));
+    assert_error(
+        &sensor("max_delay = \"100 ms\""),
+        "18:14: sensor.max_delay: `\"100 ms\"` is not a delay, which is the most samples late \
+         the sensor's measurements may arrive, each one's delay given at run time \
+         (`max_delay = 25`)",
+    );
+    assert_error(
+        &sensor("delay = 2\nmax_delay = 4"),
+        "19:13: a sensor's delay is fixed, `delay = 38` (every measurement that many samples \
+         late), or given with each measurement up to a maximum, `max_delay = 25` \
+         (`update_position(delay, y)`): keep one",
+    );
+}
