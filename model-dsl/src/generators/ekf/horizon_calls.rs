@@ -252,13 +252,11 @@ fn slotted_update(
             #(#arms)*
             _ => return Status::RejectedInput,
         };
-        match slot {
-            Some(_) => Status::RejectedInput,
-            None => {
-                *slot = Some(*y);
-                Status::Ok
-            }
-        }
+        let None = slot else {
+            return Status::RejectedInput;
+        };
+        *slot = Some(*y);
+        Status::Ok
     }
 }
 
