@@ -404,6 +404,15 @@ impl Scenario<'_> {
                     )),
                 }
             }
+            (name, Shape::Other(ty)) if ty == "usize" => match self.max_delay(call, name) {
+                Some(delay) => Value::direct(delay.to_string()),
+                None => {
+                    return Err(format!(
+                        "cannot give `{}::{}` its argument `{name}` (`usize`)",
+                        self.type_name, call.name
+                    ))
+                }
+            },
             (_, Shape::Scalar) => Value::direct("0.5"),
             (_, Shape::Vector(n)) => Value::referenced(format!("[0.5_f32; {n}]")),
             (_, Shape::OptionalVector(_)) => Value::direct("None"),
@@ -417,6 +426,21 @@ impl Scenario<'_> {
                 ))
             }
         })
+    }
+
+    /// The delay a call's argument `name` gives a sensor whose delay is given at run time
+    /// (`update_flow`'s `delay`, the joint calls' `flow_delay`): the sensor's maximum, at
+    /// which a sensor whose maximum is the horizon's fuses its measurement at once, the
+    /// dearer of its update's two paths (the measurement of one of a shorter maximum is
+    /// stored, one a sample, and the prediction that reaches it fuses it).
+    fn max_delay(&self, call: &Function, name: &str) -> Option<usize> {
+        let sensor = match name.strip_suffix("_delay") {
+            Some(sensor) => sensor,
+            None if name == "delay" => call.name.strip_prefix("update_")?,
+            None => return None,
+        };
+        let sensor = self.model.sensors.iter().find(|s| s.name == sensor)?;
+        sensor.delay_at_run_time.then_some(sensor.delay)
     }
 
     /// The entries of `h` that `call` measures, `n` of them: those of the sensor or output
