@@ -391,8 +391,8 @@ impl Slots {
 /// delay follows `fix_delay(k)`. Each sample's delays differ from the last's, from 0 to
 /// each maximum; a measurement for a sample whose slot is taken must be refused and leave
 /// the filter as it was, and so must a delay beyond the maximum and a non-finite
-/// measurement. Returns the delays taken, fix's and compass's, and how many were refused
-/// for a taken slot.
+/// measurement. Returns the delays taken, fix's and compass's, how many were refused for
+/// a taken slot, and how many fixes were taken after one of a later sample (out of order).
 macro_rules! run_against_replaying {
     ($module:ident, $late:expr, $fix_max:expr, $fix_delay:expr, $fix:expr, $compass:expr) => {{
         use $module::in_f64::{Ekf, Status};
@@ -409,6 +409,7 @@ macro_rules! run_against_replaying {
         let mut replaying = Replaying::new((x0, p0), (q, false));
         let (mut fix_slots, mut compass_slots) = (Slots::new(late), Slots::new(late));
         let (mut fix_delays, mut compass_delays, mut refused) = (Vec::new(), Vec::new(), 0);
+        let (mut latest_fix, mut out_of_order) = (0, 0);
         for k in 1..=90_usize {
             let t = k as f64 * DT;
             let u = [2.0 + (0.7 * t).sin(), 0.3 * (0.4 * t).cos()];
@@ -423,6 +424,9 @@ macro_rules! run_against_replaying {
                     assert_eq!(fix(&mut ekf, d, &y), Status::Ok, "fix at {k}, {d} late");
                     replaying.given((k, d, late), Measurement::Fix(y));
                     fix_delays.push(d);
+                    let sample = k.saturating_sub(d);
+                    out_of_order += usize::from(sample < latest_fix);
+                    latest_fix = latest_fix.max(sample);
                 } else {
                     assert_eq!(fix(&mut ekf, d, &y), Status::RejectedInput, "at {k}");
                     assert_eq!(ekf, before, "a refused fix changed the filter at {k}");
@@ -464,7 +468,7 @@ macro_rules! run_against_replaying {
             let filter = (ekf.state(), ekf.covariance(), ekf.current_state());
             replaying.assert_matches(k, late, filter);
         }
-        (fix_delays, compass_delays, refused)
+        (fix_delays, compass_delays, refused, out_of_order)
     }};
 }
 
@@ -480,7 +484,7 @@ fn assert_every_delay(what: &str, delays: &[usize], max: usize) {
 
 #[test]
 fn run_time_delays_equal_fusing_each_at_the_described_sample_and_replaying() {
-    let (fixes, headings, refused) = run_against_replaying!(
+    let (fixes, headings, refused, out_of_order) = run_against_replaying!(
         varying_delay,
         4,
         Some(4_usize),
@@ -493,8 +497,10 @@ fn run_time_delays_equal_fusing_each_at_the_described_sample_and_replaying() {
     assert_every_delay("fix", &fixes, 4);
     assert_every_delay("heading", &headings, 2);
     assert!(refused > 0);
-    // Consecutive measurements of a sensor had different delays.
+    // Consecutive measurements of a sensor had different delays, and some fixes arrived
+    // after one of a later sample: each was fused at its own.
     assert!(fixes.windows(2).filter(|w| w[0] != w[1]).count() > fixes.len() / 2);
+    assert!(out_of_order > 0);
 }
 
 stateforge::model! {
@@ -526,7 +532,7 @@ fn a_run_time_delay_beside_a_fixed_one_equals_replaying() {
             pub use super::{Ekf, Status};
         }
     }
-    let (fixes, headings, refused) = run_against_replaying!(
+    let (fixes, headings, refused, _) = run_against_replaying!(
         fixed_and_varying,
         3,
         None::<usize>,

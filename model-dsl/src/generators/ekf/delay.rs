@@ -277,6 +277,9 @@ pub fn buffer_bytes(model: &Model, prefix: &str, scalar: Scalar) -> TokenStream 
         },
         if waiting.is_empty() {
             ""
+        } else if model.sensors.iter().any(|s| s.delay_at_run_time) {
+            ", and the measurements of the sensors that arrive sooner, waiting for the horizon \
+             (a slot a sample for a sensor whose delay is given at run time)"
         } else {
             ", and the measurements of the sensors that arrive sooner, waiting for the horizon"
         }
