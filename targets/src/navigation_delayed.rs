@@ -46,8 +46,12 @@ fn fuses(k: usize) -> bool {
 
 /// `DelayedEkf::predict`.
 #[inline(never)]
-pub fn generated_navigation_delayed_predict(filter: &mut DelayedEkf, imu: &[f32; 6]) -> Status {
-    filter.predict(imu)
+pub fn generated_navigation_delayed_predict(
+    filter: &mut DelayedEkf,
+    dt: f32,
+    imu: &[f32; 6],
+) -> Status {
+    filter.predict(dt, imu)
 }
 
 /// `DelayedEkf::predict` where it fuses a waiting magnetometer sample: a symbol of its
@@ -56,9 +60,10 @@ pub fn generated_navigation_delayed_predict(filter: &mut DelayedEkf, imu: &[f32;
 #[inline(never)]
 pub fn generated_navigation_delayed_predict_fusing(
     filter: &mut DelayedEkf,
+    dt: f32,
     imu: &[f32; 6],
 ) -> Status {
-    black_box(filter).predict(imu)
+    black_box(filter).predict(dt, imu)
 }
 
 /// `DelayedEkf::update_gnss`.
@@ -88,15 +93,17 @@ pub fn costs(clock: &Clock) {
     traced(|| {
         for (call, event) in events().enumerate() {
             let status = match event {
-                Event::Predict(u) => {
+                Event::Predict(dt, u) => {
                     let fusing = fuses(sample);
                     sample += 1;
                     if fusing {
                         predict_fusing.measure(clock, || {
-                            generated_navigation_delayed_predict_fusing(&mut ekf, u)
+                            generated_navigation_delayed_predict_fusing(&mut ekf, dt, u)
                         })
                     } else {
-                        predict.measure(clock, || generated_navigation_delayed_predict(&mut ekf, u))
+                        predict.measure(clock, || {
+                            generated_navigation_delayed_predict(&mut ekf, dt, u)
+                        })
                     }
                 }
                 Event::Magnetometer(y) => magnetometer.measure(clock, || {
@@ -119,7 +126,11 @@ pub fn costs(clock: &Clock) {
             &flight::MAGNETOMETER[0].1,
         ));
         for _ in 0..DelayedEkf::DELAY {
-            let _ = black_box(generated_navigation_delayed_predict(f, &flight::IMU[0]));
+            let _ = black_box(generated_navigation_delayed_predict(
+                f,
+                flight::INTERVAL[0],
+                &flight::IMU[0],
+            ));
         }
     });
     let gnss_stack = stack(&|f| {
