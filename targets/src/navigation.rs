@@ -17,8 +17,9 @@ use core::hint::black_box;
 use generated_demo::flight::MAGNETOMETER_GATE;
 use generated_demo::navigation::{Ekf, Status};
 
-/// The embedded flight: `X0`, the tuning's diagonals `P0`, `Q`, `R`, the `IMU` samples,
-/// and the `MAGNETOMETER` and `GNSS` readings with the index of the IMU sample they follow.
+/// The embedded flight: `X0`, the tuning's diagonals `P0`, `Q` (a density), `R`, the IMU
+/// samples' `INTERVAL`s and the `IMU` samples, and the `MAGNETOMETER` and `GNSS` readings
+/// with the index of the IMU sample they follow.
 pub mod flight {
     include!(concat!(env!("OUT_DIR"), "/navigation_flight.rs"));
 }

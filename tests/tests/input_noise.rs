@@ -9,6 +9,7 @@
 use nalgebra::{DMatrix, DVector, Quaternion, UnitQuaternion, Vector3};
 
 include!("../models/dead_reckoning.rs");
+include!("../models/dead_reckoning_timed.rs");
 
 stateforge::model! {
     /// The AHRS of `examples/ahrs` with the gyro's noise on its input.
@@ -29,27 +30,6 @@ stateforge::model! {
         dynamics discrete {
             q = q * exp((gyro - gyro_bias) * DT);
         }
-    }
-}
-
-stateforge::model! {
-    /// The dead reckoning of `dead_reckoning.rs` with its sample interval declared as such:
-    /// `predict(dt, u_prev)`, `Q` and `qu` densities.
-    mod dead_reckoning_timed {
-        scalar f64;
-        interval DT = 0.1;
-        state px, py, heading;
-        param yaw_rate_bias;
-        input speed, yaw_rate;
-        output fix_x = px, fix_y = py;
-        dynamics discrete {
-            let turned = heading + DT * (yaw_rate - yaw_rate_bias);
-            px = px + DT * speed * cos(turned);
-            py = py + DT * speed * sin(turned);
-            heading = turned;
-        }
-        generate ekf(input_noise = [yaw_rate, speed], process_noise = diagonal,
-            process_noise_on = [yaw_rate_bias]);
     }
 }
 
@@ -200,6 +180,25 @@ fn a_step_predicts_with_the_input_noise_as_predict_does() {
     let y = [3.2, -1.9];
     assert_eq!(stepped.step(&DR_U, &y), Status::Ok);
     assert_eq!(parts.predict(&DR_U), Status::Ok);
+    assert_eq!(parts.update(&y), Status::Ok);
+    let worst = (dense(&stepped.covariance()) - dense(&parts.covariance()))
+        .abs()
+        .max();
+    assert!(
+        worst < 1e-14,
+        "step and predict + update differ by {worst:.1e}"
+    );
+}
+
+#[test]
+fn a_step_with_a_sample_interval_predicts_as_predict_does() {
+    use dead_reckoning_timed::{Ekf, Status};
+    let p0 = covariance(0.5, 0.05);
+    let mut stepped = Ekf::new(&DR_X, &p0, &DR_Q, &DR_QU, &DR_R).unwrap();
+    let mut parts = stepped;
+    let y = [3.2, -1.9];
+    assert_eq!(stepped.step(0.13, &DR_U, &y), Status::Ok);
+    assert_eq!(parts.predict(0.13, &DR_U), Status::Ok);
     assert_eq!(parts.update(&y), Status::Ok);
     let worst = (dense(&stepped.covariance()) - dense(&parts.covariance()))
         .abs()

@@ -41,8 +41,8 @@ const KERNELS: [(&str, &str); 3] = [
 pub const TERMS: &str = "Both sides from the same estimate at every call: before each \
      call of ours, SymForce is handed our filter's state and covariance (the packed \
      upper triangle over the 23 tangent coordinates, read through Ekf::covariance), the \
-     same IMU sample and its interval or measurement, Q's diagonal (a density, scaled by \
-     the interval) or the sensor's part of R's (R is diagonal). Ours: the generated f32 error-state navigation filter's predict, \
+     same IMU sample with its interval, or the same measurement, and Q's diagonal (a \
+     density, scaled by the interval) or the sensor's part of R's (R is diagonal). Ours: the generated f32 error-state navigation filter's predict, \
      update_gnss and update_magnetometer as generated (each update a joint update of the \
      sensor's outputs through an L D L' factor, gated at 22.46 and 16.27, with its input \
      and divergence checks, its innovation and NIS stored, then the injection and the \

@@ -2,10 +2,11 @@
 //! (`generated-demo/models/navigation.rs`, a 23-dimensional covariance) on a simulated
 //! multirotor flight ([`generated_demo::flight`]): the IMU at a nominal 250 Hz, its
 //! intervals jittered (`predict(dt, u)`), the magnetometer at 50 Hz
-//! (`update_magnetometer`), the GNSS at 5 Hz (`update_gnss`) with a 10 s outage. Errors of attitude, velocity, position and IMU biases against the truth,
-//! with the filter's own 3-sigma bounds, each sensor's normalised innovation squared and
-//! the quaternion's largest departure from unit norm, for the `f32` filter (what the MCU
-//! runs) and the `f64` one.
+//! (`update_magnetometer`), the GNSS at 5 Hz (`update_gnss`) with a 10 s outage. Errors
+//! of attitude, velocity, position and IMU biases against the truth, with the filter's own
+//! 3-sigma bounds, each sensor's normalised innovation squared and the quaternion's
+//! largest departure from unit norm, for the `f32` filter (what the MCU runs) and the
+//! `f64` one.
 
 use super::report::{self, Line, Trace};
 use generated_demo::flight::{

@@ -219,8 +219,8 @@ impl FilterLayout {
 
     /// `fn new(x0, p0, q, qu?, r, known?) -> Result<Self, Status>`: the constructor,
     /// documented by the attributes `doc`, rejecting a non-finite entry of what it reads and storing
-    /// `x0` and the packed upper triangles of `p0`, `q` and `r`, the input noise variances
-    /// `qu` if the filter has them, and the `known` constants if the filter holds them. `extra_init` continues the struct literal
+    /// `x0` and the packed upper triangles of `p0`, `q` and `r`, the input noise `qu`
+    /// (variances per sample, or densities with a sample interval) if the filter has them, and the `known` constants if the filter holds them. `extra_init` continues the struct literal
     /// (each field followed by a comma) with the fields a filter adds.
     pub fn constructor(
         &self,

@@ -674,7 +674,10 @@ impl EkfNodes {
         let noisy: Vec<(usize, NodeId)> = match self.g.interval {
             Some(dt) => {
                 let graph = &mut self.g.graph;
-                let per_sample = self.qu.iter().map(|&qu| graph.div(qu, dt));
+                // One division, whatever the number of noisy inputs.
+                let one = graph.one();
+                let per_second = graph.div(one, dt);
+                let per_sample = self.qu.iter().map(|&qu| graph.mul(qu, per_second));
                 input_noise.iter().copied().zip(per_sample).collect()
             }
             None => input_noise.iter().copied().zip(self.qu.clone()).collect(),
