@@ -21,10 +21,10 @@ use crate::noise::GaussianNoise;
 pub const DT: f64 = crate::navigation::in_f64::DT;
 /// The IMU's interval jitter: each interval is `DT` times a uniform number in
 /// `1 - JITTER ..= 1 + JITTER`.
-const JITTER: f64 = 0.2;
+pub const JITTER: f64 = 0.2;
 /// The chance that the IMU driver drops a sample, so that the next one covers two
 /// intervals (about one in two seconds).
-const DROPPED: f64 = 0.002;
+pub const DROPPED: f64 = 0.002;
 /// Gravity \[m/s^2\], down, the model's.
 const GRAVITY: f64 = crate::navigation::in_f64::GRAVITY;
 /// Truth integration steps per IMU sample (1 kHz at the nominal interval).
@@ -402,4 +402,60 @@ pub fn tuning() -> ([f64; 23], [f64; 23], [f64; 9]) {
     }
     r[6..].fill(MAG_NOISE * MAG_NOISE);
     (p0, q, r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The IMU's intervals are within the jitter of the nominal one, or of two where a
+    /// sample was dropped, about as often as `DROPPED` says; and its noise has the
+    /// density the tuning states: the gyro's reading less the truth and the bias, scaled
+    /// by `1 / sqrt(DT dt)`, has the deviation `GYRO_NOISE` over the shorter intervals and
+    /// over the longer ones alike (a noise of one deviation per sample would be 6 % over
+    /// it on the shorter, 4 % under on the longer).
+    #[test]
+    fn the_imu_jitters_and_its_noise_has_the_stated_density() {
+        let samples = 22_500;
+        let mut flight = Flight::new();
+        let (mut dropped, mut time) = (0, 0.0);
+        // Sums of squares and counts over the intervals shorter than nominal, and the rest.
+        let mut squares = [(0.0, 0); 2];
+        for k in 1..=samples {
+            let t0 = time;
+            let (truth, readings) = flight.advance();
+            let dt = readings.interval;
+            time += dt;
+            assert!((truth.t - time).abs() < 1e-9, "sample {k} at {}", truth.t);
+            let single = (1.0 - JITTER) * DT..=(1.0 + JITTER) * DT;
+            let double = 2.0 * (1.0 - JITTER) * DT..=2.0 * (1.0 + JITTER) * DT;
+            assert!(
+                single.contains(&dt) || double.contains(&dt),
+                "interval {dt}"
+            );
+            dropped += usize::from(double.contains(&dt));
+            // The gyro's clean delta angle is the exact relative rotation over the sample.
+            let turn = quaternion_product(conjugate(attitude(t0)), attitude(time));
+            let clean = rotation_vector(turn);
+            let scale = 1.0 / libm::sqrt(DT * dt);
+            let (sum, count) = &mut squares[usize::from(dt >= DT)];
+            for (i, angle) in clean.iter().enumerate() {
+                let noise = readings.imu[i] - angle - GYRO_BIAS[i] * dt;
+                *sum += (noise * scale).powi(2);
+                *count += 1;
+            }
+        }
+        let expected = DROPPED * samples as f64;
+        assert!(
+            (dropped as f64 - expected).abs() < 4.0 * expected.sqrt(),
+            "{dropped} dropped, {expected} expected"
+        );
+        for (sum, count) in squares {
+            let deviation = (sum / f64::from(count)).sqrt();
+            assert!(
+                (deviation / GYRO_NOISE - 1.0).abs() < 0.02,
+                "gyro noise {deviation} against {GYRO_NOISE}"
+            );
+        }
+    }
 }

@@ -81,6 +81,42 @@ pub fn generated_navigation_delayed_update_magnetometer(
     filter.update_magnetometer(y)
 }
 
+/// The deepest stack of the prediction (through a fusion: a magnetometer sample waiting
+/// `DELAY` predictions), the GNSS update and the magnetometer's call, each on a copy of
+/// `ekf`.
+fn stacks(ekf: &DelayedEkf) -> (usize, usize, usize) {
+    let stack = |kernel: &dyn Fn(&mut DelayedEkf)| {
+        let mut copy = *ekf;
+        stack_depth(|| kernel(black_box(&mut copy)))
+    };
+    let predict_stack = stack(&|f| {
+        let _ = black_box(generated_navigation_delayed_update_magnetometer(
+            f,
+            &flight::MAGNETOMETER[0].1,
+        ));
+        for _ in 0..DelayedEkf::DELAY {
+            let _ = black_box(generated_navigation_delayed_predict(
+                f,
+                flight::INTERVAL[0],
+                &flight::IMU[0],
+            ));
+        }
+    });
+    let gnss_stack = stack(&|f| {
+        let _ = black_box(generated_navigation_delayed_update_gnss(
+            f,
+            &flight::GNSS[0].1,
+        ));
+    });
+    let magnetometer_stack = stack(&|f| {
+        let _ = black_box(generated_navigation_delayed_update_magnetometer(
+            f,
+            &flight::MAGNETOMETER[0].1,
+        ));
+    });
+    (predict_stack, gnss_stack, magnetometer_stack)
+}
+
 /// Flies the flight, reading every call; prints each kernel's `cost` and `stack` lines
 /// and the buffers' RAM.
 pub fn costs(clock: &Clock) {
@@ -116,35 +152,7 @@ pub fn costs(clock: &Clock) {
             let _ = used(status, event, call);
         }
     });
-    let stack = |kernel: &dyn Fn(&mut DelayedEkf)| {
-        let mut copy = ekf;
-        stack_depth(|| kernel(black_box(&mut copy)))
-    };
-    let predict_stack = stack(&|f| {
-        let _ = black_box(generated_navigation_delayed_update_magnetometer(
-            f,
-            &flight::MAGNETOMETER[0].1,
-        ));
-        for _ in 0..DelayedEkf::DELAY {
-            let _ = black_box(generated_navigation_delayed_predict(
-                f,
-                flight::INTERVAL[0],
-                &flight::IMU[0],
-            ));
-        }
-    });
-    let gnss_stack = stack(&|f| {
-        let _ = black_box(generated_navigation_delayed_update_gnss(
-            f,
-            &flight::GNSS[0].1,
-        ));
-    });
-    let magnetometer_stack = stack(&|f| {
-        let _ = black_box(generated_navigation_delayed_update_magnetometer(
-            f,
-            &flight::MAGNETOMETER[0].1,
-        ));
-    });
+    let (predict_stack, gnss_stack, magnetometer_stack) = stacks(&ekf);
     report(
         "navigation_delayed_predict",
         (predict.mean(), 0),

@@ -659,6 +659,19 @@ fn a_second_sample_interval_is_refused_under_its_name() {
     );
 }
 
+#[test]
+fn a_sample_interval_that_is_not_positive_is_refused_under_its_value() {
+    let toml = small_with("value = 0.01\n", "value = -0.01\ninterval = true\n");
+    assert_error(
+        &toml,
+        "5:9: the sample interval's nominal value is positive and finite, in seconds, not \
+         -0.01: `0.004` for 4 ms",
+    );
+    // `interval = false` is a constant like any other.
+    let toml = small_with("value = 0.01\n", "value = -0.01\ninterval = false\n");
+    assert!(stateforge_cli::expand_model_file(&toml).is_ok());
+}
+
 /// A small model file with vectors and a rotation; its output's value, on line 11 from
 /// column 10, is what each case below changes.
 const GEOMETRY: &str = r#"name = "g"

@@ -344,6 +344,7 @@ mod tests {
         let header = data_header();
         assert!(header.contains("#define SEQUENCE_SAMPLES 1000"));
         assert!(header.contains("#define FLIGHT_SAMPLES 1000"));
+        assert!(header.contains("static const float flight_interval[FLIGHT_SAMPLES] = {0.00"));
     }
 
     #[test]

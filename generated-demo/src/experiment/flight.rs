@@ -11,7 +11,7 @@
 use super::report::{self, Line, Trace};
 use generated_demo::flight::{
     conjugate, initial_estimate, quaternion_product, rotate, rotation_vector, tuning, Flight,
-    Truth, ACCEL_BIAS, DT, END, GNSS_OUTAGE, GYRO_BIAS,
+    Truth, ACCEL_BIAS, DROPPED, DT, END, GNSS_OUTAGE, GYRO_BIAS, JITTER,
 };
 use generated_demo::navigation::{self, TANGENT_LEN, X_LEN};
 use std::error::Error;
@@ -377,10 +377,10 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
     let double = fly::<navigation::in_f64::Ekf>("f64", &mut trace64)?;
     println!("\nNavigation: the generated error-state EKF (PX4 EKF2's formulation: 24 entries, a");
     println!(
-        "23-dimensional covariance) on a simulated {END:.0} s multirotor flight: take-off, cruise at"
+        "23-dimensional covariance) on a simulated multirotor flight of about {END:.0} s: take-off, cruise at"
     );
     println!(
-        "5 m/s with two turns and a climb, GNSS outage {:.0}-{:.0} s. IMU 250 Hz (gyro bias {:?} rad/s,",
+        "5 m/s with two turns and a climb, GNSS outage {:.0}-{:.0} s. IMU nominally 250 Hz (gyro bias {:?} rad/s,",
         GNSS_OUTAGE.0, GNSS_OUTAGE.1, GYRO_BIAS
     );
     println!("accelerometer bias {ACCEL_BIAS:?} m/s^2), magnetometer 50 Hz (update_magnetometer), GNSS 5 Hz");
@@ -388,8 +388,11 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
         "(update_gnss); errors against the truth at 10 Hz, sigma from the filter's covariance."
     );
     println!(
-        "The IMU's intervals jitter by up to 20 % about 4 ms, and about one sample in 500 is \
-         dropped (the next covers two): predict(dt, u) takes each sample's own."
+        "The IMU's intervals jitter by up to {:.0} % about {:.0} ms, and about one sample in {:.0} \
+         is dropped (the next covers two): predict(dt, u) takes each sample's own.",
+        100.0 * JITTER,
+        1e3 * DT,
+        1.0 / DROPPED
     );
     println!("Attitude errors about the body axes (roll, pitch, yaw) and about N, E, D (the filter's own");
     println!(
