@@ -42,6 +42,7 @@ pub const TEST_MODELS: [&str; 10] = [
     "ahrs",
     "vehicle_geometry",
     "dead_reckoning",
+    "dead_reckoning_timed",
     "carried_state",
     "delayed_fix",
     "jittered",
