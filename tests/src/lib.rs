@@ -36,7 +36,7 @@ pub const UNSNAPSHOTTED_DEMO_MODELS: [&str; 1] = ["navigation"];
 
 /// Names of the test models in `tests/models/` (`model! { .. }` invocations that exercise
 /// parts of the language the demo models do not use).
-pub const TEST_MODELS: [&str; 10] = [
+pub const TEST_MODELS: [&str; 11] = [
     "rover",
     "rover_known",
     "ahrs",
