@@ -7,8 +7,16 @@ use crate::scratch::{workspace_root, Scratch};
 use std::path::{Path, PathBuf};
 
 /// Test models whose generated code no demo model or model file covers: vectors and
-/// rotations, the error-state EKF, input noise, the delayed fusion horizon.
-const TEST_MODELS: [&str; 4] = ["ahrs", "dead_reckoning", "vehicle_geometry", "delayed_fix"];
+/// rotations, the error-state EKF, input noise (with a sample interval too), the delayed
+/// fusion horizon (with a delay given at run time too).
+const TEST_MODELS: [&str; 6] = [
+    "ahrs",
+    "dead_reckoning",
+    "dead_reckoning_timed",
+    "vehicle_geometry",
+    "delayed_fix",
+    "varying_delay",
+];
 
 /// The model sources vendored: the demo models (`model!` invocations), the model files and
 /// [`TEST_MODELS`].
