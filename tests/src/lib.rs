@@ -36,7 +36,7 @@ pub const UNSNAPSHOTTED_DEMO_MODELS: [&str; 1] = ["navigation"];
 
 /// Names of the test models in `tests/models/` (`model! { .. }` invocations that exercise
 /// parts of the language the demo models do not use).
-pub const TEST_MODELS: [&str; 9] = [
+pub const TEST_MODELS: [&str; 10] = [
     "rover",
     "rover_known",
     "ahrs",
@@ -46,6 +46,7 @@ pub const TEST_MODELS: [&str; 9] = [
     "delayed_fix",
     "jittered",
     "jittered_late",
+    "jittered_pendulum",
 ];
 
 /// The generated code of a test model, formatted.
