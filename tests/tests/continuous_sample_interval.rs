@@ -232,7 +232,7 @@ fn assert_agrees(what: &str, k: usize, generated: ([f64; 2], [[f64; 2]; 2]), ref
 /// sample (one dropped).
 fn interval(k: usize) -> f64 {
     let jittered = NOMINAL * (1.0 + 0.33 * (1.7 * k as f64).sin());
-    if k % 17 == 0 {
+    if k.is_multiple_of(17) {
         2.0 * jittered
     } else {
         jittered
@@ -353,10 +353,10 @@ fn at_the_nominal_interval_each_filter_is_the_fixed_sample_time_s() {
         x: SVector::<f64, 2>::new(0.5, -0.2),
         t: 0.0,
     };
-    for k in 1..=300 {
+    for k in 1..=300_usize {
         let (u, y) = truth.advance(NOMINAL);
         // A sensor dropout now and then: the prediction alone.
-        if k % 7 == 0 {
+        if k.is_multiple_of(7) {
             assert_eq!(fixed.0.predict(&u), fixed_pendulum::Status::Ok);
             assert_eq!(fixed.1.predict(&u), fixed_pendulum::Status::Ok);
             assert_eq!(fixed.2.predict(&u), fixed_pendulum::Status::Ok);
