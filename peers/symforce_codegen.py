@@ -13,9 +13,10 @@ triangle, row by row (276 entries: (0,0), (0,1), .., (0,22), (1,1), .., (22,22):
 generated filter's own order), so that the generated code reads and writes only the
 triangle:
 
-- `NavigationPredict(x, p, u, q)`: `x_new = f(x, u)`, the attitude turned by the exact
-  `Rot3.from_tangent((gyro - gyro_bias) DT)`, and `P_new = F P F' + diag(q)` with
-  `F = d(f(x ⊞ δx) ⊟ f(x))/dδx` at `δx = 0`;
+- `NavigationPredict(x, p, u, q, dt)`: `x_new = f(x, u)` over the IMU sample's interval
+  `dt`, the attitude turned by the exact `Rot3.from_tangent((gyro - gyro_bias) dt)`, and
+  `P_new = F P F' + diag(q) dt` (`q` a density, as EKF2 scales its noise by the interval)
+  with `F = d(f(x ⊞ δx) ⊟ f(x))/dδx` at `δx = 0`;
 - `NavigationUpdateGnss(x, p, y, r)` and `NavigationUpdateMagnetometer(x, p, y, r)`: the
   sensor's fusion as sequential scalar updates of the error `δx` (zero before them), PX4
   EKF2's scheme (`r` the diagonal of the sensor's R): `H = d h(x ⊞ δx)/dδx` at `δx = 0`
@@ -28,7 +29,7 @@ triangle:
   `G = I + [δθ/2]x` on the attitude block (Solà 2017, sect. 7, global errors).
 
 Each new attitude is renormalised by one Newton step, `q (3 - q.q) / 2`, as ours is.
-The model's constants (DT, GRAVITY, the exponential map's epsilon) come from the Rust
+The model's constants (GRAVITY, the exponential map's epsilon) come from the Rust
 model through the JSON file xtask writes (`navigation.json`), so the two cannot disagree.
 
     python symforce_codegen.py navigation.json out_dir
@@ -154,11 +155,12 @@ def renormalised(rotation):
 
 
 def dynamics(constants):
-    """`f(x, u)` as the model's `dynamics discrete` block writes it (every right-hand side
-    in terms of the previous state), the attitude before its renormalisation."""
-    dt, gravity, epsilon = constants["dt"], constants["gravity"], constants["epsilon"]
+    """`f(x, u)` over the interval `dt` as the model's `dynamics discrete` block writes it
+    (every right-hand side in terms of the previous state), the attitude before its
+    renormalisation."""
+    gravity, epsilon = constants["gravity"], constants["epsilon"]
 
-    def f(state, u):
+    def f(state, u, dt):
         gyro = sf.V3(u[0], u[1], u[2]) - state["gyro_bias"]
         accel = sf.V3(u[3], u[4], u[5]) - state["accel_bias"]
         new = state.copy()
@@ -225,11 +227,13 @@ def functions(constants):
     """The three functions, with the argument types SymForce generates them for."""
     f = dynamics(constants)
 
-    def navigation_predict(x: sf.M(N_X, 1), p: sf.M(PACKED, 1), u: sf.M(6, 1), q: sf.M(N, 1)):
+    def navigation_predict(
+        x: sf.M(N_X, 1), p: sf.M(PACKED, 1), u: sf.M(6, 1), q: sf.M(N, 1), dt: sf.Scalar
+    ):
         state = state_of(x)
-        nominal = f(state, u)
-        transition = tangent_jacobian(lambda truth: error(f(truth, u), nominal), state)
-        noise = sf.Matrix.diag([q[i] for i in range(N)])
+        nominal = f(state, u, dt)
+        transition = tangent_jacobian(lambda truth: error(f(truth, u, dt), nominal), state)
+        noise = sf.Matrix.diag([q[i] * dt for i in range(N)])
         new = nominal.copy()
         new["q"] = renormalised(nominal["q"])
         p_new = transition * unpacked(p) * transition.T + noise

@@ -48,10 +48,11 @@ Vector<Rows>* out(float* data) {
 
 extern "C" {
 
-/* x_new = f(x, u), P_new = F P F' + diag(q), F over the tangent space. */
+/* x_new = f(x, u) over the interval dt, P_new = F P F' + diag(q) dt, F over the tangent
+ * space. */
 void symforce_navigation_predict(const float* x, const float* p, const float* u,
-                                 const float* q, float* x_new, float* p_new) {
-    sym::NavigationPredict<float>(in<STATES>(x), in<PACKED>(p), in<6>(u), in<TANGENT>(q),
+                                 const float* q, float dt, float* x_new, float* p_new) {
+    sym::NavigationPredict<float>(in<STATES>(x), in<PACKED>(p), in<6>(u), in<TANGENT>(q), dt,
                                   out<STATES>(x_new), out<PACKED>(p_new));
 }
 

@@ -105,8 +105,9 @@ fn f32_array(values: &[f32]) -> String {
 }
 
 /// Embeds the navigation flight as the host's experiment flies it (`data::flight`): the
-/// filter's initial estimate and tuning, then the IMU samples as the model's inputs, and
-/// the magnetometer and GNSS readings with the index of the IMU sample they follow.
+/// filter's initial estimate and tuning, then the IMU samples' intervals and the samples
+/// as the model's inputs, and the magnetometer and GNSS readings with the index of the IMU
+/// sample they follow.
 fn navigation(out: &std::path::Path) {
     let flight = data::flight();
     let mut code = String::new();
@@ -114,8 +115,8 @@ fn navigation(out: &std::path::Path) {
         code,
         "/// The initial estimate (`flight::initial_estimate`).\n\
          pub const X0: [f32; 24] = {};\n\
-         /// The diagonals of `P0` and `Q` (over the 23 tangent coordinates) and `R`\n\
-         /// (`flight::tuning`).\n\
+         /// The diagonals of `P0` and of the density `Q` (over the 23 tangent\n\
+         /// coordinates) and `R` (`flight::tuning`).\n\
          pub const P0: [f32; 23] = {};\n\
          pub const Q: [f32; 23] = {};\n\
          pub const R: [f32; 9] = {};",
@@ -144,8 +145,10 @@ fn navigation(out: &std::path::Path) {
          pub const SAMPLES: usize = {samples};\n\
          pub const MAGNETOMETER_READINGS: usize = {};\n\
          pub const GNSS_FIXES: usize = {};\n\
+         /// IMU samples' intervals (s), jittered about the nominal `DT`.\n\
+         pub static INTERVAL: [f32; SAMPLES] = {};\n\
          /// IMU samples as the model's inputs, gyro (rad/s) and accelerometer (m/s^2):\n\
-         /// the delta angle and delta velocity over the sample divided by `DT`.\n\
+         /// the delta angle and delta velocity over the sample divided by its interval.\n\
          pub static IMU: [[f32; 6]; SAMPLES] = [\n{imu}];\n\
          /// Magnetometer readings, after the IMU sample of the index given.\n\
          pub static MAGNETOMETER: [(usize, [f32; 3]); MAGNETOMETER_READINGS] = [\n{}\n];\n\
@@ -153,6 +156,7 @@ fn navigation(out: &std::path::Path) {
          pub static GNSS: [(usize, [f32; 6]); GNSS_FIXES] = [\n{}\n];",
         magnetometer.len(),
         gnss.len(),
+        f32_array(&flight.interval),
         magnetometer.join("\n"),
         gnss.join("\n"),
     );

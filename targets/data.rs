@@ -7,8 +7,8 @@
 /// Samples of the measured sequence (15 s at 15 ms).
 pub const SAMPLES: usize = 1000;
 
-/// IMU samples of the navigation flight (4 s at 250 Hz: 200 magnetometer samples, 20 GNSS
-/// fixes).
+/// IMU samples of the navigation flight (4 s at the nominal 250 Hz: 200 magnetometer
+/// samples, 20 GNSS fixes).
 pub const NAVIGATION_SAMPLES: usize = 1000;
 
 /// The measured sequence: `(u[k], y[k])`.
@@ -30,6 +30,8 @@ pub struct Flight {
     pub q: Vec<f32>,
     /// The diagonal of `R`.
     pub r: Vec<f32>,
+    /// The IMU samples' intervals \[s\], jittered (`Readings::interval`).
+    pub interval: Vec<f32>,
     /// The IMU samples as the model's inputs (rates: `Readings::rates`).
     pub imu: Vec<Vec<f32>>,
     /// The magnetometer readings, with the index of the IMU sample they follow.
@@ -60,12 +62,14 @@ pub fn flight() -> Flight {
         p0: single(p0),
         q: single(q),
         r: single(r),
+        interval: Vec::new(),
         imu: Vec::new(),
         magnetometer: Vec::new(),
         gnss: Vec::new(),
     };
     for k in 0..NAVIGATION_SAMPLES {
         let readings = flight.advance().1;
+        data.interval.push(readings.interval as f32);
         data.imu.push(single(readings.rates()));
         if let Some(m) = readings.magnetometer {
             data.magnetometer.push((k, single(m)));

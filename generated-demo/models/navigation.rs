@@ -5,22 +5,25 @@ stateforge::model! {
     /// accelerometer biases, earth magnetic field, body magnetic bias and horizontal wind;
     /// 24 entries, a 23-dimensional covariance (the attitude's error is a rotation vector).
     ///
-    /// The IMU (250 Hz) is the input: its delta angle and delta velocity over the sample
-    /// divided by `DT`. The sensors are the GNSS receiver (NED velocity and position, 5 Hz)
+    /// The IMU (nominally 250 Hz, its intervals jittering) is the input: its delta angle and
+    /// delta velocity over the sample divided by the sample's interval `DT`, which each
+    /// prediction takes. The sensors are the GNSS receiver (NED velocity and position, 5 Hz)
     /// and the three-axis magnetometer (50 Hz). The attitude turns by the exact exponential
     /// of the corrected rate, the velocity by the corrected specific force rotated to NED
     /// plus gravity, the position by the previous velocity; the rest are random walks.
     ///
-    /// Process noise, per sample over `TANGENT_NAMES`: the IMU's white noise enters exactly
-    /// as state noise. The gyro's `n_g` turns the body by `-n_g DT` more than the filter
-    /// believes, `-R(q) n_g DT` in the earth frame, where the attitude error lives; isotropic
-    /// noise stays isotropic under `R(q)`, so `sigma_g^2 DT^2` on each attitude coordinate.
-    /// Likewise the accelerometer's is `sigma_a^2 DT^2` on each velocity coordinate.
+    /// Process noise, a density over `TANGENT_NAMES` (per second; a prediction adds `Q dt`):
+    /// the IMU's white noise enters exactly as state noise. The gyro's noise of density
+    /// `N_g` turns the body by an angle of variance `N_g^2 dt` per axis more than the filter
+    /// believes, in the earth frame too, where the attitude error lives (isotropic noise
+    /// stays isotropic under `R(q)`), so `N_g^2` on each attitude coordinate. Likewise the
+    /// accelerometer's `N_a^2` on each velocity coordinate.
     /// Units: m, m/s, rad, gauss; NED earth frame, FRD body frame.
     pub mod navigation {
         scalar f32, f64;
-        /// IMU sample time \[s\] (250 Hz).
-        const DT = 0.004;
+        /// IMU sample interval \[s\], nominally 4 ms (250 Hz); each prediction takes the
+        /// sample's own.
+        interval DT = 0.004;
         /// Gravity \[m/s^2\] (down positive in NED).
         const GRAVITY = 9.80665;
         state
@@ -50,9 +53,9 @@ stateforge::model! {
             #[allow(unused)]
             wind_e;
         input
-            /// gyro: the IMU's delta angle over the sample / `DT`, body \[rad/s\]
+            /// gyro: the IMU's delta angle over the sample / its interval, body \[rad/s\]
             gyro: Vec3,
-            /// accelerometer: the IMU's delta velocity / `DT`, body \[m/s^2\]
+            /// accelerometer: the IMU's delta velocity / its interval, body \[m/s^2\]
             accel: Vec3;
         output
             /// GNSS velocity, NED \[m/s\]

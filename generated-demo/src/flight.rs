@@ -1,8 +1,11 @@
 //! The simulated flight of the navigation experiment: a multirotor's true attitude,
 //! velocity and position as smooth functions of time (on the ground, take-off, a
 //! 5 m/s cruise with two turns and a climb, hover), and what its sensors read: the IMU's
-//! delta angle and delta velocity over each 4 ms sample (integrated from the truth at
-//! 1 kHz, with constant biases and white noise), the GNSS fix and the magnetometer.
+//! delta angle and delta velocity over each sample (integrated from the truth at four
+//! steps per sample, with constant biases and white noise), the GNSS fix and the
+//! magnetometer. The IMU's samples are 4 ms apart nominally, but their intervals jitter
+//! by up to a fifth, and now and then a sample is dropped, so the next covers two
+//! intervals ([`interval`]): what a flight controller's IMU driver delivers.
 //! Independent of the filter's model: the truth's attitude increments are exact relative
 //! rotations, its delta velocity an integral of the specific force, not the model's
 //! first-order steps. The filter's initial estimate and tuning are here too
@@ -14,11 +17,17 @@
 
 use crate::noise::GaussianNoise;
 
-/// IMU sample time \[s\], the model's.
+/// The IMU's nominal sample interval \[s\], the model's.
 pub const DT: f64 = crate::navigation::in_f64::DT;
+/// The IMU's interval jitter: each interval is `DT` times a uniform number in
+/// `1 - JITTER ..= 1 + JITTER`.
+pub const JITTER: f64 = 0.2;
+/// The chance that the IMU driver drops a sample, so that the next one covers two
+/// intervals (about one in two seconds).
+pub const DROPPED: f64 = 0.002;
 /// Gravity \[m/s^2\], down, the model's.
 const GRAVITY: f64 = crate::navigation::in_f64::GRAVITY;
-/// Truth integration steps per IMU sample (1 kHz).
+/// Truth integration steps per IMU sample (1 kHz at the nominal interval).
 const SUBSTEPS: usize = 4;
 /// The flight's length \[s\].
 pub const END: f64 = 90.0;
@@ -34,9 +43,12 @@ pub const BODY_FIELD_BIAS: [f64; 3] = [0.02, -0.015, 0.03];
 pub const GYRO_BIAS: [f64; 3] = [0.003, -0.004, 0.002];
 /// Accelerometer bias \[m/s^2\].
 pub const ACCEL_BIAS: [f64; 3] = [0.08, -0.06, 0.12];
-/// Gyro white noise \[rad/s\] and accelerometer white noise \[m/s^2\] per IMU sample.
+/// Gyro white noise \[rad/s\] on a sample of the nominal interval: a density of
+/// `GYRO_NOISE sqrt(DT)` \[rad/sqrt(s)\], so that a sample's delta angle has a variance of
+/// `GYRO_NOISE^2 DT dt` over an interval `dt`.
 pub const GYRO_NOISE: f64 = 0.015;
-/// Accelerometer white noise \[m/s^2\] per sample.
+/// Accelerometer white noise \[m/s^2\] on a sample of the nominal interval (a density,
+/// like the gyro's).
 pub const ACCEL_NOISE: f64 = 0.35;
 /// GNSS noise: NED velocity \[m/s\], then NED position \[m\].
 pub const GNSS_NOISE: [f64; 6] = [0.15, 0.15, 0.2, 0.5, 0.5, 0.8];
@@ -179,6 +191,18 @@ pub fn rotate(q: [f64; 4], v: [f64; 3], transpose: bool) -> [f64; 3] {
     })
 }
 
+/// The interval \[s\] of IMU sample `k` (from 1), since the sample before: the nominal one,
+/// jittered, or two of them where the driver dropped the sample between.
+#[must_use]
+pub fn interval(k: u64) -> f64 {
+    let jittered = DT * (1.0 + JITTER * (2.0 * crate::noise::uniform(730, k) - 1.0));
+    if crate::noise::uniform(731, k) < DROPPED {
+        jittered + DT * (1.0 + JITTER * (2.0 * crate::noise::uniform(732, k) - 1.0))
+    } else {
+        jittered
+    }
+}
+
 /// The true state at an IMU sample, in the model's order (the wind is zero).
 #[derive(Clone, Copy, Debug)]
 pub struct Truth {
@@ -193,8 +217,10 @@ pub struct Truth {
 /// What the sensors read over one IMU sample ending at `truth.t`.
 #[derive(Clone, Copy, Debug)]
 pub struct Readings {
+    /// The sample's interval \[s\], since the IMU sample before.
+    pub interval: f64,
     /// IMU delta angle \[rad\] and delta velocity \[m/s\] over the sample (the model's
-    /// inputs are these divided by `DT`: [`Readings::rates`]).
+    /// inputs are these divided by the interval: [`Readings::rates`]).
     pub imu: [f64; 6],
     /// The GNSS fix (NED velocity, position) when one arrives (5 Hz, not in the outage).
     pub gnss: Option<[f64; 6]>,
@@ -204,10 +230,11 @@ pub struct Readings {
 
 impl Readings {
     /// The IMU sample as the model's inputs: the mean rate \[rad/s\] and specific force
-    /// \[m/s^2\] over the sample, its delta angle and delta velocity divided by `DT`.
+    /// \[m/s^2\] over the sample, its delta angle and delta velocity divided by its
+    /// interval.
     #[must_use]
     pub fn rates(&self) -> [f64; 6] {
-        self.imu.map(|v| v / DT)
+        self.imu.map(|v| v / self.interval)
     }
 }
 
@@ -215,6 +242,7 @@ impl Readings {
 pub struct Flight {
     position: [f64; 3],
     sample: u64,
+    time: f64,
     noise: [GaussianNoise; 6],
     gnss_noise: [GaussianNoise; 6],
     mag_noise: [GaussianNoise; 3],
@@ -226,9 +254,10 @@ impl Flight {
         Flight {
             position: [0.0; 3],
             sample: 0,
+            time: 0.0,
             noise: core::array::from_fn(|i| {
                 let sigma = if i < 3 { GYRO_NOISE } else { ACCEL_NOISE };
-                GaussianNoise::new(sigma * DT, 700 + i as u64)
+                GaussianNoise::new(sigma, 700 + i as u64)
             }),
             gnss_noise: core::array::from_fn(|i| GaussianNoise::new(GNSS_NOISE[i], 710 + i as u64)),
             mag_noise: core::array::from_fn(|i| GaussianNoise::new(MAG_NOISE, 720 + i as u64)),
@@ -251,8 +280,9 @@ impl Flight {
 
     /// Advances one IMU sample: the truth at its end and what the sensors read.
     pub fn advance(&mut self) -> (Truth, Readings) {
-        let t0 = self.sample as f64 * DT;
-        let h = DT / SUBSTEPS as f64;
+        let dt = interval(self.sample + 1);
+        let t0 = self.time;
+        let h = dt / SUBSTEPS as f64;
         let mut delta_velocity = [0.0; 3];
         for s in 0..SUBSTEPS {
             let (a, b) = (t0 + s as f64 * h, t0 + (s + 1) as f64 * h);
@@ -264,8 +294,11 @@ impl Flight {
             }
         }
         self.sample += 1;
+        self.time += dt;
         let k = self.sample;
-        let t1 = k as f64 * DT;
+        let t1 = self.time;
+        // White noise of a density: a delta's deviation grows as the root of the interval.
+        let noise_scale = libm::sqrt(DT * dt);
         let turn = quaternion_product(conjugate(attitude(t0)), attitude(t1));
         let angle = rotation_vector(turn);
         let imu: [f64; 6] = core::array::from_fn(|i| {
@@ -274,10 +307,11 @@ impl Flight {
             } else {
                 (delta_velocity[i - 3], ACCEL_BIAS[i - 3])
             };
-            clean + bias * DT + self.noise[i].sample(k)
+            clean + bias * dt + noise_scale * self.noise[i].sample(k)
         });
         let truth = self.truth_at(t1);
         let readings = Readings {
+            interval: dt,
             imu,
             gnss: self.gnss(&truth, k),
             magnetometer: self.magnetometer(&truth, k),
@@ -333,15 +367,16 @@ pub fn initial_estimate(magnetometer: [f64; 3]) -> [f64; 24] {
     x
 }
 
-/// The tuning: the diagonals of `P0` and of `Q` per IMU sample over the filter's 23
-/// tangent coordinates (attitude error, velocity, position, gyro and accelerometer biases,
-/// earth field, body field bias, wind), and of `R` (the sensors' noise, GNSS then
-/// magnetometer).
+/// The tuning: the diagonals of `P0` and of the process noise density `Q` (per second: a
+/// prediction over `dt` adds `Q dt`) over the filter's 23 tangent coordinates (attitude
+/// error, velocity, position, gyro and accelerometer biases, earth field, body field bias,
+/// wind), and of `R` (the sensors' noise, GNSS then magnetometer).
 ///
-/// `Q` is the IMU's white noise, exactly: the gyro's `GYRO_NOISE` per sample turns the
-/// attitude by `GYRO_NOISE DT` (isotropic, so in the earth frame too), the
-/// accelerometer's changes the velocity by `ACCEL_NOISE DT`; the position has none of its
-/// own. The biases, fields and wind are slow random walks.
+/// `Q` is the IMU's white noise, exactly: the gyro's, of density `GYRO_NOISE sqrt(DT)`,
+/// turns the attitude by an angle of variance `GYRO_NOISE^2 DT dt` (isotropic, so in the
+/// earth frame too), the accelerometer's changes the velocity likewise; the position has
+/// none of its own. The biases, fields and wind are slow random walks, given as their
+/// deviation over a nominal interval.
 #[must_use]
 pub fn tuning() -> ([f64; 23], [f64; 23], [f64; 9]) {
     let mut p0 = [0.0; 23];
@@ -358,7 +393,7 @@ pub fn tuning() -> ([f64; 23], [f64; 23], [f64; 9]) {
     for (range, initial_sigma, noise_sigma) in groups {
         for i in range {
             p0[i] = initial_sigma * initial_sigma;
-            q[i] = noise_sigma * noise_sigma;
+            q[i] = noise_sigma * noise_sigma / DT;
         }
     }
     let mut r = [0.0; 9];
@@ -367,4 +402,60 @@ pub fn tuning() -> ([f64; 23], [f64; 23], [f64; 9]) {
     }
     r[6..].fill(MAG_NOISE * MAG_NOISE);
     (p0, q, r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The IMU's intervals are within the jitter of the nominal one, or of two where a
+    /// sample was dropped, about as often as `DROPPED` says; and its noise has the
+    /// density the tuning states: the gyro's reading less the truth and the bias, scaled
+    /// by `1 / sqrt(DT dt)`, has the deviation `GYRO_NOISE` over the shorter intervals and
+    /// over the longer ones alike (a noise of one deviation per sample would be 6 % over
+    /// it on the shorter, 4 % under on the longer).
+    #[test]
+    fn the_imu_jitters_and_its_noise_has_the_stated_density() {
+        let samples = 22_500;
+        let mut flight = Flight::new();
+        let (mut dropped, mut time) = (0, 0.0);
+        // Sums of squares and counts over the intervals shorter than nominal, and the rest.
+        let mut squares = [(0.0, 0); 2];
+        for k in 1..=samples {
+            let t0 = time;
+            let (truth, readings) = flight.advance();
+            let dt = readings.interval;
+            time += dt;
+            assert!((truth.t - time).abs() < 1e-9, "sample {k} at {}", truth.t);
+            let single = (1.0 - JITTER) * DT..=(1.0 + JITTER) * DT;
+            let double = 2.0 * (1.0 - JITTER) * DT..=2.0 * (1.0 + JITTER) * DT;
+            assert!(
+                single.contains(&dt) || double.contains(&dt),
+                "interval {dt}"
+            );
+            dropped += usize::from(double.contains(&dt));
+            // The gyro's clean delta angle is the exact relative rotation over the sample.
+            let turn = quaternion_product(conjugate(attitude(t0)), attitude(time));
+            let clean = rotation_vector(turn);
+            let scale = 1.0 / libm::sqrt(DT * dt);
+            let (sum, count) = &mut squares[usize::from(dt >= DT)];
+            for (i, angle) in clean.iter().enumerate() {
+                let noise = readings.imu[i] - angle - GYRO_BIAS[i] * dt;
+                *sum += (noise * scale).powi(2);
+                *count += 1;
+            }
+        }
+        let expected = DROPPED * samples as f64;
+        assert!(
+            (dropped as f64 - expected).abs() < 4.0 * expected.sqrt(),
+            "{dropped} dropped, {expected} expected"
+        );
+        for (sum, count) in squares {
+            let deviation = (sum / f64::from(count)).sqrt();
+            assert!(
+                (deviation / GYRO_NOISE - 1.0).abs() < 0.02,
+                "gyro noise {deviation} against {GYRO_NOISE}"
+            );
+        }
+    }
 }

@@ -32,6 +32,8 @@
 //! `v.x`, `q * v`, `q.inverse()`, `a.dot(b)`, `exp(theta)`, `log(q)` (`expression_dots`:
 //! a `.` follows a name).
 //! `[[known]]` entries (`name`, `doc`) declare constants known only at run time.
+//! `interval = true` on a `[[const]]` declares it the model's sample interval, the macro's
+//! `interval DT = 0.004;`: its value the nominal one, each prediction taking the actual.
 //! `[[dynamics.let]]` entries (`name`, `value`) define intermediates, in order.
 //! `[[sensor]]` entries (`name`, `outputs`, `doc`, and optionally `gate = 22.46` or
 //! `gate = "off"` and `delay = 38`, the macro's `sensor gnss(gate = 22.46, delay = 38) =
@@ -64,7 +66,7 @@ struct ModelFile {
     visibility: Visibility,
     scalar: Spanned<OneOrMany>,
     #[serde(default, rename = "const")]
-    constants: Vec<Entry>,
+    constants: Vec<Constant>,
     #[serde(default, rename = "state")]
     states: Vec<Symbol>,
     #[serde(default, rename = "param")]
@@ -172,7 +174,19 @@ struct Sensor {
     delay: Option<Spanned<OptionValue>>,
 }
 
-/// A named expression: a constant, output or intermediate.
+/// A `[[const]]`: a named expression, or with `interval = true` the sample interval.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Constant {
+    name: Spanned<String>,
+    value: Spanned<Value>,
+    #[serde(default)]
+    doc: String,
+    /// `interval = true`: the model's sample interval, given to each prediction.
+    interval: Option<Spanned<bool>>,
+}
+
+/// A named expression: an output or intermediate.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Entry {
@@ -556,11 +570,15 @@ impl Reader<'_> {
         }
     }
 
-    fn constants(&mut self, constants: &[Entry]) -> Vec<ConstDecl> {
+    fn constants(&mut self, constants: &[Constant]) -> Vec<ConstDecl> {
         constants
             .iter()
             .map(|c| ConstDecl {
-                interval: None,
+                interval: c
+                    .interval
+                    .as_ref()
+                    .filter(|declared| *declared.get_ref())
+                    .map(|declared| self.places.of_field(declared)),
                 docs: docs(&c.doc),
                 name: self.name(&c.name),
                 value: self.expr(&c.value, &format!("const `{}`", c.name.get_ref())),

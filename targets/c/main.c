@@ -134,9 +134,10 @@ static void navigation_flight(navigation_ekf_t *ekf, flight_calls_t *calls, int 
     navigation_status_t status;
     for (int k = 0; k < FLIGHT_SAMPLES; k++) {
         if (calls) {
-            MEASURE_CALL(&calls->predict, status, navigation_ekf_predict(ekf, flight_imu[k]));
+            MEASURE_CALL(&calls->predict, status,
+                         navigation_ekf_predict(ekf, flight_interval[k], flight_imu[k]));
         } else {
-            status = navigation_ekf_predict(ekf, flight_imu[k]);
+            status = navigation_ekf_predict(ekf, flight_interval[k], flight_imu[k]);
         }
         flown(status, "navigation_ekf_predict");
         if (magnetometer < FLIGHT_MAGNETOMETER_READINGS &&

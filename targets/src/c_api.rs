@@ -53,9 +53,9 @@ fn navigation_flight() {
     let mut events = navigation::events().enumerate().peekable();
     while let Some((call, event)) = events.next() {
         let status = match event {
-            Event::Predict(u) => {
+            Event::Predict(dt, u) => {
                 imu_samples += 1;
-                filter.predict(u)
+                filter.predict(dt, u)
             }
             Event::Magnetometer(y) => filter.update_magnetometer(y),
             Event::Gnss(y) => filter.update_gnss(y),

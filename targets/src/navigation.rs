@@ -17,8 +17,9 @@ use core::hint::black_box;
 use generated_demo::flight::MAGNETOMETER_GATE;
 use generated_demo::navigation::{Ekf, Status};
 
-/// The embedded flight: `X0`, the tuning's diagonals `P0`, `Q`, `R`, the `IMU` samples,
-/// and the `MAGNETOMETER` and `GNSS` readings with the index of the IMU sample they follow.
+/// The embedded flight: `X0`, the tuning's diagonals `P0`, `Q` (a density), `R`, the IMU
+/// samples' `INTERVAL`s and the `IMU` samples, and the `MAGNETOMETER` and `GNSS` readings
+/// with the index of the IMU sample they follow.
 pub mod flight {
     include!(concat!(env!("OUT_DIR"), "/navigation_flight.rs"));
 }
@@ -33,9 +34,10 @@ pub const GNSS_UPDATES: usize = flight::GNSS_FIXES;
 /// One call the flight makes of the filter, with its input or measurement.
 #[derive(Clone, Copy, Debug)]
 pub enum Event {
-    /// The IMU sample as the model's inputs: gyro and accelerometer (the delta angle and
-    /// delta velocity over the sample divided by `DT`).
-    Predict(&'static [f32; 6]),
+    /// The IMU sample's interval \[s\] and the sample as the model's inputs: gyro and
+    /// accelerometer (the delta angle and delta velocity over the sample divided by its
+    /// interval).
+    Predict(f32, &'static [f32; 6]),
     /// A magnetometer reading.
     Magnetometer(&'static [f32; 3]),
     /// A GNSS fix.
@@ -46,11 +48,12 @@ pub enum Event {
 pub fn events() -> impl Iterator<Item = Event> {
     let mut magnetometer = flight::MAGNETOMETER.iter().peekable();
     let mut gnss = flight::GNSS.iter().peekable();
-    flight::IMU.iter().enumerate().flat_map(move |(k, imu)| {
+    let samples = flight::INTERVAL.iter().zip(&flight::IMU);
+    samples.enumerate().flat_map(move |(k, (&dt, imu))| {
         let m = magnetometer.next_if(|(at, _)| *at == k);
         let g = gnss.next_if(|(at, _)| *at == k);
         [
-            Some(Event::Predict(imu)),
+            Some(Event::Predict(dt, imu)),
             m.map(|(_, y)| Event::Magnetometer(y)),
             g.map(|(_, y)| Event::Gnss(y)),
         ]
@@ -75,8 +78,8 @@ pub fn filter() -> Ekf {
 
 /// `Ekf::predict`.
 #[inline(never)]
-pub fn generated_navigation_predict(filter: &mut Ekf, imu: &[f32; 6]) -> Status {
-    filter.predict(imu)
+pub fn generated_navigation_predict(filter: &mut Ekf, dt: f32, imu: &[f32; 6]) -> Status {
+    filter.predict(dt, imu)
 }
 
 /// `Ekf::update_gnss`.
@@ -111,8 +114,8 @@ pub fn costs(clock: &Clock) {
     traced(|| {
         for (call, event) in events().enumerate() {
             let status = match event {
-                Event::Predict(u) => {
-                    predict.measure(clock, || generated_navigation_predict(&mut ekf, u))
+                Event::Predict(dt, u) => {
+                    predict.measure(clock, || generated_navigation_predict(&mut ekf, dt, u))
                 }
                 Event::Magnetometer(y) => magnetometer.measure(clock, || {
                     generated_navigation_update_magnetometer(&mut ekf, y)
@@ -131,7 +134,11 @@ pub fn costs(clock: &Clock) {
         stack_depth(|| kernel(black_box(&mut copy)))
     };
     let predict_stack = stack(&|f| {
-        let _ = black_box(generated_navigation_predict(f, &flight::IMU[0]));
+        let _ = black_box(generated_navigation_predict(
+            f,
+            flight::INTERVAL[0],
+            &flight::IMU[0],
+        ));
     });
     let gnss_stack = stack(&|f| {
         let _ = black_box(generated_navigation_update_gnss(f, &flight::GNSS[0].1));

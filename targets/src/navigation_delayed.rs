@@ -46,8 +46,12 @@ fn fuses(k: usize) -> bool {
 
 /// `DelayedEkf::predict`.
 #[inline(never)]
-pub fn generated_navigation_delayed_predict(filter: &mut DelayedEkf, imu: &[f32; 6]) -> Status {
-    filter.predict(imu)
+pub fn generated_navigation_delayed_predict(
+    filter: &mut DelayedEkf,
+    dt: f32,
+    imu: &[f32; 6],
+) -> Status {
+    filter.predict(dt, imu)
 }
 
 /// `DelayedEkf::predict` where it fuses a waiting magnetometer sample: a symbol of its
@@ -56,9 +60,10 @@ pub fn generated_navigation_delayed_predict(filter: &mut DelayedEkf, imu: &[f32;
 #[inline(never)]
 pub fn generated_navigation_delayed_predict_fusing(
     filter: &mut DelayedEkf,
+    dt: f32,
     imu: &[f32; 6],
 ) -> Status {
-    black_box(filter).predict(imu)
+    black_box(filter).predict(dt, imu)
 }
 
 /// `DelayedEkf::update_gnss`.
@@ -76,41 +81,12 @@ pub fn generated_navigation_delayed_update_magnetometer(
     filter.update_magnetometer(y)
 }
 
-/// Flies the flight, reading every call; prints each kernel's `cost` and `stack` lines
-/// and the buffers' RAM.
-pub fn costs(clock: &Clock) {
-    let mut ekf = filter();
-    let mut predict = Calls::<PREDICTIONS>::new();
-    let mut predict_fusing = Calls::<PREDICTIONS>::new();
-    let mut magnetometer = Calls::<MAGNETOMETER_UPDATES>::new();
-    let mut gnss = Calls::<GNSS_UPDATES>::new();
-    let mut sample = 0;
-    traced(|| {
-        for (call, event) in events().enumerate() {
-            let status = match event {
-                Event::Predict(u) => {
-                    let fusing = fuses(sample);
-                    sample += 1;
-                    if fusing {
-                        predict_fusing.measure(clock, || {
-                            generated_navigation_delayed_predict_fusing(&mut ekf, u)
-                        })
-                    } else {
-                        predict.measure(clock, || generated_navigation_delayed_predict(&mut ekf, u))
-                    }
-                }
-                Event::Magnetometer(y) => magnetometer.measure(clock, || {
-                    generated_navigation_delayed_update_magnetometer(&mut ekf, y)
-                }),
-                Event::Gnss(y) => gnss.measure(clock, || {
-                    generated_navigation_delayed_update_gnss(&mut ekf, y)
-                }),
-            };
-            let _ = used(status, event, call);
-        }
-    });
+/// The deepest stack of the prediction (through a fusion: a magnetometer sample waiting
+/// `DELAY` predictions), the GNSS update and the magnetometer's call, each on a copy of
+/// `ekf`.
+fn stacks(ekf: &DelayedEkf) -> (usize, usize, usize) {
     let stack = |kernel: &dyn Fn(&mut DelayedEkf)| {
-        let mut copy = ekf;
+        let mut copy = *ekf;
         stack_depth(|| kernel(black_box(&mut copy)))
     };
     let predict_stack = stack(&|f| {
@@ -119,7 +95,11 @@ pub fn costs(clock: &Clock) {
             &flight::MAGNETOMETER[0].1,
         ));
         for _ in 0..DelayedEkf::DELAY {
-            let _ = black_box(generated_navigation_delayed_predict(f, &flight::IMU[0]));
+            let _ = black_box(generated_navigation_delayed_predict(
+                f,
+                flight::INTERVAL[0],
+                &flight::IMU[0],
+            ));
         }
     });
     let gnss_stack = stack(&|f| {
@@ -134,6 +114,45 @@ pub fn costs(clock: &Clock) {
             &flight::MAGNETOMETER[0].1,
         ));
     });
+    (predict_stack, gnss_stack, magnetometer_stack)
+}
+
+/// Flies the flight, reading every call; prints each kernel's `cost` and `stack` lines
+/// and the buffers' RAM.
+pub fn costs(clock: &Clock) {
+    let mut ekf = filter();
+    let mut predict = Calls::<PREDICTIONS>::new();
+    let mut predict_fusing = Calls::<PREDICTIONS>::new();
+    let mut magnetometer = Calls::<MAGNETOMETER_UPDATES>::new();
+    let mut gnss = Calls::<GNSS_UPDATES>::new();
+    let mut sample = 0;
+    traced(|| {
+        for (call, event) in events().enumerate() {
+            let status = match event {
+                Event::Predict(dt, u) => {
+                    let fusing = fuses(sample);
+                    sample += 1;
+                    if fusing {
+                        predict_fusing.measure(clock, || {
+                            generated_navigation_delayed_predict_fusing(&mut ekf, dt, u)
+                        })
+                    } else {
+                        predict.measure(clock, || {
+                            generated_navigation_delayed_predict(&mut ekf, dt, u)
+                        })
+                    }
+                }
+                Event::Magnetometer(y) => magnetometer.measure(clock, || {
+                    generated_navigation_delayed_update_magnetometer(&mut ekf, y)
+                }),
+                Event::Gnss(y) => gnss.measure(clock, || {
+                    generated_navigation_delayed_update_gnss(&mut ekf, y)
+                }),
+            };
+            let _ = used(status, event, call);
+        }
+    });
+    let (predict_stack, gnss_stack, magnetometer_stack) = stacks(&ekf);
     report(
         "navigation_delayed_predict",
         (predict.mean(), 0),

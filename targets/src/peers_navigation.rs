@@ -80,12 +80,13 @@ mod ffi {
         unsafe extern "C" fn(*const f32, *const f32, *const f32, *const f32, *mut f32, *mut f32);
 
     extern "C" {
-        /// `peers/symforce_glue.cpp`: reads 24, 276, 6 and 23 floats.
+        /// `peers/symforce_glue.cpp`: reads 24, 276, 6 and 23 floats and the interval.
         fn symforce_navigation_predict(
             x: *const f32,
             p: *const f32,
             u: *const f32,
             q: *const f32,
+            dt: f32,
             x_new: *mut f32,
             p_new: *mut f32,
         );
@@ -134,9 +135,28 @@ mod ffi {
         }
     }
 
-    /// SymForce's prediction with the IMU sample `u` and the process noise `q`.
-    pub fn predict(prior: &Estimate, u: &Aligned<6>, q: &Aligned<TANGENT>, out: &mut Estimate) {
-        call(symforce_navigation_predict, prior, u, q, out);
+    /// SymForce's prediction over the interval `dt` with the IMU sample `u` and the
+    /// process noise density `q`.
+    pub fn predict(
+        prior: &Estimate,
+        (dt, u): (f32, &Aligned<6>),
+        q: &Aligned<TANGENT>,
+        out: &mut Estimate,
+    ) {
+        // SAFETY: as in `call`: the arrays are of the lengths the glue reads and writes
+        // (24, 276, 6 and 23; 24 and 276), 16-byte aligned, the outputs a distinct `&mut`;
+        // the interval is passed by value; the glue keeps no pointer.
+        unsafe {
+            symforce_navigation_predict(
+                prior.x.0.as_ptr(),
+                prior.p.0.as_ptr(),
+                u.0.as_ptr(),
+                q.0.as_ptr(),
+                dt,
+                out.x.0.as_mut_ptr(),
+                out.p.0.as_mut_ptr(),
+            );
+        }
     }
 
     /// SymForce's GNSS fusion of `y` with the noise variances `r`.
@@ -161,11 +181,11 @@ mod ffi {
 #[inline(never)]
 fn peers_symforce_predict(
     prior: &Estimate,
-    u: &Aligned<6>,
+    sample: (f32, &Aligned<6>),
     q: &Aligned<TANGENT>,
     out: &mut Estimate,
 ) {
-    ffi::predict(prior, u, q, out);
+    ffi::predict(prior, sample, q, out);
 }
 
 #[inline(never)]
@@ -330,15 +350,15 @@ impl Comparison {
         let mut posterior = prior;
         let was_used = |status| used(status, event, call);
         match event {
-            Event::Predict(u) => {
+            Event::Predict(dt, u) => {
                 let k = &mut self.predict;
                 let (v, q) = (Aligned(*u), &self.q);
                 k.symforce.measure(clock, || {
-                    peers_symforce_predict(&prior, &v, q, &mut posterior);
+                    peers_symforce_predict(&prior, (dt, &v), q, &mut posterior);
                 });
                 let status = k
                     .ours
-                    .measure(clock, || generated_navigation_predict(ekf, u));
+                    .measure(clock, || generated_navigation_predict(ekf, dt, u));
                 k.compare(ekf, &posterior, was_used(status), call);
             }
             Event::Gnss(y) => {
@@ -375,16 +395,17 @@ impl Comparison {
             let mut copy = *ekf;
             stack_depth(|| kernel(black_box(&mut copy)))
         };
-        let (imu, gnss, magnetometer) = (
+        let (dt, imu, gnss, magnetometer) = (
+            flight::INTERVAL[0],
             Aligned(flight::IMU[0]),
             Aligned(flight::GNSS[0].1),
             Aligned(flight::MAGNETOMETER[0].1),
         );
         let stacks = (
             ours(&|f| {
-                let _ = black_box(generated_navigation_predict(f, &imu.0));
+                let _ = black_box(generated_navigation_predict(f, dt, &imu.0));
             }),
-            stack_depth(|| peers_symforce_predict(&prior, &imu, &self.q, &mut out)),
+            stack_depth(|| peers_symforce_predict(&prior, (dt, &imu), &self.q, &mut out)),
         );
         self.predict.report(stacks);
         let stacks = (

@@ -36,12 +36,13 @@ pub const UNSNAPSHOTTED_DEMO_MODELS: [&str; 1] = ["navigation"];
 
 /// Names of the test models in `tests/models/` (`model! { .. }` invocations that exercise
 /// parts of the language the demo models do not use).
-pub const TEST_MODELS: [&str; 10] = [
+pub const TEST_MODELS: [&str; 11] = [
     "rover",
     "rover_known",
     "ahrs",
     "vehicle_geometry",
     "dead_reckoning",
+    "dead_reckoning_timed",
     "carried_state",
     "delayed_fix",
     "jittered",

@@ -2,11 +2,14 @@
 //! is `F P F' + Q + G diag(qu) G'`, computed here densely with nalgebra, `F` and `G` the
 //! Jacobians of the generated `f` by central differences (over the tangent space for the
 //! AHRS, whose attitude is a rotation: `x ⊞ δx` turns it by `Exp(δθ) ⊗ q`); and its tuning
-//! (`new`'s `qu`, `set_input_noise`) rejects what is not a variance.
+//! (`new`'s `qu`, `set_input_noise`) rejects what is not a variance. With a sample
+//! interval `dt` (`interval`), `qu` is a density: the prediction adds `G diag(qu) G' / dt`,
+//! `G` the Jacobian over that interval, beside `Q dt`.
 
 use nalgebra::{DMatrix, DVector, Quaternion, UnitQuaternion, Vector3};
 
 include!("../models/dead_reckoning.rs");
+include!("../models/dead_reckoning_timed.rs");
 
 stateforge::model! {
     /// The AHRS of `examples/ahrs` with the gyro's noise on its input.
@@ -188,6 +191,25 @@ fn a_step_predicts_with_the_input_noise_as_predict_does() {
 }
 
 #[test]
+fn a_step_with_a_sample_interval_predicts_as_predict_does() {
+    use dead_reckoning_timed::{Ekf, Status};
+    let p0 = covariance(0.5, 0.05);
+    let mut stepped = Ekf::new(&DR_X, &p0, &DR_Q, &DR_QU, &DR_R).unwrap();
+    let mut parts = stepped;
+    let y = [3.2, -1.9];
+    assert_eq!(stepped.step(0.13, &DR_U, &y), Status::Ok);
+    assert_eq!(parts.predict(0.13, &DR_U), Status::Ok);
+    assert_eq!(parts.update(&y), Status::Ok);
+    let worst = (dense(&stepped.covariance()) - dense(&parts.covariance()))
+        .abs()
+        .max();
+    assert!(
+        worst < 1e-14,
+        "step and predict + update differ by {worst:.1e}"
+    );
+}
+
+#[test]
 fn the_input_noise_is_checked_a_variance() {
     use dead_reckoning::in_f64::{Ekf, Status};
     let p0 = covariance(0.5, 0.05);
@@ -223,4 +245,42 @@ fn the_input_noise_is_checked_a_variance() {
         grown > 0.5 * DR_QU[0] * 0.01,
         "heading variance grew by {grown:.1e}"
     );
+}
+
+/// With a sample interval, over intervals from a third below to twice the nominal one:
+/// `F P F' + Q dt + G diag(qu) G' / dt`, `F` and `G` the Jacobians of `f(dt, ..)` over that
+/// interval; and at the nominal interval the filter of densities `qu DT` and `Q / DT`
+/// predicts as the fixed-interval filter of variances `qu` and `Q` does.
+#[test]
+fn with_a_sample_interval_the_input_noise_is_a_density() {
+    use dead_reckoning_timed::{f, Ekf, Status, DT};
+    let (x, u) = (
+        DVector::from_column_slice(&DR_X),
+        DVector::from_column_slice(&DR_U),
+    );
+    let p0 = covariance(0.5, 0.05);
+    for dt in [0.067, 0.1, 0.2] {
+        let at = |x: &DVector<f64>, u: &DVector<f64>| {
+            DVector::from_column_slice(&f(dt, &array(x), &array(u)))
+        };
+        let f_x = central(4, 4, |dx| at(&(&x + dx), &u));
+        let g_u = central(4, 2, |du| at(&x, &(&u + du)));
+        let g_listed = DMatrix::from_columns(&[g_u.column(1), g_u.column(0)]);
+        let mut q = DMatrix::zeros(4, 4);
+        q[(3, 3)] = DR_Q[0] * dt;
+        let per_sample = DR_QU.map(|v| v / dt);
+        let mut filter = Ekf::new(&DR_X, &p0, &DR_Q, &DR_QU, &DR_R).unwrap();
+        assert_eq!(filter.predict(dt, &DR_U), Status::Ok);
+        let (expected, mapped) = reference((&f_x, &g_listed), &dense(&p0), &q, &per_sample);
+        assert_agrees(&dense(&filter.covariance()), &expected, &mapped);
+    }
+    let mut fixed = dead_reckoning::in_f64::Ekf::new(&DR_X, &p0, &DR_Q, &DR_QU, &DR_R).unwrap();
+    let densities = DR_QU.map(|v| v * DT);
+    let mut timed = Ekf::new(&DR_X, &p0, &DR_Q.map(|v| v / DT), &densities, &DR_R).unwrap();
+    assert_eq!(fixed.predict(&DR_U), dead_reckoning::in_f64::Status::Ok);
+    assert_eq!(timed.predict(DT, &DR_U), Status::Ok);
+    let worst = (dense(&fixed.covariance()) - dense(&timed.covariance()))
+        .abs()
+        .max();
+    assert!(worst < 1e-15, "the two filters differ by {worst:.1e}");
 }

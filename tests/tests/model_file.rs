@@ -631,6 +631,47 @@ fn vectors_and_rotations_in_a_model_file_generate_the_macros_code() {
     assert_eq!(code_without_docs(from_file), code_without_docs(from_macro));
 }
 
+#[test]
+fn a_sample_interval_in_a_model_file_generates_the_macros_code() {
+    // `interval = true` on a `[[const]]` is the macro's `interval DT = 0.1;`.
+    let read = |name: &str| std::fs::read_to_string(workspace_path(name)).expect("test model");
+    let from_file = stateforge_cli::expand_model_file(&read("tests/models/jittered.toml"))
+        .expect("model file expands");
+    let from_macro = stateforge_compiler::expand_macro_source(&read("tests/models/jittered.rs"))
+        .expect("macro expands");
+    let code = code_without_docs(from_file);
+    assert!(
+        code.contains("dt: f32"),
+        "the predictions take the interval"
+    );
+    assert_eq!(code, code_without_docs(from_macro));
+}
+
+#[test]
+fn a_second_sample_interval_is_refused_under_its_name() {
+    let toml = small_with(
+        "value = 0.01\n",
+        "value = 0.01\ninterval = true\n[[const]]\nname = \"DT\"\nvalue = 0.02\ninterval = true\n",
+    );
+    assert_error(
+        &toml,
+        "8:9: the sample interval is `TS` already: a model has one, given to each prediction",
+    );
+}
+
+#[test]
+fn a_sample_interval_that_is_not_positive_is_refused_under_its_value() {
+    let toml = small_with("value = 0.01\n", "value = -0.01\ninterval = true\n");
+    assert_error(
+        &toml,
+        "5:9: the sample interval's nominal value is positive and finite, in seconds, not \
+         -0.01: `0.004` for 4 ms",
+    );
+    // `interval = false` is a constant like any other.
+    let toml = small_with("value = 0.01\n", "value = -0.01\ninterval = false\n");
+    assert!(stateforge_cli::expand_model_file(&toml).is_ok());
+}
+
 /// A small model file with vectors and a rotation; its output's value, on line 11 from
 /// column 10, is what each case below changes.
 const GEOMETRY: &str = r#"name = "g"

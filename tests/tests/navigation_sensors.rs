@@ -6,8 +6,8 @@
 //! filter's untouched; updating with each sensor in turn equals the joint update on every
 //! Euclidean entry and block, and on the attitude up to the reset's second-order terms;
 //! each sensor has a gate of its own; and bad samples (non-finite IMU, GNSS or
-//! magnetometer values, a singular innovation covariance) return a status with the filter
-//! unchanged.
+//! magnetometer values, an interval not positive and finite, a singular innovation
+//! covariance) return a status with the filter unchanged.
 
 use generated_demo::navigation::in_f64::{f, h, jacobian_h_wrt_x, Ekf, Status};
 use generated_demo::navigation::{TANGENT_LEN as T, X_LEN as N};
@@ -57,21 +57,25 @@ fn measurement_variances() -> [f64; M] {
     [0.09, 0.09, 0.16, 0.25, 0.25, 0.49, 2.5e-5, 2.5e-5, 2.5e-5]
 }
 
+/// The IMU's sample interval \[s\] in these tests (the model's nominal one).
+const DT: f64 = 0.004;
+
 fn filter(r: &[[f64; M]; M]) -> Ekf {
     let p0 = diagonal(initial_sigma().map(|s| s * s));
+    // Densities (per second) of the variances per sample below.
     let mut q = [0.0; T];
     q[ATTITUDE].fill(4e-9);
     q[3..6].fill(1e-6);
     q[9..15].fill(6e-8);
     q[15..21].fill(1e-10);
     q[21..23].fill(1e-6);
-    Ekf::new(&initial_state(), &p0, &q, r).unwrap()
+    Ekf::new(&initial_state(), &p0, &q.map(|v| v / DT), r).unwrap()
 }
 
 /// An IMU sample of a slow turn with a little climb, as the model takes it: the rate
 /// \[rad/s\] and the specific force \[m/s^2\], gravity's reaction on the accelerometer.
 fn imu(k: usize) -> [f64; 6] {
-    let t = k as f64 * 0.004;
+    let t = k as f64 * DT;
     let rate = 0.2 * (0.5 * t).sin();
     [0.001, -0.002, rate, 0.1, 0.0, -9.7]
 }
@@ -80,7 +84,7 @@ fn imu(k: usize) -> [f64; 6] {
 fn predicted_filter(r: &[[f64; M]; M]) -> Ekf {
     let mut ekf = filter(r);
     for k in 0..250 {
-        assert_eq!(ekf.predict(&imu(k)), Status::Ok);
+        assert_eq!(ekf.predict(DT, &imu(k)), Status::Ok);
     }
     ekf
 }
@@ -218,8 +222,8 @@ fn sensor_updates_in_turn_equal_the_joint_update_but_for_the_attitude_reset() {
     let (mut euclidean, mut attitude_ratio): (f64, f64) = (0.0, 0.0);
     for k in 0..500 {
         let u = imu(k);
-        truth = f(&truth, &u);
-        assert_eq!(joint.predict(&u), Status::Ok);
+        truth = f(DT, &truth, &u);
+        assert_eq!(joint.predict(DT, &u), Status::Ok);
         if k % 50 != 49 {
             continue;
         }
@@ -300,7 +304,16 @@ fn bad_samples_leave_the_filter_unchanged() {
         for i in 0..6 {
             let mut u = imu(0);
             u[i] = bad;
-            assert_eq!(ekf.predict(&u), Status::RejectedInput, "IMU {i} = {bad}");
+            assert_eq!(
+                ekf.predict(DT, &u),
+                Status::RejectedInput,
+                "IMU {i} = {bad}"
+            );
+            assert_eq!(
+                ekf.predict(bad, &imu(0)),
+                Status::RejectedInput,
+                "interval {bad}"
+            );
             let mut gnss: [f64; 6] = std::array::from_fn(|j| h(&ekf.state())[j]);
             gnss[i] = bad;
             assert_eq!(
@@ -320,6 +333,10 @@ fn bad_samples_leave_the_filter_unchanged() {
         }
         assert_eq!(ekf, before);
     }
+    for interval in [0.0, -DT] {
+        assert_eq!(ekf.predict(interval, &imu(0)), Status::RejectedInput);
+    }
+    assert_eq!(ekf, before);
 }
 
 #[test]

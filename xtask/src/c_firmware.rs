@@ -197,12 +197,14 @@ fn data_header() -> String {
          static const float flight_q[23] = {};\n\
          static const float flight_r[9] = {};\n\
          #define FLIGHT_SAMPLES {}\n\
+         static const float flight_interval[FLIGHT_SAMPLES] = {};\n\
          static const float flight_imu[FLIGHT_SAMPLES][6] = {{{}}};",
         floats(&flight.x0),
         floats(&flight.p0),
         floats(&flight.q),
         floats(&flight.r),
         data::NAVIGATION_SAMPLES,
+        floats(&flight.interval),
         flight
             .imu
             .iter()
@@ -342,6 +344,7 @@ mod tests {
         let header = data_header();
         assert!(header.contains("#define SEQUENCE_SAMPLES 1000"));
         assert!(header.contains("#define FLIGHT_SAMPLES 1000"));
+        assert!(header.contains("static const float flight_interval[FLIGHT_SAMPLES] = {0.00"));
     }
 
     #[test]

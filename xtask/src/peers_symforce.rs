@@ -12,7 +12,7 @@
 //! The model is the error-state navigation filter (issue 40): SymForce's derivation keeps
 //! the attitude an `sf.Rot3` and the covariance over its 23 tangent coordinates, as PX4
 //! EKF2's does, and the firmware runs it beside `generated_demo::navigation` itself. Its
-//! constants (24 entries, 23 tangent coordinates, `DT`, gravity) are those of
+//! constants (24 entries, 23 tangent coordinates, gravity) are those of
 //! `generated_demo::navigation`, which `constants` reads.
 
 use crate::peers_build;
@@ -41,8 +41,8 @@ const KERNELS: [(&str, &str); 3] = [
 pub const TERMS: &str = "Both sides from the same estimate at every call: before each \
      call of ours, SymForce is handed our filter's state and covariance (the packed \
      upper triangle over the 23 tangent coordinates, read through Ekf::covariance), the \
-     same IMU sample or measurement, Q's diagonal or the sensor's part of R's (R is \
-     diagonal). Ours: the generated f32 error-state navigation filter's predict, \
+     same IMU sample with its interval, or the same measurement, and Q's diagonal (a \
+     density, scaled by the interval) or the sensor's part of R's (R is diagonal). Ours: the generated f32 error-state navigation filter's predict, \
      update_gnss and update_magnetometer as generated (each update a joint update of the \
      sensor's outputs through an L D L' factor, gated at 22.46 and 16.27, with its input \
      and divergence checks, its innovation and NIS stored, then the injection and the \
@@ -50,7 +50,7 @@ pub const TERMS: &str = "Both sides from the same estimate at every call: before
      model's structure, neither computed nor stored, COVARIANCE_BLOCKS: with it computed, \
      ours were 2708, 5840 and 4259, 0.78, 0.84 and 0.82 of SymForce's). SymForce: the \
      same error-state filter (every entry of the covariance computed) on its Rot3 (global angular \
-     error), x_new = f(x, u) with the exact Rot3.from_tangent, P_new = F P F' + diag(q) on \
+     error), x_new = f(x, u) with the exact Rot3.from_tangent, P_new = F P F' + diag(q) dt on \
      the packed triangle, F the Jacobian of the tangent error at zero; each sensor fused as \
      sequential scalar updates of the error linearised at the prior (PX4 EKF2's scheme), \
      then Rot3.from_tangent(dtheta) * q and G P G', G = I + [dtheta/2]x; each new attitude \
@@ -99,7 +99,6 @@ fn constants(dir: &Path) -> Result<PathBuf, String> {
     let json = serde_json::json!({
         "states": navigation::X_LEN,
         "tangent": navigation::TANGENT_LEN,
-        "dt": navigation::in_f64::DT,
         "gravity": navigation::in_f64::GRAVITY,
         "epsilon": ANGLE_EPSILON,
     });

@@ -1,16 +1,17 @@
 //! The navigation experiment: the generated 24-state error-state EKF
 //! (`generated-demo/models/navigation.rs`, a 23-dimensional covariance) on a simulated
-//! multirotor flight ([`generated_demo::flight`]): the IMU at 250 Hz (`predict`), the
-//! magnetometer at 50 Hz (`update_magnetometer`), the GNSS at 5 Hz (`update_gnss`) with a
-//! 10 s outage. Errors of attitude, velocity, position and IMU biases against the truth,
-//! with the filter's own 3-sigma bounds, each sensor's normalised innovation squared and
-//! the quaternion's largest departure from unit norm, for the `f32` filter (what the MCU
-//! runs) and the `f64` one.
+//! multirotor flight ([`generated_demo::flight`]): the IMU at a nominal 250 Hz, its
+//! intervals jittered (`predict(dt, u)`), the magnetometer at 50 Hz
+//! (`update_magnetometer`), the GNSS at 5 Hz (`update_gnss`) with a 10 s outage. Errors
+//! of attitude, velocity, position and IMU biases against the truth, with the filter's own
+//! 3-sigma bounds, each sensor's normalised innovation squared and the quaternion's
+//! largest departure from unit norm, for the `f32` filter (what the MCU runs) and the
+//! `f64` one.
 
 use super::report::{self, Line, Trace};
 use generated_demo::flight::{
     conjugate, initial_estimate, quaternion_product, rotate, rotation_vector, tuning, Flight,
-    Truth, ACCEL_BIAS, DT, END, GNSS_OUTAGE, GYRO_BIAS,
+    Truth, ACCEL_BIAS, DROPPED, DT, END, GNSS_OUTAGE, GYRO_BIAS, JITTER,
 };
 use generated_demo::navigation::{self, TANGENT_LEN, X_LEN};
 use std::error::Error;
@@ -117,7 +118,8 @@ pub(super) trait NavigationFilter: Sized {
         q: &[f64; TANGENT_LEN],
         r: &[f64; 9],
     ) -> Result<Self, String>;
-    fn predict(&mut self, imu: &[f64; 6]) -> Result<Outcome, String>;
+    /// A prediction over the IMU sample's interval `dt` \[s\].
+    fn predict(&mut self, dt: f64, imu: &[f64; 6]) -> Result<Outcome, String>;
     fn update_gnss(&mut self, y: &[f64; 6]) -> Result<Outcome, String>;
     fn update_magnetometer(&mut self, y: &[f64; 3]) -> Result<Outcome, String>;
     fn estimate(&self) -> ([f64; X_LEN], [[f64; TANGENT_LEN]; TANGENT_LEN]);
@@ -160,8 +162,12 @@ macro_rules! navigation_filter {
                 )
                 .map_err(|status| format!("tuning rejected: {status:?}"))
             }
-            fn predict(&mut self, imu: &[f64; 6]) -> Result<Outcome, String> {
-                outcome(<$filter>::predict(self, &imu.map(|v| v as $scalar)))
+            fn predict(&mut self, dt: f64, imu: &[f64; 6]) -> Result<Outcome, String> {
+                outcome(<$filter>::predict(
+                    self,
+                    dt as $scalar,
+                    &imu.map(|v| v as $scalar),
+                ))
             }
             fn update_gnss(&mut self, y: &[f64; 6]) -> Result<Outcome, String> {
                 outcome(<$filter>::update_gnss(self, &y.map(|v| v as $scalar)))
@@ -245,7 +251,7 @@ fn fly<F: NavigationFilter>(tag: &str, trace: &mut Trace) -> Result<Summary, Str
         let (truth, readings) = flight.advance();
         let at = |what: &str, e: String| format!("{tag} {what} at {:.3} s: {e}", truth.t);
         filter
-            .predict(&readings.rates())
+            .predict(readings.interval, &readings.rates())
             .map_err(|e| at("predict", e))?;
         if let Some(y) = readings.magnetometer {
             let outcome = filter
@@ -371,15 +377,22 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
     let double = fly::<navigation::in_f64::Ekf>("f64", &mut trace64)?;
     println!("\nNavigation: the generated error-state EKF (PX4 EKF2's formulation: 24 entries, a");
     println!(
-        "23-dimensional covariance) on a simulated {END:.0} s multirotor flight: take-off, cruise at"
+        "23-dimensional covariance) on a simulated multirotor flight of about {END:.0} s: take-off, cruise at"
     );
     println!(
-        "5 m/s with two turns and a climb, GNSS outage {:.0}-{:.0} s. IMU 250 Hz (gyro bias {:?} rad/s,",
+        "5 m/s with two turns and a climb, GNSS outage {:.0}-{:.0} s. IMU nominally 250 Hz (gyro bias {:?} rad/s,",
         GNSS_OUTAGE.0, GNSS_OUTAGE.1, GYRO_BIAS
     );
     println!("accelerometer bias {ACCEL_BIAS:?} m/s^2), magnetometer 50 Hz (update_magnetometer), GNSS 5 Hz");
     println!(
         "(update_gnss); errors against the truth at 10 Hz, sigma from the filter's covariance."
+    );
+    println!(
+        "The IMU's intervals jitter by up to {:.0} % about {:.0} ms, and about one sample in {:.0} \
+         is dropped (the next covers two): predict(dt, u) takes each sample's own.",
+        100.0 * JITTER,
+        1e3 * DT,
+        1.0 / DROPPED
     );
     println!("Attitude errors about the body axes (roll, pitch, yaw) and about N, E, D (the filter's own");
     println!(

@@ -434,8 +434,7 @@ fn check_interval(
             c.value.span,
             format!(
                 "the sample interval's nominal value is positive and finite, in seconds, not \
-                 {value}: `interval {} = 0.004;`",
-                c.name.text
+                 {value}: `0.004` for 4 ms"
             ),
         );
         return false;

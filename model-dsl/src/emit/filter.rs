@@ -47,6 +47,8 @@ pub struct FilterLayout {
     /// names), empty for none; else the field `qu` holds their variances, which the
     /// constructor takes after `q` and `set_input_noise` replaces.
     input_noise: Vec<String>,
+    /// What the constructor's documentation says of `qu` ([`input_noise_doc`]).
+    input_noise_doc: String,
     /// Whether the covariance's coordinates fall into blocks that nothing couples (see
     /// [`crate::symbolic::covariance_blocks`]), numbered in the const
     /// `COVARIANCE_BLOCKS`: `p0` must be zero between two of them.
@@ -98,6 +100,7 @@ impl FilterLayout {
             noise: noise.clone(),
             noise_doc,
             input_noise: Vec::new(),
+            input_noise_doc: String::new(),
             blocks: false,
             n_len,
             m_len,
@@ -112,13 +115,15 @@ impl FilterLayout {
 
     /// The same layout with noise on the input entries `inputs` (their names, kept in the
     /// layout's `input_noise`): the field `qu`, the constructor's argument and the setter
-    /// `set_input_noise`.
+    /// `set_input_noise`; densities if the predictions take the sample interval `interval`.
     #[must_use]
-    pub fn with_input_noise(mut self, inputs: &[&str]) -> FilterLayout {
+    pub fn with_input_noise(mut self, inputs: &[&str], interval: Option<&str>) -> FilterLayout {
         if !inputs.is_empty() {
-            let setter = input_noise_setter(inputs.len(), &input_noise_doc(inputs), &self.ty);
+            let doc = input_noise_doc(inputs, interval);
+            let setter = input_noise_setter(inputs.len(), &doc, &self.ty);
             self.setters.extend(setter);
             self.input_noise = inputs.iter().map(|&name| name.to_owned()).collect();
+            self.input_noise_doc = doc;
         }
         self
     }
@@ -214,8 +219,8 @@ impl FilterLayout {
 
     /// `fn new(x0, p0, q, qu?, r, known?) -> Result<Self, Status>`: the constructor,
     /// documented by the attributes `doc`, rejecting a non-finite entry of what it reads and storing
-    /// `x0` and the packed upper triangles of `p0`, `q` and `r`, the input noise variances
-    /// `qu` if the filter has them, and the `known` constants if the filter holds them. `extra_init` continues the struct literal
+    /// `x0` and the packed upper triangles of `p0`, `q` and `r`, the input noise `qu`
+    /// (variances per sample, or densities with a sample interval) if the filter has them, and the `known` constants if the filter holds them. `extra_init` continues the struct literal
     /// (each field followed by a comma) with the fields a filter adds.
     pub fn constructor(
         &self,
@@ -229,9 +234,8 @@ impl FilterLayout {
             let text = &self.noise_doc;
             quote! { #[doc = #text] }
         });
-        let names: Vec<&str> = self.input_noise.iter().map(String::as_str).collect();
-        let input_noise_doc = (!names.is_empty()).then(|| {
-            let text = input_noise_doc(&names);
+        let input_noise_doc = (!self.input_noise.is_empty()).then(|| {
+            let text = &self.input_noise_doc;
             quote! { #[doc = #text] }
         });
         let sensors_doc = self.stored_r.condition.as_ref().map(|_| {
@@ -246,8 +250,8 @@ impl FilterLayout {
         let unit = self.unit_rotations(&quote! { Err(Status::RejectedInput) });
         let k = self.noise.len(self.n_p);
         let q = arguments.process_noise("q", k, self.noise.diagonal, &self.ty);
-        let qu = (!names.is_empty()).then(|| {
-            let qu = arguments.process_noise("qu", names.len(), true, &self.ty);
+        let qu = (!self.input_noise.is_empty()).then(|| {
+            let qu = arguments.process_noise("qu", self.input_noise.len(), true, &self.ty);
             quote! { qu: #qu, }
         });
         // Stored whole, or each sensor's block (zero between them, tested with `r`).

@@ -72,23 +72,34 @@ pub fn process_noise_setter(
 }
 
 /// `fn set_input_noise(&mut self, qu) -> Status` replacing the field `qu`, the variances
-/// per sample of the `k` input entries whose noise enters the state (`entries_doc` names
-/// them, see [`input_noise_doc`]).
+/// per sample (or densities) of the `k` input entries whose noise enters the state
+/// (`entries_doc` names them, see [`input_noise_doc`]).
 pub fn input_noise_setter(k: usize, entries_doc: &str, ty: &proc_macro2::Ident) -> TokenStream {
     let doc = format!(
-        " Replaces the input noise variances `qu`.{entries_doc} Rejects a non-finite entry \
-         with [`Status::RejectedInput`] and a negative variance with \
+        " Replaces the input noise `qu`.{entries_doc} Rejects a non-finite entry \
+         with [`Status::RejectedInput`] and a negative entry with \
          [`Status::InvalidCovariance`], leaving the filter unchanged."
     );
     noise_setter(("set_input_noise", "qu", "qu"), k, true, &doc, ty)
 }
 
-/// What the input noise variances `qu` are, for the documentation of what takes or stores
-/// them, starting with a space: the variance per sample of each entry of `inputs` (their
-/// names, in order), which enters the state through the input Jacobian.
-pub fn input_noise_doc(inputs: &[&str]) -> String {
+/// What the input noise `qu` is, for the documentation of what takes or stores it,
+/// starting with a space: the variance per sample of each entry of `inputs` (their names,
+/// in order), which enters the state through the input Jacobian; or, with a sample
+/// interval `dt` (`interval`), the density whose sample over `dt` has the variance `qu / dt`.
+pub fn input_noise_doc(inputs: &[&str], interval: Option<&str>) -> String {
     let listed: Vec<String> = inputs.iter().map(|name| format!("`{name}`")).collect();
     let listed = crate::diagnostics::phrase(&listed, "and");
+    if let Some(dt) = interval {
+        // A white noise of density `s` averaged over `dt` has the variance `s^2 / dt`.
+        return format!(
+            " `qu` holds the noise densities of the inputs {listed} (in this order, in their \
+             units squared times seconds): a sample held over the interval `{dt}` has the \
+             variance `qu / {dt}`, and it enters the state through the input Jacobian \
+             `G = df/du` as `G diag(qu) G' / {dt}`. A white noise of density `s` (per square \
+             root of a hertz) has `qu = s^2`."
+        );
+    }
     format!(
         " `qu` holds the variances of one sample of the inputs {listed} (in this order, in \
          their units squared), whose noise enters the state through the input Jacobian \

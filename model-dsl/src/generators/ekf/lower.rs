@@ -121,7 +121,7 @@ fn emit_with_blocks(
         .map(|&j| model.inputs[j].name.as_str())
         .collect();
     let layout = FilterLayout::new(model, &spec.process_noise, &ty)
-        .with_input_noise(&noisy_inputs)
+        .with_input_noise(&noisy_inputs, model.interval_parameter().as_deref())
         .with_covariance_blocks(blocks.is_split().then(|| blocks.ids()));
     let methods = quote! {
         #step
@@ -390,11 +390,20 @@ impl EkfMethod {
                  [`Status::Ok`].",
             ),
         };
-        let input_noise = if self.predicts() && !spec.input_noise.is_empty() {
-            " The prediction's process noise includes the noise on the inputs \
-             `input_noise` lists, `G diag(qu) G'` with `G = df/du` at the current estimate."
-        } else {
-            ""
+        let input_noise = match (
+            self.predicts() && !spec.input_noise.is_empty(),
+            model.interval(),
+        ) {
+            (false, _) => "",
+            (true, None) => {
+                " The prediction's process noise includes the noise on the inputs \
+                 `input_noise` lists, `G diag(qu) G'` with `G = df/du` at the current estimate."
+            }
+            (true, Some(_)) => {
+                " The prediction's process noise includes the noise on the inputs \
+                 `input_noise` lists, `G diag(qu) G' / dt` with `G = df/du` at the current \
+                 estimate over the interval."
+            }
         };
         (
             ident(name),
@@ -655,9 +664,20 @@ impl EkfNodes {
     /// The prediction through the shared Kalman stage, the noise on the input entries
     /// `input_noise` included; kept as the prediction a step corrects if `corrected`.
     fn predict(&mut self, input_noise: &[usize], corrected: bool) {
-        let noisy: Vec<(usize, NodeId)> =
-            input_noise.iter().copied().zip(self.qu.clone()).collect();
-        // With a sample interval, `Q` is a density: the noise of an interval `dt` is `Q dt`.
+        // With a sample interval, `Q` is a density: the noise of an interval `dt` is `Q dt`;
+        // and `qu` too, a white noise's density, whose sample held over `dt` has the
+        // variance `qu / dt`.
+        let noisy: Vec<(usize, NodeId)> = match self.g.interval {
+            Some(dt) => {
+                let graph = &mut self.g.graph;
+                // One division, whatever the number of noisy inputs.
+                let one = graph.one();
+                let per_second = graph.div(one, dt);
+                let per_sample = self.qu.iter().map(|&qu| graph.mul(qu, per_second));
+                input_noise.iter().copied().zip(per_sample).collect()
+            }
+            None => input_noise.iter().copied().zip(self.qu.clone()).collect(),
+        };
         let q = match self.g.interval {
             Some(dt) => {
                 let graph = &mut self.g.graph;

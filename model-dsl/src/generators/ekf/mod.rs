@@ -120,14 +120,6 @@ impl Generator for EkfSpec {
     fn design(&self, model: &Model, _mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
         let model = self.horizon_model(model);
         let at = self.item.unwrap_or_else(proc_macro2::Span::call_site);
-        if model.interval().is_some() && !self.input_noise.is_empty() {
-            return Err(syn::Error::new(
-                at,
-                "`ekf`: noise on inputs with a sample interval is not generated yet (an \
-                 input's noise density would enter as `G qu G' / dt`): drop `input_noise`, \
-                 or declare the sample time `const`",
-            ));
-        }
         if model.delay() > 0 && model.uses_time() {
             return Err(syn::Error::new(
                 at,

@@ -12,7 +12,8 @@ pub struct EkfSpec {
     pub process_noise: ProcessNoise,
     /// The inputs' entries whose noise enters the state through the input Jacobian
     /// (`input_noise = [gyro]`, a vector as its three), by index among the model's inputs,
-    /// in the order their variances `qu` are given; empty without the option.
+    /// in the order their noise `qu` is given (variances per sample, or densities with a
+    /// sample interval); empty without the option.
     pub input_noise: Vec<usize>,
     /// The innovation gate: a measurement whose normalised innovation squared exceeds it
     /// is rejected as an outlier (`None`: no gate is generated).
