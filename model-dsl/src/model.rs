@@ -611,11 +611,14 @@ impl Model {
         self.interval().map(|_| INTERVAL_PARAMETER.to_owned())
     }
 
-    /// Whether the dynamics read the sample interval: `f` then takes it.
+    /// Whether the dynamics read the sample interval (discrete ones in their equations,
+    /// continuous ones as the step they are integrated over): `f` then takes it.
     pub fn dynamics_read_interval(&self) -> bool {
         self.interval().is_some_and(|i| {
             let reads = |e: &Expr| matches!(e, Expr::Const(j) if *j == i);
-            self.dynamics.rhs.iter().any(|e| self.reads(e, &reads))
+            let step_reads = matches!(&self.dynamics.discretisation,
+                Discretisation::Continuous { dt, .. } if dt.any(&reads));
+            step_reads || self.dynamics.rhs.iter().any(|e| self.reads(e, &reads))
         })
     }
 

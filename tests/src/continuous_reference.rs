@@ -25,6 +25,7 @@ pub enum Rule {
 }
 
 /// A continuous model: `dx/dt = f(t, x, u)`, `df/dx`, `y = h(t, x)`, `dh/dx`.
+#[derive(Clone, Copy)]
 pub struct Model<const N: usize, const M: usize, const U: usize> {
     /// `dx/dt`.
     pub rate: fn(f64, &SVector<f64, N>, &[f64; U]) -> SVector<f64, N>,

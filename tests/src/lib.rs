@@ -36,7 +36,7 @@ pub const UNSNAPSHOTTED_DEMO_MODELS: [&str; 1] = ["navigation"];
 
 /// Names of the test models in `tests/models/` (`model! { .. }` invocations that exercise
 /// parts of the language the demo models do not use).
-pub const TEST_MODELS: [&str; 11] = [
+pub const TEST_MODELS: [&str; 12] = [
     "rover",
     "rover_known",
     "ahrs",
@@ -48,6 +48,7 @@ pub const TEST_MODELS: [&str; 11] = [
     "jittered",
     "jittered_late",
     "varying_delay",
+    "jittered_pendulum",
 ];
 
 /// The generated code of a test model, formatted.

@@ -1,15 +1,15 @@
 //! The sample interval (`interval DT = 0.004;`): a discrete model's step and process noise
-//! are functions of it, and each prediction takes it at run time. What a model may do with
-//! it, checked once the model is whole.
+//! are functions of it, continuous dynamics are integrated over it, and each prediction
+//! takes it at run time. What a model may do with it, checked once the model is whole.
 
-use crate::ast::ModelDecl;
+use crate::ast::{DynamicsKind, ModelDecl, Statement};
 use crate::diagnostics::Diagnostics;
 use crate::model::{Discretisation, Expr, Model};
 
-/// The model's use of its sample interval, if it declares one: its dynamics are discrete
-/// (a continuous model's `dt` is fixed), it does not read the time `t` (a prediction
-/// would need both), no output reads it (a measurement is of one instant), and its name
-/// as the functions' parameter (lower case, `dt`) is no other name of the model.
+/// The model's use of its sample interval, if it declares one: continuous dynamics are
+/// integrated over it (see [`check_continuous_use`]), the model does not read the time `t`
+/// (a prediction would need both), no output reads it (a measurement is of one instant),
+/// and its parameter's name (`dt`) is no other name of the model.
 pub(super) fn check_interval_use(decl: &ModelDecl, model: &Model, diag: &mut Diagnostics) {
     let Some(i) = model.interval() else {
         return;
@@ -19,18 +19,8 @@ pub(super) fn check_interval_use(decl: &ModelDecl, model: &Model, diag: &mut Dia
     };
     let at = declared.interval.unwrap_or(declared.name.span);
     let name = &model.constants[i].name;
-    if matches!(
-        model.dynamics.discretisation,
-        Discretisation::Continuous { .. }
-    ) {
-        diag.error(
-            at,
-            format!(
-                "`interval {name}` is a discrete model's sample interval, given to each \
-                 prediction; continuous dynamics are integrated over a fixed `dt`: write \
-                 `const {name} = ..;`, or the dynamics as `dynamics discrete {{ .. }}`"
-            ),
-        );
+    if let Discretisation::Continuous { dt, .. } = &model.dynamics.discretisation {
+        check_continuous_use(decl, model, (i, dt), diag);
     }
     if model.uses_time() {
         diag.error(
@@ -78,5 +68,51 @@ pub(super) fn check_interval_use(decl: &ModelDecl, model: &Model, diag: &mut Dia
                  functions and predictions, a name the model uses already: rename one"
             ),
         );
+    }
+}
+
+/// Continuous dynamics with a sample interval `i`: their step `dt` is the interval itself
+/// (what each prediction integrates over is the time since the previous sample, not a
+/// multiple of it: `h = dt / substeps` divides it), and their rates do not read it (a
+/// rate is of one instant, whatever the samples around it).
+fn check_continuous_use(
+    decl: &ModelDecl,
+    model: &Model,
+    (i, dt): (usize, &Expr),
+    diag: &mut Diagnostics,
+) {
+    let name = &model.constants[i].name;
+    let written = decl.dynamics.first().and_then(|d| match &d.kind {
+        DynamicsKind::Continuous { dt: Some(dt), .. } => Some(dt.span),
+        _ => None,
+    });
+    if !matches!(dt, Expr::Const(j) if *j == i) {
+        diag.error(
+            written.unwrap_or(decl.span),
+            format!(
+                "continuous dynamics are integrated over the sample interval `{name}`, given \
+                 to each prediction: write `dt = {name}` (the sub-steps divide it)"
+            ),
+        );
+    }
+    let reads = |e: &Expr| matches!(e, Expr::Const(j) if *j == i);
+    let equations = decl.dynamics.iter().flat_map(|d| &d.statements);
+    for statement in equations {
+        let Statement::Equation { target, value, .. } = statement else {
+            continue;
+        };
+        let Some(s) = model.states.iter().position(|s| s.name == target.text) else {
+            continue;
+        };
+        if model.reads(&model.dynamics.rhs[s], &reads) {
+            diag.error(
+                value.span,
+                format!(
+                    "the rate of `{}` reads the sample interval `{name}`, which a rate of one \
+                     instant has none of: only the step, `dt = {name}`, reads it",
+                    target.text
+                ),
+            );
+        }
     }
 }

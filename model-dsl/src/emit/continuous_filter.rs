@@ -19,6 +19,7 @@ use crate::emit::filter::{
     correction_reads_input, finiteness_probe, model_names, name_estimate, packed_vars,
     reads_variable, unclaimed_name, FilterVars, ProcessNoise, MEASUREMENT_INPUT_DOC,
 };
+use crate::emit::interval;
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::measurement;
 use crate::emit::names::{ident, TempNamer};
@@ -144,6 +145,29 @@ impl FilterMethod {
         }
     }
 
+    /// What the method does over the sample interval, where the model declares one (see
+    /// [`crate::emit::interval::doc`]).
+    fn interval_doc(self) -> &'static str {
+        match self {
+            FilterMethod::Predict | FilterMethod::Step | FilterMethod::Update => {
+                "the estimate and its covariance are integrated over it, in \
+                 [`Self::SUBSTEPS`] sub-steps of `dt / SUBSTEPS`, the process noise density \
+                 `Q` with them"
+            }
+            FilterMethod::ContinuousPredict { .. } => {
+                "the estimate and the Riccati equation are integrated over it, in \
+                 [`Self::SUBSTEPS`] sub-steps of `dt / SUBSTEPS`, the process noise density \
+                 `Q` with them"
+            }
+            FilterMethod::Continuous { .. } | FilterMethod::ContinuousSplit { .. } => {
+                "the estimate and the Riccati equation are integrated over it with the \
+                 measurement held (in [`Self::SUBSTEPS`] sub-steps of `dt / SUBSTEPS` between \
+                 the measurement terms' flows), the noise densities `Q` and `R` with them, and \
+                 the innovation's covariance is `H P H' + R / dt`"
+            }
+        }
+    }
+
     /// The method's name and documentation.
     fn name_and_doc(self) -> (&'static str, &'static str) {
         match self {
@@ -254,14 +278,23 @@ pub fn method(
     } else {
         ""
     };
-    let doc = format!("{doc}{time_doc}{input_doc}");
+    let mut doc = format!("{doc}{time_doc}{input_doc}");
+    let (mut body, mut total) = (lowered.body, lowered.total);
+    if let (Some(dt), Some(parameter)) = (nodes.g.interval, model.interval_parameter()) {
+        if reads_variable(graph, dt, used_vars) {
+            doc.push_str(&interval::doc(&parameter, kind.interval_doc()));
+            let guard = interval::guard(&parameter, scalar);
+            body = quote! { #guard #body };
+            total = total.plus(interval::guard_ops());
+        }
+    }
     let doc = quote! { #[doc = #doc] };
     let tokens = if matches!(kind, FilterMethod::ContinuousSplit { fallback: true, .. }) {
-        arguments.private_method(&ident(name), &doc, lowered.body)
+        arguments.private_method(&ident(name), &doc, body)
     } else {
-        arguments.method(&ident(name), &doc, lowered.body)
+        arguments.method(&ident(name), &doc, body)
     };
-    (tokens, lowered.total, lowered.per_substep)
+    (tokens, total, lowered.per_substep)
 }
 
 /// The continuous dynamics a propagation integrates, built once over the variables
@@ -1187,6 +1220,12 @@ fn arguments(
         } else {
             arguments.time("t", reads_variable(graph, g.t, used_vars), ty);
         }
+    }
+    if let (true, Some(dt), Some(name)) = (kind.predicts(), g.interval, model.interval_parameter())
+    {
+        // A gated step passes it on to `predict` when it rejects an outlier.
+        let passed_on = nodes.nis.is_some() && nodes.gated;
+        arguments.time(&name, passed_on || reads_variable(graph, dt, used_vars), ty);
     }
     if kind.predicts() && !g.u.is_empty() {
         arguments.array("u_prev", var_idents(graph, &g.u), ty);

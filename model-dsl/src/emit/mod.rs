@@ -7,6 +7,7 @@ pub mod continuous_filter;
 pub mod filter;
 pub mod in_place;
 pub mod interop;
+pub mod interval;
 pub mod known;
 pub mod lower;
 pub mod measurement;

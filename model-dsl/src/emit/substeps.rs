@@ -179,6 +179,9 @@ struct Substep {
     next: Vec<NodeId>,
     /// Whether the model reads `t`, so the loop carries it.
     uses_time: bool,
+    /// The sample interval's parameter (`dt`), if the model declares one: the sub-steps
+    /// divide it.
+    interval: Option<String>,
 }
 
 impl Substep {
@@ -217,13 +220,17 @@ impl Substep {
             states,
             next,
             uses_time,
+            interval: model.interval_parameter(),
         }
     }
 
     /// The loop over `F_SUBSTEPS`, carrying [`X_SUB`] (and [`T_SUB`]).
     fn lower(&self, model: &Model, scalar: Scalar) -> SubstepLoop {
         let g = &self.g;
-        let reserved = argument_names(model).chain([X_SUB, T_SUB, F_SUBSTEPS, F_SUBSTEP_PAIRS]);
+        let interval = model.interval_parameter();
+        let reserved = argument_names(model)
+            .chain([X_SUB, T_SUB, F_SUBSTEPS, F_SUBSTEP_PAIRS])
+            .chain(interval.as_deref());
         let namer = super::names::TempNamer::new(reserved);
         let mut lowerer = Lowerer::new(&g.graph, scalar, namer, &self.next);
         let (state_next, t_next) = self.next.split_at(self.states.len());
@@ -262,6 +269,11 @@ impl Substep {
         let x_idents = super::code::var_idents(&g.graph, &g.x);
         let n = proc_macro2::Literal::usize_unsuffixed(g.x.len());
         let time = self.uses_time.then(|| quote! { t: #ty, });
+        // The sample interval, which each sub-step's length `dt / F_SUBSTEPS` reads.
+        let interval = self.interval.as_ref().map(|dt| {
+            let dt = ident(dt);
+            quote! { #dt: #ty, }
+        });
         let u_param = (!g.u.is_empty()).then(|| {
             let u_idents = super::code::var_idents(&g.graph, &g.u);
             let len = proc_macro2::Literal::usize_unsuffixed(g.u.len());
@@ -274,18 +286,22 @@ impl Substep {
         let x_sub = ident(X_SUB);
         let doc = format!(
             " One sample of the dynamics, `x[k+1] = f(x[k], u[k])`, integrating the continuous \
-             dynamics with {} ({} steps per sample, in a loop: too many to \
+             dynamics with {} ({} steps per sample{}, in a loop: too many to \
              unroll, so there are no Jacobians of `f`; the continuous filters differentiate \
              `dx/dt` instead).",
             integration_rule_name(self.rule),
-            self.count
+            self.count,
+            match &self.interval {
+                Some(dt) => format!(" over the sample interval `{dt}`"),
+                None => String::new(),
+            }
         );
         quote! {
             #[doc = #doc]
             #[doc = ""]
             #[doc = " Cost: see [`F_OPS`]."]
             #[must_use]
-            pub fn f(#time x: &[#ty; #n], #u_arg) -> [#ty; #n] {
+            pub fn f(#time #interval x: &[#ty; #n], #u_arg) -> [#ty; #n] {
                 let [#(#x_idents),*] = *x;
                 #u_unpack
                 #code

@@ -37,6 +37,10 @@ impl Kind for ContinuousEkf {
         &DESCRIPTION
     }
 
+    fn takes_interval(&self) -> bool {
+        true
+    }
+
     fn options(
         &self,
         _item: &GenerateDecl,

@@ -15,6 +15,7 @@ use crate::emit::filter::{
     name_estimate, reads_variable, unclaimed_name, FilterLayout, FilterVars, MEASUREMENT_INPUT_DOC,
 };
 use crate::emit::in_place::{self, CovarianceSlots};
+use crate::emit::interval;
 use crate::emit::lower::{Lowered, Lowerer, OpCount};
 use crate::emit::measurement;
 use crate::emit::names::{ident, TempNamer};
@@ -476,16 +477,6 @@ fn sensor_update_doc(model: &Model, sensor: &crate::model::Sensor, spec: &EkfSpe
     )
 }
 
-/// What a prediction's documentation adds when it takes the sample interval `dt`.
-fn interval_doc(dt: &str) -> String {
-    format!(
-        " `{dt}` is the sample interval in seconds, the time since the previous sample (an IMU \
-         sample's own, with its jitter): the model's step is a function of it, and the \
-         process noise `Q` is a density, the noise of the interval `Q {dt}`. A `{dt}` that is \
-         not positive and finite is refused as [`Status::RejectedInput`]."
-    )
-}
-
 /// One EKF method (Alg. 1): the prediction and/or the correction, built symbolically so
 /// products skip the Jacobians' structural zeros, then lowered with its guards.
 fn method(
@@ -505,19 +496,24 @@ fn method(
     if reads_input {
         doc.push_str(MEASUREMENT_INPUT_DOC);
     }
-    let body = match (nodes.g.interval, model.interval_parameter()) {
+    let (body, ops) = match (nodes.g.interval, model.interval_parameter()) {
         (Some(dt), Some(parameter)) if kind.predicts() && reads_variable(graph, dt, &used_vars) => {
-            doc.push_str(&interval_doc(&parameter));
-            let dt = ident(&parameter);
-            let zero = crate::emit::lower::literal(0.0, scalar);
-            quote! {
-                if #dt <= #zero {
-                    return Status::RejectedInput;
-                }
-                #body
-            }
+            doc.push_str(&interval::doc(
+                &parameter,
+                &format!(
+                    "the model's step {}, and the process noise `Q` is a density, the noise \
+                     of the interval `Q {parameter}`",
+                    if model.dynamics.discretisation.is_continuous() {
+                        "integrates its continuous dynamics over it"
+                    } else {
+                        "is a function of it"
+                    }
+                ),
+            ));
+            let guard = interval::guard(&parameter, scalar);
+            (quote! { #guard #body }, ops.plus(interval::guard_ops()))
         }
-        _ => body,
+        _ => (body, ops),
     };
     // A line per attribute: a sensor's own documentation comes before what the update does.
     let doc = doc.lines();

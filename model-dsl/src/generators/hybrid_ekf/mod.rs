@@ -36,6 +36,10 @@ impl Kind for HybridEkf {
         &DESCRIPTION
     }
 
+    fn takes_interval(&self) -> bool {
+        true
+    }
+
     fn options(
         &self,
         _item: &GenerateDecl,
