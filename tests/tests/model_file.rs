@@ -839,20 +839,7 @@ fn a_schedule_and_budgets_per_call_are_tables_in_a_model_file() {
 
 #[test]
 fn a_sensors_gate_is_a_key_of_its_table() {
-    let sensor = |gate: &str| {
-        SMALL.replace(
-            "[dynamics]",
-            &format!("[[sensor]]\nname = \"position\"\noutputs = [\"y\"]\n{gate}\n[dynamics]"),
-        ) + "[generate]\nekf = true\n"
-    };
-    let from_file =
-        stateforge_cli::expand_model_file(&sensor("gate = 10.83")).expect("model file expands");
-    let from_macro = stateforge_compiler::expand_macro_source(&small_macro("ekf").replace(
-        "output y = x1;",
-        "output y = x1; sensor position(gate = 10.83) = [y];",
-    ))
-    .expect("macro expands");
-    assert_eq!(code_without_docs(from_file), code_without_docs(from_macro));
+    sensor_code_both_ways("gate = 10.83");
     assert_error(
         &sensor("gate = -1"),
         "18:8: a sensor's `gate` is a threshold on its normalised innovation squared, a \
@@ -867,27 +854,32 @@ fn a_sensors_gate_is_a_key_of_its_table() {
     );
 }
 
-#[test]
-fn a_sensors_delay_is_a_key_of_its_table() {
-    let sensor = |delay: &str| {
-        SMALL.replace(
-            "[dynamics]",
-            &format!("[[sensor]]\nname = \"position\"\noutputs = [\"y\"]\n{delay}\n[dynamics]"),
-        ) + "[generate]\nekf = true\n"
-    };
-    let from_file =
-        stateforge_cli::expand_model_file(&sensor("delay = 4")).expect("model file expands");
+/// `SMALL` with its output `y` in a sensor `position` whose table adds `keys`, and an EKF.
+fn sensor(keys: &str) -> String {
+    SMALL.replace(
+        "[dynamics]",
+        &format!("[[sensor]]\nname = \"position\"\noutputs = [\"y\"]\n{keys}\n[dynamics]"),
+    ) + "[generate]\nekf = true\n"
+}
+
+/// The code of [`sensor`]`(option)` (a `key = value` line), asserted equal to the macro's
+/// with `sensor position(option) = [y];`, without its docs.
+fn sensor_code_both_ways(option: &str) -> String {
+    let from_file = stateforge_cli::expand_model_file(&sensor(option)).expect("model file expands");
     let from_macro = stateforge_compiler::expand_macro_source(&small_macro("ekf").replace(
         "output y = x1;",
-        "output y = x1; sensor position(delay = 4) = [y];",
+        &format!("output y = x1; sensor position({option}) = [y];"),
     ))
     .expect("macro expands");
     let from_file = code_without_docs(from_file);
-    assert!(
-        from_file.contains("inputs_buffered"),
-        "no buffer in {from_file}"
-    );
     assert_eq!(from_file, code_without_docs(from_macro));
+    from_file
+}
+
+#[test]
+fn a_sensors_delay_is_a_key_of_its_table() {
+    let code = sensor_code_both_ways("delay = 4");
+    assert!(code.contains("inputs_buffered"), "no buffer in {code}");
     assert_error(
         &sensor("delay = 0.15"),
         "18:9: a sensor's `delay` is how many samples (calls of `predict`) late its \
@@ -903,25 +895,8 @@ fn a_sensors_delay_is_a_key_of_its_table() {
 
 #[test]
 fn a_sensors_max_delay_is_a_key_of_its_table() {
-    let sensor = |delay: &str| {
-        SMALL.replace(
-            "[dynamics]",
-            &format!("[[sensor]]\nname = \"position\"\noutputs = [\"y\"]\n{delay}\n[dynamics]"),
-        ) + "[generate]\nekf = true\n"
-    };
-    let from_file =
-        stateforge_cli::expand_model_file(&sensor("max_delay = 4")).expect("model file expands");
-    let from_macro = stateforge_compiler::expand_macro_source(&small_macro("ekf").replace(
-        "output y = x1;",
-        "output y = x1; sensor position(max_delay = 4) = [y];",
-    ))
-    .expect("macro expands");
-    let from_file = code_without_docs(from_file);
-    assert!(
-        from_file.contains("pending_position"),
-        "no slots in {from_file}"
-    );
-    assert_eq!(from_file, code_without_docs(from_macro));
+    let code = sensor_code_both_ways("max_delay = 4");
+    assert!(code.contains("pending_position"), "no slots in {code}");
     assert_error(
         &sensor("max_delay = \"100 ms\""),
         "18:14: sensor.max_delay: `\"100 ms\"` is not a delay, which is the most samples late \
