@@ -22,8 +22,8 @@ pub struct Cache {
     key: Vec<Ident>,
     /// Statements that bind [`Cache::key`] from `x` and `u`.
     read_key: TokenStream,
-    /// The Hessian's packed entries, by name.
-    hessian: Vec<Ident>,
+    /// What is kept of the condensed Hessian.
+    hessian: KeptHessian,
     /// The weighted responses `S_(i+1) B`, flat: names, or literals that stay literals.
     weighted_stored: Vec<TokenStream>,
     /// The same as a pattern: names, or `_` for literals.
@@ -36,7 +36,7 @@ impl Cache {
     pub fn new(
         mg: &ModelGraph,
         used: &BTreeSet<VarId>,
-        hessian: &[String],
+        hessian: KeptHessian,
         weighted: &[NodeId],
         scalar: Scalar,
     ) -> Cache {
@@ -57,29 +57,25 @@ impl Cache {
         Cache {
             key,
             read_key: quote! { #read_x #read_u },
-            hessian: hessian.iter().map(|h| ident(h)).collect(),
+            hessian,
             weighted_stored: weighted.iter().map(|&w| stored(g, w, scalar)).collect(),
             weighted_pattern: weighted.iter().map(|&w| pattern(g, w)).collect(),
         }
     }
 
-    /// The lengths of the kept key, Hessian and weighted responses, as literals.
-    fn field_lengths(&self) -> [Literal; 3] {
-        [
-            self.key.len(),
-            self.hessian.len(),
-            self.weighted_stored.len(),
-        ]
-        .map(Literal::usize_unsuffixed)
+    /// The lengths of the kept key and weighted responses, as literals.
+    fn field_lengths(&self) -> [Literal; 2] {
+        [self.key.len(), self.weighted_stored.len()].map(Literal::usize_unsuffixed)
     }
 
     /// The fields of `Mpc` that keep the model, in the scalar type `ty`.
     pub fn fields(&self, ty: &Ident) -> TokenStream {
-        let [key, hessian, weighted] = self.field_lengths();
+        let [key, weighted] = self.field_lengths();
+        let hessian = self.hessian.field(&quote! { #ty });
         quote! {
             model_key: [#ty; #key],
             model: PredictionModel,
-            hessian: [#ty; #hessian],
+            #hessian,
             weighted: [#ty; #weighted],
             model_kept: bool,
             terminal_weight_settled: bool,
@@ -88,14 +84,15 @@ impl Cache {
 
     /// The fields' values in `new`: nothing kept yet.
     pub fn initial(&self, zero: &TokenStream, ns: &Literal, nu: &Literal) -> TokenStream {
-        let [key, hessian, weighted] = self.field_lengths();
+        let [key, weighted] = self.field_lengths();
+        let hessian = self.hessian.field(zero);
         quote! {
             model_key: [#zero; #key],
             model: PredictionModel {
                 a: [[#zero; #ns]; #ns],
                 b: [[#zero; #nu]; #ns],
             },
-            hessian: [#zero; #hessian],
+            #hessian,
             weighted: [#zero; #weighted],
             model_kept: false,
             terminal_weight_settled: false,
@@ -152,6 +149,11 @@ impl Cache {
         )
     }
 
+    /// The name of the kept Hessian's value in the solve (`hessian`, `hessian_inverse`).
+    pub fn hessian_name(&self) -> Ident {
+        self.hessian.name()
+    }
+
     /// The model's key and the model: the kept ones, or the values read now and the
     /// prediction model at them (`prediction`, which returns on failure).
     pub fn model(&self, prediction: TokenStream) -> TokenStream {
@@ -169,26 +171,27 @@ impl Cache {
     /// gain with whether it converged, the Hessian and the weighted responses, as
     /// [`Cache::kept`] lists them.
     pub fn rebuilt(&self, terminal: TokenStream) -> TokenStream {
-        let (hessian, weighted) = (&self.hessian, &self.weighted_stored);
+        let (hessian, weighted) = (self.hessian.rebuilt(), &self.weighted_stored);
         quote! {
             (
                 model_key,
                 model,
                 #terminal,
-                [#(#hessian),*],
+                #hessian,
                 [#(#weighted),*],
             )
         }
     }
 
     /// The value of the kept branch, in the order of [`Cache::rebuilt`].
-    pub fn kept() -> TokenStream {
+    pub fn kept(&self) -> TokenStream {
+        let hessian = self.hessian.name();
         quote! {
             (
                 self.model_key,
                 self.model,
                 (self.terminal_weight, self.terminal_gain, true, true),
-                self.hessian,
+                self.#hessian,
                 self.weighted,
             )
         }
@@ -197,25 +200,90 @@ impl Cache {
     /// The names the branches' value binds, and the Hessian's and weighted responses'
     /// entries bound from it.
     pub fn unpack(&self) -> TokenStream {
-        let (hessian, weighted) = (&self.hessian, &self.weighted_pattern);
+        let (hessian, weighted) = (self.hessian.unpack(), &self.weighted_pattern);
         quote! {
-            let [#(#hessian),*] = hessian;
+            #hessian
             let [#(#weighted),*] = weighted;
         }
     }
 
     /// The commit of what the next solve may keep.
-    pub fn store() -> TokenStream {
+    pub fn store(&self) -> TokenStream {
+        let hessian = self.hessian.name();
         quote! {
             // (A solve that reused them leaves them as they are.)
             if !reuse {
                 self.model_key = model_key;
                 self.model = model;
-                self.hessian = hessian;
+                self.#hessian = #hessian;
                 self.weighted = weighted;
                 self.model_kept = true;
                 self.terminal_weight_settled = terminal_weight_settled;
             }
+        }
+    }
+}
+
+/// What a solve keeps of the condensed Hessian for its QP.
+pub enum KeptHessian {
+    /// `H` itself, packed (the primal active set's Newton steps): its entries' names.
+    Packed(Vec<Ident>),
+    /// `G = H^-1`, whole (the dual active set's): its moves, and the statement that binds
+    /// the names of its upper triangle from `hessian_inverse`.
+    Inverse {
+        /// The moves, `G`'s size.
+        moves: usize,
+        /// `let [[g11, ..], [_, g22, ..], ..] = hessian_inverse;`
+        pattern: TokenStream,
+    },
+}
+
+impl KeptHessian {
+    /// The field's (and the solve's value's) name.
+    pub fn name(&self) -> Ident {
+        match self {
+            KeptHessian::Packed(_) => ident("hessian"),
+            KeptHessian::Inverse { .. } => ident("hessian_inverse"),
+        }
+    }
+
+    /// The entries kept.
+    fn len(&self) -> usize {
+        match self {
+            KeptHessian::Packed(entries) => entries.len(),
+            KeptHessian::Inverse { moves, .. } => moves * moves,
+        }
+    }
+
+    /// `name: [entry; len]` (`[[entry; m]; m]` for `G`): a field's type, or its value
+    /// with `entry` a value.
+    fn field(&self, entry: &TokenStream) -> TokenStream {
+        let name = self.name();
+        match self {
+            KeptHessian::Packed(entries) => {
+                let len = Literal::usize_unsuffixed(entries.len());
+                quote! { #name: [#entry; #len] }
+            }
+            KeptHessian::Inverse { moves, .. } => {
+                let m = Literal::usize_unsuffixed(*moves);
+                quote! { #name: [[#entry; #m]; #m] }
+            }
+        }
+    }
+
+    /// Its value in the rebuilt branch: `H`'s entries by name, or `hessian_inverse`.
+    fn rebuilt(&self) -> TokenStream {
+        match self {
+            KeptHessian::Packed(entries) => quote! { [#(#entries),*] },
+            KeptHessian::Inverse { .. } => quote! { hessian_inverse },
+        }
+    }
+
+    /// The statement that binds its entries' names from the solve's value.
+    fn unpack(&self) -> TokenStream {
+        match self {
+            KeptHessian::Packed(entries) => quote! { let [#(#entries),*] = hessian; },
+            KeptHessian::Inverse { pattern, .. } => pattern.clone(),
         }
     }
 }

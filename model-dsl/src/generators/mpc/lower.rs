@@ -5,13 +5,14 @@
 //! (42)-(44), and a primal active-set solve of its box-constrained QP. Each stage is a
 //! symbolic stage lowered to straight-line code; stages hand over through named values.
 
-use super::cache::Cache;
+use super::cache::{Cache, KeptHessian};
+use super::dual;
 use super::names::{failure, Names};
 use super::predictive::{
     column_norm, condensed_hessian, condensed_linear, scale, zoh_square, zoh_taylor,
 };
-use super::qp::{active_set_loop, MoveNames};
-use super::spec::MpcDiscretisation;
+use super::qp::{active_set_loop, MoveNames, QpCode};
+use super::spec::{MpcDiscretisation, MpcSolver};
 use super::spec::MpcSpec;
 use super::work_bound::SolveOps;
 use crate::emit::arguments::Arguments;
@@ -119,33 +120,26 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         &names,
         scalar,
     );
-    let tail = dual_mode_tail(model, spec, &mut mg, (a, b), &moves, &names, scalar);
-    let (last_pass, allowed) = last_pass(spec);
-    let qp = active_set_loop(
-        &mut mg.graph,
-        &moves,
-        (&names, &tail.code, &last_pass),
-        scalar,
-    );
+    let (solver, allowed) = solver(model, spec, &mut mg, (a, b), &moves, &names, scalar);
     let weighted = condensed.weighted_vars();
-    let cache = Cache::new(&mg, &prediction.used, &moves.hessian, &weighted, scalar);
+    let cache = Cache::new(&mg, &prediction.used, solver.kept, &weighted, scalar);
 
-    let (linear_code, qp_code) = (&linear.stage.code, &qp.code);
+    let (linear_code, qp_code) = (&linear.stage.code, &solver.qp.code);
     let plan_ops = cache
         .reuse_ops()
         .plus(read_estimate_ops(&mg, &linear.used))
         .plus(linear.stage.ops)
-        .plus(qp.setup_ops)
-        .plus(tail.ops)
+        .plus(solver.qp.setup_ops)
+        .plus(solver.warm_start_ops)
         .plus(commit_ops(&moves, &terminal));
-    let commit = commit(&moves, &terminal);
+    let commit = commit(&moves, &terminal, &cache, &solver.kept_state);
     let plan = quote! {
         #linear_code
         #allowed
         #qp_code
         #commit
     };
-    let rebuild = [&terminal.stage.code, &lowered.code];
+    let rebuild = [&terminal.stage.code, &lowered.code, &solver.rebuild.code];
     let rebuild = quote! { #(#rebuild)* };
     let prediction_method = prediction_method(model, &mg, &prediction, scalar);
     let solve = SolveParts {
@@ -174,10 +168,82 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         prediction: prediction.stage.ops,
         riccati: terminal.stage.ops,
         // The kept prediction model is stored whole: `A` and `B`.
-        condense: lowered.ops.plus(cache.store_ops(ns * (ns + nu))),
-        iteration: qp.iteration_ops.looped(1),
+        condense: lowered
+            .ops
+            .plus(solver.rebuild.ops)
+            .plus(cache.store_ops(ns * (ns + nu))),
+        iteration: solver.qp.iteration_ops.looped(1),
     };
     MpcCode { tokens, ops }
+}
+
+/// The QP's solve as `spec.solver` chooses, and what it needs besides.
+struct Solver {
+    qp: QpCode,
+    /// The primal active set's warm start's new last move (the dual mode's tail).
+    warm_start_ops: OpCount,
+    /// What the rebuild adds: `G = H^-1` for the dual active set.
+    rebuild: Stage,
+    /// What the cache keeps of the Hessian.
+    kept: KeptHessian,
+    /// What the commit stores besides the plan: the dual active set's held bounds.
+    kept_state: TokenStream,
+}
+
+/// The QP's solve, and the statement binding `allowed_iterations` when a cycle budget
+/// bounds them.
+fn solver(
+    model: &Model,
+    spec: &MpcSpec,
+    mg: &mut ModelGraph,
+    (a, b): (&Matrix, &Matrix),
+    moves: &MoveNames,
+    names: &Names,
+    scalar: Scalar,
+) -> (Solver, TokenStream) {
+    let (last_pass, allowed) = last_pass(spec);
+    let solver = match spec.solver {
+        MpcSolver::PrimalActiveSet => {
+            let tail = dual_mode_tail(model, spec, mg, (a, b), moves, names, scalar);
+            let qp = active_set_loop(
+                &mut mg.graph,
+                moves,
+                (names, &tail.code, &last_pass),
+                scalar,
+            );
+            Solver {
+                qp,
+                warm_start_ops: tail.ops,
+                rebuild: Stage {
+                    code: TokenStream::new(),
+                    ops: OpCount::default(),
+                },
+                kept: KeptHessian::Packed(moves.hessian.iter().map(|h| ident(h)).collect()),
+                kept_state: TokenStream::new(),
+            }
+        }
+        MpcSolver::DualActiveSet => {
+            let limit = match spec.iterations_within_budget {
+                None => quote! { Self::MAX_ITERATIONS },
+                Some(_) => quote! { allowed_iterations },
+            };
+            let qp = dual::dual_active_set(&mut mg.graph, moves, (names, &limit), scalar);
+            Solver {
+                qp,
+                warm_start_ops: OpCount::default(),
+                rebuild: Stage {
+                    code: dual::inverse_code(moves, scalar),
+                    ops: dual::inverse_ops(moves.len()),
+                },
+                kept: KeptHessian::Inverse {
+                    moves: moves.len(),
+                    pattern: dual::inverse_pattern(moves, names),
+                },
+                kept_state: quote! { self.held = held; },
+            }
+        }
+    };
+    (solver, allowed)
 }
 
 /// The condition that ends the active-set loop before a pass's step, and the statement
@@ -291,7 +357,8 @@ fn solve_method(
             terminal_weight_settled,
         )
     });
-    let kept = Cache::kept();
+    let kept = parts.cache.kept();
+    let hessian = parts.cache.hessian_name();
     let unpack = parts.cache.unpack();
     let bound = match parts.budgeted {
         false => "`MAX_ITERATIONS` active-set iterations",
@@ -311,7 +378,7 @@ fn solve_method(
         #doc
         pub fn solve(&mut self, #time x: &[#ty; #n], u: &[#ty; #m]) -> MpcStatus {
             #reuse_test
-            let (model_key, model, (terminal_weight, terminal_gain, terminal_weight_converged, terminal_weight_settled), hessian, weighted) = if reuse {
+            let (model_key, model, (terminal_weight, terminal_gain, terminal_weight_converged, terminal_weight_settled), #hessian, weighted) = if reuse {
                 #kept
             } else {
                 #model
@@ -1135,7 +1202,12 @@ fn commit_ops(moves: &MoveNames, terminal: &Terminal) -> OpCount {
 /// The plan's commit: moves back to absolute inputs, clipped to the bounds (so rounding
 /// never puts one outside), then the finiteness check of everything stored (the kept
 /// terminal weight and gain were checked when they were stored).
-fn commit(moves: &MoveNames, terminal: &Terminal) -> TokenStream {
+fn commit(
+    moves: &MoveNames,
+    terminal: &Terminal,
+    cache: &Cache,
+    kept_state: &TokenStream,
+) -> TokenStream {
     let plan = moves.absolute_plan();
     let (p, gain) = (&terminal.p_idents, &terminal.gain_idents);
     let gain_rows = gain.iter().map(|row| quote! { [#(#row),*] });
@@ -1151,7 +1223,7 @@ fn commit(moves: &MoveNames, terminal: &Terminal) -> TokenStream {
     let finite = quote! { #plan_finite && (reuse || #terminal_finite) };
     let non_finite = failure(quote! { Status::NonFinite });
     let plan_rows = moves.plan_rows();
-    let keep = Cache::store();
+    let keep = cache.store();
     quote! {
         #plan
         if !(#finite) {
@@ -1160,6 +1232,7 @@ fn commit(moves: &MoveNames, terminal: &Terminal) -> TokenStream {
         self.plan = [#(#plan_rows),*];
         self.terminal_weight = [#(#p),*];
         self.terminal_gain = [#(#gain_rows),*];
+        #kept_state
         #keep
         MpcStatus {
             status: Status::Ok,
@@ -1248,6 +1321,7 @@ fn type_tokens(
     let set_reference = set_reference(model, spec, moves, &dims);
     let setters = setters(spec, moves, &dims);
     let accessors = accessors(&dims);
+    let held = held_field(spec, &quote! { i8 });
     let Dims {
         ty,
         ns_len,
@@ -1271,6 +1345,7 @@ fn type_tokens(
             terminal_weight: [#ty; #nsp],
             terminal_gain: [[#ty; #ns_len]; #nu_len],
             plan: [[#ty; #nu_len]; #horizon],
+            #held
             #kept
         }
 
@@ -1288,6 +1363,13 @@ fn type_tokens(
             #accessors
         }
     }
+}
+
+/// The dual active set's held bounds, a field of `Mpc` (`entry` its type, or its value):
+/// per move, `1` its lower bound held, `-1` its upper, `0` free.
+fn held_field(spec: &MpcSpec, entry: &TokenStream) -> Option<TokenStream> {
+    let moves = Literal::usize_unsuffixed((spec.horizon as usize) * spec.inputs.len());
+    (spec.solver == MpcSolver::DualActiveSet).then(|| quote! { held: [#entry; #moves], })
 }
 
 /// `PredictionModel`, which `prediction_model` returns, and `MpcStatus`, which `solve`
@@ -1381,8 +1463,7 @@ fn mpc_doc(model: &Model, spec: &MpcSpec, holds: bool) -> String {
 /// hold).
 fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenStream {
     let Dims { ty, horizon, .. } = dims;
-    let [max_iterations, passes, riccati_iterations] = [
-        spec.max_iterations,
+    let [passes, riccati_iterations] = [
         spec.max_iterations + 1,
         spec.riccati_iterations,
     ]
@@ -1419,14 +1500,10 @@ fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenS
             pub const MAX_SQUARINGS: usize = #max;
         }
     });
+    let solver_constants = solver_constants(spec, &passes, &tolerance, scalar);
     quote! {
         /// Moves optimised over, `n`.
         pub const HORIZON: usize = #horizon;
-        /// Bound on the active-set iterations (Newton steps) of one solve.
-        pub const MAX_ITERATIONS: usize = #max_iterations;
-        /// Passes of the active-set loop: one per iteration, and one more that only
-        /// checks the multipliers after the last step.
-        const PASSES: usize = #passes;
         /// Riccati steps per solve towards the terminal weight.
         pub const RICCATI_ITERATIONS: usize = #riccati_iterations;
         /// Largest change, relative to each value, of the values the prediction model
@@ -1435,13 +1512,46 @@ fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenS
         pub const MODEL_TOLERANCE: #ty = #model_tolerance;
         /// Relative change of the terminal weight under which it counts as converged.
         pub const RICCATI_TOLERANCE: #ty = #tolerance;
-        /// A bound stays held unless releasing it would move its input by more than
-        /// this fraction of the input's range (its multiplier is below
-        /// `-RELEASE_TOLERANCE (u_max - u_min) H_ii`), so rounding cannot cycle the
-        /// active set.
-        pub const RELEASE_TOLERANCE: #ty = #tolerance;
+        #solver_constants
         #squarings
         #within_budget
+    }
+}
+
+/// The active-set iterations' bound and tolerances, as `spec.solver` has them.
+fn solver_constants(
+    spec: &MpcSpec,
+    passes: &Literal,
+    release_tolerance: &TokenStream,
+    scalar: Scalar,
+) -> TokenStream {
+    let max_iterations = Literal::usize_unsuffixed(spec.max_iterations as usize);
+    let ty = ident(scalar.type_name());
+    match spec.solver {
+        MpcSolver::PrimalActiveSet => quote! {
+            /// Bound on the active-set iterations (Newton steps) of one solve.
+            pub const MAX_ITERATIONS: usize = #max_iterations;
+            /// Passes of the active-set loop: one per iteration, and one more that only
+            /// checks the multipliers after the last step.
+            const PASSES: usize = #passes;
+            /// A bound stays held unless releasing it would move its input by more than
+            /// this fraction of the input's range (its multiplier is below
+            /// `-RELEASE_TOLERANCE (u_max - u_min) H_ii`), so rounding cannot cycle the
+            /// active set.
+            pub const RELEASE_TOLERANCE: #ty = #release_tolerance;
+        },
+        MpcSolver::DualActiveSet => {
+            let tolerance = dual::violation_tolerance(scalar);
+            quote! {
+                /// Bound on the dual active set's iterations (bounds held or released) in
+                /// one solve, besides those its warm start holds.
+                pub const MAX_ITERATIONS: usize = #max_iterations;
+                /// A move outside its bounds by more than this fraction of its input's
+                /// range violates them: the dual active set then holds the bound (a
+                /// smaller excess is rounding, and the plan is clipped).
+                pub const VIOLATION_TOLERANCE: #ty = #tolerance;
+            }
+        }
     }
 }
 
@@ -1471,6 +1581,7 @@ fn constructor(
     let bounds_order_check = moves.bounds_order_check(&quote! { Err(Status::RejectedInput) });
     let start_move = moves.start_move(&zero);
     let nothing_kept = cache.initial(&zero, ns_len, nu_len);
+    let held = held_field(spec, &quote! { 0 });
     arguments.constructor(
         &quote! {
             /// A controller with state weight `q` and input weight `r` (symmetric: upper
@@ -1494,6 +1605,7 @@ fn constructor(
                 terminal_weight: q,
                 terminal_gain: [[#zero; #ns_len]; #nu_len],
                 plan: [#start_move; #horizon],
+                #held
                 #nothing_kept
             })
         },

@@ -6,6 +6,7 @@
 //! max_iterations = 20, riccati_iterations = 20)`.
 
 pub mod cache;
+pub mod dual;
 pub mod lower;
 pub mod names;
 pub mod newton;
@@ -21,7 +22,7 @@ use crate::diagnostics::Diagnostics;
 use crate::model::{Model, Scalar, UNROLLED_SUBSTEPS_MAX};
 use crate::symbolic::ModelGraph;
 use crate::timing::CORTEX_M4F;
-pub use spec::{MpcDiscretisation, MpcSpec, MPC_UNKNOWNS_MAX};
+pub use spec::{MpcDiscretisation, MpcSolver, MpcSpec, MPC_UNKNOWNS_MAX, PRIMAL_MOVES_MAX};
 use std::any::Any;
 use work_bound::iterations_within;
 
@@ -66,6 +67,7 @@ impl Kind for Mpc {
             );
         }
         let discretisation = discretisation(cx.decl, args, diag);
+        let solver = solver(args, unknowns, diag);
         // Clamped so that a horizon already reported as too long adds no error of its own.
         let default_iterations = 2 * unknowns.clamp(1, u64::from(MPC_UNKNOWNS_MAX)) as u32;
         let iterations = ("max_iterations", "iterations");
@@ -77,6 +79,7 @@ impl Kind for Mpc {
             states,
             inputs,
             discretisation,
+            solver,
             max_iterations,
             riccati_iterations,
             model_tolerance,
@@ -104,6 +107,34 @@ fn model_tolerance(args: &mut Args, diag: &mut Diagnostics) -> f64 {
              reads under which it is kept, `0 <= model_tolerance < 1`",
         );
         0.0
+    }
+}
+
+/// `solver = primal_active_set` (the default up to [`PRIMAL_MOVES_MAX`] moves) or
+/// `dual_active_set` (beyond).
+fn solver(args: &mut Args, unknowns: u64, diag: &mut Diagnostics) -> MpcSolver {
+    let default = if unknowns <= u64::from(PRIMAL_MOVES_MAX) {
+        MpcSolver::PrimalActiveSet
+    } else {
+        MpcSolver::DualActiveSet
+    };
+    let Some(arg) = args.take(&["solver"]) else {
+        return default;
+    };
+    match &arg.value {
+        ArgValue::Name(n) if n.text == "primal_active_set" => MpcSolver::PrimalActiveSet,
+        ArgValue::Name(n) if n.text == "dual_active_set" => MpcSolver::DualActiveSet,
+        other => {
+            diag.error(
+                other.span(),
+                format!(
+                    "`solver` is `primal_active_set` (Newton steps on the free moves; the \
+                     default up to {PRIMAL_MOVES_MAX} moves) or `dual_active_set` (from the \
+                     unconstrained plan, holding violated bounds; the default beyond)"
+                ),
+            );
+            default
+        }
     }
 }
 

@@ -68,7 +68,13 @@ impl MoveNames {
         }
     }
 
-    fn len(&self) -> usize {
+    /// The inputs' count.
+    pub fn input_count(&self) -> usize {
+        self.inputs.len()
+    }
+
+    /// The moves' count, horizon times inputs.
+    pub fn len(&self) -> usize {
         self.moves.len()
     }
 
@@ -81,7 +87,7 @@ impl MoveNames {
     }
 
     /// `<input>_<suffix>` for the input of every move.
-    fn per_move_input(&self, suffix: &str) -> Vec<Ident> {
+    pub fn per_move_input(&self, suffix: &str) -> Vec<Ident> {
         self.input_of
             .iter()
             .map(|&i| ident(&format!("{}_{suffix}", self.inputs[i])))
@@ -96,8 +102,28 @@ impl MoveNames {
             .collect()
     }
 
-    fn move_idents(&self) -> Vec<Ident> {
+    /// The moves' names.
+    pub fn move_idents(&self) -> Vec<Ident> {
         self.moves.iter().map(|m| ident(m)).collect()
+    }
+
+    /// The inputs' bounds as deviations from `u_ref`: binds `<input>_low` and
+    /// `<input>_high`.
+    pub fn deviation_bounds(&self) -> TokenStream {
+        let (reference, min, max) = (
+            self.per_input("ref"),
+            self.per_input("minimum"),
+            self.per_input("maximum"),
+        );
+        let (low, high) = (self.per_input("low"), self.per_input("high"));
+        quote! {
+            // The moves' bounds as deviations from u_ref.
+            let [#(#reference),*] = self.u_ref;
+            let [#(#min),*] = self.u_min;
+            let [#(#max),*] = self.u_max;
+            #(let #low = #min - #reference;)*
+            #(let #high = #max - #reference;)*
+        }
     }
 
     /// The bounds' entries as `new` binds them: `<input>_minimum` and `<input>_maximum`.
@@ -332,12 +358,7 @@ fn gradient(
 /// moves lead to (`tail`, which binds `<input>_tail` from the others: the dual mode's
 /// control after the horizon), clipped to the bounds, with the bounds it touches held.
 fn bounds_and_warm_start(moves: &MoveNames, tail: &TokenStream) -> TokenStream {
-    let (reference, min, max) = (
-        moves.per_input("ref"),
-        moves.per_input("minimum"),
-        moves.per_input("maximum"),
-    );
-    let (low, high) = (moves.per_input("low"), moves.per_input("high"));
+    let bounds = moves.deviation_bounds();
     let previous = moves.per_move("previous");
     // The last plan's first move was applied; the warm start begins with its second.
     let previous_rows =
@@ -375,12 +396,7 @@ fn bounds_and_warm_start(moves: &MoveNames, tail: &TokenStream) -> TokenStream {
         .map(|(w, (lo, hi))| clip(w, lo, hi))
         .collect();
     quote! {
-        // The moves' bounds as deviations from u_ref.
-        let [#(#reference),*] = self.u_ref;
-        let [#(#min),*] = self.u_min;
-        let [#(#max),*] = self.u_max;
-        #(let #low = #min - #reference;)*
-        #(let #high = #max - #reference;)*
+        #bounds
         // Warm start: the last plan shifted by one move, clipped, holding the bounds it
         // touches.
         let [#(#previous_rows),*] = self.plan;

@@ -12,6 +12,20 @@ pub enum MpcDiscretisation {
     ZeroOrderHold,
 }
 
+/// How the MPC solves its box-constrained QP.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MpcSolver {
+    /// A primal active set: Newton steps on the free moves from the last plan, shifted
+    /// (the default for few moves, where refactorising them is cheap).
+    PrimalActiveSet,
+    /// A dual active set on the Hessian's inverse, kept with it: from the unconstrained
+    /// minimiser, holding the most violated bound at a time.
+    DualActiveSet,
+}
+
+/// The most moves for which `solver` defaults to the primal active set.
+pub const PRIMAL_MOVES_MAX: u32 = 16;
+
 /// Options of the model predictive controller (dual-mode, input bounds).
 #[derive(Clone, Debug)]
 pub struct MpcSpec {
@@ -23,6 +37,8 @@ pub struct MpcSpec {
     pub inputs: Vec<usize>,
     /// Where the prediction model comes from.
     pub discretisation: MpcDiscretisation,
+    /// How the QP is solved.
+    pub solver: MpcSolver,
     /// Bound on the active-set iterations of one solve.
     pub max_iterations: u32,
     /// Riccati steps per solve towards the terminal weight (warm-started).
