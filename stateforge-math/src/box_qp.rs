@@ -48,6 +48,8 @@ struct HeldSet<T, const M: usize> {
     multipliers: [T; M],
     /// `L` strictly below the diagonal, `D` on it; the first `len` rows are `S`'s factor.
     factor: [[T; M]; M],
+    /// `1 / D`, row by row.
+    reciprocals: [T; M],
     len: usize,
 }
 
@@ -58,6 +60,7 @@ impl<T: Real, const M: usize> HeldSet<T, M> {
             sides: [T::ZERO; M],
             multipliers: [T::ZERO; M],
             factor: [[T::ZERO; M]; M],
+            reciprocals: [T::ZERO; M],
             len: 0,
         }
     }
@@ -71,24 +74,31 @@ impl<T: Real, const M: usize> HeldSet<T, M> {
         let (Some(column), true) = (inverse.get(index), k < M) else {
             return false;
         };
-        let mut y = [T::ZERO; M];
-        let mut pivot = column[index];
-        for c in 0..k {
-            let mut entry = side * self.sides[c] * column[self.moves[c]];
-            for (t, &y_t) in y.iter().enumerate().take(c) {
-                entry = entry - self.factor[c][t] * y_t;
+        let (factor, below) = self.factor.split_at_mut(k);
+        let Some(row) = below.first_mut() else {
+            return false;
+        };
+        // y = L^-1 s, kept in the new row until it is scaled by D^-1.
+        for (c, prior) in factor.iter().enumerate() {
+            let mut entry = side * self.sides[c] * column[self.moves[c] % M];
+            for (&l, &y) in prior[..c].iter().zip(&row[..c]) {
+                entry = entry - l * y;
             }
-            y[c] = entry;
-            let l = entry / self.factor[c][c];
-            self.factor[k][c] = l;
-            pivot = pivot - l * entry;
+            row[c] = entry;
+        }
+        let mut pivot = column[index];
+        for (y, &reciprocal) in row[..k].iter_mut().zip(&self.reciprocals[..k]) {
+            let l = *y * reciprocal;
+            pivot = pivot - l * *y;
+            *y = l;
         }
         // (A NaN pivot is not positive either.)
         let positive = pivot > T::EPSILON * column[index];
         if !positive {
             return false;
         }
-        self.factor[k][k] = pivot;
+        row[k] = pivot;
+        self.reciprocals[k] = T::from_count(1) / pivot;
         self.moves[k] = index;
         self.sides[k] = side;
         self.multipliers[k] = T::ZERO;
@@ -113,6 +123,7 @@ impl<T: Real, const M: usize> HeldSet<T, M> {
             let beta = p * alpha / updated;
             alpha = d * alpha / updated;
             self.factor[c][c] = updated;
+            self.reciprocals[c] = T::from_count(1) / updated;
             for r in c + 1..k {
                 w[r] = w[r] - p * self.factor[r][c];
                 self.factor[r][c] = self.factor[r][c] + beta * w[r];
@@ -123,6 +134,7 @@ impl<T: Real, const M: usize> HeldSet<T, M> {
             let above = &mut self.factor[r - 1];
             above[..j].copy_from_slice(&row[..j]);
             above[j..r].copy_from_slice(&row[j + 1..=r]);
+            self.reciprocals[r - 1] = self.reciprocals[r];
             self.moves[r - 1] = self.moves[r];
             self.sides[r - 1] = self.sides[r];
             self.multipliers[r - 1] = self.multipliers[r];
@@ -132,28 +144,28 @@ impl<T: Real, const M: usize> HeldSet<T, M> {
 
     /// The multipliers that hold every bound of the set exactly, `S^-1 d`.
     fn equality_multipliers(&self, unconstrained: &[T; M], (low, high): Bounds<T, M>) -> [T; M] {
-        let k = self.len;
+        let k = self.len.min(M);
         let mut x = [T::ZERO; M];
         for r in 0..k {
-            let i = self.moves[r];
+            let i = self.moves[r] % M;
             let bound = if self.sides[r] > T::ZERO {
                 low[i]
             } else {
                 high[i]
             };
             let mut entry = self.sides[r] * (bound - unconstrained[i]);
-            for c in 0..r {
-                entry = entry - self.factor[r][c] * x[c];
+            for (&l, &x_c) in self.factor[r][..r].iter().zip(&x[..r]) {
+                entry = entry - l * x_c;
             }
             x[r] = entry;
         }
-        for r in 0..k {
-            x[r] = x[r] / self.factor[r][r];
+        for (x_r, &reciprocal) in x[..k].iter_mut().zip(&self.reciprocals[..k]) {
+            *x_r = *x_r * reciprocal;
         }
         for r in (0..k).rev() {
             let mut entry = x[r];
-            for c in r + 1..k {
-                entry = entry - self.factor[c][r] * x[c];
+            for (row, &x_c) in self.factor[r + 1..k].iter().zip(&x[r + 1..k]) {
+                entry = entry - row[r] * x_c;
             }
             x[r] = entry;
         }
@@ -165,7 +177,7 @@ impl<T: Real, const M: usize> HeldSet<T, M> {
         let mut v = *unconstrained;
         for r in 0..self.len {
             let weight = self.sides[r] * self.multipliers[r];
-            let column = &inverse[self.moves[r]];
+            let column = &inverse[self.moves[r] % M];
             for (v_i, &g) in v.iter_mut().zip(column) {
                 *v_i = *v_i + weight * g;
             }
@@ -247,6 +259,17 @@ pub(crate) fn solve<T: Real, const M: usize>(
     sides: &mut [i8; M],
     (max_iterations, tolerance): (usize, T),
 ) -> BoxQpSolution<T, M> {
+    // Without a bound held, the unconstrained minimiser is the solution when it violates
+    // none: no factor to set up.
+    if sides.iter().all(|&side| side == 0)
+        && most_violated(unconstrained, bounds, sides, tolerance).is_none()
+    {
+        return BoxQpSolution {
+            moves: *unconstrained,
+            optimal: true,
+            iterations: 0,
+        };
+    }
     let mut set = HeldSet::<T, M>::empty();
     for i in 0..M {
         let side = sides[i];
@@ -255,17 +278,17 @@ pub(crate) fn solve<T: Real, const M: usize>(
         }
     }
     let mut iterations = 0;
-    let optimal = loop {
+    loop {
         let target = set.equality_multipliers(unconstrained, bounds);
         if let Some((j, length)) = blocking(&set, &target) {
             if iterations == max_iterations {
-                break false;
+                break;
             }
             for r in 0..set.len {
                 let m = set.multipliers[r];
                 set.multipliers[r] = m + length * (target[r] - m);
             }
-            sides[set.moves[j]] = 0;
+            sides[set.moves[j] % M] = 0;
             set.release(j);
             iterations += 1;
             continue;
@@ -273,17 +296,27 @@ pub(crate) fn solve<T: Real, const M: usize>(
         set.multipliers = target;
         let v = set.moves(inverse, unconstrained);
         let Some((i, side)) = most_violated(&v, bounds, sides, tolerance) else {
-            break true;
+            return BoxQpSolution {
+                moves: v,
+                optimal: true,
+                iterations,
+            };
         };
         if iterations == max_iterations || !set.hold(inverse, i, side_value(side)) {
-            break false;
+            return BoxQpSolution {
+                moves: v,
+                optimal: false,
+                iterations,
+            };
         }
         sides[i] = side;
         iterations += 1;
-    };
+    }
+    // Out of iterations with a multiplier to release: the moves of the multipliers
+    // stepped so far.
     BoxQpSolution {
         moves: set.moves(inverse, unconstrained),
-        optimal,
+        optimal: false,
         iterations,
     }
 }

@@ -151,7 +151,7 @@ impl Cache {
 
     /// The name of the kept Hessian's value in the solve (`hessian`, `hessian_inverse`).
     pub fn hessian_name(&self) -> Ident {
-        self.hessian.name()
+        self.hessian.binding()
     }
 
     /// The model's key and the model: the kept ones, or the values read now and the
@@ -185,13 +185,13 @@ impl Cache {
 
     /// The value of the kept branch, in the order of [`Cache::rebuilt`].
     pub fn kept(&self) -> TokenStream {
-        let hessian = self.hessian.name();
+        let hessian = self.hessian.kept();
         quote! {
             (
                 self.model_key,
                 self.model,
                 (self.terminal_weight, self.terminal_gain, true, true),
-                self.#hessian,
+                #hessian,
                 self.weighted,
             )
         }
@@ -209,13 +209,13 @@ impl Cache {
 
     /// The commit of what the next solve may keep.
     pub fn store(&self) -> TokenStream {
-        let hessian = self.hessian.name();
+        let hessian = self.hessian.store();
         quote! {
             // (A solve that reused them leaves them as they are.)
             if !reuse {
                 self.model_key = model_key;
                 self.model = model;
-                self.#hessian = #hessian;
+                #hessian
                 self.weighted = weighted;
                 self.model_kept = true;
                 self.terminal_weight_settled = terminal_weight_settled;
@@ -239,11 +239,20 @@ pub enum KeptHessian {
 }
 
 impl KeptHessian {
-    /// The field's (and the solve's value's) name.
-    pub fn name(&self) -> Ident {
+    /// The field's name.
+    fn name(&self) -> Ident {
         match self {
             KeptHessian::Packed(_) => ident("hessian"),
             KeptHessian::Inverse { .. } => ident("hessian_inverse"),
+        }
+    }
+
+    /// The name of the solve's value: `hessian`, or `new_hessian_inverse`, the inverse
+    /// rebuilt (`None` when the kept one serves, which is read in place, not copied).
+    fn binding(&self) -> Ident {
+        match self {
+            KeptHessian::Packed(_) => ident("hessian"),
+            KeptHessian::Inverse { .. } => ident("new_hessian_inverse"),
         }
     }
 
@@ -275,7 +284,27 @@ impl KeptHessian {
     fn rebuilt(&self) -> TokenStream {
         match self {
             KeptHessian::Packed(entries) => quote! { [#(#entries),*] },
-            KeptHessian::Inverse { .. } => quote! { hessian_inverse },
+            KeptHessian::Inverse { .. } => quote! { Some(hessian_inverse) },
+        }
+    }
+
+    /// Its value in the kept branch.
+    fn kept(&self) -> TokenStream {
+        match self {
+            KeptHessian::Packed(_) => quote! { self.hessian },
+            KeptHessian::Inverse { .. } => quote! { None },
+        }
+    }
+
+    /// The statement that stores a rebuilt one.
+    fn store(&self) -> TokenStream {
+        match self {
+            KeptHessian::Packed(_) => quote! { self.hessian = hessian; },
+            KeptHessian::Inverse { .. } => quote! {
+                if let Some(inverse) = new_hessian_inverse {
+                    self.hessian_inverse = inverse;
+                }
+            },
         }
     }
 
@@ -283,7 +312,13 @@ impl KeptHessian {
     fn unpack(&self) -> TokenStream {
         match self {
             KeptHessian::Packed(entries) => quote! { let [#(#entries),*] = hessian; },
-            KeptHessian::Inverse { pattern, .. } => pattern.clone(),
+            KeptHessian::Inverse { pattern, .. } => quote! {
+                let hessian_inverse = match &new_hessian_inverse {
+                    Some(inverse) => inverse,
+                    None => &self.hessian_inverse,
+                };
+                #pattern
+            },
         }
     }
 }

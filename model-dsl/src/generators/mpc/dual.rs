@@ -80,7 +80,7 @@ pub fn inverse_pattern(moves: &MoveNames, names: &Names) -> TokenStream {
         });
         quote! { [#(#entries),*] }
     });
-    quote! { let [#(#rows),*] = hessian_inverse; }
+    quote! { let [#(#rows),*] = *hessian_inverse; }
 }
 
 /// The solve: the bounds as deviations from `u_ref`, `v* = -G c`, the warm start (the last
@@ -106,7 +106,7 @@ pub fn dual_active_set(
         let unconstrained = [#(#values),*];
         #warm
         let solution = #math::box_qp(
-            &hessian_inverse,
+            hessian_inverse,
             &unconstrained,
             (&[#(#move_low),*], &[#(#move_high),*]),
             &mut held,

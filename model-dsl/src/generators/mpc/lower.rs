@@ -12,8 +12,8 @@ use super::predictive::{
     column_norm, condensed_hessian, condensed_linear, scale, zoh_square, zoh_taylor,
 };
 use super::qp::{active_set_loop, MoveNames, QpCode};
-use super::spec::{MpcDiscretisation, MpcSolver};
 use super::spec::MpcSpec;
+use super::spec::{MpcDiscretisation, MpcSolver};
 use super::work_bound::SolveOps;
 use crate::emit::arguments::Arguments;
 use crate::emit::code::{
@@ -1463,11 +1463,8 @@ fn mpc_doc(model: &Model, spec: &MpcSpec, holds: bool) -> String {
 /// hold).
 fn constants(spec: &MpcSpec, dims: &Dims, scalar: Scalar, holds: bool) -> TokenStream {
     let Dims { ty, horizon, .. } = dims;
-    let [passes, riccati_iterations] = [
-        spec.max_iterations + 1,
-        spec.riccati_iterations,
-    ]
-    .map(|count| Literal::usize_unsuffixed(count as usize));
+    let [passes, riccati_iterations] = [spec.max_iterations + 1, spec.riccati_iterations]
+        .map(|count| Literal::usize_unsuffixed(count as usize));
     // Both tolerances sit well above the scalar's rounding of the sums they compare.
     let tolerance = literal(
         match scalar {
