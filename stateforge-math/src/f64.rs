@@ -218,37 +218,40 @@ pub fn with_unit_rotations<const N: usize>(x: &[f64; N], firsts: &[usize]) -> Op
     crate::rotation::with_unit_rotations(x, firsts, sqrt, crate::rotation::NORM_TOLERANCE_F64)
 }
 
-/// The box-constrained QP of a generated MPC, `min 1/2 v' H v + c' v` with
-/// `low <= v <= high`, by a dual active-set method on `inverse = H^-1` (symmetric positive
-/// definite, as [`symmetric_inverse`] gives it) from the unconstrained minimiser
-/// `unconstrained = -H^-1 c`; `low < high` entry by entry. `held` is the warm start (per
-/// move: `1` its lower bound held, `-1` its upper, `0` free) and is left as the solution's
-/// held set. At most `max_iterations` bounds are held or released; a bound counts as
-/// violated beyond `tolerance (high - low)`. Each iteration costs `O(M k)` for `k` bounds
-/// held: the held set's `L D L'` factor is updated, never refactorised.
+/// The QP of a generated MPC, `min 1/2 v' H v + c' v` with bounds on the moves and limit
+/// rows (hard, or soft with an exact penalty on their violation), by a dual active-set
+/// method on `qp.inverse = H^-1` (symmetric positive definite, as [`symmetric_inverse`]
+/// gives it) from the unconstrained minimiser `qp.unconstrained = -H^-1 c`; `low < high`
+/// entry by entry. `held` is the warm start (the limits the last solve held) and is left
+/// as the solution's. At most `max_iterations` limits are held, released or saturated; a
+/// limit counts as violated beyond `tolerance` of its move's range or of `1 + |limit|`
+/// for a row. Each iteration costs `O((M + R) k)` for `k` limits held: the held set's
+/// `L D L'` factor is updated, never refactorised.
 #[must_use]
-pub fn box_qp<const M: usize>(
-    inverse: &[[f64; M]; M],
-    unconstrained: &[f64; M],
-    (low, high): (&[f64; M], &[f64; M]),
-    held: &mut [i8; M],
+pub fn mpc_qp<const M: usize, const R: usize>(
+    qp: &crate::MpcQp<f64, M, R>,
+    held: &mut crate::HeldLimits<M, R>,
     max_iterations: usize,
     tolerance: f64,
-) -> crate::BoxQpSolution<f64, M> {
-    crate::box_qp::solve(
-        inverse,
-        unconstrained,
-        (low, high),
-        held,
-        (max_iterations, tolerance),
-    )
+) -> crate::MpcQpSolution<f64, M> {
+    crate::mpc_qp::solve(qp, held, (max_iterations, tolerance))
+}
+
+/// `G a` for each of the limit rows `rows` (`G = H^-1`): what a generated MPC keeps of
+/// its limit rows for [`mpc_qp`].
+#[must_use]
+pub fn limit_columns<const M: usize, const R: usize>(
+    inverse: &[[f64; M]; M],
+    rows: &[[f64; M]; R],
+) -> [[f64; M]; R] {
+    crate::mpc_qp::columns(inverse, rows)
 }
 
 /// The inverse of the symmetric positive definite `h` (its upper triangle read), exactly
 /// symmetric, by an `L D L'` factorisation; `None` when a pivot is not above `M eps` of its
 /// diagonal entry or an entry of the inverse is not finite: what a generated MPC keeps of
-/// its condensed Hessian for [`box_qp`].
+/// its condensed Hessian for [`mpc_qp`].
 #[must_use]
 pub fn symmetric_inverse<const M: usize>(h: &[[f64; M]; M]) -> Option<[[f64; M]; M]> {
-    crate::box_qp::symmetric_inverse(h)
+    crate::mpc_qp::symmetric_inverse(h)
 }

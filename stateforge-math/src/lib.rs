@@ -34,14 +34,14 @@
 
 #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
 mod arm;
-mod box_qp;
 mod covariance;
 pub mod f32;
 pub mod f64;
+mod mpc_qp;
 mod recovery;
 mod rotation;
 
-pub use box_qp::BoxQpSolution;
+pub use mpc_qp::{HeldLimits, LimitRows, MpcQp, MpcQpSolution};
 
 /// `value` unchanged, opaque to the optimiser (`core::hint::black_box`): what is read
 /// through a reference it returns is not known to be what is read through another

@@ -264,3 +264,101 @@ fn solve_free(h: &DMatrix<f64>, c: &DVector<f64>, free: &[usize], v: &mut DVecto
         v[i] = v_free[a];
     }
 }
+
+/// A limit row of [`limited_qp`]: `lower <= a' v <= upper` (an infinite side: no limit),
+/// hard, or soft with an exact penalty on its violation.
+pub struct LimitRow {
+    /// `a`, in the moves.
+    pub coefficients: Vec<f64>,
+    /// The lower limit.
+    pub lower: f64,
+    /// The upper limit.
+    pub upper: f64,
+    /// `None`: hard; `Some(rho)`: the violation `s >= 0` costs `rho s`.
+    pub penalty: Option<f64>,
+}
+
+/// `min 1/2 v' H v + c' v + sum rho_r s_r` with `low <= v <= high` and each row's limits,
+/// a soft row's relaxed by its slack `s_r >= 0`, by Clarabel (slacks as variables):
+/// the moves.
+pub fn limited_qp(
+    h: &DMatrix<f64>,
+    c: &DVector<f64>,
+    (low, high): (&[f64], &[f64]),
+    rows: &[LimitRow],
+) -> DVector<f64> {
+    let k = h.nrows();
+    let soft: Vec<usize> = (0..rows.len())
+        .filter(|&r| rows[r].penalty.is_some())
+        .collect();
+    let n = k + soft.len();
+    let scale = h.diagonal().mean();
+    let upper: Vec<Vec<f64>> = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| match (i < k && j < k, j >= i) {
+                    (true, true) => h[(i, j)] / scale,
+                    _ => 0.0,
+                })
+                .collect()
+        })
+        .collect();
+    let mut linear: Vec<f64> = c.iter().map(|v| v / scale).collect();
+    linear.extend(soft.iter().map(|&r| rows[r].penalty.unwrap_or(0.0) / scale));
+    // Each constraint `a' z <= b`.
+    let mut a_rows: Vec<Vec<f64>> = Vec::new();
+    let mut b = Vec::new();
+    let mut push = |row: Vec<f64>, bound: f64| {
+        a_rows.push(row);
+        b.push(bound);
+    };
+    for i in 0..k {
+        let unit = |sign: f64| (0..n).map(|j| if j == i { sign } else { 0.0 }).collect();
+        push(unit(1.0), high[i]);
+        push(unit(-1.0), -low[i]);
+    }
+    for (r, row) in rows.iter().enumerate() {
+        let slack = soft.iter().position(|&s| s == r).map(|j| k + j);
+        for (sign, bound) in [(1.0, row.upper), (-1.0, -row.lower)] {
+            if bound.is_finite() {
+                let coefficients = (0..n)
+                    .map(|j| match (j < k, Some(j) == slack) {
+                        (true, _) => sign * row.coefficients[j],
+                        (false, true) => -1.0,
+                        _ => 0.0,
+                    })
+                    .collect();
+                push(coefficients, bound);
+            }
+        }
+        if let Some(j) = slack {
+            push(
+                (0..n).map(|i| if i == j { -1.0 } else { 0.0 }).collect(),
+                0.0,
+            );
+        }
+    }
+    let constraints = a_rows.len();
+    let settings = DefaultSettingsBuilder::default()
+        .verbose(false)
+        .tol_gap_abs(1e-12)
+        .tol_gap_rel(1e-12)
+        .tol_feas(1e-12)
+        .max_iter(500)
+        .build()
+        .expect("settings");
+    let p = CscMatrix::from(&upper);
+    let a = CscMatrix::from(&a_rows);
+    let cones = [NonnegativeConeT(constraints)];
+    let mut solver = DefaultSolver::new(&p, &linear, &a, &b, &cones, settings).expect("solver");
+    solver.solve();
+    assert!(
+        matches!(
+            solver.solution.status,
+            SolverStatus::Solved | SolverStatus::AlmostSolved
+        ),
+        "Clarabel: {:?}",
+        solver.solution.status
+    );
+    DVector::from_iterator(k, solver.solution.x.iter().take(k).copied())
+}

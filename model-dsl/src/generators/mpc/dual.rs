@@ -25,7 +25,7 @@ use quote::quote;
 /// The names of `G`'s entries, row by row, each row whole: the upper triangle's names
 /// (`g11 ..`, `g_1_1 ..`), `None` below the diagonal.
 fn inverse_names(moves: &MoveNames, names: &Names) -> Vec<Vec<Option<Ident>>> {
-    let m = moves.len();
+    let m = moves.count();
     let packed = crate::emit::code::packed_names("g", m, &|name| names.takes(name));
     let mut entries = packed.iter();
     (0..m)
@@ -92,7 +92,7 @@ pub fn dual_active_set(
     (names, limit): (&Names, &TokenStream),
     scalar: Scalar,
 ) -> QpCode {
-    let m = moves.len();
+    let m = moves.count();
     let (statements, values, ops) = unconstrained(g, moves, names, scalar);
     let bounds = moves.deviation_bounds();
     let (move_low, move_high) = (moves.per_move_input("low"), moves.per_move_input("high"));
@@ -105,10 +105,20 @@ pub fn dual_active_set(
         #(#statements)*
         let unconstrained = [#(#values),*];
         #warm
-        let solution = #math::box_qp(
-            hessian_inverse,
-            &unconstrained,
-            (&[#(#move_low),*], &[#(#move_high),*]),
+        let solution = #math::mpc_qp(
+            &stateforge_math::MpcQp {
+                inverse: hessian_inverse,
+                unconstrained: &unconstrained,
+                low: &[#(#move_low),*],
+                high: &[#(#move_high),*],
+                rows: stateforge_math::LimitRows {
+                    coefficients: &[],
+                    columns: &[],
+                    lower: &[],
+                    upper: &[],
+                    penalty: &[],
+                },
+            },
             &mut held,
             #limit,
             Self::VIOLATION_TOLERANCE,
@@ -166,7 +176,7 @@ fn unconstrained(
         .flatten()
         .map(|name| g.var(&name.to_string()))
         .collect();
-    let inverse = symmetric_from_packed(&packed, moves.len());
+    let inverse = symmetric_from_packed(&packed, moves.count());
     let linear: Matrix = moves.linear.iter().map(|c| vec![g.var(c)]).collect();
     let product = matmul(g, &inverse, &linear);
     let minimiser: Vec<_> = product.iter().map(|row| g.neg(row[0])).collect();
@@ -185,9 +195,12 @@ fn warm_start(moves: &MoveNames) -> TokenStream {
     let unread = first.iter().map(|_| quote! { _ });
     let free = first.iter().map(|_| quote! { 0 });
     quote! {
-        // Warm start: the bounds the last solve held, a step on.
-        let [#(#unread,)* #(#rest),*] = self.held;
-        let mut held = [#(#rest,)* #(#free),*];
+        // Warm start: the limits the last solve held, a step on.
+        let [#(#unread,)* #(#rest),*] = self.held.moves;
+        let mut held = stateforge_math::HeldLimits {
+            moves: [#(#rest,)* #(#free),*],
+            rows: [],
+        };
     }
 }
 

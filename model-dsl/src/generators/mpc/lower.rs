@@ -233,10 +233,10 @@ fn solver(
                 warm_start_ops: OpCount::default(),
                 rebuild: Stage {
                     code: dual::inverse_code(moves, scalar),
-                    ops: dual::inverse_ops(moves.len()),
+                    ops: dual::inverse_ops(moves.count()),
                 },
                 kept: KeptHessian::Inverse {
-                    moves: moves.len(),
+                    moves: moves.count(),
                     pattern: dual::inverse_pattern(moves, names),
                 },
                 kept_state: quote! { self.held = held; },
@@ -1321,7 +1321,7 @@ fn type_tokens(
     let set_reference = set_reference(model, spec, moves, &dims);
     let setters = setters(spec, moves, &dims);
     let accessors = accessors(&dims);
-    let held = held_field(spec, &quote! { i8 });
+    let held = held_field(spec, false);
     let Dims {
         ty,
         ns_len,
@@ -1365,11 +1365,16 @@ fn type_tokens(
     }
 }
 
-/// The dual active set's held bounds, a field of `Mpc` (`entry` its type, or its value):
-/// per move, `1` its lower bound held, `-1` its upper, `0` free.
-fn held_field(spec: &MpcSpec, entry: &TokenStream) -> Option<TokenStream> {
+/// The dual active set's held limits, a field of `Mpc`: its type, or (`value`) its
+/// value in `new`, nothing held.
+fn held_field(spec: &MpcSpec, value: bool) -> Option<TokenStream> {
     let moves = Literal::usize_unsuffixed((spec.horizon as usize) * spec.inputs.len());
-    (spec.solver == MpcSolver::DualActiveSet).then(|| quote! { held: [#entry; #moves], })
+    let rows = Literal::usize_unsuffixed(0);
+    let entry = match value {
+        false => quote! { stateforge_math::HeldLimits<#moves, #rows> },
+        true => quote! { stateforge_math::HeldLimits::NONE },
+    };
+    (spec.solver == MpcSolver::DualActiveSet).then(|| quote! { held: #entry, })
 }
 
 /// `PredictionModel`, which `prediction_model` returns, and `MpcStatus`, which `solve`
@@ -1578,7 +1583,7 @@ fn constructor(
     let bounds_order_check = moves.bounds_order_check(&quote! { Err(Status::RejectedInput) });
     let start_move = moves.start_move(&zero);
     let nothing_kept = cache.initial(&zero, ns_len, nu_len);
-    let held = held_field(spec, &quote! { 0 });
+    let held = held_field(spec, true);
     arguments.constructor(
         &quote! {
             /// A controller with state weight `q` and input weight `r` (symmetric: upper

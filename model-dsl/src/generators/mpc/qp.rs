@@ -74,7 +74,7 @@ impl MoveNames {
     }
 
     /// The moves' count, horizon times inputs.
-    pub fn len(&self) -> usize {
+    pub fn count(&self) -> usize {
         self.moves.len()
     }
 
@@ -247,7 +247,7 @@ pub fn active_set_loop(
     (names, tail, last_pass): (&Names, &TokenStream, &TokenStream),
     scalar: Scalar,
 ) -> QpCode {
-    let m = moves.len();
+    let m = moves.count();
     let (grad_statements, grad_values, grad_ops) = gradient(g, moves, names, scalar);
     let setup = bounds_and_warm_start(moves, tail);
     let release = release_check(moves, scalar);
@@ -311,7 +311,7 @@ pub fn active_set_loop(
 /// deviations, the shifted moves, their clipping and the bounds they touch, the release
 /// thresholds.
 fn warm_start_ops(moves: &MoveNames) -> OpCount {
-    let (m, nu) = (moves.len() as u32, moves.inputs.len() as u32);
+    let (m, nu) = (moves.count() as u32, moves.inputs.len() as u32);
     let shifted = m.saturating_sub(nu);
     OpCount {
         // low, high; each shifted move's deviation; each threshold's `high - low`
@@ -335,7 +335,7 @@ fn gradient(
     names: &Names,
     scalar: Scalar,
 ) -> (Vec<TokenStream>, Vec<TokenStream>, OpCount) {
-    let m = moves.len();
+    let m = moves.count();
     let hessian_vars: Vec<_> = moves.hessian.iter().map(|n| g.var(n)).collect();
     let linear_vars: Vec<_> = moves.linear.iter().map(|n| g.var(n)).collect();
     let move_vars: Vec<_> = moves.moves.iter().map(|n| g.var(n)).collect();
@@ -374,8 +374,8 @@ fn bounds_and_warm_start(moves: &MoveNames, tail: &TokenStream) -> TokenStream {
             });
     // Move k is input k % nu at step k / nu; it starts from the same input one step later.
     let nu = moves.inputs.len().max(1);
-    let last_step = moves.len() / nu - 1;
-    let shifted: Vec<&Ident> = (0..moves.len())
+    let last_step = moves.count() / nu - 1;
+    let shifted: Vec<&Ident> = (0..moves.count())
         .map(|k| &previous[(k / nu + 1).min(last_step) * nu + k % nu])
         .collect();
     let move_ids = moves.move_idents();
@@ -383,8 +383,8 @@ fn bounds_and_warm_start(moves: &MoveNames, tail: &TokenStream) -> TokenStream {
     let move_ref = moves.per_move_input("ref");
     let (lower, upper) = (moves.per_move("lower"), moves.per_move("upper"));
     let threshold = moves.per_move("threshold");
-    let diagonal: Vec<Ident> = (0..moves.len())
-        .map(|k| ident(&moves.hessian[crate::symbolic::linalg::packed_index(moves.len(), k, k)]))
+    let diagonal: Vec<Ident> = (0..moves.count())
+        .map(|k| ident(&moves.hessian[crate::symbolic::linalg::packed_index(moves.count(), k, k)]))
         .collect();
     let warm = moves.per_move("warm");
     let (early, last) = warm.split_at(last_step * nu);
@@ -474,7 +474,7 @@ fn ratio_test(moves: &MoveNames, scalar: Scalar) -> TokenStream {
     let (lower, upper) = (moves.per_move("lower"), moves.per_move("upper"));
     let (low, high) = (moves.per_move_input("low"), moves.per_move_input("high"));
     let v = moves.move_idents();
-    let holds: Vec<TokenStream> = (0..moves.len())
+    let holds: Vec<TokenStream> = (0..moves.count())
         .map(|k| {
             let (r, s, x, lo, hi) = (&ratio[k], &step[k], &v[k], &low[k], &high[k]);
             let (l, u) = (&lower[k], &upper[k]);
@@ -543,7 +543,7 @@ fn ratio_test(moves: &MoveNames, scalar: Scalar) -> TokenStream {
 /// The gradient's update along `alpha` times the step: `H` times it, which is zero on the
 /// held moves, so only the free moves' columns are added.
 fn gradient_update(moves: &MoveNames) -> TokenStream {
-    let m = moves.len();
+    let m = moves.count();
     let (free, step, grad) = (
         moves.per_move("free"),
         moves.per_move("step"),
@@ -576,7 +576,7 @@ fn gradient_update(moves: &MoveNames) -> TokenStream {
 /// moves the free moves only, by `d`, and changes it by `d' grad + 1/2 d' H d`, that is
 /// `1/2 d' (grad + grad_projected)` with `grad_projected = grad + H d`.
 fn projection(moves: &MoveNames, scalar: Scalar) -> TokenStream {
-    let m = moves.len();
+    let m = moves.count();
     let (half, one) = (literal(0.5, scalar), literal(1.0, scalar));
     let (step, grad, free) = (
         moves.per_move("step"),
