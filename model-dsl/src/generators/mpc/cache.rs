@@ -228,12 +228,14 @@ impl Cache {
 pub enum KeptHessian {
     /// `H` itself, packed (the primal active set's Newton steps): its entries' names.
     Packed(Vec<Ident>),
-    /// `G = H^-1`, whole (the dual active set's): its moves, and the statement that binds
-    /// the names of its upper triangle from `hessian_inverse`.
+    /// `G = H^-1`, whole, and the unconstrained plan's gain `K` (the dual active set's):
+    /// their sizes, and the statement that binds `K`'s entries from `unconstrained_gain`.
     Inverse {
         /// The moves, `G`'s size.
         moves: usize,
-        /// `let [[g11, ..], [_, g22, ..], ..] = hessian_inverse;`
+        /// The regulated states, `K`'s columns.
+        states: usize,
+        /// `let [[kv_1_1, ..], ..] = *unconstrained_gain;`
         pattern: TokenStream,
     },
 }
@@ -260,7 +262,7 @@ impl KeptHessian {
     fn len(&self) -> usize {
         match self {
             KeptHessian::Packed(entries) => entries.len(),
-            KeptHessian::Inverse { moves, .. } => moves * moves,
+            KeptHessian::Inverse { moves, states, .. } => moves * (moves + states),
         }
     }
 
@@ -273,9 +275,12 @@ impl KeptHessian {
                 let len = Literal::usize_unsuffixed(entries.len());
                 quote! { #name: [#entry; #len] }
             }
-            KeptHessian::Inverse { moves, .. } => {
-                let m = Literal::usize_unsuffixed(*moves);
-                quote! { #name: [[#entry; #m]; #m] }
+            KeptHessian::Inverse { moves, states, .. } => {
+                let [m, ns] = [*moves, *states].map(Literal::usize_unsuffixed);
+                quote! {
+                    #name: [[#entry; #m]; #m],
+                    unconstrained_gain: [[#entry; #m]; #ns]
+                }
             }
         }
     }
@@ -284,7 +289,7 @@ impl KeptHessian {
     fn rebuilt(&self) -> TokenStream {
         match self {
             KeptHessian::Packed(entries) => quote! { [#(#entries),*] },
-            KeptHessian::Inverse { .. } => quote! { Some(hessian_inverse) },
+            KeptHessian::Inverse { .. } => quote! { Some((hessian_inverse, unconstrained_gain)) },
         }
     }
 
@@ -301,8 +306,9 @@ impl KeptHessian {
         match self {
             KeptHessian::Packed(_) => quote! { self.hessian = hessian; },
             KeptHessian::Inverse { .. } => quote! {
-                if let Some(inverse) = new_hessian_inverse {
+                if let Some((inverse, gain)) = new_hessian_inverse {
                     self.hessian_inverse = inverse;
+                    self.unconstrained_gain = gain;
                 }
             },
         }
@@ -313,9 +319,9 @@ impl KeptHessian {
         match self {
             KeptHessian::Packed(entries) => quote! { let [#(#entries),*] = hessian; },
             KeptHessian::Inverse { pattern, .. } => quote! {
-                let hessian_inverse = match &new_hessian_inverse {
-                    Some(inverse) => inverse,
-                    None => &self.hessian_inverse,
+                let (hessian_inverse, unconstrained_gain) = match &new_hessian_inverse {
+                    Some((inverse, gain)) => (inverse, gain),
+                    None => (&self.hessian_inverse, &self.unconstrained_gain),
                 };
                 #pattern
             },

@@ -1,62 +1,86 @@
-//! The MPC's box-constrained QP by a dual active-set method (`solver = dual_active_set`):
-//! the condensed Hessian's inverse `G = H^-1`, computed when the Hessian is rebuilt and
-//! kept with it; at each solve the unconstrained minimiser `v* = -G c`, straight-line on
-//! `G`'s upper triangle, then the held bounds' iterations (`stateforge_math`'s `box_qp`:
-//! the order of the bounds it holds is known only at run time, so its loops are a
-//! library's, written once for both scalars), warm-started from the last solve's held
-//! bounds a step on.
+//! The MPC's QP by a dual active-set method (`solver = dual_active_set`). When the
+//! Hessian is rebuilt: its inverse `G = H^-1` and the unconstrained plan's gain
+//! `K = G F` (`F` the linear term's response to the regulated states, eq. 44), kept with
+//! it; at each solve the unconstrained minimiser `v* = -K (x - x_ref)`, straight-line on
+//! `K`, then the held limits' iterations (`stateforge_math`'s `mpc_qp`: which limits it
+//! holds, and in which order, is known only at run time, so its loops are a library's,
+//! written once for both scalars), warm-started from the last solve's held limits a step
+//! on.
 //!
 //! Chosen for problems with several inputs (TinyMPC's quadrotor: 32 moves): starting from
-//! the unconstrained minimiser, a solve whose bounds are all inactive costs one product
-//! with `G` and one check of the bounds, and each bound held costs `O(n k)`, where the
+//! the unconstrained minimiser, a solve whose limits are all inactive costs one product
+//! with `K` and one check of the limits, and each limit held costs `O(n k)`, where the
 //! primal active set refactorises the free moves' Hessian at each step.
 
 use super::names::{failure, Names};
+use super::predictive::condensed_linear;
 use super::qp::{MoveNames, QpCode};
+use super::spec::MpcSpec;
+use super::stage::Stage;
 use crate::emit::lower::{literal, Lowerer, OpCount};
 use crate::emit::names::ident;
 use crate::emit::scopes::scoped;
-use crate::model::Scalar;
-use crate::symbolic::linalg::{matmul, symmetric_from_packed, Matrix};
-use crate::symbolic::Graph;
-use proc_macro2::{Ident, TokenStream};
+use crate::model::{Model, Scalar};
+use crate::symbolic::linalg::Matrix;
+use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
+use proc_macro2::TokenStream;
 use quote::quote;
+use std::collections::BTreeSet;
 
-/// The names of `G`'s entries, row by row, each row whole: the upper triangle's names
-/// (`g11 ..`, `g_1_1 ..`), `None` below the diagonal.
-fn inverse_names(moves: &MoveNames, names: &Names) -> Vec<Vec<Option<Ident>>> {
-    let m = moves.count();
-    let packed = crate::emit::code::packed_names("g", m, &|name| names.takes(name));
-    let mut entries = packed.iter();
-    (0..m)
-        .map(|i| {
-            (0..m)
-                .map(|j| (j >= i).then(|| entries.next().map(|n| ident(n))).flatten())
-                .collect()
-        })
-        .collect()
+/// The names of `K`'s entries, kept transposed: per regulated state, per move.
+fn gain_names(spec: &MpcSpec, moves: &MoveNames, names: &Names) -> Vec<Vec<String>> {
+    names.matrix("kv", spec.states.len(), moves.count())
 }
 
-/// The rebuild's last statement: `hessian_inverse`, `G = H^-1` of the Hessian's packed
-/// entries (bound by name), or the solve's failure when `H` is not positive definite to
-/// within rounding (a control weight that is not).
-pub fn inverse_code(moves: &MoveNames, scalar: Scalar) -> TokenStream {
+/// What the rebuild adds: `hessian_inverse`, `G = H^-1` of the Hessian's packed entries
+/// (bound by name), or the solve's failure when `H` is not positive definite to within
+/// rounding (a control weight that is not); then `unconstrained_gain`, `K' = (G F)'`,
+/// `F`'s columns the linear term of each regulated state alone.
+pub fn rebuild(
+    g: &mut Graph,
+    (a, weighted): (&Matrix, &[Matrix]),
+    (spec, moves, names): (&MpcSpec, &MoveNames, &Names),
+    scalar: Scalar,
+) -> Stage {
     let math = math_module(scalar);
     let hessian = moves.hessian.iter().map(|h| ident(h));
     let not_definite = failure(quote! { Status::NonPositiveControlWeight });
-    quote! {
-        // G = H^-1, kept with H for the dual active set's iterations.
+    let ns = spec.states.len();
+    let columns: Vec<Vec<NodeId>> = (0..ns)
+        .map(|j| {
+            let unit: Vec<NodeId> = (0..ns)
+                .map(|i| if i == j { g.one() } else { g.zero() })
+                .collect();
+            condensed_linear(g, a, weighted, &unit)
+        })
+        .collect();
+    let roots: Vec<NodeId> = columns.iter().flatten().copied().collect();
+    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
+    let values = lowerer.segment(&roots);
+    let rows = values
+        .chunks(moves.count().max(1))
+        .map(|row| quote! { [#(#row),*] });
+    let statements = scoped(lowerer.take_statements(), &quote! { #(#values)* });
+    let m = moves.count();
+    let code = quote! {
+        // G = H^-1, and K = G F: the unconstrained plan's gain.
         let Some(hessian_inverse) =
             #math::symmetric_inverse(&#math::unpack_symmetric(&[#(#hessian),*]))
         else {
             #not_definite
         };
+        #(#statements)*
+        let unconstrained_gain = #math::limit_columns(&hessian_inverse, &[#(#rows),*]);
+    };
+    Stage {
+        code,
+        ops: lowerer.ops().plus(inverse_ops(m)).plus(gain_ops(m, ns)),
     }
 }
 
-/// What [`inverse_code`] costs for `m` moves: `L D L'` (`m^3 / 6`), `L^-1` (`m^3 / 6`) and
-/// `L^-T D^-1 L^-1` (`m^3 / 6`) multiply-adds, in loops.
-pub fn inverse_ops(m: usize) -> OpCount {
+/// What [`rebuild`]'s inverse costs for `m` moves: `L D L'` (`m^3 / 6`), `L^-1`
+/// (`m^3 / 6`) and `L^-T D^-1 L^-1` (`m^3 / 6`) multiply-adds, in loops.
+fn inverse_ops(m: usize) -> OpCount {
     let m = m as u32;
     let cube = m * m * m / 2;
     OpCount {
@@ -71,29 +95,86 @@ pub fn inverse_ops(m: usize) -> OpCount {
     }
 }
 
-/// The pattern that binds `G`'s upper triangle from `hessian_inverse`.
-pub fn inverse_pattern(moves: &MoveNames, names: &Names) -> TokenStream {
-    let rows = inverse_names(moves, names).into_iter().map(|row| {
-        let entries = row.into_iter().map(|entry| match entry {
-            Some(name) => quote! { #name },
-            None => quote! { _ },
-        });
+/// What `K = G F` costs: `m^2` multiply-adds per regulated state, in loops.
+fn gain_ops(m: usize, ns: usize) -> OpCount {
+    let macs = (m * m * ns) as u32;
+    OpCount {
+        add: macs,
+        mul: macs,
+        load: 2 * macs,
+        store: (m * ns) as u32,
+        branch: macs / 4,
+        ..OpCount::default()
+    }
+}
+
+/// The pattern that binds `K`'s entries from `unconstrained_gain`.
+pub fn gain_pattern(spec: &MpcSpec, moves: &MoveNames, names: &Names) -> TokenStream {
+    let rows = gain_names(spec, moves, names).into_iter().map(|row| {
+        let entries = row.iter().map(|n| ident(n));
         quote! { [#(#entries),*] }
     });
-    quote! { let [#(#rows),*] = *hessian_inverse; }
+    quote! { let [#(#rows),*] = *unconstrained_gain; }
+}
+
+/// `v* = -K (x - x_ref)` on `K`'s entries: its code (with the reference's reading), its
+/// cost and the model variables it reads.
+pub fn unconstrained(
+    model: &Model,
+    (spec, moves, names): (&MpcSpec, &MoveNames, &Names),
+    mg: &mut ModelGraph,
+    scalar: Scalar,
+) -> (Stage, BTreeSet<VarId>) {
+    let references: Vec<String> = spec
+        .states
+        .iter()
+        .map(|&i| names.fresh(&format!("{}_ref", model.states[i].name)))
+        .collect();
+    let gain = gain_names(spec, moves, names);
+    let g = &mut mg.graph;
+    let deviation: Vec<NodeId> = spec
+        .states
+        .iter()
+        .zip(&references)
+        .map(|(&i, name)| {
+            let reference = g.var(name);
+            g.sub(mg.x[i], reference)
+        })
+        .collect();
+    let minimiser: Vec<NodeId> = (0..moves.count())
+        .map(|i| {
+            let terms: Vec<NodeId> = deviation
+                .iter()
+                .zip(&gain)
+                .map(|(&d, row)| {
+                    let k = g.var(&row[i]);
+                    g.mul(k, d)
+                })
+                .collect();
+            let sum = terms.into_iter().fold(g.zero(), |sum, t| g.add(sum, t));
+            g.neg(sum)
+        })
+        .collect();
+    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &minimiser);
+    let values = lowerer.segment(&minimiser);
+    let statements = scoped(lowerer.take_statements(), &quote! { #(#values)* });
+    let ops = lowerer.ops();
+    let used = lowerer.finish().used_vars;
+    let references = references.iter().map(|n| ident(n));
+    let code = quote! {
+        // The unconstrained minimiser v* = -K (x - x_ref).
+        let [#(#references),*] = self.x_ref;
+        #(#statements)*
+        let unconstrained = [#(#values),*];
+    };
+    (Stage { code, ops }, used)
 }
 
 /// The solve: the bounds as deviations from `u_ref`, `v* = -G c`, the warm start (the last
 /// held bounds a step on) and the iterations, at most `limit`; binds the moves, `optimal`,
 /// `steps` and `held` (which the commit stores).
-pub fn dual_active_set(
-    g: &mut Graph,
-    moves: &MoveNames,
-    (names, limit): (&Names, &TokenStream),
-    scalar: Scalar,
-) -> QpCode {
+pub fn dual_active_set(moves: &MoveNames, limit: &TokenStream, scalar: Scalar) -> QpCode {
     let m = moves.count();
-    let (statements, values, ops) = unconstrained(g, moves, names, scalar);
     let bounds = moves.deviation_bounds();
     let (move_low, move_high) = (moves.per_move_input("low"), moves.per_move_input("high"));
     let warm = warm_start(moves);
@@ -101,9 +182,6 @@ pub fn dual_active_set(
     let move_ids = moves.move_idents();
     let code = quote! {
         #bounds
-        // The unconstrained minimiser v* = -G c.
-        #(#statements)*
-        let unconstrained = [#(#values),*];
         #warm
         let solution = #math::mpc_qp(
             &stateforge_math::MpcQp {
@@ -140,7 +218,7 @@ pub fn dual_active_set(
     QpCode {
         code,
         iteration_ops: iteration_ops(m),
-        setup_ops: ops.plus(setup),
+        setup_ops: setup,
     }
 }
 
@@ -161,29 +239,6 @@ fn iteration_ops(m: usize) -> OpCount {
         branch: 2 * square + 2 * m,
         ..OpCount::default()
     }
-}
-
-/// `v* = -G c` on `G`'s upper triangle: statements, values and their cost.
-fn unconstrained(
-    g: &mut Graph,
-    moves: &MoveNames,
-    names: &Names,
-    scalar: Scalar,
-) -> (Vec<TokenStream>, Vec<TokenStream>, OpCount) {
-    let packed: Vec<_> = inverse_names(moves, names)
-        .iter()
-        .flatten()
-        .flatten()
-        .map(|name| g.var(&name.to_string()))
-        .collect();
-    let inverse = symmetric_from_packed(&packed, moves.count());
-    let linear: Matrix = moves.linear.iter().map(|c| vec![g.var(c)]).collect();
-    let product = matmul(g, &inverse, &linear);
-    let minimiser: Vec<_> = product.iter().map(|row| g.neg(row[0])).collect();
-    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &minimiser);
-    let values = lowerer.segment(&minimiser);
-    let statements = scoped(lowerer.take_statements(), &quote! { #(#values)* });
-    (statements, values, lowerer.ops())
 }
 
 /// The warm start: the bounds the last solve held, a step on (the first step's were

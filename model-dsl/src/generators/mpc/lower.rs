@@ -14,6 +14,7 @@ use super::predictive::{
 use super::qp::{active_set_loop, MoveNames, QpCode};
 use super::spec::MpcSpec;
 use super::spec::{MpcDiscretisation, MpcSolver};
+use super::stage::Stage;
 use super::work_bound::SolveOps;
 use crate::emit::arguments::Arguments;
 use crate::emit::code::{
@@ -44,12 +45,6 @@ pub struct MpcCode {
     /// term of eq. 44, the warm start with its tail, the gradient at it and the commit);
     /// and one active-set iteration with the loop's branch back.
     pub ops: SolveOps,
-}
-
-/// Code that computes some values under given names, and what it costs.
-struct Stage {
-    code: TokenStream,
-    ops: OpCount,
 }
 
 /// The variables later stages read for `values`, one per entry named by `names`; entries
@@ -111,30 +106,27 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
     let terminal = terminal_weight(&mut mg.graph, (a, b), spec, &names, scalar);
     let condensed = condense_model(spec, &mut mg.graph, (a, b, &terminal.p), &moves, &names);
     let lowered = condensed.lower(&mg.graph, &moves, &names, scalar);
-    let linear = linear_term(
+    let (solver, allowed) = solver(
         model,
-        spec,
+        (spec, &moves, &names),
         &mut mg,
-        (a, &condensed),
-        &moves,
-        &names,
+        (a, b, &condensed),
         scalar,
     );
-    let (solver, allowed) = solver(model, spec, &mut mg, (a, b), &moves, &names, scalar);
     let weighted = condensed.weighted_vars();
     let cache = Cache::new(&mg, &prediction.used, solver.kept, &weighted, scalar);
 
-    let (linear_code, qp_code) = (&linear.stage.code, &solver.qp.code);
+    let (head_code, qp_code) = (&solver.head.code, &solver.qp.code);
     let plan_ops = cache
         .reuse_ops()
-        .plus(read_estimate_ops(&mg, &linear.used))
-        .plus(linear.stage.ops)
+        .plus(read_estimate_ops(&mg, &solver.used))
+        .plus(solver.head.ops)
         .plus(solver.qp.setup_ops)
         .plus(solver.warm_start_ops)
         .plus(commit_ops(&moves, &terminal));
     let commit = commit(&moves, &terminal, &cache, &solver.kept_state);
     let plan = quote! {
-        #linear_code
+        #head_code
         #allowed
         #qp_code
         #commit
@@ -144,7 +136,7 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
     let prediction_method = prediction_method(model, &mg, &prediction, scalar);
     let solve = SolveParts {
         prediction: &prediction,
-        used: &linear.used,
+        used: &solver.used,
         cache: &cache,
         terminal: &terminal,
         budgeted: spec.iterations_within_budget.is_some(),
@@ -179,14 +171,18 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
 
 /// The QP's solve as `spec.solver` chooses, and what it needs besides.
 struct Solver {
+    /// What the plan starts with: the linear term (eq. 44), or the unconstrained minimiser.
+    head: Stage,
+    /// The model variables `head` reads.
+    used: BTreeSet<VarId>,
     qp: QpCode,
     /// The primal active set's warm start's new last move (the dual mode's tail).
     warm_start_ops: OpCount,
-    /// What the rebuild adds: `G = H^-1` for the dual active set.
+    /// What the rebuild adds: `G = H^-1` and `K` for the dual active set.
     rebuild: Stage,
     /// What the cache keeps of the Hessian.
     kept: KeptHessian,
-    /// What the commit stores besides the plan: the dual active set's held bounds.
+    /// What the commit stores besides the plan: the dual active set's held limits.
     kept_state: TokenStream,
 }
 
@@ -194,16 +190,15 @@ struct Solver {
 /// bounds them.
 fn solver(
     model: &Model,
-    spec: &MpcSpec,
+    (spec, moves, names): (&MpcSpec, &MoveNames, &Names),
     mg: &mut ModelGraph,
-    (a, b): (&Matrix, &Matrix),
-    moves: &MoveNames,
-    names: &Names,
+    (a, b, condensed): (&Matrix, &Matrix, &CondensedNodes),
     scalar: Scalar,
 ) -> (Solver, TokenStream) {
     let (last_pass, allowed) = last_pass(spec);
     let solver = match spec.solver {
         MpcSolver::PrimalActiveSet => {
+            let linear = linear_term(model, spec, mg, (a, condensed), moves, names, scalar);
             let tail = dual_mode_tail(model, spec, mg, (a, b), moves, names, scalar);
             let qp = active_set_loop(
                 &mut mg.graph,
@@ -212,6 +207,8 @@ fn solver(
                 scalar,
             );
             Solver {
+                head: linear.stage,
+                used: linear.used,
                 qp,
                 warm_start_ops: tail.ops,
                 rebuild: Stage {
@@ -227,17 +224,23 @@ fn solver(
                 None => quote! { Self::MAX_ITERATIONS },
                 Some(_) => quote! { allowed_iterations },
             };
-            let qp = dual::dual_active_set(&mut mg.graph, moves, (names, &limit), scalar);
+            let (head, used) = dual::unconstrained(model, (spec, moves, names), mg, scalar);
+            let rebuild = dual::rebuild(
+                &mut mg.graph,
+                (a, &condensed.weighted),
+                (spec, moves, names),
+                scalar,
+            );
             Solver {
-                qp,
+                head,
+                used,
+                qp: dual::dual_active_set(moves, &limit, scalar),
                 warm_start_ops: OpCount::default(),
-                rebuild: Stage {
-                    code: dual::inverse_code(moves, scalar),
-                    ops: dual::inverse_ops(moves.count()),
-                },
+                rebuild,
                 kept: KeptHessian::Inverse {
                     moves: moves.count(),
-                    pattern: dual::inverse_pattern(moves, names),
+                    states: spec.states.len(),
+                    pattern: dual::gain_pattern(spec, moves, names),
                 },
                 kept_state: quote! { self.held = held; },
             }

@@ -13,6 +13,7 @@ pub mod newton;
 pub mod predictive;
 pub mod qp;
 pub mod spec;
+pub mod stage;
 pub mod work_bound;
 
 use super::options::{regulated, Args, Context};
