@@ -235,6 +235,8 @@ pub enum KeptHessian {
         moves: usize,
         /// The regulated states, `K`'s columns.
         states: usize,
+        /// The limit rows, kept with `G` times each (none: neither kept).
+        rows: usize,
         /// `let [[kv_1_1, ..], ..] = *unconstrained_gain;`
         pattern: TokenStream,
     },
@@ -258,11 +260,27 @@ impl KeptHessian {
         }
     }
 
+    /// The dual active set's kept arrays, by name.
+    fn inverse_parts(&self) -> Vec<Ident> {
+        let mut parts = vec![ident("hessian_inverse"), ident("unconstrained_gain")];
+        if let KeptHessian::Inverse { rows, .. } = self {
+            if *rows > 0 {
+                parts.extend([ident("limit_rows"), ident("limit_columns")]);
+            }
+        }
+        parts
+    }
+
     /// The entries kept.
     fn len(&self) -> usize {
         match self {
             KeptHessian::Packed(entries) => entries.len(),
-            KeptHessian::Inverse { moves, states, .. } => moves * (moves + states),
+            KeptHessian::Inverse {
+                moves,
+                states,
+                rows,
+                ..
+            } => moves * (moves + states + 2 * rows),
         }
     }
 
@@ -275,11 +293,23 @@ impl KeptHessian {
                 let len = Literal::usize_unsuffixed(entries.len());
                 quote! { #name: [#entry; #len] }
             }
-            KeptHessian::Inverse { moves, states, .. } => {
-                let [m, ns] = [*moves, *states].map(Literal::usize_unsuffixed);
+            KeptHessian::Inverse {
+                moves,
+                states,
+                rows,
+                ..
+            } => {
+                let [m, ns, r] = [*moves, *states, *rows].map(Literal::usize_unsuffixed);
+                let limits = (*rows > 0).then(|| {
+                    quote! {
+                        , limit_rows: [[#entry; #m]; #r],
+                        limit_columns: [[#entry; #m]; #r]
+                    }
+                });
                 quote! {
                     #name: [[#entry; #m]; #m],
                     unconstrained_gain: [[#entry; #m]; #ns]
+                    #limits
                 }
             }
         }
@@ -289,7 +319,10 @@ impl KeptHessian {
     fn rebuilt(&self) -> TokenStream {
         match self {
             KeptHessian::Packed(entries) => quote! { [#(#entries),*] },
-            KeptHessian::Inverse { .. } => quote! { Some((hessian_inverse, unconstrained_gain)) },
+            KeptHessian::Inverse { .. } => {
+                let kept = self.inverse_parts();
+                quote! { Some((#(#kept),*)) }
+            }
         }
     }
 
@@ -305,12 +338,14 @@ impl KeptHessian {
     fn store(&self) -> TokenStream {
         match self {
             KeptHessian::Packed(_) => quote! { self.hessian = hessian; },
-            KeptHessian::Inverse { .. } => quote! {
-                if let Some((inverse, gain)) = new_hessian_inverse {
-                    self.hessian_inverse = inverse;
-                    self.unconstrained_gain = gain;
+            KeptHessian::Inverse { .. } => {
+                let kept = self.inverse_parts();
+                quote! {
+                    if let Some((#(#kept),*)) = new_hessian_inverse {
+                        #(self.#kept = #kept;)*
+                    }
                 }
-            },
+            }
         }
     }
 
@@ -318,13 +353,17 @@ impl KeptHessian {
     fn unpack(&self) -> TokenStream {
         match self {
             KeptHessian::Packed(entries) => quote! { let [#(#entries),*] = hessian; },
-            KeptHessian::Inverse { pattern, .. } => quote! {
-                let (hessian_inverse, unconstrained_gain) = match &new_hessian_inverse {
-                    Some((inverse, gain)) => (inverse, gain),
-                    None => (&self.hessian_inverse, &self.unconstrained_gain),
-                };
-                #pattern
-            },
+            KeptHessian::Inverse { pattern, .. } => {
+                let kept = self.inverse_parts();
+                quote! {
+                    // Read in place when kept: a copy would cost as much as the solve.
+                    let (#(#kept),*) = match &new_hessian_inverse {
+                        Some((#(#kept),*)) => (#(#kept),*),
+                        None => (#(&self.#kept),*),
+                    };
+                    #pattern
+                }
+            }
         }
     }
 }

@@ -12,6 +12,7 @@
 //! with `K` and one check of the limits, and each limit held costs `O(n k)`, where the
 //! primal active set refactorises the free moves' Hessian at each step.
 
+use super::limit_rows::{self, LimitNames};
 use super::names::{failure, Names};
 use super::predictive::condensed_linear;
 use super::qp::{MoveNames, QpCode};
@@ -23,7 +24,7 @@ use crate::emit::scopes::scoped;
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::Matrix;
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
-use proc_macro2::TokenStream;
+use proc_macro2::{Ident, TokenStream};
 use quote::quote;
 use std::collections::BTreeSet;
 
@@ -38,7 +39,7 @@ fn gain_names(spec: &MpcSpec, moves: &MoveNames, names: &Names) -> Vec<Vec<Strin
 /// `F`'s columns the linear term of each regulated state alone.
 pub fn rebuild(
     g: &mut Graph,
-    (a, weighted): (&Matrix, &[Matrix]),
+    (a, b, weighted): (&Matrix, &Matrix, &[Matrix]),
     (spec, moves, names): (&MpcSpec, &MoveNames, &Names),
     scalar: Scalar,
 ) -> Stage {
@@ -54,14 +55,27 @@ pub fn rebuild(
             condensed_linear(g, a, weighted, &unit)
         })
         .collect();
-    let roots: Vec<NodeId> = columns.iter().flatten().copied().collect();
+    let limit_rows = limit_rows::coefficients(g, (a, b), spec);
+    let mut roots: Vec<NodeId> = columns.iter().flatten().copied().collect();
+    roots.extend(limit_rows.iter().flatten());
     let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
     let values = lowerer.segment(&roots);
-    let rows = values
-        .chunks(moves.count().max(1))
-        .map(|row| quote! { [#(#row),*] });
-    let statements = scoped(lowerer.take_statements(), &quote! { #(#values)* });
     let m = moves.count();
+    let (gain_values, row_values) = values.split_at(ns * m);
+    let rows = gain_values
+        .chunks(m.max(1))
+        .map(|row| quote! { [#(#row),*] });
+    let limits = (!limit_rows.is_empty()).then(|| {
+        let limit_rows = row_values
+            .chunks(m.max(1))
+            .map(|row| quote! { [#(#row),*] });
+        quote! {
+            // The limit rows, and G times each.
+            let limit_rows = [#(#limit_rows),*];
+            let limit_columns = #math::limit_columns(&hessian_inverse, &limit_rows);
+        }
+    });
+    let statements = scoped(lowerer.take_statements(), &quote! { #(#values)* });
     let code = quote! {
         // G = H^-1, and K = G F: the unconstrained plan's gain.
         let Some(hessian_inverse) =
@@ -71,10 +85,14 @@ pub fn rebuild(
         };
         #(#statements)*
         let unconstrained_gain = #math::limit_columns(&hessian_inverse, &[#(#rows),*]);
+        #limits
     };
     Stage {
         code,
-        ops: lowerer.ops().plus(inverse_ops(m)).plus(gain_ops(m, ns)),
+        ops: lowerer
+            .ops()
+            .plus(inverse_ops(m))
+            .plus(gain_ops(m, ns + spec.limit_rows())),
     }
 }
 
@@ -123,7 +141,7 @@ pub fn unconstrained(
     model: &Model,
     (spec, moves, names): (&MpcSpec, &MoveNames, &Names),
     mg: &mut ModelGraph,
-    scalar: Scalar,
+    (a, scalar): (&Matrix, Scalar),
 ) -> (Stage, BTreeSet<VarId>) {
     let references: Vec<String> = spec
         .states
@@ -131,16 +149,16 @@ pub fn unconstrained(
         .map(|&i| names.fresh(&format!("{}_ref", model.states[i].name)))
         .collect();
     let gain = gain_names(spec, moves, names);
-    let g = &mut mg.graph;
     let deviation: Vec<NodeId> = spec
         .states
         .iter()
         .zip(&references)
         .map(|(&i, name)| {
-            let reference = g.var(name);
-            g.sub(mg.x[i], reference)
+            let reference = mg.graph.var(name);
+            mg.graph.sub(mg.x[i], reference)
         })
         .collect();
+    let g = &mut mg.graph;
     let minimiser: Vec<NodeId> = (0..moves.count())
         .map(|i| {
             let terms: Vec<NodeId> = deviation
@@ -155,17 +173,42 @@ pub fn unconstrained(
             g.neg(sum)
         })
         .collect();
-    let mut lowerer = Lowerer::new(g, scalar, names.namer(), &minimiser);
-    let values = lowerer.segment(&minimiser);
+    let limit_names = LimitNames::new(model, spec, names);
+    let input_references = moves.per_input("ref");
+    let (lower, upper, penalty) = limit_rows::bounds(
+        mg,
+        (spec, &limit_names, a),
+        (&deviation, &references),
+        &input_references,
+        scalar,
+    );
+    let mut roots = minimiser.clone();
+    roots.extend(lower.iter().chain(&upper));
+    let mut lowerer = Lowerer::new(&mg.graph, scalar, names.namer(), &roots);
+    let values = lowerer.segment(&roots);
     let statements = scoped(lowerer.take_statements(), &quote! { #(#values)* });
     let ops = lowerer.ops();
     let used = lowerer.finish().used_vars;
+    let (minimiser, limits) = values.split_at(moves.count());
+    let (lower, upper) = limits.split_at(limits.len() / 2);
     let references = references.iter().map(|n| ident(n));
+    let bounds = moves.deviation_bounds();
+    let limit_reads = limit_names.reads(spec);
+    let limits = (!lower.is_empty()).then(|| {
+        quote! {
+            let limit_lower = [#(#lower),*];
+            let limit_upper = [#(#upper),*];
+            let limit_penalty = [#(#penalty),*];
+        }
+    });
     let code = quote! {
-        // The unconstrained minimiser v* = -K (x - x_ref).
+        #bounds
+        // The unconstrained minimiser v* = -K (x - x_ref), and the limits at this solve.
         let [#(#references),*] = self.x_ref;
+        #limit_reads
         #(#statements)*
-        let unconstrained = [#(#values),*];
+        let unconstrained = [#(#minimiser),*];
+        #limits
     };
     (Stage { code, ops }, used)
 }
@@ -173,15 +216,37 @@ pub fn unconstrained(
 /// The solve: the bounds as deviations from `u_ref`, `v* = -G c`, the warm start (the last
 /// held bounds a step on) and the iterations, at most `limit`; binds the moves, `optimal`,
 /// `steps` and `held` (which the commit stores).
-pub fn dual_active_set(moves: &MoveNames, limit: &TokenStream, scalar: Scalar) -> QpCode {
+pub fn dual_active_set(
+    (spec, moves): (&MpcSpec, &MoveNames),
+    limit: &TokenStream,
+    scalar: Scalar,
+) -> QpCode {
     let m = moves.count();
-    let bounds = moves.deviation_bounds();
     let (move_low, move_high) = (moves.per_move_input("low"), moves.per_move_input("high"));
-    let warm = warm_start(moves);
+    let warm = warm_start(spec, moves);
+    let rows = match spec.limit_rows() {
+        0 => quote! {
+            stateforge_math::LimitRows {
+                coefficients: &[],
+                columns: &[],
+                lower: &[],
+                upper: &[],
+                penalty: &[],
+            }
+        },
+        _ => quote! {
+            stateforge_math::LimitRows {
+                coefficients: limit_rows,
+                columns: limit_columns,
+                lower: &limit_lower,
+                upper: &limit_upper,
+                penalty: &limit_penalty,
+            }
+        },
+    };
     let math = math_module(scalar);
     let move_ids = moves.move_idents();
     let code = quote! {
-        #bounds
         #warm
         let solution = #math::mpc_qp(
             &stateforge_math::MpcQp {
@@ -189,13 +254,7 @@ pub fn dual_active_set(moves: &MoveNames, limit: &TokenStream, scalar: Scalar) -
                 unconstrained: &unconstrained,
                 low: &[#(#move_low),*],
                 high: &[#(#move_high),*],
-                rows: stateforge_math::LimitRows {
-                    coefficients: &[],
-                    columns: &[],
-                    lower: &[],
-                    upper: &[],
-                    penalty: &[],
-                },
+                rows: #rows,
             },
             &mut held,
             #limit,
@@ -241,20 +300,30 @@ fn iteration_ops(m: usize) -> OpCount {
     }
 }
 
-/// The warm start: the bounds the last solve held, a step on (the first step's were
-/// applied; the last step starts free).
-fn warm_start(moves: &MoveNames) -> TokenStream {
-    let nu = moves.input_count().max(1);
-    let held = moves.per_move("held");
-    let (first, rest) = held.split_at(nu.min(held.len()));
-    let unread = first.iter().map(|_| quote! { _ });
-    let free = first.iter().map(|_| quote! { 0 });
+/// The warm start: the limits the last solve held, a step on (the first step's were
+/// applied; the last step's start free).
+fn warm_start(spec: &MpcSpec, moves: &MoveNames) -> TokenStream {
+    let shifted = |held: &[Ident], per_step: usize| {
+        let (first, rest) = held.split_at(per_step.min(held.len()));
+        let unread = first.iter().map(|_| quote! { _ });
+        let free = first.iter().map(|_| quote! { 0 });
+        (
+            quote! { [#(#unread,)* #(#rest),*] },
+            quote! { [#(#rest,)* #(#free),*] },
+        )
+    };
+    let (moves_read, moves_start) = shifted(&moves.per_move("held"), moves.input_count());
+    let rows: Vec<Ident> = (1..=spec.limit_rows())
+        .map(|r| ident(&format!("held_row_{r}")))
+        .collect();
+    let (rows_read, rows_start) = shifted(&rows, spec.limits.per_step());
     quote! {
         // Warm start: the limits the last solve held, a step on.
-        let [#(#unread,)* #(#rest),*] = self.held.moves;
+        let #moves_read = self.held.moves;
+        let #rows_read = self.held.rows;
         let mut held = stateforge_math::HeldLimits {
-            moves: [#(#rest,)* #(#free),*],
-            rows: [],
+            moves: #moves_start,
+            rows: #rows_start,
         };
     }
 }

@@ -7,6 +7,7 @@
 
 use super::cache::{Cache, KeptHessian};
 use super::dual;
+use super::limit_api;
 use super::names::{failure, Names};
 use super::predictive::{
     column_norm, condensed_hessian, condensed_linear, scale, zoh_square, zoh_taylor,
@@ -224,22 +225,23 @@ fn solver(
                 None => quote! { Self::MAX_ITERATIONS },
                 Some(_) => quote! { allowed_iterations },
             };
-            let (head, used) = dual::unconstrained(model, (spec, moves, names), mg, scalar);
+            let (head, used) = dual::unconstrained(model, (spec, moves, names), mg, (a, scalar));
             let rebuild = dual::rebuild(
                 &mut mg.graph,
-                (a, &condensed.weighted),
+                (a, b, &condensed.weighted),
                 (spec, moves, names),
                 scalar,
             );
             Solver {
                 head,
                 used,
-                qp: dual::dual_active_set(moves, &limit, scalar),
+                qp: dual::dual_active_set((spec, moves), &limit, scalar),
                 warm_start_ops: OpCount::default(),
                 rebuild,
                 kept: KeptHessian::Inverse {
                     moves: moves.count(),
                     states: spec.states.len(),
+                    rows: spec.limit_rows(),
                     pattern: dual::gain_pattern(spec, moves, names),
                 },
                 kept_state: quote! { self.held = held; },
@@ -1319,12 +1321,14 @@ fn type_tokens(
     let results = result_types(&dims, spec.iterations_within_budget.is_some());
     let doc = mpc_doc(model, spec, holds);
     let constants = constants(spec, &dims, scalar, holds);
-    let constructor = constructor(spec, (moves, cache), &dims, scalar);
+    let constructor = constructor((model, spec), (moves, cache), &dims, scalar);
     let kept = cache.fields(&dims.ty);
     let set_reference = set_reference(model, spec, moves, &dims);
     let setters = setters(spec, moves, &dims);
     let accessors = accessors(&dims);
     let held = held_field(spec, false);
+    let limit_fields = limit_api::fields(model, spec, scalar, false);
+    let limit_setters = limit_api::setters(model, spec, scalar);
     let Dims {
         ty,
         ns_len,
@@ -1349,6 +1353,7 @@ fn type_tokens(
             terminal_gain: [[#ty; #ns_len]; #nu_len],
             plan: [[#ty; #nu_len]; #horizon],
             #held
+            #limit_fields
             #kept
         }
 
@@ -1361,6 +1366,8 @@ fn type_tokens(
 
             #setters
 
+            #limit_setters
+
             #solve
 
             #accessors
@@ -1372,7 +1379,7 @@ fn type_tokens(
 /// value in `new`, nothing held.
 fn held_field(spec: &MpcSpec, value: bool) -> Option<TokenStream> {
     let moves = Literal::usize_unsuffixed((spec.horizon as usize) * spec.inputs.len());
-    let rows = Literal::usize_unsuffixed(0);
+    let rows = Literal::usize_unsuffixed(spec.limit_rows());
     let entry = match value {
         false => quote! { stateforge_math::HeldLimits<#moves, #rows> },
         true => quote! { stateforge_math::HeldLimits::NONE },
@@ -1563,7 +1570,7 @@ fn solver_constants(
 /// `fn new`: every entry read checked finite and the bounds ordered, the weights packed,
 /// the terminal weight at `q`, and the plan at zero clipped to the bounds.
 fn constructor(
-    spec: &MpcSpec,
+    (model, spec): (&Model, &MpcSpec),
     (moves, cache): (&MoveNames, &Cache),
     dims: &Dims,
     scalar: Scalar,
@@ -1587,6 +1594,7 @@ fn constructor(
     let start_move = moves.start_move(&zero);
     let nothing_kept = cache.initial(&zero, ns_len, nu_len);
     let held = held_field(spec, true);
+    let limit_fields = limit_api::fields(model, spec, scalar, true);
     arguments.constructor(
         &quote! {
             /// A controller with state weight `q` and input weight `r` (symmetric: upper
@@ -1611,6 +1619,7 @@ fn constructor(
                 terminal_gain: [[#zero; #ns_len]; #nu_len],
                 plan: [#start_move; #horizon],
                 #held
+                #limit_fields
                 #nothing_kept
             })
         },

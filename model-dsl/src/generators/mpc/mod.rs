@@ -7,6 +7,9 @@
 
 pub mod cache;
 pub mod dual;
+pub mod limit_api;
+pub mod limit_rows;
+pub mod limits;
 pub mod lower;
 pub mod names;
 pub mod newton;
@@ -68,9 +71,12 @@ impl Kind for Mpc {
             );
         }
         let discretisation = discretisation(cx.decl, args, diag);
-        let solver = solver(args, unknowns, diag);
+        let limits = limits::limits(args, cx, (&states, &inputs), diag);
+        let rows = u64::from(horizon) * limits.per_step() as u64;
+        let solver = solver(args, (unknowns, rows > 0), diag);
         // Clamped so that a horizon already reported as too long adds no error of its own.
-        let default_iterations = 2 * unknowns.clamp(1, u64::from(MPC_UNKNOWNS_MAX)) as u32;
+        let default_iterations =
+            2 * (unknowns.clamp(1, u64::from(MPC_UNKNOWNS_MAX)) + rows.min(1000)) as u32;
         let iterations = ("max_iterations", "iterations");
         let max_iterations = args.whole(iterations, default_iterations, 1000, diag);
         let riccati_iterations = args.whole(("riccati_iterations", "steps"), 20, 10_000, diag);
@@ -81,6 +87,7 @@ impl Kind for Mpc {
             inputs,
             discretisation,
             solver,
+            limits,
             max_iterations,
             riccati_iterations,
             model_tolerance,
@@ -111,10 +118,11 @@ fn model_tolerance(args: &mut Args, diag: &mut Diagnostics) -> f64 {
     }
 }
 
-/// `solver = primal_active_set` (the default up to [`PRIMAL_MOVES_MAX`] moves) or
-/// `dual_active_set` (beyond).
-fn solver(args: &mut Args, unknowns: u64, diag: &mut Diagnostics) -> MpcSolver {
-    let default = if unknowns <= u64::from(PRIMAL_MOVES_MAX) {
+/// `solver = primal_active_set` (the default up to [`PRIMAL_MOVES_MAX`] moves without
+/// limits besides the inputs' bounds) or `dual_active_set` (otherwise; the only solver
+/// that takes those limits).
+fn solver(args: &mut Args, (unknowns, limited): (u64, bool), diag: &mut Diagnostics) -> MpcSolver {
+    let default = if unknowns <= u64::from(PRIMAL_MOVES_MAX) && !limited {
         MpcSolver::PrimalActiveSet
     } else {
         MpcSolver::DualActiveSet
@@ -123,6 +131,15 @@ fn solver(args: &mut Args, unknowns: u64, diag: &mut Diagnostics) -> MpcSolver {
         return default;
     };
     match &arg.value {
+        ArgValue::Name(n) if n.text == "primal_active_set" && limited => {
+            diag.error(
+                n.span,
+                "the primal active set takes the inputs' bounds only: with `rate_limits`, \
+                 `state_limits` or `output_limits`, use `solver = dual_active_set` (or leave \
+                 `solver` out)",
+            );
+            default
+        }
         ArgValue::Name(n) if n.text == "primal_active_set" => MpcSolver::PrimalActiveSet,
         ArgValue::Name(n) if n.text == "dual_active_set" => MpcSolver::DualActiveSet,
         other => {
@@ -131,7 +148,8 @@ fn solver(args: &mut Args, unknowns: u64, diag: &mut Diagnostics) -> MpcSolver {
                 format!(
                     "`solver` is `primal_active_set` (Newton steps on the free moves; the \
                      default up to {PRIMAL_MOVES_MAX} moves) or `dual_active_set` (from the \
-                     unconstrained plan, holding violated bounds; the default beyond)"
+                     unconstrained plan, holding violated limits; the default beyond, and \
+                     with limits besides the inputs' bounds)"
                 ),
             );
             default
@@ -191,10 +209,14 @@ fn discretisation(decl: &ModelDecl, args: &mut Args, diag: &mut Diagnostics) -> 
 impl Generator for MpcSpec {
     fn design(&self, model: &Model, mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
         let mut spec = self.clone();
+        if !spec.limits.outputs.is_empty() {
+            let rows = limits::output_rows(model, &mut mg.clone(), (&spec.limits, &spec.states));
+            spec.limits.output_rows = rows?;
+        }
         if let Some(budget) = self.cycle_budget {
             // The bound is of the microcontroller's `f32` code; the `f64` code takes the
             // same bounds, so a host run is limited as the target's is.
-            let ops = lower::emit_mpc(model, self, mg, Scalar::F32).ops;
+            let ops = lower::emit_mpc(model, &spec, mg, Scalar::F32).ops;
             let limits = iterations_within(&ops, self.max_iterations, budget, &CORTEX_M4F)?;
             spec.iterations_within_budget = Some(limits);
         }

@@ -95,7 +95,7 @@ impl MoveNames {
     }
 
     /// `<input>_<suffix>` for every input.
-    fn per_input(&self, suffix: &str) -> Vec<Ident> {
+    pub fn per_input(&self, suffix: &str) -> Vec<Ident> {
         self.inputs
             .iter()
             .map(|i| ident(&format!("{i}_{suffix}")))

@@ -23,6 +23,37 @@ pub enum MpcSolver {
     DualActiveSet,
 }
 
+/// The MPC's limits besides the inputs' bounds, each hard or soft.
+#[derive(Clone, Debug, Default)]
+pub struct MpcLimits {
+    /// Inputs whose change between moves is limited (`rate_limits`): positions in
+    /// [`MpcSpec::inputs`].
+    pub rates: Vec<usize>,
+    /// Regulated states limited (`state_limits`): positions in [`MpcSpec::states`].
+    pub states: Vec<usize>,
+    /// Outputs limited (`output_limits`): indices into the model's outputs, with where
+    /// each was named.
+    pub outputs: Vec<(usize, Span)>,
+    /// Per limited quantity, rates, then states, then outputs: whether it is soft
+    /// (`soft_limits`).
+    pub soft: Vec<bool>,
+    /// Per limited output: its row `C` over the regulated states (`y = C x`), set by the
+    /// design, which checks that the output is linear in them.
+    pub output_rows: Vec<Vec<f64>>,
+}
+
+impl MpcLimits {
+    /// The limit rows of one step: a row per limited quantity.
+    pub fn per_step(&self) -> usize {
+        self.rates.len() + self.states.len() + self.outputs.len()
+    }
+
+    /// The soft quantities' count.
+    pub fn soft_count(&self) -> usize {
+        self.soft.iter().filter(|&&s| s).count()
+    }
+}
+
 /// The most moves for which `solver` defaults to the primal active set.
 pub const PRIMAL_MOVES_MAX: u32 = 16;
 
@@ -39,6 +70,8 @@ pub struct MpcSpec {
     pub discretisation: MpcDiscretisation,
     /// How the QP is solved.
     pub solver: MpcSolver,
+    /// The limits besides the inputs' bounds.
+    pub limits: MpcLimits,
     /// Bound on the active-set iterations of one solve.
     pub max_iterations: u32,
     /// Riccati steps per solve towards the terminal weight (warm-started).
@@ -52,6 +85,18 @@ pub struct MpcSpec {
     /// The iterations a solve may take within the budget, by what it rebuilt (nothing,
     /// the problem, the model and the problem); set by the design when there is a budget.
     pub iterations_within_budget: Option<[u32; 3]>,
+}
+
+impl MpcSpec {
+    /// The moves optimised over, horizon times inputs.
+    pub fn moves(&self) -> usize {
+        self.horizon as usize * self.inputs.len()
+    }
+
+    /// The limit rows over the horizon.
+    pub fn limit_rows(&self) -> usize {
+        self.horizon as usize * self.limits.per_step()
+    }
 }
 
 /// The largest condensed problem (horizon times inputs unknowns) the MPC unrolls: its
