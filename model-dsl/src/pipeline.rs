@@ -120,7 +120,7 @@ impl Module<'_> {
         }
         let consts = constants(model, scalar);
         let views = crate::emit::typed::typed_views(model, scalar);
-        let status = (!self.designs.is_empty()).then(status::status_enum);
+        let status = (!self.designs.is_empty()).then(|| status::status_enum(model));
         let mut over_budget = None;
         let generated = self.generated(scalar, &mut ops_items, &mut over_budget);
         let tokens = quote! {

@@ -29,6 +29,7 @@ mod peers_problem;
 mod peers_quadrotor;
 mod peers_quadrotor_problem;
 mod peers_symforce;
+mod peers_table;
 mod peers_tinympc;
 mod scratch;
 mod static_estimate;

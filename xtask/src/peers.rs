@@ -13,14 +13,14 @@
 //! a second table reports it (`peers_symforce`).
 
 use crate::peers_build::{self, PACKAGES};
+use crate::peers_table::{self, parse, Solver};
 use crate::scratch::workspace_root;
 use stateforge_cli::measure::program::Program;
+use stateforge_cli::measure::trace::Traced;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
 
-/// The paper's clock, as the cost table's.
-const CLOCK_MHZ: f64 = 168.0;
 /// The firmware crate, and where the peers' build of it goes (relative to it).
 const TARGETS: &str = "targets";
 const TARGET_DIR: &str = "target/peers";
@@ -34,13 +34,6 @@ const OSQP_TERMS: &str = "OSQP: the generated MPC's condensed QP (10 moves, H an
      max_iter 4000, rho 0.1 adaptive, sigma 1e-6, alpha 1.6, check every 25 iterations, \
      warm start from the last solution, scaling 10 Ruiz passes, no polishing (not in \
      embedded code)";
-
-/// A solver's line of the firmware's output: its plan at every step, and its spread.
-#[derive(Debug, Default)]
-struct Solver {
-    plans: BTreeMap<usize, (i64, Vec<f64>)>,
-    spread: Option<[f64; 4]>,
-}
 
 /// Builds what it can, runs the peers' firmware, and returns the tables: the QP peers',
 /// then SymForce's beside the navigation EKF (`peers_symforce`).
@@ -153,29 +146,10 @@ fn trace(
     root: &Path,
     osqp: &[PathBuf],
     symforce: bool,
-) -> Result<
-    (
-        Program,
-        BTreeMap<String, stateforge_cli::measure::trace::Traced>,
-    ),
-    String,
-> {
+) -> Result<(Program, BTreeMap<String, Traced>), String> {
     let elf = root.join(TARGETS).join(ELF);
     let mut program = Program::read(&elf)?;
-    // OSQP dispatches to its linear-system solver through function pointers, which the
-    // disassembly's call graph does not follow: its wrapper can reach every function of
-    // OSQP's objects.
-    if let Some(wrapper) = program.function("peers_osqp_solve") {
-        let mut linked = Vec::new();
-        for object in osqp {
-            linked.extend(
-                peers_build::defined_functions(object)?
-                    .into_iter()
-                    .filter(|f| program.functions.contains_key(f)),
-            );
-        }
-        program.add_calls(&wrapper, linked);
-    }
+    peers_build::osqp_reaches_its_objects(&mut program, osqp)?;
     let mut wrappers: Vec<String> = ["mpc", "osqp", "quadmpc"]
         .iter()
         .filter_map(|n| program.function(&format!("peers_{n}_solve")))
@@ -252,47 +226,11 @@ fn run_firmware(targets: &Path, lib: &Path, features: &str) -> Result<String, St
     peers_build::firmware_lines(&output, "the peers' firmware")
 }
 
-/// The `peer` and `peerspread` lines, by solver.
-fn parse(text: &str) -> Result<BTreeMap<String, Solver>, String> {
-    let mut solvers: BTreeMap<String, Solver> = BTreeMap::new();
-    for line in text.lines() {
-        let words: Vec<&str> = line.split_whitespace().collect();
-        let number = |w: &str| {
-            w.parse::<f64>()
-                .map_err(|_| format!("bad number in `{line}`"))
-        };
-        match words.as_slice() {
-            ["peer", name, k, iterations, moves @ ..] => {
-                let k = k.parse().map_err(|_| format!("bad step in `{line}`"))?;
-                let iterations = iterations
-                    .parse()
-                    .map_err(|_| format!("bad iterations in `{line}`"))?;
-                let plan = moves.iter().map(|w| number(w)).collect::<Result<_, _>>()?;
-                let solver = solvers.entry((*name).to_owned()).or_default();
-                solver.plans.insert(k, (iterations, plan));
-            }
-            ["peerspread", name, values @ ..] if values.len() == 4 => {
-                let v: Vec<f64> = values.iter().map(|w| number(w)).collect::<Result<_, _>>()?;
-                solvers.entry((*name).to_owned()).or_default().spread =
-                    Some([v[0], v[1], v[2], v[3]]);
-            }
-            _ => {}
-        }
-    }
-    Ok(solvers)
-}
-
 /// Largest difference of `solver`'s plans from `reference(k)`: first moves and whole plans
-/// (V); and the steps where the solver reported a failure.
-fn difference<'a>(
-    solver: &Solver,
-    reference: impl Fn(usize) -> Option<&'a [f64]>,
-) -> (f64, f64, usize) {
-    let (mut first, mut whole, mut failed) = (0.0_f64, 0.0_f64, 0);
-    for (k, (iterations, plan)) in &solver.plans {
-        if *iterations < 0 {
-            failed += 1;
-        }
+/// (V).
+fn difference<'a>(solver: &Solver, reference: impl Fn(usize) -> Option<&'a [f64]>) -> (f64, f64) {
+    let (mut first, mut whole) = (0.0_f64, 0.0_f64);
+    for (k, (_, plan)) in &solver.plans {
         let Some(reference) = reference(*k) else {
             continue;
         };
@@ -304,26 +242,18 @@ fn difference<'a>(
             }
         }
     }
-    (first, whole, failed)
+    (first, whole)
 }
 
 /// The table's header.
 fn header() -> String {
-    format!(
-        "{:<22} {:>8} {:>8} {:>9} {:>9} {:>8} {:>8} {:>6} {:>10} {:>10} {:>10} {:>6}\n",
-        "solver",
-        "median",
-        "worst",
-        "cyc med",
-        "cyc worst",
-        "us worst",
-        "text B",
-        "iters",
-        "d first V",
-        "d plan V",
-        "d own V",
-        "failed"
-    )
+    peers_table::header(&[
+        ("iters", 6),
+        ("d first V", 10),
+        ("d plan V", 10),
+        ("d own V", 10),
+        ("failed", 6),
+    ])
 }
 
 /// What the columns mean.
@@ -343,7 +273,7 @@ fn row(
     solvers: &BTreeMap<String, Solver>,
     own: Option<&[Vec<f64>]>,
     program: &Program,
-    traced: &BTreeMap<String, stateforge_cli::measure::trace::Traced>,
+    traced: &BTreeMap<String, Traced>,
 ) -> Result<String, String> {
     let ours = solvers.get("mpc").ok_or("no plans of the generated MPC")?;
     let solver = solvers
@@ -352,27 +282,18 @@ fn row(
     let [median, worst, most, mean] = solver
         .spread
         .ok_or_else(|| format!("no spread line for {name}"))?;
-    let wrapper = program
-        .function(&format!("peers_{name}_solve"))
-        .ok_or_else(|| format!("no `peers_{name}_solve` in the firmware"))?;
-    let trace = traced
-        .get(&wrapper)
-        .filter(|t| t.calls > 0)
-        .ok_or_else(|| format!("the trace saw no call of `{wrapper}`"))?;
-    // The counter reads SysTick to 40 instructions, once per call; their mean and the
-    // trace's must agree to that and the few instructions of the call around it.
-    if (trace.instructions_per_call() - mean).abs() > 48.0 {
-        return Err(format!(
-            "`{wrapper}`: the trace saw {:.0} instructions per call, the counter {mean:.0}",
-            trace.instructions_per_call()
-        ));
-    }
-    let cpi = trace.cycles_per_call() / trace.instructions_per_call().max(1.0);
-    let (first, whole, failed) =
-        difference(solver, |k| ours.plans.get(&k).map(|(_, p)| p.as_slice()));
-    let (_, whole_own, _) = match own {
-        Some(plans) => difference(solver, |k| plans.get(k - 1).map(Vec::as_slice)),
-        None => (first, whole, failed),
+    let (wrapper, trace) = peers_table::traced_call(name, program, traced)?;
+    let cpi = peers_table::cycles_per_instruction(trace, mean)
+        .map_err(|e| format!("`{wrapper}`: {e}"))?;
+    let (first, whole) = difference(solver, |k| ours.plans.get(&k).map(|(_, p)| p.as_slice()));
+    let (_, whole_own) = match own {
+        // The exact plans are listed from step 1.
+        Some(plans) => difference(solver, |k| {
+            k.checked_sub(1)
+                .and_then(|i| plans.get(i))
+                .map(Vec::as_slice)
+        }),
+        None => (first, whole),
     };
     let label = match name {
         "mpc" => "generated Mpc::solve",
@@ -387,13 +308,11 @@ fn row(
         }
     };
     Ok(format!(
-        "{label:<22} {median:>8.0} {worst:>8.0} {:>9.0} {:>9.0} {:>8.1} {:>8} {most:>6.0} {:>10} {:>10} {:>10} {failed:>6}\n",
-        median * cpi,
-        worst * cpi,
-        worst * cpi / CLOCK_MHZ,
-        program.reachable_size(&wrapper).map_or("?".into(), |b| b.to_string()),
+        "{label:<22} {} {most:>6.0} {:>10} {:>10} {:>10} {:>6}\n",
+        peers_table::counts(median, worst, cpi, program.reachable_size(&wrapper)),
         shown(first),
         shown(whole),
         shown(whole_own),
+        solver.failed(),
     ))
 }

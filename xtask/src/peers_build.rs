@@ -5,6 +5,7 @@
 //! compiled with `arm-none-eabi-gcc -O2` for the Cortex-M4F into a static library.
 
 use crate::command::run;
+use stateforge_cli::measure::program::Program;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -226,6 +227,25 @@ pub fn defined_functions(lib: &Path) -> Result<Vec<String>, String> {
             kind.eq_ignore_ascii_case("t").then(|| name.to_owned())
         })
         .collect())
+}
+
+/// OSQP's wrapper (`peers_osqp_solve`, when `program` has it) made to reach every
+/// function of OSQP's `objects` the program holds: OSQP dispatches to its linear-system
+/// solver through function pointers, which the disassembly's call graph does not follow.
+pub fn osqp_reaches_its_objects(program: &mut Program, objects: &[PathBuf]) -> Result<(), String> {
+    let Some(wrapper) = program.function("peers_osqp_solve") else {
+        return Ok(());
+    };
+    let mut linked = Vec::new();
+    for object in objects {
+        linked.extend(
+            defined_functions(object)?
+                .into_iter()
+                .filter(|f| program.functions.contains_key(f)),
+        );
+    }
+    program.add_calls(&wrapper, linked);
+    Ok(())
 }
 
 /// The printed lines of a firmware run under QEMU, if it exited cleanly and printed `done`;

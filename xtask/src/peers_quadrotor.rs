@@ -18,6 +18,7 @@
 //! OSQP, f64, 1e-10, polished), relative to the input range (1).
 
 use crate::peers_build;
+use crate::peers_table::{self, Solver};
 use stateforge_cli::measure::program::Program;
 use stateforge_cli::measure::trace::Traced;
 use std::collections::BTreeMap;
@@ -45,12 +46,12 @@ const TERMS: &str = "Every solver goes from the state to the plan in its call, w
 /// The solvers of the C/C++ firmware, by the name it prints.
 const PEERS: [(&str, &str); 3] = [("tinympc", "TinyMPC"), ("osqp", "OSQP"), ("daqp", "DAQP")];
 
-/// One solver's lines: plans by step with iterations, spread, RAM.
-#[derive(Debug, Default)]
-struct Solver {
-    plans: BTreeMap<usize, (i64, Vec<f64>)>,
-    spread: Option<[f64; 4]>,
-    ram: Option<[u64; 2]>,
+/// A firmware run's lines: each solver's plans and spread ([`peers_table::parse`]), and
+/// its RAM (`peerram <name> <state bytes> <stack bytes>`).
+#[derive(Debug, Default, PartialEq)]
+struct Run {
+    solvers: BTreeMap<String, Solver>,
+    ram: BTreeMap<String, [u64; 2]>,
 }
 
 /// The reference plans (`reference.json`).
@@ -95,18 +96,19 @@ pub fn report(
         &reference.common,
         None,
         program,
-        (traced, &ours),
+        (traced, &ours.solvers),
         None,
     )?];
     rows.extend(peer_rows(root, python, dir, &reference));
     let horizon = ours
+        .solvers
         .get("quadmpc")
         .and_then(|s| s.plans.values().next())
         .map_or(0, |(_, p)| p.len() / 4);
     let mut out = format!(
         "TinyMPC's quadrotor hover benchmark (12 states, 4 inputs, {horizon} moves, |u| <= \
          0.5), same Cortex-M4F, same {} closed-loop steps ({versions}):\n",
-        ours.get("quadmpc").map_or(0, |s| s.plans.len())
+        ours.solvers.get("quadmpc").map_or(0, |s| s.plans.len())
     );
     out.push_str(&header());
     out.push_str(&rows.concat());
@@ -119,7 +121,7 @@ pub fn report(
 fn peer_rows(root: &Path, python: &Path, dir: &Path, reference: &Reference) -> Vec<String> {
     let firmware = peers_firmware(root, python, dir).and_then(|runs| {
         let solvers = parse(&runs.full)?;
-        let counted = parse(&runs.traced)?;
+        let counted = peers_table::parse(&runs.traced)?;
         let (elf, statics) = (runs.traced_elf, runs.statics);
         let program = sized_program(&elf, &runs.objects)?;
         let wrappers: Vec<String> = PEERS
@@ -155,22 +157,12 @@ fn peer_rows(root: &Path, python: &Path, dir: &Path, reference: &Reference) -> V
         .collect()
 }
 
-/// The peers' firmware as its text sizes are counted: OSQP dispatches to its linear-system
-/// solver through function pointers, which the disassembly's call graph does not follow,
-/// so its wrapper can reach every function of its objects (as the blade's OSQP).
+/// The peers' firmware as its text sizes are counted: OSQP's wrapper reaches every
+/// function of its objects (as the blade's OSQP).
 fn sized_program(elf: &Path, objects: &Objects) -> Result<Program, String> {
     let mut program = Program::read(elf)?;
-    if let Some(wrapper) = program.function("peers_osqp_solve") {
-        let mut linked = Vec::new();
-        for object in objects.get("osqp").into_iter().flatten() {
-            linked.extend(
-                peers_build::defined_functions(object)?
-                    .into_iter()
-                    .filter(|f| program.functions.contains_key(f)),
-            );
-        }
-        program.add_calls(&wrapper, linked);
-    }
+    let osqp = objects.get("osqp").map_or(&[][..], Vec::as_slice);
+    peers_build::osqp_reaches_its_objects(&mut program, osqp)?;
     Ok(program)
 }
 
@@ -222,34 +214,23 @@ fn note(reference: &Reference, rebuilt: &str) -> String {
 
 /// The table's header.
 fn header() -> String {
-    format!(
-        "{:<22} {:>8} {:>8} {:>9} {:>9} {:>8} {:>8} {:>8} {:>6} {:>10} {:>10} {:>6}\n",
-        "solver",
-        "median",
-        "worst",
-        "cyc med",
-        "cyc worst",
-        "us worst",
-        "text B",
-        "RAM B",
-        "iters",
-        "d exact",
-        "d common",
-        "failed"
-    )
+    peers_table::header(&[
+        ("RAM B", 8),
+        ("iters", 6),
+        ("d exact", 10),
+        ("d common", 10),
+        ("failed", 6),
+    ])
 }
 
-/// Largest difference of `solver`'s plans from `reference` (by step), and the steps it
-/// reported a failure at.
-fn difference(solver: &Solver, reference: &[Vec<f64>]) -> Result<(f64, usize), String> {
+/// Largest difference of `solver`'s plans from `reference` (listed from step 1), relative
+/// to the input range.
+fn difference(solver: &Solver, reference: &[Vec<f64>]) -> Result<f64, String> {
     let mut worst = 0.0_f64;
-    let mut failed = 0;
-    for (k, (iterations, plan)) in &solver.plans {
-        if *iterations < 0 {
-            failed += 1;
-        }
-        let exact = reference
-            .get(k - 1)
+    for (k, (_, plan)) in &solver.plans {
+        let exact = k
+            .checked_sub(1)
+            .and_then(|i| reference.get(i))
             .ok_or_else(|| format!("no reference plan at step {k}"))?;
         if exact.len() != plan.len() {
             return Err(format!(
@@ -262,7 +243,7 @@ fn difference(solver: &Solver, reference: &[Vec<f64>]) -> Result<(f64, usize), S
             worst = worst.max((a - b).abs());
         }
     }
-    Ok((worst / INPUT_RANGE, failed))
+    Ok(worst / INPUT_RANGE)
 }
 
 /// One solver's row.
@@ -270,14 +251,15 @@ fn difference(solver: &Solver, reference: &[Vec<f64>]) -> Result<(f64, usize), S
 fn row(
     name: &str,
     label: &str,
-    solvers: &BTreeMap<String, Solver>,
+    run: &Run,
     exact: &[Vec<f64>],
     common: Option<&[Vec<f64>]>,
     program: &Program,
     traced: (&BTreeMap<String, Traced>, &BTreeMap<String, Solver>),
     statics: Option<u64>,
 ) -> Result<String, String> {
-    let solver = solvers
+    let solver = run
+        .solvers
         .get(name)
         .ok_or_else(|| format!("no plans of {name}"))?;
     let [median, worst, most, _] = solver
@@ -290,105 +272,52 @@ fn row(
         .get(name)
         .and_then(|s| s.spread)
         .ok_or_else(|| format!("no spread line for {name} in the traced run"))?[3];
-    let wrapper = program
-        .function(&format!("peers_{name}_solve"))
-        .ok_or_else(|| format!("no `peers_{name}_solve` in the firmware"))?;
-    let trace = traced
-        .get(&wrapper)
-        .filter(|t| t.calls > 0)
-        .ok_or_else(|| format!("the trace saw no call of `{wrapper}`"))?;
+    let (wrapper, trace) = peers_table::traced_call(name, program, traced)?;
     // A trace that lost the call somewhere estimates no cycles: the row says so.
-    let seen = trace.instructions_per_call();
-    let (cpi, lost) = if (seen - mean).abs() > 48.0 {
-        (
-            f64::NAN,
-            format!(" (cycles not estimated: the trace saw {seen:.0} instructions per call, the counter {mean:.0})"),
-        )
-    } else {
-        (trace.cycles_per_call() / seen.max(1.0), String::new())
+    let (cpi, lost) = match peers_table::cycles_per_instruction(trace, mean) {
+        Ok(cpi) => (cpi, String::new()),
+        Err(e) => (f64::NAN, format!(" (cycles not estimated: {e})")),
     };
-    let (d_exact, failed) = difference(solver, exact)?;
+    let d_exact = difference(solver, exact)?;
     let d_common = match common {
-        Some(plans) => format!("{:.2e}", difference(solver, plans)?.0),
+        Some(plans) => format!("{:.2e}", difference(solver, plans)?),
         None => format!("{d_exact:.2e}"),
     };
-    let ram = solver.ram.map_or("?".into(), |[state, stack]| {
+    let ram = run.ram.get(name).map_or("?".into(), |[state, stack]| {
         (state + statics.unwrap_or(0) + stack).to_string()
     });
-    // Cycles, or `?` where the trace estimated none.
-    let cycles = |v: f64, digits: usize| {
-        if v.is_nan() {
-            "?".to_owned()
-        } else {
-            format!("{v:.digits$}")
-        }
-    };
     Ok(format!(
-        "{label:<22} {median:>8.0} {worst:>8.0} {:>9} {:>9} {:>8} {:>8} {ram:>8} {most:>6.0} {d_exact:>10.2e} {d_common:>10} {failed:>6}{lost}\n",
-        cycles(median * cpi, 0),
-        cycles(worst * cpi, 0),
-        cycles(worst * cpi / 168.0, 1),
-        program.reachable_size(&wrapper).map_or("?".into(), |b| b.to_string()),
+        "{label:<22} {} {ram:>8} {most:>6.0} {d_exact:>10.2e} {d_common:>10} {:>6}{lost}\n",
+        peers_table::counts(median, worst, cpi, program.reachable_size(&wrapper)),
+        solver.failed(),
     ))
 }
 
-/// The `peer`, `peerspread` and `peerram` lines, by solver.
-fn parse(text: &str) -> Result<BTreeMap<String, Solver>, String> {
-    let mut solvers: BTreeMap<String, Solver> = BTreeMap::new();
+/// The shared lines ([`peers_table::parse`]) and the `peerram` lines, by solver.
+fn parse(text: &str) -> Result<Run, String> {
+    let mut ram = BTreeMap::new();
     for line in text.lines() {
         let words: Vec<&str> = line.split_whitespace().collect();
-        let number = |w: &str| {
-            w.parse::<f64>()
-                .map_err(|_| format!("bad number in `{line}`"))
-        };
-        match words.as_slice() {
-            ["peer", name, k, iterations, moves @ ..] => {
-                let k = k.parse().map_err(|_| format!("bad step in `{line}`"))?;
-                let iterations = iterations
-                    .parse()
-                    .map_err(|_| format!("bad iterations in `{line}`"))?;
-                let plan = moves.iter().map(|w| number(w)).collect::<Result<_, _>>()?;
-                let solver = solvers.entry((*name).to_owned()).or_default();
-                solver.plans.insert(k, (iterations, plan));
-            }
-            ["peerspread", name, values @ ..] if values.len() == 4 => {
-                let v: Vec<f64> = values.iter().map(|w| number(w)).collect::<Result<_, _>>()?;
-                solvers.entry((*name).to_owned()).or_default().spread =
-                    Some([v[0], v[1], v[2], v[3]]);
-            }
-            ["peerram", name, state, stack] => {
-                let bytes = |w: &str| {
-                    w.parse::<u64>()
-                        .map_err(|_| format!("bad bytes in `{line}`"))
-                };
-                solvers.entry((*name).to_owned()).or_default().ram =
-                    Some([bytes(state)?, bytes(stack)?]);
-            }
-            _ => {}
+        if let ["peerram", name, state, stack] = words.as_slice() {
+            let bytes = |w: &str| {
+                w.parse::<u64>()
+                    .map_err(|_| format!("bad bytes in `{line}`"))
+            };
+            ram.insert((*name).to_owned(), [bytes(state)?, bytes(stack)?]);
         }
     }
-    Ok(solvers)
+    Ok(Run {
+        solvers: peers_table::parse(text)?,
+        ram,
+    })
 }
 
+/// The reference plans and what the script said of them (`reference.json`).
 fn reference(path: &Path) -> Result<Reference, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let value: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
-    let plans = |key: &str| -> Result<Vec<Vec<f64>>, String> {
-        value[key]
-            .as_array()
-            .ok_or_else(|| format!("{}: no {key}", path.display()))?
-            .iter()
-            .map(|plan| {
-                plan.as_array()
-                    .map(|p| p.iter().filter_map(serde_json::Value::as_f64).collect())
-                    .ok_or_else(|| format!("{}: a plan is not a list", path.display()))
-            })
-            .collect()
-    };
+    let value = peers_table::json(path)?;
     Ok(Reference {
-        common: plans("plans")?,
-        tinympc: plans("tinympc_plans")?,
+        common: peers_table::plans(&value, "plans", path)?,
+        tinympc: peers_table::plans(&value, "tinympc_plans", path)?,
         residual: value["residual"].as_f64().unwrap_or(f64::NAN),
         state_peak: value["state_peak"].as_f64().unwrap_or(f64::NAN),
         tinympc_state_peak: value["tinympc_state_peak"].as_f64().unwrap_or(f64::NAN),
@@ -437,10 +366,7 @@ fn daqp_sources(python: &Path, dir: &Path) -> Result<PathBuf, String> {
 
 /// What the generated MPC's solves of the run rebuilt (`MpcStatus::rebuilt`), counted.
 fn rebuilds(problem: &Path) -> Result<String, String> {
-    let text =
-        std::fs::read_to_string(problem).map_err(|e| format!("{}: {e}", problem.display()))?;
-    let value: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", problem.display()))?;
+    let value = peers_table::json(problem)?;
     let mut counts: BTreeMap<String, usize> = BTreeMap::new();
     for step in value["steps"].as_array().into_iter().flatten() {
         *counts
@@ -617,4 +543,43 @@ fn compile_peers(
     main_options.push(format!("-DQUAD_RUN_FROM={}", steps - TRACED_STEPS));
     let short = compile("arm-none-eabi-g++", &main, &main_options, "main_traced")?;
     Ok((peers, harness, short[0].clone()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_the_ram_lines_beside_the_shared_ones() {
+        let text = "peer quadmpc 1 4 0.1 -0.2 0.3 -0.4\n\
+                    peerspread quadmpc 5000 9000 4 5100.25\n\
+                    peerram quadmpc 2048 312\n\
+                    peerram daqp 100\n\
+                    done\n";
+        let run = parse(text).unwrap();
+        assert_eq!(run.solvers, peers_table::parse(text).unwrap());
+        assert_eq!(
+            run.ram,
+            BTreeMap::from([("quadmpc".to_owned(), [2048, 312])])
+        );
+        let e = parse("peerram osqp 12 -4").unwrap_err();
+        assert_eq!(e, "bad bytes in `peerram osqp 12 -4`");
+    }
+
+    #[test]
+    fn differences_are_relative_to_the_input_range_and_need_every_step() {
+        let run = parse("peer osqp 1 -1 0.25 0\npeer osqp 2 3 0 0.1").unwrap();
+        let solver = &run.solvers["osqp"];
+        let exact = [vec![0.0, 0.0], vec![0.0, 0.0]];
+        assert_eq!(difference(solver, &exact), Ok(0.25 / INPUT_RANGE));
+        assert_eq!(solver.failed(), 1);
+        assert_eq!(
+            difference(solver, &exact[..1]),
+            Err("no reference plan at step 2".into())
+        );
+        assert_eq!(
+            difference(solver, &[vec![0.0], vec![0.0]]),
+            Err("step 1: 2 moves, the reference 1".into())
+        );
+    }
 }

@@ -166,17 +166,5 @@ pub fn run(elf: &Path) -> Result<String, String> {
 /// The exact plans of TinyMPC's own fixed-model QP (`tinympc_reference.json`).
 pub fn reference(dir: &Path) -> Result<Vec<Vec<f64>>, String> {
     let path = dir.join("tinympc_reference.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let value: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
-    value["plans"]
-        .as_array()
-        .ok_or_else(|| format!("{}: no plans", path.display()))?
-        .iter()
-        .map(|plan| {
-            plan.as_array()
-                .map(|p| p.iter().filter_map(serde_json::Value::as_f64).collect())
-                .ok_or_else(|| format!("{}: a plan is not a list", path.display()))
-        })
-        .collect()
+    crate::peers_table::plans(&crate::peers_table::json(&path)?, "plans", &path)
 }

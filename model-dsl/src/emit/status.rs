@@ -1,10 +1,12 @@
 //! The status every generated filter and controller step returns.
 
+use crate::model::Model;
 use proc_macro2::TokenStream;
 use quote::quote;
 
-/// The `Status` type of a model's filters.
-pub fn status_enum() -> TokenStream {
+/// The `Status` type of `model`'s filters.
+pub fn status_enum(model: &Model) -> TokenStream {
+    let rejected_input = rejected_input_doc(model);
     quote! {
         /// What a filter or controller step did. On anything but [`Status::Ok`] the filter
         /// or controller is left exactly as it was, except as
@@ -15,7 +17,7 @@ pub fn status_enum() -> TokenStream {
         pub enum Status {
             /// The step was applied.
             Ok,
-            /// An input or measurement was NaN or infinite.
+            #[doc = #rejected_input]
             RejectedInput,
             /// A covariance argument (initial, process or measurement noise) was not a
             /// covariance: not symmetric, or not positive semi-definite (a negative
@@ -49,4 +51,24 @@ pub fn status_enum() -> TokenStream {
             Recovering,
         }
     }
+}
+
+/// What `Status::RejectedInput` says was refused: a non-finite argument, in every
+/// filter; a sample interval that is not positive, where the model's predictions take one
+/// (`interval DT = ..;`); and where a sensor's measurements come with their delay
+/// (`max_delay`), a delay beyond the maximum and a second measurement for a sample one
+/// already waits for.
+fn rejected_input_doc(model: &Model) -> String {
+    let interval = model
+        .interval_parameter()
+        .map(|dt| format!(", or the sample interval `{dt}` was not positive"))
+        .unwrap_or_default();
+    let delay = if model.sensors.iter().any(|s| s.delay_at_run_time) {
+        " The update of a sensor that takes each measurement's `delay` (`max_delay`) also \
+         refuses a `delay` beyond the sensor's `max_delay`, and a second measurement of the \
+         sensor for a sample one already waits for (the first is kept)."
+    } else {
+        ""
+    };
+    format!(" An input or measurement was NaN or infinite{interval}.{delay}")
 }

@@ -8,7 +8,8 @@
 
 use super::delay::{buffered_interval, pending, Pending};
 use crate::emit::arguments::Arguments;
-use crate::emit::lower::literal;
+use crate::emit::code::reject_non_finite;
+use crate::emit::interval;
 use crate::emit::names::ident;
 use crate::model::{Model, Scalar, Sensor};
 use proc_macro2::{Ident, TokenStream};
@@ -260,57 +261,51 @@ fn slotted_update(
     }
 }
 
-/// Checks the new input `u_prev` finite, then shifts it into the buffer: binds the
-/// oldest sample, `oldest` (its input) and `oldest_buffered` (whether it was).
+/// Checks the new input `u_prev` and the sample interval finite and the interval positive
+/// ([`interval::guard`]), as a prediction without a horizon checks them, then shifts them
+/// into their buffers: binds the oldest sample, `oldest` (its input), `oldest_interval`
+/// and `oldest_buffered` (whether it was).
 fn buffer_input(model: &Model, scalar: Scalar) -> TokenStream {
     let delay = model.delay();
-    let ty = &ident(scalar.type_name());
-    let intervals = buffer_interval(model, scalar);
     let later = |prefix: &str| -> Vec<Ident> {
         (1..delay)
             .map(|i| ident(&format!("{prefix}_{i}")))
             .collect()
     };
-    let buffered = later("buffered");
-    let flags = quote! {
-        let [oldest_buffered, #(#buffered),*] = self.inputs_buffered;
-        self.inputs_buffered = [#(#buffered,)* true];
-    };
-    if model.inputs.is_empty() {
-        return quote! { #intervals #flags };
-    }
     let entries: Vec<Ident> = (0..model.inputs.len())
         .map(|i| ident(&format!("u_prev_{i}")))
         .collect();
-    let inputs = later("input");
+    let unpack = (!entries.is_empty()).then(|| quote! { let [#(#entries),*] = *u_prev; });
+    let dt = buffered_interval(model);
+    let checked: Vec<Ident> = dt.iter().chain(&entries).cloned().collect();
+    let finite = reject_non_finite(&checked, &[], &ident(scalar.type_name()));
+    let guard = model
+        .interval_parameter()
+        .map(|parameter| interval::guard(&parameter, scalar));
+    let intervals = dt.map(|dt| {
+        let later = later("interval");
+        quote! {
+            let [oldest_interval, #(#later),*] = self.intervals;
+            self.intervals = [#(#later,)* #dt];
+        }
+    });
+    let buffered = later("buffered");
+    let inputs = (!entries.is_empty()).then(|| {
+        let inputs = later("input");
+        quote! {
+            let [oldest, #(#inputs),*] = self.inputs;
+            self.inputs = [#(#inputs,)* *u_prev];
+        }
+    });
     quote! {
-        let [#(#entries),*] = *u_prev;
-        if !stateforge_math::#ty::all_finite([#(#entries),*]) {
-            return Status::RejectedInput;
-        }
+        #unpack
+        #finite
+        #guard
         #intervals
-        #flags
-        let [oldest, #(#inputs),*] = self.inputs;
-        self.inputs = [#(#inputs,)* *u_prev];
+        let [oldest_buffered, #(#buffered),*] = self.inputs_buffered;
+        self.inputs_buffered = [#(#buffered,)* true];
+        #inputs
     }
-}
-
-/// With a sample interval the step reads: checks it positive and finite, then shifts it
-/// into its buffer, binding the oldest sample's, `oldest_interval`.
-fn buffer_interval(model: &Model, scalar: Scalar) -> Option<TokenStream> {
-    let dt = buffered_interval(model)?;
-    let later: Vec<Ident> = (1..model.delay())
-        .map(|i| ident(&format!("interval_{i}")))
-        .collect();
-    let ty = ident(scalar.type_name());
-    let zero = literal(0.0, scalar);
-    Some(quote! {
-        if !stateforge_math::#ty::all_finite([#dt]) || #dt <= #zero {
-            return Status::RejectedInput;
-        }
-        let [oldest_interval, #(#later),*] = self.intervals;
-        self.intervals = [#(#later,)* #dt];
-    })
 }
 
 /// The arguments of the step on the horizon: the buffer's oldest input for `u_prev`, and
