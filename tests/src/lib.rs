@@ -36,7 +36,7 @@ pub const UNSNAPSHOTTED_DEMO_MODELS: [&str; 1] = ["navigation"];
 
 /// Names of the test models in `tests/models/` (`model! { .. }` invocations that exercise
 /// parts of the language the demo models do not use).
-pub const TEST_MODELS: [&str; 12] = [
+pub const TEST_MODELS: [&str; 13] = [
     "rover",
     "rover_known",
     "ahrs",
@@ -49,6 +49,7 @@ pub const TEST_MODELS: [&str; 12] = [
     "jittered_late",
     "varying_delay",
     "jittered_pendulum",
+    "planar_limits",
 ];
 
 /// The generated code of a test model, formatted.

@@ -9,13 +9,14 @@ use std::path::{Path, PathBuf};
 /// Test models whose generated code no demo model or model file covers: vectors and
 /// rotations, the error-state EKF, input noise (with a sample interval too), the delayed
 /// fusion horizon (with a delay given at run time too).
-const TEST_MODELS: [&str; 6] = [
+const TEST_MODELS: [&str; 7] = [
     "ahrs",
     "dead_reckoning",
     "dead_reckoning_timed",
     "vehicle_geometry",
     "delayed_fix",
     "varying_delay",
+    "planar_limits",
 ];
 
 /// The model sources vendored: the demo models (`model!` invocations), the model files and

@@ -125,6 +125,7 @@ pub fn output_rows(
     (limits, states): (&MpcLimits, &[usize]),
 ) -> syn::Result<Vec<Vec<f64>>> {
     let mut rows = Vec::new();
+    let mut errors: Option<syn::Error> = None;
     for &(output, span) in &limits.outputs {
         let h = mg.h[output];
         let wrt: Vec<_> = mg.x.iter().chain(&mg.u).copied().collect();
@@ -136,7 +137,7 @@ pub fn output_rows(
             at_zero == 0.0 && others.into_iter().all(|i| row[i] == 0.0)
         });
         let Some(row) = row else {
-            return Err(syn::Error::new(
+            let error = syn::Error::new(
                 span,
                 format!(
                     "`{}` is limited over the horizon, so it must be linear in the regulated \
@@ -144,9 +145,14 @@ pub fn output_rows(
                      reads with `state_limits`, or declare a linear output",
                     model.outputs[output].name
                 ),
-            ));
+            );
+            match &mut errors {
+                Some(errors) => errors.combine(error),
+                None => errors = Some(error),
+            }
+            continue;
         };
         rows.push(states.iter().map(|&i| row[i]).collect());
     }
-    Ok(rows)
+    errors.map_or(Ok(rows), Err)
 }
