@@ -424,12 +424,12 @@ fn most_violated<T: Real, const M: usize, const R: usize>(
             worst = Some(candidate);
         }
     };
+    // The moves' bounds, directly: the check every solve makes.
     for i in 0..M {
         if held.moves[i] == 0 {
-            for side in [1, -1] {
-                let amount = excess(qp, (i, side_value(side)), v[i], tolerance);
-                consider((i, side, false), amount);
-            }
+            let allowed = tolerance * (qp.high[i] - qp.low[i]);
+            consider((i, 1, false), qp.low[i] - v[i] - allowed);
+            consider((i, -1, false), v[i] - qp.high[i] - allowed);
         }
     }
     for r in 0..R {

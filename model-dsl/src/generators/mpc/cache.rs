@@ -72,11 +72,14 @@ impl Cache {
     pub fn fields(&self, ty: &Ident) -> TokenStream {
         let [key, weighted] = self.field_lengths();
         let hessian = self.hessian.field(&quote! { #ty });
+        let weighted = self
+            .keeps_weighted()
+            .then(|| quote! { weighted: [#ty; #weighted], });
         quote! {
             model_key: [#ty; #key],
             model: PredictionModel,
             #hessian,
-            weighted: [#ty; #weighted],
+            #weighted
             model_kept: bool,
             terminal_weight_settled: bool,
         }
@@ -86,6 +89,9 @@ impl Cache {
     pub fn initial(&self, zero: &TokenStream, ns: &Literal, nu: &Literal) -> TokenStream {
         let [key, weighted] = self.field_lengths();
         let hessian = self.hessian.field(zero);
+        let weighted = self
+            .keeps_weighted()
+            .then(|| quote! { weighted: [#zero; #weighted], });
         quote! {
             model_key: [#zero; #key],
             model: PredictionModel {
@@ -93,7 +99,7 @@ impl Cache {
                 b: [[#zero; #nu]; #ns],
             },
             #hessian,
-            weighted: [#zero; #weighted],
+            #weighted
             model_kept: false,
             terminal_weight_settled: false,
         }
@@ -149,6 +155,21 @@ impl Cache {
         )
     }
 
+    /// Whether the weighted responses are kept (the linear term reads them; the dual
+    /// active set keeps the gain it built from them instead).
+    fn keeps_weighted(&self) -> bool {
+        !self.weighted_stored.is_empty()
+    }
+
+    /// The pattern of the solve's kept weighted responses in the branches' value: `weighted`,
+    /// or nothing.
+    pub fn weighted_binding(&self) -> TokenStream {
+        match self.keeps_weighted() {
+            true => quote! { weighted },
+            false => TokenStream::new(),
+        }
+    }
+
     /// The name of the kept Hessian's value in the solve (`hessian`, `hessian_inverse`).
     pub fn hessian_name(&self) -> Ident {
         self.hessian.binding()
@@ -171,14 +192,16 @@ impl Cache {
     /// gain with whether it converged, the Hessian and the weighted responses, as
     /// [`Cache::kept`] lists them.
     pub fn rebuilt(&self, terminal: TokenStream) -> TokenStream {
-        let (hessian, weighted) = (self.hessian.rebuilt(), &self.weighted_stored);
+        let hessian = self.hessian.rebuilt();
+        let weighted = &self.weighted_stored;
+        let weighted = self.keeps_weighted().then(|| quote! { [#(#weighted),*], });
         quote! {
             (
                 model_key,
                 model,
                 #terminal,
                 #hessian,
-                [#(#weighted),*],
+                #weighted
             )
         }
     }
@@ -186,13 +209,14 @@ impl Cache {
     /// The value of the kept branch, in the order of [`Cache::rebuilt`].
     pub fn kept(&self) -> TokenStream {
         let hessian = self.hessian.kept();
+        let weighted = self.keeps_weighted().then(|| quote! { self.weighted, });
         quote! {
             (
                 self.model_key,
                 self.model,
                 (self.terminal_weight, self.terminal_gain, true, true),
                 #hessian,
-                self.weighted,
+                #weighted
             )
         }
     }
@@ -201,22 +225,28 @@ impl Cache {
     /// entries bound from it.
     pub fn unpack(&self) -> TokenStream {
         let (hessian, weighted) = (self.hessian.unpack(), &self.weighted_pattern);
+        let weighted = self
+            .keeps_weighted()
+            .then(|| quote! { let [#(#weighted),*] = weighted; });
         quote! {
             #hessian
-            let [#(#weighted),*] = weighted;
+            #weighted
         }
     }
 
     /// The commit of what the next solve may keep.
     pub fn store(&self) -> TokenStream {
         let hessian = self.hessian.store();
+        let weighted = self
+            .keeps_weighted()
+            .then(|| quote! { self.weighted = weighted; });
         quote! {
             // (A solve that reused them leaves them as they are.)
             if !reuse {
                 self.model_key = model_key;
                 self.model = model;
                 #hessian
-                self.weighted = weighted;
+                #weighted
                 self.model_kept = true;
                 self.terminal_weight_settled = terminal_weight_settled;
             }

@@ -114,7 +114,11 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         (a, b, &condensed),
         scalar,
     );
-    let weighted = condensed.weighted_vars();
+    // The dual active set keeps the unconstrained plan's gain instead.
+    let weighted = match spec.solver {
+        MpcSolver::PrimalActiveSet => condensed.weighted_vars(),
+        MpcSolver::DualActiveSet => Vec::new(),
+    };
     let cache = Cache::new(&mg, &prediction.used, solver.kept, &weighted, scalar);
 
     let (head_code, qp_code) = (&solver.head.code, &solver.qp.code);
@@ -124,7 +128,7 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         .plus(solver.head.ops)
         .plus(solver.qp.setup_ops)
         .plus(solver.warm_start_ops)
-        .plus(commit_ops(&moves, &terminal));
+        .plus(commit_ops(&moves));
     let commit = commit(&moves, &terminal, &cache, &solver.kept_state);
     let plan = quote! {
         #head_code
@@ -159,7 +163,7 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
     let ops = SolveOps {
         plan: plan_ops,
         prediction: prediction.stage.ops,
-        riccati: terminal.stage.ops,
+        riccati: terminal.stage.ops.plus(terminal_store_ops(&terminal)),
         // The kept prediction model is stored whole: `A` and `B`.
         condense: lowered
             .ops
@@ -364,6 +368,7 @@ fn solve_method(
     });
     let kept = parts.cache.kept();
     let hessian = parts.cache.hessian_name();
+    let weighted = parts.cache.weighted_binding();
     let unpack = parts.cache.unpack();
     let bound = match parts.budgeted {
         false => "`MAX_ITERATIONS` active-set iterations",
@@ -383,7 +388,7 @@ fn solve_method(
         #doc
         pub fn solve(&mut self, #time x: &[#ty; #n], u: &[#ty; #m]) -> MpcStatus {
             #reuse_test
-            let (model_key, model, (terminal_weight, terminal_gain, terminal_weight_converged, terminal_weight_settled), #hessian, weighted) = if reuse {
+            let (model_key, model, (terminal_weight, terminal_gain, terminal_weight_converged, terminal_weight_settled), #hessian, #weighted) = if reuse {
                 #kept
             } else {
                 #model
@@ -1190,18 +1195,22 @@ fn dual_mode_tail(
     }
 }
 
-/// What [`commit`] does: each move back to an absolute input, clipped and tested for
-/// finiteness; the plan, the terminal weight and its gain stored.
-fn commit_ops(moves: &MoveNames, terminal: &Terminal) -> OpCount {
+/// What [`commit`] does at every solve: each move back to an absolute input, clipped and
+/// tested for finiteness, and stored.
+fn commit_ops(moves: &MoveNames) -> OpCount {
     let moves_len = moves.absolute_names().len();
     let m = moves_len as u32;
-    let terminal_len = terminal.p_idents.len() + terminal.gain_idents.iter().flatten().count();
     OpCount {
         add: m,
         // the clip's two, the finiteness test's two
         compare: 4 * m,
-        ..OpCount::stores(moves_len + terminal_len)
+        ..OpCount::stores(moves_len)
     }
+}
+
+/// What the commit stores of the terminal weight and gain, when the solve rebuilt them.
+fn terminal_store_ops(terminal: &Terminal) -> OpCount {
+    OpCount::stores(terminal.p_idents.len() + terminal.gain_idents.iter().flatten().count())
 }
 
 /// The plan's commit: moves back to absolute inputs, clipped to the bounds (so rounding
@@ -1235,9 +1244,12 @@ fn commit(
             #non_finite
         }
         self.plan = [#(#plan_rows),*];
-        self.terminal_weight = [#(#p),*];
-        self.terminal_gain = [#(#gain_rows),*];
         #kept_state
+        // A solve that reused them leaves the terminal weight and gain as they are.
+        if !reuse {
+            self.terminal_weight = [#(#p),*];
+            self.terminal_gain = [#(#gain_rows),*];
+        }
         #keep
         MpcStatus {
             status: Status::Ok,
