@@ -234,8 +234,9 @@ impl Cache {
         }
     }
 
-    /// The commit of what the next solve may keep.
-    pub fn store(&self) -> TokenStream {
+    /// The commit of what the next solve may keep, with `rebuilt` (the terminal weight
+    /// and gain), which a solve that reused them leaves too.
+    pub fn store(&self, rebuilt: &TokenStream) -> TokenStream {
         let hessian = self.hessian.store();
         let weighted = self
             .keeps_weighted()
@@ -243,6 +244,7 @@ impl Cache {
         quote! {
             // (A solve that reused them leaves them as they are.)
             if !reuse {
+                #rebuilt
                 self.model_key = model_key;
                 self.model = model;
                 #hessian

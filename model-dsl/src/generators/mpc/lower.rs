@@ -1237,7 +1237,10 @@ fn commit(
     let finite = quote! { #plan_finite && (reuse || #terminal_finite) };
     let non_finite = failure(quote! { Status::NonFinite });
     let plan_rows = moves.plan_rows();
-    let keep = cache.store();
+    let keep = cache.store(&quote! {
+        self.terminal_weight = [#(#p),*];
+        self.terminal_gain = [#(#gain_rows),*];
+    });
     quote! {
         #plan
         if !(#finite) {
@@ -1245,11 +1248,6 @@ fn commit(
         }
         self.plan = [#(#plan_rows),*];
         #kept_state
-        // A solve that reused them leaves the terminal weight and gain as they are.
-        if !reuse {
-            self.terminal_weight = [#(#p),*];
-            self.terminal_gain = [#(#gain_rows),*];
-        }
         #keep
         MpcStatus {
             status: Status::Ok,
