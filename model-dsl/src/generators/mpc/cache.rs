@@ -171,8 +171,13 @@ impl Cache {
     }
 
     /// The name of the kept Hessian's value in the solve (`hessian`, `hessian_inverse`).
-    pub fn hessian_name(&self) -> Ident {
+    pub fn hessian_name(&self) -> TokenStream {
         self.hessian.binding()
+    }
+
+    /// What the solve declares before its branches (see [`KeptHessian`]).
+    pub fn declare(&self) -> TokenStream {
+        self.hessian.declare()
     }
 
     /// The model's key and the model: the kept ones, or the values read now and the
@@ -283,12 +288,25 @@ impl KeptHessian {
         }
     }
 
-    /// The name of the solve's value: `hessian`, or `new_hessian_inverse`, the inverse
-    /// rebuilt (`None` when the kept one serves, which is read in place, not copied).
-    fn binding(&self) -> Ident {
+    /// The pattern of the solve's value: `hessian`, or references to the dual active
+    /// set's arrays (the kept ones, read in place: a copy would cost as much as the
+    /// solve; or the rebuilt ones, in `fresh_inverse`).
+    fn binding(&self) -> TokenStream {
         match self {
-            KeptHessian::Packed(_) => ident("hessian"),
-            KeptHessian::Inverse { .. } => ident("new_hessian_inverse"),
+            KeptHessian::Packed(_) => quote! { hessian },
+            KeptHessian::Inverse { .. } => {
+                let kept = self.inverse_parts();
+                quote! { (#(#kept),*) }
+            }
+        }
+    }
+
+    /// What the solve declares before its branches: `fresh_inverse`, which the rebuilt
+    /// branch fills.
+    fn declare(&self) -> TokenStream {
+        match self {
+            KeptHessian::Packed(_) => TokenStream::new(),
+            KeptHessian::Inverse { .. } => quote! { let fresh_inverse; },
         }
     }
 
@@ -353,7 +371,13 @@ impl KeptHessian {
             KeptHessian::Packed(entries) => quote! { [#(#entries),*] },
             KeptHessian::Inverse { .. } => {
                 let kept = self.inverse_parts();
-                quote! { Some((#(#kept),*)) }
+                quote! {
+                    {
+                        fresh_inverse = (#(#kept),*);
+                        let (#(#kept),*) = &fresh_inverse;
+                        (#(#kept),*)
+                    }
+                }
             }
         }
     }
@@ -362,7 +386,10 @@ impl KeptHessian {
     fn kept(&self) -> TokenStream {
         match self {
             KeptHessian::Packed(_) => quote! { self.hessian },
-            KeptHessian::Inverse { .. } => quote! { None },
+            KeptHessian::Inverse { .. } => {
+                let kept = self.inverse_parts();
+                quote! { (#(&self.#kept),*) }
+            }
         }
     }
 
@@ -372,11 +399,7 @@ impl KeptHessian {
             KeptHessian::Packed(_) => quote! { self.hessian = hessian; },
             KeptHessian::Inverse { .. } => {
                 let kept = self.inverse_parts();
-                quote! {
-                    if let Some((#(#kept),*)) = new_hessian_inverse {
-                        #(self.#kept = #kept;)*
-                    }
-                }
+                quote! { #(self.#kept = *#kept;)* }
             }
         }
     }
@@ -385,17 +408,7 @@ impl KeptHessian {
     fn unpack(&self) -> TokenStream {
         match self {
             KeptHessian::Packed(entries) => quote! { let [#(#entries),*] = hessian; },
-            KeptHessian::Inverse { pattern, .. } => {
-                let kept = self.inverse_parts();
-                quote! {
-                    // Read in place when kept: a copy would cost as much as the solve.
-                    let (#(#kept),*) = match &new_hessian_inverse {
-                        Some((#(#kept),*)) => (#(#kept),*),
-                        None => (#(&self.#kept),*),
-                    };
-                    #pattern
-                }
-            }
+            KeptHessian::Inverse { pattern, .. } => pattern.clone(),
         }
     }
 }

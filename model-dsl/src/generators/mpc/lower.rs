@@ -369,6 +369,7 @@ fn solve_method(
     let kept = parts.cache.kept();
     let hessian = parts.cache.hessian_name();
     let weighted = parts.cache.weighted_binding();
+    let declare = parts.cache.declare();
     let unpack = parts.cache.unpack();
     let bound = match parts.budgeted {
         false => "`MAX_ITERATIONS` active-set iterations",
@@ -388,6 +389,7 @@ fn solve_method(
         #doc
         pub fn solve(&mut self, #time x: &[#ty; #n], u: &[#ty; #m]) -> MpcStatus {
             #reuse_test
+            #declare
             let (model_key, model, (terminal_weight, terminal_gain, terminal_weight_converged, terminal_weight_settled), #hessian, #weighted) = if reuse {
                 #kept
             } else {
