@@ -196,30 +196,44 @@ impl Cache {
     /// The value of the rebuilt branch: the key, then the model, the terminal weight and
     /// gain with whether it converged, the Hessian and the weighted responses, as
     /// [`Cache::kept`] lists them.
-    pub fn rebuilt(&self, terminal: TokenStream) -> TokenStream {
+    pub fn rebuilt(&self, terminal: &TokenStream) -> TokenStream {
         let hessian = self.hessian.rebuilt();
         let weighted = &self.weighted_stored;
         let weighted = self.keeps_weighted().then(|| quote! { [#(#weighted),*], });
         quote! {
-            (
-                model_key,
-                model,
-                #terminal,
-                #hessian,
-                #weighted
-            )
+            {
+                // The rebuilt values live in the solve's frame; the branches' value
+                // refers to them as the kept branch's refers to the controller's.
+                fresh_model = model;
+                #terminal
+                let (terminal_weight, terminal_gain) = &fresh_terminal;
+                (
+                    model_key,
+                    &fresh_model,
+                    (
+                        terminal_weight,
+                        terminal_gain,
+                        terminal_weight_converged,
+                        terminal_weight_settled,
+                    ),
+                    #hessian,
+                    #weighted
+                )
+            }
         }
     }
 
-    /// The value of the kept branch, in the order of [`Cache::rebuilt`].
+    /// The value of the kept branch, in the order of [`Cache::rebuilt`]: the kept model,
+    /// terminal weight and gain (and the dual active set's arrays) read in place, not
+    /// copied.
     pub fn kept(&self) -> TokenStream {
         let hessian = self.hessian.kept();
         let weighted = self.keeps_weighted().then(|| quote! { self.weighted, });
         quote! {
             (
                 self.model_key,
-                self.model,
-                (self.terminal_weight, self.terminal_gain, true, true),
+                &self.model,
+                (&self.terminal_weight, &self.terminal_gain, true, true),
                 #hessian,
                 #weighted
             )
@@ -251,7 +265,7 @@ impl Cache {
             if !reuse {
                 #rebuilt
                 self.model_key = model_key;
-                self.model = model;
+                self.model = *model;
                 #hessian
                 #weighted
                 self.model_kept = true;
@@ -305,8 +319,10 @@ impl KeptHessian {
     /// branch fills.
     fn declare(&self) -> TokenStream {
         match self {
-            KeptHessian::Packed(_) => TokenStream::new(),
-            KeptHessian::Inverse { .. } => quote! { let fresh_inverse; },
+            KeptHessian::Packed(_) => quote! { let (fresh_model, fresh_terminal); },
+            KeptHessian::Inverse { .. } => {
+                quote! { let (fresh_model, fresh_terminal, fresh_inverse); }
+            }
         }
     }
 

@@ -358,13 +358,8 @@ fn solve_method(
     });
     let (p, gain) = (&parts.terminal.p_idents, &parts.terminal.gain_idents);
     let gain_rows: Vec<TokenStream> = gain.iter().map(|row| quote! { [#(#row),*] }).collect();
-    let rebuilt = parts.cache.rebuilt(quote! {
-        (
-            [#(#p),*],
-            [#(#gain_rows),*],
-            terminal_weight_converged,
-            terminal_weight_settled,
-        )
+    let rebuilt = parts.cache.rebuilt(&quote! {
+        fresh_terminal = ([#(#p),*], [#(#gain_rows),*]);
     });
     let kept = parts.cache.kept();
     let hessian = parts.cache.hessian_name();
@@ -398,9 +393,9 @@ fn solve_method(
                 #rebuild
                 #rebuilt
             };
-            let PredictionModel { a: #a_pattern, b: #b_pattern } = model;
-            let [#(#p),*] = terminal_weight;
-            let [#(#gain_rows),*] = terminal_gain;
+            let PredictionModel { a: #a_pattern, b: #b_pattern } = *model;
+            let [#(#p),*] = *terminal_weight;
+            let [#(#gain_rows),*] = *terminal_gain;
             #unpack
             #solve_read
             #plan
