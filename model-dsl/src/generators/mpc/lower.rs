@@ -145,6 +145,7 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         cache: &cache,
         terminal: &terminal,
         budgeted: spec.iterations_within_budget.is_some(),
+        dual: spec.solver == MpcSolver::DualActiveSet,
     };
     let solve = solve_method(model, &mg, &solve, (rebuild, plan), scalar);
     let methods = quote! {
@@ -327,6 +328,8 @@ struct SolveParts<'a> {
     terminal: &'a Terminal,
     /// Whether a cycle budget bounds the iterations (`ITERATIONS_WITHIN_BUDGET`).
     budgeted: bool,
+    /// Whether the dual active set solves the QP.
+    dual: bool,
 }
 
 /// `fn solve`: the kept model, or the prediction model and `rebuild` (the terminal
@@ -372,13 +375,23 @@ fn solve_method(
             "the active-set iterations that `ITERATIONS_WITHIN_BUDGET` allows after what it rebuilt"
         }
     };
+    let plan_doc = match parts.dual {
+        false => format!(
+            "the linear term (eq. 44) at `x` and at most {bound}, from the last plan shifted \
+             by one move"
+        ),
+        true => format!(
+            "the unconstrained plan at `x` and at most {bound}, from the limits the last \
+             solve held, a step on (a plan cut short is clipped to the input bounds)"
+        ),
+    };
     let doc = doc_attributes(&format!(
         "Recomputes the plan for the estimate `x`: the prediction model at `x` (and the \
          operating input `u`), kept from the last solve while the values it reads stay \
          within `MODEL_TOLERANCE` of those it was built at; unless the terminal weight had \
          converged on that kept model, `RICCATI_ITERATIONS` Riccati steps from the last \
-         terminal weight and the condensed Hessian (eqs. 42-43); then the linear term (eq. \
-         44) at `x` and at most {bound}, from the last plan shifted by one move. Leaves the controller unchanged unless the status is [`Status::Ok`]."
+         terminal weight and the condensed Hessian (eqs. 42-43); then {plan_doc}. Leaves the \
+         controller unchanged unless the status is [`Status::Ok`]."
     ));
     quote! {
         #doc
@@ -1462,15 +1475,27 @@ fn result_types(dims: &Dims, budgeted: bool) -> TokenStream {
 fn mpc_doc(model: &Model, spec: &MpcSpec, holds: bool) -> String {
     let state_names = model.states_named(&spec.states);
     let input_names = model.inputs_named(&spec.inputs);
+    let limits = match spec.limit_rows() {
+        0 => "input bounds",
+        _ => "input bounds and the limits its setters give",
+    };
+    let method = match spec.solver {
+        MpcSolver::PrimalActiveSet => "a primal active-set method warm-started from the last plan",
+        MpcSolver::DualActiveSet => {
+            "a dual active-set method (Goldfarb and Idnani's, as Arnström, Bemporad and \
+             Axehill's DAQP has it) from the unconstrained plan, warm-started from the \
+             limits the last solve held"
+        }
+    };
     format!(
-        " Adaptive model predictive control of `[{}]` with `[{}]` within input bounds: \
+        " Adaptive model predictive control of `[{}]` with `[{}]` within {limits}: \
          the dual-mode, infinite-horizon constrained controller of Takacs, Polóni and \
          Rohal'-Ilkiv, \"Adaptive predictive control of transient vibrations of \
          cantilevers with changing weight\" (sect. 3.4). [`Mpc::solve`] takes the model \
          at the estimate ({}), moves the terminal weight towards the solution of the \
          discrete algebraic Riccati equation, condenses the cost over `HORIZON` moves and \
-         minimises it within the bounds by a primal active-set method warm-started from \
-         the last plan; [`Mpc::control`] is the plan's first move.",
+         minimises it within the limits by {method}; [`Mpc::control`] is the plan's first \
+         move.",
         state_names.join(", "),
         input_names.join(", "),
         if holds {
