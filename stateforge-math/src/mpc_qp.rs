@@ -83,6 +83,27 @@ impl<const M: usize, const R: usize> HeldLimits<M, R> {
     };
 }
 
+impl<const M: usize, const R: usize> HeldLimits<M, R> {
+    /// The limits held a step on, for the next solve's warm start: over a horizon of
+    /// `horizon` steps, each step's moves and rows move one step earlier (the first step's
+    /// were applied), and the last step's start free.
+    #[must_use]
+    pub fn shifted(&self, horizon: usize) -> Self {
+        let mut shifted = Self::NONE;
+        let steps = horizon.max(1);
+        for (held, state) in [
+            (&mut shifted.moves[..], &self.moves[..]),
+            (&mut shifted.rows[..], &self.rows[..]),
+        ] {
+            let per_step = state.len() / steps;
+            if let Some(later) = state.get(per_step..) {
+                held[..later.len()].copy_from_slice(later);
+            }
+        }
+        shifted
+    }
+}
+
 impl<const M: usize, const R: usize> Default for HeldLimits<M, R> {
     /// Nothing held.
     fn default() -> Self {
@@ -804,6 +825,19 @@ mod tests {
 
     fn array<const M: usize>(m: &SMatrix<f64, M, M>) -> [[f64; M]; M] {
         core::array::from_fn(|i| core::array::from_fn(|j| m[(i, j)]))
+    }
+
+    #[test]
+    fn the_held_limits_move_a_step_earlier() {
+        // Three steps of two moves and one row each.
+        let held = HeldLimits::<6, 3> {
+            moves: [1, -1, 0, 1, -1, -1],
+            rows: [2, 0, -1],
+        };
+        let shifted = held.shifted(3);
+        assert_eq!(shifted.moves, [0, 1, -1, -1, 0, 0]);
+        assert_eq!(shifted.rows, [0, -1, 0]);
+        assert_eq!(HeldLimits::<6, 0>::NONE.shifted(3).moves, [0; 6]);
     }
 
     #[test]

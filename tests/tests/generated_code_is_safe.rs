@@ -93,6 +93,14 @@ impl<'ast> Visit<'ast> for Findings {
         self.visit_type(&a.elem);
     }
 
+    fn visit_generic_argument(&mut self, a: &'ast syn::GenericArgument) {
+        // A const generic argument (`HeldLimits<12, 30>`) is a compile-time constant, as
+        // an array's length is.
+        if !matches!(a, syn::GenericArgument::Const(_)) {
+            syn::visit::visit_generic_argument(self, a);
+        }
+    }
+
     fn visit_impl_item_const(&mut self, _: &'ast syn::ImplItemConst) {
         // An associated constant (the LQR horizon): evaluated at compile time.
     }

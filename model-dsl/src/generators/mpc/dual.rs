@@ -24,7 +24,7 @@ use crate::emit::scopes::scoped;
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::Matrix;
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
-use proc_macro2::{Ident, TokenStream};
+use proc_macro2::TokenStream;
 use quote::quote;
 use std::collections::BTreeSet;
 
@@ -223,7 +223,7 @@ pub fn dual_active_set(
 ) -> QpCode {
     let m = moves.count();
     let (move_low, move_high) = (moves.per_move_input("low"), moves.per_move_input("high"));
-    let warm = warm_start(spec, moves);
+    let warm = warm_start();
     let rows = match spec.limit_rows() {
         0 => quote! {
             stateforge_math::LimitRows {
@@ -302,29 +302,10 @@ fn iteration_ops(m: usize) -> OpCount {
 
 /// The warm start: the limits the last solve held, a step on (the first step's were
 /// applied; the last step's start free).
-fn warm_start(spec: &MpcSpec, moves: &MoveNames) -> TokenStream {
-    let shifted = |held: &[Ident], per_step: usize| {
-        let (first, rest) = held.split_at(per_step.min(held.len()));
-        let unread = first.iter().map(|_| quote! { _ });
-        let free = first.iter().map(|_| quote! { 0 });
-        (
-            quote! { [#(#unread,)* #(#rest),*] },
-            quote! { [#(#rest,)* #(#free),*] },
-        )
-    };
-    let (moves_read, moves_start) = shifted(&moves.per_move("held"), moves.input_count());
-    let rows: Vec<Ident> = (1..=spec.limit_rows())
-        .map(|r| ident(&format!("held_row_{r}")))
-        .collect();
-    let (rows_read, rows_start) = shifted(&rows, spec.limits.per_step());
+fn warm_start() -> TokenStream {
     quote! {
         // Warm start: the limits the last solve held, a step on.
-        let #moves_read = self.held.moves;
-        let #rows_read = self.held.rows;
-        let mut held = stateforge_math::HeldLimits {
-            moves: #moves_start,
-            rows: #rows_start,
-        };
+        let mut held = stateforge_math::HeldLimits::shifted(&self.held, Self::HORIZON);
     }
 }
 

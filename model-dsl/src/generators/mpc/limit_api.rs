@@ -129,12 +129,13 @@ pub fn setters(model: &Model, spec: &MpcSpec, scalar: Scalar) -> TokenStream {
             }
         });
     }
-    setters.extend(penalty_setter(model, spec, &ty));
+    setters.extend(penalty_setter(model, spec, scalar));
     setters
 }
 
 /// `set_limit_penalties`, when some limits are soft.
-fn penalty_setter(model: &Model, spec: &MpcSpec, ty: &Ident) -> TokenStream {
+fn penalty_setter(model: &Model, spec: &MpcSpec, scalar: Scalar) -> TokenStream {
+    let ty = ident(scalar.type_name());
     let names: Vec<String> = groups(model, spec)
         .into_iter()
         .flat_map(|g| g.names)
@@ -158,11 +159,12 @@ fn penalty_setter(model: &Model, spec: &MpcSpec, ty: &Ident) -> TokenStream {
          the penalties then as they were.",
         names.join("`, `")
     );
+    let zero = crate::emit::lower::literal(0.0, scalar);
     quote! {
         #[doc = #doc]
         pub fn set_limit_penalties(&mut self, penalties: &[#ty; #len]) -> Status {
             let [#(#penalty),*] = *penalties;
-            if #(#penalty.is_nan() || #penalty <= 0.0 || #penalty.is_infinite())||* {
+            if #(!#penalty.is_finite() || #penalty <= #zero)||* {
                 return Status::RejectedInput;
             }
             self.limit_penalties = *penalties;
