@@ -146,6 +146,7 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         terminal: &terminal,
         budgeted: spec.iterations_within_budget.is_some(),
         dual: spec.solver == MpcSolver::DualActiveSet,
+        free_response: !(spec.limits.states.is_empty() && spec.limits.outputs.is_empty()),
     };
     let solve = solve_method(model, &mg, &solve, (rebuild, plan), scalar);
     let methods = quote! {
@@ -330,6 +331,8 @@ struct SolveParts<'a> {
     budgeted: bool,
     /// Whether the dual active set solves the QP.
     dual: bool,
+    /// Whether its limits read the free response (state or output limits).
+    free_response: bool,
 }
 
 /// `fn solve`: the kept model, or the prediction model and `rebuild` (the terminal
@@ -346,6 +349,14 @@ fn solve_method(
     let [n, m] = [model.state_len(), model.inputs.len()].map(Literal::usize_unsuffixed);
     let (a, b) = (&parts.prediction.a, &parts.prediction.b);
     let (a_pattern, b_pattern) = (received(&mg.graph, a), received(&mg.graph, b));
+    // What the plan reads of the model after the branches: the primal active set's tail
+    // reads `A` and `B`; the dual active set's limits read `A` (their free response), and
+    // only with state or output limits.
+    let (a_after, b_after) = match (parts.dual, parts.free_response) {
+        (false, _) => (a_pattern.clone(), b_pattern.clone()),
+        (true, true) => (a_pattern.clone(), quote! { _ }),
+        (true, false) => (quote! { _ }, quote! { _ }),
+    };
     let solve_read = read_estimate(mg, parts.used, &failure(quote! { Status::RejectedInput }));
     let time = model.uses_time().then(|| quote! { t: #ty, });
     let time_arg = model.uses_time().then(|| quote! { t, });
@@ -406,7 +417,7 @@ fn solve_method(
                 #rebuild
                 #rebuilt
             };
-            let PredictionModel { a: #a_pattern, b: #b_pattern } = *model;
+            let PredictionModel { a: #a_after, b: #b_after } = *model;
             let [#(#p),*] = *terminal_weight;
             let [#(#gain_rows),*] = *terminal_gain;
             #unpack
