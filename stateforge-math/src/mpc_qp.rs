@@ -344,6 +344,27 @@ impl<T: Real, const M: usize> HeldSet<T, M> {
         x
     }
 
+    /// `v` with the held limits met again: one step of iterative refinement, the
+    /// multipliers corrected by `S^-1` times what `v` misses of each held limit (in
+    /// `f32`, `G`'s rounding on an ill-conditioned Hessian leaves the held limits off by
+    /// far more than the moves' own rounding; the correction takes them to it).
+    fn refined<const R: usize>(&mut self, qp: &MpcQp<T, M, R>, v: [T; M]) -> [T; M] {
+        if self.len == 0 {
+            return v;
+        }
+        let correction = self.equality_multipliers(qp, &v);
+        let mut refined = v;
+        for r in 0..self.len.min(M) {
+            self.multipliers[r] = self.multipliers[r] + correction[r];
+            add_scaled(
+                &mut refined,
+                self.sides[r] * correction[r],
+                qp.column(self.limits[r]),
+            );
+        }
+        refined
+    }
+
     /// The moves of the current multipliers, `base + G N_W lambda`.
     fn moves<const R: usize>(&self, qp: &MpcQp<T, M, R>, base: &[T; M]) -> [T; M] {
         let mut v = *base;
@@ -669,7 +690,7 @@ pub(crate) fn solve<T: Real, const M: usize, const R: usize>(
         set.multipliers = target;
         let v = set.moves(qp, &base);
         let Some((limit, side, was_saturated)) = most_violated(qp, &v, held, tolerance) else {
-            return solution(v, true, iterations);
+            return solution(set.refined(qp, v), true, iterations);
         };
         let s = side_value::<T>(side);
         let penalty = qp.penalty(limit).filter(|_| was_saturated);

@@ -7,8 +7,11 @@ use crate::model::{Model, Scalar};
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
 
-/// The penalty of each soft limit's violation until `set_limit_penalties`.
-pub const DEFAULT_PENALTY: f64 = 1e5;
+/// The penalty of each soft limit's violation until `set_limit_penalties`: large enough
+/// to hold a limit against most costs, small enough that an `f32` solve's multipliers stay
+/// within the rounding the dual active set tolerates (on TinyMPC's quadrotor `1e5` makes
+/// two solves of a gust run out of iterations, `1e6` the loop diverge).
+pub const DEFAULT_PENALTY: f64 = 1e4;
 
 /// A group of limited quantities, as its fields and setter name it.
 struct Group {
