@@ -141,9 +141,6 @@ struct Run {
     /// Largest excess of `|dx|` and of `|dy|` over [`SPEED`] at the next sample that no
     /// move within the bounds and rate limits could have avoided.
     pub unavoidable_speed: [f64; 2],
-    /// Largest excess of `|dx|` and of `|dy|` over [`SPEED`] beyond that unavoidable one
-    /// (what the penalty traded against the other costs and the hard limits).
-    pub avoidable_speed: [f64; 2],
     /// Samples at which a speed was beyond [`SPEED`] (by more than `1e-6` of it).
     pub speed_violated_samples: usize,
     /// Largest `|phi|` or `|theta|`.
@@ -206,10 +203,8 @@ fn fly<M: LimitedMpc>() -> Result<Run, String> {
         u = next;
         x = M::step(&x, &u);
         record(&mut run, (k + 1) as f64 * TS, &x, &u);
-        for (i, index) in [DX, DY].into_iter().enumerate() {
-            let excess = x[index].abs() - SPEED;
-            run.unavoidable_speed[i] = run.unavoidable_speed[i].max(least[i]);
-            run.avoidable_speed[i] = run.avoidable_speed[i].max(excess - least[i]);
+        for (unavoidable, least) in run.unavoidable_speed.iter_mut().zip(least) {
+            *unavoidable = unavoidable.max(least);
         }
     }
     iterations.sort_unstable();
