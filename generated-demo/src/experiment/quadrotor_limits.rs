@@ -295,7 +295,9 @@ pub fn run(out: &Path) -> Result<(), Box<dyn Error>> {
 /// The table: per scalar, the hard limits' largest excesses, the soft ones' slack (and
 /// how much of it no move could avoid), the largest tilt, speed and input, the solves.
 fn print_table(runs: &[(&str, &Run)]) {
-    println!("\nTinyMPC's quadrotor held by the generated MPC with limits (horizon 8, 32 moves):");
+    println!(
+        "\nTinyMPC's quadrotor held by the generated MPC with limits (horizon 8: 32 unknowns):"
+    );
     println!(
         "TinyMPC's weights, |u| <= {U_MAX}; hard: |du| <= {RATE} per move, |phi|, |theta| <= \
          {TILT}; soft: |dx|, |dy| <= {SPEED} m/s (penalty {SPEED_PENALTY:e});"
