@@ -5,7 +5,9 @@
 //! variants of the cantilever that exercise the window transform on other structures, and
 //! the cantilever with a least-squares DKF window (`cantilever_long_window`), and a 24-state
 //! strapdown navigation model with GNSS and magnetometer sensors (`navigation`), and
-//! TinyMPC's 12-state quadrotor hover model for the embedded-QP benchmark (`quadrotor`).
+//! TinyMPC's 12-state quadrotor hover model for the embedded-QP benchmark (`quadrotor`),
+//! and the same model with limits on its motors' rates, tilt and speed
+//! (`quadrotor_limited`).
 //! The library is `no_std` and builds for `thumbv7em-none-eabihf` as well as the host.
 //! Beside the models: the deterministic sequences the firmware and the host both filter
 //! (`sequence` and its siblings), and the navigation model's simulated flight (`flight`)
@@ -54,3 +56,4 @@ include!("../models/duffing_beam.rs");
 include!("../models/cantilever_long_window.rs");
 include!("../models/navigation.rs");
 include!("../models/quadrotor.rs");
+include!("../models/quadrotor_limited.rs");

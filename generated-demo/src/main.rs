@@ -23,6 +23,8 @@
 //!    polynomial state-space structure"): the generated polynomial Kalman filter on a hub
 //!    signal for several fading factors and re-initialisation periods
 //!    ([`experiment::hub_polynomial`]).
+//! 7. TinyMPC's quadrotor held by the generated MPC with limits on its motors' changes,
+//!    tilt (hard) and speed (soft) through a gust ([`experiment::quadrotor_limits`]).
 //!
 //! The host runs the generated `f64` code; the `f32` code is what runs on the MCU.
 
@@ -117,6 +119,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     experiment::trms::run(out)?;
     experiment::flight::run(out)?;
     experiment::flight_delay::run()?;
+    experiment::quadrotor_limits::run(out)?;
 
     print_generated_costs();
     experiment::switched_beam::experiment(out)?;
@@ -133,7 +136,8 @@ fn main() -> Result<(), Box<dyn Error>> {
          out/switching_example.csv, out/switching_example.svg, out/hub_estimates.csv, \
          out/hub_velocity.svg, out/navigation.csv, out/navigation_yaw.svg, \
          out/navigation_position.svg, out/navigation_velocity.svg, \
-         out/navigation_gyro_bias.svg in {:.2} s.",
+         out/navigation_gyro_bias.svg, out/quadrotor_limits.csv, out/quadrotor_limits_tilt.svg, \
+         out/quadrotor_limits_speed.svg, out/quadrotor_limits_inputs.svg in {:.2} s.",
         started.elapsed().as_secs_f64()
     );
     Ok(())

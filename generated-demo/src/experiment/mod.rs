@@ -21,6 +21,7 @@ pub mod metrics;
 pub mod outliers;
 pub mod plant;
 pub mod ppf;
+pub mod quadrotor_limits;
 pub mod readout;
 pub mod report;
 pub mod sensitivity;
