@@ -23,6 +23,7 @@ pub mod flight;
 pub mod mpc_sequence;
 pub mod noise;
 pub mod observer_sequences;
+pub mod quadrotor_tuning;
 pub mod sequence;
 
 /// The project's notes, documentation only: what the main job runs and prints, the

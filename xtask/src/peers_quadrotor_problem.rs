@@ -36,30 +36,8 @@ use std::path::Path;
 
 /// Samples of the run (10 s at 20 Hz).
 pub const STEPS: usize = 200;
-/// The sample at which the gust hits.
-pub const GUST_STEP: usize = 100;
-/// TinyMPC's weights (`Q_data`, `R_data`).
-pub const Q_DIAGONAL: [f32; 12] = [
-    100.0,
-    100.0,
-    100.0,
-    4.0,
-    4.0,
-    400.0,
-    4.0,
-    4.0,
-    4.0,
-    2.040_816_3,
-    2.040_816_3,
-    4.0,
-];
-pub const R_DIAGONAL: [f32; 4] = [4.0; 4];
-/// TinyMPC's input limits (`u_min`, `u_max` of `quadrotor_hovering.cpp`).
-pub const U_MAX: f32 = 0.5;
-/// TinyMPC's first state less its reference (`z = 2`).
-const FIRST: [f32; 12] = [0.0, 1.0, -2.0, 0.2, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0];
-/// The gust: added to the velocities and attitude rates at [`GUST_STEP`].
-const GUST: [f32; 12] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.5, -1.0, 1.0, 1.0, -1.0, 0.5];
+use generated_demo::quadrotor_tuning::{FIRST, GUST};
+pub use generated_demo::quadrotor_tuning::{GUST_STEP, Q_DIAGONAL, R_DIAGONAL, U_MAX};
 /// Solves at the first state before the run, at most.
 const PRIMING: usize = 200;
 

@@ -17,32 +17,26 @@ use std::path::Path;
 
 /// Samples of the run (10 s at 20 Hz).
 const STEPS: usize = 200;
-/// The sample at which the gust hits.
-const GUST_STEP: usize = 100;
 /// The model's sample time \[s\] (TinyMPC's 20 Hz).
 const TS: f64 = 0.05;
-/// TinyMPC's weights (`Q_data`, `R_data` of `examples/problem_data/quadrotor_20hz_params.hpp`).
-const Q_DIAGONAL: [f64; 12] = [
-    100.0,
-    100.0,
-    100.0,
-    4.0,
-    4.0,
-    400.0,
-    4.0,
-    4.0,
-    4.0,
-    2.040_816_3,
-    2.040_816_3,
-    4.0,
-];
-const R_DIAGONAL: [f64; 4] = [4.0; 4];
-/// TinyMPC's input limits (`u_min`, `u_max` of `examples/quadrotor_hovering.cpp`).
-const U_MAX: f64 = 0.5;
-/// TinyMPC's first state less its reference (`z = 2`).
-const FIRST: [f64; 12] = [0.0, 1.0, -2.0, 0.2, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0];
-/// The gust: added to the velocities and attitude rates at [`GUST_STEP`] (the benchmark's).
-const GUST: [f64; 12] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.5, -1.0, 1.0, 1.0, -1.0, 0.5];
+use generated_demo::quadrotor_tuning::GUST_STEP;
+/// TinyMPC's weights, limits, first state and gust ([`generated_demo::quadrotor_tuning`]).
+const Q_DIAGONAL: [f64; 12] = widen(generated_demo::quadrotor_tuning::Q_DIAGONAL);
+const R_DIAGONAL: [f64; 4] = widen(generated_demo::quadrotor_tuning::R_DIAGONAL);
+const U_MAX: f64 = generated_demo::quadrotor_tuning::U_MAX as f64;
+const FIRST: [f64; 12] = widen(generated_demo::quadrotor_tuning::FIRST);
+const GUST: [f64; 12] = widen(generated_demo::quadrotor_tuning::GUST);
+
+/// The `f32` constants in `f64` (exactly).
+const fn widen<const N: usize>(values: [f32; N]) -> [f64; N] {
+    let mut wide = [0.0; N];
+    let mut i = 0;
+    while i < N {
+        wide[i] = values[i] as f64;
+        i += 1;
+    }
+    wide
+}
 /// The largest change of a motor's thrust between moves (hard).
 const RATE: f64 = 0.1;
 /// The largest tilt, `|phi|` and `|theta|` (Rodrigues parameters; hard).
