@@ -318,6 +318,32 @@ impl<T: Real, const M: usize> HeldSet<T, M> {
         self.len = k - 1;
     }
 
+    /// Lets the held limit at position `j` go: released (its multiplier at zero), or,
+    /// when it `saturates` (a soft row at its penalty), saturated: its term moves into
+    /// `base` and `held` marks it `2` or `-2`.
+    fn let_go<const R: usize>(
+        &mut self,
+        qp: &MpcQp<T, M, R>,
+        (j, saturates): (usize, bool),
+        base: &mut [T; M],
+        held: &mut HeldLimits<M, R>,
+    ) {
+        let (limit, side) = (self.limits[j], self.sides[j]);
+        let state = match (saturates, qp.penalty(limit)) {
+            (true, Some(penalty)) => {
+                add_scaled(base, side * penalty, qp.column(limit));
+                if side > T::ZERO {
+                    2
+                } else {
+                    -2
+                }
+            }
+            _ => 0,
+        };
+        mark(held, limit, state);
+        self.release(j);
+    }
+
     /// The multipliers that hold every limit of the set exactly from the moves `base`,
     /// `S^-1 d`.
     fn equality_multipliers<const R: usize>(&self, qp: &MpcQp<T, M, R>, base: &[T; M]) -> [T; M] {
@@ -618,20 +644,7 @@ impl<T: Real> Adding<T> {
                 mark(held, self.limit, if self.side > T::ZERO { 2 } else { -2 });
                 return true;
             };
-            let (limit, side) = (set.limits[j], set.sides[j]);
-            let state = match (saturates, qp.penalty(limit)) {
-                (true, Some(penalty)) => {
-                    add_scaled(base, side * penalty, qp.column(limit));
-                    if side > T::ZERO {
-                        2
-                    } else {
-                        -2
-                    }
-                }
-                _ => 0,
-            };
-            mark(held, limit, state);
-            set.release(j);
+            set.let_go(qp, (j, saturates), base, held);
             *iterations += 1;
         }
     }
@@ -670,20 +683,7 @@ pub(crate) fn solve<T: Real, const M: usize, const R: usize>(
                 let m = set.multipliers[r];
                 set.multipliers[r] = m + length * (target[r] - m);
             }
-            let (limit, side) = (set.limits[j], set.sides[j]);
-            let state = match (saturated, qp.penalty(limit)) {
-                (true, Some(penalty)) => {
-                    add_scaled(&mut base, side * penalty, qp.column(limit));
-                    if side > T::ZERO {
-                        2
-                    } else {
-                        -2
-                    }
-                }
-                _ => 0,
-            };
-            mark(held, limit, state);
-            set.release(j);
+            set.let_go(qp, (j, saturated), &mut base, held);
             iterations += 1;
             continue;
         }

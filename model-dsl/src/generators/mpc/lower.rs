@@ -380,30 +380,7 @@ fn solve_method(
     let weighted = parts.cache.weighted_binding();
     let declare = parts.cache.declare();
     let unpack = parts.cache.unpack();
-    let bound = match parts.budgeted {
-        false => "`MAX_ITERATIONS` active-set iterations",
-        true => {
-            "the active-set iterations that `ITERATIONS_WITHIN_BUDGET` allows after what it rebuilt"
-        }
-    };
-    let plan_doc = match parts.dual {
-        false => format!(
-            "the linear term (eq. 44) at `x` and at most {bound}, from the last plan shifted \
-             by one move"
-        ),
-        true => format!(
-            "the unconstrained plan at `x` and at most {bound}, from the limits the last \
-             solve held, a step on (a plan cut short is clipped to the input bounds)"
-        ),
-    };
-    let doc = doc_attributes(&format!(
-        "Recomputes the plan for the estimate `x`: the prediction model at `x` (and the \
-         operating input `u`), kept from the last solve while the values it reads stay \
-         within `MODEL_TOLERANCE` of those it was built at; unless the terminal weight had \
-         converged on that kept model, `RICCATI_ITERATIONS` Riccati steps from the last \
-         terminal weight and the condensed Hessian (eqs. 42-43); then {plan_doc}. Leaves the \
-         controller unchanged unless the status is [`Status::Ok`]."
-    ));
+    let doc = solve_doc(parts);
     quote! {
         #doc
         pub fn solve(&mut self, #time x: &[#ty; #n], u: &[#ty; #m]) -> MpcStatus {
@@ -425,6 +402,34 @@ fn solve_method(
             #plan
         }
     }
+}
+
+/// `solve`'s doc: what it rebuilds, and how it plans.
+fn solve_doc(parts: &SolveParts) -> TokenStream {
+    let bound = match parts.budgeted {
+        false => "`MAX_ITERATIONS` active-set iterations",
+        true => {
+            "the active-set iterations that `ITERATIONS_WITHIN_BUDGET` allows after what it rebuilt"
+        }
+    };
+    let plan_doc = match parts.dual {
+        false => format!(
+            "the linear term (eq. 44) at `x` and at most {bound}, from the last plan shifted \
+             by one move"
+        ),
+        true => format!(
+            "the unconstrained plan at `x` and at most {bound}, from the limits the last \
+             solve held, a step on (a plan cut short is clipped to the input bounds)"
+        ),
+    };
+    doc_attributes(&format!(
+        "Recomputes the plan for the estimate `x`: the prediction model at `x` (and the \
+         operating input `u`), kept from the last solve while the values it reads stay \
+         within `MODEL_TOLERANCE` of those it was built at; unless the terminal weight had \
+         converged on that kept model, `RICCATI_ITERATIONS` Riccati steps from the last \
+         terminal weight and the condensed Hessian (eqs. 42-43); then {plan_doc}. Leaves the \
+         controller unchanged unless the status is [`Status::Ok`]."
+    ))
 }
 
 /// The prediction model's code, `A` and `B` as the variables (or literals) it binds.
