@@ -265,37 +265,43 @@ pub fn dual_active_set(
         let [#(#move_ids),*] = solution.moves;
     };
     let (m32, nu) = (m as u32, moves.input_count() as u32);
+    let r = spec.limit_rows() as u32;
     let setup = OpCount {
-        // the deviations' bounds; the final check of the bounds
-        add: 2 * nu + 3 * m32,
-        compare: 3 * m32,
-        load: 3 * nu + m32,
+        // the deviations' bounds; the final check of the bounds, and of the rows (a
+        // product over the moves each)
+        add: 2 * nu + 3 * m32 + r * m32 + 2 * r,
+        mul: r * m32,
+        compare: 3 * m32 + 2 * r,
+        load: 3 * nu + m32 + 2 * r * m32,
         store: 4 * m32,
-        branch: 2 * m32,
+        branch: 2 * (m32 + r),
         ..OpCount::default()
     };
     QpCode {
         code,
-        iteration_ops: iteration_ops(m),
+        iteration_ops: iteration_ops(m, spec.limit_rows()),
         setup_ops: setup,
     }
 }
 
-/// One iteration at its worst, `k = m` bounds held: the held set's multipliers (`k^2`),
-/// the moves (`m k`), the check of the bounds, and a row of the factor held (`k^2 / 2`)
-/// or released (a rank-one update, `k^2`), in loops.
-fn iteration_ops(m: usize) -> OpCount {
-    let m = m as u32;
+/// One iteration at its worst, `k = m` limits held: the held set's multipliers (`k^2`),
+/// the moves (`m k`), the check of the limits, and a row of the factor held (`k^2 / 2`)
+/// or released (a rank-one update, `k^2`), in loops; with `r` limit rows, each row's value
+/// is a product over the moves (`m` multiply-adds): in the check (`r m`), and for each held
+/// row in the multipliers' right-hand side and in a new row of the factor (`2 m k`).
+fn iteration_ops(m: usize, r: usize) -> OpCount {
+    let (m, r) = (m as u32, r as u32);
     let square = m * m;
-    let macs = square + square + square;
+    let rows = if r > 0 { 2 * square + r * m } else { 0 };
+    let macs = 3 * square + rows;
     OpCount {
         add: macs + 3 * m,
         mul: macs + m,
         div: 3 * m,
-        compare: 4 * m,
+        compare: 4 * (m + r),
         load: 2 * macs,
         store: square + 2 * m,
-        branch: 2 * square + 2 * m,
+        branch: 2 * square + 2 * (m + r),
         ..OpCount::default()
     }
 }
