@@ -8,26 +8,10 @@ use planar::Status;
 use tests::predictive_reference::{self as reference, LimitRow};
 use tests::rng::Lcg;
 
-stateforge::model! {
-    /// A point mass in the plane (a double integrator per axis, 10 Hz), accelerations as
-    /// inputs, and how far it reaches along a diagonal.
-    pub mod planar {
-        scalar f64;
-        const TS = 0.1;
-        state px, py, vx, vy;
-        input ax, ay;
-        output reach = px + 0.5 * py;
-        dynamics discrete {
-            px = px + TS * vx + 0.5 * TS * TS * ax;
-            py = py + TS * vy + 0.5 * TS * TS * ay;
-            vx = vx + TS * ax;
-            vy = vy + TS * ay;
-        }
-        generate mpc(horizon = 6, states = [px, py, vx, vy], inputs = [ax, ay],
-            rate_limits = [ax, ay], state_limits = [vx, vy], output_limits = [reach],
-            soft_limits = [vy, reach]);
-    }
-}
+// The test model `planar_limits`: a point mass in the plane with every kind of limit (its
+// `f64` code tested here).
+include!("../models/planar_limits.rs");
+use planar_limits::in_f64 as planar;
 
 const NS: usize = 4;
 const NU: usize = 2;
