@@ -552,6 +552,19 @@ pub fn limit_columns<const M: usize, const R: usize>(
     crate::mpc_qp::columns(inverse, rows)
 }
 
+/// `G = H^-1` of a generated MPC's condensed Hessian over `M / NU` moves and its
+/// unconstrained plan's gain, by the Riccati recursion from the terminal weight, never
+/// forming `H` (whose rounding, amplified by its condition number, would decide the
+/// plan's accuracy); `None` when `M` is not a whole number of moves, `R + B' P B` is not
+/// positive definite to within rounding at a step, or an entry of `G` is not finite. What
+/// a generated MPC keeps of its condensed QP for [`mpc_qp`].
+#[must_use]
+pub fn condensed_inverse<const M: usize, const NS: usize, const NU: usize>(
+    problem: &crate::PredictionProblem<f32, NS, NU>,
+) -> Option<crate::CondensedInverse<f32, M, NS>> {
+    crate::mpc_condense::condensed_inverse(problem)
+}
+
 /// The inverse of the symmetric positive definite `h` (its upper triangle read), exactly
 /// symmetric, by an `L D L'` factorisation; `None` when a pivot is not above `M eps` of its
 /// diagonal entry or an entry of the inverse is not finite: what a generated MPC keeps of

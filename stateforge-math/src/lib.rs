@@ -37,10 +37,12 @@ mod arm;
 mod covariance;
 pub mod f32;
 pub mod f64;
+mod mpc_condense;
 mod mpc_qp;
 mod recovery;
 mod rotation;
 
+pub use mpc_condense::{CondensedInverse, PredictionProblem};
 pub use mpc_qp::{HeldLimits, LimitRows, MpcQp, MpcQpSolution};
 
 /// `value` unchanged, opaque to the optimiser (`core::hint::black_box`): what is read

@@ -1,7 +1,8 @@
 //! The MPC's QP by a dual active-set method (`solver = dual_active_set`). When the
-//! Hessian is rebuilt: its inverse `G = H^-1` and the unconstrained plan's gain
-//! `K = G F` (`F` the linear term's response to the regulated states, eq. 44), kept with
-//! it; at each solve the unconstrained minimiser `v* = -K (x - x_ref)`, straight-line on
+//! prediction model or the weights change: the condensed Hessian's inverse `G = H^-1` and
+//! the unconstrained plan's gain `K = G F` (`F` the linear term's response to the
+//! regulated states, eq. 44), both by the Riccati recursion over the horizon (`H` itself
+//! is never formed), kept; at each solve the unconstrained minimiser `v* = -K (x - x_ref)`, straight-line on
 //! `K`, then the held limits' iterations (`stateforge_math`'s `mpc_qp`: which limits it
 //! holds, and in which order, is known only at run time, so its loops are a library's,
 //! written once for both scalars), warm-started from the last solve's held limits a step
@@ -14,7 +15,6 @@
 
 use super::limit_rows::{self, LimitNames};
 use super::names::{failure, Names};
-use super::predictive::condensed_linear;
 use super::qp::{MoveNames, QpCode};
 use super::spec::MpcSpec;
 use super::stage::Stage;
@@ -24,7 +24,7 @@ use crate::emit::scopes::scoped;
 use crate::model::{Model, Scalar};
 use crate::symbolic::linalg::Matrix;
 use crate::symbolic::{Graph, ModelGraph, NodeId, VarId};
-use proc_macro2::TokenStream;
+use proc_macro2::{Ident, TokenStream};
 use quote::quote;
 use std::collections::BTreeSet;
 
@@ -33,38 +33,32 @@ fn gain_names(spec: &MpcSpec, moves: &MoveNames, names: &Names) -> Vec<Vec<Strin
     names.matrix("kv", spec.states.len(), moves.count())
 }
 
-/// What the rebuild adds: `hessian_inverse`, `G = H^-1` of the Hessian's packed entries
-/// (bound by name), or the solve's failure when `H` is not positive definite to within
-/// rounding (a control weight that is not); then `unconstrained_gain`, `K' = (G F)'`,
-/// `F`'s columns the linear term of each regulated state alone.
+/// What the rebuild adds after the terminal weight (`p_idents`, packed):
+/// `hessian_inverse`, `G = H^-1`, and `unconstrained_gain`, `K'`, by the Riccati
+/// recursion over the horizon from `A`, `B`, `Q`, `R` and `P_f`, never forming `H`
+/// (`stateforge_math`'s `condensed_inverse`: in `f32` the rounding of `H`'s sums,
+/// amplified by its condition number, would decide the plan's accuracy), or the solve's
+/// failure when a `R + B'PB` is not positive definite to within rounding; then the limit
+/// rows and `G` times each.
 pub fn rebuild(
     g: &mut Graph,
-    (a, b, weighted): (&Matrix, &Matrix, &[Matrix]),
+    (a, b, p_idents): (&Matrix, &Matrix, &[Ident]),
     (spec, moves, names): (&MpcSpec, &MoveNames, &Names),
     scalar: Scalar,
 ) -> Stage {
     let math = math_module(scalar);
-    let hessian = moves.hessian.iter().map(|h| ident(h));
     let not_definite = failure(quote! { Status::NonPositiveControlWeight });
-    let ns = spec.states.len();
-    let columns: Vec<Vec<NodeId>> = (0..ns)
-        .map(|j| {
-            let unit: Vec<NodeId> = (0..ns)
-                .map(|i| if i == j { g.one() } else { g.zero() })
-                .collect();
-            condensed_linear(g, a, weighted, &unit)
-        })
-        .collect();
+    let (ns, nu) = (spec.states.len(), spec.inputs.len());
     let limit_rows = limit_rows::coefficients(g, (a, b), spec);
-    let mut roots: Vec<NodeId> = columns.iter().flatten().copied().collect();
+    let mut roots: Vec<NodeId> = a.iter().chain(b).flatten().copied().collect();
     roots.extend(limit_rows.iter().flatten());
     let mut lowerer = Lowerer::new(g, scalar, names.namer(), &roots);
     let values = lowerer.segment(&roots);
     let m = moves.count();
-    let (gain_values, row_values) = values.split_at(ns * m);
-    let rows = gain_values
-        .chunks(m.max(1))
-        .map(|row| quote! { [#(#row),*] });
+    let (model_values, row_values) = values.split_at(ns * (ns + nu));
+    let (a_values, b_values) = model_values.split_at(ns * ns);
+    let a_rows = a_values.chunks(ns.max(1)).map(|row| quote! { [#(#row),*] });
+    let b_rows = b_values.chunks(nu.max(1)).map(|row| quote! { [#(#row),*] });
     let limits = (!limit_rows.is_empty()).then(|| {
         let limit_rows = row_values
             .chunks(m.max(1))
@@ -77,50 +71,65 @@ pub fn rebuild(
     });
     let statements = scoped(lowerer.take_statements(), &quote! { #(#values)* });
     let code = quote! {
-        // G = H^-1, and K = G F: the unconstrained plan's gain.
-        let Some(hessian_inverse) =
-            #math::symmetric_inverse(&#math::unpack_symmetric(&[#(#hessian),*]))
-        else {
+        // G = H^-1 and K = G F, the unconstrained plan's gain, by the Riccati recursion
+        // over the horizon from P_f.
+        #(#statements)*
+        let Some(stateforge_math::CondensedInverse {
+            inverse: hessian_inverse,
+            gain: unconstrained_gain,
+        }) = #math::condensed_inverse(&stateforge_math::PredictionProblem {
+            a: &[#(#a_rows),*],
+            b: &[#(#b_rows),*],
+            q: &#math::unpack_symmetric(&self.q),
+            r: &#math::unpack_symmetric(&self.r),
+            terminal: &#math::unpack_symmetric(&[#(#p_idents),*]),
+        }) else {
             #not_definite
         };
-        #(#statements)*
-        let unconstrained_gain = #math::limit_columns(&hessian_inverse, &[#(#rows),*]);
         #limits
     };
     Stage {
         code,
         ops: lowerer
             .ops()
-            .plus(inverse_ops(m))
-            .plus(gain_ops(m, ns + spec.limit_rows())),
+            .plus(condensed_inverse_ops(ns, nu, spec.horizon as usize))
+            .plus(columns_ops(m, spec.limit_rows())),
     }
 }
 
-/// What [`rebuild`]'s inverse costs for `m` moves: `L D L'` (`m^3 / 6`), `L^-1`
-/// (`m^3 / 6`) and `L^-T D^-1 L^-1` (`m^3 / 6`) multiply-adds, in loops.
-fn inverse_ops(m: usize) -> OpCount {
-    let m = m as u32;
-    let cube = m * m * m / 2;
+/// What `condensed_inverse` costs (loops), in multiply-adds: per step of the backward
+/// recursion `B'P`, `B'PB`, `B'PA`, `K_k` and `P_k`'s upper triangle (`2 ns^3 + ..`); the
+/// gain's `K_k X` and `X`'s step; the closed loop's responses `T` (`N^2 / 2` blocks); and
+/// `G = T D^-1 T'` (`m^3 / 6`).
+fn condensed_inverse_ops(ns: usize, nu: usize, horizon: usize) -> OpCount {
+    let (ns, nu, n) = (ns as u32, nu as u32, horizon as u32);
+    let m = n * nu;
+    let backward =
+        n * (2 * nu * ns * ns + 2 * nu * nu * ns + ns * ns * ns + ns * ns * (ns + nu) / 2);
+    let gain = n * (nu * ns * ns + ns * ns * (ns + nu));
+    let responses = n * n.saturating_sub(1) / 2 * (nu * ns * nu + ns * nu * (ns + nu));
+    let inverse = m * m * m / 6 + m * m * nu / 2;
+    let macs = backward + gain + responses + inverse;
     OpCount {
-        add: cube,
-        mul: cube + m * m / 2,
-        div: m * m / 2 + m,
-        compare: m * m,
-        load: 2 * cube,
-        store: cube / 3 + m * m,
-        branch: m * m,
+        add: macs,
+        mul: macs,
+        div: n * nu * nu,
+        compare: m * m / 2 + n * nu,
+        load: 2 * macs,
+        store: macs / ns.max(1) + m * m,
+        branch: macs / 4,
         ..OpCount::default()
     }
 }
 
-/// What `K = G F` costs: `m^2` multiply-adds per regulated state, in loops.
-fn gain_ops(m: usize, ns: usize) -> OpCount {
-    let macs = (m * m * ns) as u32;
+/// What `G a` costs for each of `rows` limit rows: `m^2` multiply-adds each, in loops.
+fn columns_ops(m: usize, rows: usize) -> OpCount {
+    let macs = (m * m * rows) as u32;
     OpCount {
         add: macs,
         mul: macs,
         load: 2 * macs,
-        store: (m * ns) as u32,
+        store: (m * rows) as u32,
         branch: macs / 4,
         ..OpCount::default()
     }

@@ -105,21 +105,14 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
     let prediction = prediction_model(model, spec, &mut mg, &names, scalar);
     let (a, b) = (&prediction.a, &prediction.b);
     let terminal = terminal_weight(&mut mg.graph, (a, b), spec, &names, scalar);
-    let condensed = condense_model(spec, &mut mg.graph, (a, b, &terminal.p), &moves, &names);
-    let lowered = condensed.lower(&mg.graph, &moves, &names, scalar);
     let (solver, allowed) = solver(
         model,
         (spec, &moves, &names),
         &mut mg,
-        (a, b, &condensed),
+        (a, b, &terminal),
         scalar,
     );
-    // The dual active set keeps the unconstrained plan's gain instead.
-    let weighted = match spec.solver {
-        MpcSolver::PrimalActiveSet => condensed.weighted_vars(),
-        MpcSolver::DualActiveSet => Vec::new(),
-    };
-    let cache = Cache::new(&mg, &prediction.used, solver.kept, &weighted, scalar);
+    let cache = Cache::new(&mg, &prediction.used, solver.kept, &solver.weighted, scalar);
 
     let (head_code, qp_code) = (&solver.head.code, &solver.qp.code);
     let plan_ops = cache
@@ -136,7 +129,7 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         #qp_code
         #commit
     };
-    let rebuild = [&terminal.stage.code, &lowered.code, &solver.rebuild.code];
+    let rebuild = [&terminal.stage.code, &solver.rebuild.code];
     let rebuild = quote! { #(#rebuild)* };
     let prediction_method = prediction_method(model, &mg, &prediction, scalar);
     let solve = SolveParts {
@@ -167,10 +160,7 @@ pub fn emit_mpc(model: &Model, spec: &MpcSpec, mg: &ModelGraph, scalar: Scalar) 
         prediction: prediction.stage.ops,
         riccati: terminal.stage.ops.plus(terminal_store_ops(&terminal)),
         // The kept prediction model is stored whole: `A` and `B`.
-        condense: lowered
-            .ops
-            .plus(solver.rebuild.ops)
-            .plus(cache.store_ops(ns * (ns + nu))),
+        condense: solver.rebuild.ops.plus(cache.store_ops(ns * (ns + nu))),
         iteration: solver.qp.iteration_ops.looped(1),
     };
     MpcCode { tokens, ops }
@@ -185,10 +175,14 @@ struct Solver {
     qp: QpCode,
     /// The primal active set's warm start's new last move (the dual mode's tail).
     warm_start_ops: OpCount,
-    /// What the rebuild adds: `G = H^-1` and `K` for the dual active set.
+    /// What the rebuild adds after the terminal weight: `H` and the weighted responses
+    /// for the primal active set, `G = H^-1`, `K` and the limit rows for the dual.
     rebuild: Stage,
     /// What the cache keeps of the Hessian.
     kept: KeptHessian,
+    /// The weighted responses' variables the cache keeps (the primal active set's linear
+    /// term reads them; the dual active set keeps `K` instead).
+    weighted: Vec<NodeId>,
     /// What the commit stores besides the plan: the dual active set's held limits.
     kept_state: TokenStream,
 }
@@ -199,13 +193,16 @@ fn solver(
     model: &Model,
     (spec, moves, names): (&MpcSpec, &MoveNames, &Names),
     mg: &mut ModelGraph,
-    (a, b, condensed): (&Matrix, &Matrix, &CondensedNodes),
+    (a, b, terminal): (&Matrix, &Matrix, &Terminal),
     scalar: Scalar,
 ) -> (Solver, TokenStream) {
     let (last_pass, allowed) = last_pass(spec);
     let solver = match spec.solver {
         MpcSolver::PrimalActiveSet => {
-            let linear = linear_term(model, spec, mg, (a, condensed), moves, names, scalar);
+            let g = &mut mg.graph;
+            let condensed = condense_model(spec, g, (a, b, &terminal.p), moves, names);
+            let lowered = condensed.lower(g, moves, names, scalar);
+            let linear = linear_term(model, spec, mg, (a, &condensed), moves, names, scalar);
             let tail = dual_mode_tail(model, spec, mg, (a, b), moves, names, scalar);
             let qp = active_set_loop(
                 &mut mg.graph,
@@ -218,11 +215,9 @@ fn solver(
                 used: linear.used,
                 qp,
                 warm_start_ops: tail.ops,
-                rebuild: Stage {
-                    code: TokenStream::new(),
-                    ops: OpCount::default(),
-                },
+                rebuild: lowered,
                 kept: KeptHessian::Packed(moves.hessian.iter().map(|h| ident(h)).collect()),
+                weighted: condensed.weighted_vars(),
                 kept_state: TokenStream::new(),
             }
         }
@@ -234,7 +229,7 @@ fn solver(
             let (head, used) = dual::unconstrained(model, (spec, moves, names), mg, (a, scalar));
             let rebuild = dual::rebuild(
                 &mut mg.graph,
-                (a, b, &condensed.weighted),
+                (a, b, &terminal.p_idents),
                 (spec, moves, names),
                 scalar,
             );
@@ -250,6 +245,7 @@ fn solver(
                     rows: spec.limit_rows(),
                     pattern: dual::gain_pattern(spec, moves, names),
                 },
+                weighted: Vec::new(),
                 kept_state: quote! { self.held = held; },
             }
         }
