@@ -2,7 +2,7 @@ stateforge::model! {
     /// A point mass in the plane (a double integrator per axis, 10 Hz), driven by its
     /// accelerations, held by an MPC with every kind of limit: on the accelerations'
     /// changes, on the speeds (one soft) and on how far it reaches along a diagonal
-    /// (soft).
+    /// (soft), which it also tracks.
     pub mod planar_limits {
         scalar f32, f64;
         const TS = 0.1;
@@ -17,6 +17,6 @@ stateforge::model! {
         }
         generate mpc(horizon = 6, states = [px, py, vx, vy], inputs = [ax, ay],
             rate_limits = [ax, ay], state_limits = [vx, vy], output_limits = [reach],
-            soft_limits = [vy, reach]);
+            soft_limits = [vy, reach], tracked_outputs = [reach]);
     }
 }

@@ -277,3 +277,51 @@ fn the_setters_refuse_limits_that_leave_no_room_and_bad_penalties() {
         Status::Ok
     );
 }
+
+/// The steady states of the point mass (`x = A x + B u`) with `reach = r`, least-norm,
+/// by nalgebra's pseudo-inverse of the equations `[A - I, B; C, 0] z = [0; r]`.
+fn least_norm_steady_state(reach: f64) -> DVector<f64> {
+    let ts = 0.1;
+    let mut equations = DMatrix::<f64>::zeros(NS + 1, NS + NU);
+    // (A - I) x + B u: the positions integrate the speeds, the speeds the accelerations.
+    for axis in 0..2 {
+        equations[(axis, 2 + axis)] = ts;
+        equations[(axis, NS + axis)] = 0.5 * ts * ts;
+        equations[(2 + axis, NS + axis)] = ts;
+    }
+    for (j, &c) in REACH.iter().enumerate() {
+        equations[(NS, j)] = c;
+    }
+    let mut right = DVector::<f64>::zeros(NS + 1);
+    right[NS] = reach;
+    equations.pseudo_inverse(1e-12).expect("an SVD") * right
+}
+
+#[test]
+fn a_tracked_output_is_held_at_its_reference_by_the_least_norm_steady_state() {
+    let (q, r) = weights();
+    let mut mpc = planar::Mpc::new(&q, &r, &[-1.0; NU], &[1.0; NU]).expect("valid");
+    let kept = mpc;
+    assert_eq!(mpc.set_output_reference(&[f64::NAN]), Status::RejectedInput);
+    assert_eq!(mpc, kept);
+    let mut x = [0.3, -0.2, 0.0, 0.1];
+    let mut u = [0.0; NU];
+    for reach in [0.8, -0.5] {
+        assert_eq!(mpc.set_output_reference(&[reach]), Status::Ok);
+        // Closed on the model's own step, long enough to settle.
+        for _ in 0..600 {
+            let status = mpc.solve(&x, &u);
+            assert_eq!(status.status, Status::Ok);
+            u = mpc.control();
+            x = planar::f(&x, &u);
+        }
+        let target = least_norm_steady_state(reach);
+        assert!((planar::h(&x)[0] - reach).abs() < 1e-9, "{x:?}");
+        for (i, &x_i) in x.iter().enumerate() {
+            assert!((x_i - target[i]).abs() < 1e-9, "{x:?} {target}");
+        }
+        for (i, &u_i) in u.iter().enumerate() {
+            assert!((u_i - target[NS + i]).abs() < 1e-9, "{u:?} {target}");
+        }
+    }
+}

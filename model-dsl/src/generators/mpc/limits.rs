@@ -10,6 +10,7 @@ use crate::diagnostics::Diagnostics;
 use crate::generators::options::{Args, Context};
 use crate::model::Model;
 use crate::symbolic::ModelGraph;
+use proc_macro2::Span;
 use std::collections::HashSet;
 
 /// The limits named in `args`, for the regulated `states` and the computed `inputs`
@@ -39,7 +40,7 @@ pub fn limits(
     );
     let output_names = args.names(&["output_limits"], diag);
     let output_index = |n: &str| cx.decl.outputs.iter().position(|o| o.name.text == n);
-    let outputs: Vec<(usize, proc_macro2::Span)> = output_names
+    let outputs: Vec<(usize, Span)> = output_names
         .iter()
         .filter_map(|name| match output_index(&name.text) {
             Some(i) => Some((i, name.span)),
@@ -116,21 +117,26 @@ fn twice(names: &[&Name], diag: &mut Diagnostics) {
     }
 }
 
-/// Each limited output's row `C` over the regulated states (`y = C x`), or an error
-/// under its name when it is not linear in them (an offset, an input, another state, or
-/// a nonlinear term).
+/// Each output's row `C` over the regulated states (`y = C x`), or an error under its
+/// name when it is not linear in them (an offset, an input, another state, or a nonlinear
+/// term); `role` says why it must be (`"is limited over the horizon"`), `remedy` what to
+/// write instead.
 pub fn output_rows(
     model: &Model,
     mg: &mut ModelGraph,
-    (limits, states): (&MpcLimits, &[usize]),
+    (outputs, states): (&[(usize, Span)], &[usize]),
+    (role, remedy): (&str, &str),
 ) -> syn::Result<Vec<Vec<f64>>> {
     let mut rows = Vec::new();
     let mut errors: Option<syn::Error> = None;
-    for &(output, span) in &limits.outputs {
+    for &(output, span) in outputs {
         let h = mg.h[output];
         let wrt: Vec<_> = mg.x.iter().chain(&mg.u).copied().collect();
         let jacobian = mg.jacobian(&[h], &wrt).remove(0);
-        let literal: Option<Vec<f64>> = jacobian.iter().map(|&d| mg.graph.literal(d)).collect();
+        let literal: Option<Vec<f64>> = jacobian
+            .iter()
+            .map(|&d| mg.graph.constant_value(d))
+            .collect();
         let at_zero = mg.graph.eval(h, &|_| 0.0);
         let row = literal.filter(|row| {
             let others = (0..wrt.len()).filter(|i| !states.contains(i));
@@ -140,9 +146,8 @@ pub fn output_rows(
             let error = syn::Error::new(
                 span,
                 format!(
-                    "`{}` is limited over the horizon, so it must be linear in the regulated \
-                     states (`y = C x`: no offset, input or other state): limit the states it \
-                     reads with `state_limits`, or declare a linear output",
+                    "`{}` {role}, so it must be linear in the regulated states (`y = C x`: no \
+                     offset, input or other state): {remedy}",
                     model.outputs[output].name
                 ),
             );

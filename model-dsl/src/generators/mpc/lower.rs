@@ -16,6 +16,7 @@ use super::qp::{active_set_loop, MoveNames, QpCode};
 use super::spec::MpcSpec;
 use super::spec::{MpcDiscretisation, MpcSolver};
 use super::stage::Stage;
+use super::target;
 use super::work_bound::SolveOps;
 use crate::emit::arguments::Arguments;
 use crate::emit::code::{
@@ -1356,6 +1357,7 @@ fn type_tokens(
     let constructor = constructor((model, spec), (moves, cache), &dims, scalar);
     let kept = cache.fields(&dims.ty);
     let set_reference = set_reference(model, spec, moves, &dims);
+    let set_output_reference = target::set_output_reference(model, spec, scalar);
     let setters = setters(spec, moves, &dims);
     let accessors = accessors(&dims);
     let held = held_field(spec, false);
@@ -1395,6 +1397,8 @@ fn type_tokens(
             #constructor
 
             #set_reference
+
+            #set_output_reference
 
             #setters
 

@@ -17,6 +17,7 @@ pub mod predictive;
 pub mod qp;
 pub mod spec;
 pub mod stage;
+pub mod target;
 pub mod work_bound;
 
 use super::options::{regulated, Args, Context};
@@ -72,6 +73,7 @@ impl Kind for Mpc {
         }
         let discretisation = discretisation(cx.decl, args, diag);
         let limits = limits::limits(args, cx, (&states, &inputs), diag);
+        let tracked = target::tracked(args, cx, diag);
         let rows = u64::from(horizon) * limits.per_step() as u64;
         let solver = solver(args, (unknowns, rows > 0), diag);
         // Clamped so that a horizon already reported as too long adds no error of its own.
@@ -88,6 +90,8 @@ impl Kind for Mpc {
             discretisation,
             solver,
             limits,
+            tracked,
+            target: None,
             max_iterations,
             riccati_iterations,
             model_tolerance,
@@ -210,9 +214,15 @@ impl Generator for MpcSpec {
     fn design(&self, model: &Model, mg: &ModelGraph) -> syn::Result<Box<dyn Lowering>> {
         let mut spec = self.clone();
         if !spec.limits.outputs.is_empty() {
-            let rows = limits::output_rows(model, &mut mg.clone(), (&spec.limits, &spec.states));
+            let outputs = (&spec.limits.outputs[..], &spec.states[..]);
+            let why = (
+                "is limited over the horizon",
+                "limit the states it reads with `state_limits`, or declare a linear output",
+            );
+            let rows = limits::output_rows(model, &mut mg.clone(), outputs, why);
             spec.limits.output_rows = rows?;
         }
+        spec.target = target::design(model, mg, &spec)?;
         if let Some(budget) = self.cycle_budget {
             // The bound is of the microcontroller's `f32` code; the `f64` code takes the
             // same bounds, so a host run is limited as the target's is.

@@ -54,6 +54,20 @@ impl MpcLimits {
     }
 }
 
+/// The steady state of the tracked outputs' reference: `x_s = x y_ref + x_offset`,
+/// `u_s = u y_ref + u_offset`, over the regulated states and the MPC's inputs.
+#[derive(Clone, Debug)]
+pub struct Target {
+    /// Per regulated state, its coefficients on `y_ref`.
+    pub x: Vec<Vec<f64>>,
+    /// Per regulated state, its value at `y_ref = 0`.
+    pub x_offset: Vec<f64>,
+    /// Per input, its coefficients on `y_ref`.
+    pub u: Vec<Vec<f64>>,
+    /// Per input, its value at `y_ref = 0`.
+    pub u_offset: Vec<f64>,
+}
+
 /// The most moves for which `solver` defaults to the primal active set.
 pub const PRIMAL_MOVES_MAX: u32 = 16;
 
@@ -72,6 +86,11 @@ pub struct MpcSpec {
     pub solver: MpcSolver,
     /// The limits besides the inputs' bounds.
     pub limits: MpcLimits,
+    /// Outputs tracked through a steady state (`tracked_outputs`): indices into the
+    /// model's outputs, with where each was named.
+    pub tracked: Vec<(usize, Span)>,
+    /// Their steady state, set by the design.
+    pub target: Option<Target>,
     /// Bound on the active-set iterations of one solve.
     pub max_iterations: u32,
     /// Riccati steps per solve towards the terminal weight (warm-started).
