@@ -272,7 +272,7 @@ impl Lowering for MpcSpec {
             .part(),
             Cost::new(
                 "MPC_CONDENSE_OPS",
-                "the condensed Hessian of Mpc::solve (when rebuilt)",
+                "the condensed problem of Mpc::solve (when rebuilt: H, or G = H^-1 and the gain)",
                 ops.condense,
             )
             .part(),
