@@ -45,8 +45,8 @@ const TILT: f64 = 0.2;
 const SPEED: f64 = 1.0;
 /// The cost of a unit of speed beyond [`SPEED`] at a step, for `dx` and `dy`: large
 /// enough that the slack is what the hard limits leave (`1e6` gives the same slack to
-/// 4e-4 m/s in `f64`), small enough for `f32`: at the default `1e5` two of the `f32`
-/// run's solves reach `MAX_ITERATIONS`, and at `1e6` the `f32` loop diverges.
+/// 4e-4 m/s in `f64`), small enough for `f32`: at `1e5` the `f32` loop diverges after
+/// the gust (its solves at `MAX_ITERATIONS`), and at `1e6` one solve reaches it.
 const SPEED_PENALTY: f64 = 1e4;
 /// Solves at the first state before the run, at most (the terminal weight converges).
 const PRIMING: usize = 200;
