@@ -118,9 +118,10 @@ impl MpcSpec {
     }
 }
 
-/// The largest condensed problem (horizon times inputs unknowns) the MPC unrolls: its
-/// `L D L'` solve grows with the cube of the unknowns, and so does the time to compile
-/// it. TinyMPC's quadrotor hover benchmark (12 states, 4 inputs, 10 moves) has 40: its
-/// `f64` MPC alone took 78 s of CPU to compile in the tests' profile (`opt-level = 2`,
-/// debug information), the blade's 10 moves 3 s.
+/// The largest condensed problem (horizon times inputs unknowns) the MPC unrolls: the
+/// primal active set's `L D L'` solve grows with the cube of the unknowns, and so does
+/// the time to compile it. TinyMPC's quadrotor hover benchmark (12 states, 4 inputs, 10
+/// moves) has 40: its `f64` MPC alone took 78 s of CPU to compile in the tests' profile
+/// (`opt-level = 2`, debug information) with the primal active set, about 2 s with the
+/// dual (whose straight-line code grows with the square), the blade's 10 moves 3 s.
 pub const MPC_UNKNOWNS_MAX: u32 = 48;
