@@ -556,8 +556,8 @@ pub fn limit_columns<const M: usize, const R: usize>(
 /// unconstrained plan's gain, by the Riccati recursion from the terminal weight, never
 /// forming `H` (whose rounding, amplified by its condition number, would decide the
 /// plan's accuracy); `None` when `M` is not a whole number of moves, `R + B' P B` is not
-/// positive definite to within rounding at a step, or an entry of `G` is not finite. What
-/// a generated MPC keeps of its condensed QP for [`mpc_qp`].
+/// positive definite to within rounding at a step, or an entry of `G` or the gain is not
+/// finite. What a generated MPC keeps of its condensed QP for [`mpc_qp`].
 #[must_use]
 pub fn condensed_inverse<const M: usize, const NS: usize, const NU: usize>(
     problem: &crate::PredictionProblem<f32, NS, NU>,

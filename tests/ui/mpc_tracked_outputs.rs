@@ -66,4 +66,38 @@ stateforge::model! {
     }
 }
 
+// A branch is not affine, though its derivatives are constants on each side: Coulomb
+// friction's force jumps at zero speed.
+stateforge::model! {
+    pub mod friction {
+        scalar f64;
+        const TS = 0.1;
+        state x1, x2;
+        input u;
+        output y = x1;
+        dynamics discrete {
+            x1 = x1 + TS * x2;
+            x2 = x2 + TS * (u - if x2 > 0.0 { 0.3 } else { -0.3 });
+        }
+        generate mpc(horizon = 4, states = [x1, x2], input = u, tracked_outputs = [y]);
+    }
+}
+
+// A model so small in every coefficient that its steady state is beyond `f32`: `x1` is
+// 1e33 times the output held.
+stateforge::model! {
+    pub mod faint {
+        scalar f32, f64;
+        const TINY = 1e-33;
+        state x1, x2;
+        input u;
+        output y = TINY * x1;
+        dynamics discrete {
+            x1 = x1 + TINY * x2;
+            x2 = x2 + TINY * u;
+        }
+        generate mpc(horizon = 4, states = [x1, x2], input = u, tracked_outputs = [y]);
+    }
+}
+
 fn main() {}

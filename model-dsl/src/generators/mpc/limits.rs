@@ -4,6 +4,7 @@
 //! regulated states), and `soft_limits = [..]`, those of them that are soft (an exact
 //! penalty on their violation) rather than hard. Their values are set at run time.
 
+use super::affine::affine_at_points;
 use super::spec::MpcLimits;
 use crate::ast::Name;
 use crate::diagnostics::Diagnostics;
@@ -39,20 +40,7 @@ pub fn limits(
         "a state the MPC regulates (`states = [..]`)",
     );
     let output_names = args.names(&["output_limits"], diag);
-    let output_index = |n: &str| cx.decl.outputs.iter().position(|o| o.name.text == n);
-    let outputs: Vec<(usize, Span)> = output_names
-        .iter()
-        .filter_map(|name| match output_index(&name.text) {
-            Some(i) => Some((i, name.span)),
-            None => {
-                diag.error(
-                    name.span,
-                    format!("`{}` is not an output (`output`)", name.text),
-                );
-                None
-            }
-        })
-        .collect();
+    let outputs = outputs_named(&output_names, cx, diag);
     let limited: Vec<&Name> = rate_names
         .iter()
         .chain(&state_names)
@@ -82,6 +70,25 @@ pub fn limits(
         soft,
         output_rows: Vec::new(),
     }
+}
+
+/// The outputs `names` name (indices into the model's, with where each was named), each
+/// name that is not an output reported.
+pub fn outputs_named(names: &[Name], cx: &Context, diag: &mut Diagnostics) -> Vec<(usize, Span)> {
+    let output_index = |n: &str| cx.decl.outputs.iter().position(|o| o.name.text == n);
+    names
+        .iter()
+        .filter_map(|name| match output_index(&name.text) {
+            Some(i) => Some((i, name.span)),
+            None => {
+                diag.error(
+                    name.span,
+                    format!("`{}` is not an output (`output`)", name.text),
+                );
+                None
+            }
+        })
+        .collect()
 }
 
 /// The positions `position` finds for `names`, each name it finds none for reported as
@@ -140,7 +147,9 @@ pub fn output_rows(
         let at_zero = mg.graph.eval(h, &|_| 0.0);
         let row = literal.filter(|row| {
             let others = (0..wrt.len()).filter(|i| !states.contains(i));
-            at_zero == 0.0 && others.into_iter().all(|i| row[i] == 0.0)
+            at_zero == 0.0
+                && others.into_iter().all(|i| row[i] == 0.0)
+                && affine_at_points(mg, h, &wrt, row, 0.0)
         });
         let Some(row) = row else {
             let error = syn::Error::new(

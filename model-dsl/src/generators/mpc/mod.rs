@@ -5,6 +5,7 @@
 //! `mpc(horizon = 10, states = [q, qd], input = u, discretisation = zoh,
 //! max_iterations = 20, riccati_iterations = 20)`.
 
+pub mod affine;
 pub mod cache;
 pub mod dual;
 pub mod limit_api;

@@ -15,7 +15,8 @@
 //! rank (every `y_ref` held by some steady state); when the steady states are many (more
 //! inputs than outputs, a free yaw), the least-norm one is taken.
 
-use super::limits::output_rows;
+use super::affine::affine_at_points;
+use super::limits::{output_rows, outputs_named};
 use super::spec::{MpcSpec, Target};
 use crate::diagnostics::Diagnostics;
 use crate::emit::code::all_is_finite;
@@ -33,22 +34,12 @@ use quote::quote;
 pub fn tracked(args: &mut Args, cx: &Context, diag: &mut Diagnostics) -> Vec<(usize, Span)> {
     let names = args.names(&["tracked_outputs"], diag);
     let mut tracked: Vec<(usize, Span)> = Vec::new();
-    for name in &names {
-        match cx
-            .decl
-            .outputs
-            .iter()
-            .position(|o| o.name.text == name.text)
-        {
-            Some(i) if tracked.iter().any(|&(t, _)| t == i) => diag.error(
-                name.span,
-                format!("`{}` is tracked twice: name it once", name.text),
-            ),
-            Some(i) => tracked.push((i, name.span)),
-            None => diag.error(
-                name.span,
-                format!("`{}` is not an output (`output`)", name.text),
-            ),
+    for (output, span) in outputs_named(&names, cx, diag) {
+        if tracked.iter().any(|&(t, _)| t == output) {
+            let name = &cx.decl.outputs[output].name.text;
+            diag.error(span, format!("`{name}` is tracked twice: name it once"));
+        } else {
+            tracked.push((output, span));
         }
     }
     tracked
@@ -73,55 +64,78 @@ pub fn design(model: &Model, mg: &ModelGraph, spec: &MpcSpec) -> syn::Result<Opt
             first,
             "`tracked_outputs` holds the outputs at a steady state computed when the model \
              is compiled: the regulated states' dynamics must be affine in them and the \
-             MPC's inputs, with constant coefficients (track the states with \
-             `set_reference` otherwise)",
+             MPC's inputs, with constant coefficients (no branch, no other state or input; \
+             track the states with `set_reference` otherwise)",
         ));
     };
-    let (ns, nu, ny) = (spec.states.len(), spec.inputs.len(), c.len());
+    let (ns, nu) = (spec.states.len(), spec.inputs.len());
     let mut rows = e;
     rows.extend(c.iter().map(|row| {
         let mut row = row.clone();
         row.resize(ns + nu, 0.0);
         row
     }));
-    let equations = Mat::from_rows(&rows);
-    if rank(&equations) < ns + ny {
-        return Err(syn::Error::new(
-            first,
+    steady_state(&Mat::from_rows(&rows), &offset, (ns, nu))
+        .map(Some)
+        .map_err(|message| syn::Error::new(first, message))
+}
+
+/// The least-norm solution of `E z = (-offset, y_ref)` as affine maps of `y_ref`, or why
+/// there is none: `E`'s rows the regulated states' equilibrium residual, then the tracked
+/// outputs'; solvable for every `y_ref` when appending the right-hand sides' columns
+/// (`-offset` and each output's unit) leaves `E`'s rank as it is.
+fn steady_state(
+    equations: &Mat,
+    offset: &[f64],
+    (ns, nu): (usize, usize),
+) -> Result<Target, &'static str> {
+    let ny = equations.rows() - ns;
+    let mut augmented = equations.to_rows();
+    for (i, row) in augmented.iter_mut().enumerate() {
+        row.push(if i < ns { -offset[i] } else { 0.0 });
+        row.extend((0..ny).map(|j| if i == ns + j { 1.0 } else { 0.0 }));
+    }
+    if rank(&Mat::from_rows(&augmented)) > rank(equations) {
+        return Err(
             "no steady state holds these outputs at every reference (the equations \
              `x = f(x, u)`, `y = y_ref` have no solution for some `y_ref`): track fewer \
              outputs, or outputs the inputs can hold apart",
-        ));
+        );
     }
-    let inverse = pinv(&equations);
+    let inverse = pinv(equations);
     let solution = |i: usize| -> (Vec<f64>, f64) {
         let per_output = (0..ny).map(|j| inverse[(i, ns + j)]).collect();
         let at_zero = (0..ns).map(|k| -inverse[(i, k)] * offset[k]).sum();
         (per_output, at_zero)
     };
     let (x, x_offset): (Vec<_>, Vec<_>) = (0..ns).map(solution).unzip();
-    let huge = |v: &f64| v.is_nan() || v.abs() >= f64::from(f32::MAX) / 1e6;
-    if (0..ns + nu).any(|i| huge(&solution(i).1) || solution(i).0.iter().any(huge)) {
-        return Err(syn::Error::new(
-            first,
-            "the steady state that holds these outputs is too large to be computed in \
-             the model's scalar types (a coefficient beyond 1e32): track outputs the \
-             inputs hold more firmly, or scale the model",
-        ));
-    }
     let (u, u_offset): (Vec<_>, Vec<_>) = (ns..ns + nu).map(solution).unzip();
-    Ok(Some(Target {
+    let huge = |v: &f64| v.is_nan() || v.abs() >= f64::from(f32::MAX) / 1e6;
+    let values = x
+        .iter()
+        .chain(&u)
+        .flatten()
+        .chain(&x_offset)
+        .chain(&u_offset);
+    if values.into_iter().any(huge) {
+        return Err(
+            "the steady state that holds these outputs is too large to be computed \
+             in the model's scalar types (a coefficient beyond 1e32): track outputs the \
+             inputs hold more firmly, or scale the model",
+        );
+    }
+    Ok(Target {
         x: x.into_iter().map(snapped).collect(),
         x_offset: snapped(x_offset),
         u: u.into_iter().map(snapped).collect(),
         u_offset: snapped(u_offset),
-    }))
+    })
 }
 
 /// `values` with those within rounding of zero (relative to the largest) made zero, so
 /// that the generated reference never multiplies by them.
 fn snapped(values: Vec<f64>) -> Vec<f64> {
-    let largest = values.iter().fold(1.0_f64, |m, v| m.max(v.abs()));
+    let largest = values.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
     values
         .into_iter()
         .map(|v| if v.abs() <= 1e-12 * largest { 0.0 } else { v })
@@ -130,7 +144,8 @@ fn snapped(values: Vec<f64>) -> Vec<f64> {
 
 /// The regulated states' equilibrium residual as `E = [e_x e_u]` (rows per regulated
 /// state, columns the regulated states then the inputs) and `e(0, 0)`; `None` when a
-/// coefficient is not constant or another state, input or the time enters.
+/// coefficient is not constant, another state, input or the time enters, or a row is
+/// not the affine map its coefficients define (a branch).
 fn affine_residual(
     model: &Model,
     mg: &mut ModelGraph,
@@ -158,18 +173,28 @@ fn affine_residual(
         .copied()
         .chain(spec.inputs.iter().map(|&i| nx + i))
         .collect();
+    let kept_vars: Vec<NodeId> = kept.iter().map(|&i| wrt[i]).collect();
     let mut e = Vec::new();
-    for row in &jacobian {
-        let row: Option<Vec<f64>> = row.iter().map(|&d| mg.graph.constant_value(d)).collect();
-        let row = row?;
+    let mut offset = Vec::new();
+    for (&root, row) in rows.iter().zip(&jacobian) {
+        let row: Vec<f64> = row
+            .iter()
+            .map(|&d| mg.graph.constant_value(d))
+            .collect::<Option<_>>()?;
         let others = (0..wrt.len()).filter(|i| !kept.contains(i));
         if others.into_iter().any(|i| row[i] != 0.0) {
             return None;
         }
-        e.push(kept.iter().map(|&i| row[i]).collect());
+        let coefficients: Vec<f64> = kept.iter().map(|&i| row[i]).collect();
+        let at_zero = mg.graph.eval(root, &|_| 0.0);
+        if !(at_zero.is_finite() && affine_at_points(mg, root, &kept_vars, &coefficients, at_zero))
+        {
+            return None;
+        }
+        e.push(coefficients);
+        offset.push(at_zero);
     }
-    let offset: Vec<f64> = rows.iter().map(|&r| mg.graph.eval(r, &|_| 0.0)).collect();
-    offset.iter().all(|v| v.is_finite()).then_some((e, offset))
+    Some((e, offset))
 }
 
 /// `fn set_output_reference`, when the MPC tracks outputs: `x_ref` and `u_ref` from
@@ -207,7 +232,8 @@ pub fn set_output_reference(model: &Model, spec: &MpcSpec, scalar: Scalar) -> To
         " Tracks {listed} at `y_ref`: sets the reference (as `set_reference`) \
          to the steady state of the dynamics that holds them there (the least-norm one \
          when there are several), computed when the model was compiled: `x_ref` and \
-         `u_ref` affine in `y_ref`. Rejects non-finite values, leaving the reference as it was."
+         `u_ref` affine in `y_ref`. Rejects non-finite values, and a steady state that \
+         is not finite in the scalar, leaving the reference as it was."
     );
     quote! {
         #[doc = #doc]
@@ -217,9 +243,8 @@ pub fn set_output_reference(model: &Model, spec: &MpcSpec, scalar: Scalar) -> To
             if !finite {
                 return Status::RejectedInput;
             }
-            self.x_ref = [#(#x_ref),*];
-            self.u_ref = [#(#u_ref),*];
-            Status::Ok
+            // `set_reference` refuses a steady state too large for the scalar.
+            self.set_reference(&[#(#x_ref),*], &[#(#u_ref),*])
         }
     }
 }
