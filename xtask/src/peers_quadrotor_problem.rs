@@ -12,7 +12,7 @@
 //!   that example's state box `|x| <= 5` is left out (our MPC cannot state state limits
 //!   yet): the table says the largest `|x|` the exact plans predict;
 //! - the horizon: that example's NHORIZON = 10 knot points are 9 moves; the run takes
-//!   `quadrotor::Mpc::HORIZON` (8 until the generator takes more than 32 unknowns).
+//!   `quadrotor::Mpc::HORIZON`, those 9.
 //!
 //! The run: the generated `f32` `Mpc` closes the loop on the model's own `f32` dynamics
 //! (`quadrotor::f`) for [`STEPS`] samples, from TinyMPC's first state, and a gust at
