@@ -9,8 +9,9 @@
 //! - `|u| <= 0.5` on each motor (thrust less hover thrust), and the first state
 //!   `x0 = (0, 1, 0, 0.2, 0, 0, 0.1, 0, ..)` held to the reference `z = 2`, of its
 //!   `examples/quadrotor_hovering.cpp` (here as the error `x0 - xref`, regulated to zero);
-//!   that example's state box `|x| <= 5` is left out (our MPC cannot state state limits
-//!   yet): the table says the largest `|x|` the exact plans predict;
+//!   that example's state box `|x| <= 5` is left out (the problem stays the one first
+//!   measured, before the MPC stated state limits): the table says the largest `|x|` the
+//!   exact plans predict, which show it inactive;
 //! - the horizon: that example's NHORIZON = 10 knot points are 9 moves; the run takes
 //!   `quadrotor::Mpc::HORIZON`, those 9.
 //!
