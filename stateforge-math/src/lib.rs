@@ -41,6 +41,8 @@ mod mpc_condense;
 mod mpc_qp;
 mod recovery;
 mod rotation;
+#[cfg(test)]
+mod test_rng;
 
 pub use mpc_condense::{CondensedInverse, PredictionProblem};
 pub use mpc_qp::{HeldLimits, LimitRows, MpcQp, MpcQpSolution};

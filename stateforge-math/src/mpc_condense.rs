@@ -267,6 +267,7 @@ fn row_column<T: Real, const R: usize, const C: usize>(
 #[cfg(test)]
 mod tests {
     use super::{condensed_inverse, PredictionProblem};
+    use crate::test_rng::Lcg;
     use nalgebra::{DMatrix, SMatrix};
 
     const NS: usize = 4;
@@ -274,28 +275,16 @@ mod tests {
     const HORIZON: usize = 5;
     const M: usize = HORIZON * NU;
 
-    /// A small linear congruential generator in [-1, 1): the same problems every run.
-    struct Lcg(u64);
+    /// A random `R x C` matrix, entries in `[-1, 1)`.
+    fn random<const R: usize, const C: usize>(rng: &mut Lcg) -> [[f64; C]; R] {
+        core::array::from_fn(|_| core::array::from_fn(|_| rng.uniform()))
+    }
 
-    impl Lcg {
-        fn uniform(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            f64::from(u32::try_from(self.0 >> 43).unwrap_or(0)) / f64::from(1_u32 << 20) - 1.0
-        }
-
-        fn matrix<const R: usize, const C: usize>(&mut self) -> [[f64; C]; R] {
-            core::array::from_fn(|_| core::array::from_fn(|_| self.uniform()))
-        }
-
-        /// `X' X + I / 10`, symmetric positive definite.
-        fn weight<const N: usize>(&mut self) -> [[f64; N]; N] {
-            let x = SMatrix::<f64, N, N>::from_fn(|_, _| self.uniform());
-            let w = x.transpose() * x + SMatrix::<f64, N, N>::identity() * 0.1;
-            core::array::from_fn(|i| core::array::from_fn(|j| w[(i, j)]))
-        }
+    /// A random weight `X' X + I / 10`, symmetric positive definite.
+    fn weight<const N: usize>(rng: &mut Lcg) -> [[f64; N]; N] {
+        let x = SMatrix::<f64, N, N>::from_fn(|_, _| rng.uniform());
+        let w = x.transpose() * x + SMatrix::<f64, N, N>::identity() * 0.1;
+        core::array::from_fn(|i| core::array::from_fn(|j| w[(i, j)]))
     }
 
     fn dense<const R: usize, const C: usize>(m: &[[f64; C]; R]) -> DMatrix<f64> {
@@ -342,9 +331,13 @@ mod tests {
         let mut rng = Lcg(11);
         for _ in 0..20 {
             // Unstable as often as not: entries up to 1.5 in size.
-            let a = rng.matrix::<NS, NS>().map(|row| row.map(|x| 1.5 * x));
-            let b = rng.matrix::<NS, NU>();
-            let (q, r, terminal) = (rng.weight::<NS>(), rng.weight::<NU>(), rng.weight::<NS>());
+            let a = random::<NS, NS>(&mut rng).map(|row| row.map(|x| 1.5 * x));
+            let b = random::<NS, NU>(&mut rng);
+            let (q, r, terminal) = (
+                weight::<NS>(&mut rng),
+                weight::<NU>(&mut rng),
+                weight::<NS>(&mut rng),
+            );
             let problem = PredictionProblem {
                 a: &a,
                 b: &b,
@@ -371,8 +364,8 @@ mod tests {
     #[test]
     fn a_weight_that_is_not_positive_definite_or_a_partial_move_has_none() {
         let mut rng = Lcg(3);
-        let (a, b) = (rng.matrix::<NS, NS>(), rng.matrix::<NS, NU>());
-        let (q, terminal) = (rng.weight::<NS>(), rng.weight::<NS>());
+        let (a, b) = (random::<NS, NS>(&mut rng), random::<NS, NU>(&mut rng));
+        let (q, terminal) = (weight::<NS>(&mut rng), weight::<NS>(&mut rng));
         let r = [[1.0, 0.0], [0.0, 1.0]];
         let mut problem = PredictionProblem {
             a: &a,

@@ -788,6 +788,7 @@ pub(crate) fn columns<T: Real, const M: usize, const R: usize>(
 #[cfg(test)]
 mod tests {
     use super::{symmetric_inverse, HeldLimits, LimitRows, MpcQp, MpcQpSolution};
+    use crate::test_rng::Lcg;
     use nalgebra::{SMatrix, SVector};
 
     /// The solve of the box-constrained problem alone (no rows), from `held`.
@@ -818,20 +819,6 @@ mod tests {
         let solution = super::solve(&qp, &mut limits_held, limits);
         *held = limits_held.moves;
         solution
-    }
-
-    /// A small linear congruential generator: the same problems every run.
-    struct Lcg(u64);
-
-    impl Lcg {
-        fn uniform(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            // The top 53 bits, in [-1, 1).
-            f64::from(u32::try_from(self.0 >> 43).unwrap_or(0)) / f64::from(1_u32 << 20) - 1.0
-        }
     }
 
     /// A random symmetric positive definite matrix `A' A + I/10`, its condition
