@@ -2,11 +2,11 @@
 //! prediction model or the weights change: the condensed Hessian's inverse `G = H^-1` and
 //! the unconstrained plan's gain `K = G F` (`F` the linear term's response to the
 //! regulated states, eq. 44), both by the Riccati recursion over the horizon (`H` itself
-//! is never formed), kept; at each solve the unconstrained minimiser `v* = -K (x - x_ref)`, straight-line on
-//! `K`, then the held limits' iterations (`stateforge_math`'s `mpc_qp`: which limits it
-//! holds, and in which order, is known only at run time, so its loops are a library's,
-//! written once for both scalars), warm-started from the last solve's held limits a step
-//! on.
+//! is never formed), kept; at each solve the unconstrained minimiser
+//! `v* = -K (x - x_ref)`, straight-line on `K`, then the held limits' iterations
+//! (`stateforge_math`'s `mpc_qp`: which limits it holds, and in which order, is known
+//! only at run time, so its loops are a library's, written once for both scalars),
+//! warm-started from the last solve's held limits a step on.
 //!
 //! Chosen for problems with several inputs (TinyMPC's quadrotor: 32 moves): starting from
 //! the unconstrained minimiser, a solve whose limits are all inactive costs one product
