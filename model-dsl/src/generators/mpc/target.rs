@@ -11,9 +11,10 @@
 //! With dynamics affine in the regulated states and the inputs (constant coefficients),
 //! the equations are linear, `E z = (-e(0, 0), y_ref)`, and solved when the model is
 //! compiled: the least-norm `z = E^+ (..)` (Moore-Penrose), so `x_s` and `u_s` are
-//! literals times `y_ref` plus a literal offset, straight-line. `E` must have full row
-//! rank (every `y_ref` held by some steady state); when the steady states are many (more
-//! inputs than outputs, a free yaw), the least-norm one is taken.
+//! literals times `y_ref` plus a literal offset, straight-line. Every `y_ref` must be
+//! held by some steady state (the right-hand sides' columns leave `E`'s rank as it is);
+//! when the steady states are many (more inputs than outputs, a free yaw), the least-norm
+//! one is taken.
 
 use super::affine::affine_at_points;
 use super::limits::{output_rows, outputs_named};
