@@ -212,10 +212,28 @@ fn runner(default_cases: u32) -> TestRunner {
     })
 }
 
+/// Where each test writes the case it is about to expand ([`LAST_INPUTS`], one file per
+/// test): a run that a memory limit or a signal ends leaves no failure for proptest to
+/// shrink and show, only these, which `cargo xtask test` prints when the tests fail.
+const LAST_INPUTS: &str = "fuzz-last-input";
+
+/// Writes `text` as the running test's last input; best effort (a case that cannot be
+/// written is still expanded).
+fn record(text: &str) {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(LAST_INPUTS);
+    let test = std::thread::current()
+        .name()
+        .unwrap_or("main")
+        .replace("::", "-");
+    let _ = std::fs::create_dir_all(&dir)
+        .and_then(|()| std::fs::write(dir.join(format!("{test}.txt")), text));
+}
+
 /// Expands `text` with `expand`: a panic fails the case, and so does accepted input whose
 /// code does not parse as a Rust file; rejected input just returns its errors. A failure
 /// shows the input, so proptest's minimal case reads as a model.
 fn check(text: &str, expand: fn(&str) -> syn::Result<TokenStream>) -> Result<(), TestCaseError> {
+    record(text);
     let fail = |what: String| TestCaseError::fail(format!("{what}\n--- input ---\n{text}\n---"));
     let generated = catch_unwind(AssertUnwindSafe(|| expand(text))).map_err(|payload| {
         let message = payload

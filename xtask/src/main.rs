@@ -20,6 +20,7 @@ mod compare_mpc;
 mod compare_observers;
 mod cost;
 mod firmware;
+mod fuzz_inputs;
 mod imports;
 mod math_ulps;
 mod msrv;
@@ -205,7 +206,9 @@ fn test() -> Result<(), String> {
             "warnings",
         ]),
     )?;
-    run("tests", cargo().args(["test", "--workspace"]))?;
+    let started = std::time::SystemTime::now();
+    run("tests", cargo().args(["test", "--workspace"]))
+        .map_err(|e| format!("{e}{}", fuzz_inputs::written_since(started)))?;
     run(
         "the docs, without a broken intra-doc link (generated docs included)",
         cargo()
