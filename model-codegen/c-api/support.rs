@@ -15,12 +15,14 @@ pub enum Refused {
     NotInitialised,
 }
 
-/// The storage of a generated filter or controller: a tag saying that its constructor
-/// wrote it, then the value. Storage the C program zeroed (a `static`) has no tag.
+/// The storage of a generated filter or controller: the value, then a tag saying that
+/// its constructor wrote it. Storage the C program zeroed (a `static`) has no tag. The
+/// value comes first, at the storage's own address, so that a call passes the storage's
+/// pointer on as it is.
 #[repr(C)]
 pub struct Slot<T> {
-    tag: u32,
     value: T,
+    tag: u32,
 }
 
 /// The tag of a written slot ("WWWW", written): one byte repeated, so that a Thumb-2
@@ -31,47 +33,55 @@ impl<T> Slot<T> {
     /// The slot of `value`, tagged as written.
     pub fn new(value: T) -> Self {
         Slot {
-            tag: WRITTEN,
             value,
+            tag: WRITTEN,
         }
     }
 }
 
 /// `Ok` if none of `pointers`, each an address and the alignment its type needs, is null
-/// or misaligned; else the refusal of the first that is, null before misaligned.
-///
-/// One test of all of them on the way that succeeds (a branch for any null, one for any
-/// low address bit its alignment forbids), so that the checks of a call cost a few
-/// instructions beside the Rust call; which pointer was refused, and why, is worked out
-/// only when one was.
+/// or misaligned; else the refusal of the first that is.
 #[inline(always)]
 pub fn checked<const N: usize>(pointers: [(usize, usize); N]) -> Result<(), Refused> {
+    if valid(pointers) {
+        return Ok(());
+    }
+    // `valid` said one is refused, so `refusal` names it; `Null` is never reached.
+    Err(refusal(pointers).unwrap_or(Refused::Null))
+}
+
+/// Whether none of `pointers` is null or misaligned: one test of all of them (a branch for
+/// any null, one for any low address bit its alignment forbids), so that the checks of a
+/// call cost a few instructions beside the Rust call. Which pointer was refused, and why,
+/// is worked out ([`refusal`]) only when one was.
+#[inline(always)]
+fn valid<const N: usize>(pointers: [(usize, usize); N]) -> bool {
     let mut misaligned = 0;
     let mut null = false;
     for (address, align) in pointers {
         misaligned |= address & (align - 1);
         null |= address == 0;
     }
-    if null || misaligned != 0 {
-        return Err(first_refusal(pointers));
-    }
-    Ok(())
+    !null & (misaligned == 0)
 }
 
-/// The refusal of the first null or misaligned pointer of `pointers`: inlined, so that
-/// the pointers stay in registers (a function of its own would take them through memory
-/// on every call, refused or not).
+/// The refusal of the first null or misaligned pointer of `pointers`, if one is.
+///
+/// Inlined, so that the pointers stay in registers on the way that succeeds (a function
+/// of its own would take them through memory on every call). The pointers pass through
+/// `black_box` first: its tests are then not shared with [`valid`]'s, which the compiler
+/// would otherwise compute one pointer at a time on the way that succeeds too.
 #[inline(always)]
-fn first_refusal<const N: usize>(pointers: [(usize, usize); N]) -> Refused {
-    for (address, align) in pointers {
+fn refusal<const N: usize>(pointers: [(usize, usize); N]) -> Option<Refused> {
+    for (address, align) in core::hint::black_box(pointers) {
         if address == 0 {
-            return Refused::Null;
+            return Some(Refused::Null);
         }
         if address & (align - 1) != 0 {
-            return Refused::Misaligned;
+            return Some(Refused::Misaligned);
         }
     }
-    Refused::Null
+    None
 }
 
 /// The argument `p` points to.
@@ -132,41 +142,84 @@ pub unsafe fn slot<'a, S, T>(p: *mut S) -> &'a mut MaybeUninit<Slot<T>> {
     unsafe { &mut *p.cast::<MaybeUninit<Slot<T>>>() }
 }
 
-/// The value in the storage `p` points to, if a constructor wrote it: `S` is the storage
-/// type, as for [`slot`].
-///
-/// # Safety
-///
-/// `p` is neither null nor misaligned for an `S` (the caller [`checked`] it), valid for
-/// reads of an `S` for `'a`, nothing writes it meanwhile, and its tag was initialised:
-/// the storage was zeroed or a constructor wrote it.
-#[inline(always)]
-pub unsafe fn value<'a, S, T>(p: *const S) -> Result<&'a T, Refused> {
-    let p = p.cast::<Slot<T>>();
-    // SAFETY: `p` is neither null nor misaligned (for the larger alignment of `S`) and
-    // its tag, the first field of the `repr(C)` slot, is initialised (this function's
-    // contract).
-    let tag = unsafe { p.cast::<u32>().read() };
-    if tag != WRITTEN {
-        return Err(Refused::NotInitialised);
+/// The alignment a storage `p` of type `S` is checked for: the storage type's, as the
+/// header declares it, which the slot it holds never exceeds (asserted where `S` is
+/// defined, and taken as the larger here all the same).
+const fn storage_align<S, T>() -> usize {
+    let (storage, slot) = (core::mem::align_of::<S>(), core::mem::align_of::<Slot<T>>());
+    if storage > slot {
+        storage
+    } else {
+        slot
     }
-    // SAFETY: the tag says that a constructor wrote the whole slot, value included;
-    // nothing writes it during `'a` (this function's contract).
-    Ok(unsafe { &(*p).value })
 }
 
-/// The value in the storage `p` points to, mutable, if a constructor wrote it.
+/// The slot in the storage `p` points to, once `p` and `others` (the call's other pointers
+/// that may not be null) are neither null nor misaligned and a constructor wrote it (its
+/// tag): `S` is the storage type the header declares, as for [`slot`]. Else the refusal of
+/// the first pointer refused, `p` first, or `NotInitialised`.
+///
+/// The tag is checked with the pointers, so that the way that succeeds has a single test
+/// of each, and the refusal is worked out only when one fails.
 ///
 /// # Safety
 ///
-/// As [`value`], and nothing else reads the storage meanwhile.
+/// `p` is null or valid for reads of an `S`, its tag's bytes initialised (the storage was
+/// zeroed or a constructor wrote it), and nothing writes it during the call.
 #[inline(always)]
-pub unsafe fn value_mut<'a, S, T>(p: *mut S) -> Result<&'a mut T, Refused> {
-    // SAFETY: as `value` requires (this function's contract).
-    unsafe { value::<S, T>(p) }?;
-    // SAFETY: `value` checked the tag; the storage is not aliased (this function's
-    // contract).
-    Ok(unsafe { &mut (*p.cast::<Slot<T>>()).value })
+unsafe fn written<S, T, const N: usize>(
+    p: *const S,
+    others: [(usize, usize); N],
+) -> Result<*const Slot<T>, Refused> {
+    let storage = [(p as usize, storage_align::<S, T>())];
+    let p = p.cast::<Slot<T>>();
+    if valid(storage) & valid(others) {
+        // SAFETY: `p` is neither null nor misaligned for an `S`, so for a `Slot<T>`
+        // (checked above); valid for reads, and its tag, a `u32` inside the storage, is
+        // initialised (this function's contract).
+        if unsafe { core::ptr::addr_of!((*p).tag).read() } == WRITTEN {
+            return Ok(p);
+        }
+    }
+    Err(refusal(storage)
+        .or_else(|| refusal(others))
+        .unwrap_or(Refused::NotInitialised))
+}
+
+/// The value in the storage `p` points to, once [`written`] checked it and `others`.
+///
+/// # Safety
+///
+/// As [`written`], for `'a`.
+#[inline(always)]
+pub unsafe fn value<'a, S, T, const N: usize>(
+    p: *const S,
+    others: [(usize, usize); N],
+) -> Result<&'a T, Refused> {
+    // SAFETY: as `written` requires (this function's contract).
+    let slot = unsafe { written::<S, T, N>(p, others) }?;
+    // SAFETY: the tag says that a constructor wrote the whole slot, value included;
+    // nothing writes it during `'a` (this function's contract).
+    Ok(unsafe { &(*slot).value })
+}
+
+/// The value in the storage `p` points to, mutable, once [`written`] checked it and
+/// `others`.
+///
+/// # Safety
+///
+/// As [`written`], for `'a`; `p` is also null or valid for writes, and nothing else
+/// reads the storage meanwhile.
+#[inline(always)]
+pub unsafe fn value_mut<'a, S, T, const N: usize>(
+    p: *mut S,
+    others: [(usize, usize); N],
+) -> Result<&'a mut T, Refused> {
+    // SAFETY: as `written` requires (this function's contract).
+    let slot = unsafe { written::<S, T, N>(p, others) }?;
+    // SAFETY: the tag says that a constructor wrote the whole slot; `p` is valid for
+    // writes and unaliased during `'a` (this function's contract).
+    Ok(unsafe { &mut (*slot.cast_mut()).value })
 }
 
 /// The value of a check, or the C function returns the status of its refusal.

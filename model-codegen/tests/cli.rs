@@ -308,17 +308,28 @@ fn c_api_writes_the_companion_crate_around_the_same_code() {
     assert!(written.status.success(), "{written:?}");
     let read = |name: &str| std::fs::read_to_string(dir.join(name)).expect(name);
     // The generated module is the one `stateforge-codegen <model>` prints, its unsafe
-    // code forbidden.
     let printed = Command::new(env!("CARGO_BIN_EXE_stateforge-codegen"))
         .arg(model)
         .output()
         .expect("stateforge-codegen runs");
     let code = String::from_utf8_lossy(&printed.stdout).into_owned();
-    assert_eq!(
-        read("src/model.rs"),
-        format!("#![forbid(unsafe_code)]\n{code}")
+    // code forbidden, in a crate of its own which the wrapper's depends on.
+    let generated = read("model/src/lib.rs");
+    assert!(
+        generated.starts_with("#![no_std]\n#![forbid(unsafe_code)]\n"),
+        "{generated}"
+    );
+    assert!(generated.ends_with(&code), "{generated}");
+    let model_manifest = read("model/Cargo.toml");
+    assert!(
+        model_manifest.contains("name = \"cantilever-model\""),
+        "{model_manifest}"
     );
     let manifest = read("Cargo.toml");
+    assert!(
+        manifest.contains("cantilever-model = { path = \"model\" }"),
+        "{manifest}"
+    );
     assert!(
         manifest.contains("crate-type = [\"staticlib\"]"),
         "{manifest}"

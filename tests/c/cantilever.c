@@ -129,6 +129,15 @@ static void ekf_refusals(void) {
         CHECK(cantilever_ekf_update(&ekf, nan_y) == CANTILEVER_STATUS_REJECTED_INPUT);
         CHECK(cantilever_ekf_step(&ekf, NULL, y) == CANTILEVER_STATUS_NULL_POINTER);
         CHECK(cantilever_ekf_step(&ekf, u, NULL) == CANTILEVER_STATUS_NULL_POINTER);
+        /* A method checks its storage with its arguments, before the storage's tag. */
+        CHECK(cantilever_ekf_step(NULL, u, y) == CANTILEVER_STATUS_NULL_POINTER);
+        CHECK(cantilever_ekf_step((cantilever_ekf_t *)(void *)(unaligned.bytes + 4), u, y) ==
+              CANTILEVER_STATUS_MISALIGNED_POINTER);
+        CHECK(cantilever_ekf_step(&ekf, u, (const float *)(const void *)(unaligned.bytes + 1)) ==
+              CANTILEVER_STATUS_MISALIGNED_POINTER);
+        CHECK(cantilever_ekf_step(&never_written, u, NULL) == CANTILEVER_STATUS_NULL_POINTER);
+        CHECK(cantilever_ekf_state(&never_written, (float *)(void *)(unaligned.bytes + 2)) ==
+              CANTILEVER_STATUS_MISALIGNED_POINTER);
         CHECK(cantilever_ekf_predict(NULL, u) == CANTILEVER_STATUS_NULL_POINTER);
         CHECK(cantilever_ekf_update(&ekf, NULL) == CANTILEVER_STATUS_NULL_POINTER);
         CHECK(cantilever_ekf_set_process_noise(&ekf, negative_q) == CANTILEVER_STATUS_INVALID_COVARIANCE);

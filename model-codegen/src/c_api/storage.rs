@@ -1,7 +1,7 @@
 //! The size of the storage a C program reserves for a generated type: an upper bound of
 //! the type's size, from its fields' types laid out as C lays out a struct, in
 //! declaration order (Rust reorders fields to pad less, so its layout is never larger),
-//! after the wrapper's tag. The companion crate asserts at compile time that the Rust type
+//! with the wrapper's tag after it. The companion crate asserts at compile time that the Rust type
 //! fits (`const _: () = assert!(..)`), so a bound too small is a build error, never an
 //! overrun.
 
@@ -9,8 +9,8 @@
 /// generated field has (a `usize` is counted as 8 bytes, its size on a 64-bit host).
 pub const ALIGN: usize = 8;
 
-/// The bytes of the wrapper's tag before the value (a `u32`, padded to the value's
-/// alignment, at most [`ALIGN`]).
+/// The bytes of the wrapper's tag after the value: a `u32`, and up to 4 bytes of padding
+/// before it.
 const TAG: usize = ALIGN;
 
 /// The storage's size for a type with fields `fields` (their types as the code writes
@@ -55,7 +55,7 @@ mod tests {
         assert_eq!(layout("Option<[f32; 1]>"), Some((8, 4)));
         assert_eq!(layout("[bool; 5]"), Some((5, 1)));
         assert_eq!(layout("WindowStatus"), None);
-        // The cantilever's EKF: 5 + 15 + 5 + 1 + 1 + 1 floats and a count, after the tag.
+        // The cantilever's EKF: 5 + 15 + 5 + 1 + 1 + 1 floats and a count, then the tag.
         let ekf = [
             "[f32; 5]",
             "[f32; 15]",

@@ -15,7 +15,9 @@ pub fn lib(api: &Api, provenance: &str) -> String {
         "{provenance}\n//! The C API of the `{model}` model: `extern \"C\"` functions over its \
          generated filters and controllers (`model`), declared in `include/{model}.h`.\n\n\
          #![no_std]\n#![deny(unsafe_op_in_unsafe_fn, clippy::undocumented_unsafe_blocks)]\n\n\
-         #[macro_use]\nmod support;\npub mod model;\n\n\
+         #[macro_use]\nmod support;\n\n\
+         /// The model's generated code: its own crate, `forbid(unsafe_code)`.\n\
+         pub use {model}_model as model;\n\n\
          use support::Slot;\n\n",
         model = api.model
     );
@@ -173,19 +175,14 @@ fn method(w: &Wrapped, m: &Method, out: &mut String) {
 
 /// A function's parameters, the checks of its pointers, and the arguments of the call.
 ///
-/// Every pointer that may not be null is checked first, all together
-/// (`support::checked`: one branch for any null, one for any misaligned), then the
-/// storage's tag; only then is each read.
+/// Every pointer that may not be null is checked first, all together (one branch for any
+/// null, one for any misaligned), and a method's storage's tag with them; only then is
+/// each read. A method's checks are `support::value` (`value_mut`), the others'
+/// `support::checked`.
 fn arguments(w: &Wrapped, m: &Method) -> (Vec<String>, String, Vec<String>) {
     let mut params = Vec::new();
     let mut checked = Vec::new();
     let mut reads = String::new();
-    if let Some((name, storage_name, rust_type)) = &w.this {
-        let (param, check, read) = storage(name, storage_name, rust_type, m.receiver);
-        params.push(param);
-        checked.push(check);
-        reads.push_str(&read);
-    }
     let mut args = Vec::new();
     for param in &m.params {
         let (name, value, optional) = match param {
@@ -227,53 +224,67 @@ fn arguments(w: &Wrapped, m: &Method) -> (Vec<String>, String, Vec<String>) {
              let out = unsafe {{ support::out(out) }};"
         );
     }
-    let body = if checked.is_empty() {
-        reads
-    } else {
-        format!(
+    let body = match &w.this {
+        Some((name, storage_name, rust_type)) => {
+            let (param, checks) = storage(name, storage_name, rust_type, m.receiver, checked);
+            params.insert(0, param);
+            checks + &reads
+        }
+        None if checked.is_empty() => reads,
+        None => format!(
             "    take!(support::checked([{}]));\n{reads}",
             checked.join(", ")
-        )
+        ),
     };
     (params, body, args)
 }
 
-/// The storage argument of a generated type's function: its parameter, its entry in the
-/// checks, and how it is read (its tag checked first for a method).
+/// The storage argument of a generated type's function: its parameter, and the checks of
+/// all pointers with it (`checked`: the others'), which end in its read. A method's
+/// storage is read by `support::value` (`value_mut`), which also checks its tag; a
+/// constructor's is written, its pointer checked with the others.
 fn storage(
     name: &str,
     storage_name: &str,
     rust_type: &str,
     receiver: Option<bool>,
-) -> (String, String, String) {
+    mut checked: Vec<String>,
+) -> (String, String) {
     let (mutability, access, what) = match receiver {
         None => ("mut", "slot", "valid for writes of its storage"),
         Some(true) => (
             "mut",
             "value_mut",
-            "valid for reads and writes of its storage, its tag initialised",
+            "null or valid for reads and writes of its storage, its tag initialised",
         ),
         Some(false) => (
             "const",
             "value",
-            "valid for reads of its storage, its tag initialised",
+            "null or valid for reads of its storage, its tag initialised",
         ),
     };
-    let value = format!("unsafe {{ support::{access}::<_, {rust_type}>({name}) }}");
-    let value = if receiver.is_some() {
-        format!("take!({value})")
-    } else {
-        value
-    };
-    (
-        format!("{name}: *{mutability} {storage_name}"),
-        format!("({name} as usize, core::mem::align_of::<{storage_name}>())"),
-        format!(
-            "    // SAFETY: `{name}` is {what}, unaliased, as `# Safety` requires, and \
-             neither null nor misaligned (checked above).\n    \
-             let {name} = {value};\n"
-        ),
-    )
+    let param = format!("{name}: *{mutability} {storage_name}");
+    if receiver.is_none() {
+        checked.insert(
+            0,
+            format!("({name} as usize, core::mem::align_of::<{storage_name}>())"),
+        );
+        let checks = format!(
+            "    take!(support::checked([{}]));\n    \
+             // SAFETY: `{name}` is {what}, unaliased, as `# Safety` requires, and neither \
+             null nor misaligned (checked above).\n    \
+             let {name} = unsafe {{ support::{access}::<_, {rust_type}>({name}) }};\n",
+            checked.join(", ")
+        );
+        return (param, checks);
+    }
+    let checks = format!(
+        "    // SAFETY: `{name}` is {what}, unaliased, as `# Safety` requires; \
+         `support::{access}` checks it, with the other pointers, before it reads it.\n    \
+         let {name} = take!(unsafe {{ support::{access}::<_, {rust_type}, _>({name}, [{}]) }});\n",
+        checked.join(", ")
+    );
+    (param, checks)
 }
 
 /// The end of a function: the call, its result written, its status returned.
