@@ -128,6 +128,25 @@ pub unsafe fn out<'a, T>(p: *mut T) -> &'a mut MaybeUninit<T> {
     unsafe { &mut *p.cast::<MaybeUninit<T>>() }
 }
 
+/// Where to write an optional result: `None` if `p` is null.
+///
+/// # Safety
+///
+/// `p` is null or valid for writes of a `T` for `'a`, and nothing else reads or writes
+/// it meanwhile.
+// A model whose calls return no outcome (the navigation EKF's) leaves it unused.
+#[allow(dead_code)]
+#[inline(always)]
+pub unsafe fn out_optional<'a, T>(p: *mut T) -> Result<Option<&'a mut MaybeUninit<T>>, Refused> {
+    if p.is_null() {
+        return Ok(None);
+    }
+    checked([(p as usize, core::mem::align_of::<T>())])?;
+    // SAFETY: `p` is neither null nor misaligned (checked above), valid for writes and
+    // unaliased (this function's contract).
+    Ok(Some(unsafe { out(p) }))
+}
+
 /// The storage `p` points to, to construct a `T` in: `S` is the storage type the header
 /// declares, at least as large and aligned as a `Slot<T>` (asserted where it is defined).
 ///

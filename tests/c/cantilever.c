@@ -1,7 +1,7 @@
 /*
  * The cantilever model's C API from C (tests/tests/c_api.rs builds and runs it under
  * AddressSanitizer and UndefinedBehaviorSanitizer): each function of the EKF, the gated
- * EKF, the LQR, the model functions and the f64 EKF, on valid data and on each way a
+ * EKF, the DKF, the LQR, the model functions and the f64 EKF, on valid data and on each way a
  * caller can get it wrong (null, misaligned and uninitialised pointers, non-finite
  * inputs, invalid covariances). A failed check prints its line and makes the exit status
  * nonzero. The results of the valid calls are printed as the bits of each float
@@ -351,8 +351,89 @@ static void f64_ekf_run(void) {
     CHECK(cantilever_f64_ekf_reset(&ekf, x0, p0) == CANTILEVER_STATUS_OK);
 }
 
+/* The DKF: a 40-sample run whose outcomes (the window's status and each stage's) are
+ * printed, a predict, every getter and setter, and the ways an outcome's pointer can be
+ * wrong. */
+static void dkf_run(void) {
+    static cantilever_dkf_t dkf;
+    static cantilever_dkf_t unwritten;
+    cantilever_dkf_status_t outcome;
+    union {
+        uint64_t words[2];
+        unsigned char bytes[16];
+    } unaligned; /* 8-aligned: bytes + 1 is not */
+    float state[5], covariance[5][5], innovation[1], nis, gate, noise, excitation, theta[3];
+    uint32_t refusals;
+    int k;
+    const float u[1] = {0.0f};
+    memset(&unaligned, 0, sizeof unaligned);
+    CHECK(cantilever_dkf_step(&unwritten, u, u, &outcome) == CANTILEVER_STATUS_NOT_INITIALISED);
+    CHECK(cantilever_dkf_new(&dkf, X0, P0, Q, P0, Q, R) == CANTILEVER_STATUS_OK);
+    CHECK(cantilever_dkf_step(&dkf, u, u,
+                              (cantilever_dkf_status_t *)(void *)(unaligned.bytes + 1)) ==
+          CANTILEVER_STATUS_MISALIGNED_POINTER);
+    CHECK(cantilever_dkf_step(&dkf, NULL, u, &outcome) == CANTILEVER_STATUS_NULL_POINTER);
+    printf("dkf_outcomes");
+    for (k = 1; k <= 40; k++) {
+        const float u_prev[1] = {input_at(k - 1)};
+        const float y[1] = {measurement_at(k)};
+        cantilever_status_t status;
+        memset(&outcome, 0xff, sizeof outcome);
+        status = cantilever_dkf_step(&dkf, u_prev, y, &outcome);
+        /* The status returned is the first stage's that is not OK. */
+        CHECK(status == (outcome.akf != CANTILEVER_STATUS_OK ? outcome.akf : outcome.lkf));
+        printf(" %x %x %x", (unsigned)outcome.window, (unsigned)outcome.akf, (unsigned)outcome.lkf);
+    }
+    printf("\n");
+    {
+        const float u_prev[1] = {input_at(40)};
+        /* No outcome wanted: a null pointer is allowed. */
+        CHECK(cantilever_dkf_predict(&dkf, u_prev, NULL) == CANTILEVER_STATUS_OK);
+    }
+    CHECK(cantilever_dkf_state(&dkf, state) == CANTILEVER_STATUS_OK);
+    print_f32("dkf_state", state, 5);
+    CHECK(cantilever_dkf_covariance(&dkf, covariance) == CANTILEVER_STATUS_OK);
+    print_f32("dkf_covariance", &covariance[0][0], 25);
+    CHECK(cantilever_dkf_akf_state(&dkf, state) == CANTILEVER_STATUS_OK);
+    print_f32("dkf_akf_state", state, 5);
+    CHECK(cantilever_dkf_akf_covariance(&dkf, covariance) == CANTILEVER_STATUS_OK);
+    print_f32("dkf_akf_covariance", &covariance[0][0], 25);
+    CHECK(cantilever_dkf_innovation(&dkf, innovation) == CANTILEVER_STATUS_OK);
+    CHECK(cantilever_dkf_normalised_innovation_squared(&dkf, &nis) == CANTILEVER_STATUS_OK);
+    print_f32("dkf_innovation", (const float[]){innovation[0], nis}, 2);
+    CHECK(cantilever_dkf_akf_innovation(&dkf, innovation) == CANTILEVER_STATUS_OK);
+    CHECK(cantilever_dkf_akf_normalised_innovation_squared(&dkf, &nis) == CANTILEVER_STATUS_OK);
+    print_f32("dkf_akf_innovation", (const float[]){innovation[0], nis}, 2);
+    CHECK(cantilever_dkf_window_equation_noise(&dkf, &noise) == CANTILEVER_STATUS_OK);
+    CHECK(cantilever_dkf_excitation(&dkf, &excitation) == CANTILEVER_STATUS_OK);
+    CHECK(cantilever_dkf_window_parameters(&dkf, theta) == CANTILEVER_STATUS_OK);
+    print_f32("dkf_window", (const float[]){noise, excitation, theta[0], theta[1], theta[2]}, 5);
+    CHECK(cantilever_dkf_refusals(&dkf, &refusals) == CANTILEVER_STATUS_OK);
+    CHECK(refusals == 0);
+    CHECK(cantilever_dkf_akf_refusals(&dkf, &refusals) == CANTILEVER_STATUS_OK);
+    CHECK(refusals == 0);
+    /* The setters, then a reset to where the run started. */
+    CHECK(cantilever_dkf_innovation_gate(&dkf, &gate) == CANTILEVER_STATUS_OK);
+    CHECK(cantilever_dkf_set_innovation_gate(&dkf, 16.0f) == CANTILEVER_STATUS_OK);
+    CHECK(cantilever_dkf_innovation_gate(&dkf, &gate) == CANTILEVER_STATUS_OK && gate == 16.0f);
+    CHECK(cantilever_dkf_set_min_excitation(&dkf, 1e-5f) == CANTILEVER_STATUS_OK);
+    CHECK(cantilever_dkf_set_process_noise(&dkf, Q) == CANTILEVER_STATUS_OK);
+    CHECK(cantilever_dkf_set_akf_process_noise(&dkf, Q) == CANTILEVER_STATUS_OK);
+    CHECK(cantilever_dkf_set_measurement_noise(&dkf, R) == CANTILEVER_STATUS_OK);
+    CHECK(cantilever_dkf_reset(&dkf, X0, P0, P0) == CANTILEVER_STATUS_OK);
+    CHECK(cantilever_dkf_state(&dkf, state) == CANTILEVER_STATUS_OK);
+    CHECK(memcmp(state, X0, sizeof state) == 0);
+    {
+        const float nan_y[1] = {NAN};
+        memset(&outcome, 0, sizeof outcome);
+        CHECK(cantilever_dkf_step(&dkf, u, nan_y, &outcome) == CANTILEVER_STATUS_REJECTED_INPUT);
+        CHECK(outcome.akf == CANTILEVER_STATUS_REJECTED_INPUT);
+    }
+}
+
 int main(void) {
     ekf_refusals();
+    dkf_run();
     ekf_run();
     gated_ekf_run();
     lqr_run();

@@ -1,32 +1,42 @@
-//! The C API (`stateforge-codegen c-api`) as a C program uses it: the cantilever's
-//! companion crate written, its header compiled as C99 and C++17 with every warning an
-//! error, its static library built, and `tests/c/cantilever.c` linked against it under
-//! AddressSanitizer and UndefinedBehaviorSanitizer and run. The program checks every
-//! function of the EKF, the gated EKF, the LQR, the model functions and the f64 EKF,
-//! their refusals included; its results must be the generated Rust code's, bit for bit.
+//! The C API (`stateforge-codegen c-api`) as a C program uses it: the cantilever's and
+//! the mass-spring-damper's companion crates written, their headers compiled as C99 and
+//! C++17 with every warning an error, their static libraries built, and
+//! `tests/c/<model>.c` linked against each under AddressSanitizer and
+//! UndefinedBehaviorSanitizer and run. The programs check every function of the EKF, the
+//! gated EKF, the DKF, the LQR, the model functions and the f64 EKF (the cantilever's),
+//! and of the MPC, the hybrid EKF and the f64 MPC (the mass-spring-damper's), their
+//! refusals included; their results must be the generated Rust code's, bit for bit.
 //! Needs the host's `gcc` and `g++`.
 
-use generated_demo::cantilever;
+use generated_demo::{cantilever, mass_spring_damper};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use tests::workspace_path;
 
 /// The companion crate of the cantilever, written once for the tests of this file.
 fn companion() -> PathBuf {
-    static WRITTEN: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
-    WRITTEN
-        .get_or_init(|| {
-            let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("c-api-cantilever");
-            let options = stateforge_cli::c_api::Options {
-                math_dependency: stateforge_cli::math_dependency(),
-                provenance: "// Generated for the tests from generated-demo/models/cantilever.rs."
-                    .to_owned(),
-            };
-            let code = tests::demo_model_code("cantilever");
-            stateforge_cli::c_api::write(&code, &dir, &options).expect("the C API is written");
-            dir
-        })
-        .clone()
+    companion_of("cantilever")
+}
+
+/// The companion crate of a demo model, written once for the tests of this file.
+fn companion_of(model: &str) -> PathBuf {
+    static WRITTEN: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("c-api-{model}"));
+    let mut written = WRITTEN
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if !written.iter().any(|m| m == model) {
+        let options = stateforge_cli::c_api::Options {
+            math_dependency: stateforge_cli::math_dependency(),
+            provenance: format!(
+                "// Generated for the tests from generated-demo/models/{model}.rs."
+            ),
+        };
+        let code = tests::demo_model_code(model);
+        stateforge_cli::c_api::write(&code, &dir, &options).expect("the C API is written");
+        written.push(model.to_owned());
+    }
+    dir
 }
 
 /// Runs `command`, panicking with its output unless it succeeds; its standard output.
@@ -108,9 +118,14 @@ fn the_unsafe_code_is_in_the_wrapper_only_each_block_with_its_reason() {
         .env_remove("CARGO_ENCODED_RUSTFLAGS"));
 }
 
-/// The host's static library, built in release: its path.
+/// The host's static library of the cantilever, built in release: its path.
 fn host_library() -> PathBuf {
-    let dir = companion();
+    host_library_of("cantilever")
+}
+
+/// The host's static library of a demo model, built in release: its path.
+fn host_library_of(model: &str) -> PathBuf {
+    let dir = companion_of(model);
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     run(Command::new(cargo)
         .args(["build", "--release", "--quiet", "--target-dir"])
@@ -118,14 +133,15 @@ fn host_library() -> PathBuf {
         .current_dir(&dir)
         .env_remove("RUSTFLAGS")
         .env_remove("CARGO_ENCODED_RUSTFLAGS"));
-    dir.join("target/release/libcantilever_c.a")
+    dir.join(format!("target/release/lib{model}_c.a"))
 }
 
-/// The C program built against the static library, with the sanitizers; its output.
-fn c_program_output() -> String {
-    let library = host_library();
-    let dir = companion();
-    let program = dir.join("cantilever_test");
+/// The program `tests/c/<model>.c` built against the model's static library, with the
+/// sanitizers; its output.
+fn c_program_output(model: &str) -> String {
+    let library = host_library_of(model);
+    let dir = companion_of(model);
+    let program = dir.join(format!("{model}_test"));
     run(Command::new("gcc")
         .args([
             "-std=c99",
@@ -138,7 +154,7 @@ fn c_program_output() -> String {
         .args(["-fsanitize=address,undefined", "-fno-sanitize-recover=all"])
         .arg("-I")
         .arg(dir.join("include"))
-        .arg(workspace_path("tests/c/cantilever.c"))
+        .arg(workspace_path(&format!("tests/c/{model}.c")))
         .arg(library)
         .args(["-lm", "-o"])
         .arg(&program));
@@ -193,7 +209,7 @@ fn bits(values: &[f32]) -> Vec<u32> {
 
 #[test]
 fn the_sanitised_c_program_passes_and_computes_what_rust_computes() {
-    let output = c_program_output();
+    let output = c_program_output("cantilever");
     assert!(
         output.contains("failures 0\n"),
         "the C program's checks failed:\n{output}"
@@ -246,6 +262,7 @@ fn the_sanitised_c_program_passes_and_computes_what_rust_computes() {
     );
     model_functions_agree(&output);
     f64_ekf_agrees(&output);
+    dkf_agrees(&output);
     let constants = format!(
         "constants {} {} {} {}\n",
         cantilever::X_LEN,
@@ -255,6 +272,55 @@ fn the_sanitised_c_program_passes_and_computes_what_rust_computes() {
     );
     assert!(output.contains(&constants), "{constants} not in\n{output}");
     assert_eq!(printed_f32(&output, "ts"), bits(&[cantilever::TS]));
+}
+
+/// The DKF's run: each step's outcome (the window's status and each stage's, as their C
+/// enums number them: the Rust variants' order), then the estimates after a predict.
+fn dkf_agrees(output: &str) {
+    let mut dkf = cantilever::Dkf::new(&X0, &P0, &Q, &P0, &Q, &R).expect("a filter");
+    let mut outcomes = Vec::new();
+    for k in 1..=40 {
+        let outcome = dkf.step(&[input_at(k - 1)], &[measurement_at(k)]);
+        outcomes.extend([
+            outcome.window as u64,
+            outcome.akf as u64,
+            outcome.lkf as u64,
+        ]);
+    }
+    assert_eq!(printed(output, "dkf_outcomes"), outcomes);
+    assert!(dkf.predict(&[input_at(40)]).is_ok());
+    assert_eq!(printed_f32(output, "dkf_state"), bits(&dkf.state()));
+    assert_eq!(
+        printed_f32(output, "dkf_covariance"),
+        bits(dkf.covariance().as_flattened())
+    );
+    assert_eq!(printed_f32(output, "dkf_akf_state"), bits(&dkf.akf_state()));
+    assert_eq!(
+        printed_f32(output, "dkf_akf_covariance"),
+        bits(dkf.akf_covariance().as_flattened())
+    );
+    assert_eq!(
+        printed_f32(output, "dkf_innovation"),
+        bits(&[dkf.innovation()[0], dkf.normalised_innovation_squared()])
+    );
+    assert_eq!(
+        printed_f32(output, "dkf_akf_innovation"),
+        bits(&[
+            dkf.akf_innovation()[0],
+            dkf.akf_normalised_innovation_squared()
+        ])
+    );
+    let theta = dkf.window_parameters();
+    assert_eq!(
+        printed_f32(output, "dkf_window"),
+        bits(&[
+            dkf.window_equation_noise(),
+            dkf.excitation(),
+            theta[0],
+            theta[1],
+            theta[2]
+        ])
+    );
 }
 
 fn model_functions_agree(output: &str) {
@@ -320,33 +386,218 @@ fn f64_ekf_agrees(output: &str) {
 }
 
 #[test]
-fn the_c_program_calls_every_function_of_the_types_it_covers() {
-    let header = std::fs::read_to_string(companion().join("include/cantilever.h")).expect("header");
-    let program = std::fs::read_to_string(workspace_path("tests/c/cantilever.c")).expect("program");
+fn the_c_programs_call_every_function_of_the_types_they_cover() {
     let covered = [
         "cantilever_ekf_",
         "cantilever_gated_ekf_",
+        "cantilever_dkf_",
         "cantilever_lqr_",
         "cantilever_f64_ekf_",
     ];
     let free = ["cantilever_f(", "cantilever_h(", "cantilever_jacobian_"];
+    assert!(calls_every_function("cantilever", &covered, &free) >= 60);
+    let covered = [
+        "mass_spring_damper_mpc_",
+        "mass_spring_damper_hybrid_ekf_",
+        "mass_spring_damper_f64_mpc_",
+    ];
+    let free = [
+        "mass_spring_damper_f(",
+        "mass_spring_damper_h(",
+        "mass_spring_damper_jacobian_",
+    ];
+    assert!(calls_every_function("mass_spring_damper", &covered, &free) >= 35);
+}
+
+/// Asserts that `tests/c/<model>.c` calls every function of the header whose name starts
+/// with one of `covered` (or, followed by `(`, of `free`); how many there are.
+fn calls_every_function(model: &str, covered: &[&str], free: &[&str]) -> usize {
+    let header = std::fs::read_to_string(companion_of(model).join(format!("include/{model}.h")))
+        .expect("header");
+    let program =
+        std::fs::read_to_string(workspace_path(&format!("tests/c/{model}.c"))).expect("program");
+    let returns = format!("{model}_status_t ");
     let mut checked = 0;
-    for line in header
-        .lines()
-        .filter(|l| l.starts_with("cantilever_status_t "))
-    {
-        let name = &line["cantilever_status_t ".len()..line.find('(').expect("a declaration")];
+    for line in header.lines().filter(|l| l.starts_with(&returns)) {
+        let name = &line[returns.len()..line.find('(').expect("a declaration")];
         let is_covered = covered.iter().any(|p| name.starts_with(p))
             || free.iter().any(|p| format!("{name}(").starts_with(p));
         if is_covered {
             checked += 1;
             assert!(
                 program.contains(&format!("{name}(")),
-                "tests/c/cantilever.c never calls {name}"
+                "tests/c/{model}.c never calls {name}"
             );
         }
     }
-    assert!(checked >= 40, "only {checked} functions covered");
+    checked
+}
+
+/// The state `tests/c/mass_spring_damper.c` gives the MPC at sample `k`.
+#[allow(clippy::cast_precision_loss)]
+fn mpc_state_at(k: i32) -> [f32; 5] {
+    [
+        0.002 * ((k * 3) % 7) as f32 - 0.006,
+        0.05 * ((k * 5) % 9) as f32 - 0.2,
+        0.0,
+        0.0,
+        5.0 + 0.5 * (k / 10) as f32,
+    ]
+}
+
+/// An MPC solve's outcome as the C program prints it: its fields, the enums numbered in
+/// their variants' order (the f32 and f64 outcomes are two types).
+macro_rules! outcome_fields {
+    ($outcome:expr) => {{
+        let outcome = $outcome;
+        [
+            outcome.status as u64,
+            u64::from(outcome.optimal),
+            outcome.iterations as u64,
+            u64::from(outcome.terminal_weight_converged),
+            outcome.rebuilt as u64,
+        ]
+    }};
+}
+
+#[test]
+fn the_sanitised_mpc_program_passes_and_computes_what_rust_computes() {
+    let output = c_program_output("mass_spring_damper");
+    assert!(
+        output.contains("failures 0\n"),
+        "the C program's checks failed:\n{output}"
+    );
+    mpc_agrees(&output);
+    hybrid_ekf_agrees(&output);
+    let x = [0.01, -0.2, 0.5, -1.0, 5.0];
+    assert_eq!(
+        printed_f32(&output, "f"),
+        bits(&mass_spring_damper::f(&x, &[10.0]))
+    );
+    assert_eq!(printed_f32(&output, "h"), bits(&mass_spring_damper::h(&x)));
+    assert_eq!(
+        printed_f32(&output, "jacobian_h_wrt_x"),
+        bits(mass_spring_damper::jacobian_h_wrt_x(&x).as_flattened())
+    );
+    f64_mpc_agrees(&output);
+}
+
+fn mpc_agrees(output: &str) {
+    use mass_spring_damper::{Mpc, Status};
+    let (q, r) = ([[1e4, 0.0], [0.0, 1.0]], [[1e-4]]);
+    let (u_min, u_max) = ([-3.0], [3.0]);
+    let mut mpc = Mpc::new(&q, &r, &u_min, &u_max).expect("an MPC");
+    assert_eq!(mpc.set_reference(&[0.0, 0.0], &[0.0]), Status::Ok);
+    assert_eq!(mpc.set_weights(&q, &r), Status::Ok);
+    assert_eq!(mpc.set_input_limits(&u_min, &u_max), Status::Ok);
+    let mut u = [0.0];
+    let refusals = [
+        mpc.solve(&[0.0, f32::NAN, 0.0, 0.0, 5.0], &u).status as u64,
+        mpc.set_weights(&[[f32::NAN, 0.0], [0.0, 1.0]], &r) as u64,
+        mpc.set_input_limits(&[1.0], &[-1.0]) as u64,
+    ];
+    assert_eq!(printed(output, "mpc_refusals"), refusals);
+    assert!(refusals.iter().all(|&s| s != Status::Ok as u64));
+    let mut outcomes = Vec::new();
+    for k in 0..30 {
+        outcomes.extend(outcome_fields!(mpc.solve(&mpc_state_at(k), &u)));
+        u = mpc.control();
+    }
+    assert_eq!(printed(output, "mpc_outcomes"), outcomes);
+    // The model was rebuilt as the inverse mass moved, and some solves held a bound.
+    assert!(outcomes.chunks(5).any(|o| o[4] == 2));
+    assert!(outcomes.chunks(5).any(|o| o[2] > 1));
+    assert_eq!(mpc.solve(&mpc_state_at(29), &u).status, Status::Ok);
+    assert_eq!(printed_f32(output, "mpc_control"), bits(&mpc.control()));
+    assert_eq!(
+        printed_f32(output, "mpc_plan"),
+        bits(mpc.plan().as_flattened())
+    );
+    let model = mpc.model();
+    assert_eq!(
+        printed_f32(output, "mpc_model"),
+        bits(model.a.as_flattened())
+    );
+    assert_eq!(
+        printed_f32(output, "mpc_model_b"),
+        bits(model.b.as_flattened())
+    );
+    assert_eq!(
+        printed_f32(output, "mpc_terminal_weight"),
+        bits(mpc.terminal_weight().as_flattened())
+    );
+    assert_eq!(
+        printed_f32(output, "mpc_terminal_gain"),
+        bits(mpc.terminal_gain().as_flattened())
+    );
+    let predicted = Mpc::prediction_model(&mpc_state_at(29), &mpc.control()).expect("a model");
+    assert_eq!(
+        printed_f32(output, "mpc_prediction_model"),
+        bits(predicted.a.as_flattened())
+    );
+}
+
+#[allow(clippy::cast_precision_loss)]
+fn hybrid_ekf_agrees(output: &str) {
+    use mass_spring_damper::HybridEkf;
+    let x0 = [0.0, 0.0, 0.0, 0.0, 2.0];
+    let mut p0 = [[0.0; 5]; 5];
+    for (i, variance) in [1e-6, 1e-4, 1e-4, 1e-2, 1.0].into_iter().enumerate() {
+        p0[i][i] = variance;
+    }
+    let mut ekf = HybridEkf::new(&x0, &p0, &[1e-2, 1e-3], &[[1e-8]]).expect("a filter");
+    let statuses: Vec<u64> = (1..=20)
+        .map(|k| {
+            let u_prev = (k % 5) as f32 - 2.0;
+            let y = 1e-4 * ((k * 7) % 11) as f32 - 5e-4;
+            ekf.step(&[u_prev], &[y]) as u64
+        })
+        .collect();
+    assert_eq!(printed(output, "hybrid_statuses"), statuses);
+    assert_eq!(ekf.predict(&[1.0]), mass_spring_damper::Status::Ok);
+    assert_eq!(ekf.update(&[2e-4]), mass_spring_damper::Status::Ok);
+    assert_eq!(printed_f32(output, "hybrid_state"), bits(&ekf.state()));
+    assert_eq!(
+        printed_f32(output, "hybrid_covariance"),
+        bits(ekf.covariance().as_flattened())
+    );
+    assert_eq!(
+        printed_f32(output, "hybrid_innovation"),
+        bits(&[ekf.innovation()[0], ekf.normalised_innovation_squared()])
+    );
+    assert_eq!(
+        printed(output, "hybrid_refusals"),
+        [u64::from(ekf.refusals())]
+    );
+}
+
+fn f64_mpc_agrees(output: &str) {
+    use mass_spring_damper::in_f64::Mpc;
+    let mut mpc =
+        Mpc::new(&[[1e4, 0.0], [0.0, 1.0]], &[[1e-4]], &[-100.0], &[100.0]).expect("an MPC");
+    let mut u = [0.0];
+    let mut outcomes = Vec::new();
+    for k in 0..10 {
+        let x = mpc_state_at(k).map(f64::from);
+        outcomes.extend(outcome_fields!(mpc.solve(&x, &u)));
+        u = mpc.control();
+    }
+    assert_eq!(printed(output, "f64_mpc_outcomes"), outcomes);
+    let f64_bits = |values: &[f64]| values.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+    assert_eq!(printed(output, "f64_mpc_control"), f64_bits(&u));
+    assert_eq!(
+        printed(output, "f64_mpc_plan"),
+        f64_bits(mpc.plan().as_flattened())
+    );
+    assert_eq!(
+        printed(output, "f64_mpc_model"),
+        f64_bits(mpc.model().a.as_flattened())
+    );
+    let (weight, gain) = (mpc.terminal_weight(), mpc.terminal_gain());
+    assert_eq!(
+        printed(output, "f64_mpc_terminal"),
+        f64_bits(&[weight[0][0], weight[1][1], gain[0][0], gain[0][1]])
+    );
 }
 
 /// The symbols of an object file or image, as `nm` lists them.

@@ -2,8 +2,9 @@
 //! generated type its storage (a union of the size and alignment the crate asserts) and
 //! its functions, each documented from the model's own docs. C99 and C++ alike.
 
-use super::names::{prefix, snake, REFUSALS};
+use super::names::{prefix, record, snake, REFUSALS};
 use super::reading::{Api, Method, Output, Param, Scope, Type, Value};
+use super::records::{Field, Record};
 use super::storage;
 use std::fmt::Write;
 
@@ -11,7 +12,7 @@ use std::fmt::Write;
 pub fn header(api: &Api, provenance: &str) -> String {
     let guard = format!("{}_H", api.model.to_ascii_uppercase());
     let mut out = format!(
-        "/* {} */\n#ifndef {guard}\n#define {guard}\n\n#include <stdint.h>\n\n\
+        "/* {} */\n#ifndef {guard}\n#define {guard}\n\n#include <stdbool.h>\n#include <stdint.h>\n\n\
          #ifdef __cplusplus\nextern \"C\" {{\n#endif\n\n",
         comment_text(provenance.trim_start_matches("// "))
     );
@@ -38,6 +39,7 @@ pub fn header(api: &Api, provenance: &str) -> String {
                 constant.value
             );
         }
+        records(api, scope, &mut out);
         for ty in &scope.types {
             generated_type(api, scope, ty, &mut out);
         }
@@ -85,10 +87,56 @@ fn statuses(api: &Api, out: &mut String) {
     let _ = writeln!(out, "}} {name}_t;\n");
 }
 
+/// The enums and records a scope's functions return, as C types.
+fn records(api: &Api, scope: &Scope, out: &mut String) {
+    let prefix = prefix(&api.model, scope);
+    for e in &scope.enums {
+        let c_name = record(&prefix, &e.name);
+        let upper = c_name.to_ascii_uppercase();
+        doc_block(&translate(&e.doc, api, scope), "", out);
+        let _ = writeln!(out, "typedef enum {c_name} {{");
+        for (i, (variant, doc)) in e.variants.iter().enumerate() {
+            doc_block(&translate(doc, api, scope), "    ", out);
+            let comma = if i + 1 < e.variants.len() { "," } else { "" };
+            let _ = writeln!(
+                out,
+                "    {upper}_{} = {i}{comma}",
+                snake(variant).to_ascii_uppercase()
+            );
+        }
+        let _ = writeln!(out, "}} {c_name}_t;\n");
+    }
+    for r in &scope.records {
+        record_struct(api, scope, &prefix, r, out);
+    }
+}
+
+/// A record as a C struct.
+fn record_struct(api: &Api, scope: &Scope, prefix: &str, r: &Record, out: &mut String) {
+    let c_name = record(prefix, &r.name);
+    let scalar = scope.scalar.c();
+    doc_block(&translate(&r.doc, api, scope), "", out);
+    let _ = writeln!(out, "typedef struct {c_name} {{");
+    for (field, kind, doc) in &r.fields {
+        doc_block(&translate(doc, api, scope), "    ", out);
+        let declaration = match kind {
+            Field::Status => format!("{}_status_t {field}", api.model),
+            Field::Enum(e) => format!("{}_t {field}", record(prefix, e)),
+            Field::Flag => format!("bool {field}"),
+            Field::Count { .. } => format!("uint32_t {field}"),
+            Field::Value(Value::Vector(n)) => format!("{scalar} {field}[{n}]"),
+            Field::Value(Value::Matrix(rows, cols)) => format!("{scalar} {field}[{rows}][{cols}]"),
+            Field::Value(_) => format!("{scalar} {field}"),
+        };
+        let _ = writeln!(out, "    {declaration};");
+    }
+    let _ = writeln!(out, "}} {c_name}_t;\n");
+}
+
 /// A type's storage, its size and alignment, and its functions.
 fn generated_type(api: &Api, scope: &Scope, ty: &Type, out: &mut String) {
     let c_name = format!("{}_{}", prefix(&api.model, scope), snake(&ty.name));
-    let Some(size) = storage::size(&ty.fields) else {
+    let Some(size) = ty.storage else {
         let _ = writeln!(
             out,
             "/* {c_name}: not in the C API (the Rust type `{}` has a field whose layout the \
@@ -131,7 +179,10 @@ fn generated_type(api: &Api, scope: &Scope, ty: &Type, out: &mut String) {
     let this = snake(&ty.name);
     for m in &ty.methods {
         let name = format!("{c_name}_{}", m.name);
-        function_declaration(api, scope, &name, Some((&this, &c_name)), m, out);
+        let storage = m
+            .takes_storage()
+            .then_some((this.as_str(), c_name.as_str()));
+        function_declaration(api, scope, &name, storage, m, out);
     }
 }
 
@@ -167,15 +218,18 @@ fn function_declaration(
             Param::Required(name, value) => (name, value, false),
             Param::Optional(name, value) => (name, value, true),
         };
-        params.push(c_param(name, value, scalar, true));
+        params.push(c_param(
+            name,
+            value,
+            scalar,
+            true,
+            &prefix(&api.model, scope),
+        ));
         if optional {
             doc.push(format!("`{name}`: may be NULL (none)."));
         }
     }
-    if let Output::Value(v) | Output::Fallible(v) = &m.output {
-        params.push(c_param("out", v, scalar, false));
-        doc.push("`out`: where the result is written (only if the status is OK).".to_owned());
-    }
+    output_param(api, scope, &m.output, &mut params, &mut doc);
     let status = format!("{}_STATUS", api.model.to_ascii_uppercase());
     doc.push(format!(
         "Returns {status}_NULL_POINTER or {status}_MISALIGNED_POINTER if a pointer is null or \
@@ -197,10 +251,51 @@ fn function_declaration(
     );
 }
 
-/// A parameter's declaration (`const float x0[5]`, `float gate`, `uint32_t *out`).
-fn c_param(name: &str, value: &Value, scalar: &str, input: bool) -> String {
+/// The parameter a result is written through, if one is, and its documentation.
+fn output_param(
+    api: &Api,
+    scope: &Scope,
+    output: &Output,
+    params: &mut Vec<String>,
+    doc: &mut Vec<String>,
+) {
+    let prefix = prefix(&api.model, scope);
+    match output {
+        Output::Value(v) | Output::Fallible(v) => {
+            params.push(c_param("out", v, scope.scalar.c(), false, &prefix));
+            doc.push("`out`: where the result is written (only if the status is OK).".to_owned());
+        }
+        Output::Outcome(name) => {
+            let statuses = scope
+                .records
+                .iter()
+                .find(|r| r.name == *name)
+                .map(Record::statuses)
+                .unwrap_or_default();
+            params.push(format!("{}_t *out", record(&prefix, name)));
+            let fields: Vec<String> = statuses.iter().map(|s| format!("`{s}`")).collect();
+            let returned = match fields.as_slice() {
+                [one] => format!("its {one}"),
+                _ => format!(
+                    "the first of its {} that is not OK, else OK",
+                    fields.join(", ")
+                ),
+            };
+            doc.push(format!(
+                "`out`: may be NULL; else where the whole outcome is written. Returns \
+                 {returned}."
+            ));
+        }
+        _ => {}
+    }
+}
+
+/// A parameter's declaration (`const float x0[5]`, `float gate`, `uint32_t *out`); a
+/// record's type is named after `prefix`.
+fn c_param(name: &str, value: &Value, scalar: &str, input: bool, prefix: &str) -> String {
     let constness = if input { "const " } else { "" };
     match value {
+        Value::Record(r) => format!("{constness}{}_t *{name}", record(prefix, r)),
         Value::Scalar if input => format!("{scalar} {name}"),
         Value::Scalar => format!("{scalar} *{name}"),
         Value::Count => format!("uint32_t *{name}"),
@@ -209,7 +304,8 @@ fn c_param(name: &str, value: &Value, scalar: &str, input: bool) -> String {
     }
 }
 
-/// The model's docs in the header's terms: its statuses and functions by their C names.
+/// The model's docs in the header's terms: its statuses, enums and functions by their C
+/// names.
 fn translate(lines: &[String], api: &Api, scope: &Scope) -> Vec<String> {
     let status = format!("{}_STATUS", api.model.to_ascii_uppercase());
     let prefix = prefix(&api.model, scope);
@@ -223,6 +319,15 @@ fn translate(lines: &[String], api: &Api, scope: &Scope) -> Vec<String> {
                 line = line
                     .replace(&format!("[`Status::{variant}`]"), &c)
                     .replace(&format!("`Status::{variant}`"), &c);
+            }
+            for e in &scope.enums {
+                let enum_prefix = record(&prefix, &e.name).to_ascii_uppercase();
+                for (variant, _) in &e.variants {
+                    let c = format!("{enum_prefix}_{}", snake(variant).to_ascii_uppercase());
+                    line = line
+                        .replace(&format!("[`{}::{variant}`]", e.name), &c)
+                        .replace(&format!("`{}::{variant}`", e.name), &c);
+                }
             }
             for ty in &scope.types {
                 for m in &ty.methods {

@@ -18,14 +18,19 @@
 //! module of the wrapper's crate instead, the same filter step was given its registers
 //! differently, at a dozen instructions more per call.
 //!
-//! `reading` reads what C can call from the generated code, `names` names it in C,
-//! `storage` sizes the storage a C program reserves, `wrapper` writes the Rust functions,
-//! `header` the C declarations.
+//! `reading` reads what C can call from the generated code (`values`: the shapes of the
+//! values it passes; `records`: the structs and enums it receives), `names` names it in
+//! C, `storage` sizes the storage a C program reserves, `wrapper` writes the Rust
+//! functions (`mirrors`: the `repr(C)` forms of the records), `header` the C
+//! declarations.
 
 mod header;
+mod mirrors;
 mod names;
 mod reading;
+mod records;
 mod storage;
+mod values;
 mod wrapper;
 
 use std::path::Path;

@@ -45,6 +45,13 @@ pub fn prefix(model: &str, scope: &Scope) -> String {
     }
 }
 
+/// The C name of a record or enum of the scope whose names start with `prefix`
+/// (`cantilever_dkf_status`, `cantilever_f64_window_status`), without `_t`; its Rust
+/// mirror's is its camel case.
+pub fn record(prefix: &str, name: &str) -> String {
+    format!("{prefix}_{}", snake(name))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -4,48 +4,12 @@
 //! API's conventions (the language reference's "The generated API") make this a reading of
 //! signatures: arrays by reference, a constructor `new(..) -> Result<Self, Status>`.
 
+use super::records::{self, Enumeration, Known, Record};
+use super::storage;
+use super::values::array;
+pub use super::values::{Scalar, Value};
 use crate::generated_api::{self, doc, inline_items, type_text, Receiver, Signature};
 use syn::{Item, Type as SynType};
-
-/// The floating-point type of a scope's code.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Scalar {
-    /// `f32`, C's `float`.
-    F32,
-    /// `f64`, C's `double`.
-    F64,
-}
-
-impl Scalar {
-    /// Its Rust name.
-    pub fn rust(self) -> &'static str {
-        match self {
-            Scalar::F32 => "f32",
-            Scalar::F64 => "f64",
-        }
-    }
-
-    /// Its C name.
-    pub fn c(self) -> &'static str {
-        match self {
-            Scalar::F32 => "float",
-            Scalar::F64 => "double",
-        }
-    }
-}
-
-/// The shape of a value C passes: a scalar, or an array of one or two dimensions.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Value {
-    /// The scope's scalar.
-    Scalar,
-    /// `[s; n]`.
-    Vector(usize),
-    /// `[[s; cols]; rows]`.
-    Matrix(usize, usize),
-    /// `u32`.
-    Count,
-}
 
 /// An argument of a method.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -67,6 +31,10 @@ pub enum Output {
     Value(Value),
     /// `Result<value, Status>`: the value written on `Ok`.
     Fallible(Value),
+    /// A record with `Status` fields (`DkfStatus`, `MpcStatus`), by its Rust name: the
+    /// first of them that is not `Ok` returned, the whole written through an optional
+    /// output pointer.
+    Outcome(String),
     /// `Self` or (`fallible`) `Result<Self, Status>`: the constructor, written into the
     /// storage.
     Constructed {
@@ -90,6 +58,15 @@ pub struct Method {
     pub output: Output,
 }
 
+impl Method {
+    /// Whether a type's function takes its storage: a method, or the constructor that
+    /// writes it (an associated function that constructs nothing, `Mpc::prediction_model`,
+    /// does not).
+    pub fn takes_storage(&self) -> bool {
+        self.receiver.is_some() || matches!(self.output, Output::Constructed { .. })
+    }
+}
+
 /// A public constant C can hold: an integer or a float.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Constant {
@@ -109,8 +86,8 @@ pub struct Type {
     pub name: String,
     /// Its doc comment's lines.
     pub doc: Vec<String>,
-    /// Its fields' types, as the code writes them (for the size of its storage).
-    pub fields: Vec<String>,
+    /// The size of its storage (`storage::size`), `None` if a field's layout is unknown.
+    pub storage: Option<usize>,
     /// The methods C can call, in the code's order, the constructor first.
     pub methods: Vec<Method>,
     /// The public methods C cannot call (an argument or result it cannot pass).
@@ -132,6 +109,10 @@ pub struct Scope {
     pub functions: Vec<Method>,
     /// Its constants C can hold.
     pub constants: Vec<Constant>,
+    /// The records its functions return, in the code's order.
+    pub records: Vec<Record>,
+    /// The enums those records hold, in the code's order.
+    pub enums: Vec<Enumeration>,
 }
 
 /// What the C API offers.
@@ -227,6 +208,7 @@ fn signature_text(sig: &syn::Signature) -> String {
 
 /// The items of one module as the C API offers them.
 fn scope(module: String, scalar: Scalar, first: bool, items: &[Item]) -> Scope {
+    let known = records::read(items, scalar);
     let mut constants = Vec::new();
     let mut types = Vec::new();
     let mut functions = Vec::new();
@@ -251,18 +233,19 @@ fn scope(module: String, scalar: Scalar, first: bool, items: &[Item]) -> Scope {
             }
             Item::Fn(f) if generated_api::public(&f.vis) => {
                 let signature = generated_api::signature(&f.sig, &f.attrs);
-                if let Some(method) = method(&signature, scalar) {
+                if let Some(method) = method(&signature, scalar, &known) {
                     functions.push(method);
                 }
             }
             Item::Impl(block) => {
                 if let Some(block) = generated_api::inherent_impl(block) {
-                    types.extend(generated_type(&block, items, scalar, &mut constants));
+                    types.extend(generated_type(&block, items, &known, &mut constants));
                 }
             }
             _ => {}
         }
     }
+    let (records, enums) = returned(&known, &types, &functions);
     Scope {
         module,
         scalar,
@@ -270,7 +253,46 @@ fn scope(module: String, scalar: Scalar, first: bool, items: &[Item]) -> Scope {
         types,
         functions,
         constants,
+        records,
+        enums,
     }
+}
+
+/// The records the functions of `types` and `functions` return, and the enums they hold,
+/// in the code's order.
+fn returned(
+    known: &Known,
+    types: &[Type],
+    functions: &[Method],
+) -> (Vec<Record>, Vec<Enumeration>) {
+    let methods = types
+        .iter()
+        .filter(|ty| ty.storage.is_some())
+        .flat_map(|ty| &ty.methods)
+        .chain(functions);
+    let names: Vec<&str> = methods
+        .filter_map(|m| match &m.output {
+            Output::Outcome(name)
+            | Output::Value(Value::Record(name))
+            | Output::Fallible(Value::Record(name)) => Some(name.as_str()),
+            _ => None,
+        })
+        .collect();
+    let records: Vec<Record> = known
+        .records
+        .iter()
+        .filter(|r| names.contains(&r.name.as_str()))
+        .cloned()
+        .collect();
+    let held = |e: &&Enumeration| {
+        records.iter().any(|r| {
+            r.fields
+                .iter()
+                .any(|(_, f, _)| *f == records::Field::Enum(e.name.clone()))
+        })
+    };
+    let enums = known.enums.iter().filter(held).cloned().collect();
+    (records, enums)
 }
 
 /// The type an `impl` block is for, with its methods, if it has a constructor; its
@@ -278,18 +300,19 @@ fn scope(module: String, scalar: Scalar, first: bool, items: &[Item]) -> Scope {
 fn generated_type(
     block: &generated_api::Impl,
     items: &[Item],
-    scalar: Scalar,
+    known: &Known,
     constants: &mut Vec<Constant>,
 ) -> Option<Type> {
     let name = block.name.clone();
-    let fields = items.iter().find_map(|item| match item {
+    let definition = items.iter().find_map(|item| match item {
         Item::Struct(s) if s.ident == name => Some(s),
         _ => None,
     })?;
+    let scalar = known.scalar;
     let mut methods = Vec::new();
     let mut left_out = Vec::new();
     for signature in &block.methods {
-        match method(signature, scalar) {
+        match method(signature, scalar, known) {
             Some(m) => methods.push(m),
             None => left_out.push(signature.name.clone()),
         }
@@ -314,8 +337,8 @@ fn generated_type(
     let constructor = methods.remove(new);
     methods.insert(0, constructor);
     Some(Type {
-        doc: doc(&fields.attrs),
-        fields: fields.fields.iter().map(|f| type_text(&f.ty)).collect(),
+        doc: doc(&definition.attrs),
+        storage: storage::size(known.struct_fields(&name)?, known),
         name,
         methods,
         left_out,
@@ -324,7 +347,7 @@ fn generated_type(
 
 /// A method or function C can call, `None` if it takes `self` by value or an argument or
 /// its result is of a kind C cannot pass.
-fn method(signature: &Signature, scalar: Scalar) -> Option<Method> {
+fn method(signature: &Signature, scalar: Scalar, known: &Known) -> Option<Method> {
     let receiver = match signature.receiver {
         Receiver::None => None,
         Receiver::Shared => Some(false),
@@ -338,7 +361,7 @@ fn method(signature: &Signature, scalar: Scalar) -> Option<Method> {
         .collect::<Option<Vec<_>>>()?;
     let output = match &signature.output {
         None => Output::Nothing,
-        Some(t) => output(t, scalar)?,
+        Some(t) => output(t, scalar, known)?,
     };
     if matches!(output, Output::Constructed { .. }) && receiver.is_some() {
         return None;
@@ -368,7 +391,13 @@ fn param(name: String, ty: &str, scalar: Scalar) -> Option<Param> {
 }
 
 /// A result's kind, from its type's text.
-fn output(ty: &str, scalar: Scalar) -> Option<Output> {
+fn output(ty: &str, scalar: Scalar, known: &Known) -> Option<Output> {
+    if let Some(record) = known.record(ty) {
+        return Some(match record.statuses().is_empty() {
+            true => Output::Value(Value::Record(ty.to_owned())),
+            false => Output::Outcome(ty.to_owned()),
+        });
+    }
     if ty == "Status" {
         return Some(Output::Status);
     }
@@ -381,7 +410,10 @@ fn output(ty: &str, scalar: Scalar) -> Option<Output> {
         .strip_prefix("Result<")
         .and_then(|t| t.strip_suffix(", Status>"))
     {
-        return Some(Output::Fallible(value(inner, scalar)?));
+        return Some(Output::Fallible(match known.record(inner) {
+            Some(_) => Value::Record(inner.to_owned()),
+            None => value(inner, scalar)?,
+        }));
     }
     Some(Output::Value(value(ty, scalar)?))
 }
@@ -393,21 +425,6 @@ fn value(ty: &str, scalar: Scalar) -> Option<Value> {
         _ if ty == scalar.rust() => Some(Value::Scalar),
         _ => array(ty, scalar),
     }
-}
-
-/// `[s; n]` or `[[s; cols]; rows]`.
-fn array(ty: &str, scalar: Scalar) -> Option<Value> {
-    let length = |s: &str| s.trim().parse::<usize>().ok().filter(|&n| n > 0);
-    let s = scalar.rust();
-    if let Some(rest) = ty
-        .strip_prefix(&format!("[{s};"))
-        .and_then(|r| r.strip_suffix(']'))
-    {
-        return Some(Value::Vector(length(rest)?));
-    }
-    let rest = ty.strip_prefix(&format!("[[{s};"))?.strip_suffix(']')?;
-    let (cols, rows) = rest.split_once("];")?;
-    Some(Value::Matrix(length(rows)?, length(cols)?))
 }
 
 /// A constant C can hold: an integer (`usize`, `u32`) or the scalar; an `OpCount`, one
@@ -489,6 +506,14 @@ mod tests {
     #[test]
     fn kinds_of_arguments_and_results() {
         let s = Scalar::F32;
+        let file: syn::File = syn::parse_str(
+            "pub enum MpcRebuild { Nothing }
+             pub struct MpcStatus { pub status: Status, pub rebuilt: MpcRebuild }
+             pub struct PredictionModel { pub a: [[f32; 2]; 2] }",
+        )
+        .expect("parses");
+        let known = records::read(&file.items, s);
+        let output = |ty: &str, s: Scalar| output(ty, s, &known);
         assert_eq!(
             param("x".into(), "&[f32; 5]", s),
             Some(Param::Required("x".into(), Value::Vector(5)))
@@ -517,6 +542,18 @@ mod tests {
         assert_eq!(output("u32", s), Some(Output::Value(Value::Count)));
         assert_eq!(output("([f32; 5], WindowStatus)", s), None);
         assert_eq!(output("Option<usize>", s), None);
+        assert_eq!(
+            output("MpcStatus", s),
+            Some(Output::Outcome("MpcStatus".into()))
+        );
+        assert_eq!(
+            output("Result<PredictionModel, Status>", s),
+            Some(Output::Fallible(Value::Record("PredictionModel".into())))
+        );
+        assert_eq!(
+            output("PredictionModel", s),
+            Some(Output::Value(Value::Record("PredictionModel".into())))
+        );
         assert_eq!(c_float("0.015", Scalar::F32), "0.015f");
         assert_eq!(c_float("1e-6", Scalar::F64), "1e-6");
         assert_eq!(c_float("2", Scalar::F64), "2.0");

@@ -4,7 +4,8 @@
 //! and returns the status as a C enum. Its `unsafe` blocks are the crate's only ones,
 //! each with the reason it is sound.
 
-use super::names::{camel, prefix, snake, REFUSALS};
+use super::mirrors::mirrors;
+use super::names::{camel, prefix, record, snake, REFUSALS};
 use super::reading::{Api, Method, Output, Param, Scalar, Scope, Type, Value};
 use super::storage;
 use std::fmt::Write;
@@ -25,6 +26,7 @@ pub fn lib(api: &Api, provenance: &str) -> String {
     let status = status_type(api);
     for scope in &api.scopes {
         let path = format!("model::{}", scope.module);
+        mirrors(api, scope, &path, &status, &mut out);
         for ty in &scope.types {
             generated_type(api, scope, &path, ty, &mut out);
         }
@@ -36,6 +38,8 @@ pub fn lib(api: &Api, provenance: &str) -> String {
                 this: None,
                 call: format!("{path}::{}", function.name),
                 scalar: scope.scalar,
+                records: prefix.clone(),
+                scope,
             };
             method(&wrapped, function, &mut out);
         }
@@ -100,7 +104,7 @@ fn status(api: &Api, out: &mut String) {
 
 /// A type's storage, its size check and its functions.
 fn generated_type(api: &Api, scope: &Scope, path: &str, ty: &Type, out: &mut String) {
-    let Some(size) = storage::size(&ty.fields) else {
+    let Some(size) = ty.storage else {
         let _ = writeln!(
             out,
             "// `{}` has a field of a type whose layout the tool cannot bound: no C API.\n",
@@ -128,9 +132,13 @@ fn generated_type(api: &Api, scope: &Scope, path: &str, ty: &Type, out: &mut Str
         let wrapped = Wrapped {
             c_name: format!("{c_name}_{}", m.name),
             status: &status,
-            this: Some((snake(&ty.name), &storage_name, &rust_type)),
+            this: m
+                .takes_storage()
+                .then(|| (snake(&ty.name), storage_name.as_str(), rust_type.as_str())),
             call: format!("{rust_type}::{}", m.name),
             scalar: scope.scalar,
+            records: prefix(&api.model, scope),
+            scope,
         };
         method(&wrapped, m, out);
     }
@@ -149,6 +157,11 @@ struct Wrapped<'a> {
     call: String,
     /// The scalar of its scope.
     scalar: Scalar,
+    /// Its scope's C prefix (`cantilever`, `cantilever_f64`), which its records' names
+    /// start with.
+    records: String,
+    /// Its scope.
+    scope: &'a Scope,
 }
 
 /// One `extern "C"` function.
@@ -159,7 +172,23 @@ fn method(w: &Wrapped, m: &Method, out: &mut String) {
         (Some(name), Some(_)) => format!("{name}.{}({})", m.name, args.join(", ")),
         _ => format!("{}({})", w.call, args.join(", ")),
     };
-    let tail = tail(&invocation, receiver.unwrap_or("out"), w.status, &m.output);
+    let statuses = match &m.output {
+        Output::Outcome(name) => w
+            .scope
+            .records
+            .iter()
+            .find(|r| r.name == *name)
+            .map(super::records::Record::statuses)
+            .unwrap_or_default(),
+        _ => Vec::new(),
+    };
+    let tail = tail(
+        &invocation,
+        receiver.unwrap_or("out"),
+        w.status,
+        &m.output,
+        &statuses,
+    );
     let _ = writeln!(
         out,
         "/// The C form of [`{call}`]: its status, or why it refused a pointer; see the \
@@ -189,7 +218,7 @@ fn arguments(w: &Wrapped, m: &Method) -> (Vec<String>, String, Vec<String>) {
             Param::Required(name, value) => (name, value, false),
             Param::Optional(name, value) => (name, value, true),
         };
-        let ty = rust_value(value, w.scalar);
+        let ty = rust_value(value, w);
         args.push(name.clone());
         if *value == Value::Scalar {
             params.push(format!("{name}: {ty}"));
@@ -213,16 +242,8 @@ fn arguments(w: &Wrapped, m: &Method) -> (Vec<String>, String, Vec<String>) {
             )
         };
     }
-    if let Output::Value(v) | Output::Fallible(v) = &m.output {
-        let ty = rust_value(v, w.scalar);
-        params.push(format!("out: *mut {ty}"));
-        checked.push(format!("(out as usize, core::mem::align_of::<{ty}>())"));
-        let _ = writeln!(
-            reads,
-            "    // SAFETY: `out` is valid for writes of `{ty}`, unaliased, during the call, as \
-             `# Safety` requires, and neither null nor misaligned (checked above).\n    \
-             let out = unsafe {{ support::out(out) }};"
-        );
+    if let Some(out) = output_pointer(w, &m.output, &mut checked, &mut reads) {
+        params.push(out);
     }
     let body = match &w.this {
         Some((name, storage_name, rust_type)) => {
@@ -237,6 +258,38 @@ fn arguments(w: &Wrapped, m: &Method) -> (Vec<String>, String, Vec<String>) {
         ),
     };
     (params, body, args)
+}
+
+/// The parameter of the pointer a result is written through, if one is: its entry in the
+/// checks (an outcome's may be null, and is checked on its own), and its read.
+fn output_pointer(
+    w: &Wrapped,
+    output: &Output,
+    checked: &mut Vec<String>,
+    reads: &mut String,
+) -> Option<String> {
+    let ty = match output {
+        Output::Value(v) | Output::Fallible(v) => rust_value(v, w),
+        Output::Outcome(name) => rust_value(&Value::Record(name.clone()), w),
+        _ => return None,
+    };
+    let _ = if matches!(output, Output::Outcome(_)) {
+        writeln!(
+            reads,
+            "    // SAFETY: `out` is null or valid for writes of `{ty}`, unaliased, during the \
+             call, as `# Safety` requires; `support::out_optional` checks the rest.\n    \
+             let out = take!(unsafe {{ support::out_optional(out) }});"
+        )
+    } else {
+        checked.push(format!("(out as usize, core::mem::align_of::<{ty}>())"));
+        writeln!(
+            reads,
+            "    // SAFETY: `out` is valid for writes of `{ty}`, unaliased, during the call, as \
+             `# Safety` requires, and neither null nor misaligned (checked above).\n    \
+             let out = unsafe {{ support::out(out) }};"
+        )
+    };
+    Some(format!("out: *mut {ty}"))
 }
 
 /// The storage argument of a generated type's function: its parameter, and the checks of
@@ -287,8 +340,15 @@ fn storage(
     (param, checks)
 }
 
-/// The end of a function: the call, its result written, its status returned.
-fn tail(invocation: &str, storage: &str, status: &str, output: &Output) -> String {
+/// The end of a function: the call, its result written, its status returned (an
+/// outcome's: the first of its `statuses` that is not `Ok`).
+fn tail(
+    invocation: &str,
+    storage: &str,
+    status: &str,
+    output: &Output,
+    statuses: &[&str],
+) -> String {
     let ok = format!("{status}::Ok");
     let written = |target: &str, value: &str| {
         format!(
@@ -299,8 +359,11 @@ fn tail(invocation: &str, storage: &str, status: &str, output: &Output) -> Strin
     match output {
         Output::Status => format!("{invocation}.into()"),
         Output::Nothing => format!("{invocation};\n    {ok}"),
+        Output::Value(Value::Record(_)) => format!("out.write({invocation}.into());\n    {ok}"),
         Output::Value(_) => format!("out.write({invocation});\n    {ok}"),
+        Output::Fallible(Value::Record(_)) => written("out", "value.into()"),
         Output::Fallible(_) => written("out", "value"),
+        Output::Outcome(_) => outcome(invocation, status, statuses),
         Output::Constructed { fallible: true } => written(storage, "Slot::new(value)"),
         Output::Constructed { fallible: false } => {
             format!("{storage}.write(Slot::new({invocation}));\n    {ok}")
@@ -308,13 +371,25 @@ fn tail(invocation: &str, storage: &str, status: &str, output: &Output) -> Strin
     }
 }
 
+/// The end of a function whose result is an outcome: written through `out` if it is not
+/// null, and the first of its `statuses` that is not `Ok` returned.
+fn outcome(invocation: &str, status: &str, statuses: &[&str]) -> String {
+    let fields: Vec<String> = statuses.iter().map(|f| format!("outcome.{f}")).collect();
+    let returned = match fields.as_slice() {
+        [one] => format!("{one}.into()"),
+        _ => format!(
+            "[{}]\n        .into_iter()\n        .map({status}::from)\n        \
+             .find(|status| *status != {status}::Ok)\n        .unwrap_or({status}::Ok)",
+            fields.join(", ")
+        ),
+    };
+    format!(
+        "let outcome = {invocation};\n    if let Some(out) = out {{\n        \
+         out.write(outcome.into());\n    }}\n    {returned}"
+    )
+}
+
 /// A value's Rust type.
-fn rust_value(value: &Value, scalar: Scalar) -> String {
-    let scalar = scalar.rust();
-    match value {
-        Value::Scalar => scalar.to_owned(),
-        Value::Count => "u32".to_owned(),
-        Value::Vector(n) => format!("[{scalar}; {n}]"),
-        Value::Matrix(rows, cols) => format!("[[{scalar}; {cols}]; {rows}]"),
-    }
+fn rust_value(value: &Value, w: &Wrapped) -> String {
+    value.rust(w.scalar, &|name| camel(&record(&w.records, name)))
 }
