@@ -86,23 +86,42 @@ impl Real for f64 {
 /// where `t` is below it (in `f64`; in `f32` the small block is below the rounding of the
 /// large variance). A zero variance (a state known exactly) with every other variance zero
 /// has a zero pivot and must have zero covariances.
-#[allow(clippy::needless_range_loop)] // `L` is indexed by row and column, as written.
 pub(crate) fn is_covariance<T: Real, const N: usize>(m: &[[T; N]; N]) -> bool {
-    if !(0..N).all(|i| m[i][i] >= T::ZERO) {
+    let Some((delta, shift)) = tolerances(m) else {
         return false;
+    };
+    is_symmetric(m, shift) && is_semidefinite_upper(m, delta, shift)
+}
+
+/// Whether `m`, read from its upper triangle (diagonal included), is a weight: positive
+/// semi-definite to within rounding, as [`is_covariance`] judges it, whatever its lower
+/// triangle holds. The entries read must be finite (the caller has tested that).
+pub(crate) fn is_weight<T: Real, const N: usize>(m: &[[T; N]; N]) -> bool {
+    tolerances(m).is_some_and(|(delta, shift)| is_semidefinite_upper(m, delta, shift))
+}
+
+/// The rounding [`is_covariance`] forgives of `m`: `delta = 2 n (n + 1) eps` and `t =
+/// delta max_i m[i][i]`; `None` if a diagonal entry is negative (or NaN).
+fn tolerances<T: Real, const N: usize>(m: &[[T; N]; N]) -> Option<(T, T)> {
+    if !(0..N).all(|i| m[i][i] >= T::ZERO) {
+        return None;
     }
     let n = T::from_count(N);
     let delta = (n + n) * (n + T::from_count(1)) * T::EPSILON;
     let mut largest = T::ZERO;
-    for i in 0..N {
-        if m[i][i] > largest {
-            largest = m[i][i];
+    for (i, row) in m.iter().enumerate() {
+        if row[i] > largest {
+            largest = row[i];
         }
     }
-    let shift = delta * largest;
-    if !is_symmetric(m, shift) {
-        return false;
-    }
+    Some((delta, delta * largest))
+}
+
+/// Whether `M + delta diag(M) + t I`, read from the upper triangle of `m`, factorises as
+/// `L D L'` with positive pivots; a zero variance among zeros (an exactly known state, or
+/// an unweighted one) must have zeros beside it.
+#[allow(clippy::needless_range_loop)] // `L` is indexed by row and column, as written.
+fn is_semidefinite_upper<T: Real, const N: usize>(m: &[[T; N]; N], delta: T, shift: T) -> bool {
     let mut l = [[T::ZERO; N]; N];
     let mut d = [T::ZERO; N];
     for j in 0..N {

@@ -89,6 +89,16 @@ pub fn is_covariance<const N: usize>(m: &[[f64; N]; N]) -> bool {
     crate::covariance::is_covariance(m)
 }
 
+/// Whether the weight `m` (a controller's state or input weight), read from its upper
+/// triangle, is positive semi-definite to within rounding, as [`is_covariance`] judges a
+/// covariance: a negative weight, or a cross weight beyond the geometric mean of its two
+/// diagonal weights, fails. The lower triangle is not read; the entries read must be
+/// finite (tested first). An LQR or MPC tests its weights so when they are given.
+#[must_use]
+pub fn is_weight<const N: usize>(m: &[[f64; N]; N]) -> bool {
+    crate::covariance::is_weight(m)
+}
+
 /// Whether every entry of the upper triangle of `m` between two blocks (`block[i] !=
 /// block[j]`) is zero (a negative zero is zero): what a filter whose covariance has
 /// blocks that nothing couples (its `COVARIANCE_BLOCKS`) requires of an initial

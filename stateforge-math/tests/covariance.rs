@@ -181,3 +181,42 @@ fn a_correlation_between_two_sensors_is_not_block_diagonal() {
     nan[0][1] = f64::NAN;
     assert!(!stateforge_math::f64::is_block_diagonal(&nan, &blocks));
 }
+
+#[test]
+fn weights_are_judged_from_their_upper_triangle_as_covariances_are() {
+    let mut cases = Cases(0x2545_F491_4F6C_DD1D);
+    for rank in 0..=4 {
+        for _ in 0..200 {
+            let m = cases.matrix::<4>(rank);
+            let mut weight = array(&m);
+            // The lower triangle is not read: garbage there changes nothing.
+            for (i, row) in weight.iter_mut().enumerate() {
+                for entry in &mut row[..i] {
+                    *entry = -1e3 * cases.uniform();
+                }
+            }
+            assert!(stateforge_math::f64::is_weight(&weight), "rank {rank}: {m}");
+            let single: [[f32; 4]; 4] = weight.map(|row| row.map(|v| v as f32));
+            assert!(stateforge_math::f32::is_weight(&single), "rank {rank}: {m}");
+        }
+    }
+    for _ in 0..1000 {
+        let mut m = cases.matrix::<4>(4);
+        let shift = 0.05 + cases.uniform().abs();
+        let smallest = smallest_eigenvalue(&m);
+        m -= SMatrix::<f64, 4, 4>::identity() * (smallest + shift);
+        assert!(smallest_eigenvalue(&m) < -0.04);
+        assert!(!stateforge_math::f64::is_weight(&array(&m)), "{m}");
+        let single: [[f32; 4]; 4] = array(&m).map(|row| row.map(|v| v as f32));
+        assert!(!stateforge_math::f32::is_weight(&single), "{m}");
+    }
+    // A negative weight on the diagonal, a cross weight beyond the diagonal's, NaN.
+    assert!(!stateforge_math::f64::is_weight(&[[-1.0, 0.0], [0.0, 1.0]]));
+    assert!(!stateforge_math::f64::is_weight(&[[1.0, 2.0], [0.0, 1.0]]));
+    assert!(!stateforge_math::f64::is_weight(&[
+        [f64::NAN, 0.0],
+        [0.0, 1.0]
+    ]));
+    assert!(stateforge_math::f64::is_weight(&[[1.0, 1.0], [7.0, 1.0]]));
+    assert!(stateforge_math::f32::is_weight(&[[0.0]]));
+}

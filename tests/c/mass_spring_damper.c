@@ -85,6 +85,7 @@ static void mpc_run(void) {
     const float u_ref[1] = {0.0f};
     const float nan_x[5] = {0.0f, NAN, 0.0f, 0.0f, 5.0f};
     const float nan_q[2][2] = {{NAN, 0.0f}, {0.0f, 1.0f}};
+    const float negative_q[2][2] = {{-1.0f, 0.0f}, {0.0f, 1.0f}};
     const float low[1] = {1.0f};
     const float high[1] = {-1.0f};
     int k;
@@ -109,6 +110,10 @@ static void mpc_run(void) {
         refusals[2] = mass_spring_damper_mpc_set_input_limits(&mpc, low, high);
         printf("mpc_refusals %x %x %x\n", (unsigned)refusals[0], (unsigned)refusals[1],
                (unsigned)refusals[2]);
+        CHECK(mass_spring_damper_mpc_set_weights(&mpc, negative_q, R_MPC) ==
+              MASS_SPRING_DAMPER_STATUS_INVALID_WEIGHT);
+        CHECK(mass_spring_damper_mpc_new(&unwritten, negative_q, R_MPC, U_MIN, U_MAX) ==
+              MASS_SPRING_DAMPER_STATUS_INVALID_WEIGHT);
     }
     printf("mpc_outcomes");
     for (k = 0; k < 30; k++) {

@@ -148,6 +148,19 @@ fn assert_innovation_agrees(
 }
 
 #[test]
+fn an_lqr_refuses_weights_that_are_not_positive_semi_definite() {
+    // A sign slip in `q` would give a gain that pushes the states away, reported as Ok.
+    for (q, r) in [
+        ([[1.0, 0.0], [0.0, -1.0]], [[0.001]]),
+        ([[1.0, 3.0], [0.0, 1.0]], [[0.001]]),
+        ([[1.0, 0.0], [0.0, 1.0]], [[-0.001]]),
+    ] {
+        assert_eq!(Lqr::new(&q, &r, None).err(), Some(Status::InvalidWeight));
+    }
+    assert!(Lqr::new(&[[1.0, 0.0], [0.0, 0.0]], &[[0.001]], None).is_ok());
+}
+
+#[test]
 fn lqr_agrees_with_the_reference() {
     let q = [[1.0, 0.0], [0.0, 1.0]];
     let mut lqr = Lqr::new(&q, &[[0.001]], Some(&[100.0])).unwrap();

@@ -245,6 +245,33 @@ fn hard_limits_that_cannot_be_met_give_a_plan_that_is_not_optimal() {
 }
 
 #[test]
+fn weights_that_are_not_positive_semi_definite_are_refused() {
+    let (q, r) = weights();
+    let mut negative_q = q;
+    negative_q[1][1] = -1.0;
+    // A cross weight beyond the geometric mean of its two: an indefinite `q`.
+    let mut beyond = q;
+    beyond[0][1] = 2.0 * (q[0][0] * q[1][1]).sqrt();
+    let mut negative_r = r;
+    negative_r[0][0] = -1e-3;
+    for (q, r) in [(negative_q, r), (beyond, r), (q, negative_r)] {
+        assert_eq!(
+            planar::Mpc::new(&q, &r, &[-1.0; NU], &[1.0; NU]).err(),
+            Some(Status::InvalidWeight)
+        );
+        let mut mpc =
+            planar::Mpc::new(&weights().0, &weights().1, &[-1.0; NU], &[1.0; NU]).expect("valid");
+        let kept = mpc;
+        assert_eq!(mpc.set_weights(&q, &r), Status::InvalidWeight);
+        assert_eq!(mpc, kept);
+    }
+    // The lower triangle is not read: a weight written upper-only is one.
+    let mut upper_only = q;
+    upper_only[1][0] = -7.0;
+    assert!(planar::Mpc::new(&upper_only, &r, &[-1.0; NU], &[1.0; NU]).is_ok());
+}
+
+#[test]
 fn the_setters_refuse_limits_that_leave_no_room_and_bad_penalties() {
     let (q, r) = weights();
     let mut mpc = planar::Mpc::new(&q, &r, &[-1.0; NU], &[1.0; NU]).expect("valid");

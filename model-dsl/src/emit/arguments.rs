@@ -17,6 +17,10 @@ pub const REJECTS_NON_COVARIANCE: &str = " [`Status::InvalidCovariance`] if a co
      argument is not symmetric and positive semi-definite (to within rounding; a diagonal \
      one, if a variance is negative).";
 
+/// What a controller constructor's `# Errors` section says of its weight arguments.
+pub const REJECTS_NON_WEIGHT: &str = " [`Status::InvalidWeight`] if a weight argument is not \
+     positive semi-definite, as its upper triangle reads (to within rounding).";
+
 /// The arguments of a generated method or constructor, the statements unpacking them into
 /// the variables the code reads, and those variables, which it rejects unless finite.
 #[derive(Default)]
@@ -34,6 +38,8 @@ pub struct Arguments {
     /// The tests that the covariance arguments are covariances, made once they are known
     /// finite.
     covariances: Vec<TokenStream>,
+    /// The tests that the weight arguments are weights, made once they are known finite.
+    weights: Vec<TokenStream>,
 }
 
 impl Arguments {
@@ -74,6 +80,17 @@ impl Arguments {
         self.matrices_finite
             .push(quote! { stateforge_math::#ty::upper_triangle_finite(#arg) });
         self.scalar_type = Some(ty.clone());
+        packed
+    }
+
+    /// A weight `name: &[[S; n]; n]` (a controller's state or input weight): a
+    /// [`Arguments::symmetric`] matrix, then tested positive semi-definite from its upper
+    /// triangle (`stateforge_math`'s `is_weight`). Returns its upper triangle's entries.
+    pub fn weight(&mut self, name: &str, n: usize, ty: &Ident) -> Vec<Ident> {
+        let packed = self.symmetric(name, n, ty);
+        let arg = ident(name);
+        self.weights
+            .push(quote! { stateforge_math::#ty::is_weight(#arg) });
         packed
     }
 
@@ -170,15 +187,18 @@ impl Arguments {
             matrices_finite,
             scalar_type,
             covariances,
+            weights,
         } = self;
         let check = scalar_type.map(|ty| reject_non_finite(&checked, &matrices_finite, &ty));
         let covariance_check = reject_non_covariance(&covariances, false);
+        let weight_check = reject(&weights, &quote! { Status::InvalidWeight });
         quote! {
             #doc
             #visibility fn #name(&mut self, #(#params),*) -> Status {
                 #(#unpack)*
                 #check
                 #covariance_check
+                #weight_check
                 #body
             }
         }
@@ -203,6 +223,7 @@ impl Arguments {
             matrices_finite,
             scalar_type,
             covariances,
+            weights,
         } = self;
         let check = scalar_type.and_then(|ty| {
             let finite = all_finite(&checked, &matrices_finite, &ty)?;
@@ -219,6 +240,13 @@ impl Arguments {
                 #[doc = #REJECTS_NON_COVARIANCE]
             }
         });
+        let weight_check = reject(&weights, &quote! { Err(Status::InvalidWeight) });
+        let weight_errors = (!weights.is_empty()).then(|| {
+            quote! {
+                ///
+                #[doc = #REJECTS_NON_WEIGHT]
+            }
+        });
         quote! {
             #doc
             ///
@@ -226,10 +254,12 @@ impl Arguments {
             ///
             #[doc = #errors]
             #covariance_errors
+            #weight_errors
             pub fn new(#(#params),*) -> Result<Self, Status> {
                 #(#unpack)*
                 #check
                 #covariance_check
+                #weight_check
                 #body
             }
         }
@@ -255,10 +285,15 @@ pub fn reject_non_covariance(tests: &[TokenStream], constructor: bool) -> Option
     } else {
         quote! { Status::InvalidCovariance }
     };
+    reject(tests, &status)
+}
+
+/// `if !(test && ..) { return refusal; }`, or nothing without a test.
+fn reject(tests: &[TokenStream], refusal: &TokenStream) -> Option<TokenStream> {
     (!tests.is_empty()).then(|| {
         quote! {
             if !(#(#tests)&&*) {
-                return #status;
+                return #refusal;
             }
         }
     })

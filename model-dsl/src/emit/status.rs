@@ -49,6 +49,11 @@ pub fn status_enum(model: &Model) -> TokenStream {
             /// measurements instead of refusing them for good. Its estimate is as the
             /// refusal left it.
             Recovering,
+            /// A weight argument of a controller (its state or input weight) was not
+            /// positive semi-definite, as its upper triangle reads: a negative weight, or a
+            /// cross weight beyond the geometric mean of its two diagonal weights. It was
+            /// not used.
+            InvalidWeight,
         }
     }
 }

@@ -583,7 +583,7 @@ fn lqr_doc(model: &Model, spec: &LqrSpec) -> String {
 }
 
 /// `fn new`: the weights' upper triangles packed, the limits, a zero gain; every entry
-/// read checked finite, the limits' when given.
+/// read checked finite, the limits' when given, and the weights positive semi-definite.
 fn constructor(
     spec: &LqrSpec,
     scalar: Scalar,
@@ -595,16 +595,17 @@ fn constructor(
     let (ns_len, nu_len) = (Literal::usize_unsuffixed(ns), Literal::usize_unsuffixed(nu));
     let zero = literal(0.0, scalar);
     let mut arguments = Arguments::default();
-    let q = arguments.symmetric("q", ns, &ty);
-    let r = arguments.symmetric("r", nu, &ty);
+    let q = arguments.weight("q", ns, &ty);
+    let r = arguments.weight("r", nu, &ty);
     arguments.plain(quote! { u_max: Option<&[#ty; #nu_len]> });
     let known_init = known.argument(&mut arguments);
     let limits_finite = all_is_finite(limits);
     arguments.constructor(
         &quote! {
             /// A controller with state weight `q` and input weight `r` (symmetric: upper
-            /// triangles are read) and, if given, the symmetric input limits `u_max`. The
-            /// gain is zero until the first [`Lqr::solve`].
+            /// triangles are read; each positive semi-definite, checked, and `R + B' P B`
+            /// positive definite at each solve) and, if given, the symmetric input limits
+            /// `u_max`. The gain is zero until the first [`Lqr::solve`].
         },
         REJECTS_NON_FINITE,
         quote! {

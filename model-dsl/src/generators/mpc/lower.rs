@@ -1633,8 +1633,8 @@ fn constructor(
     let (ns, nu) = (spec.states.len(), spec.inputs.len());
     let zero = literal(0.0, scalar);
     let mut arguments = Arguments::default();
-    let q = arguments.symmetric("q", ns, ty);
-    let r = arguments.symmetric("r", nu, ty);
+    let q = arguments.weight("q", ns, ty);
+    let r = arguments.weight("r", nu, ty);
     let (min, max) = moves.bounds();
     arguments.array("u_min", min.clone(), ty);
     arguments.array("u_max", max.clone(), ty);
@@ -1646,7 +1646,8 @@ fn constructor(
     arguments.constructor(
         &quote! {
             /// A controller with state weight `q` and input weight `r` (symmetric: upper
-            /// triangles are read; `r` positive definite) and the input bounds
+            /// triangles are read; each positive semi-definite, checked, and `r` positive
+            /// definite, which the solve's Riccati steps check) and the input bounds
             /// `u_min < u_max`, regulating to zero until [`Mpc::set_reference`]. The
             /// terminal weight starts at `q` and converges over the first solves; the plan
             /// starts at zero, clipped to the bounds.
@@ -1683,16 +1684,18 @@ fn setters(spec: &MpcSpec, moves: &MoveNames, dims: &Dims) -> TokenStream {
     let ty = &dims.ty;
     let (ns, nu) = (spec.states.len(), spec.inputs.len());
     let mut weights = Arguments::default();
-    let q = weights.symmetric("q", ns, ty);
-    let r = weights.symmetric("r", nu, ty);
+    let q = weights.weight("q", ns, ty);
+    let r = weights.weight("r", nu, ty);
     let set_weights = weights.method(
         &ident("set_weights"),
         &quote! {
             /// Replaces the state weight `q` and the input weight `r` (symmetric: upper
-            /// triangles are read; `r` positive definite). The next solve takes its
-            /// Riccati steps from the last terminal weight towards the new one and
-            /// rebuilds the condensed Hessian. [`Status::RejectedInput`] if an entry read
-            /// is not finite, the weights then as they were.
+            /// triangles are read; each positive semi-definite, and `r` positive
+            /// definite). The next solve takes its Riccati steps from the last terminal
+            /// weight towards the new one and rebuilds the condensed Hessian.
+            /// [`Status::RejectedInput`] if an entry read is not finite,
+            /// [`Status::InvalidWeight`] if a weight is not positive semi-definite, the
+            /// weights then as they were.
         },
         quote! {
             self.q = [#(#q),*];
