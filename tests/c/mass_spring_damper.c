@@ -114,6 +114,9 @@ static void mpc_run(void) {
               MASS_SPRING_DAMPER_STATUS_INVALID_WEIGHT);
         CHECK(mass_spring_damper_mpc_new(&unwritten, negative_q, R_MPC, U_MIN, U_MAX) ==
               MASS_SPRING_DAMPER_STATUS_INVALID_WEIGHT);
+        /* A constructor that refused left the storage unwritten. */
+        CHECK(mass_spring_damper_mpc_solve(&unwritten, x, u, NULL) ==
+              MASS_SPRING_DAMPER_STATUS_NOT_INITIALISED);
     }
     printf("mpc_outcomes");
     for (k = 0; k < 30; k++) {
@@ -229,11 +232,14 @@ static void f64_mpc_run(void) {
     for (k = 0; k < 10; k++) {
         float x32[5];
         int i;
+        mass_spring_damper_status_t status;
         state_at(k, x32);
         for (i = 0; i < 5; i++) {
             x[i] = (double)x32[i];
         }
-        CHECK(mass_spring_damper_f64_mpc_solve(&mpc, x, u, &outcome) == outcome.status);
+        memset(&outcome, 0xff, sizeof outcome);
+        status = mass_spring_damper_f64_mpc_solve(&mpc, x, u, &outcome);
+        CHECK(status == outcome.status);
         printf(" %x %x %x %x %x", (unsigned)outcome.status, (unsigned)outcome.optimal,
                (unsigned)outcome.iterations, (unsigned)outcome.terminal_weight_converged,
                (unsigned)outcome.rebuilt);

@@ -311,16 +311,33 @@ fn dkf_agrees(output: &str) {
         ])
     );
     let theta = dkf.window_parameters();
+    let window = [
+        dkf.window_equation_noise(),
+        dkf.excitation(),
+        theta[0],
+        theta[1],
+        theta[2],
+    ];
+    // A tight gate: the first step's measurement the LKF refuses and the AKF takes, so
+    // the status returned is the LKF's; the second's the other way round.
+    assert_eq!(dkf.set_innovation_gate(4.0), cantilever::Status::Ok);
+    let first = dkf.step(&[input_at(41)], &[0.1]);
+    let second = dkf.step(&[input_at(42)], &[0.0]);
+    assert_eq!(first.akf, cantilever::Status::Ok);
+    assert_eq!(first.lkf, cantilever::Status::OutlierRejected);
+    assert_eq!(second.akf, cantilever::Status::OutlierRejected);
     assert_eq!(
-        printed_f32(output, "dkf_window"),
-        bits(&[
-            dkf.window_equation_noise(),
-            dkf.excitation(),
-            theta[0],
-            theta[1],
-            theta[2]
-        ])
+        printed(output, "dkf_gated"),
+        [
+            first.lkf as u64,
+            first.akf as u64,
+            first.lkf as u64,
+            second.akf as u64,
+            second.akf as u64,
+            second.lkf as u64
+        ]
     );
+    assert_eq!(printed_f32(output, "dkf_window"), bits(&window));
 }
 
 fn model_functions_agree(output: &str) {

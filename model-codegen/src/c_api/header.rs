@@ -114,14 +114,29 @@ fn records(api: &Api, scope: &Scope, out: &mut String) {
 /// A record as a C struct.
 fn record_struct(api: &Api, scope: &Scope, prefix: &str, r: &Record, out: &mut String) {
     let c_name = record(prefix, &r.name);
+    let upper = c_name.to_ascii_uppercase();
     let scalar = scope.scalar.c();
+    let Some(size) = r.c_size(scope.scalar) else {
+        return;
+    };
+    let _ = writeln!(
+        out,
+        "/** Bytes of {c_name}_t (checked here and when the library builds). */\n\
+         #define {upper}_SIZE {size}u\n"
+    );
     doc_block(&translate(&r.doc, api, scope), "", out);
     let _ = writeln!(out, "typedef struct {c_name} {{");
     for (field, kind, doc) in &r.fields {
-        doc_block(&translate(doc, api, scope), "    ", out);
+        let mut doc = translate(doc, api, scope);
+        // A byte, whatever size the C compiler gives its enums (`-fshort-enums`).
+        match kind {
+            Field::Status => doc.push(format!("A {}_status_t.", api.model)),
+            Field::Enum(e) => doc.push(format!("A {}_t.", record(prefix, e))),
+            _ => {}
+        }
+        doc_block(&doc, "    ", out);
         let declaration = match kind {
-            Field::Status => format!("{}_status_t {field}", api.model),
-            Field::Enum(e) => format!("{}_t {field}", record(prefix, e)),
+            Field::Status | Field::Enum(_) => format!("uint8_t {field}"),
             Field::Flag => format!("bool {field}"),
             Field::Count { .. } => format!("uint32_t {field}"),
             Field::Value(Value::Vector(n)) => format!("{scalar} {field}[{n}]"),
@@ -130,7 +145,12 @@ fn record_struct(api: &Api, scope: &Scope, prefix: &str, r: &Record, out: &mut S
         };
         let _ = writeln!(out, "    {declaration};");
     }
-    let _ = writeln!(out, "}} {c_name}_t;\n");
+    let _ = writeln!(
+        out,
+        "}} {c_name}_t;\n\n\
+         /* The struct's size as the header states it (a negative array size otherwise). */\n\
+         typedef char {c_name}_size_check[(sizeof({c_name}_t) == {upper}_SIZE) ? 1 : -1];\n"
+    );
 }
 
 /// A type's storage, its size and alignment, and its functions.
@@ -150,7 +170,8 @@ fn generated_type(api: &Api, scope: &Scope, ty: &Type, out: &mut String) {
     doc.extend([
         String::new(),
         format!(
-            "Storage for one, which the program reserves (a static, or on the stack) and \
+            "Storage for one, which the program reserves zeroed (a static, or an automatic \
+             variable initialised with {{0}}: a method reads its tag first) and \
              {c_name}_new writes; its contents are private."
         ),
     ]);

@@ -1,6 +1,7 @@
 //! The wrapper's `repr(C)` mirrors of the records and enums C receives (`DkfStatus` as
 //! `CantileverDkfStatus`, `cantilever_dkf_status_t` in C), each with its conversion from
-//! the generated type: a status and an enum as the C enum, a `usize` as a `u32`.
+//! the generated type: a status and an enum as a `u8` (its C enum's value), a `usize` as
+//! a `u32`; each record's size asserted equal to what the header states.
 
 use super::names::{camel, prefix, record};
 use super::reading::{Api, Scope};
@@ -50,6 +51,9 @@ fn enumeration(api: &Api, scope: &Scope, path: &str, e: &Enumeration, out: &mut 
 fn mirror(api: &Api, scope: &Scope, path: &str, status: &str, r: &Record, out: &mut String) {
     let c_name = record(&prefix(&api.model, scope), &r.name);
     let name = camel(&c_name);
+    let Some(size) = r.c_size(scope.scalar) else {
+        return;
+    };
     let _ = writeln!(
         out,
         "/// [`{path}::{}`] as C receives it, `{c_name}_t`.\n#[repr(C)]\n\
@@ -59,10 +63,16 @@ fn mirror(api: &Api, scope: &Scope, path: &str, status: &str, r: &Record, out: &
     let mut conversions = Vec::new();
     for (field, kind, doc) in &r.fields {
         let (ty, conversion) = match kind {
-            Field::Status => (status.to_owned(), format!("value.{field}.into()")),
+            Field::Status => (
+                "u8".to_owned(),
+                format!("{status}::from(value.{field}) as u8"),
+            ),
             Field::Enum(e) => (
-                camel(&record(&prefix(&api.model, scope), e)),
-                format!("value.{field}.into()"),
+                "u8".to_owned(),
+                format!(
+                    "{}::from(value.{field}) as u8",
+                    camel(&record(&prefix(&api.model, scope), e))
+                ),
             ),
             Field::Flag => ("bool".to_owned(), format!("value.{field}")),
             Field::Count { usize: true } => (
@@ -81,7 +91,9 @@ fn mirror(api: &Api, scope: &Scope, path: &str, status: &str, r: &Record, out: &
     let _ = writeln!(
         out,
         "}}\n\nimpl From<{path}::{0}> for {name} {{\n    fn from(value: {path}::{0}) -> Self {{\n        \
-         {name} {{ {1} }}\n    }}\n}}\n",
+         {name} {{ {1} }}\n    }}\n}}\n\n\
+         // The mirror has the size the header states: checked when this crate builds.\n\
+         const _: () = assert!(core::mem::size_of::<{name}>() == {size});\n",
         r.name,
         conversions.join(", ")
     );

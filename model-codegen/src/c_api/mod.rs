@@ -111,8 +111,8 @@ fn package(model: &str) -> String {
 
 /// The companion crate's manifest: a static library named after the model
 /// (`lib<model>_c.a`) over the model's crate, their own workspace, and profiles that
-/// abort on a panic, so that no unwinding runtime is needed (the wrappers never panic:
-/// the generated code has no indexing, and every check returns a status).
+/// abort on a panic, so that no unwinding runtime is needed (no panic is reachable from
+/// the wrappers: every check returns a status).
 fn manifest(model: &str) -> String {
     let package = package(model);
     format!(

@@ -1,7 +1,8 @@
-//! The generated code's plain structs and fieldless enums, which C receives as results:
-//! a step's or solve's outcome (`DkfStatus`, `MpcStatus`), a value (`PredictionModel`),
-//! and the enums their fields hold (`WindowStatus`, `MpcRebuild`). Read from one scope's
-//! items; their C forms are the wrapper's and the header's.
+//! The types one scope of the generated code defines, read from its items: the plain
+//! structs C receives as results (a step's or solve's outcome, `DkfStatus`, `MpcStatus`;
+//! a value, `PredictionModel`), the fieldless enums their fields hold (`WindowStatus`,
+//! `MpcRebuild`), and every struct's field types, which a storage that holds one is sized
+//! by. Their C forms are the wrapper's and the header's.
 
 use super::values::{array, Scalar, Value};
 use crate::generated_api::{doc, public, type_text};
@@ -38,6 +39,31 @@ pub struct Record {
 }
 
 impl Record {
+    /// The size of its C form, as C and `#[repr(C)]` lay it out: a status or an enum is
+    /// a `uint8_t` (an enum's size is the C compiler's choice: `-fshort-enums` and its
+    /// opposite would disagree), a flag a `bool`, a count a `uint32_t`; `None` if it
+    /// overflows.
+    pub fn c_size(&self, scalar: Scalar) -> Option<usize> {
+        let bytes = match scalar {
+            Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        };
+        let mut end: usize = 0;
+        let mut largest = 1;
+        for (_, field, _) in &self.fields {
+            let (size, align) = match field {
+                Field::Status | Field::Enum(_) | Field::Flag => (1, 1),
+                Field::Count { .. } => (4, 4),
+                Field::Value(Value::Vector(n)) => (bytes * n, bytes),
+                Field::Value(Value::Matrix(rows, cols)) => (bytes * rows * cols, bytes),
+                Field::Value(_) => (bytes, bytes),
+            };
+            end = end.checked_next_multiple_of(align)?.checked_add(size)?;
+            largest = largest.max(align);
+        }
+        end.checked_next_multiple_of(largest)
+    }
+
     /// The fields that hold a `Status`, which make it an outcome: its C function returns
     /// the first of them that is not `Ok`.
     pub fn statuses(&self) -> Vec<&str> {

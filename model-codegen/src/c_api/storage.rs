@@ -12,8 +12,9 @@ use super::records::Known;
 /// generated field has (a `usize` is counted as 8 bytes, its size on a 64-bit host).
 pub const ALIGN: usize = 8;
 
-/// The bytes of the wrapper's tag after the value: a `u32`, and up to 4 bytes of padding
-/// before it.
+/// The bytes of the wrapper's tag after the value: a `u32`, and padding before it (up to
+/// 4 bytes after a value of 4-byte alignment) or after it (to the 8-byte alignment of a
+/// value that has it).
 const TAG: usize = ALIGN;
 
 /// How deep structs may nest in a storage's type (the generated code's nest one deep).

@@ -1,5 +1,5 @@
-//! The values C passes: the scope's scalar, and arrays of one or two dimensions of it,
-//! read from their types' text.
+//! The values a C function passes or receives: the scope's scalar, arrays of one or two
+//! dimensions of it, a count, and a record (received only), read from their types' text.
 
 /// The floating-point type of a scope's code.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -28,7 +28,8 @@ impl Scalar {
     }
 }
 
-/// The shape of a value C passes: a scalar, or an array of one or two dimensions.
+/// The shape of a value C passes or receives: a scalar, an array of one or two
+/// dimensions, a count, or one of the scope's records.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Value {
     /// The scope's scalar.

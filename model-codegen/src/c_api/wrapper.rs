@@ -48,12 +48,14 @@ pub fn lib(api: &Api, provenance: &str) -> String {
     out
 }
 
-/// Never called: no wrapper can panic (the generated code has no indexing and no
-/// arithmetic that checks, and every refusal is a status), but a `no_std` library must
-/// name a handler.
+/// Never called: no panic is reachable from a wrapper (the generated code has no
+/// indexing and no arithmetic that checks, `stateforge_math`'s loops index within their
+/// bounds, every refusal is a status, and the tests find no panic in the release
+/// library's symbols), but a `no_std` library must name a handler.
 const PANIC_HANDLER: &str =
-    "\n/// Never called: no function of this crate panics (the generated code has no \
-    indexing, and every refusal is a status), but a `no_std` library names a handler.\n\
+    "\n/// Never called: no panic is reachable from a function of this crate (the \
+    generated code has no indexing, and every refusal is a status), but a `no_std` library \
+    names a handler.\n\
     #[cfg(not(test))]\n#[panic_handler]\nfn panic(_: &core::panic::PanicInfo) -> ! {\n    \
     loop {}\n}\n";
 
@@ -119,7 +121,8 @@ fn generated_type(api: &Api, scope: &Scope, path: &str, ty: &Type, out: &mut Str
     let _ = writeln!(
         out,
         "/// The storage of a [`{rust_type}`], `{c_name}_t` in C: {size} bytes aligned to \
-         {align}, which a C program reserves (statically) and `{c_name}_new` writes.\n\
+         {align}, which a C program reserves zeroed (a `static`, or an automatic variable \
+         initialised with `{{0}}`) and `{c_name}_new` writes.\n\
          #[repr(C, align({align}))]\npub struct {storage_name} {{\n    bytes: [u8; {size}],\n}}\n\n\
          // The storage holds the Rust type with its tag: checked when this crate builds.\n\
          const _: () = assert!(\n    \
