@@ -14,39 +14,7 @@
 #include <stdio.h>
 #include <string.h>
 
-static int failures = 0;
-
-#define CHECK(condition)                                                              \
-    do {                                                                              \
-        if (!(condition)) {                                                           \
-            printf("check failed: line %d: %s\n", __LINE__, #condition);             \
-            failures += 1;                                                            \
-        }                                                                             \
-    } while (0)
-
-/* Prints the bits of `n` floats after `name`. */
-static void print_f32(const char *name, const float *values, int n) {
-    int i;
-    printf("%s", name);
-    for (i = 0; i < n; i++) {
-        uint32_t bits;
-        memcpy(&bits, &values[i], sizeof bits);
-        printf(" %08lx", (unsigned long)bits);
-    }
-    printf("\n");
-}
-
-/* Prints the bits of `n` doubles after `name`. */
-static void print_f64(const char *name, const double *values, int n) {
-    int i;
-    printf("%s", name);
-    for (i = 0; i < n; i++) {
-        uint64_t bits;
-        memcpy(&bits, &values[i], sizeof bits);
-        printf(" %016llx", (unsigned long long)bits);
-    }
-    printf("\n");
-}
+#include "check.h"
 
 /* The run's input and measurement at sample k: exact float arithmetic, as the Rust test
  * computes them. */
