@@ -287,12 +287,7 @@ fn output_param(
             doc.push("`out`: where the result is written (only if the status is OK).".to_owned());
         }
         Output::Outcome(name) => {
-            let statuses = scope
-                .records
-                .iter()
-                .find(|r| r.name == *name)
-                .map(Record::statuses)
-                .unwrap_or_default();
+            let statuses = scope.outcome_statuses(name);
             params.push(format!("{}_t *out", record(&prefix, name)));
             let fields: Vec<String> = statuses.iter().map(|s| format!("`{s}`")).collect();
             let returned = match fields.as_slice() {

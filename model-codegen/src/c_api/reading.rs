@@ -58,6 +58,18 @@ pub struct Method {
     pub output: Output,
 }
 
+impl Scope {
+    /// The status fields of the outcome record `name` (`akf`, `lkf`), which its C
+    /// function returns the first of that is not `Ok`.
+    pub fn outcome_statuses(&self, name: &str) -> Vec<&str> {
+        self.records
+            .iter()
+            .find(|r| r.name == name)
+            .map(Record::statuses)
+            .unwrap_or_default()
+    }
+}
+
 impl Method {
     /// Whether a type's function takes its storage: a method, or the constructor that
     /// writes it (an associated function that constructs nothing, `Mpc::prediction_model`,

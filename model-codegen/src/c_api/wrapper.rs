@@ -6,7 +6,7 @@
 
 use super::mirrors::mirrors;
 use super::names::{camel, prefix, record, snake, REFUSALS};
-use super::reading::{Api, Method, Output, Param, Scalar, Scope, Type, Value};
+use super::reading::{Api, Method, Output, Param, Scope, Type, Value};
 use super::storage;
 use std::fmt::Write;
 
@@ -37,8 +37,7 @@ pub fn lib(api: &Api, provenance: &str) -> String {
                 status: &status,
                 this: None,
                 call: format!("{path}::{}", function.name),
-                scalar: scope.scalar,
-                records: prefix.clone(),
+                prefix: prefix.clone(),
                 scope,
             };
             method(&wrapped, function, &mut out);
@@ -139,8 +138,7 @@ fn generated_type(api: &Api, scope: &Scope, path: &str, ty: &Type, out: &mut Str
                 .takes_storage()
                 .then(|| (snake(&ty.name), storage_name.as_str(), rust_type.as_str())),
             call: format!("{rust_type}::{}", m.name),
-            scalar: scope.scalar,
-            records: prefix(&api.model, scope),
+            prefix: prefix(&api.model, scope),
             scope,
         };
         method(&wrapped, m, out);
@@ -158,11 +156,9 @@ struct Wrapped<'a> {
     this: Option<(String, &'a str, &'a str)>,
     /// The path of the wrapped function (`model::cantilever::Ekf::step`).
     call: String,
-    /// The scalar of its scope.
-    scalar: Scalar,
     /// Its scope's C prefix (`cantilever`, `cantilever_f64`), which its records' names
     /// start with.
-    records: String,
+    prefix: String,
     /// Its scope.
     scope: &'a Scope,
 }
@@ -176,13 +172,7 @@ fn method(w: &Wrapped, m: &Method, out: &mut String) {
         _ => format!("{}({})", w.call, args.join(", ")),
     };
     let statuses = match &m.output {
-        Output::Outcome(name) => w
-            .scope
-            .records
-            .iter()
-            .find(|r| r.name == *name)
-            .map(super::records::Record::statuses)
-            .unwrap_or_default(),
+        Output::Outcome(name) => w.scope.outcome_statuses(name),
         _ => Vec::new(),
     };
     let tail = tail(
@@ -394,5 +384,5 @@ fn outcome(invocation: &str, status: &str, statuses: &[&str]) -> String {
 
 /// A value's Rust type.
 fn rust_value(value: &Value, w: &Wrapped) -> String {
-    value.rust(w.scalar, &|name| camel(&record(&w.records, name)))
+    value.rust(w.scope.scalar, &|name| camel(&record(&w.prefix, name)))
 }
