@@ -690,23 +690,28 @@ fn the_cortex_m4f_library_links_into_a_c_program_without_a_rust_runtime() {
 }
 
 #[test]
-fn the_limited_quadrotors_companion_crate_type_checks_with_its_size_assertions() {
-    // The dual active set's MPC: its storage holds `stateforge_math::HeldLimits` and a
-    // nested struct, its solve returns an outcome; the crate's assertions that the
-    // storage and the outcome have the sizes the header states are evaluated by a check.
-    let dir = companion_of("quadrotor_limited");
+fn every_demo_models_companion_crate_type_checks_with_its_size_assertions() {
+    // A check evaluates each crate's assertions that its storage types and outcome structs
+    // have the sizes the header states, and compiles every wrapper; the limited
+    // quadrotor's MPC (the dual active set) holds `stateforge_math::HeldLimits` and a
+    // nested struct. One target directory for all: `stateforge-math` is checked once.
+    let target = Path::new(env!("CARGO_TARGET_TMPDIR")).join("c-api-check");
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    run(Command::new(cargo)
-        .args(["check", "--quiet", "--target-dir"])
-        .arg(dir.join("target"))
-        .current_dir(&dir)
-        .env_remove("RUSTFLAGS")
-        .env_remove("CARGO_ENCODED_RUSTFLAGS"));
-    let header = std::fs::read_to_string(dir.join("include/quadrotor_limited.h")).expect("header");
-    assert!(
-        header.contains("quadrotor_limited_mpc_solve("),
-        "no MPC in the header"
-    );
+    for name in tests::DEMO_MODELS.into_iter().chain(["quadrotor_limited"]) {
+        let dir = companion_of(name);
+        run(Command::new(&cargo)
+            .args(["check", "--quiet", "--target-dir"])
+            .arg(&target)
+            .current_dir(&dir)
+            .env_remove("RUSTFLAGS")
+            .env_remove("CARGO_ENCODED_RUSTFLAGS"));
+        let header =
+            std::fs::read_to_string(dir.join(format!("include/{name}.h"))).expect("header");
+        assert!(
+            !header.contains("not in the C API (the Rust type"),
+            "{name}: a type the tool cannot size"
+        );
+    }
 }
 
 #[test]
