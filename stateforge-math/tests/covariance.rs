@@ -21,6 +21,19 @@ impl Cases {
     }
 }
 
+impl Cases {
+    /// A random full-rank matrix shifted down so that its smallest eigenvalue is between
+    /// -1.05 and -0.05: indefinite by a margin no rounding covers.
+    fn indefinite(&mut self) -> SMatrix<f64, 4, 4> {
+        let mut m = self.matrix::<4>(4);
+        let shift = 0.05 + self.uniform().abs();
+        let smallest = smallest_eigenvalue(&m);
+        m -= SMatrix::<f64, 4, 4>::identity() * (smallest + shift);
+        assert!(smallest_eigenvalue(&m) < -0.04);
+        m
+    }
+}
+
 fn array<const N: usize>(m: &SMatrix<f64, N, N>) -> [[f64; N]; N] {
     core::array::from_fn(|i| core::array::from_fn(|j| m[(i, j)]))
 }
@@ -53,11 +66,7 @@ fn indefinite_matrices_are_not_covariances() {
     let mut cases = Cases(0xD1B5_4A32_D192_ED03);
     let mut rejected = 0;
     for _ in 0..2000 {
-        let mut m = cases.matrix::<4>(4);
-        let shift = 0.05 + cases.uniform().abs();
-        let smallest = smallest_eigenvalue(&m);
-        m -= SMatrix::<f64, 4, 4>::identity() * (smallest + shift);
-        assert!(smallest_eigenvalue(&m) < -0.04);
+        let m = cases.indefinite();
         assert!(!stateforge_math::f64::is_covariance(&array(&m)), "{m}");
         let single: [[f32; 4]; 4] = array(&m).map(|row| row.map(|v| v as f32));
         assert!(!stateforge_math::f32::is_covariance(&single), "{m}");
@@ -201,11 +210,7 @@ fn weights_are_judged_from_their_upper_triangle_as_covariances_are() {
         }
     }
     for _ in 0..1000 {
-        let mut m = cases.matrix::<4>(4);
-        let shift = 0.05 + cases.uniform().abs();
-        let smallest = smallest_eigenvalue(&m);
-        m -= SMatrix::<f64, 4, 4>::identity() * (smallest + shift);
-        assert!(smallest_eigenvalue(&m) < -0.04);
+        let m = cases.indefinite();
         assert!(!stateforge_math::f64::is_weight(&array(&m)), "{m}");
         let single: [[f32; 4]; 4] = array(&m).map(|row| row.map(|v| v as f32));
         assert!(!stateforge_math::f32::is_weight(&single), "{m}");
